@@ -1,0 +1,5 @@
+"""python -m arcube"""
+
+from arcube.cli import main
+
+main()

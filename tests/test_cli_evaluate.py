@@ -1,0 +1,146 @@
+"""``arcube evaluate``: the JSON contract, the table, and one-line errors with exit code 2."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from arcube.design import PARAM_NAMES, Design
+
+DATA = Path(__file__).resolve().parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
+JACOBIANS = {"J_LV", "J_AV", "J_sigma", "J_AS", "J_AP", "J_rho", "J_delta"}
+HEADER = "trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"
+
+
+def arcube(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "arcube", *args], capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def right_side_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Table 2's links placed where they reach the right side (found by the paper-check search)."""
+    path = tmp_path_factory.mktemp("design") / "right.json"
+    Design.preset("paper").replace(m_x=88.23, m_y=79.40, m_z=56.89).to_json(path)
+    return path
+
+
+def test_json_contract_on_reachable_side(right_side_design: Path) -> None:
+    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(DATA), "--side", "R", "--points", "7", "--json")
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert set(doc["design"]) == set(PARAM_NAMES) and doc["mode"] == "+,+,+,+"
+    assert len(doc["points"]) == 5 * 7
+    rows = [r for r in csv.DictReader(DATA.open()) if r["side"] == "R"]
+    for p in doc["points"]:
+        row = rows[[r["trajectory"] for r in rows].index(p["trajectory"])]
+        entry = np.array([float(row[f"entry_{a}"]) for a in "xyz"])
+        target = np.array([float(row[f"target_{a}"]) for a in "xyz"])
+        np.testing.assert_allclose([p["x"], p["y"], p["z"]], entry + p["k"] / 6 * (target - entry), atol=1e-12)
+        e = (entry - target) / np.linalg.norm(entry - target)
+        assert np.isclose(np.sin(np.radians(p["theta_deg"])), e[0])
+        assert p["reachable"] is True and p["failure"] is None
+        assert set(p["kappa"]) == JACOBIANS and all(k >= 1.0 for k in p["kappa"].values())
+        assert p["eta_L"] == pytest.approx(max(p["kappa"].values()))
+        assert p["dexterity_pct"] == pytest.approx(100.0 / p["eta_L"])
+        assert len(p["rho_deg"]) == 3 and len(p["delta_deg"]) == 2 and len(p["sigma_deg"]) == 2
+    s = doc["summary"]
+    assert s["n_points"] == 35 and s["w_G"] is True and s["reachable_fraction"] == 1.0
+    assert s["eta_G"] == pytest.approx(np.mean([p["eta_L"] for p in doc["points"]]))
+    dex = [p["dexterity_pct"] for p in doc["points"]]
+    assert s["dexterity_pct"] == pytest.approx({"min": min(dex), "mean": float(np.mean(dex)), "max": max(dex)})
+
+
+def test_unreachable_points_are_null_not_infinite() -> None:
+    out = arcube("evaluate", "--design", "paper", "--trajectories", "reference", "--points", "3", "--json", "--mode=-,+,+,-")
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)  # json.loads would accept Infinity/NaN; check none were written
+    assert "Infinity" not in out.stdout and "NaN" not in out.stdout
+    assert doc["mode"] == "-,+,+,-"
+    assert doc["summary"]["w_G"] is False and doc["summary"]["eta_G"] is None
+    for p in doc["points"]:
+        assert p["reachable"] is False and p["failure"] == "TLS/x"
+        assert p["dexterity_pct"] == 0.0 and p["eta_L"] is None
+        assert all(v is None for v in p["kappa"].values())
+
+
+def test_table_names_the_failure_and_why() -> None:
+    out = arcube("evaluate", "--design", "paper", "--trajectories", "reference")
+    assert out.returncode == 0, out.stderr
+    assert "TLS/x: 300" in out.stdout
+    assert "RTS/x" in out.stdout and "no placement m can fix this" in out.stdout
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+def _bad_design(tmp_path: Path, **changes: object) -> Path:
+    values: dict[str, object] = Design.preset("paper").to_dict()
+    for k, v in changes.items():
+        if v is None:
+            del values[k]
+        else:
+            values[k] = v
+    return _write(tmp_path / "design.json", json.dumps(values))
+
+
+@pytest.mark.parametrize(
+    ("case", "needle"),
+    [
+        ("missing_file", "no_such.csv"),
+        ("missing_column", "target_z"),
+        ("non_numeric", "entry_y"),
+        ("nan", "row"),
+        ("entry_equals_target", "entry"),
+        ("design_missing", "missing parameter(s) r"),
+        ("design_unknown", "unknown parameter 'c_z'"),
+        ("design_negative", "length p_x must be positive"),
+        ("bad_mode", "--mode"),
+        ("bad_mode_signs", "--mode"),
+        ("few_points", "--points"),
+        ("unknown_flag", "--frobnicate"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str) -> None:
+    good = DATA.read_text().splitlines()
+    traj = str(DATA)
+    extra: list[str] = []
+    design = "paper"
+    if case == "missing_file":
+        traj = str(tmp_path / "no_such.csv")
+    elif case == "missing_column":
+        traj = str(_write(tmp_path / "t.csv", HEADER.rsplit(",", 1)[0] + "\n1,C3,R,1,2,3,4,5\n"))
+    elif case == "non_numeric":
+        traj = str(_write(tmp_path / "t.csv", f"{HEADER}\n1,C3,R,1,abc,3,4,5,6\n"))
+    elif case == "nan":
+        traj = str(_write(tmp_path / "t.csv", f"{HEADER}\n{good[1]}\n2,C3,L,1,nan,3,4,5,6\n"))
+    elif case == "entry_equals_target":
+        traj = str(_write(tmp_path / "t.csv", f"{HEADER}\n1,C3,R,1,2,3,1,2,3\n"))
+    elif case == "design_missing":
+        design = str(_bad_design(tmp_path, r=None))
+    elif case == "design_unknown":
+        design = str(_bad_design(tmp_path, c_z=10.0))
+    elif case == "design_negative":
+        design = str(_bad_design(tmp_path, p_x=-1.0))
+    elif case == "bad_mode":
+        extra = ["--mode=+,+,+"]
+    elif case == "bad_mode_signs":
+        extra = ["--mode=+,x,+,-"]
+    elif case == "few_points":
+        extra = ["--points", "1"]
+    elif case == "unknown_flag":
+        extra = ["--frobnicate"]
+    out = arcube("evaluate", "--design", design, "--trajectories", traj, *extra, cwd=tmp_path)
+    assert out.returncode == 2, (out.stdout, out.stderr)
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1, out.stderr
+    assert lines[0].startswith("error: ") and needle in lines[0]
+    assert "Traceback" not in out.stderr and out.stdout == ""
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in tmp_path.iterdir() if p.suffix in {".csv", ".json"})
