@@ -25,6 +25,13 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 
+
+
+@app.callback()
+def _root() -> None:
+    """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
+
+
 DesignOpt = Annotated[str, typer.Option("--design", help="Design: a preset name (paper) or a design JSON file.")]
 TrajOpt = Annotated[str, typer.Option("--trajectories", help="Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'.")]
 PointsOpt = Annotated[int, typer.Option("--points", help="Points per trajectory (N >= 2), both ends included.")]
