@@ -144,3 +144,30 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str)
     assert lines[0].startswith("error: ") and needle in lines[0]
     assert "Traceback" not in out.stderr and out.stdout == ""
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in tmp_path.iterdir() if p.suffix in {".csv", ".json"})
+
+
+def test_slicer_markups_evaluate_like_the_csv(tmp_path: Path, right_side_design: Path) -> None:
+    """The same trajectories from a .mrk.json (LPS, as Slicer writes) give the same evaluation point for point."""
+    from arcube.slicer import write_markups
+    from arcube.trajectories import load_trajectories
+
+    mrk = tmp_path / "plan.mrk.json"
+    write_markups(load_trajectories(DATA), mrk)
+    stored = json.loads(mrk.read_text())
+    assert {m["coordinateSystem"] for m in stored["markups"]} <= {"LPS", "RAS"}
+    docs = []
+    for traj in (str(DATA), str(mrk)):
+        out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", traj, "--points", "5", "--json")
+        assert out.returncode == 0, out.stderr
+        docs.append(json.loads(out.stdout))
+    csv_doc, mrk_doc = docs
+    assert len(csv_doc["points"]) == len(mrk_doc["points"]) == 50
+    for a, b in zip(csv_doc["points"], mrk_doc["points"]):
+        assert a["trajectory"] == b["trajectory"] and a["k"] == b["k"] and a["reachable"] == b["reachable"]
+        for key in ("x", "y", "z", "psi_deg", "theta_deg", "dexterity_pct"):
+            assert a[key] == pytest.approx(b[key], abs=1e-9)
+        for name in JACOBIANS:
+            assert (a["kappa"][name] is None) == (b["kappa"][name] is None)
+            if a["kappa"][name] is not None:
+                assert a["kappa"][name] == pytest.approx(b["kappa"][name], rel=1e-9)
+    assert csv_doc["summary"]["reachable_fraction"] == mrk_doc["summary"]["reachable_fraction"] == 0.5
