@@ -24,7 +24,9 @@ def solve_harmonic(A: ArrayLike, B: ArrayLike, C: ArrayLike, eps: ArrayLike) -> 
     A_, B_, C_ = (np.asarray(v, dtype=float) for v in (A, B, C))
     R = np.hypot(A_, B_)
     with np.errstate(divide="ignore", invalid="ignore"):
-        arg = np.where(R > 0.0, C_ / R, np.inf)
+        # R = 0: no direction solves it (unreachable, +inf); NaN inputs (an upstream stage
+        # failed) leave the argument undefined (NaN), so it never counts as an excess.
+        arg = np.where(R > 0.0, C_ / R, np.where(R == 0.0, np.inf, np.nan))
     ok = np.abs(arg) <= 1.0
     x = np.arctan2(B_, A_) + np.asarray(eps, dtype=float) * np.arccos(np.where(ok, arg, np.nan))
     return wrap_angle(x), arg
