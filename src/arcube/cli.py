@@ -57,6 +57,7 @@ def evaluate(
     ids: IdsOpt = None,
     transform: TransformOpt = None,
     engine: EngineOpt = "auto",
+    report: Annotated[Path | None, typer.Option("--report", help="Also write a self-contained HTML report (plots, 3D mechanism) here.")] = None,
 ) -> None:
     """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity."""
     from arcube import report_text
@@ -66,15 +67,21 @@ def evaluate(
         design=design, trajectories=trajectories, points=points, mode=mode, guards=guards,
         side=side, levels=levels, ids=ids, transform=transform, engine=engine,
     )  # fmt: skip
+    if report is not None:
+        from arcube.report_cli import write_report_for_evaluation
+
+        write_report_for_evaluation(result, report)
     if as_json:
         sys.stdout.write(json.dumps(result.to_json(), allow_nan=False) + "\n")
     else:
         report_text.print_evaluation(result)
+        if report is not None:
+            typer.echo(f"report: {report}")
 
 
 def _register_plugins() -> None:
     """Commands that live beside their subsystem register themselves here."""
-    for module in ("arcube.patients_cli", "arcube.optimize.cli"):
+    for module in ("arcube.patients_cli", "arcube.optimize.cli", "arcube.report_cli"):
         try:
             plugin = importlib.import_module(module)
         except ModuleNotFoundError as exc:

@@ -1,0 +1,194 @@
+"""Matplotlib figures (PNG) of an evaluation and of an optimization run.
+
+* :func:`dexterity_png`: the paper's Fig 4, local inverted dexterity 100/eta_L (%) at every task
+  point, trajectory after trajectory; points coloured by the limiting Jacobian (the argmax of
+  the seven kappas of Eq 13), unreachable points as red crosses at 0.
+* :func:`convergence_png`: best and mean eta_G and the feasible fraction per generation, read
+  from a run folder's ``history.csv`` (:func:`read_history`).
+
+The data of both figures is built here once (:func:`dexterity_series`, :class:`History`) and
+reused by the plotly versions in :mod:`arcube.report.html`. Figures are drawn on a bare
+:class:`matplotlib.figure.Figure` (no pyplot), so nothing touches global backend state, and are
+written atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from arcube.errors import InputError
+from arcube.fileio import atomic_write_bytes
+from arcube.indices import JACOBIAN_NAMES
+
+if TYPE_CHECKING:
+    from arcube.evaluate_cmd import EvaluationReport
+
+JACOBIAN_COLORS: dict[str, str] = {
+    "J_LV": "#1f77b4", "J_AV": "#ff7f0e", "J_sigma": "#2ca02c", "J_AS": "#9467bd",
+    "J_AP": "#8c564b", "J_rho": "#e377c2", "J_delta": "#17becf",
+}  # fmt: skip
+"""One colour per Jacobian (tab10 without red, which marks unreachable points)."""
+UNREACHABLE_COLOR = "#d62728"
+
+
+class DexteritySeries(NamedTuple):
+    """Fig 4 data for P points of T trajectories (trajectory-major, as in :class:`arcube.task.Task`)."""
+
+    index: NDArray[np.intp]  # (P,) point index across trajectories
+    dexterity: NDArray[np.float64]  # (P,) 100/eta_L in %, 0 where unreachable
+    reachable: NDArray[np.bool_]  # (P,)
+    limiting: NDArray[np.intp]  # (P,) index into JACOBIAN_NAMES of the largest kappa, -1 where unreachable
+    failure: tuple[str, ...]  # (P,) first failure reason, "" where reachable
+    boundaries: NDArray[np.float64]  # (T - 1,) x positions between trajectories (k = N - 0.5, ...)
+    centres: NDArray[np.float64]  # (T,) x position of the middle of each trajectory
+    labels: tuple[str, ...]  # (T,) "id level side" of each trajectory
+
+
+def dexterity_series(report: EvaluationReport) -> DexteritySeries:
+    """Per-point dexterity, reachability and limiting Jacobian of an evaluation report."""
+    from arcube.evaluation import failure_name
+
+    pts = report.results.points
+    task = report.task
+    reach = np.asarray(pts.reachable, dtype=bool).reshape(-1)
+    kappa = np.asarray(pts.kappa, dtype=float).reshape(len(task), len(JACOBIAN_NAMES))
+    # argmax over NaN-free kappas only where the point is reachable (there all seven are finite).
+    limiting = np.where(reach, np.argmax(np.nan_to_num(kappa, nan=-1.0, posinf=np.finfo(float).max), axis=-1), -1)
+    n_traj = len(task.ids)
+    starts = np.array([np.flatnonzero(task.trajectory == t)[0] for t in range(n_traj)], dtype=float)
+    ends = np.array([np.flatnonzero(task.trajectory == t)[-1] for t in range(n_traj)], dtype=float)
+    ts = report.trajectories
+    labels = tuple(" ".join(s for s in (tid, ts.levels[i], ts.sides[i]) if s) for i, tid in enumerate(task.ids))
+    return DexteritySeries(
+        index=np.arange(len(task)),
+        dexterity=np.asarray(pts.dexterity_pct, dtype=float).reshape(-1),
+        reachable=reach,
+        limiting=limiting.astype(np.intp),
+        failure=tuple(failure_name(int(c)) or "" for c in np.asarray(pts.failure).reshape(-1)),
+        boundaries=starts[1:] - 0.5,
+        centres=(starts + ends) / 2.0,
+        labels=labels,
+    )
+
+
+class History(NamedTuple):
+    """Per-generation optimizer history; non-finite values (empty cells) are NaN."""
+
+    generation: NDArray[np.float64]  # (G,)
+    best_eta_G: NDArray[np.float64]  # (G,)
+    mean_eta_G: NDArray[np.float64]  # (G,)
+    feasible_fraction: NDArray[np.float64]  # (G,) in [0, 1]
+
+
+_HISTORY_COLUMNS = ("generation", "best_eta_G", "mean_eta_G", "feasible_fraction")
+
+
+def _norm(name: str) -> str:
+    """Header normalisation so that 'best eta_G', 'Best-eta_G' and 'best_eta_g' all match."""
+    return "_".join(name.strip().lower().replace("-", " ").replace("_", " ").split())
+
+
+def _cell(text: str | None) -> float:
+    # The optimizer writes "" for +inf (no feasible design yet); anything unparsable is a gap too.
+    try:
+        v = float(text) if text not in (None, "") else math.nan
+    except ValueError:
+        v = math.nan
+    return v if math.isfinite(v) else math.nan
+
+
+def read_history(path: str | os.PathLike[str]) -> History:
+    """Read ``history.csv``: needs the columns generation, best_eta_G, mean_eta_G, feasible_fraction.
+
+    Header names are matched case-insensitively, with spaces, '-' and '_' equivalent; other
+    columns are ignored. Raises :class:`InputError` (one line) if the file or a column is missing.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read history ({exc.strerror or exc})") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows:
+        raise InputError(f"{p}: empty history file (no header)")
+    header = {_norm(h): i for i, h in enumerate(rows[0])}
+    missing = [c for c in _HISTORY_COLUMNS if _norm(c) not in header]
+    if missing:
+        raise InputError(f"{p}: history lacks column(s) {', '.join(missing)} (has {', '.join(rows[0])})")
+    cols = [header[_norm(c)] for c in _HISTORY_COLUMNS]
+    data = np.array([[_cell(r[i] if i < len(r) else None) for i in cols] for r in rows[1:] if any(r)], dtype=float).reshape(-1, 4)
+    return History(*(data[:, j].copy() for j in range(4)))
+
+
+def _png_bytes(fig: object) -> bytes:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)  # type: ignore[arg-type]  # attaches an Agg canvas to the bare Figure
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)  # type: ignore[attr-defined]
+    return buf.getvalue()
+
+
+def dexterity_png(report: EvaluationReport, path: str | os.PathLike[str]) -> Path:
+    """Write the Fig 4 PNG of ``report`` to ``path`` (atomically); returns the path."""
+    from matplotlib.figure import Figure
+
+    s = dexterity_series(report)
+    fig = Figure(figsize=(11, 4.8), layout="constrained")
+    ax = fig.add_subplot()
+    for j, name in enumerate(JACOBIAN_NAMES):
+        sel = s.limiting == j
+        if sel.any():
+            ax.scatter(s.index[sel], s.dexterity[sel], s=14, color=JACOBIAN_COLORS[name], label=f"limited by {name}", zorder=3)
+    ax.plot(s.index, s.dexterity, color="0.7", lw=0.8, zorder=2)
+    bad = ~s.reachable
+    if bad.any():
+        ax.scatter(s.index[bad], np.zeros(int(bad.sum())), marker="x", s=28, color=UNREACHABLE_COLOR, label="unreachable", zorder=4)
+    for b in s.boundaries:
+        ax.axvline(b, color="0.4", lw=0.8, ls="--")
+    top = max(float(np.max(s.dexterity, initial=0.0)), 1.0) * 1.18
+    ax.set_ylim(-3.0, top)
+    rotate = 90 if len(s.labels) > 12 else 0
+    for x, label in zip(s.centres, s.labels):
+        ax.text(x, top * 0.97, label, ha="center", va="top", fontsize=8, rotation=rotate)
+    ax.set_xlim(-1.0, len(s.index))
+    ax.set_xlabel("point index along the trajectories")
+    ax.set_ylabel("local inverted dexterity 100/η_L (%)")
+    mean = float(np.mean(s.dexterity)) if len(s.dexterity) else 0.0
+    ax.set_title(f"Local inverted dexterity along the drilling trajectories (mean {mean:.2f} %, mode {report.mode})")
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.legend(loc="outside lower center", fontsize=8, ncols=8, frameon=False)
+    out = Path(path)
+    atomic_write_bytes(out, _png_bytes(fig))
+    return out
+
+
+def convergence_png(history: History, path: str | os.PathLike[str]) -> Path:
+    """Write the convergence PNG (eta_G best/mean, feasible fraction per generation); returns the path."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 4), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(history.generation, history.best_eta_G, color="#1f77b4", lw=1.6, label="best η_G")
+    ax.plot(history.generation, history.mean_eta_G, color="#1f77b4", lw=1.0, ls="--", label="mean η_G (feasible)")
+    ax.set_xlabel("generation")
+    ax.set_ylabel("η_G")
+    ax2 = ax.twinx()
+    ax2.plot(history.generation, 100.0 * history.feasible_fraction, color="#2ca02c", lw=1.0, label="feasible %")
+    ax2.set_ylabel("feasible designs (%)", color="#2ca02c")
+    ax2.set_ylim(-2.0, 102.0)
+    lines = ax.get_lines() + ax2.get_lines()
+    ax.legend(lines, [str(ln.get_label()) for ln in lines], loc="upper right", fontsize=8)
+    ax.set_title("Optimization convergence")
+    ax.grid(True, alpha=0.3)
+    out = Path(path)
+    atomic_write_bytes(out, _png_bytes(fig))
+    return out

@@ -1,0 +1,311 @@
+"""One self-contained HTML report of an evaluation (and of an optimization run).
+
+:func:`write_evaluation_report` writes a single HTML file that opens with no network (plotly.js
+is embedded once, ``include_plotlyjs=True``) holding:
+
+* the design table (as the paper's Table 2: rows m, f, p, d, c, t, r, o, alpha, beta; columns
+  x, y, z), the summary and the per-trajectory table;
+* the paper's Fig 4 (local inverted dexterity along all task points), div ``fig-dexterity``;
+* for a run, convergence per generation from ``history.csv``, div ``fig-convergence``;
+* a 3D scene, div ``fig-scene``: the mechanism drawn from :mod:`arcube.report.geometry` (frame,
+  cranks, four-bars, z dyad, spherical links as arcs, drill) and the trajectories, with a
+  slider and a play button that move it along the reachable task points (plotly frames).
+
+Beside the HTML it writes ``<stem>_dexterity.png`` and, for a run, ``<stem>_convergence.png``.
+"""
+
+from __future__ import annotations
+
+import html as _html
+import math
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from arcube.design import UNITS
+from arcube.fileio import atomic_write_text
+from arcube.indices import JACOBIAN_NAMES
+from arcube.mechanism import parse_mode
+from arcube.report.figures import (
+    JACOBIAN_COLORS, UNREACHABLE_COLOR, History, convergence_png, dexterity_png, dexterity_series, read_history,
+)  # fmt: skip
+from arcube.report.geometry import MechanismPoints, mechanism_points
+
+if TYPE_CHECKING:
+    import plotly.graph_objects as go
+
+    from arcube.evaluate_cmd import EvaluationReport
+
+DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "scene": "fig-scene"}
+TITLES = {
+    "dexterity": "Local inverted dexterity along the drilling trajectories (paper Fig. 4)",
+    "convergence": "Optimization convergence per generation",
+    "scene": "AR-CUBE mechanism along the trajectories",
+}
+SCENE_TRACES = ("frame", "cranks", "four-bar x", "four-bar y", "z dyad", "z dyad (open)", "platform", "spherical x", "spherical y", "drill", "drill tip")
+"""Mechanism traces of the 3D scene, in order after the two static trajectory traces."""
+_N_STATIC = 2
+
+
+def _xyz(polylines: list[NDArray[np.float64]]) -> dict[str, list[float | None]]:
+    """x, y, z lists of polylines ``(n_i, 3)`` separated by None (plotly gaps); NaN -> None."""
+    out: dict[str, list[float | None]] = {"x": [], "y": [], "z": []}
+    for k, line in enumerate(polylines):
+        if k:
+            for c in out.values():
+                c.append(None)
+        for j, c in enumerate(out.values()):
+            # Full precision (no rounding): the tests check closure on the drawn data to 1e-9 mm.
+            c.extend(None if not math.isfinite(v) else float(v) for v in line[:, j])
+    return out
+
+
+def _mechanism_traces(mp: MechanismPoints, i: int) -> list[dict[str, Any]]:
+    """The data (coordinates only) of the :data:`SCENE_TRACES` at point ``i`` of 1-D ``mp``."""
+    O, P, D, Q, K, T = mp.O[i], mp.P[i], mp.D[i], mp.Q[i], mp.K[i], mp.T[i]
+    closes = bool(mp.z_closes[i])
+    arcs = [np.concatenate([mp.arc_alpha[i, u], mp.arc_beta[i, u, 1:]]) for u in range(2)]
+    empty = [np.full((1, 3), np.nan)]
+    return [
+        _xyz([np.stack([O, P[u]]) for u in range(3)]),
+        _xyz([np.stack([P[u], D[u]]) for u in range(3)]),
+        *(_xyz([np.stack([D[u], K[u], T[u], Q[u]])]) for u in range(2)),
+        _xyz([np.stack([D[2], mp.J_z[i], Q[2]])] if closes else empty),
+        _xyz(empty if closes else [np.stack([D[2], Q[2]])]),
+        _xyz([np.stack([mp.E[i], Q[u]]) for u in range(3)]),
+        *(_xyz([arcs[u], np.stack([mp.E[i], mp.B[i, u]])]) for u in range(2)),
+        _xyz([np.stack([mp.E[i], mp.drill_end[i]]), np.stack([mp.H[i], mp.H[i]])]),
+        _xyz([mp.E[i][None]]),
+    ]
+
+
+_STYLE: dict[str, dict[str, Any]] = {
+    "frame": {"mode": "lines+markers", "line": {"color": "black", "width": 8}, "marker": {"size": 4, "color": "black"}},
+    "cranks": {"mode": "lines+markers", "line": {"color": "#1f77b4", "width": 7}, "marker": {"size": 4, "color": "#1f77b4"}},
+    "four-bar x": {"mode": "lines+markers", "line": {"color": "#ff7f0e", "width": 5}, "marker": {"size": 3}},
+    "four-bar y": {"mode": "lines+markers", "line": {"color": "#2ca02c", "width": 5}, "marker": {"size": 3}},
+    "z dyad": {"mode": "lines+markers", "line": {"color": "#9467bd", "width": 5}, "marker": {"size": 3}},
+    "z dyad (open)": {"mode": "lines", "line": {"color": "#9467bd", "width": 3, "dash": "dash"}},
+    "platform": {"mode": "lines", "line": {"color": "#7f7f7f", "width": 3}},
+    "spherical x": {"mode": "lines", "line": {"color": "#b35806", "width": 6}},
+    "spherical y": {"mode": "lines", "line": {"color": "#1b7837", "width": 6}},
+    "drill": {"mode": "lines+markers", "line": {"color": "#d62728", "width": 9}, "marker": {"size": 4, "color": "#d62728"}},
+    "drill tip": {"mode": "markers", "marker": {"size": 5, "color": "black", "symbol": "diamond"}},
+}
+
+
+def _frame_title(report: EvaluationReport, i: int, mp: MechanismPoints, series: Any) -> str:
+    t = int(report.task.trajectory[i])
+    lim = int(series.limiting[i])
+    text = f"{TITLES['scene']}: trajectory {series.labels[t]}, k = {int(report.task.k[i])}, 100/η_L = {series.dexterity[i]:.1f} %"
+    text += f" ({JACOBIAN_NAMES[lim]})" if lim >= 0 else ""
+    return text + ("" if mp.z_closes[i] else " · z dyad open (dashed)")
+
+
+def scene_figure(report: EvaluationReport) -> go.Figure:
+    """3D scene with one plotly frame per reachable task point, a slider and a play button."""
+    import plotly.graph_objects as go
+
+    task, ts = report.task, report.trajectories
+    series = dexterity_series(report)
+    mp = mechanism_points(report.design.to_vector(), task.E, task.e, parse_mode(report.mode), c_z=report.options.c_z)
+    shown = np.flatnonzero(series.reachable & np.isfinite(mp.D).all(axis=(-2, -1)))
+    fig = go.Figure()
+    seg = [np.stack([a, b]) for a, b in zip(ts.entry, ts.target)]
+    fig.add_trace(go.Scatter3d(name="trajectories", mode="lines", line={"color": "#17becf", "width": 4}, hoverinfo="skip", **_xyz(seg)))
+    labels = [f"entry {lab}" for lab in series.labels]
+    fig.add_trace(go.Scatter3d(name="entry points", mode="markers", marker={"size": 3, "color": "#17becf"}, hovertext=labels,
+                               hoverinfo="text", **_xyz([np.asarray(ts.entry)])))  # fmt: skip
+    first = _mechanism_traces(mp, int(shown[0])) if len(shown) else [_xyz([np.full((1, 3), np.nan)])] * len(SCENE_TRACES)
+    for name, data in zip(SCENE_TRACES, first):
+        fig.add_trace(go.Scatter3d(name=name, hoverinfo="name", **_STYLE[name], **data))
+    dyn = list(range(_N_STATIC, _N_STATIC + len(SCENE_TRACES)))
+    frames, steps = [], []
+    for i in shown:
+        name = f"p{int(i)}"
+        title = _frame_title(report, int(i), mp, series)
+        frames.append(go.Frame(name=name, traces=dyn, data=[go.Scatter3d(**d) for d in _mechanism_traces(mp, int(i))], layout={"title": {"text": title}}))
+        label = f"{task.ids[int(task.trajectory[i])]}:{int(task.k[i])}"
+        steps.append({"label": label, "method": "animate", "args": [[name], {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}}]})
+    fig.frames = frames
+    # Fixed axis ranges from everything ever drawn, so the view does not jump between frames.
+    pts = [np.asarray(ts.entry), np.asarray(ts.target)]
+    if len(shown):
+        pts += [a[shown].reshape(-1, 3) for a in (mp.P, mp.D, mp.Q, mp.K, mp.T, mp.arc_alpha, mp.arc_beta, mp.drill_end, mp.O, mp.J_z)]
+    allp = np.concatenate(pts)
+    lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
+    pad = 0.05 * float(np.max(hi - lo)) + 1.0
+    axes = {f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"} for j, a in enumerate("xyz")}
+    n_skip = len(task) - len(shown)
+    note = (f"{n_skip} of {len(task)} points are unreachable: they have no slider step." if n_skip else "") + (
+        " No reachable point: only the trajectories are drawn." if not len(shown) else "")  # fmt: skip
+    fig.update_layout(
+        title={"text": _frame_title(report, int(shown[0]), mp, series) if len(shown) else TITLES["scene"], "font": {"size": 13}},
+        scene={"aspectmode": "data", **axes, "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}}},
+        height=760, margin={"l": 0, "r": 0, "t": 50, "b": 0}, legend={"x": 0.0, "y": 0.95},
+        annotations=[{"text": note, "showarrow": False, "xref": "paper", "yref": "paper", "x": 1.0, "y": 1.0, "xanchor": "right", "yanchor": "top", "font": {"color": UNREACHABLE_COLOR}}] if note else [],
+    )  # fmt: skip
+    if steps:
+        play = {"label": "▶ play", "method": "animate", "args": [None, {"frame": {"duration": 150, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}}]}
+        pause = {"label": "❚❚ pause", "method": "animate", "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}]}
+        fig.update_layout(
+            updatemenus=[{"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.06, "xanchor": "left", "direction": "left"}],
+            sliders=[{"active": 0, "steps": steps, "x": 0.15, "len": 0.83, "y": 0.06, "font": {"color": "rgba(0,0,0,0)", "size": 6},
+                      "currentvalue": {"prefix": "trajectory:k = ", "font": {"size": 12, "color": "#333"}}, "ticklen": 2}],
+        )  # fmt: skip
+    return fig
+
+
+def dexterity_figure(report: EvaluationReport) -> go.Figure:
+    """Plotly version of Fig 4: 100/eta_L per point, coloured by the limiting Jacobian."""
+    import plotly.graph_objects as go
+
+    s = dexterity_series(report)
+    task = report.task
+    hover = [f"traj {s.labels[int(t)]}, k={int(k)}" for t, k in zip(task.trajectory, task.k)]
+    fig = go.Figure()
+    fig.add_trace(go.Scatter(x=s.index.tolist(), y=s.dexterity.tolist(), mode="lines", line={"color": "#bbbbbb", "width": 1}, name="100/η_L", hoverinfo="skip"))
+    for j, name in enumerate(JACOBIAN_NAMES):
+        sel = np.flatnonzero(s.limiting == j)
+        if len(sel):
+            fig.add_trace(go.Scatter(x=sel.tolist(), y=s.dexterity[sel].round(3).tolist(), mode="markers", name=f"limited by {name}",
+                                     marker={"color": JACOBIAN_COLORS[name], "size": 6}, text=[hover[i] for i in sel],
+                                     hovertemplate="%{text}<br>100/η_L = %{y:.2f} %<extra>" + name + "</extra>"))  # fmt: skip
+    bad = np.flatnonzero(~s.reachable)
+    if len(bad):
+        fig.add_trace(go.Scatter(x=bad.tolist(), y=[0.0] * len(bad), mode="markers", name="unreachable", marker={"color": UNREACHABLE_COLOR, "symbol": "x", "size": 7},
+                                 text=[f"{hover[i]}: {s.failure[i]}" for i in bad], hovertemplate="%{text}<extra>unreachable</extra>"))  # fmt: skip
+    top = max(float(np.max(s.dexterity, initial=0.0)), 1.0) * 1.15
+    fig.update_layout(
+        title={"text": TITLES["dexterity"]}, height=430, margin={"t": 60, "b": 50},
+        xaxis={"title": "point index along the trajectories", "range": [-1, len(s.index)]},
+        yaxis={"title": "local inverted dexterity 100/η_L (%)", "range": [-3, top]},
+        shapes=[{"type": "line", "x0": b, "x1": b, "xref": "x", "yref": "paper", "y0": 0, "y1": 1, "line": {"color": "#666", "width": 1, "dash": "dash"}} for b in s.boundaries],
+        annotations=[{"x": c, "y": 1.0, "xref": "x", "yref": "paper", "text": lab, "showarrow": False, "yanchor": "top", "font": {"size": 10},
+                      "textangle": -90 if len(s.labels) > 12 else 0} for c, lab in zip(s.centres, s.labels)],
+    )  # fmt: skip
+    return fig
+
+
+def convergence_figure(history: History) -> go.Figure:
+    """best / mean eta_G (left axis) and feasible fraction in % (right axis) per generation."""
+    from plotly.subplots import make_subplots
+
+    g = history.generation.tolist()
+    nan_to_none = lambda a: [None if not math.isfinite(v) else float(v) for v in a]  # noqa: E731
+    fig = make_subplots(specs=[[{"secondary_y": True}]])
+    fig.add_scatter(x=g, y=nan_to_none(history.best_eta_G), name="best η_G", mode="lines", line={"color": "#1f77b4", "width": 2})
+    fig.add_scatter(x=g, y=nan_to_none(history.mean_eta_G), name="mean η_G (feasible)", mode="lines", line={"color": "#1f77b4", "dash": "dash"})
+    fig.add_scatter(x=g, y=nan_to_none(100.0 * history.feasible_fraction), name="feasible %", mode="lines", line={"color": "#2ca02c"}, secondary_y=True)
+    fig.update_layout(title={"text": TITLES["convergence"]}, height=380, margin={"t": 60})
+    fig.update_xaxes(title_text="generation")
+    fig.update_yaxes(title_text="η_G", secondary_y=False)
+    fig.update_yaxes(title_text="feasible designs (%)", range=[-2, 102], dtick=20, secondary_y=True)
+    return fig
+
+
+def _esc(v: Any) -> str:
+    return _html.escape(str(v))
+
+
+def _fmt(v: Any, digits: int = 4) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        return f"{v:.{digits}f}" if math.isfinite(v) else ("∞" if v > 0 else "—")
+    return str(v)
+
+
+def design_table(report: EvaluationReport) -> str:
+    """HTML table like the paper's Table 2 (rows m..beta, columns x, y, z; NA where none)."""
+    vals = report.design.to_dict()
+    rows = []
+    for stem in ("m", "f", "p", "d", "c", "t", "r", "o", "alpha", "beta"):
+        if stem == "r":
+            cells = f'<td colspan="3" style="text-align:center">{vals["r"]:.4f}</td>'
+        else:
+            cells = "".join(f"<td>{vals[f'{stem}_{a}']:.4f}</td>" if f"{stem}_{a}" in vals else "<td>NA</td>" for a in "xyz")
+        unit = UNITS["r" if stem == "r" else f"{stem}_x"]
+        sym = {"alpha": "α", "beta": "β"}.get(stem, stem)
+        rows.append(f"<tr><th>{sym}</th>{cells}<td>{unit}</td></tr>")
+    return "<table><tr><th></th><th>x</th><th>y</th><th>z</th><th>unit</th></tr>" + "".join(rows) + "</table>"
+
+
+def summary_html(report: EvaluationReport) -> str:
+    """Summary list, the per-trajectory table and the diagnosis lines."""
+    s = report.summary_json()
+    dex = s["dexterity_pct"]
+    guards = {k: v for k, v in report.options.model_dump().items() if v not in (None, False)}
+    items = [
+        ("trajectories", f"{report.trajectories.source}: {len(report.task.ids)} × {report.task.n_points} points"),
+        ("working mode", report.mode), ("guards", ", ".join(f"{k}={v}" for k, v in guards.items()) or "none (paper)"),
+        ("w_G", int(s["w_G"])), ("reachable", f"{100 * s['reachable_fraction']:.1f} % of {s['n_points']} points"),
+        ("η_G", _fmt(s["eta_G"])), ("100/η_G", _fmt(s["inverted_eta_G_pct"], 2) + " %"),
+        ("inverted dexterity min / mean / max", f"{dex['min']:.2f} / {dex['mean']:.2f} / {dex['max']:.2f} % (0 at unreachable points)"),
+        ("failures", ", ".join(f"{k}: {n}" for k, n in s["failures"].items()) or "none"), ("engine", report.engine),
+    ]  # fmt: skip
+    out = "<table>" + "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in items) + "</table>"
+    head = ("traj", "level", "side", "reachable", "dex min %", "dex mean %", "dex max %", "limiting", "first failure")
+    out += "<h3>Per trajectory</h3><table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"
+    for r in report.per_trajectory():
+        cells = (r.id, r.level, r.side, f"{100 * r.reachable_fraction:.0f} %", f"{r.dexterity_min:.2f}", f"{r.dexterity_mean:.2f}",
+                 f"{r.dexterity_max:.2f}", r.limiting_jacobian or "—", r.first_failure or "—")  # fmt: skip
+        out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
+    out += "</table>"
+    diag = report.diagnosis()
+    if diag:
+        out += "<h3>Why points fail</h3><ul>" + "".join(f"<li>{_esc(line)}</li>" for line in diag) + "</ul>"
+    return out
+
+
+_CSS = """body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;color:#222}
+table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding:2px 8px;text-align:right}
+th{background:#f3f3f3}h2{margin-top:1.4em;border-bottom:1px solid #ddd}.note{color:#555;font-size:90%}"""
+
+
+def write_evaluation_report(
+    report: EvaluationReport, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
+    run_info: dict[str, Any] | None = None,
+) -> Path:  # fmt: skip
+    """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
+
+    ``history_csv``: a run's ``history.csv`` (adds the convergence plot and PNG).
+    ``run_info``: key -> value rows shown at the top (e.g. a run's settings and summary).
+    Returns the HTML path. Every file is written atomically.
+    """
+    import plotly.io as pio
+
+    out = Path(path)
+    stem = out.with_suffix("")
+    dexterity_png(report, f"{stem}_dexterity.png")
+    figs: list[tuple[str, go.Figure]] = [("dexterity", dexterity_figure(report))]
+    if history_csv is not None:
+        history = read_history(history_csv)
+        convergence_png(history, f"{stem}_convergence.png")
+        figs.append(("convergence", convergence_figure(history)))
+    figs.append(("scene", scene_figure(report)))
+    divs = {}
+    for k, (key, fig) in enumerate(figs):
+        # plotly.js goes inline once, with the first figure; the others reuse it.
+        divs[key] = pio.to_html(fig, full_html=False, include_plotlyjs=(k == 0), auto_play=False, div_id=DIV_IDS[key],
+                                config={"displaylogo": False, "responsive": True})  # fmt: skip
+    title = f"AR-CUBE report: {report.trajectories.source}"
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
+             f"<h1>{_esc(title)}</h1>"]  # fmt: skip
+    if run_info:
+        parts.append("<h2>Optimization run</h2><table>" + "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(_fmt(v))}</td></tr>" for k, v in run_info.items()) + "</table>")
+    parts += ["<h2>Design (Table 2 layout)</h2>", design_table(report), "<h2>Summary</h2>", summary_html(report), "<h2>Dexterity</h2>", divs["dexterity"]]
+    if "convergence" in divs:
+        parts += ["<h2>Convergence</h2>", divs["convergence"]]
+    parts += [
+        "<h2>Mechanism</h2><p class='note'>Patient frame R_w (x right, y superior, z posterior). Spherical links are drawn as "
+        "great-circle arcs on the sphere of radius r around the drill tip E; a dashed z dyad means (d_z, c_z) cannot span "
+        "D_z–Q_z at that point (MODEL.md 6, not checked by the paper).</p>", divs["scene"],
+        f"<p class='note'>Figures also saved as {_esc(Path(f'{stem}_dexterity.png').name)}"
+        + (f" and {_esc(Path(f'{stem}_convergence.png').name)}" if "convergence" in divs else "") + ".</p></body></html>",
+    ]  # fmt: skip
+    atomic_write_text(out, "\n".join(parts))
+    return out

@@ -1,0 +1,158 @@
+"""The HTML report of an optimization run folder (``arcube report RUN_DIR``).
+
+What is read (everything defensively: the run format belongs to :mod:`arcube.optimize.run`):
+
+* ``config.toml`` (required):
+  - ``[[patients]]``: the exact trajectories the run optimized on (``source``, ``ids``,
+    ``levels``, ``sides``, ``entry`` and ``target`` as lists of [x, y, z] mm). The first patient
+    is reported. Without it, ``settings.trajectories[0]`` is reloaded with the subset flags
+    ``settings.side`` / ``levels`` / ``ids`` / ``transform``;
+  - ``[settings]``: ``points`` (default 30), ``mode`` (signs, or ``"free"``: then the mode the
+    optimizer picked, ``summary.json`` ``mode``), ``guards`` (bool), ``setups`` (1 or 2) and
+    whatever else is shown in the run table;
+* ``best_design.json`` (required; :meth:`arcube.design.Design.from_json`). With ``setups = 2``
+  it is the right-side placement and ``best_design_L.json`` the left one: the main report covers
+  the R trajectories and a second report ``report_L.html`` the L ones;
+* ``history.csv`` (optional): columns generation, best_eta_G, mean_eta_G, feasible_fraction
+  (:func:`arcube.report.figures.read_history`); unreadable -> no convergence plot, and a note;
+* ``summary.json`` (optional): shown in the run table.
+
+The design is re-evaluated here with the numpy reference engine (same numbers as the run's
+engine, no JIT warm-up).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from arcube.design import Design
+from arcube.errors import InputError
+from arcube.evaluate_cmd import EvaluationReport
+from arcube.evaluation import GUARDED_OPTIONS, Options
+from arcube.evaluation import evaluate_task as evaluate_numpy
+from arcube.mechanism import format_mode, parse_mode
+from arcube.report.figures import read_history
+from arcube.report.html import write_evaluation_report
+from arcube.task import build_task
+from arcube.trajectories import TrajectorySet, load_trajectories, select
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path.parent}: not an optimization run (no config.toml)") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: unreadable config ({exc})") from None
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    """summary.json as a dict; {} when absent or unreadable (it is optional)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path) -> TrajectorySet:
+    """The first patient's trajectories, as stored in the config (or reloaded from its spec)."""
+    patients = cfg.get("patients")
+    try:
+        if isinstance(patients, list) and patients:
+            pat = patients[0]
+            ids = [str(i) for i in pat["ids"]]
+            n = len(ids)
+            return TrajectorySet(ids=tuple(ids), levels=tuple(pat.get("levels", [""] * n)), sides=tuple(pat.get("sides", [""] * n)),
+                                 entry=np.asarray(pat["entry"], float), target=np.asarray(pat["target"], float),
+                                 source=str(pat.get("source", "run")))  # fmt: skip
+        specs = settings.get("trajectories") or []
+        spec = specs[0] if isinstance(specs, list) and specs else specs
+        if not spec:
+            raise KeyError("patients / settings.trajectories")
+        ts = load_trajectories(str(spec), transform=settings.get("transform"))
+        subset = {k: settings.get(k) for k in ("side", "levels", "ids")}
+        return select(ts, **subset) if any(v is not None for v in subset.values()) else ts
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{where}: cannot read the run's trajectories ({type(exc).__name__}: {exc})") from None
+
+
+def _mode(settings: dict[str, Any], summary: dict[str, Any], where: Path) -> np.ndarray:
+    text = str(settings.get("mode", "+,+,+,+"))
+    if text.strip().lower() == "free":
+        text = str(summary.get("mode") or "+,+,+,+")  # the mode the optimizer chose
+    try:
+        return parse_mode(text)
+    except ValueError as exc:
+        raise InputError(f"{where}: mode: {exc}") from None
+
+
+def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
+    info: dict[str, Any] = {"run_id": cfg.get("run_id"), "created": cfg.get("created")}
+    for key in ("algorithm", "population", "generations", "seed", "points", "mode", "guards", "setups", "aggregate", "engine_resolved"):
+        if key in settings:
+            info[key] = settings[key]
+    if "free" in settings:
+        info["free variables"] = ", ".join(settings["free"]) if len(settings["free"]) < 23 else "all 23"
+    for key in ("generations", "evaluations", "stopped_by", "feasible", "eta_G", "wall_s", "links_sum_mm", "bbox_volume_L"):
+        if key in summary:
+            info[f"result: {key}"] = summary[key]
+    if "rerun" in cfg:
+        info["rerun"] = cfg["rerun"]
+    return {k: v for k, v in info.items() if v is not None}
+
+
+def _evaluate(design: Design, ts: TrajectorySet, points: int, signs: np.ndarray, options: Options) -> EvaluationReport:
+    task = build_task(ts.entry, ts.target, points, ids=ts.ids)
+    results = evaluate_numpy(design.to_vector(), task.E, task.e, signs, options)
+    return EvaluationReport(design=design, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine="numpy")
+
+
+def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
+    """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
+
+    Raises :class:`InputError` (one line) when the folder is not a readable run.
+    """
+    run = Path(run_dir)
+    if not run.is_dir():
+        raise InputError(f"{run}: no such run folder")
+    cfg = _read_toml(run / "config.toml")
+    settings = cfg.get("settings") if isinstance(cfg.get("settings"), dict) else {}
+    summary = _read_json(run / "summary.json")
+    if not (run / "best_design.json").exists():
+        raise InputError(f"{run}: no best_design.json yet (the run has not written its result)")
+    design = Design.from_json(run / "best_design.json")
+    try:
+        points = int(settings.get("points", 30))
+    except (TypeError, ValueError):
+        raise InputError(f"{run / 'config.toml'}: settings.points is not an integer") from None
+    if points < 2:
+        raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
+    signs = _mode(settings, summary, run / "config.toml")
+    options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
+    ts = _trajectories(cfg, settings, run / "config.toml")
+    info = _run_info(cfg, settings, summary)
+    if isinstance(cfg.get("patients"), list) and len(cfg["patients"]) > 1:
+        info["note: patients"] = f"{len(cfg['patients'])} patients in the run; this report shows the first ({ts.source})"
+    history: Path | None = run / "history.csv"
+    try:
+        read_history(history)  # type: ignore[arg-type]
+    except InputError as exc:
+        info["note: history"] = f"no convergence plot ({exc})"
+        history = None
+    left = settings.get("setups") == 2 and (run / "best_design_L.json").exists()
+    if left:
+        info["note: setups"] = "two placements: this report covers the R trajectories with best_design.json; report_L.html the L ones"
+        right_ts = select(ts, side="R")
+        write_evaluation_report(_evaluate(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options),
+                                run / "report_L.html", history_csv=history, run_info=info)  # fmt: skip
+        ts = right_ts
+    return write_evaluation_report(_evaluate(design, ts, points, signs, options), run / "report.html", history_csv=history, run_info=info)

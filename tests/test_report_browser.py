@@ -1,0 +1,189 @@
+"""The HTML reports in a real browser (headless Chromium driven by Selenium).
+
+Skipped when /usr/bin/chromium is missing, except on CI (env CI=true), where that is a failure.
+A screenshot of each report is saved to the pytest tmp dir and, if ARCUBE_SCREENSHOT_DIR is
+set, there too.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+from conftest import PAPER
+
+from arcube.design import Design
+from arcube.evaluate_cmd import run_evaluation
+from arcube.report.html import DIV_IDS, TITLES
+from arcube.report.run_report import write_run_report
+from arcube.report_cli import write_report_for_evaluation
+from arcube.trajectories import load_trajectories, select
+
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+PLACED = {**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
+
+pytestmark = pytest.mark.skipif(
+    not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)) and os.environ.get("CI") != "true",
+    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
+)
+
+
+@pytest.fixture(scope="module")
+def driver(tmp_path_factory):
+    on_ci = os.environ.get("CI") == "true"
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        if on_ci:
+            raise
+        pytest.skip("selenium not installed (pip install -e '.[test]')")
+    assert os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER), f"{CHROMIUM} or {CHROMEDRIVER} is missing (CI=true: install chromium and chromium-driver)"
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run", "--window-size=1300,1000"):  # fmt: skip
+        opts.add_argument(arg)
+    opts.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    yield drv
+    drv.quit()
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    """A run folder as the optimizer writes it (config.toml, history.csv, best_design.json, summary.json)."""
+    run = tmp_path_factory.mktemp("run")
+    ts = select(load_trajectories("reference"), side="R")
+    Design.from_dict(PLACED).to_json(run / "best_design.json")
+    patient = "\n".join([
+        "[[patients]]", 'source = "reference"', f"ids = {json.dumps(list(ts.ids))}", f"levels = {json.dumps(list(ts.levels))}",
+        f"sides = {json.dumps(list(ts.sides))}", f"entry = {json.dumps(ts.entry.tolist())}", f"target = {json.dumps(ts.target.tolist())}",
+    ])  # fmt: skip
+    (run / "config.toml").write_text(
+        'format = "arcube-optimize-run"\nformat_version = 1\nrun_id = "test"\n\n[settings]\nalgorithm = "ga"\npopulation = 40\n'
+        'generations = 25\npoints = 12\nmode = "+,+,+,+"\nguards = false\nsetups = 1\nseed = 7\nfree = ["m_x", "m_y", "m_z"]\n\n' + patient + "\n"
+    )  # fmt: skip
+    rows = ["generation,evaluations,best_eta_G,mean_eta_G,feasible_fraction,best_violation,seconds"]
+    rows += [f"{g},{40 * g},{'' if g < 3 else 2.4 + 3.0 / g},{'' if g < 3 else 4.0 + 5.0 / g},{min(1.0, g / 15):.3f},0,{0.1 * g}" for g in range(1, 26)]
+    (run / "history.csv").write_text("\n".join(rows) + "\n")
+    (run / "summary.json").write_text(json.dumps({"eta_G": 2.4, "feasible": True, "generations": 25, "mode": "+,+,+,+", "stopped_by": "generations"}))
+    return run
+
+
+def _open(driver, path: Path):
+    driver.get_log("browser")  # start this page with an empty log (get_log drains it)
+    driver.get(path.resolve().as_uri())
+    for _ in range(100):  # wait for every plot to be drawn
+        n = driver.execute_script("return document.querySelectorAll('.js-plotly-plot .main-svg').length")
+        if n and driver.execute_script("return document.readyState") == "complete":
+            break
+        time.sleep(0.1)
+    time.sleep(0.5)
+
+
+def _plots(driver) -> dict[str, dict]:
+    return {p["id"]: p for p in driver.execute_script(
+        "return Array.from(document.querySelectorAll('.js-plotly-plot')).map(g => ({id: g.id, title: g.layout.title.text, names: g.data.map(t => t.name)}))"
+    )}  # fmt: skip
+
+
+def _mechanism(driver) -> dict:
+    """The coordinates of the scene's traces, as the browser holds them."""
+    return driver.execute_script(
+        "const g = document.getElementById(arguments[0]);"
+        "return {title: g.layout.title.text, data: g.data.map(t => [t.name, Array.from(t.x || []), Array.from(t.y || []), Array.from(t.z || [])])};",
+        DIV_IDS["scene"],
+    )
+
+
+def _move_slider(driver, step: int) -> None:
+    """Do what clicking slider step ``step`` does: Plotly.animate with that step's own args."""
+    driver.set_script_timeout(20)
+    driver.execute_async_script(
+        "const done = arguments[arguments.length - 1]; const g = document.getElementById(arguments[0]);"
+        "const s = g.layout.sliders[0].steps[arguments[1]];"
+        "Plotly.animate(g, s.args[0], s.args[1]).then(() => done(true), e => done(String(e)));",
+        DIV_IDS["scene"], step,
+    )  # fmt: skip
+    time.sleep(0.3)
+
+
+def _screenshot(driver, name: str, tmp_path: Path) -> Path:
+    scene = driver.find_element("id", DIV_IDS["scene"])
+    driver.execute_script("arguments[0].scrollIntoView()", scene)
+    time.sleep(0.3)
+    shot = tmp_path / f"{name}.png"
+    scene.screenshot(str(shot))
+    driver.execute_script("window.scrollTo(0, 0)")
+    driver.save_screenshot(str(tmp_path / f"{name}_top.png"))
+    target = os.environ.get("ARCUBE_SCREENSHOT_DIR")
+    if target:
+        Path(target).mkdir(parents=True, exist_ok=True)
+        for p in (shot, tmp_path / f"{name}_top.png"):
+            shutil.copy(p, Path(target) / p.name)
+    assert shot.stat().st_size > 10_000
+    return shot
+
+
+def _errors(driver) -> list[dict]:
+    return [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def _self_contained(html: str) -> None:
+    assert not re.search(r"<script[^>]*\bsrc=", html), "scripts must be inline (the report opens with no network)"
+    assert not re.search(r"<link[^>]*\bhref=\"?https?:", html)
+
+
+def test_run_report_in_browser(driver, run_dir, tmp_path):
+    html = write_run_report(run_dir)
+    assert html == run_dir / "report.html"
+    assert (run_dir / "report_dexterity.png").stat().st_size > 0 and (run_dir / "report_convergence.png").stat().st_size > 0
+    _self_contained(html.read_text())
+    _open(driver, html)
+    plots = _plots(driver)
+    assert set(plots) == set(DIV_IDS.values())
+    assert plots[DIV_IDS["dexterity"]]["title"] == TITLES["dexterity"]
+    assert plots[DIV_IDS["convergence"]]["title"] == TITLES["convergence"]
+    assert plots[DIV_IDS["scene"]]["title"].startswith(TITLES["scene"])
+    assert {"best η_G", "feasible %"} <= set(plots[DIV_IDS["convergence"]]["names"])
+    assert {"cranks", "four-bar x", "four-bar y", "spherical x", "spherical y", "drill", "trajectories"} <= set(plots[DIV_IDS["scene"]]["names"])
+    before = _mechanism(driver)
+    _move_slider(driver, 40)
+    after = _mechanism(driver)
+    assert after["title"] != before["title"] and "k = " in after["title"]
+    moved = {b[0] for b, a in zip(before["data"], after["data"]) if b[1:] != a[1:]}
+    assert {"cranks", "four-bar x", "four-bar y", "spherical x", "spherical y", "drill"} <= moved
+    assert "trajectories" not in moved  # the patient does not move
+    assert _errors(driver) == []
+    _screenshot(driver, "run_report", tmp_path)
+
+
+def test_evaluation_report_with_unreachable_points(driver, tmp_path):
+    design = tmp_path / "design.json"
+    Design.from_dict(PLACED).to_json(design)
+    report = run_evaluation(str(design), "reference", points=8, engine="numpy")  # the left side is unreachable
+    n_ok = int(report.results.points.reachable.sum())
+    assert 0 < n_ok < len(report.task)
+    html = write_report_for_evaluation(report, tmp_path / "eval.html")
+    assert (tmp_path / "eval_dexterity.png").exists() and not (tmp_path / "eval_convergence.png").exists()
+    _self_contained(html.read_text())
+    _open(driver, html)
+    plots = _plots(driver)
+    assert set(plots) == {DIV_IDS["dexterity"], DIV_IDS["scene"]}
+    assert "unreachable" in plots[DIV_IDS["dexterity"]]["names"]
+    n_steps = driver.execute_script("return document.getElementById(arguments[0]).layout.sliders[0].steps.length", DIV_IDS["scene"])
+    assert n_steps == n_ok
+    note = driver.execute_script("return document.getElementById(arguments[0]).layout.annotations.map(a => a.text).join(' ')", DIV_IDS["scene"])
+    assert "unreachable" in note
+    before = _mechanism(driver)
+    _move_slider(driver, n_steps - 1)
+    assert _mechanism(driver)["data"] != before["data"]
+    assert _errors(driver) == []
+    _screenshot(driver, "evaluation_report", tmp_path)
