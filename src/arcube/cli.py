@@ -81,7 +81,7 @@ def evaluate(
 
 def _register_plugins() -> None:
     """Commands that live beside their subsystem register themselves here."""
-    for module in ("arcube.patients_cli", "arcube.optimize.cli", "arcube.report_cli"):
+    for module in ("arcube.patients_cli", "arcube.optimize.cli", "arcube.report_cli", "arcube.demo"):
         try:
             plugin = importlib.import_module(module)
         except ModuleNotFoundError as exc:
