@@ -76,10 +76,19 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def demo(
-        out: Annotated[Path, typer.Option("--out", help="Folder for the demo's run folders (new or empty).")] = Path("arcube-demo"),
+        out: Annotated[Path | None, typer.Option("--out", help="Folder for the demo's run folders (new or empty); default ./arcube-demo[-N].")] = None,
         seed: Annotated[int, typer.Option("--seed", help="Random seed of both optimizations.")] = 1,
         engine: Annotated[str, typer.Option("--engine", help="Evaluation engine: auto, numba or numpy.")] = "auto",
         quick: Annotated[bool, typer.Option("--quick", help="Tiny populations (a smoke run of the pipeline, seconds).")] = False,
     ) -> None:
         """Evaluate the paper's design, optimize it, and write run folders with HTML reports."""
-        run_demo(out, seed=seed, engine=engine, quick=quick)
+        run_demo(out if out is not None else _fresh_folder(Path("arcube-demo")), seed=seed, engine=engine, quick=quick)
+
+
+def _fresh_folder(base: Path) -> Path:
+    """``base``, or ``base-2``, ``base-3``... : the first that is absent or empty, so reruns never collide."""
+    candidate, n = base, 1
+    while candidate.exists() and (not candidate.is_dir() or any(candidate.iterdir())):
+        n += 1
+        candidate = base.with_name(f"{base.name}-{n}")
+    return candidate
