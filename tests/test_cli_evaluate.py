@@ -106,6 +106,7 @@ def _bad_design(tmp_path: Path, **changes: object) -> Path:
         ("bad_mode_signs", "--mode"),
         ("few_points", "--points"),
         ("unknown_flag", "--frobnicate"),
+        ("unwritable_report", "/proc/arcube-no/report.html"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str) -> None:
@@ -137,6 +138,8 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str)
         extra = ["--points", "1"]
     elif case == "unknown_flag":
         extra = ["--frobnicate"]
+    elif case == "unwritable_report":  # /proc refuses new folders, even to root
+        extra = ["--report", "/proc/arcube-no/report.html"]
     out = arcube("evaluate", "--design", design, "--trajectories", traj, *extra, cwd=tmp_path)
     assert out.returncode == 2, (out.stdout, out.stderr)
     lines = out.stderr.strip().splitlines()

@@ -111,6 +111,11 @@ def main(argv: list[str] | None = None) -> None:
     except InputError as exc:
         sys.stderr.write(f"error: {_one_line(str(exc))}\n")
         sys.exit(2)
+    except OSError as exc:
+        # A file the user named cannot be read or written (permissions, missing folder, full disk).
+        where = f"{exc.filename}: " if exc.filename else ""
+        sys.stderr.write(f"error: {where}{_one_line(exc.strerror or str(exc))}\n")
+        sys.exit(2)
     except KeyboardInterrupt:
         sys.stderr.write("error: interrupted\n")
         sys.exit(130)
