@@ -106,7 +106,7 @@ def _bad_design(tmp_path: Path, **changes: object) -> Path:
         ("bad_mode_signs", "--mode"),
         ("few_points", "--points"),
         ("unknown_flag", "--frobnicate"),
-        ("unwritable_report", "/proc/arcube-no/report.html"),
+        ("unwritable_report", "/proc/arcube-no"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str) -> None:
