@@ -192,3 +192,41 @@ def convergence_png(history: History, path: str | os.PathLike[str]) -> Path:
     out = Path(path)
     atomic_write_bytes(out, _png_bytes(fig))
     return out
+
+
+class ParetoFront(NamedTuple):
+    """An NSGA-II run's front, sorted by size: each field ``(F,)``."""
+
+    eta_G: NDArray[np.float64]
+    links_sum_mm: NDArray[np.float64]
+    bbox_volume_L: NDArray[np.float64]
+
+
+def read_pareto(path: str | os.PathLike[str]) -> ParetoFront:
+    """Read ``pareto.csv`` (columns eta_G, links_sum_mm, bbox_volume_L); InputError naming the file otherwise."""
+    p = Path(path)
+    try:
+        with p.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+        cols = {k: np.array([float(r[k]) for r in rows]) for k in ("eta_G", "links_sum_mm", "bbox_volume_L")}
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise InputError(f"{p}: not a readable pareto.csv ({exc})") from None
+    order = np.argsort(cols["links_sum_mm"], kind="stable")
+    return ParetoFront(**{k: v[order] for k, v in cols.items()})
+
+
+def pareto_png(front: ParetoFront, path: str | os.PathLike[str]) -> Path:
+    """PNG of eta_G against the sum of link lengths, colored by bounding-box volume."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(front.links_sum_mm, front.eta_G, color="#bbbbbb", lw=1, zorder=1)
+    sc = ax.scatter(front.links_sum_mm, front.eta_G, c=front.bbox_volume_L, cmap="viridis", zorder=2)
+    fig.colorbar(sc, ax=ax, label="bounding box (L)")
+    ax.set_xlabel("sum of link lengths (mm)")
+    ax.set_ylabel("η_G (lower is better)")
+    ax.set_title("Pareto front: dexterity against size")
+    out = Path(path)
+    atomic_write_bytes(out, _png_bytes(fig))
+    return out

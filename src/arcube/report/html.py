@@ -30,7 +30,8 @@ from arcube.fileio import atomic_write_text
 from arcube.indices import JACOBIAN_NAMES
 from arcube.mechanism import parse_mode
 from arcube.report.figures import (
-    JACOBIAN_COLORS, UNREACHABLE_COLOR, History, convergence_png, dexterity_png, dexterity_series, read_history,
+    JACOBIAN_COLORS, UNREACHABLE_COLOR, History, ParetoFront, convergence_png, dexterity_png, dexterity_series, pareto_png,
+    read_history, read_pareto,
 )  # fmt: skip
 from arcube.report.geometry import MechanismPoints, mechanism_points
 
@@ -39,7 +40,7 @@ if TYPE_CHECKING:
 
     from arcube.evaluate_cmd import EvaluationReport
 
-DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "scene": "fig-scene"}
+DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "pareto": "fig-pareto", "scene": "fig-scene"}
 TITLES = {
     "dexterity": "Local inverted dexterity along the drilling trajectories (paper Fig. 4)",
     "convergence": "Optimization convergence per generation",
@@ -266,14 +267,34 @@ table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding
 th{background:#f3f3f3}h2{margin-top:1.4em;border-bottom:1px solid #ddd}.note{color:#555;font-size:90%}"""
 
 
+def pareto_figure(front: ParetoFront) -> go.Figure:
+    """eta_G against the sum of link lengths, colored by the bounding-box volume (an NSGA-II run's front)."""
+    import plotly.graph_objects as go
+
+    fig = go.Figure(
+        go.Scatter(
+            x=front.links_sum_mm.tolist(), y=front.eta_G.tolist(), mode="markers+lines", name="front",
+            marker={"size": 8, "color": front.bbox_volume_L.tolist(), "colorscale": "Viridis", "showscale": True,
+                    "colorbar": {"title": "bbox (L)"}},
+            line={"color": "#bbb", "width": 1},
+            hovertemplate="links %{x:.0f} mm<br>η_G %{y:.4f}<br>bbox %{marker.color:.1f} L<extra></extra>",
+        )
+    )  # fmt: skip
+    fig.update_layout(title={"text": "Pareto front: dexterity (η_G, lower is better) against size"}, height=420, margin={"t": 60})
+    fig.update_xaxes(title_text="sum of link lengths (mm)")
+    fig.update_yaxes(title_text="η_G")
+    return fig
+
+
 def write_evaluation_report(
     report: EvaluationReport, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
-    run_info: dict[str, Any] | None = None,
+    run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
     ``history_csv``: a run's ``history.csv`` (adds the convergence plot and PNG).
     ``run_info``: key -> value rows shown at the top (e.g. a run's settings and summary).
+    ``pareto_csv``: an NSGA-II run's ``pareto.csv`` (adds the front plot and PNG).
     Returns the HTML path. Every file is written atomically.
     """
     import plotly.io as pio
@@ -286,6 +307,10 @@ def write_evaluation_report(
         history = read_history(history_csv)
         convergence_png(history, f"{stem}_convergence.png")
         figs.append(("convergence", convergence_figure(history)))
+    if pareto_csv is not None:
+        front = read_pareto(pareto_csv)
+        pareto_png(front, f"{stem}_pareto.png")
+        figs.append(("pareto", pareto_figure(front)))
     figs.append(("scene", scene_figure(report)))
     divs = {}
     for k, (key, fig) in enumerate(figs):
@@ -300,6 +325,8 @@ def write_evaluation_report(
     parts += ["<h2>Design (Table 2 layout)</h2>", design_table(report), "<h2>Summary</h2>", summary_html(report), "<h2>Dexterity</h2>", divs["dexterity"]]
     if "convergence" in divs:
         parts += ["<h2>Convergence</h2>", divs["convergence"]]
+    if "pareto" in divs:
+        parts += ["<h2>Pareto front</h2>", divs["pareto"]]
     parts += [
         "<h2>Mechanism</h2><p class='note'>Patient frame R_w (x right, y superior, z posterior). Spherical links are drawn as "
         "great-circle arcs on the sphere of radius r around the drill tip E; a dashed z dyad means (d_z, c_z) cannot span "

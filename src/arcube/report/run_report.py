@@ -155,4 +155,6 @@ def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
         write_evaluation_report(_evaluate(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options),
                                 run / "report_L.html", history_csv=history, run_info=info)  # fmt: skip
         ts = right_ts
-    return write_evaluation_report(_evaluate(design, ts, points, signs, options), run / "report.html", history_csv=history, run_info=info)
+    pareto = run / "pareto.csv"
+    return write_evaluation_report(_evaluate(design, ts, points, signs, options), run / "report.html", history_csv=history,
+                                   run_info=info, pareto_csv=pareto if pareto.exists() else None)  # fmt: skip
