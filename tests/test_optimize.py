@@ -244,6 +244,42 @@ def test_tolerance_stops_early_and_zero_runs_every_generation(tmp_path: Path) ->
     assert b["stopped_by"] == "generations" and b["generations"] == 50 and b["evaluations"] == 50 * 20
 
 
+@pytest.mark.parametrize(("algorithm", "duplicates"), [("ga", False), ("ga", True), ("de", False), ("nsga2", False)])
+def test_lean_bookkeeping_equals_pymoo_stock_components(algorithm: str, duplicates: bool) -> None:
+    """The lean bookkeeping (arcube.optimize.lean) changes no draw and no decision of pymoo's algorithms."""
+    from arcube.optimize.algorithms import make_algorithm, make_termination
+    from arcube.optimize.problem import ArcubeProblem
+
+    model = runmod.build_model(_config(algorithm=algorithm, population=30, points=3))
+    x0 = model.space.encode(model.space.base)
+    seen: dict[bool, list] = {}
+    for lean in (True, False):
+        algo = make_algorithm(algorithm, 30, 11, x0, eliminate_duplicates=duplicates, lean=lean)
+        algo.setup(ArcubeProblem(model.space, model.n_obj, model.evaluate), termination=make_termination(algorithm, 25, 0.0), seed=11)
+        trace = []
+        while algo.has_next():
+            algo.next()
+            pop, opt = algo.pop, algo.opt
+            trace.append((pop.get("X"), pop.get("F"), pop.get("CV"), pop.get("rank"), pop.get("VIOL"), opt.get("X"), algo.evaluator.n_eval))
+        seen[lean] = trace
+    assert len(seen[True]) == 25 and any(np.any(t[2] > 0) for t in seen[True]) and any(np.any(t[2] == 0) for t in seen[True])
+    for got, want in zip(seen[True], seen[False]):
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b)
+
+
+def test_duplicates_setting_is_recorded_and_old_configs_keep_pymoo_default(tmp_path: Path) -> None:
+    assert _config()["settings"]["eliminate_duplicates"] is False
+    cfg = _config(eliminate_duplicates=True, generations=3)
+    assert cfg["settings"]["eliminate_duplicates"] is True and "--eliminate-duplicates" in cfg["rerun"]
+    runmod.start(tmp_path / "dup", cfg)
+    old = _config(generations=3, seed=cfg["settings"]["seed"])
+    del old["settings"]["eliminate_duplicates"]  # a config written before the setting existed
+    runmod.start(tmp_path / "old", old)
+    assert (tmp_path / "old/best_design.json").read_bytes() == (tmp_path / "dup/best_design.json").read_bytes()
+    assert _history(tmp_path / "old/history.csv") == _history(tmp_path / "dup/history.csv")
+
+
 # --------------------------------------------------------------------------------- checkpoint / resume
 class _Crash(Exception):
     pass

@@ -55,7 +55,7 @@ def build_config(
     guards: bool = False, margin: float | None = None, seed: int | None = None, workers: int = 1, dask: str | None = None,
     side: str | None = None, levels: str | None = None, ids: str | None = None, engine: str = "auto",
     aggregate: str = "mean", compactness: str = "links", bounds: str | None = None, checkpoint_every: int = 10,
-    transform: str | None = None,
+    transform: str | None = None, eliminate_duplicates: bool = False,
 ) -> dict[str, Any]:  # fmt: skip
     """Validate the optimize flags and return the run's config (what config.toml holds)."""
     algorithm = algorithm.strip().lower()
@@ -101,7 +101,7 @@ def build_config(
         "algorithm": algorithm, "population": population, "generations": generations, "tolerance": tolerance,
         "period": DEFAULT_PERIOD, "points": points, "mode": mode_text, "setups": setups, "guards": guards, "margin": margin,
         "seed": seed, "engine": engine, "engine_resolved": engine_resolved, "aggregate": aggregate, "compactness": compactness,
-        "checkpoint_every": checkpoint_every, "design_from": design_from, "free": list(free_names),
+        "checkpoint_every": checkpoint_every, "eliminate_duplicates": bool(eliminate_duplicates), "design_from": design_from, "free": list(free_names),
         "trajectories": list(trajectories), "side": side, "levels": levels, "ids": ids, "transform": transform,
     }  # fmt: skip
     cfg = runmod.new_run_config(settings, all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
@@ -120,6 +120,8 @@ def _rerun_command(s: dict[str, Any], bounds: dict[str, tuple[float, float]], cf
             parts.append(f"--{flag} {s[flag]}")
     if s["guards"]:
         parts.append("--guards")
+    if s["eliminate_duplicates"]:
+        parts.append("--eliminate-duplicates")
     changed = [f"{k}={lo!r}:{hi!r}" for k, (lo, hi) in bounds.items() if (lo, hi) != resolve_bounds()[k]]
     if changed:
         parts.append("--bounds " + ",".join(changed))
@@ -215,6 +217,7 @@ def register(app: typer.Typer) -> None:
         bounds: Annotated[str | None, typer.Option("--bounds", help="Override bounds: NAME=LO:HI[,NAME=LO:HI...].")] = None,
         checkpoint_every: Annotated[int, typer.Option("--checkpoint-every", help="Write a checkpoint every K generations.")] = 10,
         transform: Annotated[str | None, typer.Option("--transform", help="4x4 rigid transform (JSON) applied to every trajectory set.")] = None,
+        eliminate_duplicates: Annotated[bool, typer.Option("--eliminate-duplicates", help="ga: drop offspring equal to a design already in the population (pymoo's default; Matlab's ga, the paper's, keeps them).")] = False,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
         more_trajectories: Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE_TRAJECTORIES")] = None,
     ) -> None:
@@ -229,6 +232,7 @@ def register(app: typer.Typer) -> None:
             tolerance=tolerance, points=points, mode=mode, setups=setups, guards=guards, margin=margin, seed=seed,
             workers=workers, dask=dask, side=side, levels=levels, ids=ids, engine=engine, aggregate=aggregate,
             compactness=compactness, bounds=bounds, checkpoint_every=checkpoint_every, transform=transform,
+            eliminate_duplicates=eliminate_duplicates,
         )  # fmt: skip
         runmod.check_new_folder(out)
         with _Progress(generations, enabled=not quiet) as bar:

@@ -401,8 +401,9 @@ class ArcubeProblem(Problem):
     """pymoo view of a :class:`FitnessModel`; ``batch(X)`` returns the model's dict (maybe remotely).
 
     With ``penalty_only`` (CMA-ES) the problem has no constraint: F already carries the penalty.
-    Otherwise G = VIOL (one inequality, feasible iff VIOL <= 0). ETA and VIOL ride along on the
-    individuals for bookkeeping.
+    Otherwise G = VIOL (one inequality, feasible iff VIOL <= 0) and CV = max(VIOL, 0), which is
+    what pymoo's ``calc_cv`` would compute from G lazily, individual by individual. ETA and VIOL
+    ride along on the individuals for bookkeeping.
     """
 
     def __init__(self, space: VariableSpace, n_obj: int, batch: Callable[[Array], dict[str, Array]], penalty_only: bool = False) -> None:
@@ -414,6 +415,7 @@ class ArcubeProblem(Problem):
         out["F"] = r["F"]
         if self.n_ieq_constr:
             out["G"] = r["VIOL"][:, None]
+            out["CV"] = np.maximum(r["VIOL"], 0.0)[:, None] + 0.0  # pymoo's calc_cv of one inequality
         out["ETA"] = r["ETA"]
         out["VIOL"] = r["VIOL"]
 

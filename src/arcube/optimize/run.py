@@ -1,4 +1,4 @@
-"""Optimization runs: run folder, history, checkpoint/resume, executors.
+"""Optimization runs: run folder, history, executors and the run loop.
 
 Run folder::
 
@@ -8,23 +8,17 @@ Run folder::
     checkpoint/      state.json + evals_GGGGGG.npz (allow_pickle=False), written atomically
     best_design.json (best_design_L.json with --setups 2), summary.json, pareto.csv (nsga2)
 
-Checkpoint and bit-identical resume: the run is deterministic given its seed, so a checkpoint is
-the *evaluation log*: for each batch the algorithm asked for, the SHA-256 of the asked X and the
-answers (F, VIOL, ETA) as float64 arrays. ``resume`` sets the algorithm up afresh from the seed
-and replays it: every asked batch must hash to the logged digest (else the checkpoint is refused)
-and gets the logged answers without evaluating, so the algorithm goes through exactly the same
-states (population, counters, termination windows, every RNG including CMA-ES's) as the
-uninterrupted run; then it goes on live. Replay costs only the optimizer's own overhead.
+Checkpoint and bit-identical resume: see :mod:`arcube.optimize.checkpoint` (the evaluation log,
+replayed on resume).
 """
 
 from __future__ import annotations
 
 import csv
-import hashlib
+import gc
 import io
 import json
 import math
-import os
 import platform
 import sys
 import time
@@ -39,16 +33,21 @@ import numpy as np
 
 from arcube.design import PARAM_NAMES, Design
 from arcube.errors import InputError
-from arcube.fileio import atomic_write_bytes, atomic_write_text
+from arcube.fileio import atomic_write_text
 from arcube.optimize.algorithms import MULTI_OBJECTIVE, PENALTY_ONLY, make_algorithm, make_termination, stop_reason
+from arcube.optimize.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: still importable from here)
+    CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
+)  # fmt: skip
+from arcube.optimize.lean import column
 from arcube.optimize.problem import ArcubeProblem, FitnessModel, build_model, check_engine, evaluate_with, worker_evaluate, worker_init
 
 RUN_FORMAT = "arcube-optimize-run"
-CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
-FORMAT_VERSION = 1
 HISTORY_COLUMNS = ("generation", "evaluations", "best_eta_G", "mean_eta_G", "feasible_fraction", "best_violation", "seconds")
-Batch = dict[str, np.ndarray]
-LOG_KEYS = ("F", "VIOL", "ETA")
+GC_GEN0_THRESHOLD = 100_000
+"""During a run the cyclic garbage collector's first threshold is raised to this many allocations
+(Python's default is 700): pymoo makes a few thousand small objects per generation (individuals,
+their dicts and arrays) and frees them by reference counting, so the default threshold only made
+the collector rescan them about ten times per generation. Restored when the run returns."""
 
 
 def versions() -> dict[str, str]:
@@ -185,104 +184,15 @@ def make_executor(model: FitnessModel, workers: int = 1, dask: str | None = None
     return ProcessExecutor(model, workers) if workers > 1 else Executor(model)
 
 
-# ----------------------------------------------------------------------------- evaluation log
-def digest(X: np.ndarray) -> bytes:
-    a = np.ascontiguousarray(X, dtype=np.float64)
-    return hashlib.sha256(repr(a.shape).encode() + a.tobytes()).digest()
-
-
-class EvalLog:
-    """Answers the problem's batches: from the replay queue while it lasts (checking digests), then
-    live through the executor, logging what is new since the last checkpoint."""
-
-    def __init__(self, executor: Executor, replay: list[tuple[bytes, Batch]]) -> None:
-        self.executor, self.replay, self.pending = executor, replay, []
-        self.calls, self.eval_s = 0, 0.0
-
-    def __call__(self, X: np.ndarray) -> Batch:
-        d = digest(X)
-        self.calls += 1
-        if self.replay:
-            want, batch = self.replay.pop(0)
-            if want != d or len(batch["VIOL"]) != len(X):
-                raise InputError(f"checkpoint does not replay: batch {self.calls} asked for other designs than the logged run (other code or library versions, or a foreign checkpoint)")
-            return batch
-        t0 = time.perf_counter()
-        batch = self.executor(X)
-        self.eval_s += time.perf_counter() - t0
-        self.pending.append((d, batch))
-        return batch
-
-
-def _sha(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
-def write_checkpoint(run_dir: Path, state: dict[str, Any], log: EvalLog, generation: int) -> None:
-    ckdir = run_dir / "checkpoint"
-    if log.pending:
-        buf = io.BytesIO()
-        entries = log.pending
-        np.savez(
-            buf, digest=np.array([np.frombuffer(d, np.uint8) for d, _ in entries]),
-            sizes=np.array([len(b["VIOL"]) for _, b in entries], dtype=np.int64),
-            **{k: np.concatenate([b[k] for _, b in entries]).astype(np.float64) for k in LOG_KEYS},
-        )  # fmt: skip
-        name = f"evals_{generation:06d}.npz"
-        atomic_write_bytes(ckdir / name, buf.getvalue())
-        state["chunks"].append({"file": name, "sha256": _sha(buf.getvalue()), "calls": len(entries)})
-        log.pending = []
-    state["generation"] = generation
-    atomic_write_text(ckdir / "state.json", json.dumps(state, indent=1, allow_nan=False) + "\n")
-
-
-def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
-    """(state, replay entries); (None, []) when the run was killed before its first checkpoint."""
-    path = run_dir / "checkpoint" / "state.json"
-    if not path.exists():
-        return None, []
-    try:
-        state = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: corrupt checkpoint ({exc})") from None
-    if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT or state.get("format_version") != FORMAT_VERSION:
-        raise InputError(f"{path}: not an arcube optimize checkpoint")
-    if state.get("run_id") != cfg["run_id"] or state.get("config_sha256") != _sha(cfg_raw):
-        raise InputError(f"{path}: checkpoint of another run or config (run_id/config.toml do not match); refusing to resume")
-    entries: list[tuple[bytes, Batch]] = []
-    n_obj = 2 if cfg["settings"]["algorithm"] in MULTI_OBJECTIVE else 1
-    try:
-        for ch in state["chunks"]:
-            f = path.parent / str(ch["file"])
-            if f.parent != path.parent:
-                raise ValueError("bad chunk name")
-            data = f.read_bytes()
-            if _sha(data) != ch["sha256"]:
-                raise ValueError(f"{f.name} does not match its SHA-256")
-            with np.load(io.BytesIO(data), allow_pickle=False) as z:
-                arr = {k: z[k] for k in ("digest", "sizes", *LOG_KEYS)}
-            sizes, n = arr["sizes"].astype(np.int64), int(arr["sizes"].sum())
-            if arr["digest"].shape != (len(sizes), 32) or arr["F"].shape != (n, n_obj) or arr["VIOL"].shape != (n,) or arr["ETA"].shape != (n,) or len(sizes) != ch["calls"]:
-                raise ValueError(f"{f.name} has inconsistent shapes")
-            start = np.concatenate([[0], np.cumsum(sizes)])
-            for i in range(len(sizes)):
-                sl = slice(start[i], start[i + 1])
-                entries.append((arr["digest"][i].tobytes(), {k: arr[k][sl] for k in LOG_KEYS}))
-        int(state["generation"]), float(state["elapsed_s"])
-    except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
-        raise InputError(f"{path.parent}: corrupt checkpoint ({exc})") from None
-    return state, entries
-
-
 # ----------------------------------------------------------------------------- history and outputs
 def _fmt(v: float) -> str:
     return repr(float(v)) if math.isfinite(v) else ""
 
 
 def generation_stats(algorithm: Any) -> dict[str, float]:
-    viol = np.asarray(algorithm.pop.get("VIOL"), float).reshape(-1)
-    eta = np.asarray(algorithm.pop.get("ETA"), float).reshape(-1)
-    best = np.asarray(algorithm.opt.get("ETA"), float).reshape(-1) if algorithm.opt is not None else eta
+    viol = np.asarray(column(algorithm.pop, "VIOL"), float).reshape(-1)
+    eta = np.asarray(column(algorithm.pop, "ETA"), float).reshape(-1)
+    best = np.asarray(column(algorithm.opt, "ETA"), float).reshape(-1) if algorithm.opt is not None else eta
     feas = eta[np.isfinite(eta)]
     return {
         "best_eta_G": float(np.min(best)) if np.isfinite(best).any() else math.inf,
@@ -365,7 +275,13 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
 # ----------------------------------------------------------------------------- the run loop
 def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool = False, workers: int | None = None,
             dask: str | None = None, on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
-    """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary."""
+    """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary.
+
+    ``on_generation`` gets each new generation's history row plus ``total``, this session's
+    ``session_s`` (wall), ``eval_s`` (evaluation) and ``optimizer_s`` (pymoo's own time: inside
+    the algorithm's step but not answering its batches); the rest of ``session_s`` is the run's
+    own bookkeeping (setup, history, checkpoints, outputs).
+    """
     s = cfg["settings"]
     state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
     if state is None:
@@ -373,24 +289,31 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool 
                  "generation": 0, "elapsed_s": 0.0, "eval_s": 0.0, "sessions": 0, "chunks": [], "finished": False}  # fmt: skip
     done_gen, prior_s, prior_eval = int(state["generation"]), float(state["elapsed_s"]), float(state["eval_s"])
     state["sessions"] = int(state.get("sessions", 0)) + 1
+    t0 = time.perf_counter()
     reset_history(run_dir / "history.csv", done_gen)
     model = build_model(cfg)
     ex = cfg.get("executor", {})
     executor = make_executor(model, workers if workers is not None else int(ex.get("workers", 1)), dask if dask is not None else ex.get("dask") or None)
     log = EvalLog(executor, replay)
-    algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base))
+    # configs written before the setting existed ran pymoo's default (duplicates eliminated)
+    algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base),
+                          eliminate_duplicates=bool(s.get("eliminate_duplicates", True)))  # fmt: skip
     problem = ArcubeProblem(model.space, model.n_obj, log, penalty_only=s["algorithm"] in PENALTY_ONLY)
     termination = make_termination(s["algorithm"], int(s["generations"]), float(s["tolerance"]), int(s["period"]))
     algo.setup(problem, termination=termination, seed=int(s["seed"]), verbose=False)
-    t0, gen, every = time.perf_counter(), 0, int(s["checkpoint_every"])
+    gen, every, algo_s = 0, int(s["checkpoint_every"]), 0.0
     hist = (run_dir / "history.csv").open("a", encoding="utf-8", newline="")
+    gc_thresholds = gc.get_threshold()
+    gc.set_threshold(max(gc_thresholds[0], GC_GEN0_THRESHOLD), *gc_thresholds[1:])
 
     def elapsed() -> float:
         return prior_s + time.perf_counter() - t0
 
     try:
         while algo.has_next():
+            t_step = time.perf_counter()
             algo.next()
+            algo_s += time.perf_counter() - t_step
             if algo.n_iter - 1 == gen:
                 continue
             gen = algo.n_iter - 1
@@ -404,7 +327,8 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool 
                 state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval)
                 write_checkpoint(run_dir, state, log, gen)
             if on_generation is not None:
-                on_generation({**row, "total": int(s["generations"]), "eval_s": log.eval_s, "session_s": time.perf_counter() - t0})
+                on_generation({**row, "total": int(s["generations"]), "eval_s": log.eval_s, "optimizer_s": algo_s - log.call_s,
+                               "session_s": time.perf_counter() - t0})  # fmt: skip
         if log.replay:
             raise InputError("checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)")
         info = {"generations": gen, "evaluations": int(algo.evaluator.n_eval), "wall_s": elapsed(), "eval_s": prior_eval + log.eval_s,
@@ -419,6 +343,7 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool 
             write_checkpoint(run_dir, state, log, gen)
         raise
     finally:
+        gc.set_threshold(*gc_thresholds)
         hist.close()
         executor.close()
 
