@@ -6,7 +6,6 @@ code 2, with no traceback (see :func:`main`).
 
 from __future__ import annotations
 
-import importlib
 import json
 import sys
 from pathlib import Path
@@ -79,21 +78,18 @@ def evaluate(
             typer.echo(f"report: {report}")
 
 
-def _register_plugins() -> None:
+def _register_subcommands() -> None:
     """Commands that live beside their subsystem register themselves here."""
-    for module in ("arcube.patients_cli", "arcube.optimize.cli", "arcube.report_cli", "arcube.demo"):
-        try:
-            plugin = importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name is None or not module.startswith(exc.name):
-                raise
-            continue
-        plugin.register(app)
+    from arcube import demo, patients_cli, report_cli
+    from arcube.optimize import cli as optimize_cli
+
+    for module in (patients_cli, optimize_cli, report_cli, demo):
+        module.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``arcube`` script: one-line errors and exit code 2 on bad input."""
-    _register_plugins()
+    _register_subcommands()
     command = typer.main.get_command(app)
     try:
         command.main(args=argv, prog_name="arcube", standalone_mode=False)
