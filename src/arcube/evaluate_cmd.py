@@ -179,14 +179,22 @@ def parse_mode_option(text: str) -> np.ndarray:
         raise InputError(f"--mode: {exc}") from None
 
 
+def load_trajectory_set(
+    trajectories: str, points: int, side: str | None = None, levels: str | None = None,
+    ids: str | None = None, transform: Path | None = None,
+) -> TrajectorySet:  # fmt: skip
+    """Read and subset trajectories, checking ``points`` first (raises InputError)."""
+    if points < 2:
+        raise InputError(f"--points must be at least 2 (both ends of a trajectory), got {points}")
+    return select(load_trajectories(trajectories, transform=transform), side=side, levels=levels, ids=ids)
+
+
 def load_task(
     trajectories: str, points: int, side: str | None = None, levels: str | None = None,
     ids: str | None = None, transform: Path | None = None,
 ) -> tuple[TrajectorySet, Task]:  # fmt: skip
     """Read, subset and sample trajectories into a task (raises InputError)."""
-    if points < 2:
-        raise InputError(f"--points must be at least 2 (both ends of a trajectory), got {points}")
-    ts = select(load_trajectories(trajectories, transform=transform), side=side, levels=levels, ids=ids)
+    ts = load_trajectory_set(trajectories, points, side, levels, ids, transform)
     return ts, build_task(ts.entry, ts.target, points, ids=ts.ids)
 
 
@@ -202,9 +210,16 @@ def run_evaluation(
     except ValueError as exc:
         raise InputError(f"--engine: {exc}") from None
     d = Design.load(design)
-    ts, task = load_task(trajectories, points, side, levels, ids, transform)
-    options = GUARDED_OPTIONS if guards else Options()
-    results = evaluate_task(d.to_vector(), task.E, task.e, signs, options, engine=engine_name, want_points=True)
+    ts = load_trajectory_set(trajectories, points, side, levels, ids, transform)
+    return evaluate_design(d, ts, points, signs, GUARDED_OPTIONS if guards else Options(), engine_name)
+
+
+def evaluate_design(
+    design: Design, ts: TrajectorySet, points: int, signs: np.ndarray, options: Options, engine: str = "numpy"
+) -> EvaluationReport:
+    """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call."""
+    task = build_task(ts.entry, ts.target, points, ids=ts.ids)
+    results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True)
     return EvaluationReport(
-        design=d, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine=engine_name
+        design=design, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine=engine
     )

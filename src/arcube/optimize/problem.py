@@ -31,6 +31,8 @@ from arcube.design import INDEX, N_PARAMS, PARAM_NAMES
 from arcube.errors import InputError
 from arcube.evaluation import GUARDED_OPTIONS, Options
 from arcube.mechanism import format_mode, parse_mode
+from arcube.poses import LEG_PERM
+from arcube.stages import tls
 from arcube.task import build_task
 
 Array = NDArray[np.float64]
@@ -200,9 +202,9 @@ def mechanism_points(params: Array, E: Array, e: Array) -> Array:
     n, P = params.shape[0], E.shape[0]
     m, f, p, r = params[:, 0:3], params[:, 3:6], params[:, 6:9], params[:, 16]
     E_m = E[None, :, :] - m[:, None, :]  # (n, P, 3)
-    arg = np.clip((E_m + f[:, None, :] + r[:, None, None]) / p[:, None, :], -1.0, 1.0)
+    arg = np.clip(tls.ik_argument(E_m, f[:, None, :], p[:, None, :], r[:, None]), -1.0, 1.0)
     pts = np.zeros((n, P, 11, 3))
-    for leg, (u, w) in enumerate(((0, 2), (1, 0), (2, 1))):  # w axis of each leg (MODEL.md 1.2)
+    for leg, (u, _, w) in enumerate(LEG_PERM):  # world axes u, w of each leg (MODEL.md 1.2)
         pts[:, :, leg, u] = -f[:, None, leg]
         pts[:, :, 3 + leg, u] = -f[:, None, leg] + p[:, None, leg] * arg[..., leg]
         pts[:, :, 3 + leg, w] = p[:, None, leg] * np.sqrt(1.0 - arg[..., leg] ** 2)

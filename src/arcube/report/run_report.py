@@ -33,13 +33,11 @@ import numpy as np
 
 from arcube.design import Design
 from arcube.errors import InputError
-from arcube.evaluate_cmd import EvaluationReport
+from arcube.evaluate_cmd import evaluate_design
 from arcube.evaluation import GUARDED_OPTIONS, Options
-from arcube.evaluation import evaluate_task as evaluate_numpy
-from arcube.mechanism import format_mode, parse_mode
+from arcube.mechanism import parse_mode
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
-from arcube.task import build_task
 from arcube.trajectories import TrajectorySet, load_trajectories, select
 
 
@@ -110,12 +108,6 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
     return {k: v for k, v in info.items() if v is not None}
 
 
-def _evaluate(design: Design, ts: TrajectorySet, points: int, signs: np.ndarray, options: Options) -> EvaluationReport:
-    task = build_task(ts.entry, ts.target, points, ids=ts.ids)
-    results = evaluate_numpy(design.to_vector(), task.E, task.e, signs, options)
-    return EvaluationReport(design=design, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine="numpy")
-
-
 def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
     """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
 
@@ -152,9 +144,9 @@ def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
     if left:
         info["note: setups"] = "two placements: this report covers the R trajectories with best_design.json; report_L.html the L ones"
         right_ts = select(ts, side="R")
-        write_evaluation_report(_evaluate(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options),
+        write_evaluation_report(evaluate_design(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options),
                                 run / "report_L.html", history_csv=history, run_info=info)  # fmt: skip
         ts = right_ts
     pareto = run / "pareto.csv"
-    return write_evaluation_report(_evaluate(design, ts, points, signs, options), run / "report.html", history_csv=history,
+    return write_evaluation_report(evaluate_design(design, ts, points, signs, options), run / "report.html", history_csv=history,
                                    run_info=info, pareto_csv=pareto if pareto.exists() else None)  # fmt: skip
