@@ -11,10 +11,10 @@ which reaches the right-side trajectories; a second, all-reachable workload (the
 trajectories x 60 points) times the kernel where every stage runs at every point.
 
 (a) a per-point Python loop: inverse_kinematics of one (design, point), the seven Jacobians of
-    arcube.mechanism.jacobians and np.linalg.cond of each (7 SVDs), timed on a subset of
+    arcube.model.mechanism.jacobians and np.linalg.cond of each (7 SVDs), timed on a subset of
     reachable points and extrapolated per point;
 (b) the NumPy batch arcube.evaluation.evaluate_task;
-(c) the Numba kernel arcube.kernel.evaluate_task_numba (warm), want_points True and False
+(c) the Numba kernel arcube.evaluation.kernel.evaluate_task_numba (warm), want_points True and False
     (default fast path; the exact=True path, which evaluates every trigonometric function as
     the reference does, for comparison).
 
@@ -35,10 +35,10 @@ from importlib import resources
 
 import numpy as np
 
-from arcube.design import Design
-from arcube.evaluation import evaluate_task
-from arcube.mechanism import DEFAULT_MODE, inverse_kinematics, jacobians
-from arcube.task import build_task
+from arcube.model.design import Design
+from arcube.evaluation.reference import evaluate_task
+from arcube.model.mechanism import DEFAULT_MODE, inverse_kinematics, jacobians
+from arcube.evaluation.task import build_task
 
 M_RIGHT = (88.2, 79.4, 56.9)
 
@@ -109,7 +109,7 @@ def main() -> None:
     t_import = time.perf_counter()
     import numba
 
-    from arcube import kernel
+    from arcube.evaluation import kernel
 
     t_import = time.perf_counter() - t_import
     t_warm = kernel.warm_up()

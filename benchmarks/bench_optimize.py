@@ -32,8 +32,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from arcube.optimize import run as runmod
-from arcube.optimize.cli import build_config
+from arcube.optimization import run as runmod
+from arcube.optimization.config import build_config
 
 TARGET_S = 5.0
 MEMORY_LIMIT_MIB = 1024.0

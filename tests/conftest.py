@@ -26,7 +26,7 @@ _SRC = Path(__file__).resolve().parents[1] / "src"
 if str(_SRC) not in sys.path:  # pragma: no cover - the venv normally has arcube installed
     sys.path.append(str(_SRC))
 
-from arcube import mechanism  # noqa: E402
+from arcube.model import mechanism  # noqa: E402
 
 # ---------------------------------------------------------------------------------------------
 # MODEL.md section 2, restated: name -> index, angles in degrees.
@@ -59,7 +59,7 @@ PAPER = {
     "alpha_x": 52.6402, "alpha_y": 66.446,
     "beta_x": 50.0038, "beta_y": 62.1208,
 }  # fmt: skip
-"""Table 2 of the paper, copied from MODEL.md section 2 (not from arcube.design)."""
+"""Table 2 of the paper, copied from MODEL.md section 2 (not from arcube.model.design)."""
 
 
 def vec(values: dict[str, float]) -> np.ndarray:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from arcube.design import PARAM_NAMES, Design
+from arcube.model.design import PARAM_NAMES, Design
 
 DATA = Path(__file__).resolve().parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
 JACOBIANS = {"J_LV", "J_AV", "J_sigma", "J_AS", "J_AP", "J_rho", "J_delta"}
@@ -151,8 +151,8 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str)
 
 def test_slicer_markups_evaluate_like_the_csv(tmp_path: Path, right_side_design: Path) -> None:
     """The same trajectories from a .mrk.json (LPS, as Slicer writes) give the same evaluation point for point."""
-    from arcube.slicer import write_markups
-    from arcube.trajectories import load_trajectories
+    from arcube.io.slicer import write_markups
+    from arcube.io import load_trajectories
 
     mrk = tmp_path / "plan.mrk.json"
     write_markups(load_trajectories(DATA), mrk)

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from arcube.design import Design
-from arcube.evaluation import evaluate_task
-from arcube.task import build_task
-from arcube.trajectories import load_trajectories, select
+from arcube.model.design import Design
+from arcube.evaluation.reference import evaluate_task
+from arcube.evaluation.task import build_task
+from arcube.io import load_trajectories, select
 
 
 def test_quick_demo_writes_reports_and_reproducible_designs(tmp_path: Path) -> None:

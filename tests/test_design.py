@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from arcube.design import PARAM_NAMES, Design, unpack
+from arcube.model.design import PAPER_NAMES, PARAM_NAMES, Design, unpack
 from arcube.errors import InputError
 
 # Typed from the paper's Table 2, in MODEL.md's code order.
@@ -18,11 +18,13 @@ TABLE2 = [31.8694, 11.9589, 192.0769, 123.1147, 116.9719, 56.7787, 134.099, 149.
 
 def test_names_in_model_order() -> None:
     expected = "m_x m_y m_z f_x f_y f_z p_x p_y p_z d_x d_y d_z c_x c_y t_x t_y r o_x o_y alpha_x alpha_y beta_x beta_y"
-    assert PARAM_NAMES == tuple(expected.split())
+    assert PAPER_NAMES == tuple(expected.split())
+    # MODEL.md 13.3: the 23, then the mounting angles and the tool offset
+    assert PARAM_NAMES == (*expected.split(), "mount_rx", "mount_ry", "mount_rz", "L")
 
 
 def test_paper_preset_is_table2() -> None:
-    np.testing.assert_array_equal(Design.preset("paper").to_vector(), TABLE2)
+    np.testing.assert_array_equal(Design.preset("paper").to_vector(), [*TABLE2, 0.0, 0.0, 0.0, 0.0])
 
 
 def test_json_round_trip(tmp_path: Path) -> None:
@@ -52,10 +54,13 @@ def test_unpack_converts_angles_to_radians() -> None:
         ({"set": ("t_y", 0.0)}, "length t_y must be positive"),
         ({"set": ("f_y", "abc")}, "parameter f_y is not a number"),
         ({"set": ("alpha_x", 200.0)}, "alpha_x must lie in (0, 180)"),
+        ({"set": ("L", -1.0)}, "tool offset L must be >= 0"),
+        ({"set": ("mount_ry", float("nan"))}, "mount_ry is not finite"),
+        ({"add": ("mount_rw", 5.0)}, "unknown parameter 'mount_rw'"),
     ],
 )
 def test_invalid_designs_are_refused(tmp_path: Path, change: dict, message: str) -> None:
-    values: dict = dict(zip(PARAM_NAMES, TABLE2))
+    values: dict = dict(zip(PAPER_NAMES, TABLE2))
     if "drop" in change:
         del values[change["drop"]]
     if "add" in change:
@@ -73,3 +78,15 @@ def test_invalid_designs_are_refused(tmp_path: Path, change: dict, message: str)
 def test_negative_placement_and_offsets_are_fine() -> None:
     d = Design.preset("paper").replace(m_x=-100.0, o_x=-200.0)
     assert d["m_x"] == -100.0 and d["o_x"] == -200.0
+
+
+def test_files_without_the_four_additions_load_as_the_paper(tmp_path: Path) -> None:
+    path = tmp_path / "d23.json"
+    path.write_text(json.dumps(dict(zip(PAPER_NAMES, TABLE2))))
+    d = Design.from_json(path)
+    assert [d[n] for n in ("mount_rx", "mount_ry", "mount_rz", "L")] == [0.0, 0.0, 0.0, 0.0]
+    assert d == Design.preset("paper")
+    out = tmp_path / "d27.json"
+    d.replace(mount_rz=30.0, L=120.0).to_json(out)
+    written = json.loads(out.read_text())
+    assert list(written) == list(PARAM_NAMES) and written["L"] == 120.0

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from conftest import X_HAT, Y_HAT, get, leg_pair, leg_triple, oracle_config, oracle_modes, reachable_poses, transmission_sines
 
-from arcube import evaluation as ev
-from arcube.evaluation import GUARDED_OPTIONS, Options, evaluate_points, evaluate_task, failure_name
-from arcube.indices import JACOBIAN_NAMES
-from arcube.mechanism import inverse_kinematics, jacobians
-from arcube.task import build_task
+from arcube.evaluation import reference as ev
+from arcube.evaluation.reference import GUARDED_OPTIONS, Options, evaluate_points, evaluate_task, failure_name
+from arcube.evaluation.indices import JACOBIAN_NAMES
+from arcube.model.mechanism import inverse_kinematics, jacobians
+from arcube.evaluation.task import build_task
 
 LOCAL_GUARDS = Options(z_dyad=True, rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0)
 

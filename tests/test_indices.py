@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from conftest import vec
 
-from arcube import indices
-from arcube.mechanism import inverse_kinematics, jacobians
+from arcube.evaluation import indices
+from arcube.model.mechanism import inverse_kinematics, jacobians
 
 
 def _svd_kappa(M):

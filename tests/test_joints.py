@@ -1,4 +1,4 @@
-"""Joint-space export (arcube.joints, ``arcube joints``): rates agree with finite differences of
+"""Joint-space export (arcube.export.joints, ``arcube joints``): rates agree with finite differences of
 the IK along the drilling path, time stamps are s/speed, the CSV has the documented columns."""
 
 from __future__ import annotations
@@ -12,13 +12,14 @@ import typer
 from conftest import PAPER
 from typer.testing import CliRunner
 
-from arcube.design import Design
+from arcube.model.design import Design
 from arcube.errors import InputError
-from arcube.joints import CSV_COLUMNS, joint_trajectory
-from arcube.mechanism import ALL_MODES
-from arcube.report_cli import register
-from arcube.task import build_task
-from arcube.trajectories import load_trajectories, select
+from arcube.export.joints import CSV_COLUMNS, joint_trajectory
+from arcube.model.mechanism import ALL_MODES
+from arcube.cli import joints as joints_cli
+from arcube.cli import report as report_cli
+from arcube.evaluation.task import build_task
+from arcube.io import load_trajectories, select
 
 PLACED = Design.from_dict({**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89})
 SPEED = 2.5  # mm/s
@@ -99,7 +100,8 @@ def _app() -> typer.Typer:
     def _root() -> None:
         """test app"""
 
-    register(app)
+    joints_cli.register(app)
+    report_cli.register(app)
     return app
 
 

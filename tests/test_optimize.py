@@ -1,4 +1,4 @@
-"""Design optimization (arcube.optimize): problem, algorithms, runs, checkpoint/resume, executors, CLI.
+"""Design optimization (arcube.optimization, arcube.optimize): problem, algorithms, runs, checkpoint/resume, executors, CLI.
 
 Runs are small (tens of designs, tens of generations, few points) and use the NumPy engine, so
 the file stays fast and does not depend on the compiled kernel.
@@ -21,16 +21,17 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from arcube.design import PAPER_TABLE2, PARAM_NAMES, Design
+from arcube.model.design import PAPER_NAMES, PAPER_TABLE2, PARAM_NAMES, Design
 from arcube.errors import InputError
-from arcube.evaluation import evaluate_task
-from arcube.optimize import run as runmod
-from arcube.optimize.cli import build_config, register
-from arcube.optimize.problem import (
+from arcube.evaluation.reference import evaluate_task
+from arcube.optimization import run as runmod
+from arcube.cli.optimize import register
+from arcube.optimization.config import build_config
+from arcube.optimization.problem import (
     DEFAULT_BOUNDS, FitnessModel, TaskData, VariableSpace, mechanism_points, parse_free,
 )  # fmt: skip
-from arcube.task import build_task
-from arcube.trajectories import load_trajectories, select
+from arcube.evaluation.task import build_task
+from arcube.io import load_trajectories, select
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER = np.array([PAPER_TABLE2[n] for n in PARAM_NAMES])
@@ -94,7 +95,8 @@ def test_variable_space_decodes_free_fixed_setups_and_mode() -> None:
     x0 = space.encode(PAPER, mode=np.array([1.0, 1.0, -1.0, 1.0]))
     (r0, l0), m0 = space.decode(x0[None])
     assert np.allclose(r0[0], PAPER) and np.allclose(l0[0], PAPER) and m0[0].tolist() == [1.0, 1.0, -1.0, 1.0]
-    assert parse_free("all") == PARAM_NAMES and parse_free("r,m_x") == ("m_x", "r")
+    assert parse_free("all") == PAPER_NAMES and parse_free("r,m_x") == ("m_x", "r")
+    assert parse_free("all,mount,L") == PARAM_NAMES and parse_free("L,mount") == ("mount_rx", "mount_ry", "mount_rz", "L")
 
 
 def test_fitness_violation_is_zero_exactly_when_feasible_and_eta_matches_core() -> None:
@@ -113,7 +115,7 @@ def test_fitness_violation_is_zero_exactly_when_feasible_and_eta_matches_core() 
 
 def test_margin_shortfall_follows_12_2() -> None:
     task = _task()
-    model = FitnessModel(space=VariableSpace(base=PAPER, free=PARAM_NAMES, mode=np.ones(4)), tasks=(task,), margin_deg=5.0)
+    model = FitnessModel(space=VariableSpace(base=PAPER, free=PAPER_NAMES, mode=np.ones(4)), tasks=(task,), margin_deg=5.0)
     ang = np.degrees(np.arccos(task.e[:, :2]))
     p = PAPER.copy()
     a, b = p[19:21], p[21:23]
@@ -202,7 +204,7 @@ def test_free_mode_and_two_setups(tmp_path: Path) -> None:
     assert all(right[n] == left[n] for n in LINKS + ["o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y"])
     assert (right["m_x"], right["m_y"], right["m_z"]) != (left["m_x"], left["m_y"], left["m_z"])
     assert [t["label"] for t in s["tasks"]] == ["reference R", "reference L"] and all(t["w_G"] for t in s["tasks"])
-    from arcube.mechanism import parse_mode
+    from arcube.model.mechanism import parse_mode
 
     mode = parse_mode(s["mode"])
     for t, d in zip(s["tasks"], (right, left)):  # both placements feasible in the chosen mode
@@ -246,9 +248,9 @@ def test_tolerance_stops_early_and_zero_runs_every_generation(tmp_path: Path) ->
 
 @pytest.mark.parametrize(("algorithm", "duplicates"), [("ga", False), ("ga", True), ("de", False), ("nsga2", False)])
 def test_lean_bookkeeping_equals_pymoo_stock_components(algorithm: str, duplicates: bool) -> None:
-    """The lean bookkeeping (arcube.optimize.lean) changes no draw and no decision of pymoo's algorithms."""
-    from arcube.optimize.algorithms import make_algorithm, make_termination
-    from arcube.optimize.problem import ArcubeProblem
+    """The lean bookkeeping (arcube.optimization.lean) changes no draw and no decision of pymoo's algorithms."""
+    from arcube.optimization.algorithms import make_algorithm, make_termination
+    from arcube.optimization.problem import ArcubeProblem
 
     model = runmod.build_model(_config(algorithm=algorithm, population=30, points=3))
     x0 = model.space.encode(model.space.base)

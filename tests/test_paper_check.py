@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.optimize import differential_evolution
 
-from arcube.design import Design
-from arcube.evaluation import evaluate_task
-from arcube.mechanism import inverse_kinematics
-from arcube.task import build_task
+from arcube.model.design import Design
+from arcube.evaluation.reference import evaluate_task
+from arcube.model.mechanism import inverse_kinematics
+from arcube.evaluation.task import build_task
 
 DATA = Path(__file__).resolve().parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
 PAPER_PCT = (20.26, 40.25, 66.48)

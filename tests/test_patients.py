@@ -16,11 +16,11 @@ import typer
 from typer.testing import CliRunner
 
 from arcube.errors import InputError
-from arcube.patients import (
+from arcube.patients.virtual import (
     build_patient, check_patient, draw_parameters, format_check, generate_patient, write_patient,
 )
-from arcube.patients_cli import register
-from arcube.trajectories import load_trajectories, read_csv
+from arcube.cli.patients import register
+from arcube.io import load_trajectories, read_csv
 
 DATA = Path(__file__).parent / "data" / "trajectories"
 LEVELS = ("C3", "C4", "C5", "C6", "C7")
@@ -269,7 +269,7 @@ def test_cli_cohort_folder(cli, tmp_path: Path) -> None:
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
     names = sorted(f.name for f in out.iterdir())
-    assert names == [f"patient_00{k}.{ext}" for k in range(3) for ext in ("csv", "json")]
+    assert names == sorted(f"patient_00{k}.{ext}" for k in range(3) for ext in ("csv", "json", "anatomy.stl"))  # MODEL.md 14.2
     seeds = [json.loads((out / f"patient_00{k}.json").read_text())["seed"] for k in range(3)]
     assert seeds == [40, 41, 42]
     ts, _ = generate_patient(41, "magerl")

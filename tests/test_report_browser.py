@@ -17,12 +17,11 @@ from pathlib import Path
 import pytest
 from conftest import PAPER
 
-from arcube.design import Design
-from arcube.evaluate_cmd import run_evaluation
+from arcube.model.design import Design
+from arcube.api import evaluate
 from arcube.report.html import DIV_IDS, TITLES
 from arcube.report.run_report import write_run_report
-from arcube.report_cli import write_report_for_evaluation
-from arcube.trajectories import load_trajectories, select
+from arcube.io import load_trajectories, select
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 PLACED = {**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
@@ -168,10 +167,10 @@ def test_run_report_in_browser(driver, run_dir, tmp_path):
 def test_evaluation_report_with_unreachable_points(driver, tmp_path):
     design = tmp_path / "design.json"
     Design.from_dict(PLACED).to_json(design)
-    report = run_evaluation(str(design), "reference", points=8, engine="numpy")  # the left side is unreachable
+    report = evaluate(str(design), "reference", points=8, engine="numpy")  # the left side is unreachable
     n_ok = int(report.results.points.reachable.sum())
     assert 0 < n_ok < len(report.task)
-    html = write_report_for_evaluation(report, tmp_path / "eval.html")
+    html = report.write_report(tmp_path / "eval.html")
     assert (tmp_path / "eval_dexterity.png").exists() and not (tmp_path / "eval_convergence.png").exists()
     _self_contained(html.read_text())
     _open(driver, html)

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from conftest import NAMES, PAPER, TRIADS, get, leg_triple, vec
 
-from arcube.design import Design
-from arcube.evaluate_cmd import run_evaluation
-from arcube.report.geometry import mechanism_points
+from arcube.model.design import Design
+from arcube.api import evaluate
+from arcube.model.body import mechanism_points
 from arcube.report.html import SCENE_TRACES, scene_figure
 
 TOL = 1e-9
@@ -35,7 +35,7 @@ def scene(request, tmp_path_factory):
     """The report's scene for the placed design (d_z as in Table 2: the dyad never closes; 120: it does)."""
     path = tmp_path_factory.mktemp("design") / "design.json"
     Design.from_dict({**PLACED, "d_z": request.param}).to_json(path)
-    report = run_evaluation(str(path), "reference", points=30, side="R", engine="numpy")
+    report = evaluate(str(path), "reference", points=30, side="R", engine="numpy")
     assert bool(report.results.w_G), "the placed design must reach every right-side point"
     return report, scene_figure(report)
 

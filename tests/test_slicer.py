@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from arcube.errors import InputError
-from arcube.slicer import read_markups, write_markups
-from arcube.trajectories import load_trajectories, write_csv
+from arcube.io.slicer import read_markups, write_markups
+from arcube.io import load_trajectories, write_csv
 
 DATA = Path(__file__).parent / "data" / "trajectories"
 SCHEMA = ("https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/"

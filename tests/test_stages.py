@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from conftest import PAPER, X_HAT, Y_HAT, Z_HAT, e_of, get, leg_pair, leg_triple, rotate, vec, wrap
 
-from arcube import poses
-from arcube.stages import rts, solve_harmonic, tls, tms, wrap_angle, zleg
+from arcube.model import poses
+from arcube.model.stages import rts, solve_harmonic, tls, tms, wrap_angle, zleg
 
 # =============================================================================================
 # Frames and poses (MODEL.md 1.2, 1.3)

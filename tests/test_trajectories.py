@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from arcube.errors import InputError
-from arcube.trajectories import (
+from arcube.io import (
     TrajectorySet, load_trajectories, read_transform, select, write_csv,
 )
 

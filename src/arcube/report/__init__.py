@@ -1,6 +1,6 @@
 """Reporting layer: mechanism drawings, figures and the self-contained HTML report.
 
-* :mod:`arcube.report.geometry`: joint positions of the mechanism at poses (arrays first);
+* :mod:`arcube.report.text`: the terminal tables of an evaluation;
 * :mod:`arcube.report.figures`: matplotlib PNGs (the paper's Fig 4, optimizer convergence);
 * :mod:`arcube.report.html`: one self-contained HTML file (plotly, with plotly.js embedded);
 * :mod:`arcube.report.run_report`: the report of an optimization run folder.
@@ -18,7 +18,7 @@ __all__ = ["mechanism_points", "write_evaluation_report", "write_run_report"]
 
 def __getattr__(name: str) -> Any:
     if name == "mechanism_points":
-        from arcube.report.geometry import mechanism_points
+        from arcube.model.body import mechanism_points
 
         return mechanism_points
     if name == "write_evaluation_report":

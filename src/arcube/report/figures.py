@@ -25,11 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.errors import InputError
-from arcube.fileio import atomic_write_bytes
-from arcube.indices import JACOBIAN_NAMES
+from arcube.io.files import atomic_write_bytes
+from arcube.evaluation.indices import JACOBIAN_NAMES
 
 if TYPE_CHECKING:
-    from arcube.evaluate_cmd import EvaluationReport
+    from arcube.evaluation.result import Evaluation
 
 JACOBIAN_COLORS: dict[str, str] = {
     "J_LV": "#1f77b4", "J_AV": "#ff7f0e", "J_sigma": "#2ca02c", "J_AS": "#9467bd",
@@ -40,7 +40,7 @@ UNREACHABLE_COLOR = "#d62728"
 
 
 class DexteritySeries(NamedTuple):
-    """Fig 4 data for P points of T trajectories (trajectory-major, as in :class:`arcube.task.Task`)."""
+    """Fig 4 data for P points of T trajectories (trajectory-major, as in :class:`arcube.evaluation.task.Task`)."""
 
     index: NDArray[np.intp]  # (P,) point index across trajectories
     dexterity: NDArray[np.float64]  # (P,) 100/eta_L in %, 0 where unreachable
@@ -52,9 +52,9 @@ class DexteritySeries(NamedTuple):
     labels: tuple[str, ...]  # (T,) "id level side" of each trajectory
 
 
-def dexterity_series(report: EvaluationReport) -> DexteritySeries:
+def dexterity_series(report: Evaluation) -> DexteritySeries:
     """Per-point dexterity, reachability and limiting Jacobian of an evaluation report."""
-    from arcube.evaluation import failure_name
+    from arcube.evaluation.reference import failure_name
 
     pts = report.results.points
     task = report.task
@@ -137,7 +137,7 @@ def _png_bytes(fig: object) -> bytes:
     return buf.getvalue()
 
 
-def dexterity_png(report: EvaluationReport, path: str | os.PathLike[str]) -> Path:
+def dexterity_png(report: Evaluation, path: str | os.PathLike[str]) -> Path:
     """Write the Fig 4 PNG of ``report`` to ``path`` (atomically); returns the path."""
     from matplotlib.figure import Figure
 

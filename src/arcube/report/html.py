@@ -25,20 +25,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.design import UNITS
-from arcube.fileio import atomic_write_text
-from arcube.indices import JACOBIAN_NAMES
-from arcube.mechanism import parse_mode
+from arcube.model.design import UNITS
+from arcube.io.files import atomic_write_text
+from arcube.evaluation.indices import JACOBIAN_NAMES
+from arcube.model.mechanism import parse_mode
 from arcube.report.figures import (
     JACOBIAN_COLORS, UNREACHABLE_COLOR, History, ParetoFront, convergence_png, dexterity_png, dexterity_series, pareto_png,
     read_history, read_pareto,
 )  # fmt: skip
-from arcube.report.geometry import MechanismPoints, mechanism_points
+from arcube.model.body import MechanismPoints, mechanism_points
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
 
-    from arcube.evaluate_cmd import EvaluationReport
+    from arcube.evaluation.result import Evaluation
 
 DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "pareto": "fig-pareto", "scene": "fig-scene"}
 TITLES = {
@@ -76,8 +76,8 @@ def _mechanism_traces(mp: MechanismPoints, i: int) -> list[dict[str, Any]]:
         *(_xyz([np.stack([D[u], K[u], T[u], Q[u]])]) for u in range(2)),
         _xyz([np.stack([D[2], mp.J_z[i], Q[2]])] if closes else empty),
         _xyz(empty if closes else [np.stack([D[2], Q[2]])]),
-        _xyz([np.stack([mp.E[i], Q[u]]) for u in range(3)]),
-        *(_xyz([arcs[u], np.stack([mp.E[i], mp.B[i, u]])]) for u in range(2)),
+        _xyz([np.stack([mp.C[i], Q[u]]) for u in range(3)]),
+        *(_xyz([arcs[u], np.stack([mp.C[i], mp.B[i, u]])]) for u in range(2)),
         _xyz([np.stack([mp.E[i], mp.drill_end[i]]), np.stack([mp.H[i], mp.H[i]])]),
         _xyz([mp.E[i][None]]),
     ]
@@ -98,7 +98,7 @@ _STYLE: dict[str, dict[str, Any]] = {
 }
 
 
-def _frame_title(report: EvaluationReport, i: int, mp: MechanismPoints, series: Any) -> str:
+def _frame_title(report: Evaluation, i: int, mp: MechanismPoints, series: Any) -> str:
     t = int(report.task.trajectory[i])
     lim = int(series.limiting[i])
     text = f"{TITLES['scene']}: trajectory {series.labels[t]}, k = {int(report.task.k[i])}, 100/η_L = {series.dexterity[i]:.1f} %"
@@ -106,7 +106,7 @@ def _frame_title(report: EvaluationReport, i: int, mp: MechanismPoints, series: 
     return text + ("" if mp.z_closes[i] else " · z dyad open (dashed)")
 
 
-def scene_figure(report: EvaluationReport) -> go.Figure:
+def scene_figure(report: Evaluation) -> go.Figure:
     """3D scene with one plotly frame per reachable task point, a slider and a play button."""
     import plotly.graph_objects as go
 
@@ -160,7 +160,7 @@ def scene_figure(report: EvaluationReport) -> go.Figure:
     return fig
 
 
-def dexterity_figure(report: EvaluationReport) -> go.Figure:
+def dexterity_figure(report: Evaluation) -> go.Figure:
     """Plotly version of Fig 4: 100/eta_L per point, coloured by the limiting Jacobian."""
     import plotly.graph_objects as go
 
@@ -220,7 +220,7 @@ def _fmt(v: Any, digits: int = 4) -> str:
     return str(v)
 
 
-def design_table(report: EvaluationReport) -> str:
+def design_table(report: Evaluation) -> str:
     """HTML table like the paper's Table 2 (rows m..beta, columns x, y, z; NA where none)."""
     vals = report.design.to_dict()
     rows = []
@@ -235,7 +235,7 @@ def design_table(report: EvaluationReport) -> str:
     return "<table><tr><th></th><th>x</th><th>y</th><th>z</th><th>unit</th></tr>" + "".join(rows) + "</table>"
 
 
-def summary_html(report: EvaluationReport) -> str:
+def summary_html(report: Evaluation) -> str:
     """Summary list, the per-trajectory table and the diagnosis lines."""
     s = report.summary_json()
     dex = s["dexterity_pct"]
@@ -287,7 +287,7 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
 
 
 def write_evaluation_report(
-    report: EvaluationReport, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
+    report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
     run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).

@@ -1,6 +1,6 @@
 """The HTML report of an optimization run folder (``arcube report RUN_DIR``).
 
-What is read (everything defensively: the run format belongs to :mod:`arcube.optimize.run`):
+What is read (everything defensively: the run format belongs to :mod:`arcube.optimization.run`):
 
 * ``config.toml`` (required):
   - ``[[patients]]``: the exact trajectories the run optimized on (``source``, ``ids``,
@@ -10,7 +10,7 @@ What is read (everything defensively: the run format belongs to :mod:`arcube.opt
   - ``[settings]``: ``points`` (default 30), ``mode`` (signs, or ``"free"``: then the mode the
     optimizer picked, ``summary.json`` ``mode``), ``guards`` (bool), ``setups`` (1 or 2) and
     whatever else is shown in the run table;
-* ``best_design.json`` (required; :meth:`arcube.design.Design.from_json`). With ``setups = 2``
+* ``best_design.json`` (required; :meth:`arcube.model.design.Design.from_json`). With ``setups = 2``
   it is the right-side placement and ``best_design_L.json`` the left one: the main report covers
   the R trajectories and a second report ``report_L.html`` the L ones;
 * ``history.csv`` (optional): columns generation, best_eta_G, mean_eta_G, feasible_fraction
@@ -31,14 +31,14 @@ from typing import Any
 
 import numpy as np
 
-from arcube.design import Design
+from arcube.model.design import Design
 from arcube.errors import InputError
-from arcube.evaluate_cmd import evaluate_design
-from arcube.evaluation import GUARDED_OPTIONS, Options
-from arcube.mechanism import parse_mode
+from arcube.evaluation.result import evaluate_design
+from arcube.evaluation.reference import GUARDED_OPTIONS, Options
+from arcube.model.mechanism import parse_mode
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
-from arcube.trajectories import TrajectorySet, load_trajectories, select
+from arcube.io import TrajectorySet, load_trajectories, select
 
 
 def _read_toml(path: Path) -> dict[str, Any]:

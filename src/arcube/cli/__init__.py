@@ -1,0 +1,101 @@
+"""Command-line interface: ``arcube <command>``, a thin shell over the library (:mod:`arcube.api`).
+
+One small module per command (parse, call the library, print); every command registers itself
+on :data:`app`. Every error a user can cause ends as one line ``error: <what and where>`` on
+stderr and exit code 2, with no traceback (see :func:`main`).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from arcube import __version__
+from arcube.cli import demo, evaluate, export, joints, optimize, patients, report
+from arcube.errors import InputError
+
+__all__ = ["app", "main"]
+
+app = typer.Typer(
+    name="arcube",
+    help="Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot.",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"arcube {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", help="Print the version and exit.", callback=_version, is_eager=True),
+) -> None:
+    """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
+
+
+for _module in (evaluate, optimize, report, joints, patients, demo, export):
+    _module.register(app)
+
+
+MULTI_VALUE_OPTIONS = frozenset({"--trajectories", "--anatomy"})
+"""Options that take several values after one flag (``--anatomy a.stl b.stl``)."""
+
+
+def expand_multi_value(argv: list[str]) -> list[str]:
+    """``--anatomy a b --x`` -> ``--anatomy a --anatomy b --x``: click takes one value per flag."""
+    out: list[str] = []
+    current: str | None = None
+    for token in argv:
+        if token == "--":
+            current = None
+            out.append(token)
+        elif token.startswith("-"):
+            name = token.split("=", 1)[0]
+            current = name if name in MULTI_VALUE_OPTIONS and "=" not in token else None
+            out.append(token)
+        elif current is not None and out and out[-1] != current:
+            out += [current, token]
+        else:
+            out.append(token)
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``arcube`` script: one-line errors and exit code 2 on bad input."""
+    command = typer.main.get_command(app)
+    args = expand_multi_value(list(sys.argv[1:] if argv is None else argv))
+    try:
+        command.main(args=args, prog_name="arcube", standalone_mode=False)
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except typer.Abort:
+        sys.stderr.write("error: aborted\n")
+        sys.exit(130)
+    except typer.TyperException as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":
+            sys.stdout.write(exc.format_message() + "\n")
+            sys.exit(0)
+        sys.stderr.write(f"error: {_one_line(exc.format_message())}\n")
+        sys.exit(2)
+    except InputError as exc:
+        sys.stderr.write(f"error: {_one_line(str(exc))}\n")
+        sys.exit(2)
+    except OSError as exc:
+        # A file the user named cannot be read or written (permissions, missing folder, full disk).
+        where = f"{exc.filename}: " if exc.filename else ""
+        sys.stderr.write(f"error: {where}{_one_line(exc.strerror or str(exc))}\n")
+        sys.exit(2)
+    except KeyboardInterrupt:
+        sys.stderr.write("error: interrupted\n")
+        sys.exit(130)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())

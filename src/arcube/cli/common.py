@@ -1,0 +1,34 @@
+"""Options shared by several commands (one definition, one help text)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from arcube.model.body import BodyRadii
+
+DesignOpt = Annotated[str, typer.Option("--design", help="Design: a preset name (paper) or a design JSON file.")]
+TrajOpt = Annotated[str, typer.Option("--trajectories", help="Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'.")]
+PointsOpt = Annotated[int, typer.Option("--points", help="Points per trajectory (N >= 2), both ends included.")]
+ModeOpt = Annotated[str, typer.Option("--mode", help="Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,-")]
+GuardsOpt = Annotated[bool, typer.Option("--guards", help="Turn on the guards of MODEL.md 8.2 (all but z_dyad).")]
+SideOpt = Annotated[str | None, typer.Option("--side", help="Keep trajectories of one side: R or L.")]
+LevelsOpt = Annotated[str | None, typer.Option("--levels", help="Keep levels, e.g. C3-C5 or C3,C6.")]
+IdsOpt = Annotated[str | None, typer.Option("--ids", help="Keep trajectory ids, e.g. 1,3,5.")]
+TransformOpt = Annotated[Path | None, typer.Option("--transform", help="4x4 rigid transform (JSON) from the file's frame to the patient frame.")]
+EngineOpt = Annotated[str, typer.Option("--engine", help="Evaluation engine: auto (numba if available), numba or numpy.")]
+AnatomyOpt = Annotated[list[str] | None, typer.Option("--anatomy", help="Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or mesh files FILE [FILE ...] (STL, OBJ, PLY).")]
+AnatomyFrameOpt = Annotated[str, typer.Option("--anatomy-frame", help="Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient.")]
+ClearanceOpt = Annotated[float | None, typer.Option("--clearance", help="Guard: clearance to the anatomy >= MM (failure collision/patient).")]
+SelfClearanceOpt = Annotated[float | None, typer.Option("--self-clearance", help="Guard: clearance between the robot's own parts >= MM (failure collision/self).")]
+LinkRadiusOpt = Annotated[float, typer.Option("--link-radius", help="Radius of the links (MODEL.md 14.1), mm.")]
+ActuatorRadiusOpt = Annotated[float, typer.Option("--actuator-radius", help="Radius of the actuators at P_u and D_u, mm.")]
+MotorRadiusOpt = Annotated[float, typer.Option("--motor-radius", help="Radius of the drill motor, mm.")]
+MotorLengthOpt = Annotated[float, typer.Option("--motor-length", help="Length of the drill motor beyond the holder H, mm.")]
+
+
+def radii(link: float, actuator: float, motor: float, motor_length: float) -> BodyRadii:
+    """The body radii of the flags (InputError on a bad value)."""
+    return BodyRadii(link, actuator, motor, motor_length)

@@ -1,0 +1,94 @@
+"""``arcube demo``: the README's main job on the bundled reference patient.
+
+1. Evaluate the paper's design (Table 2) and say what it cannot reach and why.
+2. Keep Table 2's links and search only the placement m for the right side.
+3. Run the paper's GA (population 400, up to 300 generations, tolerance 1e-5) with all 23
+   parameters free on both sides.
+
+Each optimization writes a run folder with its HTML report; the paths are printed at the end.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from arcube.evaluation.engine import resolve
+from arcube.errors import InputError
+
+REFERENCE = "reference"
+
+
+def _optimize(out: Path, *, seed: int, engine: str, quick: bool, **flags: object) -> Path:
+    """One quiet optimization run into ``out`` with its report; returns the report path."""
+    from arcube.optimization import run as runmod
+    from arcube.optimization.config import build_config
+    from arcube.report.run_report import write_run_report
+
+    sizes = {"population": 40, "generations": 15, "points": 10} if quick else {}
+    cfg = build_config([REFERENCE], seed=seed, engine=engine, **{**flags, **sizes})  # type: ignore[arg-type]
+    summary = runmod.start(out, cfg)
+    eta = summary["eta_G"]
+    dex = summary["dexterity_pct"]
+    verdict = f"feasible, eta_G = {eta:.4f}" if summary["feasible"] else "NOT feasible"
+    typer.echo(
+        f"  {verdict}; inverted dexterity min/mean/max {dex['min']:.2f} / {dex['mean']:.2f} / {dex['max']:.2f} %; "
+        f"{summary['generations']} generations in {summary['wall_s']:.1f} s"
+    )
+    return write_run_report(out)
+
+
+def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False) -> list[Path]:
+    """Run the three steps into ``out`` (must be new or empty); returns the written reports."""
+    from arcube.report import text as report_text
+    from arcube.api import evaluate
+    from arcube.optimization import run as runmod
+
+    runmod.check_new_folder(out)
+    try:
+        engine = resolve(engine)
+    except ValueError as exc:
+        raise InputError(f"--engine: {exc}") from None
+    started = time.perf_counter()
+    typer.echo("1/3  The paper's design (Table 2) on the bundled reference patient (bilateral C3-C7 pedicle screws)")
+    report_text.print_evaluation(evaluate("paper", REFERENCE, engine=engine))
+    typer.echo("\n2/3  Table 2's links, placement m searched for the right side (GA, m_x, m_y, m_z free)")
+    reports = [
+        _optimize(out / "paper_links_right", seed=seed, engine=engine, quick=quick, design_from="paper",
+                  free="m_x,m_y,m_z", side="R", population=100, generations=60, tolerance=0.0),
+    ]  # fmt: skip
+    scale = "tiny population (--quick)" if quick else "the paper's GA: population 400, up to 300 generations, tolerance 1e-5"
+    typer.echo(f"\n3/3  All 23 dimensions free, both sides ({scale})")
+    reports.append(_optimize(out / "all_free_bilateral", seed=seed, engine=engine, quick=quick, population=400, generations=300, tolerance=1e-5))
+    typer.echo(f"\ndone in {time.perf_counter() - started:.0f} s (engine {engine}). Reports:")
+    for path in reports:
+        typer.echo(f"  {path}")
+    typer.echo("Run folders hold config.toml, history.csv, best_design.json and summary.json; rerun a design with")
+    typer.echo(f"  arcube evaluate --design {out / 'all_free_bilateral' / 'best_design.json'} --trajectories reference")
+    return reports
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``demo`` command to ``app``."""
+
+    @app.command()
+    def demo(
+        out: Annotated[Path | None, typer.Option("--out", help="Folder for the demo's run folders (new or empty); default ./arcube-demo[-N].")] = None,
+        seed: Annotated[int, typer.Option("--seed", help="Random seed of both optimizations.")] = 1,
+        engine: Annotated[str, typer.Option("--engine", help="Evaluation engine: auto, numba or numpy.")] = "auto",
+        quick: Annotated[bool, typer.Option("--quick", help="Tiny populations (a smoke run of the pipeline, seconds).")] = False,
+    ) -> None:
+        """Evaluate the paper's design, optimize it, and write run folders with HTML reports."""
+        run_demo(out if out is not None else _fresh_folder(Path("arcube-demo")), seed=seed, engine=engine, quick=quick)
+
+
+def _fresh_folder(base: Path) -> Path:
+    """``base``, or ``base-2``, ``base-3``... : the first that is absent or empty, so reruns never collide."""
+    candidate, n = base, 1
+    while candidate.exists() and (not candidate.is_dir() or any(candidate.iterdir())):
+        n += 1
+        candidate = base.with_name(f"{base.name}-{n}")
+    return candidate

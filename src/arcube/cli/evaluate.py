@@ -1,0 +1,65 @@
+"""``arcube evaluate``: one design on drilling trajectories (table, JSON, HTML report)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from arcube.cli.common import (
+    ActuatorRadiusOpt, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, DesignOpt, EngineOpt, GuardsOpt, IdsOpt, LevelsOpt,
+    LinkRadiusOpt, ModeOpt, MotorLengthOpt, MotorRadiusOpt, PointsOpt, SelfClearanceOpt, SideOpt, TrajOpt, TransformOpt,
+    radii,
+)  # fmt: skip
+
+__all__ = ["register"]
+
+
+def evaluate(
+    design: DesignOpt = "paper",
+    trajectories: TrajOpt = "reference",
+    points: PointsOpt = 30,
+    mode: ModeOpt = "+,+,+,+",
+    guards: GuardsOpt = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object (per-point results and summary).")] = False,
+    side: SideOpt = None,
+    levels: LevelsOpt = None,
+    ids: IdsOpt = None,
+    transform: TransformOpt = None,
+    engine: EngineOpt = "auto",
+    report: Annotated[Path | None, typer.Option("--report", help="Also write a self-contained HTML report (plots, 3D mechanism) here.")] = None,
+    anatomy: AnatomyOpt = None,
+    anatomy_frame: AnatomyFrameOpt = "LPS",
+    clearance: ClearanceOpt = None,
+    self_clearance: SelfClearanceOpt = None,
+    link_radius: LinkRadiusOpt = 8.0,
+    actuator_radius: ActuatorRadiusOpt = 25.0,
+    motor_radius: MotorRadiusOpt = 20.0,
+    motor_length: MotorLengthOpt = 120.0,
+) -> None:
+    """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity."""
+    from arcube.api import evaluate as evaluate_api
+    from arcube.report.text import print_evaluation
+
+    result = evaluate_api(
+        design, trajectories, points=points, mode=mode, guards=guards,
+        side=side, levels=levels, ids=ids, transform=transform, engine=engine,
+        anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
+        radii=radii(link_radius, actuator_radius, motor_radius, motor_length),
+    )  # fmt: skip
+    if report is not None:
+        result.write_report(report)
+    if as_json:
+        sys.stdout.write(json.dumps(result.to_json(), allow_nan=False) + "\n")
+    else:
+        print_evaluation(result)
+        if report is not None:
+            typer.echo(f"report: {report}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``evaluate`` command to ``app``."""
+    app.command("evaluate")(evaluate)

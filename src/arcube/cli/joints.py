@@ -1,0 +1,57 @@
+"""``arcube joints``: joint angles and rates along the trajectories, as CSV (:mod:`arcube.export.joints`)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from arcube.cli.common import DesignOpt, GuardsOpt, IdsOpt, LevelsOpt, ModeOpt, PointsOpt, SideOpt, TrajOpt, TransformOpt
+from arcube.errors import InputError
+
+__all__ = ["register"]
+
+
+def joints(
+    out: Annotated[Path, typer.Option("--out", help="Output CSV file (written atomically).")],
+    design: DesignOpt = "paper",
+    trajectories: TrajOpt = "reference",
+    speed: Annotated[float, typer.Option("--speed", help="Drilling speed along each trajectory, mm/s.")] = 1.0,
+    points: PointsOpt = 30,
+    mode: ModeOpt = "+,+,+,+",
+    guards: GuardsOpt = False,
+    side: SideOpt = None,
+    levels: LevelsOpt = None,
+    ids: IdsOpt = None,
+    transform: TransformOpt = None,
+) -> None:
+    """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV."""
+    from arcube.evaluation.reference import GUARDED_OPTIONS, Options
+    from arcube.evaluation.result import load_task, parse_mode_option
+    from arcube.export.joints import joint_trajectory
+    from arcube.model.design import Design
+
+    if not (math.isfinite(speed) and speed > 0.0):
+        raise InputError(f"--speed must be a finite positive number of mm/s, got {speed}")
+    if out.exists() and out.is_dir():
+        raise InputError(f"--out {out}: is a folder; give a CSV file path")
+    signs = parse_mode_option(mode)
+    d = Design.load(design)
+    _, task = load_task(trajectories, points, side, levels, ids, transform)
+    jt = joint_trajectory(d, task, speed, signs, GUARDED_OPTIONS if guards else Options())
+    try:
+        path = jt.write_csv(out)
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot write ({exc.strerror or exc})") from None
+    n_bad = int((~jt.reachable).sum())
+    sys.stdout.write(f"{path}\n")
+    if n_bad:
+        sys.stderr.write(f"note: {n_bad} of {len(jt.reachable)} points are unreachable (empty cells, reachable=false)\n")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``joints`` command to ``app``."""
+    app.command("joints")(joints)

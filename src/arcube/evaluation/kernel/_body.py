@@ -1,0 +1,134 @@
+"""The body of one design at one point (MODEL.md 14.1), as primitives in the patient frame.
+
+Fills ``lines`` (23, 2, 3): the 18 segments then the 5 actuator points (zero-length segments), in
+the order of :data:`arcube.model.body.PRIMITIVES`, and ``arcs`` (4, 2, 3): unit start and end
+directions of the spherical links about the centre ``arc_c`` (3,), from the joint values of the
+per-point pass (mechanism coordinates, MODEL.md 3-6), mapped by the mounting rotation and m.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from arcube.evaluation.kernel._layout import G_D, G_F, G_FLAT, G_M, G_P, G_R, G_ROT, G_T
+
+
+@njit(cache=True, error_model="numpy")
+def _put(g, out, i, j, x0, x1, x2):
+    """out[i, j] = m + R x (x + m where R = I)."""
+    if g[G_FLAT] != 0.0:
+        out[i, j, 0] = x0 + g[G_M]
+        out[i, j, 1] = x1 + g[G_M + 1]
+        out[i, j, 2] = x2 + g[G_M + 2]
+    else:
+        R = g[G_ROT:G_ROT + 9]
+        out[i, j, 0] = (R[0] * x0 + R[1] * x1 + R[2] * x2) + g[G_M]
+        out[i, j, 1] = (R[3] * x0 + R[4] * x1 + R[5] * x2) + g[G_M + 1]
+        out[i, j, 2] = (R[6] * x0 + R[7] * x1 + R[8] * x2) + g[G_M + 2]
+
+
+@njit(cache=True, error_model="numpy")
+def _dir(g, out, i, j, x0, x1, x2):
+    """out[i, j] = R x (a direction)."""
+    if g[G_FLAT] != 0.0:
+        out[i, j, 0] = x0
+        out[i, j, 1] = x1
+        out[i, j, 2] = x2
+    else:
+        R = g[G_ROT:G_ROT + 9]
+        out[i, j, 0] = R[0] * x0 + R[1] * x1 + R[2] * x2
+        out[i, j, 1] = R[3] * x0 + R[4] * x1 + R[5] * x2
+        out[i, j, 2] = R[6] * x0 + R[7] * x1 + R[8] * x2
+
+
+@njit(cache=True, error_model="numpy")
+def _seg(g, lines, i, a0, a1, a2, b0, b1, b2):
+    _put(g, lines, i, 0, a0, a1, a2)
+    _put(g, lines, i, 1, b0, b1, b2)
+
+
+@njit(cache=True, error_model="numpy")
+def _body_world(g, c_z, motor_length, C0, C1, C2, e0, e1, e2, cr0, sr0, cr1, sr1, cr2, sr2,
+                cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c):  # fmt: skip
+    """Fill ``lines``, ``arcs``, ``arc_c`` (see the module doc); (C0, C1, C2) and (e0, e1, e2) in R_m."""
+    f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
+    p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
+    d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
+    t0, t1 = g[G_T], g[G_T + 1]
+    r = g[G_R]
+    cz = d2 if c_z != c_z else c_z
+    # TLS: P_u = -f_u u, D_u = P_u + p_u (-sin rho u + cos rho w); Q_u = C + r u
+    Dx0, Dx1, Dx2 = -f0 - p0 * sr0, 0.0, p0 * cr0
+    Dy0, Dy1, Dy2 = p1 * cr1, -f1 - p1 * sr1, 0.0
+    Dz0, Dz1, Dz2 = 0.0, p2 * cr2, -f2 - p2 * sr2
+    Qx0, Qx1, Qx2 = C0 + r, C1, C2
+    Qy0, Qy1, Qy2 = C0, C1 + r, C2
+    Qz0, Qz1, Qz2 = C0, C1, C2 + r
+    # TMS: K = D + d n(delta), T = Q + t n(sigma), n(phi) = sin phi v - cos phi w
+    Kx0, Kx1, Kx2 = Dx0, Dx1 + d0 * sd0, Dx2 - d0 * cd0
+    Ky0, Ky1, Ky2 = Dy0 - d1 * cd1, Dy1, Dy2 + d1 * sd1
+    Tx0, Tx1, Tx2 = Qx0, Qx1 + t0 * ss0, Qx2 - t0 * cs0
+    Ty0, Ty1, Ty2 = Qy0 - t1 * cs1, Qy1, Qy2 + t1 * ss1
+    # z dyad elbow (MODEL.md 6 and 14.1: on the z_m x (Q_z - D_z) side); open: D_z -> Q_z
+    q0 = Qz0 - Dz0
+    q1 = Qz1 - Dz1
+    q2 = Qz2 - Dz2
+    Lz = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    if Lz > 0.0 and abs(d2 - cz) <= Lz <= d2 + cz:
+        along = (d2 * d2 - cz * cz + Lz * Lz) / (2.0 * Lz)
+        height = math.sqrt(max(d2 * d2 - along * along, 0.0))
+        u0 = q0 / Lz
+        u1 = q1 / Lz
+        u2 = q2 / Lz
+        J0 = Dz0 + along * u0 - height * u1
+        J1 = Dz1 + along * u1 + height * u0
+        J2 = Dz2 + along * u2
+    else:
+        J0, J1, J2 = Qz0, Qz1, Qz2
+    # RTS: B_u = C + r u_beta, H = C + r e, motor end H + L_m e
+    H0, H1, H2 = C0 + r * e0, C1 + r * e1, C2 + r * e2
+    M0, M1, M2 = H0 + motor_length * e0, H1 + motor_length * e1, H2 + motor_length * e2
+    _seg(g, lines, 0, 0.0, 0.0, 0.0, -f0, 0.0, 0.0)
+    _seg(g, lines, 1, 0.0, 0.0, 0.0, 0.0, -f1, 0.0)
+    _seg(g, lines, 2, 0.0, 0.0, 0.0, 0.0, 0.0, -f2)
+    _seg(g, lines, 3, -f0, 0.0, 0.0, Dx0, Dx1, Dx2)
+    _seg(g, lines, 4, 0.0, -f1, 0.0, Dy0, Dy1, Dy2)
+    _seg(g, lines, 5, 0.0, 0.0, -f2, Dz0, Dz1, Dz2)
+    _seg(g, lines, 6, Dx0, Dx1, Dx2, Kx0, Kx1, Kx2)
+    _seg(g, lines, 7, Dy0, Dy1, Dy2, Ky0, Ky1, Ky2)
+    _seg(g, lines, 8, Kx0, Kx1, Kx2, Tx0, Tx1, Tx2)
+    _seg(g, lines, 9, Ky0, Ky1, Ky2, Ty0, Ty1, Ty2)
+    _seg(g, lines, 10, Qx0, Qx1, Qx2, Tx0, Tx1, Tx2)
+    _seg(g, lines, 11, Qy0, Qy1, Qy2, Ty0, Ty1, Ty2)
+    _seg(g, lines, 12, Dz0, Dz1, Dz2, J0, J1, J2)
+    _seg(g, lines, 13, J0, J1, J2, Qz0, Qz1, Qz2)
+    _seg(g, lines, 14, Qx0, Qx1, Qx2, Qy0, Qy1, Qy2)
+    _seg(g, lines, 15, Qy0, Qy1, Qy2, Qz0, Qz1, Qz2)
+    _seg(g, lines, 16, Qz0, Qz1, Qz2, Qx0, Qx1, Qx2)
+    _seg(g, lines, 17, H0, H1, H2, M0, M1, M2)
+    _seg(g, lines, 18, -f0, 0.0, 0.0, -f0, 0.0, 0.0)
+    _seg(g, lines, 19, 0.0, -f1, 0.0, 0.0, -f1, 0.0)
+    _seg(g, lines, 20, 0.0, 0.0, -f2, 0.0, 0.0, -f2)
+    _seg(g, lines, 21, Dx0, Dx1, Dx2, Dx0, Dx1, Dx2)
+    _seg(g, lines, 22, Dy0, Dy1, Dy2, Dy0, Dy1, Dy2)
+    # arcs: alpha_x, alpha_y (u -> u_beta), beta_x, beta_y (u_beta -> e), unit directions in R_w
+    _dir(g, arcs, 0, 0, 1.0, 0.0, 0.0)
+    _dir(g, arcs, 0, 1, xb0, xb1, xb2)
+    _dir(g, arcs, 1, 0, 0.0, 1.0, 0.0)
+    _dir(g, arcs, 1, 1, yb0, yb1, yb2)
+    _dir(g, arcs, 2, 0, xb0, xb1, xb2)
+    _dir(g, arcs, 2, 1, e0, e1, e2)
+    _dir(g, arcs, 3, 0, yb0, yb1, yb2)
+    _dir(g, arcs, 3, 1, e0, e1, e2)
+    if g[G_FLAT] != 0.0:
+        arc_c[0] = C0 + g[G_M]
+        arc_c[1] = C1 + g[G_M + 1]
+        arc_c[2] = C2 + g[G_M + 2]
+    else:
+        R = g[G_ROT:G_ROT + 9]
+        arc_c[0] = (R[0] * C0 + R[1] * C1 + R[2] * C2) + g[G_M]
+        arc_c[1] = (R[3] * C0 + R[4] * C1 + R[5] * C2) + g[G_M + 1]
+        arc_c[2] = (R[6] * C0 + R[7] * C1 + R[8] * C2) + g[G_M + 2]
+    return r

@@ -1,0 +1,349 @@
+"""Body clearances for one point (MODEL.md 14.3): to the anatomy's distance grids, and between parts.
+
+* ``_lookup``: the anatomy's signed distance at a point, exactly as
+  :class:`arcube.evaluation.sdf.AnatomyDistance` computes it (trilinear in the fine grid inside
+  its box, else in the coarse grid, plus the distance to the coarse box outside it);
+* ``_anatomy_clearance``: a branch-and-bound search along every primitive's axis (segment, arc,
+  point): an interval is dropped when its mid value minus its half-length times a Lipschitz bound
+  of the interpolated field along it cannot beat the best value found so far by more than
+  ``TOL_MM``, so the result is within ``TOL_MM`` of the interpolated field's minimum over the body,
+  and within ``TOL_MM`` + eps of the true one (eps: the grid's interpolation error,
+  :mod:`arcube.evaluation.sdf`). The bound is 1 (a distance is 1-Lipschitz) for long intervals;
+  for short ones inside one grid, the largest grid differences over the blocks of ``BLOCK``^3
+  cells the interval's box touches, summed with the interval direction's components (a trilinear
+  field's partial derivatives are averages of its grid differences). A part running parallel to
+  a face then needs a few lookups instead of one every ``TOL_MM``;
+* ``_self_clearance``: the pairs of :data:`arcube.model.body.SELF_PAIRS`, segments and points by the
+  closest-point formula, arcs as the same chord polylines as :mod:`arcube.evaluation.clearance`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+TOL_MM = 0.1
+"""How far above the interpolated field's minimum over the body the search may stop (mm)."""
+_STACK = 96
+BLOCK = 8
+"""Cells per block edge of the gradient bounds."""
+_LOCAL = 24.0
+"""Intervals shorter than this (mm) get the local gradient bound."""
+
+
+def block_gradients(values: np.ndarray, spacing: float) -> np.ndarray:
+    """``(bx, by, bz, 3)``: per block of BLOCK^3 cells, the largest |difference| / spacing of the grid
+    along x, y and z over the edges of its cells (bounds of the interpolated field's partials)."""
+    v = np.asarray(values, dtype=np.float64)
+    out = []
+    for axis in range(3):
+        d = np.abs(np.diff(v, axis=axis)) / spacing
+        # each cell's 4 edges along ``axis``: max over the two nodes in each other direction
+        for other in range(3):
+            if other != axis:
+                d = np.maximum(np.take(d, range(0, d.shape[other] - 1), axis=other), np.take(d, range(1, d.shape[other]), axis=other))
+        cells = d  # (nx - 1, ny - 1, nz - 1)
+        pad = [(0, (-n) % BLOCK) for n in cells.shape]
+        cells = np.pad(cells, pad, constant_values=0.0)
+        b = [n // BLOCK for n in cells.shape]
+        out.append(cells.reshape(b[0], BLOCK, b[1], BLOCK, b[2], BLOCK).max(axis=(1, 3, 5)))
+    return np.ascontiguousarray(np.stack(out, axis=-1))
+
+
+@njit(cache=True, error_model="numpy")
+def _block_bound(o, h, v, gb, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2):
+    """Bound of |d field / ds| along unit (u0, u1, u2) over the box [lo, hi] inside grid (o, h, v), or
+    inf when the box leaves the grid; gb are its block_gradients."""
+    nx, ny, nz = v.shape
+    a0 = (lo0 - o[0]) / h
+    a1 = (lo1 - o[1]) / h
+    a2 = (lo2 - o[2]) / h
+    b0 = (hi0 - o[0]) / h
+    b1 = (hi1 - o[1]) / h
+    b2 = (hi2 - o[2]) / h
+    if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or b0 > nx - 1.0 or b1 > ny - 1.0 or b2 > nz - 1.0:
+        return math.inf
+    i0 = min(int(a0), nx - 2) // BLOCK
+    i1 = min(int(b0), nx - 2) // BLOCK
+    j0 = min(int(a1), ny - 2) // BLOCK
+    j1 = min(int(b1), ny - 2) // BLOCK
+    k0 = min(int(a2), nz - 2) // BLOCK
+    k1 = min(int(b2), nz - 2) // BLOCK
+    w0 = abs(u0)
+    w1 = abs(u1)
+    w2 = abs(u2)
+    best = 0.0
+    for i in range(i0, i1 + 1):
+        for j in range(j0, j1 + 1):
+            for k in range(k0, k1 + 1):
+                s = w0 * gb[i, j, k, 0] + w1 * gb[i, j, k, 1] + w2 * gb[i, j, k, 2]
+                if s > best:
+                    best = s
+    return best
+
+
+@njit(cache=True, error_model="numpy")
+def _grid(o, h, v, x, y, z):
+    """Trilinear value of grid (origin o, spacing h, values v) at (x, y, z); outside the box, the
+    value at the clamped point plus the distance to it."""
+    nx, ny, nz = v.shape
+    gx = (x - o[0]) / h
+    gy = (y - o[1]) / h
+    gz = (z - o[2]) / h
+    cx = min(max(gx, 0.0), nx - 1.0)
+    cy = min(max(gy, 0.0), ny - 1.0)
+    cz = min(max(gz, 0.0), nz - 1.0)
+    out = math.sqrt((gx - cx) ** 2 + (gy - cy) ** 2 + (gz - cz) ** 2) * h
+    i = min(int(cx), nx - 2)
+    j = min(int(cy), ny - 2)
+    k = min(int(cz), nz - 2)
+    fx = cx - i
+    fy = cy - j
+    fz = cz - k
+    c00 = v[i, j, k] * (1.0 - fx) + v[i + 1, j, k] * fx
+    c10 = v[i, j + 1, k] * (1.0 - fx) + v[i + 1, j + 1, k] * fx
+    c01 = v[i, j, k + 1] * (1.0 - fx) + v[i + 1, j, k + 1] * fx
+    c11 = v[i, j + 1, k + 1] * (1.0 - fx) + v[i + 1, j + 1, k + 1] * fx
+    c0 = c00 * (1.0 - fy) + c10 * fy
+    c1 = c01 * (1.0 - fy) + c11 * fy
+    return c0 * (1.0 - fz) + c1 * fz + out
+
+
+@njit(cache=True, error_model="numpy")
+def _lookup(fo, fh, fv, co, ch, cv, x, y, z):
+    """Signed distance to the anatomy: the fine grid inside its box, else the coarse grid."""
+    nx, ny, nz = fv.shape
+    gx = (x - fo[0]) / fh
+    gy = (y - fo[1]) / fh
+    gz = (z - fo[2]) / fh
+    if 0.0 <= gx <= nx - 1.0 and 0.0 <= gy <= ny - 1.0 and 0.0 <= gz <= nz - 1.0:
+        return _grid(fo, fh, fv, x, y, z)
+    return _grid(co, ch, cv, x, y, z)
+
+
+@njit(cache=True, error_model="numpy")
+def _curve_point(is_arc, a, b, c, r, nrm, s, out):
+    """Point at parameter s of a segment a -> b (s in [0, 1]) or of an arc c + r (a cos s + nrm sin s)."""
+    if is_arc:
+        cs = math.cos(s)
+        sn = math.sin(s)
+        for q in range(3):
+            out[q] = c[q] + r * (a[q] * cs + nrm[q] * sn)
+    else:
+        for q in range(3):
+            out[q] = a[q] + s * (b[q] - a[q])
+
+
+@njit(cache=True, error_model="numpy")
+def _lipschitz(grids, p, q, sag, is_arc):
+    """Lipschitz bound of the looked-up field along the piece from p to q (an arc piece: its chord
+    grown by its sag, any direction)."""
+    fo, fh, fv, co, ch, cv, fg, cg = grids
+    lo0 = min(p[0], q[0]) - sag
+    lo1 = min(p[1], q[1]) - sag
+    lo2 = min(p[2], q[2]) - sag
+    hi0 = max(p[0], q[0]) + sag
+    hi1 = max(p[1], q[1]) + sag
+    hi2 = max(p[2], q[2]) + sag
+    if is_arc:
+        u0 = u1 = u2 = 1.0
+    else:
+        d0 = q[0] - p[0]
+        d1 = q[1] - p[1]
+        d2 = q[2] - p[2]
+        n = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if n == 0.0:
+            return 0.0
+        u0 = d0 / n
+        u1 = d1 / n
+        u2 = d2 / n
+    bound = _block_bound(fo, fh, fv, fg, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
+    if bound == math.inf:
+        # outside the fine box entirely: the coarse grid's blocks; across its boundary: 1
+        nx, ny, nz = fv.shape
+        fhi0 = fo[0] + fh * (nx - 1)
+        fhi1 = fo[1] + fh * (ny - 1)
+        fhi2 = fo[2] + fh * (nz - 1)
+        apart = hi0 < fo[0] or lo0 > fhi0 or hi1 < fo[1] or lo1 > fhi1 or hi2 < fo[2] or lo2 > fhi2
+        if apart:
+            bound = _block_bound(co, ch, cv, cg, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
+    return min(bound, 1.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo, stack_hi, pt, p, q):
+    """Branch and bound over s in [0, total] (mm per unit of s: ``scale``); returns the best value.
+    ``pt``, ``p``, ``q``: (3,) work buffers."""
+    fo, fh, fv, co, ch, cv, fg, cg = grids
+    top = 0
+    stack_lo[0] = 0.0
+    stack_hi[0] = total
+    while top >= 0:
+        lo = stack_lo[top]
+        hi = stack_hi[top]
+        top -= 1
+        mid = 0.5 * (lo + hi)
+        _curve_point(is_arc, a, b, c, r, nrm, mid, pt)
+        d = _lookup(fo, fh, fv, co, ch, cv, pt[0], pt[1], pt[2]) - radius
+        if d < best:
+            best = d
+        half = 0.5 * (hi - lo) * scale
+        if d - half >= best - TOL_MM or half <= 0.5 * TOL_MM or top + 2 >= _STACK:
+            continue
+        if half <= _LOCAL:
+            _curve_point(is_arc, a, b, c, r, nrm, lo, p)
+            _curve_point(is_arc, a, b, c, r, nrm, hi, q)
+            sag = r * (1.0 - math.cos(0.5 * (hi - lo))) if is_arc else 0.0
+            if d - _lipschitz(grids, p, q, sag, is_arc) * half >= best - TOL_MM:
+                continue
+        top += 1
+        stack_lo[top] = mid
+        stack_hi[top] = hi
+        top += 1
+        stack_lo[top] = lo
+        stack_hi[top] = mid
+    return best
+
+
+@njit(cache=True, error_model="numpy")
+def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order, work, cap):
+    """(clearance, primitive index) of the body primitives to the anatomy; ``order``: primitives to try first.
+
+    ``cap``: a value the caller does not need beaten (inf for the exact minimum). Parts that cannot
+    come within ``TOL_MM`` below it are pruned; when none does, returns (cap, -1)."""
+    stack_lo = work[0]
+    stack_hi = work[1]
+    pt = work[2, :3]
+    nrm = work[3, :3]
+    pbuf = work[4, :3]
+    qbuf = work[5, :3]
+    best = cap
+    best_k = -1
+    for idx in range(order.shape[0]):
+        k = order[idx]
+        before = best
+        if k < n_lines:
+            a = lines[k, 0]
+            b = lines[k, 1]
+            length = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
+            best = _search(False, a, b, a, 0.0, nrm, 1.0, length, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
+        else:
+            j = k - n_lines
+            a = arcs[j, 0]
+            b = arcs[j, 1]
+            dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+            for q in range(3):
+                nrm[q] = b[q] - dot * a[q]
+            nn = math.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
+            if nn > 1e-12:
+                for q in range(3):
+                    nrm[q] /= nn
+                angle = math.atan2(nn, dot)
+            else:
+                angle = 0.0
+            best = _search(True, a, b, arc_c, arc_r, nrm, angle, arc_r, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
+        if best < before:
+            best_k = k
+    return best, best_k
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_distance(p1, q1, p2, q2):
+    """clearance.segment_distance for one pair (Ericson 5.1.9)."""
+    d10 = q1[0] - p1[0]
+    d11 = q1[1] - p1[1]
+    d12 = q1[2] - p1[2]
+    d20 = q2[0] - p2[0]
+    d21 = q2[1] - p2[1]
+    d22 = q2[2] - p2[2]
+    r0 = p1[0] - p2[0]
+    r1 = p1[1] - p2[1]
+    r2 = p1[2] - p2[2]
+    a = d10 * d10 + d11 * d11 + d12 * d12
+    e = d20 * d20 + d21 * d21 + d22 * d22
+    f = d20 * r0 + d21 * r1 + d22 * r2
+    c = d10 * r0 + d11 * r1 + d12 * r2
+    b = d10 * d20 + d11 * d21 + d12 * d22
+    tiny = 1e-12
+    if a <= tiny:
+        s = 0.0
+        t = 0.0 if e <= tiny else min(max(f / e, 0.0), 1.0)
+    elif e <= tiny:
+        t = 0.0
+        s = min(max(-c / a, 0.0), 1.0)
+    else:
+        denom = a * e - b * b
+        s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 0.0 else 0.0
+        t = (b * s + f) / e
+        if t < 0.0:
+            t = 0.0
+            s = min(max(-c / a, 0.0), 1.0)
+        elif t > 1.0:
+            t = 1.0
+            s = min(max((b - c) / a, 0.0), 1.0)
+    x0 = p1[0] + d10 * s - (p2[0] + d20 * t)
+    x1 = p1[1] + d11 * s - (p2[1] + d21 * t)
+    x2 = p1[2] + d12 * s - (p2[2] + d22 * t)
+    return math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+
+
+@njit(cache=True, error_model="numpy")
+def _chords(arc_c, arc_r, arcs, n, out):
+    """Chord points of the 4 arcs ``out`` (4, n + 1, 3), as body.great_circle samples them (slerp)."""
+    for j in range(arcs.shape[0]):
+        a = arcs[j, 0]
+        b = arcs[j, 1]
+        cx = a[1] * b[2] - a[2] * b[1]
+        cy = a[2] * b[0] - a[0] * b[2]
+        cz = a[0] * b[1] - a[1] * b[0]
+        omega = math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+        so = math.sin(omega)
+        for i in range(n + 1):
+            s = i / n
+            if so < 1e-9:
+                p0 = (1.0 - s) * a[0] + s * b[0]
+                p1 = (1.0 - s) * a[1] + s * b[1]
+                p2 = (1.0 - s) * a[2] + s * b[2]
+                nn = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+                p0 /= nn
+                p1 /= nn
+                p2 /= nn
+            else:
+                wa = math.sin((1.0 - s) * omega) / so
+                wb = math.sin(s * omega) / so
+                p0 = wa * a[0] + wb * b[0]
+                p1 = wa * a[1] + wb * b[1]
+                p2 = wa * a[2] + wb * b[2]
+            out[j, i, 0] = arc_c[0] + arc_r * p0
+            out[j, i, 1] = arc_c[1] + arc_r * p1
+            out[j, i, 2] = arc_c[2] + arc_r * p2
+
+
+@njit(cache=True, error_model="numpy")
+def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords):
+    """Smallest distance between the primitive pairs, minus both radii (arcs as chord polylines)."""
+    n = chords.shape[1] - 1
+    _chords(arc_c, arc_r, arcs, n, chords)
+    best = math.inf
+    for q in range(pairs.shape[0]):
+        i = pairs[q, 0]
+        j = pairs[q, 1]
+        rad = radius[i] + radius[j]
+        if j < n_lines:
+            d = _segment_distance(lines[i, 0], lines[i, 1], lines[j, 0], lines[j, 1])
+        else:
+            # an arc lies within arc_r of its centre: skip it when the segment is farther than that
+            lo = _segment_distance(lines[i, 0], lines[i, 1], arc_c, arc_c) - arc_r
+            if lo - rad >= best:
+                continue
+            a = j - n_lines
+            d = math.inf
+            for m in range(n):
+                dm = _segment_distance(lines[i, 0], lines[i, 1], chords[a, m], chords[a, m + 1])
+                if dm < d:
+                    d = dm
+        if d - rad < best:
+            best = d - rad
+    return best

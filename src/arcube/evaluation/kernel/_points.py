@@ -1,0 +1,326 @@
+"""The per-point pass of one design: TLS, RTS and TMS inverse kinematics, the seven condition
+numbers, the local guards and the graded excess (MODEL.md 3-8, 12.2), in the reference's order."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from arcube.evaluation.clearance import ARC_CHORDS
+from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
+
+N_LINES = N_SEGMENTS + N_SPHERES
+PRIM_PART = PRIMITIVE_PART.astype(np.int64)
+
+from arcube.evaluation.kernel._layout import CAP as _CAP
+from arcube.evaluation.kernel._layout import CODE_KAPPA, CODE_RHO, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
+from arcube.evaluation.kernel._layout import G_C, G_CA, G_CB, G_D, G_F, G_FLAT, G_L, G_M, G_O, G_P, G_R, G_ROT, G_SA, G_SB, G_T
+from arcube.evaluation.kernel._layout import INF as _INF
+from arcube.evaluation.kernel._layout import NAN as _NAN
+from arcube.evaluation.kernel._layout import O_CZ, O_EXACT, O_KM, O_KM_ON, O_RHO, O_RHO_ON, O_SAM, O_TR, O_TR_ON, O_ZDYAD
+from arcube.evaluation.kernel._body import _body_world
+from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
+from arcube.evaluation.kernel._layout import CODE_PATIENT, CODE_SELF, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON, X_CLR, X_PART, X_SELF
+from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap
+from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
+
+
+@njit(cache=True, error_model="numpy")
+def _rts_direction(e0, e1, e2, sa0, ca0, cb0, o0, epsR0, sa1, ca1, cb1, o1, epsR1):
+    """RTS IK (MODEL.md 5.2) and its Jacobian invariants for one drill direction (mechanism axes).
+
+    Returns sigma_x, sigma_y, their arguments, sin/cos of both sigmas, the J_AS diagonal, det[x_b, y_b, e],
+    kappa(J_AS), kappa(J_AP) and the axes x_beta, y_beta (world components of R_m).
+    """
+    # leg x: (e_u, e_v, e_w) = (e0, e1, e2)
+    lam, rarg0 = _harmonic((-sa0) * e2, sa0 * e1, cb0 - ca0 * e0, epsR0)
+    sig0 = _wrap(lam - o0)
+    lam2 = sig0 + o0
+    xb0 = ca0 + 0.0 * lam2
+    xb1 = sa0 * math.sin(lam2)
+    xb2 = (-sa0) * math.cos(lam2)
+    # leg y: (e_u, e_v, e_w) = (e1, e2, e0); local (u, v, w) -> world (y, z, x)
+    lam, rarg1 = _harmonic((-sa1) * e0, sa1 * e2, cb1 - ca1 * e1, epsR1)
+    sig1 = _wrap(lam - o1)
+    lam2 = sig1 + o1
+    yb1 = ca1 + 0.0 * lam2
+    yb2 = sa1 * math.sin(lam2)
+    yb0 = (-sa1) * math.cos(lam2)
+    if sig0 == sig0:
+        ss0 = math.sin(sig0)
+        cs0 = math.cos(sig0)
+    else:
+        ss0 = cs0 = _NAN
+    if sig1 == sig1:
+        ss1 = math.sin(sig1)
+        cs1 = math.cos(sig1)
+    else:
+        ss1 = cs1 = _NAN
+    # J_AS = (u_alpha x u_beta) . e, as np.cross + einsum
+    jas0 = ((0.0 * xb2 - 0.0 * xb1) * e0 + (xb1 - 0.0 * xb0) * e2) + (0.0 * xb0 - xb2) * e1
+    jas1 = ((yb2 - 0.0 * yb1) * e0 + (0.0 * yb1 - yb0) * e2) + (0.0 * yb0 - 0.0 * yb2) * e1
+    # J_AP rows u_beta x e
+    q0 = xb1 * e2 - xb2 * e1
+    q1 = xb2 * e0 - xb0 * e2
+    q2 = xb0 * e1 - xb1 * e0
+    q3 = yb1 * e2 - yb2 * e1
+    q4 = yb2 * e0 - yb0 * e2
+    q5 = yb0 * e1 - yb1 * e0
+    F_ap = ((((q0 * q0 + q1 * q1) + q2 * q2) + q3 * q3) + q4 * q4) + q5 * q5
+    # det[x_b, y_b, e] = (x_b x y_b) . e; NumPy's einsum sums 3 products as (p0 + p2) + p1
+    det = ((xb1 * yb2 - xb2 * yb1) * e0 + (xb0 * yb1 - xb1 * yb0) * e2) + (xb2 * yb0 - xb0 * yb2) * e1
+    kAS = _kdiag2(jas0, jas1)
+    kAP = _kinv(F_ap, abs(det))
+    return sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2
+
+
+@njit(cache=True, error_model="numpy")
+def _to_mechanism(g, a0, a1, a2):
+    """R^T a (MODEL.md 13.1) as NumPy's einsum sums three products, (p0 + p2) + p1; a itself where R = I."""
+    if g[G_FLAT] != 0.0:
+        return a0, a1, a2
+    R = g[G_ROT:G_ROT + 9]
+    b0 = (R[0] * a0 + R[6] * a2) + R[3] * a1
+    b1 = (R[1] * a0 + R[7] * a2) + R[4] * a1
+    b2 = (R[2] * a0 + R[8] * a2) + R[5] * a1
+    return b0, b1, b2
+
+
+@njit(cache=True, error_model="numpy")
+def _centre_m(g, E0, E1, E2, e0, e1, e2):
+    """Mechanism coordinates of the centre C = E + L e of the spherical stage: R^T (C - m) (MODEL.md 13)."""
+    L = g[G_L]
+    if L != 0.0:
+        E0 = E0 + L * e0
+        E1 = E1 + L * e1
+        E2 = E2 + L * e2
+    return _to_mechanism(g, E0 - g[G_M], E1 - g[G_M + 1], E2 - g[G_M + 2])
+
+
+@njit(cache=True, error_model="numpy")
+def _stage_failure(ta0, ta1, ta2, rarg0, rarg1, marg0, marg1):
+    """Code of the first failing stage check, in FAILURES order (0: every stage solvable)."""
+    if abs(ta0) > 1.0:
+        return 1
+    if abs(ta1) > 1.0:
+        return 2
+    if abs(ta2) > 1.0:
+        return 3
+    if abs(rarg0) > 1.0:
+        return 4
+    if abs(rarg1) > 1.0:
+        return 5
+    if not (abs(marg0) <= 1.0):
+        return 6
+    if not (abs(marg1) <= 1.0):
+        return 7
+    return 0
+
+
+@njit(cache=True, error_model="numpy")
+def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_row):
+    """eta_raw = max of the seven kappas (NaN -> inf) and the code of the first singular one (0 if none).
+
+    With ``full`` the kappas are written to ``kappa_row`` (7,) in JACOBIAN_NAMES order.
+    """
+    k_lv = _kdiag3(pcr0, pcr1, pcr2)  # |-p cos rho|
+    F_av = ((D0 * D0 + E0 * E0) + E1 * E1) + D1 * D1
+    g_av = math.sqrt(((D0 * E1) * (D0 * E1) + (E0 * E1) * (E0 * E1)) + (D0 * D1) * (D0 * D1))
+    k_av = _kinv(F_av, g_av)
+    k_sg = _kdiag2(H0, H1)
+    k_rh = _kdiag2(G0, G1)
+    k_dl = _kdiag2(F0, F1)
+    eta_raw = 0.0
+    sing = 0
+    for j in range(7):
+        if j == 0:
+            kj = k_lv
+        elif j == 1:
+            kj = k_av
+        elif j == 2:
+            kj = k_sg
+        elif j == 3:
+            kj = kAS
+        elif j == 4:
+            kj = kAP
+        elif j == 5:
+            kj = k_rh
+        else:
+            kj = k_dl
+        if full:
+            kappa_row[j] = kj
+        if not math.isfinite(kj):
+            if sing == 0:
+                sing = CODE_SINGULAR + j
+            if kj != kj:
+                kj = _INF
+        if kj > eta_raw:
+            eta_raw = kj
+    return eta_raw, sing
+
+
+@njit(cache=True, error_model="numpy")
+def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det):
+    """The active local guards of MODEL.md 8.2 in FAILURES order: (failure code, excess with their shortfalls)."""
+    d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
+    c0, c1 = g[G_C], g[G_C + 1]
+    t0, t1 = g[G_T], g[G_T + 1]
+    if opt[O_ZDYAD] != 0.0:
+        cz = opt[O_CZ]
+        if cz != cz:
+            cz = d2
+        reach_z = d2 + cz
+        L = math.hypot(Em0, Em1 - pcr2)
+        short = (_pos(L - reach_z) + _pos(abs(d2 - cz) - L)) / reach_z
+        if short > 0.0 and fc == 0:
+            fc = CODE_Z_DYAD
+        ex = ex + _nan_to_num(short)
+    if opt[O_RHO_ON] != 0.0:
+        rho_th = opt[O_RHO]
+        short = ((0.0 + _pos(abs(rho0) - rho_th)) + _pos(abs(rho1) - rho_th)) + _pos(abs(rho2) - rho_th)
+        if short > 0.0 and fc == 0:
+            fc = CODE_RHO
+        ex = ex + _nan_to_num(short)
+    if opt[O_TR_ON] != 0.0:
+        s0 = opt[O_TR]
+        sb0, sb1 = g[G_SB], g[G_SB + 1]
+        short = 0.0 + _pos(s0 - abs(F0 / (d0 * c0)))
+        short += _pos(s0 - abs(F1 / (d1 * c1)))
+        short += _pos(s0 - abs(H0 / (t0 * c0)))
+        short += _pos(s0 - abs(H1 / (t1 * c1)))
+        short += _pos(s0 - abs(jas0 / (g[G_SA] * sb0)))
+        short += _pos(s0 - abs(jas1 / (g[G_SA + 1] * sb1)))
+        short += _pos(s0 - abs(det / (sb0 * sb1)))
+        if short > 0.0 and fc == 0:
+            fc = CODE_TRANS
+        ex = ex + _nan_to_num(short)
+    if opt[O_KM_ON] != 0.0:
+        km = opt[O_KM]
+        short = _pos(eta_raw - km) / km
+        if short > _CAP:
+            short = _CAP
+        if eta_raw > km and fc == 0:
+            fc = CODE_KAPPA
+        ex = ex + _nan_to_num(short)
+    return fc, ex
+
+
+@njit(cache=True, error_model="numpy")
+def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, co, ch, cv, fg, cg, radius, order, pairs,
+                   fail, eta, exc, code, extra, kappa_o, rho_o, delta_o, sigma_o):  # fmt: skip
+    """Points k0..k1-1 of design i: writes failure (before the global guard), eta_raw, excess,
+    assembly code into the rows fail/eta/exc/code, the body clearances into ``extra`` (P, 3), and
+    the detailed fields when ``full``. The anatomy's grids (fine, coarse: origin, spacing, values;
+    then their block gradient bounds),
+    the primitives' radii (27,), their search order and the self-clearance pairs are MODEL.md 14.1-14.3."""
+    g = geo[i]
+    grids = (fo, fh, fv, co, ch, cv, fg, cg)
+    do_clr = opt[O_DO_CLR] != 0.0
+    do_self = opt[O_DO_SELF] != 0.0
+    lines = np.empty((N_LINES, 2, 3))
+    arcs = np.empty((4, 2, 3))
+    arc_c = np.empty(3)
+    chords = np.empty((4, ARC_CHORDS + 1, 3))
+    work = np.empty((6, 96))
+    f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
+    p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
+    d0, d1 = g[G_D], g[G_D + 1]
+    c0, c1 = g[G_C], g[G_C + 1]
+    t0, t1 = g[G_T], g[G_T + 1]
+    r = g[G_R]
+    epsT0, epsT1, epsR0, epsR1 = modes[i, 0], modes[i, 1], modes[i, 2], modes[i, 3]
+    exact = opt[O_EXACT] != 0.0
+    need_rho = full or opt[O_RHO_ON] != 0.0
+
+    # RTS cache (depends on the direction only)
+    have = False
+    sig0 = sig1 = rarg0 = rarg1 = 0.0
+    ss0 = cs0 = ss1 = cs1 = 0.0
+    jas0 = jas1 = det = kAS = kAP = 0.0
+    xb0 = xb1 = xb2 = yb0 = yb1 = yb2 = 0.0
+    em0 = em1 = em2 = 0.0
+
+    # Summaries need a point's clearance exactly only when it is below the guard's limit (its shortfall)
+    # or below the smallest so far over passing points: each search starts at that cap, so parts far
+    # from the anatomy are pruned at once.
+    run_min = _INF
+    floor = opt[O_CLR] if opt[O_CLR_ON] != 0.0 else -_INF
+    for k in range(k0, k1):
+        if not (have and same_e[k]):
+            have = True
+            em0, em1, em2 = _to_mechanism(g, e[k, 0], e[k, 1], e[k, 2])
+            sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2 = _rts_direction(
+                em0, em1, em2, g[G_SA], g[G_CA], g[G_CB], g[G_O], epsR0,
+                g[G_SA + 1], g[G_CA + 1], g[G_CB + 1], g[G_O + 1], epsR1,
+            )  # fmt: skip
+
+        # TLS (Eq 1), at the centre C in mechanism coordinates
+        Em0, Em1, Em2 = _centre_m(g, E[k, 0], E[k, 1], E[k, 2], e[k, 0], e[k, 1], e[k, 2])
+        ta0, rho0, cr0, sr0 = _tls_leg(Em0, f0, r, p0, need_rho, exact)
+        ta1, rho1, cr1, sr1 = _tls_leg(Em1, f1, r, p1, need_rho, exact)
+        ta2, rho2, cr2, sr2 = _tls_leg(Em2, f2, r, p2, need_rho, exact)
+        pcr0 = p0 * cr0
+        pcr1 = p1 * cr1
+        pcr2 = p2 * cr2
+
+        # TMS (Eq 3): leg x (v, w) = (y, z), leg y (v, w) = (z, x)
+        del0, marg0, F0, G0, D0, E0, H0, cd0, sd0 = _tms_leg(Em1, Em2, pcr0, sr0, ss0, cs0, p0, d0, c0, t0, epsT0, full, exact)
+        del1, marg1, F1, G1, D1, E1, H1, cd1, sd1 = _tms_leg(Em2, Em0, pcr1, sr1, ss1, cs1, p1, d1, c1, t1, epsT1, full, exact)
+
+        fc = _stage_failure(ta0, ta1, ta2, rarg0, rarg1, marg0, marg1)
+        ex = ((0.0 + _clip_excess(ta0)) + _clip_excess(ta1)) + _clip_excess(ta2)
+        ex = ex + ((0.0 + _clip_excess(rarg0)) + _clip_excess(rarg1))
+        ex = ex + ((0.0 + _clip_excess(marg0)) + _clip_excess(marg1))
+
+        eta_raw = _INF
+        if fc == 0:
+            eta_raw, fc = _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_o[i, k] if full else kappa_o[0, 0])
+            fc, ex = _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
+            clr = selfc = _NAN
+            part = -1.0
+            if do_clr or do_self:
+                arc_r = _body_world(g, opt[O_CZ], opt[O_LM], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
+                                    cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
+                if do_self:
+                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords)
+                if do_clr:
+                    cap = _INF if full or opt[O_SAM] != 0.0 else max(floor, run_min)  # SAM may fail points later
+                    clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap)
+                    part = float(PRIM_PART[kbest]) if kbest >= 0 else -1.0
+                    if opt[O_CLR_ON] != 0.0:
+                        short = _pos(opt[O_CLR] - clr)
+                        if short > 0.0 and fc == 0:
+                            fc = CODE_PATIENT
+                        ex = ex + _nan_to_num(short)
+                if opt[O_SELF_ON] != 0.0:
+                    short = _pos(opt[O_SELF] - selfc)
+                    if short > 0.0 and fc == 0:
+                        fc = CODE_SELF
+                    ex = ex + _nan_to_num(short)
+                if fc == 0 and clr < run_min:
+                    run_min = clr  # the summary's minimum is over the points that pass every guard
+            extra[k, X_CLR] = clr
+            extra[k, X_PART] = part
+            extra[k, X_SELF] = selfc
+        else:
+            extra[k, X_CLR] = _NAN
+            extra[k, X_PART] = -1.0
+            extra[k, X_SELF] = _NAN
+            if full:
+                for j in range(7):
+                    kappa_o[i, k, j] = _NAN
+
+        fail[k] = fc
+        eta[k] = eta_raw
+        exc[k] = ex
+        code[k] = (4 if H0 > 0.0 else 0) + (2 if H1 > 0.0 else 0) + (1 if det > 0.0 else 0)
+        if full:
+            rho_o[i, k, 0] = rho0
+            rho_o[i, k, 1] = rho1
+            rho_o[i, k, 2] = rho2
+            delta_o[i, k, 0] = del0
+            delta_o[i, k, 1] = del1
+            sigma_o[i, k, 0] = sig0
+            sigma_o[i, k, 1] = sig1

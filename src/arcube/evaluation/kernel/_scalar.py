@@ -1,0 +1,215 @@
+"""Scalar helpers of the kernel: the stage modules' closed forms for one value, NumPy's summation order."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from arcube.evaluation.kernel._layout import BIG as _BIG
+from arcube.evaluation.kernel._layout import CAP as _CAP
+from arcube.evaluation.kernel._layout import INF as _INF
+from arcube.evaluation.kernel._layout import NAN as _NAN
+from arcube.evaluation.kernel._layout import PI as _PI
+from arcube.evaluation.kernel._layout import TWO_PI as _TWO_PI
+
+
+@njit(cache=True, error_model="numpy")
+def _wrap(x):
+    """(x + pi) % (2 pi) - pi with Python/NumPy modulo semantics (result in [-pi, pi))."""
+    return (x + _PI) % _TWO_PI - _PI
+
+
+@njit(cache=True, error_model="numpy")
+def _arg(C, R):
+    """C/R where R > 0; +inf where R = 0 (no direction solves it); NaN where R is NaN (an
+    upstream stage failed: the argument is undefined and never counts as an excess)."""
+    if R > 0.0:
+        return C / R
+    if R == 0.0:
+        return _INF
+    return _NAN
+
+
+@njit(cache=True, error_model="numpy")
+def _harmonic(A, B, C, eps):
+    """stages.solve_harmonic for scalars: (x wrapped, arg = C/R); x NaN where |arg| > 1."""
+    R = math.hypot(A, B)
+    arg = _arg(C, R)
+    if abs(arg) <= 1.0:
+        x = _wrap(math.atan2(B, A) + eps * math.acos(arg))
+    else:
+        x = _NAN
+    return x, arg
+
+
+@njit(cache=True, error_model="numpy")
+def _kdiag2(a, b):
+    """indices.kappa_diag for two entries: NaN if any is NaN, +inf if the smaller is 0."""
+    a = abs(a)
+    b = abs(b)
+    if a != a or b != b:
+        return _NAN
+    lo = a if a < b else b
+    hi = a if a > b else b
+    if lo > 0.0:
+        return hi / lo
+    return _INF
+
+
+@njit(cache=True, error_model="numpy")
+def _kdiag3(a, b, c):
+    a = abs(a)
+    b = abs(b)
+    c = abs(c)
+    if a != a or b != b or c != c:
+        return _NAN
+    lo = min(a, b, c)
+    hi = max(a, b, c)
+    if lo > 0.0:
+        return hi / lo
+    return _INF
+
+
+@njit(cache=True, error_model="numpy")
+def _kinv(F, g):
+    """indices.kappa_from_invariants for scalars."""
+    g = abs(g)
+    t = F * F - 4.0 * g * g
+    if t != t:
+        root = _NAN
+    else:
+        root = math.sqrt(t if t >= 0.0 else 0.0)
+    k = (F + root) / (2.0 * g)
+    if g > 0.0:
+        if k >= 1.0 or k != k:
+            return k
+        return 1.0
+    if g != g:
+        return _NAN
+    return _INF
+
+
+@njit(cache=True, error_model="numpy")
+def _clip_excess(a):
+    """One term of evaluation._excess: min(max(|a| - 1, 0), cap), NaN -> 0."""
+    x = abs(a) - 1.0
+    if x != x:
+        return 0.0
+    if x < 0.0:
+        return 0.0
+    if x > _CAP:
+        return _CAP
+    return x
+
+
+@njit(cache=True, error_model="numpy")
+def _nan_to_num(x):
+    if x != x:
+        return 0.0
+    if x == _INF:
+        return _BIG
+    if x == -_INF:
+        return -_BIG
+    return x
+
+
+@njit(cache=True, error_model="numpy")
+def _pos(x):
+    """np.maximum(x, 0.0) (NaN propagates)."""
+    if x >= 0.0 or x != x:
+        return x
+    return 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _block_sum(a, lo, n):
+    """NumPy's pairwise_sum for n <= 128 (8 accumulators, then the tail)."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    lim = n - n % 8
+    while i < lim:
+        j = lo + i
+        r0 += a[j]
+        r1 += a[j + 1]
+        r2 += a[j + 2]
+        r3 += a[j + 3]
+        r4 += a[j + 4]
+        r5 += a[j + 5]
+        r6 += a[j + 6]
+        r7 += a[j + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@njit(cache=True, error_model="numpy")
+def _pairwise_sum(a):
+    """0.0 + NumPy's pairwise_sum of a 1-D float array, i.e. ``np.sum(a)`` bit for bit.
+
+    NumPy recurses: n <= 128 is a block, else split at n2 = n//2 - (n//2) % 8. Done here with
+    an explicit stack (post-order), so no recursion in compiled code.
+    """
+    n = a.shape[0]
+    if n <= 128:
+        return 0.0 + _block_sum(a, 0, n)
+    # frames: lo, n, state (0 = new, 1 = left done), partial (left result)
+    los = np.empty(64, np.int64)
+    ns = np.empty(64, np.int64)
+    states = np.zeros(64, np.int64)
+    partial = np.zeros(64)
+    top = 0
+    los[0] = 0
+    ns[0] = n
+    states[0] = 0
+    ret = 0.0
+    have_ret = False
+    while top >= 0:
+        lo = los[top]
+        nn = ns[top]
+        if have_ret:
+            # a child just returned `ret`
+            if states[top] == 0:
+                partial[top] = ret
+                states[top] = 1
+                have_ret = False
+                n2 = nn // 2
+                n2 -= n2 % 8
+                top += 1
+                los[top] = lo + n2
+                ns[top] = nn - n2
+                states[top] = 0
+                continue
+            ret = partial[top] + ret
+            top -= 1
+            continue
+        if nn <= 128:
+            ret = _block_sum(a, lo, nn)
+            have_ret = True
+            top -= 1
+            continue
+        n2 = nn // 2
+        n2 -= n2 % 8
+        top += 1
+        los[top] = lo
+        ns[top] = n2
+        states[top] = 0
+    return 0.0 + ret
+
+

@@ -1,0 +1,351 @@
+"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2).
+
+:func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
+against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per point and
+``(...)`` per design. No Python loop over designs or points.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pydantic import BaseModel, ConfigDict, Field
+
+from arcube.model.design import unpack
+from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
+from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
+from arcube.evaluation.clearance import Distance, anatomy_clearance, self_clearance
+from arcube.model.body import BodyRadii, body_parts, mechanism_points
+from arcube.model.stages import rts, zleg
+
+
+class Options(BaseModel):
+    """Reachability options. Every guard is an [ADDITION] of MODEL.md 8.2, off by default."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    z_dyad: bool = False
+    """Check the z-leg dyad closure (MODEL.md 6)."""
+    c_z: float | None = Field(default=None, gt=0)
+    """Second link of the z dyad (mm); None means c_z = d_z."""
+    rho_max_deg: float | None = Field(default=None, gt=0, le=90)
+    """|rho_u| <= rho_max (deg), away from the TLS singularity cos rho = 0."""
+    min_transmission_deg: float | None = Field(default=None, gt=0, le=90)
+    """|sin| of the four transmission angles (s_F, s_H, s_AS, s_AP) >= sin(this)."""
+    kappa_max: float | None = Field(default=None, ge=1)
+    """eta_L <= kappa_max."""
+    single_assembly_mode: bool = False
+    """sign H_x, sign H_y, sign det[x_b, y_b, e] equal at all task points (global)."""
+    clearance_mm: float | None = Field(default=None, ge=0, allow_inf_nan=False)
+    """[ADDITION, MODEL.md 14.3] clearance to the anatomy >= this (mm); failure ``collision/patient``."""
+    self_clearance_mm: float | None = Field(default=None, ge=0, allow_inf_nan=False)
+    """[ADDITION, MODEL.md 14.3] clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
+    body: bool = False
+    """Compute the body clearances at every point (MODEL.md 14.3) even when no clearance guard is on."""
+    link_radius: float = Field(default=8.0, gt=0, allow_inf_nan=False)
+    """Radius of every link of the body (MODEL.md 14.1), mm."""
+    actuator_radius: float = Field(default=25.0, gt=0, allow_inf_nan=False)
+    """Radius of the actuators at P_u and D_u, mm."""
+    motor_radius: float = Field(default=20.0, gt=0, allow_inf_nan=False)
+    """Radius of the drill motor, mm."""
+    motor_length: float = Field(default=120.0, gt=0, allow_inf_nan=False)
+    """Length L_m of the drill motor beyond the holder H, mm."""
+
+    @property
+    def radii(self) -> BodyRadii:
+        """The body radii of MODEL.md 14.1."""
+        return BodyRadii(self.link_radius, self.actuator_radius, self.motor_radius, self.motor_length)
+
+    @property
+    def wants_clearance(self) -> bool:
+        """Whether the evaluation computes the clearance to the anatomy (when there is one)."""
+        return self.body or self.clearance_mm is not None
+
+    @property
+    def wants_self_clearance(self) -> bool:
+        """Whether the evaluation computes the clearance between the body's own parts."""
+        return self.body or self.self_clearance_mm is not None
+
+    @property
+    def wants_body(self) -> bool:
+        """Whether the evaluation computes the body at all."""
+        return self.wants_clearance or self.wants_self_clearance
+
+
+GUARDED_OPTIONS = Options(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True)
+"""What ``--guards`` turns on: every guard of 8.2 except z_dyad."""
+
+FAILURES: tuple[str, ...] = (
+    "TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y",
+    *(f"singular/{name}" for name in JACOBIAN_NAMES),
+    "guard/z_dyad", "guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode",
+    "collision/patient", "collision/self",
+)  # fmt: skip
+"""Failure reasons; a point reports the first that applies, checked in this order except that the
+collision guards (MODEL.md 14.3) come after the other local guards and before the global
+``guard/single_assembly_mode``. Code 0 in :attr:`PointResults.failure` means reachable; code
+k >= 1 means ``FAILURES[k - 1]``."""
+
+_CODE = {name: i + 1 for i, name in enumerate(FAILURES)}
+_EXCESS_CAP = 10.0
+"""Cap on one argument's excess in the graded violation, so that a degenerate argument (C/0)
+cannot swamp the rest; the violation stays 0 exactly when every point is reachable."""
+
+
+def failure_name(code: int) -> str | None:
+    """The reason string of a failure code, None for 0 (reachable)."""
+    return None if code == 0 else FAILURES[code - 1]
+
+
+class PointResults(NamedTuple):
+    """Per-point results, each ``(..., P)`` (plus a trailing axis where noted)."""
+
+    reachable: NDArray[np.bool_]  # w_L with the active guards
+    failure: NDArray[np.int16]  # 0 = reachable, else index + 1 into FAILURES
+    kappa: NDArray[np.float64]  # (..., P, 7), NaN where the IK has no solution
+    eta_L: NDArray[np.float64]  # +inf where unreachable
+    dexterity_pct: NDArray[np.float64]  # 100/eta_L, 0 where unreachable
+    excess: NDArray[np.float64]  # graded distance outside the domain (0 where reachable)
+    rho: NDArray[np.float64]  # (..., P, 3) rad
+    delta: NDArray[np.float64]  # (..., P, 2) rad
+    sigma: NDArray[np.float64]  # (..., P, 2) rad
+    clearance_mm: NDArray[np.float64]  # body to anatomy, signed (MODEL.md 14.3); NaN when not computed or no IK
+    clearance_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the closest part, -1 if none
+    self_clearance_mm: NDArray[np.float64]  # between the body's own parts; NaN when not computed or no IK
+
+
+class TaskResults(NamedTuple):
+    """A task's per-point results and per-design summary (each summary field ``(...)``)."""
+
+    points: PointResults
+    w_G: NDArray[np.bool_]
+    reachable_fraction: NDArray[np.float64]
+    eta_G: NDArray[np.float64]  # mean eta_L if w_G else +inf
+    violation: NDArray[np.float64]  # graded constraint of 12.2, 0 iff w_G
+    dexterity_min: NDArray[np.float64]
+    dexterity_mean: NDArray[np.float64]
+    dexterity_max: NDArray[np.float64]
+    clearance_min: NDArray[np.float64]  # min clearance_mm over reachable points (NaN if none)
+    self_clearance_min: NDArray[np.float64]  # min self_clearance_mm over reachable points (NaN if none)
+
+    @property
+    def fitness(self) -> NDArray[np.float64]:
+        """GA fitness of MODEL.md 8.3 (shaping only): eta_G if w_G else 1e6 (1 + unreachable fraction)."""
+        return np.where(self.w_G, self.eta_G, 1e6 * (2.0 - self.reachable_fraction))
+
+
+def _excess(arg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Sum over the last axis of min(max(|arg| - 1, 0), cap); NaN arguments count 0."""
+    x = np.clip(np.abs(arg) - 1.0, 0.0, _EXCESS_CAP)
+    return np.sum(np.nan_to_num(x, nan=0.0), axis=-1)
+
+
+def _first_failure(checks: list[tuple[str, NDArray[np.bool_]]], shape: tuple[int, ...]) -> NDArray[np.int16]:
+    """Code of the first failing check (checks in FAILURES order); 0 where none fails."""
+    code = np.zeros(shape, dtype=np.int16)
+    for name, failed in reversed(checks):
+        code = np.where(np.broadcast_to(failed, shape), np.int16(_CODE[name]), code)
+    return code
+
+
+def _guard_checks(
+    sol: IKSolution, params: ArrayLike, eta: NDArray[np.float64], options: Options,
+) -> list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]]:  # fmt: skip
+    """(reason, failed, shortfall) of each active local guard."""
+    g = unpack(params)
+    out: list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]] = []
+    if options.z_dyad:
+        c_z = g.d[..., 2] if options.c_z is None else options.c_z
+        short = zleg.closure_shortfall(zleg.span(sol.E_m, sol.rho[..., 2], g.p[..., 2]), g.d[..., 2], c_z)
+        out.append(("guard/z_dyad", short > 0.0, short))
+    if options.rho_max_deg is not None:
+        short = np.sum(np.maximum(np.abs(sol.rho) - np.deg2rad(options.rho_max_deg), 0.0), axis=-1)
+        out.append(("guard/rho_max", short > 0.0, short))
+    if options.min_transmission_deg is not None:
+        T = sol.terms
+        sa, sb = np.sin(g.alpha), np.sin(g.beta)
+        sines = np.concatenate(
+            [
+                T.F / (g.d[..., :2] * g.c),
+                T.H / (g.t * g.c),
+                rts.J_AS_diag(sol.e, sol.u_beta) / (sa * sb),
+                (rts.det_beta(sol.e, sol.u_beta) / (sb[..., 0] * sb[..., 1]))[..., None],
+            ],
+            axis=-1,
+        )
+        short = np.sum(np.maximum(np.sin(np.deg2rad(options.min_transmission_deg)) - np.abs(sines), 0.0), axis=-1)
+        out.append(("guard/transmission", short > 0.0, short))
+    if options.kappa_max is not None:
+        short = np.minimum(np.maximum(eta - options.kappa_max, 0.0) / options.kappa_max, _EXCESS_CAP)
+        out.append(("guard/kappa_max", eta > options.kappa_max, short))
+    return out
+
+
+def evaluate_points(
+    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
+    anatomy: Distance | None = None,
+) -> PointResults:  # fmt: skip
+    """Local evaluation (no global guard): every argument broadcasts, results ``(...)``.
+
+    Parameters: ``params`` ``(..., 27)`` (or ``(..., 23)``) mm/deg; ``E`` ``(..., 3)`` drill tips in R_w, mm;
+    ``e`` ``(..., 3)`` unit drill axes; ``mode`` ``(..., 4)`` working-mode signs.
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sol = inverse_kinematics(params, E, e, mode)
+        return _judge(sol, params, options, anatomy)
+
+
+def _body_clearances(
+    sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None, shape: tuple[int, ...],
+) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:  # fmt: skip
+    """(clearance, part, self clearance) ``shape`` each: NaN / -1 where not asked for or without IK."""
+    nan = np.full(shape, np.nan)
+    if not options.wants_body:
+        return nan, np.full(shape, -1, dtype=np.intp), nan
+    radii = options.radii
+    mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.c_z, motor_length=radii.motor_length, sol=sol)
+    parts = body_parts(mp, radii)
+    selfc = np.broadcast_to(self_clearance(parts), shape) if options.wants_self_clearance else nan
+    if anatomy is None or not options.wants_clearance:
+        return nan, np.full(shape, -1, dtype=np.intp), selfc
+    clear, part = anatomy_clearance(parts, anatomy)
+    return np.broadcast_to(clear, shape), np.broadcast_to(part, shape), selfc
+
+
+def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None = None) -> PointResults:
+    kappa = condition_numbers(sol, params)
+    shape = kappa.shape[:-1]
+    tls_bad = np.abs(sol.tls_arg) > 1.0
+    rts_bad = np.abs(sol.rts_arg) > 1.0
+    tms_bad = ~(np.abs(sol.tms_arg) <= 1.0)  # NaN (TLS or RTS failed first) also counts as bad
+    stages_ok = ~(np.any(tls_bad, axis=-1) | np.any(rts_bad, axis=-1) | np.any(tms_bad, axis=-1))
+    singular = ~np.isfinite(kappa) & stages_ok[..., None]
+    eta_raw = np.max(np.where(np.isnan(kappa), np.inf, kappa), axis=-1)
+    checks: list[tuple[str, NDArray[np.bool_]]] = [
+        *((f"TLS/{leg}", tls_bad[..., i]) for i, leg in enumerate("xyz")),
+        *((f"RTS/{leg}", rts_bad[..., i]) for i, leg in enumerate("xy")),
+        *((f"TMS/{leg}", tms_bad[..., i]) for i, leg in enumerate("xy")),
+        *((f"singular/{name}", singular[..., i]) for i, name in enumerate(JACOBIAN_NAMES)),
+    ]
+    excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)
+    clear, part, selfc = _body_clearances(sol, params, options, anatomy, shape)
+    guards = _guard_checks(sol, params, eta_raw, options)
+    if options.clearance_mm is not None and anatomy is not None:
+        short = np.maximum(options.clearance_mm - clear, 0.0)  # mm, MODEL.md 14.3
+        guards.append(("collision/patient", short > 0.0, short))
+    if options.self_clearance_mm is not None:
+        short = np.maximum(options.self_clearance_mm - selfc, 0.0)
+        guards.append(("collision/self", short > 0.0, short))
+    for name, failed, short in guards:
+        checks.append((name, failed & stages_ok))
+        excess = excess + np.where(stages_ok, np.nan_to_num(short, nan=0.0), 0.0)
+    failure = _first_failure(checks, shape)
+    reachable = failure == 0
+    eta = np.where(reachable, eta_raw, np.inf)
+    with np.errstate(divide="ignore"):
+        dex = np.where(reachable, 100.0 / eta, 0.0)
+    return PointResults(
+        reachable=reachable,
+        failure=failure,
+        kappa=np.where(stages_ok[..., None], kappa, np.nan),
+        eta_L=eta,
+        dexterity_pct=dex,
+        excess=np.broadcast_to(excess, shape),
+        rho=np.broadcast_to(sol.rho, shape + (3,)),
+        delta=np.broadcast_to(sol.delta, shape + (2,)),
+        sigma=np.broadcast_to(sol.sigma, shape + (2,)),
+        clearance_mm=np.where(stages_ok, clear, np.nan),
+        clearance_part=np.where(stages_ok, part, -1),
+        self_clearance_mm=np.where(stages_ok, selfc, np.nan),
+    )
+
+
+def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
+    """Fail the points whose assembly signs differ from the task's most common ones (per design).
+
+    The reference triple is the most frequent (sign H_x, sign H_y, sign det) among the points
+    that are reachable so far; ties go to the lowest code.
+    """
+    asm = sol.assembly
+    code = ((asm[..., 0] > 0) * 4 + (asm[..., 1] > 0) * 2 + (asm[..., 2] > 0)).astype(np.int64)
+    counts = np.sum((code[..., None] == np.arange(8)) & pts.reachable[..., None], axis=-2)
+    ref = np.argmax(counts, axis=-1)
+    off = pts.reachable & (code != ref[..., None])
+    failure = np.where(off, np.int16(_CODE["guard/single_assembly_mode"]), pts.failure)
+    reachable = failure == 0
+    return pts._replace(
+        reachable=reachable,
+        failure=failure,
+        eta_L=np.where(reachable, pts.eta_L, np.inf),
+        dexterity_pct=np.where(reachable, pts.dexterity_pct, 0.0),
+    )
+
+
+def evaluate_task(
+    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
+    anatomy: Distance | None = None,
+) -> TaskResults:  # fmt: skip
+    """Evaluate designs ``(..., 27)`` (or ``(..., 23)``) on the P points of a task (``E``, ``e`` each ``(P, 3)``).
+
+    ``mode`` broadcasts as ``(..., 4)`` (one working mode per design, or one for all).
+    Per-point fields have shape ``(..., P)``; summaries ``(...)``. Dexterity statistics run
+    over all P points, counting 0 at unreachable points.
+    """
+    p = np.asarray(params, dtype=float)[..., None, :]
+    m = np.asarray(mode, dtype=float)[..., None, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sol = inverse_kinematics(p, E, e, m)
+        pts = _judge(sol, p, options, anatomy)
+        if options.single_assembly_mode:
+            pts = _single_assembly_mode(sol, pts)
+        n = pts.reachable.shape[-1]
+        n_bad = np.sum(~pts.reachable, axis=-1)
+        w_G = n_bad == 0
+        eta_G = np.where(w_G, np.mean(np.where(pts.reachable, pts.eta_L, 0.0), axis=-1), np.inf)
+        violation = n_bad / n + np.sum(pts.excess, axis=-1)
+    return TaskResults(
+        points=pts,
+        w_G=w_G,
+        reachable_fraction=1.0 - n_bad / n,
+        eta_G=eta_G,
+        violation=np.where(w_G, 0.0, violation),
+        dexterity_min=np.min(pts.dexterity_pct, axis=-1),
+        dexterity_mean=np.mean(pts.dexterity_pct, axis=-1),
+        dexterity_max=np.max(pts.dexterity_pct, axis=-1),
+        clearance_min=_min_reachable(pts.clearance_mm, pts.reachable),
+        self_clearance_min=_min_reachable(pts.self_clearance_mm, pts.reachable),
+    )
+
+
+def _min_reachable(values: NDArray[np.float64], reachable: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Minimum over the reachable points (last axis); NaN where none is reachable or nothing was computed."""
+    v = np.where(reachable, values, np.inf)
+    with np.errstate(invalid="ignore"):
+        out = np.min(np.where(np.isnan(v), np.inf, v), axis=-1)
+    return np.where(np.isfinite(out), out, np.nan)
+
+
+def _check_mm(value: float | None, flag: str) -> float | None:
+    if value is None:
+        return None
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+        raise InputError(f"{flag} must be a finite number of mm >= 0, got {value!r}")
+    return float(value)
+
+
+def with_body(options: Options, *, clearance: float | None = None, self_clearance: float | None = None,
+                 radii: BodyRadii | None = None, body: bool | None = None) -> Options:  # fmt: skip
+    """``options`` with the clearance guards, body radii and body flag of MODEL.md 14 set (validated)."""
+    changes: dict[str, Any] = {}
+    if clearance is not None:
+        changes["clearance_mm"] = _check_mm(clearance, "--clearance")
+    if self_clearance is not None:
+        changes["self_clearance_mm"] = _check_mm(self_clearance, "--self-clearance")
+    if radii is not None:
+        changes.update(link_radius=radii.link, actuator_radius=radii.actuator, motor_radius=radii.motor, motor_length=radii.motor_length)
+    if body is not None:
+        changes["body"] = body
+    return options.model_copy(update=changes) if changes else options

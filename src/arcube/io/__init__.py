@@ -1,0 +1,22 @@
+"""Reading and writing what arcube exchanges with the outside world.
+
+* :mod:`arcube.io.trajectories`: trajectory sets (CSV), subsets, rigid transforms;
+* :mod:`arcube.io.slicer`: 3D Slicer markups (``.mrk.json``);
+* :mod:`arcube.io.load`: :func:`load_trajectories`, one entry point for every format;
+* :mod:`arcube.io.files`: atomic writes (temporary file, then rename).
+"""
+
+from __future__ import annotations
+
+from arcube.io.files import atomic_write_bytes, atomic_write_text
+from arcube.io.load import load_trajectories
+from arcube.io.slicer import read_markups, write_markups
+from arcube.io.trajectories import (
+    CSV_COLUMNS, TrajectorySet, apply_transform, atomic_write, read_csv, read_transform, select, validate_points, write_csv,
+)  # fmt: skip
+
+__all__ = [
+    "CSV_COLUMNS", "TrajectorySet", "apply_transform", "atomic_write", "atomic_write_bytes", "atomic_write_text",
+    "load_trajectories", "read_csv", "read_markups", "read_transform", "select", "validate_points", "write_csv",
+    "write_markups",
+]  # fmt: skip

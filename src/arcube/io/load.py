@@ -1,0 +1,40 @@
+"""One entry point for every trajectory format: CSV, 3D Slicer markups, or the bundled patient."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from arcube.errors import InputError
+from arcube.io.slicer import read_markups
+from arcube.io.trajectories import TrajectorySet, read_reference, apply_transform, read_csv, read_transform
+
+__all__ = ["load_trajectories"]
+
+
+def load_trajectories(spec: str | os.PathLike[str],
+                      transform: str | os.PathLike[str] | None = None) -> TrajectorySet:
+    """Load a trajectory set.
+
+    Args:
+        spec: a CSV path, a Slicer ``.mrk.json`` / ``.json`` file, a folder of ``.mrk.json``
+            files, or the word ``"reference"`` (the bundled mean-patient CSV).
+        transform: optional JSON rigid transform from the file's frame to the patient frame,
+            applied after the Slicer coordinate-system conversion.
+
+    Returns:
+        The set, points in mm in the patient frame.
+    """
+    if os.fspath(spec) == "reference":  # the word always means the bundled file; use ./reference for a path
+        ts = read_reference()
+    else:
+        p = Path(spec)
+        if p.is_dir() or p.name.lower().endswith(".json"):
+            ts = read_markups(p)
+        elif not p.exists():
+            raise InputError(f"{p}: no such file")
+        else:
+            ts = read_csv(p)
+    if transform is not None:
+        ts = apply_transform(ts, read_transform(transform))
+    return ts

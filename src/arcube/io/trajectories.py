@@ -1,0 +1,340 @@
+"""Drilling-trajectory sets: CSV input/output, subsets and the optional rigid transform.
+
+A trajectory is an entry point and a target point in the patient frame (x = patient's right,
+y = superior, z = posterior; mm). A :class:`TrajectorySet` holds T of them in file order.
+
+CSV layout (one trajectory per row, header required, extra columns ignored)::
+
+    trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z
+
+``level`` and ``side`` may be missing or empty (unknown). Row numbers in error messages are
+line numbers in the file, the header being row 1.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from arcube.errors import InputError
+from arcube.io.files import atomic_write_text
+
+__all__ = [
+    "CSV_COLUMNS",
+    "LEVEL_ORDER",
+    "TrajectorySet",
+    "apply_transform",
+    "atomic_write",
+    "read_csv",
+    "read_transform",
+    "select",
+    "validate_points",
+    "write_csv",
+]
+
+CSV_COLUMNS = (
+    "trajectory", "level", "side",
+    "entry_x", "entry_y", "entry_z", "target_x", "target_y", "target_z",
+)
+_COORD_COLUMNS = CSV_COLUMNS[3:]
+# level and side may be absent: a plan exported from elsewhere often has neither.
+_REQUIRED_COLUMNS = ("trajectory",) + _COORD_COLUMNS
+LEVEL_ORDER = ("C1", "C2", "C3", "C4", "C5", "C6", "C7")
+_SIDES = ("R", "L", "")
+# Below this an entry and a target are the same point: no drill axis can be defined.
+_MIN_LENGTH_MM = 1e-9
+_RIGID_TOL = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class TrajectorySet:
+    """T drilling trajectories in the patient frame.
+
+    Attributes:
+        ids: trajectory identifiers, kept as strings, in file order.
+        levels: vertebral level per trajectory (e.g. ``"C3"``), ``""`` when unknown.
+        sides: ``"R"``, ``"L"`` or ``""`` when unknown.
+        entry: (T, 3) float array, mm, patient frame; read-only.
+        target: (T, 3) float array, mm, patient frame; read-only.
+        source: the path the set came from, ``"reference"``, or a generator tag.
+    """
+
+    ids: tuple[str, ...]
+    levels: tuple[str, ...]
+    sides: tuple[str, ...]
+    entry: np.ndarray
+    target: np.ndarray
+    source: str
+
+    def __post_init__(self) -> None:
+        # Copy and freeze the arrays so a frozen set cannot be mutated through them.
+        entry = np.array(self.entry, dtype=float).reshape(-1, 3)
+        target = np.array(self.target, dtype=float).reshape(-1, 3)
+        entry.setflags(write=False)
+        target.setflags(write=False)
+        object.__setattr__(self, "entry", entry)
+        object.__setattr__(self, "target", target)
+        for name in ("ids", "levels", "sides"):
+            object.__setattr__(self, name, tuple(str(v) for v in getattr(self, name)))
+        n = len(self.ids)
+        if not (len(self.levels) == len(self.sides) == entry.shape[0] == target.shape[0] == n):
+            raise ValueError(
+                f"TrajectorySet: inconsistent sizes (ids {n}, levels {len(self.levels)}, "
+                f"sides {len(self.sides)}, entry {entry.shape[0]}, target {target.shape[0]})"
+            )
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def __eq__(self, other: object) -> bool:
+        """Exact equality of every field (arrays compared element-wise)."""
+        if not isinstance(other, TrajectorySet):
+            return NotImplemented
+        return (
+            self.ids == other.ids and self.levels == other.levels and self.sides == other.sides
+            and self.source == other.source
+            and np.array_equal(self.entry, other.entry) and np.array_equal(self.target, other.target)
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # equality is by value over arrays
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """(T,) drilling lengths |target − entry|, mm."""
+        return np.linalg.norm(self.target - self.entry, axis=1)
+
+
+def atomic_write(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` atomically (temporary file in the same folder + os.replace).
+
+    Raises InputError naming the path when the file system refuses.
+    """
+    try:
+        atomic_write_text(path, text)
+    except OSError as exc:
+        raise InputError(f"{os.fspath(path)}: cannot write ({exc.strerror or exc})") from exc
+
+
+def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray,
+                    target: np.ndarray) -> None:
+    """Check what every reader must guarantee; raise InputError at the first problem.
+
+    Args:
+        labels: per trajectory, where it came from (``"plan.csv row 4"``), for messages.
+        ids: trajectory ids; must be non-empty and unique.
+        entry, target: (T, 3) arrays, mm; must be finite and distinct per row.
+    """
+    seen: dict[str, str] = {}
+    for i, tid in enumerate(ids):
+        if tid == "":
+            raise InputError(f"{labels[i]}: empty trajectory id")
+        if tid in seen:
+            raise InputError(f"{labels[i]}: duplicate trajectory id '{tid}' (also at {seen[tid]})")
+        seen[tid] = labels[i]
+        if not (np.all(np.isfinite(entry[i])) and np.all(np.isfinite(target[i]))):
+            raise InputError(f"{labels[i]}: coordinates are not finite numbers")
+        if float(np.linalg.norm(target[i] - entry[i])) < _MIN_LENGTH_MM:
+            raise InputError(f"{labels[i]}: zero-length trajectory (entry == target)")
+
+
+def _parse_number(text: str, where: str, column: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{where}: {column} is not a number ({text!r})") from None
+    if not math.isfinite(value):
+        raise InputError(f"{where}: {column} is not finite ({text!r})")
+    return value
+
+
+def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
+    """Parse CSV ``text``; ``name`` labels error messages, ``source`` goes into the set."""
+    if text.startswith("\ufeff"):  # spreadsheet programs often prepend a BOM
+        text = text[1:]
+    if not text.strip():
+        raise InputError(f"{name}: empty file")
+    reader = csv.reader(io.StringIO(text, newline=""))
+    header = [h.strip().lower() for h in next(reader)]
+    missing = [c for c in _REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise InputError(f"{name}: missing column(s) {', '.join(missing)}")
+    col = {c: header.index(c) for c in CSV_COLUMNS if c in header}
+    ids: list[str] = []
+    levels: list[str] = []
+    sides: list[str] = []
+    labels: list[str] = []
+    points: list[list[float]] = []
+    for row in reader:
+        if not any(cell.strip() for cell in row):
+            continue  # blank lines carry no trajectory
+        where = f"{name} row {reader.line_num}"
+        if len(row) <= max(col.values()):
+            raise InputError(f"{where}: {len(row)} fields, the header has {len(header)}")
+        points.append([_parse_number(row[col[c]].strip(), where, c) for c in _COORD_COLUMNS])
+        ids.append(row[col["trajectory"]].strip())
+        levels.append(row[col["level"]].strip().upper() if "level" in col else "")
+        side = row[col["side"]].strip().upper() if "side" in col else ""
+        if side not in _SIDES:
+            raise InputError(f"{where}: side must be R, L or empty ({side!r})")
+        sides.append(side)
+        labels.append(where)
+    if not ids:
+        raise InputError(f"{name}: no trajectories (header only)")
+    pts = np.array(points, dtype=float)
+    validate_points(labels, ids, pts[:, :3], pts[:, 3:])
+    return TrajectorySet(tuple(ids), tuple(levels), tuple(sides), pts[:, :3], pts[:, 3:], source)
+
+
+def read_csv(path: str | os.PathLike[str]) -> TrajectorySet:
+    """Read a trajectory CSV (see module docstring). Raises InputError on any problem."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p}: cannot read ({exc})") from exc
+    return _parse_csv_text(text, str(p), str(p))
+
+
+def read_reference() -> TrajectorySet:
+    text = resources.files("arcube").joinpath("data", "reference_patient.csv").read_text("utf-8")
+    return _parse_csv_text(text, "reference_patient.csv (bundled)", "reference")
+
+
+def read_transform(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read a rigid 4×4 homogeneous transform (file frame → patient frame, mm) from JSON.
+
+    Accepted: ``{"matrix": [[4 numbers] × 4]}`` or the bare 4×4 list. The rotation must be
+    orthonormal with determinant +1 and the last row 0 0 0 1, each within 1e-6.
+
+    Returns:
+        (4, 4) float array.
+    """
+    p = Path(path)
+
+    def bad(reason: str) -> InputError:
+        return InputError(f"{p}: unreadable transform ({reason})")
+
+    try:
+        data: Any = json.loads(p.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise bad(exc.strerror or str(exc)) from exc
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise bad(f"not valid JSON: {exc}") from exc
+    if isinstance(data, dict):
+        if "matrix" not in data:
+            raise bad("expected a 4x4 list or an object with a 'matrix' key")
+        data = data["matrix"]
+    if not (isinstance(data, list) and len(data) == 4
+            and all(isinstance(r, list) and len(r) == 4 for r in data)
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for r in data for v in r)):
+        raise bad("expected 4 rows of 4 numbers")
+    m = np.array(data, dtype=float)
+    if not np.all(np.isfinite(m)):
+        raise bad("non-finite entries")
+    if np.max(np.abs(m[3] - [0.0, 0.0, 0.0, 1.0])) > _RIGID_TOL:
+        raise bad("last row is not 0 0 0 1")
+    rot = m[:3, :3]
+    if np.max(np.abs(rot @ rot.T - np.eye(3))) > _RIGID_TOL:
+        raise bad("rotation part is not orthonormal: not a rigid transform")
+    if abs(np.linalg.det(rot) - 1.0) > _RIGID_TOL:
+        raise bad("rotation determinant is not +1: a reflection, not a rigid transform")
+    return m
+
+
+def apply_transform(ts: TrajectorySet, matrix: np.ndarray) -> TrajectorySet:
+    """Map entry and target points by the (4, 4) homogeneous ``matrix``: p' = R p + t."""
+    rot, t = matrix[:3, :3], matrix[:3, 3]
+    return TrajectorySet(ts.ids, ts.levels, ts.sides, ts.entry @ rot.T + t,
+                         ts.target @ rot.T + t, ts.source)
+
+
+def _expand_levels(spec: str) -> set[str]:
+    """``"C3-C5,C7"`` → {"C3", "C4", "C5", "C7"}; ranges follow C1..C7 order."""
+    wanted: set[str] = set()
+    for token in (t.strip().upper() for t in spec.split(",")):
+        if not token:
+            raise InputError(f"levels {spec!r}: empty item")
+        m = re.fullmatch(r"(\w+)\s*-\s*(\w+)", token)
+        if m is None:
+            wanted.add(token)
+            continue
+        lo, hi = m.groups()
+        if lo not in LEVEL_ORDER or hi not in LEVEL_ORDER:
+            raise InputError(f"levels {spec!r}: range {token!r} must use levels C1..C7")
+        i, j = LEVEL_ORDER.index(lo), LEVEL_ORDER.index(hi)
+        if i > j:
+            raise InputError(f"levels {spec!r}: range {token!r} runs backwards")
+        wanted.update(LEVEL_ORDER[i:j + 1])
+    return wanted
+
+
+def select(ts: TrajectorySet, side: str | None = None, levels: str | None = None,
+           ids: str | None = None) -> TrajectorySet:
+    """Subset of ``ts`` matching every given filter (AND), in the set's own order.
+
+    Args:
+        side: ``"R"`` or ``"L"`` (case-insensitive).
+        levels: ``"C3-C5"``, ``"C3,C5"`` or mixtures such as ``"C3,C5-C7"``.
+        ids: comma-separated ids, e.g. ``"1,3,5"``; an id absent from the set is an error.
+
+    Raises:
+        InputError: bad filter syntax, unknown id, or nothing left.
+    """
+    keep = np.ones(len(ts), dtype=bool)
+    if side is not None:
+        s = side.strip().upper()
+        if s not in ("R", "L"):
+            raise InputError(f"side {side!r}: expected R or L")
+        keep &= np.array([v == s for v in ts.sides], dtype=bool)
+    if levels is not None:
+        wanted = _expand_levels(levels)
+        keep &= np.array([v in wanted for v in ts.levels], dtype=bool)
+    if ids is not None:
+        wanted_ids = [t.strip() for t in ids.split(",")]
+        if any(t == "" for t in wanted_ids):
+            raise InputError(f"ids {ids!r}: empty item")
+        unknown = [t for t in wanted_ids if t not in ts.ids]
+        if unknown:
+            raise InputError(f"ids {ids!r}: unknown trajectory id(s) {', '.join(unknown)} in {ts.source}")
+        keep &= np.array([v in wanted_ids for v in ts.ids], dtype=bool)
+    if not keep.any():
+        given = ", ".join(f"{k}={v}" for k, v in (("side", side), ("levels", levels), ("ids", ids))
+                          if v is not None)
+        raise InputError(f"no trajectory of {ts.source} matches {given}")
+    idx = np.flatnonzero(keep)
+    return TrajectorySet(tuple(ts.ids[i] for i in idx), tuple(ts.levels[i] for i in idx),
+                         tuple(ts.sides[i] for i in idx), ts.entry[idx], ts.target[idx], ts.source)
+
+
+def _fmt(value: float, decimals: int | None) -> str:
+    value = float(value) + 0.0  # turns -0.0 into 0.0
+    if decimals is None:
+        return repr(value)  # shortest text that reads back to the same float
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def write_csv(ts: TrajectorySet, path: str | os.PathLike[str], decimals: int | None = None) -> None:
+    """Write ``ts`` as CSV (columns of :data:`CSV_COLUMNS`), atomically.
+
+    Args:
+        decimals: fixed decimals for coordinates (mm); None writes the shortest text that
+            reads back to the identical float, so a round trip is exact.
+    """
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    for i in range(len(ts)):
+        coords = [_fmt(v, decimals) for v in (*ts.entry[i], *ts.target[i])]
+        writer.writerow([ts.ids[i], ts.levels[i], ts.sides[i], *coords])
+    atomic_write(path, buf.getvalue())

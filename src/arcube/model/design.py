@@ -1,0 +1,245 @@
+"""The 27 design parameters of the AR-CUBE: the paper's 23 (MODEL.md 2), then the mounting
+rotation and the tool offset (MODEL.md 13.3): ``mount_rx, mount_ry, mount_rz`` (deg) and ``L`` (mm).
+
+Two layers, as in spatialmath:
+
+* the plain-array layer: a design is a float array of shape ``(..., 27)`` in the order of
+  :data:`PARAM_NAMES`, lengths in mm and angles in degrees (the units of files and users); a
+  ``(..., 23)`` array is the paper's design, the four additions at 0;
+  :func:`unpack` turns it into :class:`Geometry`, named arrays with angles in radians, which is
+  what the stage modules consume;
+* :class:`Design`, a small validated container for one design with JSON I/O.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from arcube.errors import InputError
+from arcube.io.files import atomic_write_text
+
+PARAM_NAMES: tuple[str, ...] = (
+    "m_x", "m_y", "m_z",
+    "f_x", "f_y", "f_z",
+    "p_x", "p_y", "p_z",
+    "d_x", "d_y", "d_z",
+    "c_x", "c_y",
+    "t_x", "t_y",
+    "r",
+    "o_x", "o_y",
+    "alpha_x", "alpha_y",
+    "beta_x", "beta_y",
+    "mount_rx", "mount_ry", "mount_rz",
+    "L",
+)  # fmt: skip
+"""Code order of the 27 parameters (MODEL.md 2 and 13.3)."""
+
+N_PARAMS = len(PARAM_NAMES)
+N_PAPER = 23
+PAPER_NAMES: tuple[str, ...] = PARAM_NAMES[:N_PAPER]
+"""The paper's 23 parameters (MODEL.md 2); ``--free all`` frees these."""
+MOUNT_NAMES: tuple[str, ...] = ("mount_rx", "mount_ry", "mount_rz")
+ADDED_NAMES: tuple[str, ...] = (*MOUNT_NAMES, "L")
+"""The four additions of MODEL.md 13; 0 when a design file omits them (the paper)."""
+INDEX: dict[str, int] = {name: i for i, name in enumerate(PARAM_NAMES)}
+
+ANGLE_NAMES: frozenset[str] = frozenset({"o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y", *MOUNT_NAMES})
+POSITION_NAMES: frozenset[str] = frozenset({"m_x", "m_y", "m_z"})
+LENGTH_NAMES: frozenset[str] = frozenset(PARAM_NAMES) - ANGLE_NAMES - POSITION_NAMES - {"L"}
+"""Link lengths: must be strictly positive (L, the tool offset, may be 0)."""
+
+UNITS: dict[str, str] = {n: ("deg" if n in ANGLE_NAMES else "mm") for n in PARAM_NAMES}
+
+PAPER_TABLE2: dict[str, float] = {
+    "m_x": 31.8694, "m_y": 11.9589, "m_z": 192.0769,
+    "f_x": 123.1147, "f_y": 116.9719, "f_z": 56.7787,
+    "p_x": 134.099, "p_y": 149.9886, "p_z": 99.8766,
+    "d_x": 79.2596, "d_y": 99.9402, "d_z": 53.5671,
+    "c_x": 139.8911, "c_y": 106.8319,
+    "t_x": 70.9301, "t_y": 65.3946,
+    "r": 70.4466,
+    "o_x": -19.2229, "o_y": 43.2917,
+    "alpha_x": 52.6402, "alpha_y": 66.446,
+    "beta_x": 50.0038, "beta_y": 62.1208,
+    "mount_rx": 0.0, "mount_ry": 0.0, "mount_rz": 0.0, "L": 0.0,
+}  # fmt: skip
+"""The paper's Table 2 (the optimum it reports)."""
+
+PRESETS: dict[str, dict[str, float]] = {"paper": PAPER_TABLE2}
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Named view of design arrays, angles in radians. Every field broadcasts over ``...``.
+
+    Per-leg fields are stacked on the last axis in leg order x, y, z (or x, y for the two
+    legs that have a four-bar and a spherical link).
+    """
+
+    m: NDArray[np.float64]  # (..., 3) mm, origin of R_m in R_w
+    f: NDArray[np.float64]  # (..., 3) mm, frame links
+    p: NDArray[np.float64]  # (..., 3) mm, cranks
+    d: NDArray[np.float64]  # (..., 3) mm, TMS input links (x, y) and z-dyad first link
+    c: NDArray[np.float64]  # (..., 2) mm, TMS couplers
+    t: NDArray[np.float64]  # (..., 2) mm, TMS output links
+    r: NDArray[np.float64]  # (...,)  mm, RTS radius
+    o: NDArray[np.float64]  # (..., 2) rad, transmitting offsets
+    alpha: NDArray[np.float64]  # (..., 2) rad, proximal spherical links
+    beta: NDArray[np.float64]  # (..., 2) rad, distal spherical links
+    mount: NDArray[np.float64]  # (..., 3) rad, mounting rotation angles (rx, ry, rz), MODEL.md 13.1
+    L: NDArray[np.float64]  # (...,) mm, tool offset from the drill tip E to the centre C, MODEL.md 13.2
+
+
+def full_params(params: ArrayLike) -> NDArray[np.float64]:
+    """Design arrays ``(..., 23)`` or ``(..., 27)`` as ``(..., 27)`` (the four additions 0 when absent)."""
+    x = np.asarray(params, dtype=float)
+    if x.shape[-1:] == (N_PAPER,):
+        return np.concatenate([x, np.zeros(x.shape[:-1] + (N_PARAMS - N_PAPER,))], axis=-1)
+    if x.shape[-1:] != (N_PARAMS,):
+        raise ValueError(f"design array must have last axis {N_PARAMS} (or {N_PAPER}), got shape {x.shape}")
+    return x
+
+
+def unpack(params: ArrayLike) -> Geometry:
+    """Split a design array ``(..., 27)`` or ``(..., 23)`` (mm, deg) into a :class:`Geometry` (mm, rad)."""
+    x = full_params(params)
+    return Geometry(
+        m=x[..., 0:3],
+        f=x[..., 3:6],
+        p=x[..., 6:9],
+        d=x[..., 9:12],
+        c=x[..., 12:14],
+        t=x[..., 14:16],
+        r=x[..., 16],
+        o=np.deg2rad(x[..., 17:19]),
+        alpha=np.deg2rad(x[..., 19:21]),
+        beta=np.deg2rad(x[..., 21:23]),
+        mount=np.deg2rad(x[..., 23:26]),
+        L=x[..., 26],
+    )
+
+
+def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[str, float]:
+    """Check a name -> value mapping: the 23 names of MODEL.md 2 (the four of 13.3 are optional,
+    0 when absent), finite numbers, positive lengths, L >= 0.
+
+    Returns the values as floats in :data:`PARAM_NAMES` order. Raises :class:`InputError` with
+    a one-line message naming ``source`` and the first problem found.
+    """
+    unknown = [k for k in values if k not in INDEX]
+    if unknown:
+        raise InputError(f"{source}: unknown parameter {unknown[0]!r} (expected the 27 names of MODEL.md 2 and 13.3: {', '.join(PARAM_NAMES)})")
+    values = {**{n: 0.0 for n in ADDED_NAMES}, **values}
+    missing = [n for n in PARAM_NAMES if n not in values]
+    if missing:
+        raise InputError(f"{source}: missing parameter(s) {', '.join(missing)}")
+    out: dict[str, float] = {}
+    for name in PARAM_NAMES:
+        raw = values[name]
+        if isinstance(raw, bool) or not isinstance(raw, (int, float)):
+            raise InputError(f"{source}: parameter {name} is not a number ({raw!r})")
+        val = float(raw)
+        if not math.isfinite(val):
+            raise InputError(f"{source}: parameter {name} is not finite ({raw!r})")
+        if name in LENGTH_NAMES and val <= 0.0:
+            raise InputError(f"{source}: length {name} must be positive, got {val:g} mm")
+        if name.startswith(("alpha_", "beta_")) and not 0.0 < val < 180.0:
+            raise InputError(f"{source}: spherical link angle {name} must lie in (0, 180) deg, got {val:g}")
+        if name == "L" and val < 0.0:
+            raise InputError(f"{source}: tool offset L must be >= 0 mm, got {val:g}")
+        out[name] = val
+    return out
+
+
+@dataclass(frozen=True)
+class Design:
+    """One validated design: 27 values in mm and degrees, in :data:`PARAM_NAMES` order."""
+
+    values: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.values) == N_PAPER:
+            object.__setattr__(self, "values", tuple(self.values) + (0.0,) * (N_PARAMS - N_PAPER))
+        if len(self.values) != N_PARAMS:
+            raise InputError(f"design: expected {N_PARAMS} values (or the paper's {N_PAPER}), got {len(self.values)}")
+        validate_values(dict(zip(PARAM_NAMES, self.values)))
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any], source: str = "design") -> Design:
+        """Build from a flat name -> value mapping (validated)."""
+        checked = validate_values(values, source)
+        return cls(tuple(checked[n] for n in PARAM_NAMES))
+
+    @classmethod
+    def from_vector(cls, vector: ArrayLike) -> Design:
+        """Build from a length-27 (or the paper's 23) vector in :data:`PARAM_NAMES` order (mm, deg)."""
+        v = np.asarray(vector, dtype=float).reshape(-1)
+        return cls(tuple(float(a) for a in v))
+
+    @classmethod
+    def preset(cls, name: str) -> Design:
+        """A named preset; ``paper`` is Table 2."""
+        if name not in PRESETS:
+            raise InputError(f"unknown design preset {name!r} (known: {', '.join(PRESETS)})")
+        return cls.from_dict(PRESETS[name], source=f"preset {name}")
+
+    @classmethod
+    def from_json(cls, path: str | os.PathLike[str]) -> Design:
+        """Read a flat JSON object keyed by the parameter names."""
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise InputError(f"{p}: cannot read design file ({exc.strerror or exc})") from None
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{p}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+        if not isinstance(data, dict):
+            raise InputError(f"{p}: a design file must hold one JSON object keyed by parameter names")
+        return cls.from_dict(data, source=str(p))
+
+    @classmethod
+    def paper(cls) -> Design:
+        """The paper's optimum (Table 2)."""
+        return cls.preset("paper")
+
+    @classmethod
+    def load(cls, spec: str | os.PathLike[str]) -> Design:
+        """A preset name (``paper``) or a path to a design JSON file."""
+        if isinstance(spec, str) and spec in PRESETS:
+            return cls.preset(spec)
+        return cls.from_json(spec)
+
+    def to_dict(self) -> dict[str, float]:
+        """Flat name -> value mapping (mm, deg), in code order."""
+        return dict(zip(PARAM_NAMES, self.values))
+
+    def to_vector(self) -> NDArray[np.float64]:
+        """The 27 values as a float array (mm, deg), for optimizers and batch evaluation."""
+        return np.array(self.values, dtype=float)
+
+    def to_json(self, path: str | os.PathLike[str]) -> None:
+        """Write the flat JSON object atomically (temporary file, then rename)."""
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
+
+    def replace(self, **changes: float) -> Design:
+        """A copy with some parameters changed."""
+        d = self.to_dict()
+        for k, v in changes.items():
+            if k not in INDEX:
+                raise InputError(f"design: unknown parameter {k!r}")
+            d[k] = v
+        return Design.from_dict(d)
+
+    def __getitem__(self, name: str) -> float:
+        return self.values[INDEX[name]]

@@ -1,0 +1,490 @@
+"""The optimization problem (MODEL.md 12): variables, bounds, fixing, objectives, constraint.
+
+Three layers, all picklable and free of pymoo except the last:
+
+* :class:`VariableSpace` maps an optimizer vector ``x`` ``(n_var,)`` to designs and working modes.
+  Its variables are, in order: the free design parameters (in :data:`arcube.model.design.PARAM_NAMES`
+  order), then for ``setups=2`` the left-side placement of every free ``m_*`` (``m_x_L`` ...),
+  then for a free working mode four sign genes ``mode_T_x, mode_T_y, mode_R_x, mode_R_y`` in
+  [-1, 1] (sign >= 0 means +1). Fixed parameters keep the start design's values.
+* :class:`FitnessModel` evaluates a whole population: one batch call of
+  :func:`arcube.evaluation.engine.evaluate_task` with params ``(pop, 27)`` per task (a task is one setup of
+  one patient). It returns F, the violation VIOL (0 exactly when every point of every task is
+  reachable and the orientation margin holds) and the aggregate eta ETA (+inf when infeasible).
+* :class:`ArcubeProblem` is the pymoo Problem; it delegates the batch to a callable so that
+  run.py can log, replay and distribute evaluations.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from pymoo.core.problem import Problem
+
+from arcube.evaluation import engine as core_engine
+from arcube.model import frames
+from arcube.model.body import BodyRadii
+from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PAPER_NAMES, PARAM_NAMES, full_params, unpack
+from arcube.errors import InputError
+from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body
+from arcube.model.mechanism import format_mode, parse_mode
+from arcube.model.poses import LEG_PERM
+from arcube.model.stages import tls
+from arcube.evaluation.task import build_task
+
+Array = NDArray[np.float64]
+
+_B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (-400.0, 400.0), (20.0, 250.0), (30.0, 200.0), (50.0, 80.0), (-270.0, 270.0), (30.0, 90.0)
+DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
+    "m_x": _B_M, "m_y": _B_M, "m_z": _B_M,
+    "f_x": _B_F, "f_y": _B_F, "f_z": _B_F,
+    "p_x": _B_L, "p_y": _B_L, "p_z": _B_L,
+    "d_x": _B_L, "d_y": _B_L, "d_z": _B_L,
+    "c_x": _B_L, "c_y": _B_L, "t_x": _B_L, "t_y": _B_L,
+    "r": _B_R,
+    "o_x": _B_O, "o_y": _B_O,
+    "alpha_x": _B_A, "alpha_y": _B_A, "beta_x": _B_A, "beta_y": _B_A,
+    "mount_rx": (-180.0, 180.0), "mount_ry": (-180.0, 180.0), "mount_rz": (-180.0, 180.0), "L": (0.0, 200.0),
+}  # fmt: skip
+"""MODEL.md 12.1 and 13.3 default bounds (mm, deg)."""
+FREE_GROUPS: dict[str, tuple[str, ...]] = {"all": PAPER_NAMES, "mount": MOUNT_NAMES}
+"""Group words of ``--free``: ``all`` (the paper's 23) and ``mount`` (the three mounting angles)."""
+
+PLACEMENT_NAMES = ("m_x", "m_y", "m_z")
+LINK_NAMES: tuple[str, ...] = PARAM_NAMES[3:17]
+"""The 14 link lengths f_u, p_u, d_u, c_x, c_y, t_x, t_y and r, summed by the ``links`` compactness."""
+MODE_GENES = ("mode_T_x", "mode_T_y", "mode_R_x", "mode_R_y")
+PENALTY = 1e6
+"""F of an infeasible design: PENALTY * (1 + VIOL). Only CMA-ES (no constraint handling) sees it
+as a ranking; GA, DE and NSGA-II compare infeasible designs by the constraint (feasibility first)."""
+COMPACTNESS = ("links", "bbox")
+MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2"})
+AGGREGATES = ("mean", "worst")
+
+
+def parse_free(spec: str) -> tuple[str, ...]:
+    """Comma-separated parameter names and group words (``all``: the paper's 23, ``mount``: the three
+    mounting angles), e.g. ``all,mount,L`` -> names in PARAM_NAMES order (InputError if bad)."""
+    items = [s.strip() for s in spec.strip().split(",")]
+    if not items or any(not n for n in items):
+        raise InputError(f"--free {spec!r}: expected comma-separated parameter names or the groups 'all' and 'mount'")
+    names: set[str] = set()
+    for item in items:
+        if item.lower() in FREE_GROUPS:
+            names.update(FREE_GROUPS[item.lower()])
+        elif item in INDEX:
+            names.add(item)
+        else:
+            raise InputError(f"--free: unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)})")
+    return tuple(n for n in PARAM_NAMES if n in names)
+
+
+def parse_bounds(spec: str | None) -> dict[str, tuple[float, float]]:
+    """``'p_x=30:250,r=50:90'`` -> overrides {name: (lo, hi)} (InputError if bad)."""
+    out: dict[str, tuple[float, float]] = {}
+    if not spec:
+        return out
+    for item in spec.split(","):
+        name, sep, rng = item.partition("=")
+        lo_s, sep2, hi_s = rng.partition(":")
+        name = name.strip()
+        if not sep or not sep2 or name not in INDEX:
+            raise InputError(f"--bounds item {item.strip()!r}: expected NAME=LO:HI with NAME one of the 27 parameters")
+        try:
+            lo, hi = float(lo_s), float(hi_s)
+        except ValueError:
+            raise InputError(f"--bounds item {item.strip()!r}: LO and HI must be numbers") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise InputError(f"--bounds item {item.strip()!r}: need finite LO < HI")
+        out[name] = (lo, hi)
+    return out
+
+
+def resolve_bounds(overrides: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
+    """DEFAULT_BOUNDS updated with ``overrides``."""
+    b = dict(DEFAULT_BOUNDS)
+    b.update(overrides or {})
+    return b
+
+
+@dataclass(frozen=True, eq=False)
+class TaskData:
+    """The points of one setup of one patient (R_w, mm)."""
+
+    patient: int
+    setup: int  # 0: the only setup (or the R side when setups=2); 1: the L side
+    label: str
+    E: Array  # (P, 3)
+    e: Array  # (P, 3)
+
+    @property
+    def n_points(self) -> int:
+        return int(self.E.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class VariableSpace:
+    """Optimizer vector <-> designs (one per setup) and working modes; see the module docstring."""
+
+    base: Array  # (27,) start design: the values of the fixed parameters
+    free: tuple[str, ...]
+    bounds: dict[str, tuple[float, float]] = field(default_factory=lambda: dict(DEFAULT_BOUNDS))
+    setups: int = 1
+    mode: Array | None = None  # (4,) fixed working mode; None lets the optimizer choose
+
+    def __post_init__(self) -> None:
+        if self.setups not in (1, 2):
+            raise InputError(f"--setups must be 1 or 2, got {self.setups}")
+        for n in self.free:
+            lo, hi = self.bounds[n]
+            if not lo < hi:
+                raise InputError(f"bounds of {n}: need LO < HI, got {lo:g}:{hi:g}")
+
+    @property
+    def free_m(self) -> tuple[str, ...]:
+        return tuple(n for n in PLACEMENT_NAMES if n in self.free) if self.setups == 2 else ()
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (*self.free, *(f"{n}_L" for n in self.free_m), *(MODE_GENES if self.mode is None else ()))
+
+    @property
+    def n_var(self) -> int:
+        return len(self.names)
+
+    @property
+    def xl(self) -> Array:
+        return np.array([self._bound(n)[0] for n in self.names])
+
+    @property
+    def xu(self) -> Array:
+        return np.array([self._bound(n)[1] for n in self.names])
+
+    def _bound(self, name: str) -> tuple[float, float]:
+        if name in MODE_GENES:
+            return (-1.0, 1.0)
+        return self.bounds[name.removesuffix("_L")]
+
+    def decode(self, X: Array) -> tuple[list[Array], Array]:
+        """``X`` ``(n, n_var)`` -> ([params ``(n, 27)`` per setup], modes ``(n, 4)``)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        n, k = X.shape[0], len(self.free)
+        params = np.tile(self.base, (n, 1))
+        params[:, [INDEX[nm] for nm in self.free]] = X[:, :k]
+        out = [params]
+        if self.setups == 2:
+            left = params.copy()
+            for j, nm in enumerate(self.free_m):
+                left[:, INDEX[nm]] = X[:, k + j]
+            out.append(left)
+        if self.mode is None:
+            modes = np.where(X[:, -4:] >= 0.0, 1.0, -1.0)
+        else:
+            modes = np.broadcast_to(np.asarray(self.mode, dtype=float), (n, 4)).copy()
+        return out, modes
+
+    def encode(self, design: Array, left_m: Array | None = None, mode: Array | None = None) -> Array:
+        """The optimizer vector of a design (27,), clipped into the bounds."""
+        d = np.asarray(design, dtype=float)
+        vals = [d[INDEX[n]] for n in self.free]
+        lm = d[:3] if left_m is None else np.asarray(left_m, dtype=float)
+        vals += [lm[INDEX[n]] for n in self.free_m]
+        if self.mode is None:
+            vals += list(0.5 * (np.ones(4) if mode is None else np.asarray(mode, dtype=float)))
+        return np.clip(np.array(vals, dtype=float), self.xl, self.xu)
+
+
+def mechanism_points(params: Array, E: Array, e: Array) -> Array:
+    """Joint positions in R_w ``(n, P, 11, 3)``: P_x, P_y, P_z, D_x, D_y, D_z, Q_x, Q_y, Q_z, C, C + r e.
+
+    In R_m: P_u = -f_u u (fixed pivots); D_u = (-f_u + p_u a_u) u + p_u sqrt(1 - a_u^2) w with
+    a_u = (u + f_u + r)/p_u the Eq 1 argument (clipped to [-1, 1] where a leg cannot reach);
+    Q_u = C + r u; the centre C = E + L e of the spherical stage and the drill holder C + r e
+    (MODEL.md 3.1, 5.1, 13); then mapped to R_w by the mounting rotation and m.
+    """
+    params = full_params(np.atleast_2d(params))
+    n, P = params.shape[0], E.shape[0]
+    f, p, r = params[:, 3:6], params[:, 6:9], params[:, 16]
+    g = unpack(params[:, None, :])
+    E_m, e_m = frames.to_mechanism(g, E[None, :, :], e[None, :, :])  # (n, P, 3) each
+    arg = np.clip(tls.ik_argument(E_m, f[:, None, :], p[:, None, :], r[:, None]), -1.0, 1.0)
+    pts = np.zeros((n, P, 11, 3))
+    for leg, (u, _, w) in enumerate(LEG_PERM):  # world axes u, w of each leg (MODEL.md 1.2)
+        pts[:, :, leg, u] = -f[:, None, leg]
+        pts[:, :, 3 + leg, u] = -f[:, None, leg] + p[:, None, leg] * arg[..., leg]
+        pts[:, :, 3 + leg, w] = p[:, None, leg] * np.sqrt(1.0 - arg[..., leg] ** 2)
+        pts[:, :, 6 + leg, :] = E_m
+        pts[:, :, 6 + leg, u] += r[:, None]
+    pts[:, :, 9, :] = E_m
+    pts[:, :, 10, :] = E_m + r[:, None, None] * e_m
+    return frames.points_to_world(g, pts)
+
+
+def bounding_box(params: Array, E: Array, e: Array) -> tuple[Array, Array]:
+    """Axis-aligned box in R_w ``(lo, hi)`` each ``(n, 3)`` mm of :func:`mechanism_points` over the task."""
+    pts = mechanism_points(params, E, e)
+    return pts.min(axis=(1, 2)), pts.max(axis=(1, 2))
+
+
+@dataclass(frozen=True, eq=False)
+class FitnessModel:
+    """Everything a worker needs to evaluate a population; see the module docstring."""
+
+    space: VariableSpace
+    tasks: tuple[TaskData, ...]
+    n_patients: int = 1
+    options: Options = Options()
+    engine: str = "numpy"
+    aggregate: str = "mean"
+    margin_deg: float | None = None
+    compactness: str | None = None  # None: one objective (eta); 'links' or 'bbox': NSGA-II's second
+    anatomies: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.sdf.AnatomyDistance, or None
+
+    def __post_init__(self) -> None:
+        if self.aggregate not in AGGREGATES:
+            raise InputError(f"--aggregate must be one of {', '.join(AGGREGATES)}, got {self.aggregate!r}")
+        if self.compactness is not None and self.compactness not in COMPACTNESS:
+            raise InputError(f"--compactness must be one of {', '.join(COMPACTNESS)}, got {self.compactness!r}")
+        e_all = np.concatenate([t.e for t in self.tasks])
+        ang = np.degrees(np.arccos(np.clip(e_all[:, :2], -1.0, 1.0)))  # angle(e, +u) for legs x, y
+        object.__setattr__(self, "_ang_max", ang.max(axis=0))
+        object.__setattr__(self, "_ang_min", ang.min(axis=0))
+
+    @property
+    def n_obj(self) -> int:
+        return 1 if self.compactness is None else 2
+
+    @property
+    def n_points(self) -> int:
+        return sum(t.n_points for t in self.tasks)
+
+    def margin_shortfall(self, params: Array) -> Array:
+        """Orientation-margin shortfall (rad, 0 when met) ``(n,)`` of MODEL.md 12.2 [ADDITION]."""
+        if self.margin_deg is None:
+            return np.zeros(params.shape[0])
+        a, b = params[:, 19:21], params[:, 21:23]
+        mu = self.margin_deg
+        short = np.maximum(self._ang_max + mu - (a + b), 0.0) + np.maximum(np.abs(a - b) - (self._ang_min - mu), 0.0)  # type: ignore[attr-defined]
+        return np.radians(short.sum(axis=1))
+
+    def _run_tasks(self, params: list[Array], modes: Array, want_points: bool) -> list[Any]:
+        return [
+            core_engine.evaluate_task(params[t.setup], t.E, t.e, modes, self.options, engine=self.engine, want_points=want_points,
+                                      anatomy=self.anatomies[t.patient] if self.anatomies else None)
+            for t in self.tasks
+        ]
+
+    def _combine(self, results: list[Any], params: list[Array]) -> tuple[Array, Array]:
+        n = params[0].shape[0]
+        viol = self.margin_shortfall(params[0])
+        eta_sum = np.zeros((self.n_patients, n))
+        pts = np.zeros(self.n_patients)
+        for t, res in zip(self.tasks, results):
+            v = np.nan_to_num(np.asarray(res.violation, dtype=float), nan=1e6, posinf=1e6)
+            viol = viol + np.where(np.asarray(res.w_G), 0.0, np.maximum(v, 1e-12))
+            eta_sum[t.patient] += t.n_points * np.where(np.asarray(res.w_G), np.asarray(res.eta_G, dtype=float), 0.0)
+            pts[t.patient] += t.n_points
+        eta_p = eta_sum / pts[:, None]
+        eta = eta_p.mean(axis=0) if self.aggregate == "mean" else eta_p.max(axis=0)
+        feasible = viol == 0.0
+        return np.where(feasible, eta, np.inf), viol
+
+    def compactness_values(self, params: list[Array]) -> tuple[Array, Array]:
+        """(sum of link lengths mm, largest bounding-box volume over the tasks in litres), each ``(n,)``."""
+        links = params[0][:, [INDEX[nm] for nm in LINK_NAMES]].sum(axis=1)
+        vol = np.zeros(params[0].shape[0])
+        for t in self.tasks:
+            lo, hi = bounding_box(params[t.setup], t.E, t.e)
+            vol = np.maximum(vol, np.prod(hi - lo, axis=1) / 1e6)
+        return links, vol
+
+    def evaluate(self, X: Array) -> dict[str, Array]:
+        """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)``."""
+        params, modes = self.space.decode(X)
+        eta, viol = self._combine(self._run_tasks(params, modes, want_points=False), params)
+        f0 = np.where(viol == 0.0, eta, PENALTY * (1.0 + viol))
+        cols = [f0]
+        if self.compactness is not None:
+            links, vol = self.compactness_values(params)
+            cols.append(links if self.compactness == "links" else vol)
+        return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta}
+
+    __call__ = evaluate
+
+    def report(self, x: Array) -> dict[str, Any]:
+        """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        params, modes = self.space.decode(X)
+        described = replace(self, options=self.options.model_copy(update={"body": True}))
+        results = described._run_tasks(params, modes, want_points=True)
+        eta, viol = self._combine(results, params)
+        dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for r in results])
+        links, vol = self.compactness_values(params)
+        tasks = []
+        for t, r in zip(self.tasks, results):
+            lo, hi = bounding_box(params[t.setup], t.E, t.e)
+            tasks.append({
+                "label": t.label, "points": t.n_points, "w_G": bool(r.w_G[0]), "eta_G": _num(r.eta_G[0]),
+                "reachable_fraction": float(r.reachable_fraction[0]), "violation": float(r.violation[0]),
+                "bbox_min_mm": [float(v) for v in lo[0]], "bbox_max_mm": [float(v) for v in hi[0]],
+                "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
+                "clearance_min_mm": _num(r.clearance_min[0]), "self_clearance_min_mm": _num(r.self_clearance_min[0]),
+            })  # fmt: skip
+        return {
+            "designs": [p[0] for p in params],
+            "mode": format_mode(modes[0]),
+            "feasible": bool(viol[0] == 0.0),
+            "eta_G": _num(eta[0]),
+            "violation": float(viol[0]),
+            "margin_shortfall_rad": float(self.margin_shortfall(params[0])[0]),
+            "dexterity_pct": {"min": float(dex.min()), "mean": float(dex.mean()), "max": float(dex.max())},
+            "links_sum_mm": float(links[0]),
+            "clearance_min_mm": _min_num([tk["clearance_min_mm"] for tk in tasks]),
+            "self_clearance_min_mm": _min_num([tk["self_clearance_min_mm"] for tk in tasks]),
+            "bbox_volume_L": float(vol[0]),
+            "tasks": tasks,
+        }
+
+
+def _min_num(values: list[float | None]) -> float | None:
+    """The smallest of the values that exist, None if none does."""
+    known = [v for v in values if v is not None]
+    return min(known) if known else None
+
+
+def _num(v: Any) -> float | None:
+    """A finite float, or None (JSON null) for +inf/NaN."""
+    f = float(v)
+    return f if math.isfinite(f) else None
+
+
+# Config -> model (the same for a new run and a resume)
+ANATOMY_FILES = "anatomy.stl"
+"""The anatomy a run uses, copied into its folder (patient frame): ``anatomy.stl`` for the first
+patient, ``anatomy_<i>.stl`` for patient i > 0."""
+
+
+def anatomy_file(i: int) -> str:
+    """File name of patient i's anatomy in a run folder."""
+    return ANATOMY_FILES if i == 0 else f"anatomy_{i}.stl"
+
+
+def run_options(s: dict[str, Any]) -> Options:
+    """The evaluation options of a run's settings (guards, clearance guards, body radii)."""
+    base = GUARDED_OPTIONS if s["guards"] else Options()
+    radii = BodyRadii(*(float(s.get(k, d)) for k, d in (("link_radius", 8.0), ("actuator_radius", 25.0), ("motor_radius", 20.0), ("motor_length", 120.0))))
+    return with_body(base, clearance=s.get("clearance"), self_clearance=s.get("self_clearance"), radii=radii)
+
+
+def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
+    """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy)."""
+    if not cfg["settings"].get("anatomy"):
+        return ()
+    from pathlib import Path
+
+    from arcube.evaluation.anatomy import Anatomy
+    from arcube.io.meshes import read_meshes
+
+    if run_dir is None:
+        return ()
+    out = []
+    for i in range(len(cfg["patients"])):
+        path = Path(run_dir) / anatomy_file(i)
+        if not path.exists():
+            raise InputError(f"{run_dir}: the run's anatomy file {path.name} is missing")
+        out.append(Anatomy.from_meshes(read_meshes([path], "patient"), str(path)).distance)
+    return tuple(out)
+
+
+def build_model(cfg: dict[str, Any], run_dir: Any = None) -> FitnessModel:
+    """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
+    from the run folder (None: not loaded, for validating a config)."""
+    s = cfg["settings"]
+    mode = None if s["mode"] == "free" else parse_mode(s["mode"])
+    # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
+    bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
+    base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
+    space = VariableSpace(base=base, free=tuple(s["free"]), bounds=bounds, setups=int(s["setups"]), mode=mode)
+    tasks: list[TaskData] = []
+    for i, pat in enumerate(cfg["patients"]):
+        entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
+        groups = [("", np.ones(len(sides), bool))] if space.setups == 1 else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
+        for setup, (side, keep) in enumerate(groups):
+            task = build_task(entry[keep], target[keep], int(s["points"]))
+            tasks.append(TaskData(i, setup, f"{pat['source']}{' ' + side if side else ''}", task.E, task.e))
+    margin = s.get("margin")
+    return FitnessModel(
+        space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
+        options=run_options(s), engine=s["engine_resolved"], aggregate=s["aggregate"], anatomies=load_run_anatomies(cfg, run_dir),
+        margin_deg=None if margin is None else float(margin),
+        compactness=s["compactness"] if s["algorithm"] in MULTI_OBJECTIVE_ALGORITHMS else None,
+    )  # fmt: skip
+
+
+def check_engine(name: str) -> str:
+    """The resolved engine ('numba' or 'numpy'); InputError if unknown or unavailable."""
+    try:
+        resolved = core_engine.resolve(name)
+    except ValueError as exc:
+        raise InputError(f"--engine: {exc}") from None
+    if resolved == "numba":
+        try:
+            import arcube.evaluation.kernel  # noqa: F401, PLC0415
+        except ImportError as exc:
+            raise InputError(f"--engine numba: the compiled kernel is not available ({exc})") from None
+    return resolved
+
+
+# Worker-side entry points (kept in this light module so that spawned processes import little).
+_WORKER_MODEL: FitnessModel | None = None
+
+
+def worker_init(model: FitnessModel) -> None:
+    """Process-pool initializer: keep the model for the worker's lifetime."""
+    global _WORKER_MODEL
+    _WORKER_MODEL = model
+
+
+def worker_evaluate(X: Array) -> dict[str, Array]:
+    assert _WORKER_MODEL is not None, "worker_init was not called"
+    return _WORKER_MODEL.evaluate(X)
+
+
+def evaluate_with(model: FitnessModel, X: Array) -> dict[str, Array]:
+    """Dask task: evaluate ``X`` with a (scattered) model."""
+    return model.evaluate(X)
+
+
+class ArcubeProblem(Problem):
+    """pymoo view of a :class:`FitnessModel`; ``batch(X)`` returns the model's dict (maybe remotely).
+
+    With ``penalty_only`` (CMA-ES) the problem has no constraint: F already carries the penalty.
+    Otherwise G = VIOL (one inequality, feasible iff VIOL <= 0) and CV = max(VIOL, 0), which is
+    what pymoo's ``calc_cv`` would compute from G lazily, individual by individual. ETA and VIOL
+    ride along on the individuals for bookkeeping.
+    """
+
+    def __init__(self, space: VariableSpace, n_obj: int, batch: Callable[[Array], dict[str, Array]], penalty_only: bool = False) -> None:
+        super().__init__(n_var=space.n_var, n_obj=n_obj, n_ieq_constr=0 if penalty_only else 1, xl=space.xl, xu=space.xu)
+        self._batch = batch
+
+    def _evaluate(self, X: Array, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
+        r = self._batch(np.ascontiguousarray(X, dtype=float))
+        out["F"] = r["F"]
+        if self.n_ieq_constr:
+            out["G"] = r["VIOL"][:, None]
+            out["CV"] = np.maximum(r["VIOL"], 0.0)[:, None] + 0.0  # pymoo's calc_cv of one inequality
+        out["ETA"] = r["ETA"]
+        out["VIOL"] = r["VIOL"]
+
+
+__all__ = [
+    "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
+    "ArcubeProblem", "FitnessModel", "TaskData", "VariableSpace", "bounding_box", "mechanism_points",
+    "build_model", "check_engine", "evaluate_with", "parse_bounds", "parse_free", "resolve_bounds", "worker_evaluate", "worker_init",
+]  # fmt: skip

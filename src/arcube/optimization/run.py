@@ -1,0 +1,416 @@
+"""Optimization runs: run folder, history, executors and the run loop.
+
+Run folder::
+
+    config.toml      everything needed to rerun (settings, seed, bounds, start design, the
+                     trajectories' coordinates, versions)
+    history.csv      one row appended per generation
+    checkpoint/      state.json + evals_GGGGGG.npz (allow_pickle=False), written atomically
+    best_design.json (best_design_L.json with --setups 2), summary.json, pareto.csv (nsga2)
+
+Checkpoint and bit-identical resume: see :mod:`arcube.optimization.checkpoint` (the evaluation log,
+replayed on resume).
+"""
+
+from __future__ import annotations
+
+import csv
+import gc
+import io
+import json
+import math
+import platform
+import sys
+import time
+import tomllib
+import uuid
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from arcube.model.design import PARAM_NAMES, Design
+from arcube.errors import InputError
+from arcube.io.files import atomic_write_text
+from arcube.optimization.algorithms import MULTI_OBJECTIVE, PENALTY_ONLY, make_algorithm, make_termination, stop_reason
+from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: still importable from here)
+    CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
+)  # fmt: skip
+from arcube.optimization.lean import column
+from arcube.optimization.problem import (
+    ArcubeProblem, FitnessModel, anatomy_file, build_model, check_engine, evaluate_with, worker_evaluate, worker_init,
+)  # fmt: skip
+
+RUN_FORMAT = "arcube-optimize-run"
+HISTORY_COLUMNS = ("generation", "evaluations", "best_eta_G", "mean_eta_G", "feasible_fraction", "best_violation", "seconds")
+GC_GEN0_THRESHOLD = 100_000
+"""During a run the cyclic garbage collector's first threshold is raised to this many allocations
+(Python's default is 700): pymoo makes a few thousand small objects per generation (individuals,
+their dicts and arrays) and frees them by reference counting, so the default threshold only made
+the collector rescan them about ten times per generation. Restored when the run returns."""
+
+
+def versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for pkg in ("arcube", "pymoo", "numpy", "scipy", "cma", "numba"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+# ----------------------------------------------------------------------------- config.toml
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        f = float(v)
+        return repr(f) if math.isfinite(f) else ("nan" if math.isnan(f) else ("inf" if f > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def to_toml(cfg: dict[str, Any]) -> str:
+    """Tables of scalars/arrays and arrays of tables (enough for config.toml)."""
+    lines: list[str] = []
+    cfg = {k: v for k, v in cfg.items() if v is not None}
+    for key, val in cfg.items():
+        if not isinstance(val, (dict, list)) or (isinstance(val, list) and not (val and isinstance(val[0], dict))):
+            lines.append(f"{key} = {_toml_value(val)}")
+    for key, val in cfg.items():
+        tables = [val] if isinstance(val, dict) else (val if isinstance(val, list) and val and isinstance(val[0], dict) else [])
+        for tab in tables:
+            lines += ["", f"[[{key}]]" if isinstance(val, list) else f"[{key}]"]
+            lines += [f"{k} = {_toml_value(x)}" for k, x in tab.items() if x is not None]
+    return "\n".join(lines) + "\n"
+
+
+def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
+    path = run_dir / "config.toml"
+    if not run_dir.is_dir():
+        raise InputError(f"{run_dir}: no such run folder")
+    try:
+        raw = path.read_bytes()
+        cfg = tomllib.loads(raw.decode("utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{run_dir}: not an optimization run (no config.toml)") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: unreadable config ({exc})") from None
+    if cfg.get("format") != RUN_FORMAT or cfg.get("format_version") != FORMAT_VERSION:
+        raise InputError(f"{path}: not an arcube optimize config (format {cfg.get('format')!r} version {cfg.get('format_version')!r})")
+    try:
+        check_engine(cfg["settings"]["engine_resolved"])
+        build_model(cfg)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
+    return cfg, raw
+
+
+# ----------------------------------------------------------------------------- executors
+def _merge(parts: list[Batch]) -> Batch:
+    return {k: np.concatenate([p[k] for p in parts], axis=0) for k in parts[0]}
+
+
+class Executor:
+    """Evaluates a population batch with the model; subclasses split it into row chunks.
+    Every design is evaluated independently, so the result does not depend on the split."""
+
+    n_chunks = 1
+
+    def __init__(self, model: FitnessModel) -> None:
+        self.model = model
+
+    def __call__(self, X: np.ndarray) -> Batch:
+        chunks = [c for c in np.array_split(X, min(self.n_chunks, max(len(X), 1))) if len(c)]
+        return _merge(self._map(chunks)) if len(chunks) > 1 else self.model.evaluate(X)
+
+    def _map(self, chunks: list[np.ndarray]) -> list[Batch]:
+        return [self.model.evaluate(c) for c in chunks]
+
+    def close(self) -> None:
+        pass
+
+
+class ProcessExecutor(Executor):
+    def __init__(self, model: FitnessModel, workers: int) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        super().__init__(model)
+        self.n_chunks = workers
+        ctx = multiprocessing.get_context("spawn")  # no fork under threads (progress bar, dask)
+        self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_init, initargs=(model,))
+
+    def _map(self, chunks: list[np.ndarray]) -> list[Batch]:
+        return list(self.pool.map(worker_evaluate, chunks))
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+class DaskExecutor(Executor):
+    def __init__(self, model: FitnessModel, address: str) -> None:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise InputError("--dask needs dask.distributed: pip install 'dask[distributed]'") from None
+        super().__init__(model)
+        try:
+            self.client = Client(address, timeout=20, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"--dask {address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+        self.n_chunks = max(1, sum(self.client.nthreads().values()))
+        self.model_future = self.client.scatter(model, broadcast=True)
+
+    def _map(self, chunks: list[np.ndarray]) -> list[Batch]:
+        futures = [self.client.submit(evaluate_with, self.model_future, c, pure=False) for c in chunks]
+        return self.client.gather(futures)
+
+    def close(self) -> None:
+        self.client.close()
+
+
+def make_executor(model: FitnessModel, workers: int = 1, dask: str | None = None) -> Executor:
+    if dask:
+        return DaskExecutor(model, dask)
+    return ProcessExecutor(model, workers) if workers > 1 else Executor(model)
+
+
+# ----------------------------------------------------------------------------- history and outputs
+def _fmt(v: float) -> str:
+    return repr(float(v)) if math.isfinite(v) else ""
+
+
+def generation_stats(algorithm: Any) -> dict[str, float]:
+    viol = np.asarray(column(algorithm.pop, "VIOL"), float).reshape(-1)
+    eta = np.asarray(column(algorithm.pop, "ETA"), float).reshape(-1)
+    best = np.asarray(column(algorithm.opt, "ETA"), float).reshape(-1) if algorithm.opt is not None else eta
+    feas = eta[np.isfinite(eta)]
+    return {
+        "best_eta_G": float(np.min(best)) if np.isfinite(best).any() else math.inf,
+        "mean_eta_G": float(np.mean(feas)) if len(feas) else math.inf,
+        "feasible_fraction": float(np.mean(viol == 0.0)),
+        "best_violation": float(np.min(viol)),
+    }
+
+
+def reset_history(path: Path, keep_rows: int) -> None:
+    rows: list[str] = []
+    if path.exists() and keep_rows:
+        rows = path.read_text(encoding="utf-8").splitlines()[1 : keep_rows + 1]
+    atomic_write_text(path, "\n".join([",".join(HISTORY_COLUMNS), *rows]) + "\n")
+
+
+def pick_best(algorithm: Any) -> Any:
+    """The best individual: pymoo's optimum (best feasible, else least infeasible); on a front, lowest eta."""
+    opt = algorithm.opt
+    if len(opt) == 1:
+        return opt[0]
+    F, viol = opt.get("F"), np.asarray(opt.get("VIOL"), float)
+    order = np.lexsort([F[:, 0], viol])
+    return opt[int(order[0])]
+
+
+def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
+    opt = algorithm.opt
+    feas = np.asarray(opt.get("VIOL"), float) == 0.0
+    X, F = opt.get("X")[feas], opt.get("F")[feas]
+    rows = []
+    for i in np.lexsort([F[:, 1], F[:, 0]]):
+        rep = model.report(X[i])
+        big = max(rep["tasks"], key=lambda t: t["bbox_volume_L"])
+        ext = [hi - lo for lo, hi in zip(big["bbox_min_mm"], big["bbox_max_mm"])]
+        row = {"eta_G": rep["eta_G"], "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
+               "bbox_dx_mm": ext[0], "bbox_dy_mm": ext[1], "bbox_dz_mm": ext[2],
+               "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"]}  # fmt: skip
+        row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
+        if len(rep["designs"]) == 2:
+            row.update({f"{n}_L": float(v) for n, v in zip(("m_x", "m_y", "m_z"), rep["designs"][1][:3])})
+        rows.append(row)
+    return rows
+
+
+def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]) -> dict[str, Any]:
+    best = pick_best(algorithm)
+    rep = model.report(best.X)
+    designs = rep.pop("designs")
+    Design.from_vector(designs[0]).to_json(run_dir / "best_design.json")
+    files = {"best_design": "best_design.json"}
+    if len(designs) == 2:
+        Design.from_vector(designs[1]).to_json(run_dir / "best_design_L.json")
+        files = {"best_design_R": "best_design.json", "best_design_L": "best_design_L.json"}
+    s = cfg["settings"]
+    summary: dict[str, Any] = {
+        "feasible": rep["feasible"], "eta_G": rep["eta_G"], "dexterity_pct": rep["dexterity_pct"],
+        "generations": info["generations"], "evaluations": info["evaluations"], "seed": s["seed"],
+        "wall_s": round(info["wall_s"], 3), "eval_s": round(info["eval_s"], 3), "stopped_by": info["stopped_by"],
+        "algorithm": s["algorithm"], "population": s["population"], "engine": s["engine_resolved"],
+        "mode": rep["mode"], "setups": s["setups"], "aggregate": s["aggregate"], "free": s["free"],
+        "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
+        "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
+        "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
+        "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
+        "points": model.n_points, "files": files, "resumed": info["resumed"],
+    }  # fmt: skip
+    if s["algorithm"] in MULTI_OBJECTIVE:
+        rows = front_rows(model, algorithm)
+        buf = io.StringIO()
+        cols = list(rows[0]) if rows else ["eta_G", "links_sum_mm", "bbox_volume_L", *PARAM_NAMES]
+        w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+        w.writeheader()
+        w.writerows([{k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
+        atomic_write_text(run_dir / "pareto.csv", buf.getvalue())
+        summary["front_size"], summary["compactness"] = len(rows), s["compactness"]
+        files["pareto"] = "pareto.csv"
+    atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    return summary
+
+
+# ----------------------------------------------------------------------------- the run loop
+def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool = False, workers: int | None = None,
+            dask: str | None = None, on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary.
+
+    ``on_generation`` gets each new generation's history row plus ``total``, this session's
+    ``session_s`` (wall), ``eval_s`` (evaluation) and ``optimizer_s`` (pymoo's own time: inside
+    the algorithm's step but not answering its batches); the rest of ``session_s`` is the run's
+    own bookkeeping (setup, history, checkpoints, outputs).
+    """
+    s = cfg["settings"]
+    state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
+    if state is None:
+        state = {"format": CHECKPOINT_FORMAT, "format_version": FORMAT_VERSION, "run_id": cfg["run_id"], "config_sha256": _sha(cfg_raw),
+                 "generation": 0, "elapsed_s": 0.0, "eval_s": 0.0, "sessions": 0, "chunks": [], "finished": False}  # fmt: skip
+    done_gen, prior_s, prior_eval = int(state["generation"]), float(state["elapsed_s"]), float(state["eval_s"])
+    state["sessions"] = int(state.get("sessions", 0)) + 1
+    t0 = time.perf_counter()
+    reset_history(run_dir / "history.csv", done_gen)
+    model = build_model(cfg, run_dir)
+    ex = cfg.get("executor", {})
+    executor = make_executor(model, workers if workers is not None else int(ex.get("workers", 1)), dask if dask is not None else ex.get("dask") or None)
+    log = EvalLog(executor, replay)
+    # configs written before the setting existed ran pymoo's default (duplicates eliminated)
+    algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base),
+                          eliminate_duplicates=bool(s.get("eliminate_duplicates", True)))  # fmt: skip
+    problem = ArcubeProblem(model.space, model.n_obj, log, penalty_only=s["algorithm"] in PENALTY_ONLY)
+    termination = make_termination(s["algorithm"], int(s["generations"]), float(s["tolerance"]), int(s["period"]))
+    algo.setup(problem, termination=termination, seed=int(s["seed"]), verbose=False)
+    gen, every, algo_s = 0, int(s["checkpoint_every"]), 0.0
+    hist = (run_dir / "history.csv").open("a", encoding="utf-8", newline="")
+    gc_thresholds = gc.get_threshold()
+    gc.set_threshold(max(gc_thresholds[0], GC_GEN0_THRESHOLD), *gc_thresholds[1:])
+
+    def elapsed() -> float:
+        return prior_s + time.perf_counter() - t0
+
+    try:
+        while algo.has_next():
+            t_step = time.perf_counter()
+            algo.next()
+            algo_s += time.perf_counter() - t_step
+            if algo.n_iter - 1 == gen:
+                continue
+            gen = algo.n_iter - 1
+            if gen <= done_gen:
+                continue
+            st = generation_stats(algo)
+            row = {"generation": gen, "evaluations": algo.evaluator.n_eval, **st, "seconds": elapsed()}
+            hist.write(",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS) + "\n")
+            hist.flush()
+            if gen % every == 0:
+                state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval)
+                write_checkpoint(run_dir, state, log, gen)
+            if on_generation is not None:
+                on_generation({**row, "total": int(s["generations"]), "eval_s": log.eval_s, "optimizer_s": algo_s - log.call_s,
+                               "session_s": time.perf_counter() - t0})  # fmt: skip
+        if log.replay:
+            raise InputError("checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)")
+        info = {"generations": gen, "evaluations": int(algo.evaluator.n_eval), "wall_s": elapsed(), "eval_s": prior_eval + log.eval_s,
+                "stopped_by": stop_reason(termination), "resumed": state["sessions"] - 1}  # fmt: skip
+        summary = write_outputs(run_dir, cfg, model, algo, info)
+        state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval, finished=True)
+        write_checkpoint(run_dir, state, log, gen)
+        return summary
+    except KeyboardInterrupt:
+        if gen > done_gen:
+            state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s)
+            write_checkpoint(run_dir, state, log, gen)
+        raise
+    finally:
+        gc.set_threshold(*gc_thresholds)
+        hist.close()
+        executor.close()
+
+
+def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, float]], design: Design, patients: list[dict[str, Any]],
+                   executor: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
+    return {
+        "format": RUN_FORMAT, "format_version": FORMAT_VERSION, "run_id": uuid.uuid4().hex,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": " ".join(sys.argv),
+        "versions": versions(), "settings": settings,
+        "bounds": {k: [float(lo), float(hi)] for k, (lo, hi) in bounds.items()},
+        "design": design.to_dict(), "executor": executor, "patients": patients,
+    }  # fmt: skip
+
+
+def check_new_folder(run_dir: Path) -> None:
+    """InputError unless ``run_dir`` is absent or an empty folder."""
+    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+        hint = " (it holds a run: use 'arcube resume')" if (run_dir / "config.toml").exists() else ""
+        raise InputError(f"--out {run_dir}: exists and is not an empty folder{hint}")
+
+
+def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
+    """Copy each patient's anatomy into the run folder (patient frame), so that resume and report need nothing else."""
+    s = cfg["settings"]
+    if not s.get("anatomy"):
+        return
+    from arcube.evaluation.anatomy import resolve_anatomy
+
+    for i, spec in enumerate(s["trajectories"]):
+        anatomy = resolve_anatomy(s["anatomy"], s.get("anatomy_frame", "LPS"), spec)
+        anatomy.write_stl(run_dir / anatomy_file(i))
+        cfg["patients"][i]["anatomy_source"] = anatomy.source
+
+
+def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
+    """Create the run folder (anatomy files, config.toml, empty history.csv) and run."""
+    check_new_folder(run_dir)
+    write_anatomy(run_dir, cfg)
+    text = to_toml(cfg)
+    atomic_write_text(run_dir / "config.toml", text)
+    return execute(run_dir, cfg, text.encode("utf-8"), **kwargs)
+
+
+def is_finished(run_dir: Path) -> bool:
+    """True when the run folder holds a finished run (its checkpoint says so and summary.json exists)."""
+    state_path = run_dir / "checkpoint" / "state.json"
+    if state_path.exists() and (run_dir / "summary.json").exists():
+        try:
+            return json.loads(state_path.read_text(encoding="utf-8")).get("finished") is True
+        except (OSError, ValueError):
+            return False
+    return False
+
+
+def resume(run_dir: Path, **kwargs: Any) -> dict[str, Any] | None:
+    """Continue a run from its checkpoint; None when it had already finished."""
+    cfg, raw = read_config(run_dir)
+    if is_finished(run_dir):
+        return None
+    old = cfg.get("versions", {})
+    now = versions()
+    changed = [f"{k} {old[k]} -> {now.get(k)}" for k in ("pymoo", "numpy", "cma") if k in old and old[k] != now.get(k)]
+    if changed:
+        sys.stderr.write(f"warning: versions changed since the run started ({', '.join(changed)}); the replay will check\n")
+    return execute(run_dir, cfg, raw, resume=True, **kwargs)

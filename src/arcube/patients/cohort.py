@@ -1,0 +1,59 @@
+"""Cohorts of virtual patients on disk: CSV + drawn parameters + default anatomy per patient, and their checks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from arcube.errors import InputError
+from arcube.io.trajectories import read_csv
+from arcube.patients.anatomy import write_anatomy
+from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
+
+__all__ = ["write_patients"]
+
+
+def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path) -> list[str]:
+    """Generate, write and check the patients; return one check text per patient.
+
+    Args:
+        mean: the mean patient (every parameter at its published mean).
+        seed: seed of patient 0; patient k uses ``seed + k`` so each file can be regenerated
+            on its own from the seed stored in its JSON.
+        technique: pedicle, roy-camille, magerl or an.
+        count: number of patients K (>= 1).
+        out: K = 1: the CSV path (an existing folder receives ``patient_000.csv``);
+            K > 1: a folder (created) receiving ``patient_000.csv`` ... ``patient_{K-1}.csv``.
+            Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
+            anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
+            (binary STL, patient frame, one closed shell per box).
+    """
+    if mean == (seed is not None):
+        raise InputError("patients: give exactly one of --mean or --seed S")
+    if technique not in TECHNIQUES:
+        raise InputError(f"patients: --technique {technique!r}: expected one of {', '.join(TECHNIQUES)}")
+    if count < 1:
+        raise InputError(f"patients: --count {count}: expected at least 1")
+    if mean and count > 1:
+        raise InputError("patients: --count > 1 with --mean would write identical patients")
+    if seed is not None and seed < 0:
+        raise InputError(f"patients: --seed {seed}: expected a non-negative integer")
+    width = max(3, len(str(count - 1)))
+    if count == 1 and not out.is_dir():
+        paths = [out]
+    else:
+        if out.exists() and not out.is_dir():
+            raise InputError(f"patients: --out {out}: exists and is not a folder (needed for --count > 1)")
+        paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
+    if any(p.suffix.lower() == ".json" for p in paths):
+        raise InputError(f"patients: --out {out}: the CSV path must not end in .json (the parameters go there)")
+    texts = []
+    for k, path in enumerate(paths):
+        ts, params = generate_patient(None if mean else seed + k, technique)
+        json_path = write_patient(ts, params, path)
+        anatomy_path = path.with_suffix(".anatomy.stl")
+        layout = write_anatomy(params, anatomy_path)
+        # The check re-reads the written file, so it sees the 3-decimal points a user gets.
+        check = format_check(check_patient(read_csv(path), params))
+        texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, patient frame)\n"
+                     f"# {layout.summary()}\n{check}")
+    return texts

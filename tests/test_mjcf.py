@@ -1,0 +1,271 @@
+"""MuJoCo export (:mod:`arcube.export.mjcf`), cross-checked by MuJoCo's own kinematics and dynamics.
+
+* kinematic: with every hinge set from our IK, MuJoCo's forward kinematics puts the ``tip`` site at E,
+  the ``holder`` site at H = E + (L + r) e, every joint site at the model's joint point (MODEL.md 14.1),
+  and every loop closure (equality constraint) at zero violation, at every reachable point of the
+  reference plan; two designs, one of them rotated and with a tool offset L > 0;
+* dynamic: gravity off, only the five position actuators driven to our IK's angles point after point,
+  MuJoCo's own loop closure brings the drill tip to E and the axis to e;
+* the CLI's bad input ends as one ``error:`` line, exit 2, no file; the example script tracks a
+  joints CSV.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from arcube.errors import InputError  # noqa: E402
+from arcube.evaluation.reference import evaluate_task  # noqa: E402
+from arcube.evaluation.result import load_trajectory_set  # noqa: E402
+from arcube.evaluation.task import build_task  # noqa: E402
+from arcube.export.mjcf import ACTUATED, JOINT_NAMES, export_mjcf, joint_values  # noqa: E402
+from arcube.model import frames  # noqa: E402
+from arcube.model.body import mechanism_points  # noqa: E402
+from arcube.model.design import Design  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "mujoco_drive.py"
+N = 30
+PAPER_RIGHT = {"m_x": 88.2, "m_y": 79.4, "m_z": 56.9}
+"""Table 2's links placed so that every right-side point of the reference patient is reachable (+,+,+,+)."""
+C_Z_PAPER = 162.0  # inside [153.95, 170.23] mm, the c_z that closes the z dyad at every solvable point
+
+
+def _plan():
+    ts = load_trajectory_set("reference", N)
+    return ts, build_task(ts.entry, ts.target, N, ids=ts.ids)
+
+
+def _design_a() -> Design:
+    return Design.paper().replace(**PAPER_RIGHT)
+
+
+def _design_b() -> Design:
+    """Rotated (20, -35, 170) deg with L = 60 mm: of 400 random designs whose TLS box is centred on the task's
+    mean C, the one reaching most points (as tests/test_mounting.py does); d_z = c_z then set so that the
+    z dyad closes everywhere (2 d_z > max |Q_z - D_z|). A setup, not an oracle."""
+    _, task = _plan()
+    mount, L = (20.0, -35.0, 170.0), 60.0
+    rng = np.random.default_rng(0)
+    n = 400
+    X = np.zeros((n, 27))
+    X[:, 3:16] = rng.uniform(30, 200, (n, 13))
+    X[:, 16] = rng.uniform(50, 80, n)
+    X[:, 17:19] = rng.uniform(-180, 180, (n, 2))
+    X[:, 19:23] = rng.uniform(50, 90, (n, 4))
+    X[:, 23:26] = mount
+    X[:, 26] = L
+    R = frames.rotation_matrix(np.radians(mount))
+    X[:, :3] = (task.E + L * task.e).mean(axis=0) - (-X[:, 3:6] - X[:, 16:17]) @ R.T
+    x = X[int(np.argmax(evaluate_task(X, task.E, task.e, np.ones(4)).points.reachable.sum(axis=1)))]
+    with np.errstate(invalid="ignore"):
+        mp = mechanism_points(x, task.E, task.e)
+    x[11] = float(np.nanmax(np.linalg.norm(mp.Q[:, 2] - mp.D[:, 2], axis=-1))) / 2.0 + 5.0
+    return Design.from_vector(x)
+
+
+@pytest.fixture(scope="module")
+def designs() -> dict[str, tuple[Design, float | None]]:
+    return {"paper_right": (_design_a(), C_Z_PAPER), "rotated_offset": (_design_b(), None)}
+
+
+def _set_joints(model, data, q: dict[str, np.ndarray], i: int) -> None:
+    for name in JOINT_NAMES:
+        data.qpos[model.joint(name).qposadr[0]] = q[name][i]
+
+
+def _closure_gap(model, data) -> float:
+    """Largest distance between the two points of any connect constraint (mm): body1's anchor and the
+    compiler's matching point of body2 (eq_data[0:3], eq_data[3:6], each in its body's frame)."""
+    worst = 0.0
+    for k in range(model.neq):
+        assert model.eq_type[k] == mujoco.mjtEq.mjEQ_CONNECT and model.eq_objtype[k] == mujoco.mjtObj.mjOBJ_BODY
+        b1, b2 = model.eq_obj1id[k], model.eq_obj2id[k]
+        p1 = data.xpos[b1] + data.xmat[b1].reshape(3, 3) @ model.eq_data[k, 0:3]
+        p2 = data.xpos[b2] + data.xmat[b2].reshape(3, 3) @ model.eq_data[k, 3:6]
+        worst = max(worst, float(np.linalg.norm(p1 - p2)))
+    return worst
+
+
+@pytest.mark.parametrize("which", ["paper_right", "rotated_offset"])
+def test_mujoco_kinematics_reproduce_the_model_at_every_reachable_point(designs, which) -> None:
+    design, c_z = designs[which]
+    ts, task = _plan()
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, c_z=c_z))
+    data = mujoco.MjData(model)
+    x = design.to_vector()
+    L, r = design["L"], design["r"]
+    assert (L > 0.0) == (which == "rotated_offset")
+    q = joint_values(design, task.E, task.e, c_z=c_z)
+    with np.errstate(invalid="ignore"):
+        mp = mechanism_points(x, task.E, task.e, c_z=c_z)
+    ok = np.all([np.isfinite(q[n]) for n in JOINT_NAMES], axis=0)
+    assert ok.sum() == 150  # every right-side point
+    sites = {f"P_{u}": mp.P[:, i] for i, u in enumerate("xyz")} | {f"D_{u}": mp.D[:, i] for i, u in enumerate("xyz")}
+    sites |= {f"Q_{u}": mp.Q[:, i] for i, u in enumerate("xyz")} | {f"K_{u}": mp.K[:, i] for i, u in enumerate("xy")}
+    sites |= {f"B_{u}": mp.B[:, i] for i, u in enumerate("xy")} | {"J_z": mp.J_z, "C": mp.C, "C_drill": mp.C, "O": mp.O}
+    sites |= {f"coupler_{u}_T": mp.T[:, i] for i, u in enumerate("xy")} | {f"output_{u}_T": mp.T[:, i] for i, u in enumerate("xy")}
+    sites |= {"beta_y_H": mp.H}
+    eq_rows = []
+    worst = {"tip": 0.0, "axis": 0.0, "holder": 0.0, "sites": 0.0, "closure": 0.0, "efc": 0.0}
+    for i in np.flatnonzero(ok):
+        _set_joints(model, data, q, i)
+        mujoco.mj_forward(model, data)
+        tip, holder = data.site("tip").xpos, data.site("holder").xpos
+        worst["tip"] = max(worst["tip"], float(np.linalg.norm(tip - task.E[i])))
+        axis = (holder - tip) / np.linalg.norm(holder - tip)
+        worst["axis"] = max(worst["axis"], float(np.linalg.norm(axis - task.e[i])))
+        worst["holder"] = max(worst["holder"], float(np.linalg.norm(holder - (task.E[i] + (L + r) * task.e[i]))))
+        worst["sites"] = max(worst["sites"], max(float(np.linalg.norm(data.site(s).xpos - p[i])) for s, p in sites.items()))
+        worst["closure"] = max(worst["closure"], _closure_gap(model, data))
+        eq = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+        eq_rows.append(int(eq.sum()))
+        worst["efc"] = max(worst["efc"], float(np.abs(data.efc_pos[: data.nefc][eq]).max()))
+        np.testing.assert_allclose(data.sensor("tip_pos").data, task.E[i], atol=1e-6)
+        np.testing.assert_allclose(data.sensor("drill_axis").data, task.e[i], atol=1e-9)
+    print(which, {k: f"{v:.2e}" for k, v in worst.items()})
+    assert set(eq_rows) == {15}  # 5 connects: T_x twice, T_y twice, H
+    assert worst["tip"] < 1e-6 and worst["holder"] < 1e-6 and worst["sites"] < 1e-6
+    assert worst["axis"] < 1e-9
+    assert worst["closure"] < 1e-6 and worst["efc"] < 1e-6
+
+
+def test_model_structure_five_dof_named_actuators_and_assembled_key(designs) -> None:
+    design, c_z = designs["rotated_offset"]
+    ts, task = _plan()
+    xml = export_mjcf(design, ts, at="5:7", c_z=c_z)
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    assert [model.joint(j).name for j in range(model.njnt)] == list(JOINT_NAMES)
+    assert [model.actuator(a).name for a in range(model.nu)] == list(ACTUATED)
+    assert all(model.actuator(a).trnid[0] == model.joint(n).id for a, n in enumerate(ACTUATED))
+    # qpos0 (each hinge's ref) is the assembled pose at 5:7, the keyframe too, with the actuator targets
+    i = int(np.flatnonzero((task.trajectory == ts.ids.index("5")) & (task.k == 7))[0])
+    q = joint_values(design, task.E[i], task.e[i], c_z=c_z)
+    np.testing.assert_allclose(model.qpos0, [q[n] for n in JOINT_NAMES], atol=1e-12)
+    key = model.key("assembled")
+    np.testing.assert_allclose(key.qpos, model.qpos0, atol=0)
+    np.testing.assert_allclose(key.ctrl, [q[n] for n in ACTUATED], atol=0)
+    mujoco.mj_resetDataKeyframe(model, data, key.id)
+    mujoco.mj_forward(model, data)
+    np.testing.assert_allclose(data.site("tip").xpos, task.E[i], atol=1e-9)
+    # 17 hinges, 15 constraint rows of rank 12: 5 degrees of freedom
+    J = data.efc_J[: data.nefc * model.nv].reshape(data.nefc, model.nv)
+    assert model.nv == 17 and np.linalg.matrix_rank(J, tol=1e-9 * np.abs(J).max()) == 12
+    assert all(model.body_mass[b] > 0 for b in range(1, model.nbody))
+
+
+@pytest.mark.parametrize(("which", "tid"), [("paper_right", "1"), ("rotated_offset", "9")])
+def test_mujoco_dynamics_track_the_trajectory_with_five_actuators(designs, which, tid) -> None:
+    design, c_z = designs[which]
+    ts, task = _plan()
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, at=f"{tid}:0", c_z=c_z))
+    model.opt.gravity[:] = 0.0
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("assembled").id)
+    sel = np.flatnonzero(task.trajectory == ts.ids.index(tid))
+    q = joint_values(design, task.E[sel], task.e[sel], c_z=c_z)
+    act = [model.actuator(n).id for n in ACTUATED]
+    tip_err, axis_err = [], []
+    for j in range(len(sel)):
+        data.ctrl[act] = [q[n][j] for n in ACTUATED]
+        for _ in range(300):
+            mujoco.mj_step(model, data)
+        tip, holder = data.site("tip").xpos, data.site("holder").xpos
+        axis = (holder - tip) / np.linalg.norm(holder - tip)
+        tip_err.append(float(np.linalg.norm(tip - task.E[sel[j]])))
+        axis_err.append(float(np.degrees(np.arccos(np.clip(axis @ task.e[sel[j]], -1.0, 1.0)))))
+    print(which, f"tip {max(tip_err):.2e} mm, axis {max(axis_err):.2e} deg")
+    assert max(tip_err) < 0.05
+    assert max(axis_err) < 0.05
+    # the passive joints followed too (same assembly mode all along)
+    for n in JOINT_NAMES:
+        assert abs(data.qpos[model.joint(n).qposadr[0]] - q[n][-1]) < 1e-3, n
+
+
+def test_z_dyad_that_cannot_close_names_the_c_z_range_or_says_none_can() -> None:
+    d = _design_a()
+    with pytest.raises(InputError, match=r"--c-z in \[153\.9\d, 170\.2\d\] mm closes it at every point"):
+        export_mjcf(d)  # c_z = d_z = 53.6 mm is far too short
+    with pytest.raises(InputError, match="no c_z closes it at every point"):
+        export_mjcf(d.replace(d_z=30.0), c_z=100.0)
+    export_mjcf(d, c_z=154.0)
+    export_mjcf(d, c_z=170.0)
+
+
+def test_anatomy_meshes_become_static_mesh_geoms() -> None:
+    from arcube.patients.anatomy import reference_anatomy
+
+    meshes = reference_anatomy()
+    model = mujoco.MjModel.from_xml_string(export_mjcf(_design_a(), c_z=C_Z_PAPER, anatomy=meshes))
+    assert model.nmesh == len(meshes)
+    geoms = [g for g in range(model.ngeom) if model.geom(g).name.startswith("anatomy_")]
+    assert len(geoms) == len(meshes) and all(model.geom_bodyid[g] == 0 for g in geoms)
+    assert np.all(model.geom_contype == 0) and np.all(model.geom_conaffinity == 0)
+
+
+# ------------------------------------------------------------------------------------------ CLI
+
+
+def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    return subprocess.run([sys.executable, "-m", "arcube", *args], cwd=cwd, capture_output=True, text=True, timeout=120, env=env)
+
+
+@pytest.fixture(scope="module")
+def design_file(tmp_path_factory) -> Path:
+    p = tmp_path_factory.mktemp("design") / "paper_right.json"
+    p.write_text(json.dumps(_design_a().to_dict()))
+    return p
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--format", "urdf", "--c-z", "162"], "unknown format"),
+        (["--at", "77:0", "--c-z", "162"], "no trajectory with id '77'"),
+        (["--at", "1:30", "--c-z", "162"], r"k must lie in 0\.\.29"),
+        (["--at", "2:0", "--c-z", "162"], "no IK solution at trajectory 2, k=0"),
+        (["--c-z", "60"], r"--c-z in \[153"),
+        (["--c-z", "162", "--out", "{blocker}/model.xml"], "cannot write"),
+    ],
+    ids=["format", "missing-id", "k-range", "unreachable", "z-dyad", "unwritable"],
+)
+def test_cli_bad_input_one_line_exit_2_no_file(tmp_path, design_file, extra, message) -> None:
+    blocker = tmp_path / "blocker.txt"
+    blocker.write_text("a file where a folder is needed\n")
+    extra = [a.replace("{blocker}", str(blocker)) for a in extra]
+    out = tmp_path / "model.xml"
+    args = ["export", "--design", str(design_file), "--out", str(out), *extra]
+    res = _run(*args, cwd=tmp_path)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
+    assert re.search(message, lines[0]), lines[0]
+    assert "Traceback" not in res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker.txt"]  # no file, no temporary left
+
+
+def test_example_script_drives_the_exported_model_along_a_joints_csv(tmp_path, design_file) -> None:
+    xml, csv = tmp_path / "robot.xml", tmp_path / "joints.csv"
+    res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--points", "10", "--at", "3:9", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    res = _run("joints", "--design", str(design_file), "--out", str(csv), "--points", "10", "--ids", "1,3", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    run = subprocess.run([sys.executable, str(EXAMPLE), str(xml), str(csv), "--trajectory", "1"], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    m = re.search(r"max tip error: ([0-9.]+) mm over (\d+) points", run.stdout)
+    assert m, run.stdout
+    print(run.stdout.strip().splitlines()[-1])
+    assert int(m.group(2)) == 10
+    assert float(m.group(1)) < 0.05
