@@ -29,7 +29,7 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import resolve
-from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body
+from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body, with_loads
 from arcube.evaluation.result import Evaluation, evaluate_design, load_trajectory_set, parse_mode_option
 from arcube.io.trajectories import TrajectorySet, select
 from arcube.model.body import BodyRadii
@@ -65,6 +65,10 @@ def evaluate(
     clearance: float | None = None,
     self_clearance: float | None = None,
     radii: BodyRadii | None = None,
+    encoder_deg: float | list[float] | None = None,
+    thrust: float | None = None,
+    lateral_force: float | None = None,
+    stiffness: float | list[float] | None = None,
 ) -> Evaluation:
     """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers, dexterity.
 
@@ -85,6 +89,9 @@ def evaluate(
         clearance, self_clearance: turn on the guards ``clearance >= MM`` (``collision/patient``)
             and ``self_clearance >= MM`` (``collision/self``) of MODEL.md 14.3.
         radii: the body radii of MODEL.md 14.1 (default 8 / 25 / 20 mm, motor 120 mm long).
+        encoder_deg, thrust, lateral_force, stiffness: the parameters of the tip metrics of MODEL.md 15
+            (deg, N, N, N·m/rad; encoder and stiffness one value or five); None keeps ``options``'s
+            (defaults 0.01 deg, 30 N, 10 N, 1e4 N·m/rad).
 
     Returns:
         An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``, ``.write_report()``).
@@ -103,6 +110,7 @@ def evaluate(
         ts = load_trajectory_set(os.fspath(plan), points, side, levels, ids, None if transform is None else Path(transform))
     opts = with_body(options if options is not None else (GUARDED_OPTIONS if guards else Options()),
                         clearance=clearance, self_clearance=self_clearance, radii=radii, body=True)
+    opts = with_loads(opts, encoder_deg=encoder_deg, thrust=thrust, lateral_force=lateral_force, stiffness=stiffness)
     anat = resolve_anatomy(anatomy, anatomy_frame, plan)
     if opts.clearance_mm is not None and anat is None:
         raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")

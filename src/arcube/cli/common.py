@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from arcube.errors import InputError
 from arcube.model.body import BodyRadii
 
 DesignOpt = Annotated[str, typer.Option("--design", help="Design: a preset name (paper) or a design JSON file.")]
@@ -27,6 +28,25 @@ LinkRadiusOpt = Annotated[float, typer.Option("--link-radius", help="Radius of t
 ActuatorRadiusOpt = Annotated[float, typer.Option("--actuator-radius", help="Radius of the actuators at P_u and D_u, mm.")]
 MotorRadiusOpt = Annotated[float, typer.Option("--motor-radius", help="Radius of the drill motor, mm.")]
 MotorLengthOpt = Annotated[float, typer.Option("--motor-length", help="Length of the drill motor beyond the holder H, mm.")]
+EncoderOpt = Annotated[str, typer.Option("--encoder-deg", help="Position error bound of the actuators (MODEL.md 15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y).")]
+ThrustOpt = Annotated[float, typer.Option("--thrust", help="Drilling thrust along the drill axis (MODEL.md 15.3), N.")]
+LateralForceOpt = Annotated[float, typer.Option("--lateral-force", help="Largest lateral (skiving) force across the drill axis, N.")]
+StiffnessOpt = Annotated[str, typer.Option("--actuator-stiffness", help="Torsional stiffness of the actuators (MODEL.md 15.4), N·m/rad: one value or five.")]
+
+
+def numbers(text: str, flag: str) -> float | list[float]:
+    """One number or a comma-separated list of numbers (``--encoder-deg 0.01`` or ``0.01,0.01,0.02,0.01,0.01``)."""
+    try:
+        values = [float(v) for v in str(text).split(",")]
+    except ValueError:
+        raise InputError(f"{flag} {text!r}: expected one number or five comma-separated numbers") from None
+    return values[0] if len(values) == 1 else values
+
+
+def loads(encoder_deg: str, thrust: float, lateral_force: float, stiffness: str) -> dict[str, object]:
+    """The MODEL.md 15 parameters of the command line, as keyword arguments of :func:`arcube.evaluate`."""
+    return {"encoder_deg": numbers(encoder_deg, "--encoder-deg"), "thrust": thrust, "lateral_force": lateral_force,
+            "stiffness": numbers(stiffness, "--actuator-stiffness")}  # fmt: skip
 
 
 def radii(link: float, actuator: float, motor: float, motor_length: float) -> BodyRadii:

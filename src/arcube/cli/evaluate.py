@@ -11,7 +11,7 @@ import typer
 
 from arcube.cli.common import (
     ActuatorRadiusOpt, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, DesignOpt, EngineOpt, GuardsOpt, IdsOpt, LevelsOpt,
-    LinkRadiusOpt, ModeOpt, MotorLengthOpt, MotorRadiusOpt, PointsOpt, SelfClearanceOpt, SideOpt, TrajOpt, TransformOpt,
+    LinkRadiusOpt, ModeOpt, EncoderOpt, ThrustOpt, LateralForceOpt, StiffnessOpt, loads, MotorLengthOpt, MotorRadiusOpt, PointsOpt, SelfClearanceOpt, SideOpt, TrajOpt, TransformOpt,
     radii,
 )  # fmt: skip
 
@@ -39,6 +39,10 @@ def evaluate(
     actuator_radius: ActuatorRadiusOpt = 25.0,
     motor_radius: MotorRadiusOpt = 20.0,
     motor_length: MotorLengthOpt = 120.0,
+    encoder_deg: EncoderOpt = "0.01",
+    thrust: ThrustOpt = 30.0,
+    lateral_force: LateralForceOpt = 10.0,
+    actuator_stiffness: StiffnessOpt = "1e4",
 ) -> None:
     """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity."""
     from arcube.api import evaluate as evaluate_api
@@ -49,6 +53,7 @@ def evaluate(
         side=side, levels=levels, ids=ids, transform=transform, engine=engine,
         anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
         radii=radii(link_radius, actuator_radius, motor_radius, motor_length),
+        **loads(encoder_deg, thrust, lateral_force, actuator_stiffness),
     )  # fmt: skip
     if report is not None:
         result.write_report(report)

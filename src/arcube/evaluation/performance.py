@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from arcube.errors import InputError
 from arcube.model import frames
 from arcube.model.design import unpack
-from arcube.model.mechanism import DEFAULT_MODE, inverse_kinematics, velocity_model
+from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics, velocity_model
 
 ACTUATOR_NAMES: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated joints, in the order of the Jacobians' columns and of ``torque_actuator``."""
@@ -83,8 +83,14 @@ def forward_jacobian(
     J_ω = [b1 b2] J'[3:5]. Rotated to R_w by the mounting rotation R (MODEL.md 13.1), then, since
     E = C - L e and ė = ω x e: J_E = J_C + L [e]x J_ω, J_e = -[e]x J_ω.
     """
+    return jacobians_of_solution(inverse_kinematics(params, E, e, mode), params, basis)
+
+
+def jacobians_of_solution(
+    sol: IKSolution, params: ArrayLike, basis: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(J_E, J_e) of :func:`forward_jacobian` from an IK solution already at hand (same shapes)."""
     g = unpack(params)
-    sol = inverse_kinematics(params, E, e, mode)
     model = velocity_model(sol, params)
     e_m = sol.e / np.linalg.norm(sol.e, axis=-1, keepdims=True)
     if basis is None:
@@ -131,7 +137,7 @@ class TipMetrics(NamedTuple):
     deflection_mm: NDArray[np.float64]  # F_t |P_perp C_E e| + F_l lambda_max(P_perp C_E P_perp)
 
 
-def _five(value: ArrayLike, flag: str, unit: str) -> NDArray[np.float64]:
+def check_per_actuator(value: ArrayLike, flag: str, unit: str) -> NDArray[np.float64]:
     """A scalar or 5 finite numbers > 0 as a ``(5,)`` array; else InputError naming ``flag``."""
     try:
         a = np.asarray(value, dtype=float)
@@ -143,7 +149,7 @@ def _five(value: ArrayLike, flag: str, unit: str) -> NDArray[np.float64]:
     return np.broadcast_to(a, (5,)).astype(float)
 
 
-def _force(value: ArrayLike, flag: str) -> float:
+def check_force(value: ArrayLike, flag: str) -> float:
     """A finite scalar force >= 0 (N); else InputError naming ``flag``."""
     try:
         a = np.asarray(value, dtype=float)
@@ -190,9 +196,9 @@ def tip_metrics(
         InputError: a parameter is not finite, out of range or of the wrong shape (one line that
             names it as its command-line flag, e.g. ``--thrust``).
     """
-    eps = np.deg2rad(_five(encoder_deg, "--encoder-deg", "deg"))
-    k = _five(stiffness_Nm_per_rad, "--actuator-stiffness", "N·m/rad") * 1000.0  # N·mm/rad
-    F_t, F_l = _force(thrust_N, "--thrust"), _force(lateral_N, "--lateral-force")
+    eps = np.deg2rad(check_per_actuator(encoder_deg, "--encoder-deg", "deg"))
+    k = check_per_actuator(stiffness_Nm_per_rad, "--actuator-stiffness", "N·m/rad") * 1000.0  # N·mm/rad
+    F_t, F_l = check_force(thrust_N, "--thrust"), check_force(lateral_N, "--lateral-force")
     JE, Je = np.asarray(J_E, dtype=float), np.asarray(J_e, dtype=float)
     if JE.shape[-2:] != (3, 5) or Je.shape[-2:] != (3, 5):
         raise ValueError(f"J_E and J_e must have shape (..., 3, 5), got {JE.shape} and {Je.shape}")
@@ -241,3 +247,19 @@ def tip_metrics(
         torque_per_actuator_Nm=np.where(nan[..., None], np.nan, per),
         deflection_mm=masked(deflection),
     )
+
+
+PERFORMANCE_FIELDS: tuple[str, ...] = (
+    "tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "deflection_mm",
+)  # fmt: skip
+"""The per-point metrics of MODEL.md 15.2-15.4 that have a per-design maximum (15.5)."""
+
+
+def metrics_of_solution(
+    sol: IKSolution, params: ArrayLike, encoder_deg: ArrayLike = 0.01, thrust_N: float = 30.0,
+    lateral_N: float = 10.0, stiffness_Nm_per_rad: ArrayLike = 1e4,
+) -> TipMetrics:  # fmt: skip
+    """:func:`tip_metrics` at the points of an IK solution (shapes as ``sol``), in the patient frame."""
+    J_E, J_e = jacobians_of_solution(sol, params)
+    e_w = frames.directions_to_world(unpack(params), sol.e)
+    return tip_metrics(J_E, J_e, e_w, encoder_deg, thrust_N, lateral_N, stiffness_Nm_per_rad)

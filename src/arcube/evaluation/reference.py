@@ -18,6 +18,8 @@ from arcube.model.design import unpack
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
 from arcube.evaluation.clearance import Distance, anatomy_clearance, self_clearance
+from arcube.errors import InputError
+from arcube.evaluation.performance import PERFORMANCE_FIELDS, check_force, check_per_actuator, metrics_of_solution
 from arcube.model.body import BodyRadii, body_parts, mechanism_points
 from arcube.model.stages import rts, zleg
 
@@ -53,6 +55,14 @@ class Options(BaseModel):
     """Radius of the drill motor, mm."""
     motor_length: float = Field(default=120.0, gt=0, allow_inf_nan=False)
     """Length L_m of the drill motor beyond the holder H, mm."""
+    encoder_deg: tuple[float, float, float, float, float] = (0.01,) * 5
+    """Position error bound of each actuator (MODEL.md 15.2), deg; see :func:`with_loads`."""
+    thrust_N: float = Field(default=30.0, ge=0, allow_inf_nan=False)
+    """Drilling thrust along e (MODEL.md 15.3), N."""
+    lateral_force_N: float = Field(default=10.0, ge=0, allow_inf_nan=False)
+    """Largest lateral (skiving) force across e (MODEL.md 15.3), N."""
+    actuator_stiffness: tuple[float, float, float, float, float] = (1e4,) * 5
+    """Torsional stiffness of each actuator (MODEL.md 15.4), N·m/rad."""
 
     @property
     def radii(self) -> BodyRadii:
@@ -115,6 +125,13 @@ class PointResults(NamedTuple):
     clearance_mm: NDArray[np.float64]  # body to anatomy, signed (MODEL.md 14.3); NaN when not computed or no IK
     clearance_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the closest part, -1 if none
     self_clearance_mm: NDArray[np.float64]  # between the body's own parts; NaN when not computed or no IK
+    tip_error_mm: NDArray[np.float64]  # MODEL.md 15.2-15.4 from here on; NaN where unreachable
+    lateral_error_mm: NDArray[np.float64]
+    axial_error_mm: NDArray[np.float64]
+    axis_error_deg: NDArray[np.float64]
+    torque_Nm: NDArray[np.float64]
+    torque_actuator: NDArray[np.int64]  # index into ACTUATOR_NAMES of the largest torque, -1 where unreachable
+    deflection_mm: NDArray[np.float64]
 
 
 class TaskResults(NamedTuple):
@@ -130,6 +147,12 @@ class TaskResults(NamedTuple):
     dexterity_max: NDArray[np.float64]
     clearance_min: NDArray[np.float64]  # min clearance_mm over reachable points (NaN if none)
     self_clearance_min: NDArray[np.float64]  # min self_clearance_mm over reachable points (NaN if none)
+    tip_error_max: NDArray[np.float64]  # MODEL.md 15.5: maxima over the reachable points (NaN if none)
+    lateral_error_max: NDArray[np.float64]
+    axial_error_max: NDArray[np.float64]
+    axis_error_max: NDArray[np.float64]
+    torque_max: NDArray[np.float64]
+    deflection_max: NDArray[np.float64]
 
     @property
     def fitness(self) -> NDArray[np.float64]:
@@ -244,10 +267,12 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         excess = excess + np.where(stages_ok, np.nan_to_num(short, nan=0.0), 0.0)
     failure = _first_failure(checks, shape)
     reachable = failure == 0
+    perf = metrics_of_solution(sol, params, options.encoder_deg, options.thrust_N, options.lateral_force_N,
+                               options.actuator_stiffness)  # fmt: skip
     eta = np.where(reachable, eta_raw, np.inf)
     with np.errstate(divide="ignore"):
         dex = np.where(reachable, 100.0 / eta, 0.0)
-    return PointResults(
+    pts = PointResults(
         reachable=reachable,
         failure=failure,
         kappa=np.where(stages_ok[..., None], kappa, np.nan),
@@ -260,7 +285,17 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         clearance_mm=np.where(stages_ok, clear, np.nan),
         clearance_part=np.where(stages_ok, part, -1),
         self_clearance_mm=np.where(stages_ok, selfc, np.nan),
+        **{name: np.broadcast_to(getattr(perf, name), shape) for name in PERFORMANCE_FIELDS},
+        torque_actuator=np.broadcast_to(perf.torque_actuator, shape),
     )
+    return _mask_performance(pts)
+
+
+def _mask_performance(pts: PointResults) -> PointResults:
+    """NaN (and -1) for the metrics of MODEL.md 15 where a point is not reachable."""
+    r = pts.reachable
+    fields = {name: np.where(r, getattr(pts, name), np.nan) for name in PERFORMANCE_FIELDS}
+    return pts._replace(torque_actuator=np.where(r, pts.torque_actuator, -1), **fields)
 
 
 def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
@@ -276,12 +311,12 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
     off = pts.reachable & (code != ref[..., None])
     failure = np.where(off, np.int16(_CODE["guard/single_assembly_mode"]), pts.failure)
     reachable = failure == 0
-    return pts._replace(
+    return _mask_performance(pts._replace(
         reachable=reachable,
         failure=failure,
         eta_L=np.where(reachable, pts.eta_L, np.inf),
         dexterity_pct=np.where(reachable, pts.dexterity_pct, 0.0),
-    )
+    ))  # fmt: skip
 
 
 def evaluate_task(
@@ -317,7 +352,15 @@ def evaluate_task(
         dexterity_max=np.max(pts.dexterity_pct, axis=-1),
         clearance_min=_min_reachable(pts.clearance_mm, pts.reachable),
         self_clearance_min=_min_reachable(pts.self_clearance_mm, pts.reachable),
+        **{name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable) for name in PERFORMANCE_FIELDS},
     )
+
+
+def _max_reachable(values: NDArray[np.float64], reachable: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Maximum over the reachable points (last axis); NaN where none is reachable."""
+    v = np.where(reachable & ~np.isnan(values), values, -np.inf)
+    out = np.max(v, axis=-1)
+    return np.where(np.isfinite(out), out, np.nan)
 
 
 def _min_reachable(values: NDArray[np.float64], reachable: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -348,4 +391,20 @@ def with_body(options: Options, *, clearance: float | None = None, self_clearanc
         changes.update(link_radius=radii.link, actuator_radius=radii.actuator, motor_radius=radii.motor, motor_length=radii.motor_length)
     if body is not None:
         changes["body"] = body
+    return options.model_copy(update=changes) if changes else options
+
+
+def with_loads(options: Options, *, encoder_deg: ArrayLike | None = None, thrust: float | None = None,
+               lateral_force: float | None = None, stiffness: ArrayLike | None = None) -> Options:  # fmt: skip
+    """``options`` with the encoder resolution, drilling loads and actuator stiffness of MODEL.md 15 set
+    (validated: one line naming the flag, :class:`InputError`); one value or five per actuator."""
+    changes: dict[str, Any] = {}
+    if encoder_deg is not None:
+        changes["encoder_deg"] = tuple(check_per_actuator(encoder_deg, "--encoder-deg", "deg").tolist())
+    if thrust is not None:
+        changes["thrust_N"] = check_force(thrust, "--thrust")
+    if lateral_force is not None:
+        changes["lateral_force_N"] = check_force(lateral_force, "--lateral-force")
+    if stiffness is not None:
+        changes["actuator_stiffness"] = tuple(check_per_actuator(stiffness, "--actuator-stiffness", "N·m/rad").tolist())
     return options.model_copy(update=changes) if changes else options

@@ -24,6 +24,7 @@ from arcube.evaluation.engine import evaluate_task, resolve
 from arcube.errors import InputError
 from arcube.evaluation.reference import FAILURES, Options, PointResults, TaskResults
 from arcube.evaluation.indices import JACOBIAN_NAMES
+from arcube.evaluation.performance import ACTUATOR_NAMES, PERFORMANCE_FIELDS
 from arcube.model.mechanism import format_mode, parse_mode
 from arcube.evaluation.task import Task, build_task
 from arcube.io import TrajectorySet, load_trajectories, select
@@ -188,7 +189,22 @@ class Evaluation:
             "clearance_min_mm": _num(r.clearance_min),
             "clearance_min_part": self._closest_part(),
             "self_clearance_min_mm": _num(r.self_clearance_min),
+            "tip_error_max_mm": _num(r.tip_error_max),
+            "lateral_error_max_mm": _num(r.lateral_error_max),
+            "axial_error_max_mm": _num(r.axial_error_max),
+            "axis_error_max_deg": _num(r.axis_error_max),
+            "torque_max_Nm": _num(r.torque_max),
+            "torque_max_actuator": self._torque_actuator(),
+            "deflection_max_mm": _num(r.deflection_max),
         }
+
+    def _torque_actuator(self) -> str | None:
+        """The actuator that needs the largest torque over the reachable points (MODEL.md 15.3)."""
+        pts = self.results.points
+        values = np.where(pts.reachable & np.isfinite(pts.torque_Nm), pts.torque_Nm, -np.inf)
+        if not np.isfinite(values).any():
+            return None
+        return ACTUATOR_NAMES[int(pts.torque_actuator[int(np.argmax(values))])]
 
     def _closest_part(self) -> str | None:
         """The part attaining the smallest clearance over the reachable points, None without anatomy."""
@@ -225,6 +241,8 @@ class Evaluation:
                     "clearance_mm": _num(pts.clearance_mm[i]),
                     "clearance_part": PART_NAMES[int(pts.clearance_part[i])] if pts.clearance_part[i] >= 0 else None,
                     "self_clearance_mm": _num(pts.self_clearance_mm[i]),
+                    **{name: _num(getattr(pts, name)[i]) for name in PERFORMANCE_FIELDS},
+                    "torque_actuator": ACTUATOR_NAMES[int(pts.torque_actuator[i])] if pts.torque_actuator[i] >= 0 else None,
                 }
             )
         return {

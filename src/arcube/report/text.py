@@ -65,3 +65,34 @@ def print_evaluation(report: Evaluation, console: Console | None = None) -> None
             + (f"   (anatomy: {report.anatomy.source})" if report.anatomy is not None else ""),
             soft_wrap=True,
         )
+    print_tip_performance(report, out)
+
+
+def print_tip_performance(report: Evaluation, console: Console | None = None) -> None:
+    """The compact second table (MODEL.md 15): what a surgeon and a motor supplier need, worst case over
+    the reachable points of each trajectory and of the plan."""
+    out = console or _console()
+    o = report.options
+    enc = o.encoder_deg[0] if len(set(o.encoder_deg)) == 1 else ",".join(f"{v:g}" for v in o.encoder_deg)
+    table = Table(title=(f"at the drill tip, worst case (encoders {enc} deg, thrust {o.thrust_N:g} N, "
+                         f"lateral {o.lateral_force_N:g} N)"))  # fmt: skip
+    cols = ["traj", "tip error mm", "lateral mm", "axial mm", "axis deg", "torque N·m", "deflection mm"]
+    for col in cols:
+        table.add_column(col, justify="left" if col == "traj" else "right")
+    pts = report.results.points
+    names = ("tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "deflection_mm")
+
+    def worst(sel) -> list[str]:
+        cells = []
+        for name in names:
+            v = getattr(pts, name)[sel & pts.reachable]
+            cells.append("-" if v.size == 0 or not (v == v).any() else f"{float(max(v[v == v])):.3g}")
+        return cells
+
+    for t, tid in enumerate(report.task.ids):
+        table.add_row(tid, *worst(report.task.trajectory == t))
+    s = report.summary_json()
+    table.add_row("all", *worst(report.task.trajectory >= 0), end_section=True)
+    out.print(table)
+    if s["torque_max_actuator"] is not None:
+        out.print(f"largest torque: {s['torque_max_Nm']:.3g} N·m at {s['torque_max_actuator']}")

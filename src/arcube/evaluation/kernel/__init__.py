@@ -51,6 +51,9 @@ from arcube.evaluation.kernel._layout import (
     S_VIOL as _S_VIOL, S_CMIN as _S_CMIN, S_SMIN as _S_SMIN, N_EXTRA as _N_EXTRA, X_CLR as _X_CLR, X_PART as _X_PART,
     X_SELF as _X_SELF, O_ANAT, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON,
 )  # fmt: skip
+from arcube.evaluation.kernel._layout import O_PERF, S_PERF, X_PERF  # noqa: E402
+from arcube.evaluation.kernel._performance import perf_vector  # noqa: E402
+from arcube.evaluation.performance import PERFORMANCE_FIELDS  # noqa: E402
 from arcube.evaluation.reference import Options, PointResults, TaskResults
 from arcube.evaluation.reference import evaluate_task as _evaluate_task_numpy
 from arcube.model import frames
@@ -90,6 +93,10 @@ def _geometry(params: np.ndarray) -> np.ndarray:
     return geo
 
 
+_PERF_COLUMNS = tuple(zip((0, 1, 2, 3, 4, 6), PERFORMANCE_FIELDS))
+"""(column in the metrics block of ``extra``, PointResults field) of MODEL.md 15's metrics."""
+
+
 def _option_vector(options: Options, exact: bool = False, anatomy: bool = False) -> np.ndarray:
     """The guards as numbers, thresholds computed as evaluation._guard_checks computes them."""
     opt = np.zeros(N_OPT)
@@ -114,6 +121,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
     opt[O_SELF_ON] = float(options.self_clearance_mm is not None)
     opt[O_SELF] = options.self_clearance_mm if options.self_clearance_mm is not None else 0.0
     opt[O_LM] = options.motor_length
+    opt[O_PERF:O_PERF + 12] = perf_vector(options.encoder_deg, options.thrust_N, options.lateral_force_N, options.actuator_stiffness)
     return opt
 
 
@@ -233,6 +241,8 @@ def evaluate_task_numba(
             clearance_mm=extra[..., _X_CLR].reshape(out_shape),
             clearance_part=extra[..., _X_PART].astype(np.intp).reshape(out_shape),
             self_clearance_mm=extra[..., _X_SELF].reshape(out_shape),
+            **{name: extra[..., X_PERF + j].reshape(out_shape) for j, name in _PERF_COLUMNS},
+            torque_actuator=extra[..., X_PERF + 5].astype(np.int64).reshape(out_shape),
         )
 
     def summary(col: int) -> np.ndarray:
@@ -249,6 +259,7 @@ def evaluate_task_numba(
         dexterity_max=summary(_S_DMAX),
         clearance_min=summary(_S_CMIN),
         self_clearance_min=summary(_S_SMIN),
+        **{name.rsplit("_", 1)[0] + "_max": summary(S_PERF + j) for j, name in enumerate(PERFORMANCE_FIELDS)},
     )
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from arcube.evaluation.kernel._layout import N_EXTRA as _N_EXTRA
 from arcube.evaluation.kernel._layout import O_SAM as _O_SAM
 from arcube.evaluation.kernel._points import _design_points
 from arcube.evaluation.kernel._summary import _finalize
@@ -40,7 +41,7 @@ def _kernel(geo, modes, E, e, same_e, opt, full, split, chunk, fo, fh, fv, co, c
             exc = np.empty(n_pts)
             code = np.empty(n_pts, np.int8)
             dex = np.empty(n_pts)
-            extra = np.empty((n_pts, 3))
+            extra = np.empty((n_pts, _N_EXTRA))
             _design_points(i, 0, n_pts, geo, modes, E, e, same_e, opt, full, fo, fh, fv, co, ch, cv, fg, cg, radius, order, pairs,
                            fail, eta, exc, code, extra, kappa_o, rho_o, delta_o, sigma_o)  # fmt: skip
             _finalize(sam, fail, eta, exc, code, dex, extra, summ[i])

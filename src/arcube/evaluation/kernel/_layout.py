@@ -36,15 +36,18 @@ N_GEO = 38
 # Layout of the option vector built by ``_option_vector``.
 O_ZDYAD, O_CZ, O_RHO_ON, O_RHO, O_TR_ON, O_TR, O_KM_ON, O_KM, O_SAM, O_EXACT = range(10)
 O_DO_SELF, O_ANAT, O_CLR_ON, O_CLR, O_SELF_ON, O_SELF, O_LM, O_DO_CLR = range(10, 18)  # body clearances, MODEL.md 14
-N_OPT = 18
+O_PERF = 18  # 12 entries: encoder (5, rad), thrust, lateral force (N), stiffness (5, N·mm/rad); MODEL.md 15
+N_OPT = 30
 
 # Layout of the per-design summary rows.
 S_NBAD, S_RF, S_ETAG, S_VIOL, S_DMIN, S_DMEAN, S_DMAX, S_CMIN, S_SMIN = range(9)
-N_SUMM = 9
+S_PERF = 9  # 6 maxima: tip, lateral, axial, axis error, torque, deflection (MODEL.md 15.5)
+N_SUMM = 15
 
 # Layout of the per-point extra rows (body clearances).
 X_CLR, X_PART, X_SELF = range(3)
-N_EXTRA = 3
+X_PERF = 3  # 7 entries: kernel._performance.N_PERF (MODEL.md 15)
+N_EXTRA = 10
 
 CHUNK = 64
 """Points per tile when a few designs are split over threads."""

@@ -22,6 +22,8 @@ from arcube.evaluation.kernel._layout import NAN as _NAN
 from arcube.evaluation.kernel._layout import O_CZ, O_EXACT, O_KM, O_KM_ON, O_RHO, O_RHO_ON, O_SAM, O_TR, O_TR_ON, O_ZDYAD
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
+from arcube.evaluation.kernel._performance import N_PERF, _tip_metrics
+from arcube.evaluation.kernel._layout import O_PERF, X_PERF
 from arcube.evaluation.kernel._layout import CODE_PATIENT, CODE_SELF, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON, X_CLR, X_PART, X_SELF
 from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
@@ -208,6 +210,14 @@ def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0,
 
 
 @njit(cache=True, error_model="numpy")
+def _no_metrics(row):
+    """NaN metrics of MODEL.md 15 (actuator -1) in an ``extra`` row."""
+    for j in range(N_PERF):
+        row[X_PERF + j] = _NAN
+    row[X_PERF + 5] = -1.0
+
+
+@njit(cache=True, error_model="numpy")
 def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, co, ch, cv, fg, cg, radius, order, pairs,
                    fail, eta, exc, code, extra, kappa_o, rho_o, delta_o, sigma_o):  # fmt: skip
     """Points k0..k1-1 of design i: writes failure (before the global guard), eta_raw, excess,
@@ -224,6 +234,8 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
     arc_c = np.empty(3)
     chords = np.empty((4, ARC_CHORDS + 1, 3))
     work = np.empty((6, 96))
+    jbuf = np.empty((2, 3, 5))
+    perf_opt = opt[O_PERF:O_PERF + 12]
     f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
     d0, d1 = g[G_D], g[G_D + 1]
@@ -304,10 +316,16 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
             extra[k, X_CLR] = clr
             extra[k, X_PART] = part
             extra[k, X_SELF] = selfc
+            if fc == 0:
+                _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
+                             xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, perf_opt, jbuf, extra[k, X_PERF:X_PERF + N_PERF])  # fmt: skip
+            else:
+                _no_metrics(extra[k])
         else:
             extra[k, X_CLR] = _NAN
             extra[k, X_PART] = -1.0
             extra[k, X_SELF] = _NAN
+            _no_metrics(extra[k])
             if full:
                 for j in range(7):
                     kappa_o[i, k, j] = _NAN

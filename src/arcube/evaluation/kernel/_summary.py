@@ -9,6 +9,7 @@ from arcube.evaluation.kernel._layout import CODE_SAM as _CODE_SAM
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
 from arcube.evaluation.kernel._layout import S_CMIN as _S_CMIN, S_SMIN as _S_SMIN
+from arcube.evaluation.kernel._layout import S_PERF as _S_PERF, X_PERF as _X_PERF
 from arcube.evaluation.kernel._layout import S_DMAX as _S_DMAX, S_DMEAN as _S_DMEAN, S_DMIN as _S_DMIN, S_ETAG as _S_ETAG
 from arcube.evaluation.kernel._layout import S_NBAD as _S_NBAD, S_RF as _S_RF, S_VIOL as _S_VIOL
 from arcube.evaluation.kernel._scalar import _pairwise_sum
@@ -67,5 +68,18 @@ def _finalize(sam, fail, eta, exc, code, dex, extra, summ):
                 smin = extra[k, 2]
     summ[_S_CMIN] = cmin if cmin < _INF else _NAN
     summ[_S_SMIN] = smin if smin < _INF else _NAN
+    # maxima of MODEL.md 15.5 over the reachable points (extra columns 0-4 and 6 of the metrics)
+    for j in range(6):
+        col = _X_PERF + (j if j < 5 else 6)
+        vmax = -_INF
+        for k in range(n):
+            if fail[k] == 0:
+                if extra[k, col] > vmax:
+                    vmax = extra[k, col]
+            else:
+                for q in range(7):
+                    extra[k, _X_PERF + q] = _NAN
+                extra[k, _X_PERF + 5] = -1.0
+        summ[_S_PERF + j] = vmax if vmax > -_INF else _NAN
 
 

@@ -1,0 +1,155 @@
+"""Physical performance at the drill tip for one point (MODEL.md 15), from the kernel's stage terms.
+
+The velocity model A t = B q̇ (7.4) is solved in closed form instead of by a 5x5 solve: its first
+three rows give v_C = J_LV ρ̇; the last two give diag(H/J_AS) J_AP ω = M q̇ with
+M = [J_rho - J_AV J_LV | J_delta]; the spin-free ω then follows from the dual basis of the rows
+q_u = u_beta x e of J_AP inside the plane ⊥ e:
+
+    P_x = (q_y x e) / det,  P_y = (e x q_x) / det,  det = (q_x x q_y) . e = det[x_b, y_b, e],
+    J_ω = P_x (J_AS,x / H_x) M_x + P_y (J_AS,y / H_y) M_y.
+
+:mod:`arcube.evaluation.performance` (the NumPy reference, a generic 5x5 solve with an explicit
+basis b1, b2) is the oracle: the tests hold the two equal.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from arcube.evaluation.kernel._layout import G_FLAT, G_L, G_ROT
+
+N_PERF = 7
+"""Outputs: tip, lateral, axial error (mm), axis error (deg), torque (N·m), its actuator, deflection (mm)."""
+
+
+@njit(cache=True, error_model="numpy")
+def _max_signed_sum(J, eps, lateral, e0, e1, e2):
+    """max over sign vectors s of |sum_i s_i eps_i J[:, i]| (optionally of its part ⊥ e)."""
+    best = 0.0
+    for mask in range(16):
+        v0 = eps[0] * J[0, 0]
+        v1 = eps[0] * J[1, 0]
+        v2 = eps[0] * J[2, 0]
+        for i in range(1, 5):
+            s = -eps[i] if (mask >> (i - 1)) & 1 else eps[i]
+            v0 += s * J[0, i]
+            v1 += s * J[1, i]
+            v2 += s * J[2, i]
+        if lateral:
+            a = v0 * e0 + v1 * e1 + v2 * e2
+            v0 -= a * e0
+            v1 -= a * e1
+            v2 -= a * e2
+        n = v0 * v0 + v1 * v1 + v2 * v2
+        if n > best:
+            best = n
+    return math.sqrt(best)
+
+
+@njit(cache=True, error_model="numpy")
+def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
+                 xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, perf_opt, J, out):  # fmt: skip
+    """Write the 7 metrics of one point to ``out``; ``perf_opt``: encoder (5, rad), thrust, lateral force
+    (N), stiffness (5, N·mm/rad); ``J``: (2, 3, 5) work buffer (J_E, J_e)."""
+    # J_AP rows q = u_beta x e (mechanism axes)
+    qx0 = xb1 * em2 - xb2 * em1
+    qx1 = xb2 * em0 - xb0 * em2
+    qx2 = xb0 * em1 - xb1 * em0
+    qy0 = yb1 * em2 - yb2 * em1
+    qy1 = yb2 * em0 - yb0 * em2
+    qy2 = yb0 * em1 - yb1 * em0
+    det = (qx1 * qy2 - qx2 * qy1) * em0 + (qx2 * qy0 - qx0 * qy2) * em1 + (qx0 * qy1 - qx1 * qy0) * em2
+    px0 = (qy1 * em2 - qy2 * em1) / det
+    px1 = (qy2 * em0 - qy0 * em2) / det
+    px2 = (qy0 * em1 - qy1 * em0) / det
+    py0 = (em1 * qx2 - em2 * qx1) / det
+    py1 = (em2 * qx0 - em0 * qx2) / det
+    py2 = (em0 * qx1 - em1 * qx0) / det
+    rx = jas0 / H0
+    ry = jas1 / H1
+    # rows M_x, M_y of M = [J_rho - J_AV J_LV | J_delta], J_LV = diag(-p cos rho)
+    mx = (rx * G0, rx * D0 * pcr1, rx * E0 * pcr2, rx * F0, 0.0)
+    my = (ry * E1 * pcr0, ry * G1, ry * D1 * pcr2, 0.0, ry * F1)
+    lv = (-pcr0, -pcr1, -pcr2)
+    flat = g[G_FLAT] != 0.0
+    L = g[G_L]
+    if flat:
+        e0, e1, e2 = em0, em1, em2
+    else:
+        e0 = g[G_ROT] * em0 + g[G_ROT + 1] * em1 + g[G_ROT + 2] * em2
+        e1 = g[G_ROT + 3] * em0 + g[G_ROT + 4] * em1 + g[G_ROT + 5] * em2
+        e2 = g[G_ROT + 6] * em0 + g[G_ROT + 7] * em1 + g[G_ROT + 8] * em2
+    for i in range(5):
+        # column i of J_C and J_ω (mechanism axes), then to R_w
+        c0 = lv[0] if i == 0 else 0.0
+        c1 = lv[1] if i == 1 else 0.0
+        c2 = lv[2] if i == 2 else 0.0
+        w0 = px0 * mx[i] + py0 * my[i]
+        w1 = px1 * mx[i] + py1 * my[i]
+        w2 = px2 * mx[i] + py2 * my[i]
+        if not flat:
+            c0, c1, c2 = (g[G_ROT] * c0 + g[G_ROT + 1] * c1 + g[G_ROT + 2] * c2,
+                          g[G_ROT + 3] * c0 + g[G_ROT + 4] * c1 + g[G_ROT + 5] * c2,
+                          g[G_ROT + 6] * c0 + g[G_ROT + 7] * c1 + g[G_ROT + 8] * c2)  # fmt: skip
+            w0, w1, w2 = (g[G_ROT] * w0 + g[G_ROT + 1] * w1 + g[G_ROT + 2] * w2,
+                          g[G_ROT + 3] * w0 + g[G_ROT + 4] * w1 + g[G_ROT + 5] * w2,
+                          g[G_ROT + 6] * w0 + g[G_ROT + 7] * w1 + g[G_ROT + 8] * w2)  # fmt: skip
+        x0 = e1 * w2 - e2 * w1  # e x ω-column
+        x1 = e2 * w0 - e0 * w2
+        x2 = e0 * w1 - e1 * w0
+        J[0, 0, i] = c0 + L * x0
+        J[0, 1, i] = c1 + L * x1
+        J[0, 2, i] = c2 + L * x2
+        J[1, 0, i] = -x0
+        J[1, 1, i] = -x1
+        J[1, 2, i] = -x2
+    eps = perf_opt[0:5]
+    F_t = perf_opt[5]
+    F_l = perf_opt[6]
+    k = perf_opt[7:12]
+    out[0] = _max_signed_sum(J[0], eps, False, e0, e1, e2)
+    out[1] = _max_signed_sum(J[0], eps, True, e0, e1, e2)
+    out[3] = math.degrees(_max_signed_sum(J[1], eps, False, e0, e1, e2))
+    axial = 0.0
+    torque = -1.0
+    which = -1.0
+    p0 = p1 = p2 = 0.0  # P_perp C_E e
+    s00 = s11 = s22 = s01 = s02 = s12 = 0.0  # P_perp C_E P_perp
+    for i in range(5):
+        a = e0 * J[0, 0, i] + e1 * J[0, 1, i] + e2 * J[0, 2, i]
+        l0 = J[0, 0, i] - a * e0
+        l1 = J[0, 1, i] - a * e1
+        l2 = J[0, 2, i] - a * e2
+        axial += eps[i] * abs(a)
+        tau = (F_t * abs(a) + F_l * math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)) / 1000.0
+        if tau > torque:
+            torque = tau
+            which = float(i)
+        c = 1.0 / k[i]
+        p0 += l0 * a * c
+        p1 += l1 * a * c
+        p2 += l2 * a * c
+        s00 += l0 * l0 * c
+        s11 += l1 * l1 * c
+        s22 += l2 * l2 * c
+        s01 += l0 * l1 * c
+        s02 += l0 * l2 * c
+        s12 += l1 * l2 * c
+    # eigenvalues of the PSD S with e in its null space: 0, and the roots of x^2 - tr x + m2
+    tr = s00 + s11 + s22
+    m2 = (s00 * s11 - s01 * s01) + (s00 * s22 - s02 * s02) + (s11 * s22 - s12 * s12)
+    half = 0.5 * tr
+    lam = half + math.sqrt(max(half * half - m2, 0.0))
+    out[2] = axial
+    out[4] = torque if torque == torque and torque >= 0.0 else math.nan
+    out[5] = which if out[4] == out[4] else -1.0
+    out[6] = F_t * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + F_l * lam
+
+
+def perf_vector(encoder_deg, thrust_N, lateral_N, stiffness_Nm_per_rad) -> np.ndarray:
+    """The kernel's ``perf_opt`` (12,): encoder (rad), thrust, lateral force (N), stiffness (N·mm/rad)."""
+    return np.concatenate([np.radians(np.broadcast_to(np.asarray(encoder_deg, float), (5,))), [float(thrust_N), float(lateral_N)],
+                           1000.0 * np.broadcast_to(np.asarray(stiffness_Nm_per_rad, float), (5,))])  # fmt: skip

@@ -1,0 +1,106 @@
+"""MODEL.md 15 through the pipeline: the compiled kernel against the NumPy reference, the JSON contract
+of ``arcube evaluate``, and bad loads on the command line.
+
+The reference metrics themselves are checked against independent oracles in test_performance.py;
+here the kernel's closed-form forward Jacobian (dual basis of J_AP's rows) must give the same numbers
+as the reference's generic 5x5 solve, with and without a mounting rotation and a tool offset.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_cli_evaluate import DATA, arcube  # noqa: E402
+from test_mounting import _reaching_design, _task  # noqa: E402
+
+from arcube.evaluation.kernel import evaluate_task_numba  # noqa: E402
+from arcube.evaluation.performance import ACTUATOR_NAMES, PERFORMANCE_FIELDS  # noqa: E402
+from arcube.evaluation.reference import Options, evaluate_task, with_loads  # noqa: E402
+from arcube.model.design import Design  # noqa: E402
+from arcube.model.mechanism import ALL_MODES  # noqa: E402
+
+SUMMARY = {"tip_error_max_mm", "lateral_error_max_mm", "axial_error_max_mm", "axis_error_max_deg", "torque_max_Nm", "deflection_max_mm"}
+POINT = {"tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "torque_actuator", "deflection_mm"}
+
+
+@pytest.mark.parametrize("mount, L", [((0.0, 0.0, 0.0), 0.0), ((-135.0, -144.74, -67.63), 120.0)])
+def test_kernel_equals_reference(mount, L) -> None:
+    task = _task()
+    x = _reaching_design(mount, L, n=300)
+    X = np.stack([x, x * np.r_[np.ones(23), 1.0, 1.0, 1.0, 0.95]])
+    opts = with_loads(Options(), encoder_deg=[0.01, 0.02, 0.01, 0.005, 0.01], thrust=25.0, lateral_force=12.0,
+                      stiffness=[1e4, 2e4, 1e4, 5e3, 5e3])  # fmt: skip
+    E = np.concatenate([task.E, task.E[:5] + 400.0])  # and five points out of reach
+    e = np.concatenate([task.e, task.e[:5]])
+    ref = evaluate_task(X, E, e, ALL_MODES[0], opts)
+    ker = evaluate_task_numba(X, E, e, ALL_MODES[0], opts)
+    summ = evaluate_task_numba(X, E, e, ALL_MODES[0], opts, want_points=False)
+    reach = ref.points.reachable
+    assert reach.any() and not reach.all()  # both kinds of points
+    for name in PERFORMANCE_FIELDS:
+        a, b = getattr(ref.points, name), getattr(ker.points, name)
+        assert np.array_equal(np.isnan(a), ~reach) and np.array_equal(np.isnan(b), ~reach), name
+        np.testing.assert_allclose(b[reach], a[reach], rtol=1e-9, err_msg=name)
+        m = name.rsplit("_", 1)[0] + "_max"
+        np.testing.assert_allclose(getattr(ker, m), getattr(ref, m), rtol=1e-9, err_msg=m)
+        np.testing.assert_allclose(getattr(summ, m), getattr(ref, m), rtol=1e-9, err_msg=m)
+        np.testing.assert_allclose(getattr(ref, m), np.nanmax(np.where(reach, a, np.nan), axis=-1), rtol=0, err_msg=m)
+    np.testing.assert_array_equal(ker.points.torque_actuator, ref.points.torque_actuator)
+    assert set(np.unique(ref.points.torque_actuator[~reach])) == {-1}
+
+
+def test_loads_scale_as_the_model_says() -> None:
+    """Accuracy is linear in the encoder bound, torque linear in the forces, deflection inverse in k."""
+    task = _task()
+    x = _reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
+    base = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options())
+    other = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0],
+                                with_loads(Options(), encoder_deg=0.03, thrust=60.0, lateral_force=20.0, stiffness=2e4))  # fmt: skip
+    r = base.points.reachable
+    for name, factor in [("tip_error_mm", 3), ("lateral_error_mm", 3), ("axis_error_deg", 3), ("torque_Nm", 2), ("deflection_mm", 1)]:
+        np.testing.assert_allclose(getattr(other.points, name)[r], factor * getattr(base.points, name)[r], rtol=1e-12, err_msg=name)
+
+
+@pytest.fixture(scope="module")
+def right_side_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("design") / "right.json"
+    Design.preset("paper").replace(m_x=88.23, m_y=79.40, m_z=56.89).to_json(path)
+    return path
+
+
+def test_json_carries_the_metrics_with_their_names(right_side_design: Path) -> None:
+    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(DATA), "--points", "5", "--json",
+                 "--thrust", "40", "--encoder-deg", "0.02")  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    s = doc["summary"]
+    assert SUMMARY <= set(s) and s["torque_max_actuator"] in ACTUATOR_NAMES
+    reach = [p for p in doc["points"] if p["reachable"]]
+    unreach = [p for p in doc["points"] if not p["reachable"]]
+    assert reach and unreach
+    assert all(POINT <= set(p) for p in doc["points"])
+    assert all(p[k] is None for p in unreach for k in POINT)
+    for key, field in [("tip_error_max_mm", "tip_error_mm"), ("torque_max_Nm", "torque_Nm"), ("deflection_max_mm", "deflection_mm")]:
+        assert s[key] == max(p[field] for p in reach)
+    # lateral and axial are parts of the tip error: each at most the whole, and together at least it
+    for p in reach:
+        assert p["lateral_error_mm"] <= p["tip_error_mm"] * (1 + 1e-12)
+        assert p["axial_error_mm"] <= p["tip_error_mm"] * (1 + 1e-12)
+        assert p["lateral_error_mm"] + p["axial_error_mm"] >= p["tip_error_mm"] * (1 - 1e-12)
+
+
+@pytest.mark.parametrize(
+    "args, flag",
+    [(["--thrust", "nan"], "--thrust"), (["--lateral-force", "-1"], "--lateral-force"), (["--actuator-stiffness", "0"], "--actuator-stiffness"),
+     (["--encoder-deg", "0.01,0.02"], "--encoder-deg"), (["--encoder-deg", "fine"], "--encoder-deg")],
+)  # fmt: skip
+def test_bad_loads_are_one_line_exit_2(args, flag) -> None:
+    out = arcube("evaluate", "--points", "3", *args)
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and flag in out.stderr and "Traceback" not in out.stderr
