@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from arcube.model.design import Design
 from arcube.errors import InputError
+from arcube.evaluation.reference import Options
 from arcube.export.joints import CSV_COLUMNS, joint_trajectory
 from arcube.model.mechanism import ALL_MODES
 from arcube.cli import joints as joints_cli
@@ -26,7 +27,9 @@ SPEED = 2.5  # mm/s
 
 EXPECTED_COLUMNS = (
     "trajectory,k,t_s,x,y,z,rho_x_deg,rho_y_deg,rho_z_deg,delta_x_deg,delta_y_deg,sigma_x_deg,sigma_y_deg,"
-    "rho_x_dps,rho_y_dps,rho_z_dps,delta_x_dps,delta_y_dps,sigma_x_dps,sigma_y_dps,reachable"
+    "rho_x_dps,rho_y_dps,rho_z_dps,delta_x_dps,delta_y_dps,sigma_x_dps,sigma_y_dps,"
+    "tau_rho_x_Nm,tau_rho_y_Nm,tau_rho_z_Nm,tau_delta_x_Nm,tau_delta_y_Nm,"
+    "tau_rho_x_max_Nm,tau_rho_y_max_Nm,tau_rho_z_max_Nm,tau_delta_x_max_Nm,tau_delta_y_max_Nm,reachable"
 ).split(",")
 
 
@@ -59,6 +62,22 @@ def test_rates_match_central_differences_of_the_ik(mode):
     # sigma depends on e only, and e is constant along a trajectory: its rate is exactly 0.
     assert np.all(qd[..., 5:][ok] == 0.0)
     assert np.all(q[..., 5:][ok] == q[:, :1, 5:].repeat(n, axis=1)[ok])
+
+
+def test_thrust_torques_balance_the_power_of_drilling():
+    """Virtual work along the drilling motion: the actuators' power tau . q_dot equals the power the
+    thrust absorbs, F_t * speed (the tip moves against e at ``speed``, the bone pushes along +e);
+    the rates come from the velocity model's inverse (B^-1 A), the torques from J_E^T: independent."""
+    ts = select(load_trajectories("reference"), side="R")
+    task = build_task(ts.entry, ts.target, 8, ids=ts.ids)
+    opts = Options().model_copy(update={"thrust_N": 25.0, "lateral_force_N": 0.0})
+    jt = joint_trajectory(PLACED, task, SPEED, options=opts)
+    r = jt.reachable
+    assert r.any()
+    power = 1000.0 * np.sum(jt.tau_thrust_Nm[r] * np.radians(jt.q_dot_dps[r, :5]), axis=-1)  # N·mm/s
+    np.testing.assert_allclose(power, 25.0 * SPEED, rtol=1e-8)
+    # without a lateral force the worst case is the thrust's own torque, in magnitude
+    np.testing.assert_allclose(jt.tau_max_Nm[r], np.abs(jt.tau_thrust_Nm[r]), rtol=1e-9, atol=1e-12)
 
 
 def test_time_stamps_are_drilled_length_over_speed():

@@ -199,7 +199,9 @@ def optimize(
             ``population``, ``generations``, ``tolerance``, ``points``, ``mode``, ``setups``, ``guards``,
             ``margin``, ``seed``, ``free``, ``design_from``, ``side``, ``levels``, ``ids``, ``engine``,
             ``aggregate``, ``compactness``, ``bounds``, ``checkpoint_every``, ``transform``,
-            ``eliminate_duplicates``.
+            ``eliminate_duplicates``; ``objectives`` (``"eta_G,lateral_error"``, names of
+            :data:`arcube.optimization.objectives.OBJECTIVES`), ``maxima`` / ``minima`` (``["torque=15"]``),
+            ``encoder_deg``, ``thrust``, ``lateral_force``, ``actuator_stiffness`` (MODEL.md 15).
 
     Returns:
         The finished :class:`Run`.

@@ -9,7 +9,7 @@ from typing import Annotated
 
 import typer
 
-from arcube.cli.common import DesignOpt, GuardsOpt, IdsOpt, LevelsOpt, ModeOpt, PointsOpt, SideOpt, TrajOpt, TransformOpt
+from arcube.cli.common import DesignOpt, GuardsOpt, IdsOpt, LateralForceOpt, LevelsOpt, ModeOpt, PointsOpt, SideOpt, ThrustOpt, TrajOpt, TransformOpt
 from arcube.errors import InputError
 
 __all__ = ["register"]
@@ -27,6 +27,8 @@ def joints(
     levels: LevelsOpt = None,
     ids: IdsOpt = None,
     transform: TransformOpt = None,
+    thrust: ThrustOpt = 30.0,
+    lateral_force: LateralForceOpt = 10.0,
 ) -> None:
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV."""
     from arcube.evaluation.reference import GUARDED_OPTIONS, Options
@@ -41,7 +43,10 @@ def joints(
     signs = parse_mode_option(mode)
     d = Design.load(design)
     _, task = load_task(trajectories, points, side, levels, ids, transform)
-    jt = joint_trajectory(d, task, speed, signs, GUARDED_OPTIONS if guards else Options())
+    from arcube.evaluation.reference import with_loads
+
+    opts = with_loads(GUARDED_OPTIONS if guards else Options(), thrust=thrust, lateral_force=lateral_force)
+    jt = joint_trajectory(d, task, speed, signs, opts)
     try:
         path = jt.write_csv(out)
     except OSError as exc:

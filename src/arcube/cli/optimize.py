@@ -14,7 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import (
-    ActuatorRadiusOpt, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
+    ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, numbers, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
 )  # fmt: skip
 from arcube.errors import InputError
 from arcube.optimization import run as runmod
@@ -118,6 +118,13 @@ def register(app: typer.Typer) -> None:
         actuator_radius: ActuatorRadiusOpt = 25.0,
         motor_radius: MotorRadiusOpt = 20.0,
         motor_length: MotorLengthOpt = 120.0,
+        objectives: Annotated[str | None, typer.Option("--objectives", help="Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3.")] = None,
+        maxima: Annotated[list[str] | None, typer.Option("--max", help="Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15.")] = None,
+        minima: Annotated[list[str] | None, typer.Option("--min", help="Lower limit NAME=VALUE (repeatable), e.g. --min clearance=5.")] = None,
+        encoder_deg: EncoderOpt = "0.01",
+        thrust: ThrustOpt = 30.0,
+        lateral_force: LateralForceOpt = 10.0,
+        actuator_stiffness: StiffnessOpt = "1e4",
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
         more_trajectories: Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE_TRAJECTORIES")] = None,
     ) -> None:
@@ -138,6 +145,9 @@ def register(app: typer.Typer) -> None:
                 checkpoint_every=checkpoint_every, transform=transform, eliminate_duplicates=eliminate_duplicates,
                 anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
                 link_radius=link_radius, actuator_radius=actuator_radius, motor_radius=motor_radius, motor_length=motor_length,
+                objectives=objectives, maxima=maxima, minima=minima,
+                **{k: v for k, v in loads(encoder_deg, thrust, lateral_force, actuator_stiffness).items() if k != "stiffness"},
+                actuator_stiffness=numbers(actuator_stiffness, "--actuator-stiffness"),
             )  # fmt: skip
         _print_summary(out, run.summary)
 

@@ -46,6 +46,8 @@ class Options(BaseModel):
     self_clearance_mm: float | None = Field(default=None, ge=0, allow_inf_nan=False)
     """[ADDITION, MODEL.md 14.3] clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
     body: bool = False
+    want_clearance: bool = False
+    """Compute the clearance to the anatomy (when there is one) even without its guard (an optimizer objective)."""
     """Compute the body clearances at every point (MODEL.md 14.3) even when no clearance guard is on."""
     link_radius: float = Field(default=8.0, gt=0, allow_inf_nan=False)
     """Radius of every link of the body (MODEL.md 14.1), mm."""
@@ -72,7 +74,7 @@ class Options(BaseModel):
     @property
     def wants_clearance(self) -> bool:
         """Whether the evaluation computes the clearance to the anatomy (when there is one)."""
-        return self.body or self.clearance_mm is not None
+        return self.body or self.want_clearance or self.clearance_mm is not None
 
     @property
     def wants_self_clearance(self) -> bool:

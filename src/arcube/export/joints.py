@@ -13,6 +13,10 @@ t = s_k / speed, s_k = |E_k - E_0| the drilled length so far.
   only (RTS IK, MODEL.md 5.2) and e is constant. It is still computed from the general relation
   so that the column means the same thing if a caller passes a path with omega != 0 later.
 
+Actuator torques for the drilling loads (MODEL.md 15.3, Options' thrust and lateral force): the
+torque that holds the thrust F_t e alone, tau = -J_E^T (F_t e), signed, and the worst case of each
+actuator over the lateral directions, F_t |e^T J_E,i| + F_l |P_perp J_E,i|; N·m.
+
 Reachability is that of :func:`arcube.evaluation.evaluate_task` with the given options (guards
 included); unreachable points have empty cells in the CSV and ``reachable=false``.
 """
@@ -30,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.model import frames
 from arcube.model.design import Design, unpack
+from arcube.evaluation.performance import ACTUATOR_NAMES, jacobians_of_solution, tip_metrics
 from arcube.evaluation.reference import Options, evaluate_task
 from arcube.io.files import atomic_write_text
 from arcube.model.mechanism import DEFAULT_MODE, inverse_kinematics, joint_rates, velocity_model
@@ -41,7 +46,8 @@ JOINT_NAMES: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y",
 
 CSV_COLUMNS: tuple[str, ...] = (
     "trajectory", "k", "t_s", "x", "y", "z",
-    *(f"{n}_deg" for n in JOINT_NAMES), *(f"{n}_dps" for n in JOINT_NAMES), "reachable",
+    *(f"{n}_deg" for n in JOINT_NAMES), *(f"{n}_dps" for n in JOINT_NAMES),
+    *(f"tau_{n}_Nm" for n in ACTUATOR_NAMES), *(f"tau_{n}_max_Nm" for n in ACTUATOR_NAMES), "reachable",
 )  # fmt: skip
 
 
@@ -58,6 +64,8 @@ class JointTrajectory:
     q_dot_dps: NDArray[np.float64]  # (P, 7) rates, deg/s (NaN where unreachable)
     reachable: NDArray[np.bool_]  # (P,)
     speed_mm_s: float
+    tau_thrust_Nm: NDArray[np.float64]  # (P, 5) torques holding the thrust alone, ACTUATOR_NAMES order (NaN where unreachable)
+    tau_max_Nm: NDArray[np.float64]  # (P, 5) worst case with the lateral force (MODEL.md 15.3)
 
     def to_csv(self) -> str:
         """CSV text with :data:`CSV_COLUMNS`; empty cells where a value does not exist."""
@@ -65,7 +73,7 @@ class JointTrajectory:
         buf.write(",".join(CSV_COLUMNS) + "\n")
         for i in range(len(self.k)):
             ok = bool(self.reachable[i])
-            joints = [_cell(v) if ok else "" for v in (*self.q_deg[i], *self.q_dot_dps[i])]
+            joints = [_cell(v) if ok else "" for v in (*self.q_deg[i], *self.q_dot_dps[i], *self.tau_thrust_Nm[i], *self.tau_max_Nm[i])]
             row = [self.ids[int(self.trajectory[i])], str(int(self.k[i])), _cell(self.t_s[i]), *(_cell(v) for v in self.E[i]), *joints, "true" if ok else "false"]
             buf.write(",".join(row) + "\n")
         return buf.getvalue()
@@ -104,6 +112,11 @@ def joint_trajectory(
         q_dot = joint_rates(velocity_model(sol, params), v, omega)  # (P, 5): rho_dot, delta_dot, rad/s
         j_ap_omega = np.einsum("...ij,...j->...i", rts.J_AP(sol.e, sol.u_beta), omega)
         sigma_dot = j_ap_omega / rts.J_AS_diag(sol.e, sol.u_beta)  # J_AS is diagonal: σ̇_u = (J_AP ω)_u / J_AS,u
+        J_E, J_e = jacobians_of_solution(sol, params)
+        e_w = frames.directions_to_world(unpack(params), sol.e)
+        tau = -np.einsum("...ij,...i->...j", J_E, options.thrust_N * e_w) / 1000.0  # N·mm -> N·m
+        worst = tip_metrics(J_E, J_e, e_w, options.encoder_deg, options.thrust_N, options.lateral_force_N,
+                            options.actuator_stiffness).torque_per_actuator_Nm  # fmt: skip
     q = np.concatenate([sol.rho, sol.delta, sol.sigma], axis=-1)
     rates = np.concatenate([q_dot, sigma_dot], axis=-1)
     first = np.flatnonzero(task.k == 0)  # entry point of each trajectory (trajectory-major order)
@@ -119,4 +132,6 @@ def joint_trajectory(
         q_dot_dps=np.where(keep, np.rad2deg(rates), np.nan),
         reachable=reachable,
         speed_mm_s=float(speed_mm_s),
+        tau_thrust_Nm=np.where(keep, tau, np.nan),
+        tau_max_Nm=np.where(keep, worst, np.nan),
     )

@@ -47,7 +47,7 @@ from arcube.errors import InputError
 from arcube.optimization.lean import LeanEvaluator, LeanFitnessSurvival, LeanGA, PassRepair, lean_comp_by_cv_and_fitness
 from arcube.optimization.problem import MULTI_OBJECTIVE_ALGORITHMS
 
-ALGORITHMS: tuple[str, ...] = ("ga", "de", "cmaes", "nsga2")
+ALGORITHMS: tuple[str, ...] = ("ga", "de", "cmaes", "nsga2", "nsga3")
 MULTI_OBJECTIVE: frozenset[str] = MULTI_OBJECTIVE_ALGORITHMS
 PENALTY_ONLY: frozenset[str] = frozenset({"cmaes"})
 """Algorithms without constraint handling: they minimize the penalized F of problem.PENALTY."""
@@ -74,13 +74,13 @@ def check_algorithm(name: str, population: int) -> None:
     """InputError for an unknown algorithm or a population it cannot use."""
     if name not in ALGORITHMS:
         raise InputError(f"--algorithm must be one of {', '.join(ALGORITHMS)}, got {name!r}")
-    least = 4 if name in ("de", "nsga2", "cmaes") else 2
+    least = 4 if name in ("de", "nsga2", "nsga3", "cmaes") else 2
     if population < least:
         raise InputError(f"--population must be at least {least} for {name}, got {population}")
 
 
 def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None = None, *,
-                   eliminate_duplicates: bool = False, lean: bool = True) -> Algorithm:  # fmt: skip
+                   eliminate_duplicates: bool = False, lean: bool = True, n_obj: int = 2) -> Algorithm:  # fmt: skip
     """A fresh pymoo algorithm; ``x0`` (an optimizer vector) seeds the initial population.
 
     ``eliminate_duplicates`` applies to ``ga`` (see the module docstring); ``lean=False`` builds
@@ -108,6 +108,13 @@ def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None 
 
         start = None if x0 is None else np.asarray(x0, dtype=float)
         return CMAES(x0=start, sigma=0.2, pop_size=population, restarts=0, seed=int(seed))
+    if name == "nsga3":  # many objectives: reference directions spread by Riesz energy, one per individual
+        from pymoo.algorithms.moo.nsga3 import NSGA3  # noqa: PLC0415
+        from pymoo.util.ref_dirs import get_reference_directions  # noqa: PLC0415
+
+        ref_dirs = get_reference_directions("energy", int(n_obj), int(population), seed=int(seed))
+        return NSGA3(pop_size=population, ref_dirs=ref_dirs, sampling=SeededSampling(x0), crossover=SBX(prob=0.9, eta=15),
+                     mutation=PM(eta=20), eliminate_duplicates=True, **common)  # fmt: skip
     from pymoo.algorithms.moo.nsga2 import NSGA2  # noqa: PLC0415
 
     return NSGA2(

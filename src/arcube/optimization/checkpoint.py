@@ -29,6 +29,7 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes, atomic_write_text
 from arcube.optimization.algorithms import MULTI_OBJECTIVE
+from arcube.optimization.problem import run_objectives
 
 CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
 FORMAT_VERSION = 1
@@ -114,7 +115,7 @@ def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple
     if state.get("run_id") != cfg["run_id"] or state.get("config_sha256") != _sha(cfg_raw):
         raise InputError(f"{path}: checkpoint of another run or config (run_id/config.toml do not match); refusing to resume")
     entries: list[tuple[bytes, Batch]] = []
-    n_obj = 2 if cfg["settings"]["algorithm"] in MULTI_OBJECTIVE else 1
+    n_obj = len(run_objectives(cfg["settings"]))
     try:
         for ch in state["chunks"]:
             f = path.parent / str(ch["file"])

@@ -14,14 +14,15 @@ from typing import Any
 
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.errors import InputError
-from arcube.evaluation.reference import Options, with_body
+from arcube.evaluation.reference import Options, with_body, with_loads
+from arcube.optimization.objectives import needs_clearance, parse_limits, parse_objectives
 from arcube.model.body import BodyRadii
 from arcube.io import TrajectorySet, load_trajectories, select
 from arcube.model.design import ANGLE_NAMES, LENGTH_NAMES, PAPER_NAMES, Design
 from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization.algorithms import DEFAULT_PERIOD, check_algorithm, make_termination
-from arcube.optimization.problem import AGGREGATES, COMPACTNESS, parse_bounds, parse_free, resolve_bounds
+from arcube.optimization.problem import AGGREGATES, COMPACTNESS, MULTI_OBJECTIVE_ALGORITHMS, parse_bounds, parse_free, resolve_bounds
 
 __all__ = ["build_config"]
 
@@ -68,9 +69,18 @@ def build_config(
     transform: str | None = None, eliminate_duplicates: bool = False,
     anatomy: Any = None, anatomy_frame: str = "LPS", clearance: float | None = None, self_clearance: float | None = None,
     link_radius: float = 8.0, actuator_radius: float = 25.0, motor_radius: float = 20.0, motor_length: float = 120.0,
+    objectives: str | None = None, maxima: list[str] | None = None, minima: list[str] | None = None,
+    encoder_deg: Any = 0.01, thrust: float = 30.0, lateral_force: float = 10.0, actuator_stiffness: Any = 1e4,
 ) -> dict[str, Any]:  # fmt: skip
     """Validate the optimize flags and return the run's config (what config.toml holds)."""
     algorithm = algorithm.strip().lower()
+    names = parse_objectives(objectives)
+    limits = parse_limits(maxima, minima)
+    if len(names) > 1:  # MODEL.md 15.5: two or three objectives -> NSGA-II, more -> NSGA-III
+        algorithm = "nsga2" if len(names) <= 3 else "nsga3"
+    elif names and algorithm in MULTI_OBJECTIVE_ALGORITHMS:
+        raise InputError(f"--algorithm {algorithm} needs two or more --objectives (got {names[0]} alone)")
+    loads = with_loads(Options(), encoder_deg=encoder_deg, thrust=thrust, lateral_force=lateral_force, stiffness=actuator_stiffness)
     check_algorithm(algorithm, population)
     make_termination(algorithm, generations, tolerance)
     if not trajectories:
@@ -117,6 +127,8 @@ def build_config(
             resolve_anatomy(anatomy_spec, anatomy_frame, spec)
     elif clearance is not None:
         raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")
+    elif needs_clearance(names, limits):
+        raise InputError("the clearance objective or limit needs an anatomy (--anatomy default or mesh files)")
     settings = {
         "algorithm": algorithm, "population": population, "generations": generations, "tolerance": tolerance,
         "period": DEFAULT_PERIOD, "points": points, "mode": mode_text, "setups": setups, "guards": guards, "margin": margin,
@@ -125,6 +137,8 @@ def build_config(
         "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in trajectories], "side": side, "levels": levels, "ids": ids, "transform": transform,
         "anatomy": anatomy_spec, "anatomy_frame": anatomy_frame, "clearance": body.clearance_mm, "self_clearance": body.self_clearance_mm,
         "link_radius": body.link_radius, "actuator_radius": body.actuator_radius, "motor_radius": body.motor_radius, "motor_length": body.motor_length,
+        "objectives": list(names), "limits": limits, "encoder_deg": list(loads.encoder_deg), "thrust": loads.thrust_N,
+        "lateral_force": loads.lateral_force_N, "actuator_stiffness": list(loads.actuator_stiffness),
     }  # fmt: skip
     cfg = runmod.new_run_config(settings, all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
     cfg["rerun"] = _rerun_command(settings, all_bounds, cfg)
@@ -152,6 +166,13 @@ def _rerun_command(s: dict[str, Any], bounds: dict[str, tuple[float, float]], cf
     for flag, default in (("link_radius", 8.0), ("actuator_radius", 25.0), ("motor_radius", 20.0), ("motor_length", 120.0)):
         if s.get(flag, default) != default:
             parts.append(f"--{flag.replace('_', '-')} {s[flag]!r}")
+    if s.get("objectives"):
+        parts.append(f"--objectives {','.join(s['objectives'])}")
+    parts.extend(f"--{kind} {name}={value!r}" for name, kind, value in s.get("limits", []))
+    for flag, default in (("encoder_deg", [0.01] * 5), ("thrust", 30.0), ("lateral_force", 10.0), ("actuator_stiffness", [1e4] * 5)):
+        value = s.get(flag, default)
+        if value != default:
+            parts.append(f"--{flag.replace('_', '-')} " + (",".join(repr(v) for v in value) if isinstance(value, list) else repr(value)))
     changed = [f"{k}={lo!r}:{hi!r}" for k, (lo, hi) in bounds.items() if (lo, hi) != resolve_bounds()[k]]
     if changed:
         parts.append("--bounds " + ",".join(changed))

@@ -31,7 +31,8 @@ from arcube.model import frames
 from arcube.model.body import BodyRadii
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PAPER_NAMES, PARAM_NAMES, full_params, unpack
 from arcube.errors import InputError
-from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body
+from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body, with_loads
+from arcube.optimization.objectives import limit_shortfall, metric_values, needs_clearance, objective_columns, parse_objectives
 from arcube.model.mechanism import format_mode, parse_mode
 from arcube.model.poses import LEG_PERM
 from arcube.model.stages import tls
@@ -63,7 +64,7 @@ PENALTY = 1e6
 """F of an infeasible design: PENALTY * (1 + VIOL). Only CMA-ES (no constraint handling) sees it
 as a ranking; GA, DE and NSGA-II compare infeasible designs by the constraint (feasibility first)."""
 COMPACTNESS = ("links", "bbox")
-MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2"})
+MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
 AGGREGATES = ("mean", "worst")
 
 
@@ -242,14 +243,14 @@ class FitnessModel:
     engine: str = "numpy"
     aggregate: str = "mean"
     margin_deg: float | None = None
-    compactness: str | None = None  # None: one objective (eta); 'links' or 'bbox': NSGA-II's second
+    objectives: tuple[str, ...] = ("eta_G",)  # names of arcube.optimization.objectives.OBJECTIVES
+    limits: tuple[tuple[str, str, float], ...] = ()  # (name, "max" | "min", value): --max / --min
     anatomies: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.sdf.AnatomyDistance, or None
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
             raise InputError(f"--aggregate must be one of {', '.join(AGGREGATES)}, got {self.aggregate!r}")
-        if self.compactness is not None and self.compactness not in COMPACTNESS:
-            raise InputError(f"--compactness must be one of {', '.join(COMPACTNESS)}, got {self.compactness!r}")
+        parse_objectives(",".join(self.objectives))  # validates the names
         e_all = np.concatenate([t.e for t in self.tasks])
         ang = np.degrees(np.arccos(np.clip(e_all[:, :2], -1.0, 1.0)))  # angle(e, +u) for legs x, y
         object.__setattr__(self, "_ang_max", ang.max(axis=0))
@@ -257,7 +258,7 @@ class FitnessModel:
 
     @property
     def n_obj(self) -> int:
-        return 1 if self.compactness is None else 2
+        return len(self.objectives)
 
     @property
     def n_points(self) -> int:
@@ -306,13 +307,21 @@ class FitnessModel:
     def evaluate(self, X: Array) -> dict[str, Array]:
         """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)``."""
         params, modes = self.space.decode(X)
-        eta, viol = self._combine(self._run_tasks(params, modes, want_points=False), params)
-        f0 = np.where(viol == 0.0, eta, PENALTY * (1.0 + viol))
-        cols = [f0]
-        if self.compactness is not None:
-            links, vol = self.compactness_values(params)
-            cols.append(links if self.compactness == "links" else vol)
+        results = self._run_tasks(params, modes, want_points=False)
+        eta, viol, values = self._judge(results, params)
+        cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
         return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta}
+
+    def _judge(self, results: list[Any], params: list[Array]) -> tuple[Array, Array, dict[str, Array]]:
+        """(eta, violation with the --max/--min shortfalls, the objectives' and limits' values), each ``(n,)``."""
+        eta, viol = self._combine(results, params)
+        names = set(self.objectives) | {name for name, _, _ in self.limits}
+        links = vol = np.zeros(0)
+        if names & {"links", "bbox"}:
+            links, vol = self.compactness_values(params)
+        values = metric_values(names, results, eta, links, vol)
+        viol = viol + limit_shortfall([list(lim) for lim in self.limits], values, len(viol))
+        return np.where(viol == 0.0, eta, np.inf), viol, values
 
     __call__ = evaluate
 
@@ -322,7 +331,7 @@ class FitnessModel:
         params, modes = self.space.decode(X)
         described = replace(self, options=self.options.model_copy(update={"body": True}))
         results = described._run_tasks(params, modes, want_points=True)
-        eta, viol = self._combine(results, params)
+        eta, viol, _ = self._judge(results, params)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for r in results])
         links, vol = self.compactness_values(params)
         tasks = []
@@ -334,6 +343,7 @@ class FitnessModel:
                 "bbox_min_mm": [float(v) for v in lo[0]], "bbox_max_mm": [float(v) for v in hi[0]],
                 "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
                 "clearance_min_mm": _num(r.clearance_min[0]), "self_clearance_min_mm": _num(r.self_clearance_min[0]),
+                **{f"{name}_max": _num(getattr(r, name + "_max")[0]) for name in _METRICS},
             })  # fmt: skip
         return {
             "designs": [p[0] for p in params],
@@ -347,8 +357,18 @@ class FitnessModel:
             "clearance_min_mm": _min_num([tk["clearance_min_mm"] for tk in tasks]),
             "self_clearance_min_mm": _min_num([tk["self_clearance_min_mm"] for tk in tasks]),
             "bbox_volume_L": float(vol[0]),
+            **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks]) for name, unit in _METRICS.items()},
             "tasks": tasks,
         }
+
+
+_METRICS = {"tip_error": "mm", "lateral_error": "mm", "axial_error": "mm", "axis_error": "deg", "torque": "Nm", "deflection": "mm"}
+"""The summary maxima of MODEL.md 15.5 (TaskResults fields ``<name>_max``) and their units."""
+
+
+def _max_num(values: list[float | None]) -> float | None:
+    """The largest of the values, None if any is missing (an unreachable task)."""
+    return None if any(v is None for v in values) else max(values)  # type: ignore[type-var]
 
 
 def _min_num(values: list[float | None]) -> float | None:
@@ -378,7 +398,13 @@ def run_options(s: dict[str, Any]) -> Options:
     """The evaluation options of a run's settings (guards, clearance guards, body radii)."""
     base = GUARDED_OPTIONS if s["guards"] else Options()
     radii = BodyRadii(*(float(s.get(k, d)) for k, d in (("link_radius", 8.0), ("actuator_radius", 25.0), ("motor_radius", 20.0), ("motor_length", 120.0))))
-    return with_body(base, clearance=s.get("clearance"), self_clearance=s.get("self_clearance"), radii=radii)
+    opts = with_body(base, clearance=s.get("clearance"), self_clearance=s.get("self_clearance"), radii=radii)
+    opts = with_loads(opts, encoder_deg=s.get("encoder_deg"), thrust=s.get("thrust"), lateral_force=s.get("lateral_force"),
+                      stiffness=s.get("actuator_stiffness"))  # fmt: skip
+    limits = [list(lim) for lim in s.get("limits", [])]
+    if needs_clearance(tuple(s.get("objectives") or ()), limits) and opts.clearance_mm is None:
+        opts = opts.model_copy(update={"want_clearance": True})
+    return opts
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
@@ -422,8 +448,15 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None) -> FitnessModel:
         space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
         options=run_options(s), engine=s["engine_resolved"], aggregate=s["aggregate"], anatomies=load_run_anatomies(cfg, run_dir),
         margin_deg=None if margin is None else float(margin),
-        compactness=s["compactness"] if s["algorithm"] in MULTI_OBJECTIVE_ALGORITHMS else None,
+        objectives=run_objectives(s), limits=tuple((str(n), str(k), float(v)) for n, k, v in s.get("limits", [])),
     )  # fmt: skip
+
+
+def run_objectives(s: dict[str, Any]) -> tuple[str, ...]:
+    """A run's objectives: ``--objectives``, else eta_G (and nsga2's --compactness, the older shorthand)."""
+    if s.get("objectives"):
+        return tuple(s["objectives"])
+    return ("eta_G", s["compactness"]) if s["algorithm"] in MULTI_OBJECTIVE_ALGORITHMS else ("eta_G",)
 
 
 def check_engine(name: str) -> str:

@@ -39,6 +39,7 @@ from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: s
     CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
 )  # fmt: skip
 from arcube.optimization.lean import column
+from arcube.optimization.objectives import MAXIMIZED
 from arcube.optimization.problem import (
     ArcubeProblem, FitnessModel, anatomy_file, build_model, check_engine, evaluate_with, worker_evaluate, worker_init,
 )  # fmt: skip
@@ -230,9 +231,12 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
         rep = model.report(X[i])
         big = max(rep["tasks"], key=lambda t: t["bbox_volume_L"])
         ext = [hi - lo for lo, hi in zip(big["bbox_min_mm"], big["bbox_max_mm"])]
-        row = {"eta_G": rep["eta_G"], "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
+        row = {f"objective_{name}": float(F[i, j]) * (-1.0 if name in MAXIMIZED else 1.0) for j, name in enumerate(model.objectives)}
+        row |= {"eta_G": rep["eta_G"], "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
                "bbox_dx_mm": ext[0], "bbox_dy_mm": ext[1], "bbox_dz_mm": ext[2],
-               "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"]}  # fmt: skip
+               "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"],
+               "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
+               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))}}  # fmt: skip
         row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
         if len(rep["designs"]) == 2:
             row.update({f"{n}_L": float(v) for n, v in zip(("m_x", "m_y", "m_z"), rep["designs"][1][:3])})
@@ -259,6 +263,8 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
         "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
         "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
         "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
+        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))},
+        "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
         "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
         "points": model.n_points, "files": files, "resumed": info["resumed"],
     }  # fmt: skip
@@ -300,7 +306,7 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool 
     executor = make_executor(model, workers if workers is not None else int(ex.get("workers", 1)), dask if dask is not None else ex.get("dask") or None)
     log = EvalLog(executor, replay)
     # configs written before the setting existed ran pymoo's default (duplicates eliminated)
-    algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base),
+    algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base), n_obj=model.n_obj,
                           eliminate_duplicates=bool(s.get("eliminate_duplicates", True)))  # fmt: skip
     problem = ArcubeProblem(model.space, model.n_obj, log, penalty_only=s["algorithm"] in PENALTY_ONLY)
     termination = make_termination(s["algorithm"], int(s["generations"]), float(s["tolerance"]), int(s["period"]))

@@ -1,0 +1,119 @@
+"""What the optimizer can minimize or bound (MODEL.md 15.5): names, parsing of ``--objectives``,
+``--max NAME=VALUE`` and ``--min NAME=VALUE``, and the per-design values of a population.
+
+Every value is per design over all tasks of the run: the worst (largest) of the metrics of
+MODEL.md 15 over the tasks' reachable points, the smallest clearance, eta_G as aggregated by the
+run, the sum of link lengths and the bounding-box volume. ``clearance`` is maximized (its
+objective column is its negative).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from arcube.errors import InputError
+
+OBJECTIVES: dict[str, str] = {
+    "eta_G": "the paper's global conditioning index (mean of the worst kappa), lower is better",
+    "tip_error": "largest drill-tip error over the plan, mm (MODEL.md 15.2)",
+    "lateral_error": "largest error across the drill axis, mm (15.2)",
+    "axial_error": "largest error along the drill axis, mm (15.2)",
+    "axis_error": "largest drill-direction error, deg (15.2)",
+    "torque": "largest actuator torque under the drilling loads, N·m (15.3)",
+    "deflection": "largest lateral tip deflection under the loads, mm (15.4)",
+    "links": "sum of the 14 link lengths, mm",
+    "bbox": "largest bounding-box volume of the body over a task, litres",
+    "clearance": "smallest clearance to the anatomy, mm (maximized; needs --anatomy)",
+}
+"""Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure."""
+
+MAXIMIZED = frozenset({"clearance"})
+_SUMMARY = {"tip_error": "tip_error_max", "lateral_error": "lateral_error_max", "axial_error": "axial_error_max",
+            "axis_error": "axis_error_max", "torque": "torque_max", "deflection": "deflection_max"}  # fmt: skip
+
+
+def parse_objectives(text: str | None) -> tuple[str, ...]:
+    """``"eta_G,lateral_error"`` -> ``("eta_G", "lateral_error")``; InputError for unknown or repeated names."""
+    if text is None or not text.strip():
+        return ()
+    names = tuple(n.strip() for n in text.split(","))
+    for n in names:
+        if n not in OBJECTIVES:
+            raise InputError(f"--objectives: unknown objective {n!r} (known: {', '.join(OBJECTIVES)})")
+    if len(set(names)) != len(names):
+        raise InputError(f"--objectives {text!r}: an objective is named twice")
+    return names
+
+
+def parse_limits(maxima: list[str] | None, minima: list[str] | None) -> list[list[Any]]:
+    """``--max lateral_error=0.2`` and ``--min clearance=5`` as ``[[name, "max"|"min", value], ...]``."""
+    out: list[list[Any]] = []
+    for flag, items in (("max", maxima or []), ("min", minima or [])):
+        for item in items:
+            name, sep, value = str(item).partition("=")
+            name = name.strip()
+            if not sep or not name:
+                raise InputError(f"--{flag} {item!r}: expected NAME=VALUE, e.g. --{flag} lateral_error=0.2")
+            if name not in OBJECTIVES:
+                raise InputError(f"--{flag} {item!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})")
+            try:
+                v = float(value)
+            except ValueError:
+                raise InputError(f"--{flag} {item!r}: the value {value.strip()!r} is not a number") from None
+            if not math.isfinite(v):
+                raise InputError(f"--{flag} {item!r}: the value must be finite")
+            if flag == "max" and v <= 0.0:
+                raise InputError(f"--max {item!r}: an upper limit must be > 0")
+            out.append([name, flag, v])
+    return out
+
+
+def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether the clearance to the anatomy must be computed for these objectives and limits."""
+    return "clearance" in objectives or any(n == "clearance" for n, _, _ in limits)
+
+
+def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray) -> dict[str, np.ndarray]:
+    """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable)."""
+    out: dict[str, np.ndarray] = {}
+    for name in names:
+        if name == "eta_G":
+            out[name] = eta
+        elif name == "links":
+            out[name] = links
+        elif name == "bbox":
+            out[name] = vol
+        elif name == "clearance":
+            vals = np.stack([np.asarray(r.clearance_min, float) for r in results])
+            out[name] = np.where(np.isnan(vals).any(axis=0), np.nan, vals.min(axis=0))
+        else:
+            vals = np.stack([np.asarray(getattr(r, _SUMMARY[name]), float) for r in results])
+            out[name] = np.where(np.isnan(vals).any(axis=0), np.nan, vals.max(axis=0))
+    return out
+
+
+def limit_shortfall(limits: list[list[Any]], values: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """Sum of the normalized shortfalls ``(n,)``: (value - limit) / limit above a --max, (limit - value) /
+    max(|limit|, 1) below a --min; 0 exactly when every limit is met (and where a value does not exist:
+    an unreachable point already makes the design infeasible)."""
+    short = np.zeros(n)
+    for name, kind, limit in limits:
+        v = values[name]
+        s = (v - limit) / limit if kind == "max" else (limit - v) / max(abs(limit), 1.0)
+        short = short + np.where(np.isnan(s), 0.0, np.maximum(s, 0.0))
+    return short
+
+
+def objective_columns(objectives: tuple[str, ...], values: dict[str, np.ndarray], feasible: np.ndarray,
+                      viol: np.ndarray, penalty: float) -> list[np.ndarray]:  # fmt: skip
+    """The F columns: each objective's value (negated when maximized); infeasible designs and missing
+    values get ``penalty * (1 + viol)`` so that single-objective algorithms rank them last."""
+    cols = []
+    for name in objectives:
+        v = -values[name] if name in MAXIMIZED else values[name]
+        bad = ~feasible | ~np.isfinite(v)
+        cols.append(np.where(bad, penalty * (1.0 + viol), v))
+    return cols

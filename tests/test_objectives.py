@@ -1,0 +1,89 @@
+"""Objectives and limits of ``arcube optimize`` (MODEL.md 15.5): the optimizer's values and graded
+violation against an independent evaluation of the same design with :func:`arcube.evaluate`, the
+Pareto file against re-evaluating its rows, and bad flags.
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_cli_evaluate import arcube  # noqa: E402
+
+import arcube as ac  # noqa: E402
+from arcube.model.design import PARAM_NAMES, Design  # noqa: E402
+from arcube.optimization.config import build_config  # noqa: E402
+from arcube.optimization.problem import build_model  # noqa: E402
+
+RIGHT = {"m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
+
+
+@pytest.fixture(scope="module")
+def start(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("design") / "right.json"
+    Design.preset("paper").replace(**RIGHT).to_json(path)
+    return path
+
+
+def test_limits_add_their_normalized_shortfall(start: Path) -> None:
+    ev = ac.evaluate(Design.load(start), "reference", side="R", points=6)
+    s = ev.summary_json()
+    assert s["w_G"]
+    torque, lateral = s["torque_max_Nm"], s["lateral_error_max_mm"]
+    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": "numpy", "free": "m_x"}
+    for maxima, want in [
+        ([f"torque={torque / 2!r}"], (torque - torque / 2) / (torque / 2)),
+        ([f"torque={2 * torque!r}"], 0.0),
+        ([f"torque={torque / 2!r}", f"lateral_error={lateral / 4!r}"], 1.0 + 3.0),
+    ]:
+        model = build_model(build_config(["reference"], maxima=maxima, **common))
+        out = model.evaluate(model.space.encode(model.space.base)[None, :])
+        assert out["VIOL"][0] == pytest.approx(want, rel=1e-9)
+        assert np.isfinite(out["ETA"][0]) == (want == 0.0)
+
+
+def test_objective_columns_are_the_evaluated_values(start: Path) -> None:
+    ev = ac.evaluate(Design.load(start), "reference", side="R", points=6)
+    s = ev.summary_json()
+    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": "numpy", "free": "m_x"}
+    model = build_model(build_config(["reference"], objectives="eta_G,torque,axis_error,deflection", **common))
+    assert model.n_obj == 4
+    F = model.evaluate(model.space.encode(model.space.base)[None, :])["F"][0]
+    np.testing.assert_allclose(F, [s["eta_G"], s["torque_max_Nm"], s["axis_error_max_deg"], s["deflection_max_mm"]], rtol=1e-9)
+
+
+def test_pareto_rows_hold_27_parameters_and_reevaluate_to_their_objectives(start: Path, tmp_path: Path) -> None:
+    out = arcube("optimize", "--trajectories", "reference", "--side", "R", "--points", "6", "--design-from", str(start),
+                 "--free", "m_x,m_y,m_z,L", "--objectives", "eta_G,lateral_error", "--max", "torque=40",
+                 "--population", "12", "--generations", "4", "--seed", "3", "--quiet", "--out", str(tmp_path / "run"))  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    rows = list(csv.DictReader((tmp_path / "run" / "pareto.csv").open()))
+    assert rows
+    assert set(PARAM_NAMES) <= set(rows[0])
+    for key in ("objective_eta_G", "objective_lateral_error", "torque_max_Nm", "tip_error_max_mm", "deflection_max_mm"):
+        assert key in rows[0]
+    for row in rows[:3]:
+        d = Design.from_vector(np.array([float(row[n]) for n in PARAM_NAMES]))
+        s = ac.evaluate(d, "reference", side="R", points=6).summary_json()
+        assert float(row["objective_lateral_error"]) == pytest.approx(s["lateral_error_max_mm"], rel=1e-9)
+        assert float(row["objective_eta_G"]) == pytest.approx(s["eta_G"], rel=1e-9)
+        assert s["torque_max_Nm"] <= 40.0
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [(["--objectives", "eta_G,speed"], "unknown objective 'speed'"), (["--max", "torque"], "expected NAME=VALUE"),
+     (["--max", "weight=3"], "unknown name 'weight'"), (["--min", "clearance=abc"], "is not a number"),
+     (["--max", "torque=-1"], "must be > 0"), (["--objectives", "eta_G", "--algorithm", "nsga2"], "needs two or more"),
+     (["--objectives", "eta_G,clearance"], "needs an anatomy"), (["--thrust", "-3"], "--thrust")],
+)  # fmt: skip
+def test_bad_objective_flags_are_one_line_exit_2(args, needle, tmp_path: Path) -> None:
+    out = arcube("optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args)
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.count("\n") == 1 and needle in out.stderr and "Traceback" not in out.stderr
+    assert not (tmp_path / "run").exists()
