@@ -19,6 +19,7 @@ from importlib import resources
 import numpy as np
 import pytest
 
+from arcube.evaluation.performance import PERFORMANCE_FIELDS
 from arcube.evaluation import kernel
 from arcube.model.design import Design
 from arcube.evaluation.reference import FAILURES, GUARDED_OPTIONS, Options, evaluate_task
@@ -222,6 +223,9 @@ def _numpy_trig_is_libm() -> bool:
     return all(np.array_equal(a, np.array(b)) for a, b in pairs)
 
 
+_TIP_FIELDS = frozenset({*PERFORMANCE_FIELDS, "torque_actuator", *(f.rsplit("_", 1)[0] + "_max" for f in PERFORMANCE_FIELDS)})
+
+
 def test_exact_path_is_bitwise_where_numpy_uses_libm(designs, points) -> None:
     """exact=True repeats the reference operation for operation: same bits, when NumPy's trig
     functions are libm's (not AVX-512 SVML; try NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL")."""
@@ -233,9 +237,11 @@ def test_exact_path_is_bitwise_where_numpy_uses_libm(designs, points) -> None:
         for options in (Options(), GUARDED_OPTIONS, Options(z_dyad=True)):
             got = kernel.evaluate_task_numba(X, E, e, m, options, exact=True)
             ref = evaluate_task(X, E, e, m, options)
-            for field in ref.points._fields:
+            # the drill-tip metrics (MODEL.md 15) are a closed form in the kernel and a 5x5 solve in the
+            # reference: equal to 1e-9, not bit for bit (tests/test_performance_pipeline.py)
+            for field in (f for f in ref.points._fields if f not in _TIP_FIELDS):
                 np.testing.assert_array_equal(getattr(got.points, field), getattr(ref.points, field), err_msg=field)
-            for field in ref._fields[1:]:
+            for field in (f for f in ref._fields[1:] if f not in _TIP_FIELDS):
                 np.testing.assert_array_equal(getattr(got, field), getattr(ref, field), err_msg=field)
 
 

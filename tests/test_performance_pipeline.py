@@ -104,3 +104,19 @@ def test_bad_loads_are_one_line_exit_2(args, flag) -> None:
     out = arcube("evaluate", "--points", "3", *args)
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and flag in out.stderr and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_metrics_off_leave_everything_else_unchanged(engine) -> None:
+    """``Options(tip_metrics=False)`` (what an optimizer that does not need them runs) gives NaN metrics
+    and the very same reachability, eta and violation."""
+    task = _task()
+    x = _reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
+    fn = evaluate_task if engine == "numpy" else evaluate_task_numba
+    on = fn(x, task.E, task.e, ALL_MODES[0], Options())
+    off = fn(x, task.E, task.e, ALL_MODES[0], Options(tip_metrics=False))
+    for name in ("reachable", "failure", "eta_L", "excess", "kappa"):
+        np.testing.assert_array_equal(getattr(off.points, name), getattr(on.points, name))
+    assert np.isfinite(on.points.tip_error_mm).any() and np.isnan(off.points.tip_error_mm).all()
+    assert (off.points.torque_actuator == -1).all() and np.isnan(off.torque_max)
+    assert float(off.eta_G) == float(on.eta_G) and float(off.violation) == float(on.violation)

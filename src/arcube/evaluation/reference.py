@@ -57,6 +57,8 @@ class Options(BaseModel):
     """Radius of the drill motor, mm."""
     motor_length: float = Field(default=120.0, gt=0, allow_inf_nan=False)
     """Length L_m of the drill motor beyond the holder H, mm."""
+    tip_metrics: bool = True
+    """Compute the drill-tip metrics of MODEL.md 15 (NaN when off: an optimizer that does not need them)."""
     encoder_deg: tuple[float, float, float, float, float] = (0.01,) * 5
     """Position error bound of each actuator (MODEL.md 15.2), deg; see :func:`with_loads`."""
     thrust_N: float = Field(default=30.0, ge=0, allow_inf_nan=False)
@@ -270,7 +272,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     failure = _first_failure(checks, shape)
     reachable = failure == 0
     perf = metrics_of_solution(sol, params, options.encoder_deg, options.thrust_N, options.lateral_force_N,
-                               options.actuator_stiffness)  # fmt: skip
+                               options.actuator_stiffness) if options.tip_metrics else None  # fmt: skip
     eta = np.where(reachable, eta_raw, np.inf)
     with np.errstate(divide="ignore"):
         dex = np.where(reachable, 100.0 / eta, 0.0)
@@ -287,8 +289,8 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         clearance_mm=np.where(stages_ok, clear, np.nan),
         clearance_part=np.where(stages_ok, part, -1),
         self_clearance_mm=np.where(stages_ok, selfc, np.nan),
-        **{name: np.broadcast_to(getattr(perf, name), shape) for name in PERFORMANCE_FIELDS},
-        torque_actuator=np.broadcast_to(perf.torque_actuator, shape),
+        **{name: np.broadcast_to(getattr(perf, name) if perf else np.nan, shape) for name in PERFORMANCE_FIELDS},
+        torque_actuator=np.broadcast_to(perf.torque_actuator if perf else -1, shape),
     )
     return _mask_performance(pts)
 

@@ -76,6 +76,11 @@ def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> boo
     return "clearance" in objectives or any(n == "clearance" for n, _, _ in limits)
 
 
+def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether the metrics of MODEL.md 15 must be computed for these objectives and limits."""
+    return any(n in _SUMMARY for n in objectives) or any(n in _SUMMARY for n, _, _ in limits)
+
+
 def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray) -> dict[str, np.ndarray]:
     """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable)."""
     out: dict[str, np.ndarray] = {}

@@ -32,7 +32,7 @@ from arcube.model.body import BodyRadii
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PAPER_NAMES, PARAM_NAMES, full_params, unpack
 from arcube.errors import InputError
 from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body, with_loads
-from arcube.optimization.objectives import limit_shortfall, metric_values, needs_clearance, objective_columns, parse_objectives
+from arcube.optimization.objectives import limit_shortfall, metric_values, needs_clearance, needs_tip_metrics, objective_columns, parse_objectives
 from arcube.model.mechanism import format_mode, parse_mode
 from arcube.model.poses import LEG_PERM
 from arcube.model.stages import tls
@@ -329,7 +329,7 @@ class FitnessModel:
         """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
         X = np.atleast_2d(np.asarray(x, dtype=float))
         params, modes = self.space.decode(X)
-        described = replace(self, options=self.options.model_copy(update={"body": True}))
+        described = replace(self, options=self.options.model_copy(update={"body": True, "tip_metrics": True}))
         results = described._run_tasks(params, modes, want_points=True)
         eta, viol, _ = self._judge(results, params)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for r in results])
@@ -404,7 +404,8 @@ def run_options(s: dict[str, Any]) -> Options:
     limits = [list(lim) for lim in s.get("limits", [])]
     if needs_clearance(tuple(s.get("objectives") or ()), limits) and opts.clearance_mm is None:
         opts = opts.model_copy(update={"want_clearance": True})
-    return opts
+    # the drill-tip metrics cost time: only when an objective or a limit needs them (reports turn them on)
+    return opts.model_copy(update={"tip_metrics": needs_tip_metrics(run_objectives(s), limits)})
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:

@@ -34,13 +34,14 @@ from arcube.report.figures import (
     read_history, read_pareto,
 )  # fmt: skip
 from arcube.model.body import MechanismPoints, mechanism_points
+from arcube.report.tip import anatomy_trace, tip_figure
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
 
     from arcube.evaluation.result import Evaluation
 
-DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "pareto": "fig-pareto", "scene": "fig-scene"}
+DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "pareto": "fig-pareto", "tip": "fig-tip", "scene": "fig-scene"}
 TITLES = {
     "dexterity": "Local inverted dexterity along the drilling trajectories (paper Fig. 4)",
     "convergence": "Optimization convergence per generation",
@@ -132,6 +133,9 @@ def scene_figure(report: Evaluation) -> go.Figure:
         label = f"{task.ids[int(task.trajectory[i])]}:{int(task.k[i])}"
         steps.append({"label": label, "method": "animate", "args": [[name], {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}}]})
     fig.frames = frames
+    anatomy = anatomy_trace(report)
+    if anatomy is not None:  # after the animated traces: frames address those by index
+        fig.add_trace(anatomy)
     # Fixed axis ranges from everything ever drawn, so the view does not jump between frames.
     pts = [np.asarray(ts.entry), np.asarray(ts.target)]
     if len(shown):
@@ -289,12 +293,14 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
 def write_evaluation_report(
     report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
     run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
+    limits: dict[str, float] | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
     ``history_csv``: a run's ``history.csv`` (adds the convergence plot and PNG).
     ``run_info``: key -> value rows shown at the top (e.g. a run's settings and summary).
     ``pareto_csv``: an NSGA-II run's ``pareto.csv`` (adds the front plot and PNG).
+    ``limits``: requirement lines of the drill-tip plots, e.g. ``{"lateral_error": 0.2}``.
     Returns the HTML path. Every file is written atomically.
     """
     import plotly.io as pio
@@ -311,6 +317,7 @@ def write_evaluation_report(
         front = read_pareto(pareto_csv)
         pareto_png(front, f"{stem}_pareto.png")
         figs.append(("pareto", pareto_figure(front)))
+    figs.append(("tip", tip_figure(report, limits)))
     figs.append(("scene", scene_figure(report)))
     divs = {}
     for k, (key, fig) in enumerate(figs):
@@ -327,6 +334,9 @@ def write_evaluation_report(
         parts += ["<h2>Convergence</h2>", divs["convergence"]]
     if "pareto" in divs:
         parts += ["<h2>Pareto front</h2>", divs["pareto"]]
+    parts += ["<h2>At the drill tip</h2><p class='note'>Worst-case tip and axis errors for the encoder resolution, the largest "
+              "actuator torque and the lateral deflection under the drilling loads (MODEL.md 15), and the clearance of the robot's "
+              "body to the anatomy (MODEL.md 14) when an anatomy is given; unreachable points are gaps.</p>", divs["tip"]]
     parts += [
         "<h2>Mechanism</h2><p class='note'>Patient frame R_w (x right, y superior, z posterior). Spherical links are drawn as "
         "great-circle arcs on the sphere of radius r around the drill tip E; a dashed z dyad means (d_z, c_z) cannot span "

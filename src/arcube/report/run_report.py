@@ -129,7 +129,9 @@ def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
     if points < 2:
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
     signs = _mode(settings, summary, run / "config.toml")
-    options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
+    options, anatomy, limits = _run_body(run, settings)
+    # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
+    engine = "numba" if settings.get("engine_resolved") == "numba" and _numba_available() else "numpy"
     ts = _trajectories(cfg, settings, run / "config.toml")
     info = _run_info(cfg, settings, summary)
     if isinstance(cfg.get("patients"), list) and len(cfg["patients"]) > 1:
@@ -144,9 +146,37 @@ def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
     if left:
         info["note: setups"] = "two placements: this report covers the R trajectories with best_design.json; report_L.html the L ones"
         right_ts = select(ts, side="R")
-        write_evaluation_report(evaluate_design(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options),
-                                run / "report_L.html", history_csv=history, run_info=info)  # fmt: skip
+        write_evaluation_report(evaluate_design(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options,
+                                                engine, anatomy=anatomy), run / "report_L.html", history_csv=history, run_info=info, limits=limits)  # fmt: skip
         ts = right_ts
     pareto = run / "pareto.csv"
-    return write_evaluation_report(evaluate_design(design, ts, points, signs, options), run / "report.html", history_csv=history,
-                                   run_info=info, pareto_csv=pareto if pareto.exists() else None)  # fmt: skip
+    return write_evaluation_report(evaluate_design(design, ts, points, signs, options, engine, anatomy=anatomy), run / "report.html",
+                                   history_csv=history, run_info=info, pareto_csv=pareto if pareto.exists() else None, limits=limits)  # fmt: skip
+
+
+def _numba_available() -> bool:
+    try:
+        import arcube.evaluation.kernel  # noqa: F401, PLC0415
+    except ImportError:
+        return False
+    return True
+
+
+def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[str, float]]:
+    """The run's evaluation options (guards, clearance guards, body radii, loads; body on), its first
+    patient's anatomy (the copy in the run folder) and its --max / --min limits by name."""
+    from arcube.optimization.problem import anatomy_file, run_options
+
+    try:
+        options = run_options({**settings, "guards": settings.get("guards") is True}).model_copy(update={"body": True, "tip_metrics": True})
+    except (InputError, TypeError, ValueError):  # a hand-edited or older config: the guards alone
+        options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
+    anatomy = None
+    path = run / anatomy_file(0)
+    if settings.get("anatomy") and path.exists():
+        from arcube.evaluation.anatomy import Anatomy
+        from arcube.io.meshes import read_meshes
+
+        anatomy = Anatomy.from_meshes(read_meshes([path], "patient"), str(path))
+    limits = {str(lim[0]): float(lim[2]) for lim in settings.get("limits", []) if isinstance(lim, list) and len(lim) == 3}
+    return options, anatomy, limits

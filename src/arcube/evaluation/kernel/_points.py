@@ -23,7 +23,7 @@ from arcube.evaluation.kernel._layout import O_CZ, O_EXACT, O_KM, O_KM_ON, O_RHO
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
 from arcube.evaluation.kernel._performance import N_PERF, _tip_metrics
-from arcube.evaluation.kernel._layout import O_PERF, X_PERF
+from arcube.evaluation.kernel._layout import O_PERF, O_PERF_ON, X_PERF
 from arcube.evaluation.kernel._layout import CODE_PATIENT, CODE_SELF, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON, X_CLR, X_PART, X_SELF
 from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
@@ -236,6 +236,7 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
     work = np.empty((6, 96))
     jbuf = np.empty((2, 3, 5))
     perf_opt = opt[O_PERF:O_PERF + 12]
+    do_perf = opt[O_PERF_ON] != 0.0
     f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
     d0, d1 = g[G_D], g[G_D + 1]
@@ -316,7 +317,7 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
             extra[k, X_CLR] = clr
             extra[k, X_PART] = part
             extra[k, X_SELF] = selfc
-            if fc == 0:
+            if fc == 0 and do_perf:
                 _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
                              xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, perf_opt, jbuf, extra[k, X_PERF:X_PERF + N_PERF])  # fmt: skip
             else:
