@@ -19,12 +19,13 @@ from arcube.api import Run, evaluate, optimize, resume
 from arcube.errors import InputError
 from arcube.evaluation.reference import GUARDED_OPTIONS, Options
 from arcube.evaluation.result import Evaluation
+from arcube.export.mjcf import export_mjcf
 from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.patients import generate_patient
 
 __all__ = [
     "GUARDED_OPTIONS", "PARAM_NAMES", "Design", "Evaluation", "InputError", "Options", "Run", "TrajectorySet",
-    "__version__", "evaluate", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select",
+    "__version__", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select",
     "write_csv", "write_markups",
 ]  # fmt: skip
