@@ -26,27 +26,42 @@ N_PERF = 7
 
 
 @njit(cache=True, error_model="numpy")
-def _max_signed_sum(J, eps, lateral, e0, e1, e2):
-    """max over sign vectors s of |sum_i s_i eps_i J[:, i]| (optionally of its part ⊥ e)."""
-    best = 0.0
-    for mask in range(16):
-        v0 = eps[0] * J[0, 0]
-        v1 = eps[0] * J[1, 0]
-        v2 = eps[0] * J[2, 0]
-        for i in range(1, 5):
-            s = -eps[i] if (mask >> (i - 1)) & 1 else eps[i]
-            v0 += s * J[0, i]
-            v1 += s * J[1, i]
-            v2 += s * J[2, i]
-        if lateral:
-            a = v0 * e0 + v1 * e1 + v2 * e2
-            v0 -= a * e0
-            v1 -= a * e1
-            v2 -= a * e2
-        n = v0 * v0 + v1 * v1 + v2 * v2
-        if n > best:
-            best = n
-    return math.sqrt(best)
+def _box_maxima(J, eps, e0, e1, e2):
+    """max over sign vectors s of |J_E diag(eps) s|, of its part ⊥ e, and of |J_e diag(eps) s|
+    (``J`` (2, 3, 5)). s and -s give the same norms, so s_0 = +1 and the 16 others are visited in
+    Gray-code order: one sign flips per step, an O(1) update of both sums."""
+    a0 = a1 = a2 = b0 = b1 = b2 = 0.0
+    for i in range(5):
+        a0 += eps[i] * J[0, 0, i]
+        a1 += eps[i] * J[0, 1, i]
+        a2 += eps[i] * J[0, 2, i]
+        b0 += eps[i] * J[1, 0, i]
+        b1 += eps[i] * J[1, 1, i]
+        b2 += eps[i] * J[1, 2, i]
+    tip = lat = axis = 0.0
+    for g in range(16):
+        if g > 0:
+            i = 1
+            while not (g >> (i - 1)) & 1:  # the lowest set bit of g names the column that flips
+                i += 1
+            gray = g ^ (g >> 1)  # bit i - 1 set: column i now has sign -1
+            w = -2.0 * eps[i] if (gray >> (i - 1)) & 1 else 2.0 * eps[i]
+            a0 += w * J[0, 0, i]
+            a1 += w * J[0, 1, i]
+            a2 += w * J[0, 2, i]
+            b0 += w * J[1, 0, i]
+            b1 += w * J[1, 1, i]
+            b2 += w * J[1, 2, i]
+        n = a0 * a0 + a1 * a1 + a2 * a2
+        d = a0 * e0 + a1 * e1 + a2 * e2
+        m = b0 * b0 + b1 * b1 + b2 * b2
+        if n > tip:
+            tip = n
+        if n - d * d > lat:
+            lat = n - d * d
+        if m > axis:
+            axis = m
+    return math.sqrt(tip), math.sqrt(lat), math.sqrt(axis)
 
 
 @njit(cache=True, error_model="numpy")
@@ -110,9 +125,10 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
     F_t = perf_opt[5]
     F_l = perf_opt[6]
     k = perf_opt[7:12]
-    out[0] = _max_signed_sum(J[0], eps, False, e0, e1, e2)
-    out[1] = _max_signed_sum(J[0], eps, True, e0, e1, e2)
-    out[3] = math.degrees(_max_signed_sum(J[1], eps, False, e0, e1, e2))
+    tip, lat, axis = _box_maxima(J, eps, e0, e1, e2)
+    out[0] = tip
+    out[1] = lat
+    out[3] = math.degrees(axis)
     axial = 0.0
     torque = -1.0
     which = -1.0
