@@ -229,3 +229,27 @@ def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard) -> None
     assert abs(float(summ.clearance_min) - passing.min()) <= TOL_MM
     assert abs(float(summ.violation) - float(full.violation)) <= TOL_MM * len(task.E) / 10 + 1e-9
     assert float(summ.eta_G) == pytest.approx(float(full.eta_G), rel=1e-12)
+    if guard:
+        # what the optimizer runs: only the guard's decision and shortfall, the same violation; the
+        # smallest clearance is then reported as a lower bound (the limit when every point clears it)
+        decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.model_copy(update={"clearance_min_exact": False}),
+                                     want_points=False, anatomy=sdf)  # fmt: skip
+        assert abs(float(decide.violation) - float(full.violation)) <= TOL_MM * len(task.E) / 10 + 1e-9
+        assert float(decide.reachable_fraction) == pytest.approx(float(full.reachable_fraction), abs=2 / len(task.E))
+        assert c_min - TOL_MM <= float(decide.clearance_min) <= passing.min() + TOL_MM
+
+
+def test_self_guard_decision_only_gives_the_same_violation(setup) -> None:
+    """Summary-only runs that only decide the self-clearance guard (pairs pruned against its limit,
+    arcs against their chord's capsule) fail the same points by the same shortfall."""
+    task, x, mp, ok = setup
+    thin = {"link_radius": 1.0, "actuator_radius": 2.0, "motor_radius": 2.0}
+    free = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options(body=True, **thin), want_points=True)
+    s_min = float(np.nanquantile(free.points.self_clearance_mm[free.points.reachable], 0.5))
+    assert s_min > 0.0
+    opts = Options(self_clearance_mm=s_min, **thin)
+    full = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts, want_points=True)
+    decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.model_copy(update={"clearance_min_exact": False}), want_points=False)
+    assert 0.0 < float(full.reachable_fraction) < 1.0
+    assert float(decide.reachable_fraction) == float(full.reachable_fraction)
+    assert float(decide.violation) == pytest.approx(float(full.violation), rel=1e-12)

@@ -175,8 +175,14 @@ def test_evaluation_report_with_unreachable_points(driver, tmp_path):
     _self_contained(html.read_text())
     _open(driver, html)
     plots = _plots(driver)
-    assert set(plots) == {DIV_IDS["dexterity"], DIV_IDS["scene"]}
+    assert set(plots) == {DIV_IDS["dexterity"], DIV_IDS["tip"], DIV_IDS["scene"]}
     assert "unreachable" in plots[DIV_IDS["dexterity"]]["names"]
+    # drill-tip panels: one value per reachable point, gaps at the others, as the JSON has them
+    ys = driver.execute_script("return document.getElementById(arguments[0]).data[0].y", DIV_IDS["tip"])
+    assert sum(v is not None for v in ys) == n_ok
+    want = report.results.points.lateral_error_mm
+    assert all((v is None) == (not ok) for v, ok in zip(ys, report.results.points.reachable))
+    assert max(v for v in ys if v is not None) == pytest.approx(float(want[report.results.points.reachable].max()))
     n_steps = driver.execute_script("return document.getElementById(arguments[0]).layout.sliders[0].steps.length", DIV_IDS["scene"])
     assert n_steps == n_ok
     note = driver.execute_script("return document.getElementById(arguments[0]).layout.annotations.map(a => a.text).join(' ')", DIV_IDS["scene"])
@@ -186,3 +192,16 @@ def test_evaluation_report_with_unreachable_points(driver, tmp_path):
     assert _mechanism(driver)["data"] != before["data"]
     assert _errors(driver) == []
     _screenshot(driver, "evaluation_report", tmp_path)
+
+
+def test_evaluation_report_draws_the_anatomy_and_the_clearance(driver, tmp_path):
+    design = tmp_path / "design.json"
+    Design.from_dict(PLACED).to_json(design)
+    report = evaluate(str(design), "reference", points=6, side="R", anatomy="default")
+    html = report.write_report(tmp_path / "anat.html")
+    _open(driver, html)
+    plots = _plots(driver)
+    assert "anatomy" in plots[DIV_IDS["scene"]]["names"]
+    titles = driver.execute_script("return document.getElementById(arguments[0]).layout.annotations.map(a => a.text)", DIV_IDS["tip"])
+    assert "clearance to the anatomy (mm)" in titles
+    assert _errors(driver) == []

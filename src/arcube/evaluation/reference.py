@@ -46,6 +46,10 @@ class Options(BaseModel):
     self_clearance_mm: float | None = Field(default=None, ge=0, allow_inf_nan=False)
     """[ADDITION, MODEL.md 14.3] clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
     body: bool = False
+    clearance_min_exact: bool = True
+    """With a clearance guard, whether summary-only kernel runs find the exact smallest clearance
+    (False: they only decide the guard and its shortfall, and report the limit as the smallest
+    clearance when every point clears it; what an optimizer that does not optimize it needs)."""
     want_clearance: bool = False
     """Compute the clearance to the anatomy (when there is one) even without its guard (an optimizer objective)."""
     """Compute the body clearances at every point (MODEL.md 14.3) even when no clearance guard is on."""

@@ -329,7 +329,7 @@ class FitnessModel:
         """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
         X = np.atleast_2d(np.asarray(x, dtype=float))
         params, modes = self.space.decode(X)
-        described = replace(self, options=self.options.model_copy(update={"body": True, "tip_metrics": True}))
+        described = replace(self, options=self.options.model_copy(update={"body": True, "tip_metrics": True, "clearance_min_exact": True}))
         results = described._run_tasks(params, modes, want_points=True)
         eta, viol, _ = self._judge(results, params)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for r in results])
@@ -405,7 +405,8 @@ def run_options(s: dict[str, Any]) -> Options:
     if needs_clearance(tuple(s.get("objectives") or ()), limits) and opts.clearance_mm is None:
         opts = opts.model_copy(update={"want_clearance": True})
     # the drill-tip metrics cost time: only when an objective or a limit needs them (reports turn them on)
-    return opts.model_copy(update={"tip_metrics": needs_tip_metrics(run_objectives(s), limits)})
+    return opts.model_copy(update={"tip_metrics": needs_tip_metrics(run_objectives(s), limits),
+                                   "clearance_min_exact": needs_clearance(run_objectives(s), limits)})
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:

@@ -51,7 +51,7 @@ from arcube.evaluation.kernel._layout import (
     S_VIOL as _S_VIOL, S_CMIN as _S_CMIN, S_SMIN as _S_SMIN, N_EXTRA as _N_EXTRA, X_CLR as _X_CLR, X_PART as _X_PART,
     X_SELF as _X_SELF, O_ANAT, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON,
 )  # fmt: skip
-from arcube.evaluation.kernel._layout import O_PERF, O_PERF_ON, S_PERF, X_PERF  # noqa: E402
+from arcube.evaluation.kernel._layout import O_CMIN_EXACT, O_PERF, O_PERF_ON, S_PERF, X_PERF  # noqa: E402
 from arcube.evaluation.kernel._performance import perf_vector  # noqa: E402
 from arcube.evaluation.performance import PERFORMANCE_FIELDS  # noqa: E402
 from arcube.evaluation.reference import Options, PointResults, TaskResults
@@ -122,6 +122,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
     opt[O_SELF] = options.self_clearance_mm if options.self_clearance_mm is not None else 0.0
     opt[O_LM] = options.motor_length
     opt[O_PERF_ON] = float(options.tip_metrics)
+    opt[O_CMIN_EXACT] = float(options.clearance_min_exact)
     opt[O_PERF:O_PERF + 12] = perf_vector(options.encoder_deg, options.thrust_N, options.lateral_force_N, options.actuator_stiffness)
     return opt
 

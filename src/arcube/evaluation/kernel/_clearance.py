@@ -174,9 +174,11 @@ def _lipschitz(grids, p, q, sag, is_arc):
 
 @njit(cache=True, error_model="numpy")
 def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo, stack_hi, pt, p, q):
-    """Branch and bound over s in [0, total] (mm per unit of s: ``scale``); returns the best value.
-    ``pt``, ``p``, ``q``: (3,) work buffers."""
+    """Branch and bound over s in [0, total] (mm per unit of s: ``scale``); returns the best value and
+    a lower bound of this primitive's minimum (the least of d - Lipschitz bound x half-length over the
+    intervals it dropped). ``pt``, ``p``, ``q``: (3,) work buffers."""
     fo, fh, fv, co, ch, cv, fg, cg = grids
+    floor = math.inf
     top = 0
     stack_lo[0] = 0.0
     stack_hi[0] = total
@@ -191,12 +193,15 @@ def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo
             best = d
         half = 0.5 * (hi - lo) * scale
         if d - half >= best - TOL_MM or half <= 0.5 * TOL_MM or top + 2 >= _STACK:
+            floor = min(floor, d - half)
             continue
         if half <= _LOCAL:
             _curve_point(is_arc, a, b, c, r, nrm, lo, p)
             _curve_point(is_arc, a, b, c, r, nrm, hi, q)
             sag = r * (1.0 - math.cos(0.5 * (hi - lo))) if is_arc else 0.0
-            if d - _lipschitz(grids, p, q, sag, is_arc) * half >= best - TOL_MM:
+            bound = d - _lipschitz(grids, p, q, sag, is_arc) * half
+            if bound >= best - TOL_MM:
+                floor = min(floor, bound)
                 continue
         top += 1
         stack_lo[top] = mid
@@ -204,15 +209,18 @@ def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo
         top += 1
         stack_lo[top] = lo
         stack_hi[top] = mid
-    return best
+    return best, floor
 
 
 @njit(cache=True, error_model="numpy")
-def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order, work, cap):
+def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order, work, cap, lower):
     """(clearance, primitive index) of the body primitives to the anatomy; ``order``: primitives to try first.
 
     ``cap``: a value the caller does not need beaten (inf for the exact minimum). Parts that cannot
-    come within ``TOL_MM`` below it are pruned; when none does, returns (cap, -1)."""
+    come within ``TOL_MM`` below it are pruned; when none does, returns (cap, -1).
+    ``lower`` (27,): known lower bounds of each primitive's clearance (-inf: none); a primitive whose
+    bound cannot beat the best so far is not searched; the others' entries are set to the bound their
+    search proves (the caller carries them to the next point, less how far the primitive moved)."""
     stack_lo = work[0]
     stack_hi = work[1]
     pt = work[2, :3]
@@ -224,11 +232,13 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
     for idx in range(order.shape[0]):
         k = order[idx]
         before = best
+        if lower[k] >= best - TOL_MM:
+            continue
         if k < n_lines:
             a = lines[k, 0]
             b = lines[k, 1]
             length = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
-            best = _search(False, a, b, a, 0.0, nrm, 1.0, length, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
+            best, lower[k] = _search(False, a, b, a, 0.0, nrm, 1.0, length, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
         else:
             j = k - n_lines
             a = arcs[j, 0]
@@ -243,7 +253,7 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
                 angle = math.atan2(nn, dot)
             else:
                 angle = 0.0
-            best = _search(True, a, b, arc_c, arc_r, nrm, angle, arc_r, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
+            best, lower[k] = _search(True, a, b, arc_c, arc_r, nrm, angle, arc_r, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
         if best < before:
             best_k = k
     return best, best_k
@@ -322,11 +332,14 @@ def _chords(arc_c, arc_r, arcs, n, out):
 
 
 @njit(cache=True, error_model="numpy")
-def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords):
-    """Smallest distance between the primitive pairs, minus both radii (arcs as chord polylines)."""
+def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords, cap):
+    """Smallest distance between the primitive pairs, minus both radii (arcs as chord polylines).
+
+    ``cap``: a value the caller does not need beaten (inf for the exact minimum; the guard's limit
+    when only its decision and shortfall matter): pairs that cannot come below it are skipped."""
     n = chords.shape[1] - 1
     _chords(arc_c, arc_r, arcs, n, chords)
-    best = math.inf
+    best = cap
     for q in range(pairs.shape[0]):
         i = pairs[q, 0]
         j = pairs[q, 1]
@@ -339,6 +352,18 @@ def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords):
             if lo - rad >= best:
                 continue
             a = j - n_lines
+            # the chord polyline lies within its sag of the chord between the arc's ends
+            ax = chords[a, 0, 0] - arc_c[0]
+            ay = chords[a, 0, 1] - arc_c[1]
+            az = chords[a, 0, 2] - arc_c[2]
+            bx = chords[a, n, 0] - arc_c[0]
+            by = chords[a, n, 1] - arc_c[1]
+            bz = chords[a, n, 2] - arc_c[2]
+            half = 0.5 * math.atan2(math.sqrt((ay * bz - az * by) ** 2 + (az * bx - ax * bz) ** 2 + (ax * by - ay * bx) ** 2),
+                                    ax * bx + ay * by + az * bz)  # fmt: skip
+            sag = arc_r * (1.0 - math.cos(half))
+            if _segment_distance(lines[i, 0], lines[i, 1], chords[a, 0], chords[a, n]) - sag - rad >= best:
+                continue
             d = math.inf
             for m in range(n):
                 dm = _segment_distance(lines[i, 0], lines[i, 1], chords[a, m], chords[a, m + 1])

@@ -38,7 +38,8 @@ O_ZDYAD, O_CZ, O_RHO_ON, O_RHO, O_TR_ON, O_TR, O_KM_ON, O_KM, O_SAM, O_EXACT = r
 O_DO_SELF, O_ANAT, O_CLR_ON, O_CLR, O_SELF_ON, O_SELF, O_LM, O_DO_CLR = range(10, 18)  # body clearances, MODEL.md 14
 O_PERF = 18  # 12 entries: encoder (5, rad), thrust, lateral force (N), stiffness (5, N·mm/rad); MODEL.md 15
 O_PERF_ON = 30  # 1.0: compute the metrics of MODEL.md 15
-N_OPT = 31
+O_CMIN_EXACT = 31  # 1.0: summaries need the exact smallest clearance, not only the guard's decision
+N_OPT = 32
 
 # Layout of the per-design summary rows.
 S_NBAD, S_RF, S_ETAG, S_VIOL, S_DMIN, S_DMEAN, S_DMAX, S_CMIN, S_SMIN = range(9)

@@ -12,6 +12,7 @@ from arcube.evaluation.clearance import ARC_CHORDS
 from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
 
 N_LINES = N_SEGMENTS + N_SPHERES
+N_PRIMS = N_LINES + 4  # and the four spherical arcs
 PRIM_PART = PRIMITIVE_PART.astype(np.int64)
 
 from arcube.evaluation.kernel._layout import CAP as _CAP
@@ -23,7 +24,7 @@ from arcube.evaluation.kernel._layout import O_CZ, O_EXACT, O_KM, O_KM_ON, O_RHO
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
 from arcube.evaluation.kernel._performance import N_PERF, _tip_metrics
-from arcube.evaluation.kernel._layout import O_PERF, O_PERF_ON, X_PERF
+from arcube.evaluation.kernel._layout import O_CMIN_EXACT, O_PERF, O_PERF_ON, X_PERF
 from arcube.evaluation.kernel._layout import CODE_PATIENT, CODE_SELF, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON, X_CLR, X_PART, X_SELF
 from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
@@ -210,6 +211,30 @@ def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0,
 
 
 @njit(cache=True, error_model="numpy")
+def _carry_bounds(lower, lines, prev, valid):
+    """Lower bounds of the primitives' clearances at this point from those of the previous body
+    ``prev``: a segment's points move by at most the larger move of its ends (the same parameter on
+    both), a sphere by its centre's; the arcs' bounds are dropped (they are always searched). Without
+    a previous body (``valid`` false) every bound is dropped. ``prev`` then takes this body."""
+    for j in range(N_LINES):
+        if valid:
+            m = 0.0
+            for end in range(2):
+                dx = lines[j, end, 0] - prev[j, end, 0]
+                dy = lines[j, end, 1] - prev[j, end, 1]
+                dz = lines[j, end, 2] - prev[j, end, 2]
+                m = max(m, math.sqrt(dx * dx + dy * dy + dz * dz))
+            lower[j] = lower[j] - m
+        else:
+            lower[j] = -_INF
+        for end in range(2):
+            for q in range(3):
+                prev[j, end, q] = lines[j, end, q]
+    for j in range(N_LINES, lower.shape[0]):
+        lower[j] = -_INF
+
+
+@njit(cache=True, error_model="numpy")
 def _no_metrics(row):
     """NaN metrics of MODEL.md 15 (actuator -1) in an ``extra`` row."""
     for j in range(N_PERF):
@@ -259,7 +284,14 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
     # or below the smallest so far over passing points: each search starts at that cap, so parts far
     # from the anatomy are pruned at once.
     run_min = _INF
+    # ... and carry each primitive's proven lower bound from point to point, less how far it moved
+    # (a distance is 1-Lipschitz): a part that stays far from the anatomy is then not looked up again.
+    lower = np.full(N_PRIMS, -_INF)
+    prev = np.empty((N_LINES, 2, 3))
+    have_prev = False
     floor = opt[O_CLR] if opt[O_CLR_ON] != 0.0 else -_INF
+    track_min = opt[O_CMIN_EXACT] != 0.0 or opt[O_CLR_ON] == 0.0  # else only the guard's decision matters
+    track_self = opt[O_CMIN_EXACT] != 0.0 or opt[O_SELF_ON] == 0.0
     for k in range(k0, k1):
         if not (have and same_e[k]):
             have = True
@@ -297,10 +329,13 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
                 arc_r = _body_world(g, opt[O_CZ], opt[O_LM], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
                                     cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
                 if do_self:
-                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords)
+                    self_cap = _INF if full or track_self or opt[O_SAM] != 0.0 else opt[O_SELF]
+                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap)
                 if do_clr:
-                    cap = _INF if full or opt[O_SAM] != 0.0 else max(floor, run_min)  # SAM may fail points later
-                    clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap)
+                    cap = _INF if full or opt[O_SAM] != 0.0 else (max(floor, run_min) if track_min else floor)  # SAM may fail points later
+                    _carry_bounds(lower, lines, prev, have_prev and cap < _INF)
+                    have_prev = True
+                    clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap, lower)
                     part = float(PRIM_PART[kbest]) if kbest >= 0 else -1.0
                     if opt[O_CLR_ON] != 0.0:
                         short = _pos(opt[O_CLR] - clr)
@@ -317,6 +352,8 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
             extra[k, X_CLR] = clr
             extra[k, X_PART] = part
             extra[k, X_SELF] = selfc
+            if not (do_clr or do_self):
+                have_prev = False
             if fc == 0 and do_perf:
                 _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
                              xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, perf_opt, jbuf, extra[k, X_PERF:X_PERF + N_PERF])  # fmt: skip
@@ -327,6 +364,7 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
             extra[k, X_PART] = -1.0
             extra[k, X_SELF] = _NAN
             _no_metrics(extra[k])
+            have_prev = False
             if full:
                 for j in range(7):
                     kappa_o[i, k, j] = _NAN
