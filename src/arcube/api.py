@@ -155,11 +155,21 @@ class Run:
         path = self.path / "pareto.csv"
         return _read_columns(path) if path.exists() else None
 
-    def write_report(self) -> Path:
-        """Write ``report.html`` (and PNGs) into the run folder; returns its path."""
+    def write_report(self, anatomy: Any = None, anatomy_frame: str = "LPS") -> Path:
+        """Write ``report.html`` (and PNGs) into the run folder; returns its path.
+
+        ``anatomy``: None (the run's own, copied into its folder), ``"none"``, ``"default"`` or mesh
+        files in ``anatomy_frame``, as :func:`evaluate` takes it.
+        """
         from arcube.report.run_report import write_run_report
 
-        return write_run_report(self.path)
+        override = None
+        if anatomy is not None:
+            import tomllib
+
+            plans = tomllib.loads((self.path / "config.toml").read_text(encoding="utf-8")).get("settings", {}).get("trajectories") or ["reference"]
+            override = resolve_anatomy(anatomy, anatomy_frame, plans[0]) or "none"
+        return write_run_report(self.path, anatomy=override)
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:

@@ -9,7 +9,11 @@ from typing import Annotated
 
 import typer
 
-from arcube.cli.common import DesignOpt, GuardsOpt, IdsOpt, LateralForceOpt, LevelsOpt, ModeOpt, PointsOpt, SideOpt, ThrustOpt, TrajOpt, TransformOpt
+from arcube.cli.common import (
+    ActuatorRadiusOpt, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, DesignOpt, GuardsOpt, IdsOpt, LateralForceOpt, LevelsOpt,
+    LinkRadiusOpt, ModeOpt, MotorLengthOpt, MotorRadiusOpt, PointsOpt, SelfClearanceOpt, SideOpt, ThrustOpt, TrajOpt, TransformOpt,
+    radii,
+)  # fmt: skip
 from arcube.errors import InputError
 
 __all__ = ["register"]
@@ -29,6 +33,14 @@ def joints(
     transform: TransformOpt = None,
     thrust: ThrustOpt = 30.0,
     lateral_force: LateralForceOpt = 10.0,
+    anatomy: AnatomyOpt = None,
+    anatomy_frame: AnatomyFrameOpt = "LPS",
+    clearance: ClearanceOpt = None,
+    self_clearance: SelfClearanceOpt = None,
+    link_radius: LinkRadiusOpt = 8.0,
+    actuator_radius: ActuatorRadiusOpt = 25.0,
+    motor_radius: MotorRadiusOpt = 20.0,
+    motor_length: MotorLengthOpt = 120.0,
 ) -> None:
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV."""
     from arcube.evaluation.reference import GUARDED_OPTIONS, Options
@@ -43,10 +55,16 @@ def joints(
     signs = parse_mode_option(mode)
     d = Design.load(design)
     _, task = load_task(trajectories, points, side, levels, ids, transform)
-    from arcube.evaluation.reference import with_loads
+    from arcube.evaluation.anatomy import resolve_anatomy
+    from arcube.evaluation.reference import with_body, with_loads
 
     opts = with_loads(GUARDED_OPTIONS if guards else Options(), thrust=thrust, lateral_force=lateral_force)
-    jt = joint_trajectory(d, task, speed, signs, opts)
+    opts = with_body(opts, clearance=clearance, self_clearance=self_clearance,
+                     radii=radii(link_radius, actuator_radius, motor_radius, motor_length))  # fmt: skip
+    anat = resolve_anatomy(anatomy, anatomy_frame, trajectories) if anatomy else None
+    if opts.clearance_mm is not None and anat is None:
+        raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")
+    jt = joint_trajectory(d, task, speed, signs, opts, None if anat is None else anat.distance)
     try:
         path = jt.write_csv(out)
     except OSError as exc:

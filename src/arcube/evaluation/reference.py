@@ -3,6 +3,8 @@
 :func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
 against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per point and
 ``(...)`` per design. No Python loop over designs or points.
+
+Long module: the NumPy reference evaluation is the oracle of the kernel; its Options, failure codes, result types and judge stay side by side.
 """
 
 from __future__ import annotations

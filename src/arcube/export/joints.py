@@ -28,6 +28,7 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -92,17 +93,20 @@ def _cell(v: float) -> str:
 
 def joint_trajectory(
     design: Design | ArrayLike, task: Task, speed_mm_s: float, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
+    anatomy: Any = None,
 ) -> JointTrajectory:  # fmt: skip
     """Joint angles (deg) and rates (deg/s) for drilling the task's trajectories at ``speed_mm_s``.
 
     ``design``: a :class:`Design` or a ``(27,)`` (or ``(23,)``) vector (mm, deg); ``mode``: ``(4,)`` working-mode
-    signs. Raises ValueError if the speed is not a finite positive number.
+    signs; ``anatomy``: the distance grids (:class:`arcube.evaluation.sdf.AnatomyDistance`) that the
+    clearance guard of ``options`` measures against. Raises ValueError if the speed is not a finite
+    positive number.
     """
     if not (math.isfinite(speed_mm_s) and speed_mm_s > 0.0):
         raise ValueError(f"speed must be a finite positive number of mm/s, got {speed_mm_s}")
     params = design.to_vector() if isinstance(design, Design) else np.asarray(design, dtype=float)
     signs = np.asarray(mode, dtype=float)
-    reachable = np.asarray(evaluate_task(params, task.E, task.e, signs, options).points.reachable, dtype=bool)
+    reachable = np.asarray(evaluate_task(params, task.E, task.e, signs, options, anatomy).points.reachable, dtype=bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, task.E, task.e, signs)
         # the tip moves against e (e points from the tip to the motor); with omega = 0 the centre C

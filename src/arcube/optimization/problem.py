@@ -13,6 +13,8 @@ Three layers, all picklable and free of pymoo except the last:
   reachable and the orientation margin holds) and the aggregate eta ETA (+inf when infeasible).
 * :class:`ArcubeProblem` is the pymoo Problem; it delegates the batch to a callable so that
   run.py can log, replay and distribute evaluations.
+
+Long module: the picklable optimization problem: variable space, bounds, fitness model and the pymoo Problem travel to workers together.
 """
 
 from __future__ import annotations

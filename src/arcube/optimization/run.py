@@ -10,6 +10,8 @@ Run folder::
 
 Checkpoint and bit-identical resume: see :mod:`arcube.optimization.checkpoint` (the evaluation log,
 replayed on resume).
+
+Long module: the whole run-folder lifecycle in one place: config TOML, history, executors (process/dask), run loop, outputs, resume.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import csv
 import gc
 import io
 import json
+import shutil
 import math
 import platform
 import sys
@@ -390,12 +393,24 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
 
 
 def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
-    """Create the run folder (anatomy files, config.toml, empty history.csv) and run."""
+    """Create the run folder (anatomy files, config.toml, empty history.csv) and run.
+
+    A run that stops on a bad input before its first checkpoint (e.g. an unreachable --dask
+    scheduler) leaves nothing behind: the folder was absent or empty, and is so again."""
     check_new_folder(run_dir)
-    write_anatomy(run_dir, cfg)
-    text = to_toml(cfg)
-    atomic_write_text(run_dir / "config.toml", text)
-    return execute(run_dir, cfg, text.encode("utf-8"), **kwargs)
+    created = not run_dir.exists()
+    try:
+        write_anatomy(run_dir, cfg)
+        text = to_toml(cfg)
+        atomic_write_text(run_dir / "config.toml", text)
+        return execute(run_dir, cfg, text.encode("utf-8"), **kwargs)
+    except InputError:
+        if run_dir.is_dir() and not (run_dir / "checkpoint").exists():
+            for child in run_dir.iterdir():
+                shutil.rmtree(child) if child.is_dir() else child.unlink()
+            if created:
+                run_dir.rmdir()
+        raise
 
 
 def is_finished(run_dir: Path) -> bool:

@@ -33,7 +33,7 @@ from arcube.report.figures import (
     JACOBIAN_COLORS, UNREACHABLE_COLOR, History, ParetoFront, convergence_png, dexterity_png, dexterity_series, pareto_png,
     read_history, read_pareto,
 )  # fmt: skip
-from arcube.model.body import MechanismPoints, mechanism_points
+from arcube.model.body import PART_NAMES, MechanismPoints, mechanism_points
 from arcube.report.tip import anatomy_trace, tip_figure
 
 if TYPE_CHECKING:
@@ -104,6 +104,12 @@ def _frame_title(report: Evaluation, i: int, mp: MechanismPoints, series: Any) -
     lim = int(series.limiting[i])
     text = f"{TITLES['scene']}: trajectory {series.labels[t]}, k = {int(report.task.k[i])}, 100/η_L = {series.dexterity[i]:.1f} %"
     text += f" ({JACOBIAN_NAMES[lim]})" if lim >= 0 else ""
+    pts = report.results.points
+    if np.isfinite(pts.clearance_mm[i]):
+        c, part = float(pts.clearance_mm[i]), PART_NAMES[int(pts.clearance_part[i])]
+        text += f" · clearance {c:.1f} mm ({part})" if c >= 0.0 else f" · COLLISION: {part} {-c:.1f} mm inside the anatomy"
+    if np.isfinite(pts.self_clearance_mm[i]) and pts.self_clearance_mm[i] < 0.0:
+        text += f" · parts overlap by {-float(pts.self_clearance_mm[i]):.1f} mm"
     return text + ("" if mp.z_closes[i] else " · z dyad open (dashed)")
 
 
@@ -207,7 +213,8 @@ def convergence_figure(history: History) -> go.Figure:
     fig.add_scatter(x=g, y=nan_to_none(100.0 * history.feasible_fraction), name="feasible %", mode="lines", line={"color": "#2ca02c"}, secondary_y=True)
     fig.update_layout(title={"text": TITLES["convergence"]}, height=380, margin={"t": 60})
     fig.update_xaxes(title_text="generation")
-    fig.update_yaxes(title_text="η_G", secondary_y=False)
+    # eta_G falls from tens to about 1.3: a log axis shows the last percent, where runs differ
+    fig.update_yaxes(title_text="η_G (log scale)", type="log", secondary_y=False)
     fig.update_yaxes(title_text="feasible designs (%)", range=[-2, 102], dtick=20, secondary_y=True)
     return fig
 

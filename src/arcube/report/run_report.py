@@ -108,9 +108,10 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
     return {k: v for k, v in info.items() if v is not None}
 
 
-def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
+def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Path:
     """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
 
+    ``anatomy``: an :class:`~arcube.evaluation.anatomy.Anatomy` instead of the run's own, or ``"none"``.
     Raises :class:`InputError` (one line) when the folder is not a readable run.
     """
     run = Path(run_dir)
@@ -129,7 +130,8 @@ def write_run_report(run_dir: str | os.PathLike[str]) -> Path:
     if points < 2:
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
     signs = _mode(settings, summary, run / "config.toml")
-    options, anatomy, limits = _run_body(run, settings)
+    options, run_anatomy, limits = _run_body(run, settings)
+    anatomy = run_anatomy if anatomy is None else (None if isinstance(anatomy, str) else anatomy)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
     engine = "numba" if settings.get("engine_resolved") == "numba" and _numba_available() else "numpy"
     ts = _trajectories(cfg, settings, run / "config.toml")

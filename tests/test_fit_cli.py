@@ -1,0 +1,81 @@
+"""``arcube evaluate`` with an anatomy and a 27-parameter design: the JSON contract of the issue
+"Fit the patient", and its bad inputs (one line, exit 2, no traceback, nothing written)."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import pytest
+import trimesh
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_cli_evaluate import DATA, arcube  # noqa: E402
+
+from arcube.model.body import PART_NAMES  # noqa: E402
+from arcube.model.design import Design  # noqa: E402
+
+RIGHT = {"m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("fit")
+    design = d / "design27.json"
+    Design.preset("paper").replace(**RIGHT).to_json(design)
+    assert len(json.loads(design.read_text())) == 27  # a 27-key design (MODEL.md 13)
+    box = trimesh.creation.box(extents=(40.0, 40.0, 40.0))
+    box.apply_translation((0.0, 0.0, -60.0))  # in front of the spine (patient frame), well away from the tips
+    mesh = d / "block.stl"
+    box.export(mesh)
+    bad_key = d / "bad_key.json"
+    text = design.read_text().replace('"mount_rx"', '"mount_rq"')
+    bad_key.write_text(text)
+    garbage = d / "garbage.stl"
+    garbage.write_bytes(b"solid x\nthis is not an stl\n")
+    return {"design": design, "mesh": mesh, "bad_key": bad_key, "garbage": garbage}
+
+
+def test_json_contract_with_a_mesh_in_the_patient_frame(files) -> None:
+    out = arcube("evaluate", "--design", str(files["design"]), "--trajectories", str(DATA), "--side", "R", "--points", "4",
+                 "--anatomy", str(files["mesh"]), "--anatomy-frame", "patient", "--json")  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    pts = doc["points"]
+    assert all({"clearance_mm", "clearance_part", "self_clearance_mm"} <= set(p) for p in pts)
+    reach = [p for p in pts if p["reachable"]]
+    assert reach and all(p["clearance_part"] in PART_NAMES for p in reach)
+    s = doc["summary"]
+    assert s["clearance_min_mm"] == min(p["clearance_mm"] for p in reach)
+    assert s["clearance_min_part"] in PART_NAMES and isinstance(s["self_clearance_min_mm"], float)
+    assert all(math.isfinite(p["clearance_mm"]) for p in reach)
+
+
+@pytest.mark.parametrize(
+    "extra, needle",
+    [
+        (["--anatomy", "missing.stl"], "missing.stl"),
+        (["--anatomy", "GARBAGE"], "garbage.stl"),
+        (["--anatomy", "MESH", "--anatomy-frame", "XYZ"], "--anatomy-frame"),
+        (["--link-radius", "-1"], "--link-radius"),
+        (["--motor-length", "nan"], "--motor-length"),
+        (["--anatomy", "MESH", "--clearance", "-1"], "--clearance"),
+        (["--anatomy", "MESH", "--clearance", "nan"], "--clearance"),
+        (["--clearance", "5"], "needs an anatomy"),
+        (["--design", "BADKEY"], "mount_rq"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(files, tmp_path: Path, extra, needle) -> None:
+    subst = {"MESH": str(files["mesh"]), "GARBAGE": str(files["garbage"]), "BADKEY": str(files["bad_key"])}
+    args = [subst.get(a, a) for a in extra]
+    report = tmp_path / "r.html"
+    base = ["evaluate", "--trajectories", str(DATA), "--points", "3", "--report", str(report)]
+    if "--design" not in args:
+        base += ["--design", str(files["design"])]
+    out = arcube(*base, *args, cwd=tmp_path)
+    assert out.returncode == 2, (out.stdout, out.stderr)
+    assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr, out.stderr
+    assert needle in out.stderr, out.stderr
+    assert not report.exists() and not list(tmp_path.glob("*.png"))
