@@ -36,3 +36,16 @@ def test_unreadable_front_names_the_file(tmp_path: Path) -> None:
     bad.write_text("eta_G,links_sum_mm\n1.5,1000\n")
     with pytest.raises(InputError, match="pareto.csv"):
         read_pareto(bad)
+
+
+def test_front_of_the_run_objectives_marks_the_chosen_design(tmp_path: Path) -> None:
+    rows = [(1.3, 0.045, 1.3, 1700.0, 22.0), (1.8, 0.025, 1.8, 1500.0, 13.0), (2.6, 0.011, 2.6, 1100.0, 9.0)]
+    path = tmp_path / "pareto.csv"
+    path.write_text("objective_eta_G,objective_lateral_error,eta_G,links_sum_mm,bbox_volume_L\n"
+                    + "".join(",".join(map(str, r)) + "\n" for r in rows))  # fmt: skip
+    front = read_pareto(path)
+    assert list(front.objectives) == ["eta_G", "lateral_error"] and front.chosen == 0
+    fig = pareto_figure(front)
+    assert list(fig.data[0].x) == [0.045, 0.025, 0.011] and list(fig.data[0].y) == [1.3, 1.8, 2.6]
+    assert list(fig.data[1].x) == [0.045] and list(fig.data[1].y) == [1.3] and fig.data[1].name == "best_design.json"
+    assert pareto_png(front, tmp_path / "front.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -201,6 +201,15 @@ class ParetoFront(NamedTuple):
     eta_G: NDArray[np.float64]
     links_sum_mm: NDArray[np.float64]
     bbox_volume_L: NDArray[np.float64]
+    objectives: dict[str, NDArray[np.float64]] | None = None
+    """The run's objectives by name (pareto.csv's ``objective_<name>`` columns), None for older runs
+    (eta_G against compactness)."""
+
+    @property
+    def chosen(self) -> int:
+        """Row of ``best_design.json``: the lowest first objective (eta_G for older runs)."""
+        first = next(iter(self.objectives.values())) if self.objectives else self.eta_G
+        return int(np.argmin(first))
 
 
 def read_pareto(path: str | os.PathLike[str]) -> ParetoFront:
@@ -210,16 +219,37 @@ def read_pareto(path: str | os.PathLike[str]) -> ParetoFront:
         with p.open(newline="", encoding="utf-8") as fh:
             rows = list(csv.DictReader(fh))
         cols = {k: np.array([float(r[k]) for r in rows]) for k in ("eta_G", "links_sum_mm", "bbox_volume_L")}
+        names = [k[len("objective_"):] for k in (rows[0] if rows else {}) if k.startswith("objective_")]
+        objs = {n: np.array([float(r["objective_" + n]) for r in rows]) for n in names}
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise InputError(f"{p}: not a readable pareto.csv ({exc})") from None
+    if objs:  # a run with --objectives: rows as written (sorted by the first objective)
+        return ParetoFront(**cols, objectives=objs)
     order = np.argsort(cols["links_sum_mm"], kind="stable")
     return ParetoFront(**{k: v[order] for k, v in cols.items()})
 
 
 def pareto_png(front: ParetoFront, path: str | os.PathLike[str]) -> Path:
-    """PNG of eta_G against the sum of link lengths, colored by bounding-box volume."""
+    """PNG of eta_G against the sum of link lengths, colored by bounding-box volume (older runs), or of
+    each pair of the run's objectives, with the chosen design (best_design.json) marked."""
     from matplotlib.figure import Figure
 
+    if front.objectives:
+        names = list(front.objectives)
+        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
+        fig = Figure(figsize=(4.2 * len(pairs), 4.0), layout="constrained")
+        for j, (a, b) in enumerate(pairs):
+            ax = fig.add_subplot(1, len(pairs), j + 1)
+            ax.scatter(front.objectives[b], front.objectives[a], s=12, c=front.bbox_volume_L, cmap="viridis")
+            c = front.chosen
+            ax.scatter([front.objectives[b][c]], [front.objectives[a][c]], marker="*", s=160, color="#d62728", label="best_design.json")
+            ax.set_xlabel(b)
+            ax.set_ylabel(a)
+            ax.legend(fontsize=8)
+        fig.suptitle("Pareto front (colour: bounding box, L)")
+        out = Path(path)
+        atomic_write_bytes(out, _png_bytes(fig))
+        return out
     fig = Figure(figsize=(6.4, 4.2), layout="constrained")
     ax = fig.add_subplot()
     ax.plot(front.links_sum_mm, front.eta_G, color="#bbbbbb", lw=1, zorder=1)

@@ -279,8 +279,29 @@ th{background:#f3f3f3}h2{margin-top:1.4em;border-bottom:1px solid #ddd}.note{col
 
 
 def pareto_figure(front: ParetoFront) -> go.Figure:
-    """eta_G against the sum of link lengths, colored by the bounding-box volume (an NSGA-II run's front)."""
+    """eta_G against the sum of link lengths, colored by the bounding-box volume (an NSGA-II run's front);
+    with the run's objectives: the front in each pair of them, the chosen design (best_design.json) marked."""
     import plotly.graph_objects as go
+
+    if front.objectives:
+        names = list(front.objectives)
+        c = front.chosen
+        if len(names) == 2:
+            a, b = names
+            fig = go.Figure(go.Scatter(x=front.objectives[b].tolist(), y=front.objectives[a].tolist(), mode="markers", name="front",
+                                       marker={"size": 7, "color": front.bbox_volume_L.tolist(), "colorscale": "Viridis",
+                                               "showscale": True, "colorbar": {"title": "bbox (L)"}}))  # fmt: skip
+            fig.add_trace(go.Scatter(x=[float(front.objectives[b][c])], y=[float(front.objectives[a][c])], mode="markers",
+                                     name="best_design.json", marker={"symbol": "star", "size": 16, "color": "#d62728"}))  # fmt: skip
+            fig.update_xaxes(title_text=b)
+            fig.update_yaxes(title_text=a)
+        else:
+            dims = [{"label": n, "values": v.tolist()} for n, v in front.objectives.items()]
+            colors = ["#d62728" if i == c else "#1f77b4" for i in range(len(front.eta_G))]
+            fig = go.Figure(go.Splom(dimensions=dims, marker={"size": 5, "color": colors}, showupperhalf=False, name="front"))
+        fig.update_layout(title={"text": "Pareto front of the run's objectives (star: best_design.json, the lowest " + names[0] + ")"},
+                          height=420 if len(names) == 2 else 700, margin={"t": 60})  # fmt: skip
+        return fig
 
     fig = go.Figure(
         go.Scatter(
