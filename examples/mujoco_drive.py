@@ -48,8 +48,8 @@ def main(argv: list[str] | None = None) -> float:
     ap.add_argument("model", help="MJCF file written by 'arcube export'")
     ap.add_argument("joints", help="CSV written by 'arcube joints' (same design, mode and plan)")
     ap.add_argument("--trajectory", help="trajectory id (default: the CSV's first)")
-    ap.add_argument("--steps", type=int, default=300, help="simulation steps per point (default 300)")
-    ap.add_argument("--ramp-steps", type=int, default=1000, help="steps to ramp from the keyframe to the first point")
+    ap.add_argument("--steps", type=int, default=3000, help="simulation steps per point (default 3000: long links settle slowly)")
+    ap.add_argument("--ramp-steps", type=int, default=20000, help="steps to ramp from the keyframe to the first point (default 20000)")
     ap.add_argument("--gravity", action="store_true", help="keep the model's gravity (default: off)")
     args = ap.parse_args(argv)
 
