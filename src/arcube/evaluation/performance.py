@@ -32,7 +32,6 @@ ACTUATOR_NAMES: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_
 _SIGNS: NDArray[np.float64] = np.array([(1.0, *s) for s in itertools.product((1.0, -1.0), repeat=4)])
 """16 of the 32 sign vectors of MODEL.md 15.2, ``(16, 5)``: |M s| = |M (-s)|, so these give the same maximum."""
 
-_COND_MAX = 1.0 / np.finfo(float).eps
 """A' counts as singular where its 2-norm condition number exceeds 1/eps (or it is not finite)."""
 
 
@@ -105,7 +104,9 @@ def jacobians_of_solution(
     finite = np.all(np.isfinite(A_p), axis=(-2, -1)) & np.all(np.isfinite(B_b), axis=(-2, -1))
     eye = np.eye(5)
     A_safe = np.where(finite[..., None, None], A_p, eye)
-    ok = finite & np.asarray(sol.reachable) & (np.linalg.cond(A_safe) < _COND_MAX)
+    # an LU factorization, not an SVD: exact singularity is all that matters here, since a point
+    # where A' is near-singular has eta_L = inf and is unreachable anyway (MODEL.md 15.1)
+    ok = finite & np.asarray(sol.reachable) & (np.abs(np.linalg.det(A_safe)) > 0.0)
     A_safe = np.where(ok[..., None, None], A_safe, eye)
     J_p = np.linalg.solve(A_safe, np.where(ok[..., None, None], B_b, 0.0))
     J_p = np.where(ok[..., None, None], J_p, np.nan)
@@ -163,7 +164,7 @@ def check_force(value: ArrayLike, flag: str) -> float:
 def _max_quadratic(M: NDArray[np.float64]) -> NDArray[np.float64]:
     """max over sign vectors s of |M s| for M ``(..., 3, 5)`` -> ``(...)``, via the Gram matrix."""
     G = np.swapaxes(M, -1, -2) @ M
-    q = np.einsum("ki,...ij,kj->...k", _SIGNS, G, _SIGNS)
+    q = np.sum(_SIGNS.T * (G @ _SIGNS.T), axis=-2)  # s_k^T G s_k for each sign vector k
     return np.sqrt(np.maximum(np.max(q, axis=-1), 0.0))
 
 
