@@ -308,6 +308,27 @@ def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str) 
     assert runmod.resume(tmp_path / "cut") is None  # finished: nothing to do
 
 
+@pytest.mark.parametrize("extra", [{"objectives": "eta_G,lateral_error", "maxima": ["torque=50"]},
+                                   {"objectives": "eta_G,lateral_error,torque,deflection"}])  # fmt: skip
+def test_crash_then_resume_with_objectives_equals_uninterrupted(tmp_path: Path, extra: dict) -> None:
+    """Runs with --objectives (NSGA-II, NSGA-III) and limits resume bit for bit like the others."""
+    cfg = _config(checkpoint_every=4, generations=10, **extra)
+    assert cfg["settings"]["algorithm"] == ("nsga3" if len(extra["objectives"].split(",")) > 3 else "nsga2")
+    ref = runmod.start(tmp_path / "ref", dict(cfg))
+
+    def crash(row: dict) -> None:
+        if row["generation"] == 6:
+            raise _Crash
+
+    with pytest.raises(_Crash):
+        runmod.start(tmp_path / "cut", dict(cfg), on_generation=crash)
+    got = runmod.resume(tmp_path / "cut")
+    assert got is not None and got["resumed"] == 1
+    for name in ("best_design.json", "pareto.csv"):
+        assert (tmp_path / "cut" / name).read_bytes() == (tmp_path / "ref" / name).read_bytes()
+    assert _untimed(got) == _untimed(ref)
+
+
 def test_kill9_then_resume_is_bit_identical(tmp_path: Path) -> None:
     args = ["optimize", "--trajectories", "reference", "--free", "all", "--population", "40", "--generations", "150",
             "--points", "10", "--seed", "7", "--tolerance", "0", "--checkpoint-every", "5", *SMALL]  # fmt: skip
