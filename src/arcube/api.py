@@ -68,7 +68,7 @@ def evaluate(
     encoder_deg: float | list[float] | None = None,
     thrust: float | None = None,
     lateral_force: float | None = None,
-    stiffness: float | list[float] | None = None,
+    actuator_stiffness: float | list[float] | None = None,
 ) -> Evaluation:
     """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers, dexterity.
 
@@ -89,7 +89,7 @@ def evaluate(
         clearance, self_clearance: turn on the guards ``clearance >= MM`` (``collision/patient``)
             and ``self_clearance >= MM`` (``collision/self``) of MODEL.md 14.3.
         radii: the body radii of MODEL.md 14.1 (default 8 / 25 / 20 mm, motor 120 mm long).
-        encoder_deg, thrust, lateral_force, stiffness: the parameters of the tip metrics of MODEL.md 15
+        encoder_deg, thrust, lateral_force, actuator_stiffness: the parameters of the tip metrics of MODEL.md 15
             (deg, N, N, N·m/rad; encoder and stiffness one value or five); None keeps ``options``'s
             (defaults 0.01 deg, 30 N, 10 N, 1e4 N·m/rad).
 
@@ -110,7 +110,7 @@ def evaluate(
         ts = load_trajectory_set(os.fspath(plan), points, side, levels, ids, None if transform is None else Path(transform))
     opts = with_body(options if options is not None else (GUARDED_OPTIONS if guards else Options()),
                         clearance=clearance, self_clearance=self_clearance, radii=radii, body=True)
-    opts = with_loads(opts, encoder_deg=encoder_deg, thrust=thrust, lateral_force=lateral_force, stiffness=stiffness)
+    opts = with_loads(opts, encoder_deg=encoder_deg, thrust=thrust, lateral_force=lateral_force, stiffness=actuator_stiffness)
     anat = resolve_anatomy(anatomy, anatomy_frame, plan)
     if opts.clearance_mm is not None and anat is None:
         raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")
@@ -165,9 +165,9 @@ class Run:
 
         override = None
         if anatomy is not None:
-            import tomllib
+            from arcube.optimization import run as runmod
 
-            plans = tomllib.loads((self.path / "config.toml").read_text(encoding="utf-8")).get("settings", {}).get("trajectories") or ["reference"]
+            plans = runmod.read_config(self.path)[0]["settings"].get("trajectories") or ["reference"]
             override = resolve_anatomy(anatomy, anatomy_frame, plans[0]) or "none"
         return write_run_report(self.path, anatomy=override)
 

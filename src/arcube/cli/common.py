@@ -43,10 +43,11 @@ def numbers(text: str, flag: str) -> float | list[float]:
     return values[0] if len(values) == 1 else values
 
 
-def loads(encoder_deg: str, thrust: float, lateral_force: float, stiffness: str) -> dict[str, object]:
-    """The MODEL.md 15 parameters of the command line, as keyword arguments of :func:`arcube.evaluate`."""
+def loads(encoder_deg: str, thrust: float, lateral_force: float, actuator_stiffness: str) -> dict[str, object]:
+    """The MODEL.md 15 parameters of the command line, as keyword arguments of :func:`arcube.evaluate`
+    and :func:`arcube.optimize`."""
     return {"encoder_deg": numbers(encoder_deg, "--encoder-deg"), "thrust": thrust, "lateral_force": lateral_force,
-            "stiffness": numbers(stiffness, "--actuator-stiffness")}  # fmt: skip
+            "actuator_stiffness": numbers(actuator_stiffness, "--actuator-stiffness")}  # fmt: skip
 
 
 def radii(link: float, actuator: float, motor: float, motor_length: float) -> BodyRadii:

@@ -14,7 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import (
-    ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, numbers, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
+    ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
 )  # fmt: skip
 from arcube.errors import InputError
 from arcube.optimization import run as runmod
@@ -146,8 +146,7 @@ def register(app: typer.Typer) -> None:
                 anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
                 link_radius=link_radius, actuator_radius=actuator_radius, motor_radius=motor_radius, motor_length=motor_length,
                 objectives=objectives, maxima=maxima, minima=minima,
-                **{k: v for k, v in loads(encoder_deg, thrust, lateral_force, actuator_stiffness).items() if k != "stiffness"},
-                actuator_stiffness=numbers(actuator_stiffness, "--actuator-stiffness"),
+                **loads(encoder_deg, thrust, lateral_force, actuator_stiffness),
             )  # fmt: skip
         _print_summary(out, run.summary)
 

@@ -201,18 +201,19 @@ class Evaluation:
     def _torque_actuator(self) -> str | None:
         """The actuator that needs the largest torque over the reachable points (MODEL.md 15.3)."""
         pts = self.results.points
-        values = np.where(pts.reachable & np.isfinite(pts.torque_Nm), pts.torque_Nm, -np.inf)
-        if not np.isfinite(values).any():
+        return self._name_at(-pts.torque_Nm, pts.torque_actuator, ACTUATOR_NAMES)
+
+    def _name_at(self, values: np.ndarray, index: np.ndarray, names: tuple[str, ...]) -> str | None:
+        """``names[index]`` at the reachable point of smallest ``values`` (None when no value exists)."""
+        v = np.where(self.results.points.reachable & np.isfinite(values), values, np.inf)
+        if not np.isfinite(v).any():
             return None
-        return ACTUATOR_NAMES[int(pts.torque_actuator[int(np.argmax(values))])]
+        return names[int(index[int(np.argmin(v))])]
 
     def _closest_part(self) -> str | None:
         """The part attaining the smallest clearance over the reachable points, None without anatomy."""
         pts = self.results.points
-        values = np.where(pts.reachable & np.isfinite(pts.clearance_mm), pts.clearance_mm, np.inf)
-        if not np.isfinite(values).any():
-            return None
-        return PART_NAMES[int(pts.clearance_part[int(np.argmin(values))])]
+        return self._name_at(pts.clearance_mm, pts.clearance_part, PART_NAMES)
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object of the issue's contract (values that do not exist are null)."""

@@ -133,7 +133,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Pa
     options, run_anatomy, limits = _run_body(run, settings)
     anatomy = run_anatomy if anatomy is None else (None if isinstance(anatomy, str) else anatomy)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
-    engine = "numba" if settings.get("engine_resolved") == "numba" and _numba_available() else "numpy"
+    engine = _run_engine(settings)
     ts = _trajectories(cfg, settings, run / "config.toml")
     info = _run_info(cfg, settings, summary)
     if isinstance(cfg.get("patients"), list) and len(cfg["patients"]) > 1:
@@ -156,12 +156,16 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Pa
                                    history_csv=history, run_info=info, pareto_csv=pareto if pareto.exists() else None, limits=limits)  # fmt: skip
 
 
-def _numba_available() -> bool:
+def _run_engine(settings: dict[str, Any]) -> str:
+    """The run's own engine when this machine has it, else the NumPy reference."""
+    from arcube.optimization.problem import check_engine
+
+    if settings.get("engine_resolved") != "numba":
+        return "numpy"
     try:
-        import arcube.evaluation.kernel  # noqa: F401, PLC0415
-    except ImportError:
-        return False
-    return True
+        return check_engine("numba")
+    except InputError:
+        return "numpy"
 
 
 def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[str, float]]:

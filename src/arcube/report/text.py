@@ -65,10 +65,10 @@ def print_evaluation(report: Evaluation, console: Console | None = None) -> None
             + (f"   (anatomy: {report.anatomy.source})" if report.anatomy is not None else ""),
             soft_wrap=True,
         )
-    print_tip_performance(report, out)
+    print_tip_performance(report, out, s)
 
 
-def print_tip_performance(report: Evaluation, console: Console | None = None) -> None:
+def print_tip_performance(report: Evaluation, console: Console | None = None, summary: dict | None = None) -> None:
     """The compact second table (MODEL.md 15): what a surgeon and a motor supplier need, worst case over
     the reachable points of each trajectory and of the plan."""
     out = console or _console()
@@ -91,7 +91,7 @@ def print_tip_performance(report: Evaluation, console: Console | None = None) ->
 
     for t, tid in enumerate(report.task.ids):
         table.add_row(tid, *worst(report.task.trajectory == t))
-    s = report.summary_json()
+    s = summary if summary is not None else report.summary_json()
     table.add_row("all", *worst(report.task.trajectory >= 0), end_section=True)
     out.print(table)
     if s["torque_max_actuator"] is not None:
