@@ -37,6 +37,8 @@ from arcube.optimization.config import build_config
 
 TARGET_S = 5.0
 MEMORY_LIMIT_MIB = 1024.0
+OVERHEAD_TARGET = 1.0
+"""Optimizer overhead (pymoo's own time plus the run loop's) at most the evaluation time."""
 
 
 def machine() -> str:
@@ -138,6 +140,9 @@ def main(argv: list[str] | None = None) -> int:
         for key, label in (("eval", "evaluation"), ("pymoo", "pymoo's own"), ("ours", "run loop")):
             print(f"  {label:17s} {s[key]:7.2f} s  {100 * s[key] / s['wall']:5.1f} %  {1e3 * s[key] / gens:6.2f} ms/generation")
         print(f"                    evaluation: {n / s['eval']:,.0f} designs/s; run loop: setup, digests, history.csv, statistics, checkpoints, outputs")
+        ratio = (s["pymoo"] + s["ours"]) / s["eval"]
+        print(f"overhead/evaluation {ratio:5.2f}   (pymoo's own + run loop, over evaluation, in the same run)  target <= {OVERHEAD_TARGET:g}: "
+              f"{'OK' if ratio <= OVERHEAD_TARGET else 'OVER'}")  # fmt: skip
         same = len(set(bests)) == 1 and all((tmp / f"split{r}" / "best_design.json").read_bytes() == bests[0] for r in range(len(runs)))
         eta = summary["eta_G"]
         print(f"result   feasible={summary['feasible']} eta_G={eta} dexterity mean {summary['dexterity_pct']['mean']:.2f} %; "

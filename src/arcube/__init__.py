@@ -15,7 +15,7 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-from arcube.api import Run, evaluate, optimize, resume
+from arcube.api import Run, Study, evaluate, optimize, resume, study
 from arcube.errors import InputError
 from arcube.evaluation.reference import GUARDED_OPTIONS, Options
 from arcube.evaluation.result import Evaluation
@@ -25,7 +25,7 @@ from arcube.model.design import PARAM_NAMES, Design
 from arcube.patients import generate_patient
 
 __all__ = [
-    "GUARDED_OPTIONS", "PARAM_NAMES", "Design", "Evaluation", "InputError", "Options", "Run", "TrajectorySet",
-    "__version__", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select",
+    "GUARDED_OPTIONS", "PARAM_NAMES", "Design", "Evaluation", "InputError", "Options", "Run", "Study", "TrajectorySet",
+    "__version__", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select", "study",
     "write_csv", "write_markups",
 ]  # fmt: skip

@@ -231,12 +231,100 @@ def optimize(
 
 
 def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
-           dask: str | None = None) -> Run:  # fmt: skip
-    """Continue an interrupted run from its checkpoint (the same result as an uninterrupted run)."""
+           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> Run | Study:  # fmt: skip
+    """Continue an interrupted run from its checkpoint, or finish an interrupted study (the same result
+    as an uninterrupted one); returns the :class:`Run` or the :class:`Study`."""
     from arcube.optimization import run as runmod
+    from arcube.optimization import study as studymod
 
     run_dir = Path(path)
+    if studymod.is_study(run_dir):
+        studymod.resume_study(run_dir, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
+        return Study(run_dir)
     cfg, raw = runmod.read_config(run_dir)
     runmod.load_checkpoint(run_dir, cfg, raw)  # refuse a corrupt or foreign checkpoint before anything else
     runmod.resume(run_dir, workers=workers if workers is not None else (1 if dask else None), dask=dask, on_generation=progress)
     return Run(run_dir)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A design study folder: one optimization run per seed (``seed_<S>/``), ``study.csv``, ``summary.json``."""
+
+    path: Path
+
+    @classmethod
+    def load(cls, path: PathLike) -> Study:
+        """Open an existing study folder (InputError if it is not one)."""
+        from arcube.optimization import study as studymod
+
+        studymod.read_study(Path(path))
+        return cls(Path(path))
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """``summary.json``: objective, best / median / worst, best_seed, spread_pct, wall_s, one row per seed."""
+        try:
+            return json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise InputError(f"{self.path}: the study has not finished (no summary.json)") from None
+
+    @property
+    def table(self) -> dict[str, np.ndarray]:
+        """``study.csv`` as columns: seed, feasible, objective_<name>..., eta_G, generations, evaluations, wall_s."""
+        return _read_columns(self.path / "study.csv")
+
+    @property
+    def best_design(self) -> Design:
+        """The best seed's best design."""
+        return Design.from_json(self.path / "best_design.json")
+
+    @property
+    def runs(self) -> dict[int, Run]:
+        """Each seed's :class:`Run`."""
+        from arcube.optimization import study as studymod
+
+        seeds = studymod.read_study(self.path)[0]["seeds"]
+        return {int(s): Run(studymod.seed_dir(self.path, int(s))) for s in seeds}
+
+
+def study(
+    plan: TrajectorySet | PathLike | Sequence[TrajectorySet | PathLike] = "reference",
+    out: PathLike | None = None,
+    *,
+    seeds: str | Sequence[int] = "1-5",
+    workers: int = 1,
+    dask: str | None = None,
+    best_known: float | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    **settings: Any,
+) -> Study:
+    """Run the same optimization once per seed and compare: how much does the optimum depend on luck?
+
+    Args:
+        plan, settings: as :func:`optimize` takes them (every setting but ``seed``).
+        out: the study folder to create (must be absent or empty).
+        seeds: ``"1-5"``, ``"1,3,7"``, ``"1-3,10"`` or a sequence of integers.
+        workers, dask: run that many seeds at once in local processes, or each seed as a task on a
+            dask.distributed scheduler (its workers must see ``out``); each seed's run itself uses one process.
+        best_known: an eta_G to draw on the convergence figure.
+        progress: each generation's history row, when the seeds run one after another in this process.
+        on_seed: called with (seed, the run's summary) as each seed finishes.
+
+    Returns:
+        The finished :class:`Study` (``summary["best"]``, ``["median"]``, ``["worst"]``, ``best_design``).
+    """
+    from arcube.optimization import study as studymod
+    from arcube.optimization.config import build_config
+
+    if out is None:
+        raise InputError("--out DIR is required (the study folder)")
+    if "seed" in settings:
+        raise InputError("a study sets each run's seed from seeds=...; drop seed=")
+    seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
+    plans = list(plan) if isinstance(plan, (list, tuple)) else [plan]
+    specs = [p if isinstance(p, TrajectorySet) else os.fspath(p) for p in plans]
+    base = build_config(specs, seed=seed_list[0], **settings)
+    studymod.start_study(Path(out), base, seed_list, workers=workers, dask=dask, best_known=best_known, on_seed=on_seed, on_generation=progress)
+    return Study(Path(out))

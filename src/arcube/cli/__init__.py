@@ -12,7 +12,7 @@ import sys
 import typer
 
 from arcube import __version__
-from arcube.cli import demo, evaluate, export, joints, optimize, patients, report
+from arcube.cli import demo, evaluate, export, joints, optimize, patients, report, study
 from arcube.errors import InputError
 
 __all__ = ["app", "main"]
@@ -40,7 +40,7 @@ def _root(
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, report, joints, patients, demo, export):
+for _module in (evaluate, optimize, study, report, joints, patients, demo, export):
     _module.register(app)
 
 

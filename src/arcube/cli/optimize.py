@@ -152,16 +152,24 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def resume(
-        run_dir: Annotated[Path, typer.Argument(help="Run folder of an interrupted 'arcube optimize'.")],
+        run_dir: Annotated[Path, typer.Argument(help="Run folder of an interrupted 'arcube optimize', or study folder of an interrupted 'arcube study'.")],
         workers: Annotated[int | None, typer.Option("--workers", help="Override the run's local worker processes.")] = None,
         dask: Annotated[str | None, typer.Option("--dask", help="Override: send batches to this dask scheduler.")] = None,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
     ) -> None:
-        """Continue a killed optimization run from its checkpoint (same result as an uninterrupted run)."""
+        """Continue a killed optimization run from its checkpoint, or finish a killed study (same result as an uninterrupted one)."""
         if workers is not None and workers < 1:
             raise InputError(f"--workers must be at least 1, got {workers}")
         from arcube.api import resume as resume_api
+        from arcube.cli.study import SeedProgress, print_study
+        from arcube.optimization import study as studymod
 
+        if studymod.is_study(run_dir):
+            seeds = studymod.read_study(run_dir)[0]["seeds"]
+            with SeedProgress(len(seeds), enabled=not quiet) as seed_bar:
+                result = resume_api(run_dir, workers=workers, dask=dask, on_seed=seed_bar)
+            print_study(run_dir, result.summary)
+            return
         cfg, raw = runmod.read_config(run_dir)
         runmod.load_checkpoint(run_dir, cfg, raw)  # refuse a corrupt or foreign checkpoint before anything else
         if runmod.is_finished(run_dir):

@@ -18,8 +18,13 @@ the same draw in the same order, so a run gives bit for bit what pymoo's stock c
 * :class:`LeanFitnessSurvival`: pymoo's ``FitnessSurvival`` (sort by CV, then F; ``rank``).
 * :func:`lean_comp_by_cv_and_fitness`: pymoo's ``comp_by_cv_and_fitness`` (feasibility first,
   then F; a tie is broken by ``random_state.choice([a, b])`` as pymoo does, in the same order).
-* :class:`LeanGA`: pymoo's GA whose optimum (``filter_optimum``: best feasible, else least
-  infeasible) is found from arrays.
+* :class:`LeanMating`: pymoo's Mating (tournament, SBX, PM) on one array of the parents' X
+  instead of a population of parent pairs: selection returns indices, crossover and mutation
+  run pymoo's own ``_do`` on arrays with the same draws, and the offspring become individuals
+  once, at the end (pymoo builds them after the crossover and rewrites the mutated ones).
+* :class:`LeanGA`: pymoo's GA with the lean mating; its optimum (``filter_optimum``: best
+  feasible, else least infeasible) is found from arrays, and the offspring's ``n_gen`` /
+  ``n_iter`` tags are written in one pass.
 
 The CV itself comes with the evaluation (``ArcubeProblem`` returns it), so pymoo's lazy per-
 individual ``calc_cv`` never runs.
@@ -27,14 +32,17 @@ individual ``calc_cv`` never runs.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from pymoo.algorithms.soo.nonconvex.ga import GA, FitnessSurvival
 from pymoo.core.evaluator import Evaluator
 from pymoo.core.individual import Individual
+from pymoo.core.mating import Mating
 from pymoo.core.population import Population
 from pymoo.core.repair import Repair
+from pymoo.core.variable import get
 
 
 def column(pop: Any, key: str) -> np.ndarray:
@@ -104,8 +112,84 @@ def lean_comp_by_cv_and_fitness(pop: Any, P: np.ndarray, random_state: Any = Non
     return S[:, None].astype(int)
 
 
+def new_population(X: np.ndarray) -> Any:
+    """``Population.new("X", X)``: one individual per row, each holding its own copy of the row."""
+    pop = Population.empty(len(X))
+    for ind, row in zip(pop, X):
+        ind.X = row.copy()
+    return pop
+
+
+class LeanMating(Mating):
+    """pymoo's Mating (selection, crossover, mutation) on arrays; the same draws in the same order.
+
+    pymoo's ``Crossover.do`` gathers the parents' X individual by individual from a population of
+    pairs and returns a new population; ``Mutation.do`` reads X back from it and rewrites the
+    mutated individuals. Here the selection's indices pick rows of one X array, the operators'
+    ``_do`` (SBX, PM) and their probability draws run as in pymoo, and the offspring population
+    is made once. Only for operators without ``vtype`` or a built-in ``repair`` (pymoo's defaults).
+    """
+
+    def _do(self, problem: Any, pop: Any, n_offsprings: int, parents: Any = None, random_state: Any = None, **kwargs: Any) -> Any:
+        cx, mu = self.crossover, self.mutation
+        assert all(op.vtype is None and op.repair is None for op in (self.selection, cx, mu)), "lean mating needs plain operators"
+        n_matings = math.ceil(n_offsprings / cx.n_offsprings)
+        if parents is None:
+            parents = self.selection(problem, pop, n_matings, n_parents=cx.n_parents, to_pop=False, random_state=random_state, **kwargs)
+        X = np.swapaxes(column(pop, "X")[np.asarray(parents)], 0, 1)  # (n_parents, n_matings, n_var), as Crossover.do
+        Xp = self._cross(problem, X, random_state, **kwargs)
+        Xm = mu._do(problem, Xp, random_state=random_state, **kwargs)  # Mutation.do: _do, then the per-individual draw
+        mutated = random_state.random(size=len(Xp)) <= get(mu.prob, size=len(Xp))
+        Xp[mutated] = Xm[mutated]
+        return new_population(Xp)
+
+    def _cross(self, problem: Any, X: np.ndarray, random_state: Any, **kwargs: Any) -> np.ndarray:
+        """pymoo's ``Crossover.do`` after the gathering of X: offspring X ``(n_offsprings * n_matings, n_var)``."""
+        cx = self.crossover
+        n_parents, n_off = cx.n_parents, cx.n_offsprings
+        n_matings, n_var = X.shape[1], problem.n_var
+        Xp = np.empty(shape=(n_off, n_matings, n_var), dtype=X.dtype)
+        cross = random_state.random(n_matings) < get(cx.prob, size=n_matings)
+        if np.any(cross):
+            Q = cx._do(problem, X, random_state=random_state, **kwargs)
+            Xp[:, cross] = Q[:, cross]
+        for k in np.flatnonzero(~cross):
+            if n_off < n_parents:
+                s = random_state.choice(np.arange(n_parents), size=n_off, replace=False)
+            elif n_off == n_parents:
+                s = np.arange(n_parents)
+            else:
+                s = []
+                while len(s) < n_off:
+                    s.extend(random_state.permutation(n_parents))
+                s = s[:n_off]
+            Xp[:, k] = np.copy(X[s, k])
+        return Xp.reshape(-1, X.shape[-1])
+
+
 class LeanGA(GA):
-    """pymoo's GA; its optimum (best feasible by F, else least CV) is found from arrays."""
+    """pymoo's GA with :class:`LeanMating`; its optimum (best feasible by F, else least CV) is found from arrays."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        m = self.mating
+        self.mating = LeanMating(m.selection, m.crossover, m.mutation, repair=m.repair, eliminate_duplicates=m.eliminate_duplicates,
+                                 n_max_iterations=m.n_max_iterations)  # fmt: skip
+
+    def infill(self) -> Any:
+        """pymoo's ``Algorithm.infill`` with the ``n_gen`` / ``n_iter`` tags set in one pass."""
+        if self.problem is None:
+            raise Exception("Please call `setup(problem)` before calling next().")
+        if not self.is_initialized:
+            self._initialize()
+            infills = self._initialize_infill()
+        else:
+            infills = self._infill()
+        if infills is not None:
+            for ind in infills:
+                ind.data["n_gen"] = self.n_iter  # Individual.set of a key that is not an attribute
+                ind.data["n_iter"] = self.n_iter
+        return infills
 
     def _set_optimum(self) -> None:
         pop = self.pop

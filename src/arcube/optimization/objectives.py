@@ -34,6 +34,19 @@ MAXIMIZED = frozenset({"clearance"})
 _SUMMARY = {"tip_error": "tip_error_max", "lateral_error": "lateral_error_max", "axial_error": "axial_error_max",
             "axis_error": "axis_error_max", "torque": "torque_max", "deflection": "deflection_max"}  # fmt: skip
 
+SUMMARY_KEYS: dict[str, str] = {
+    "eta_G": "eta_G", "tip_error": "tip_error_max_mm", "lateral_error": "lateral_error_max_mm", "axial_error": "axial_error_max_mm",
+    "axis_error": "axis_error_max_deg", "torque": "torque_max_Nm", "deflection": "deflection_max_mm", "links": "links_sum_mm",
+    "bbox": "bbox_volume_L", "clearance": "clearance_min_mm",
+}  # fmt: skip
+"""The field of a run's summary.json (and of arcube.evaluate's summary) that holds each objective's value."""
+
+
+def summary_value(summary: dict[str, Any], name: str) -> float | None:
+    """The value of objective ``name`` in a run's summary (None when the run has none, e.g. no feasible design)."""
+    value = summary.get(SUMMARY_KEYS[name])
+    return None if value is None else float(value)
+
 
 def parse_objectives(text: str | None) -> tuple[str, ...]:
     """``"eta_G,lateral_error"`` -> ``("eta_G", "lateral_error")``; InputError for unknown or repeated names."""

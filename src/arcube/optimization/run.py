@@ -105,7 +105,7 @@ def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
         raw = path.read_bytes()
         cfg = tomllib.loads(raw.decode("utf-8"))
     except FileNotFoundError:
-        raise InputError(f"{run_dir}: not an optimization run (no config.toml)") from None
+        raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"{path}: unreadable config ({exc})") from None
     if cfg.get("format") != RUN_FORMAT or cfg.get("format_version") != FORMAT_VERSION:
@@ -400,17 +400,31 @@ def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
     check_new_folder(run_dir)
     created = not run_dir.exists()
     try:
-        write_anatomy(run_dir, cfg)
-        text = to_toml(cfg)
-        atomic_write_text(run_dir / "config.toml", text)
-        return execute(run_dir, cfg, text.encode("utf-8"), **kwargs)
+        return execute(run_dir, cfg, prepare(run_dir, cfg), **kwargs)
     except InputError:
-        if run_dir.is_dir() and not (run_dir / "checkpoint").exists():
-            for child in run_dir.iterdir():
-                shutil.rmtree(child) if child.is_dir() else child.unlink()
-            if created:
-                run_dir.rmdir()
+        if not (run_dir / "checkpoint").exists():
+            remove_folder(run_dir, created)
         raise
+
+
+def prepare(run_dir: Path, cfg: dict[str, Any]) -> bytes:
+    """Write a new run folder's anatomy files and config.toml (nothing run yet); returns the config's bytes.
+
+    :func:`resume` runs such a folder from its first generation (it has no checkpoint)."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    write_anatomy(run_dir, cfg)
+    text = to_toml(cfg)
+    atomic_write_text(run_dir / "config.toml", text)
+    return text.encode("utf-8")
+
+
+def remove_folder(path: Path, created: bool) -> None:
+    """Empty ``path``; remove it too when this session ``created`` it (what an early bad input leaves)."""
+    if path.is_dir():
+        for child in path.iterdir():
+            shutil.rmtree(child) if child.is_dir() else child.unlink()
+        if created:
+            path.rmdir()
 
 
 def is_finished(run_dir: Path) -> bool:

@@ -19,7 +19,7 @@ import io
 import math
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -86,6 +86,7 @@ class History(NamedTuple):
     best_eta_G: NDArray[np.float64]  # (G,)
     mean_eta_G: NDArray[np.float64]  # (G,)
     feasible_fraction: NDArray[np.float64]  # (G,) in [0, 1]
+    evaluations: NDArray[np.float64] | None = None  # (G,) designs evaluated so far, when the file has the column
 
 
 _HISTORY_COLUMNS = ("generation", "best_eta_G", "mean_eta_G", "feasible_fraction")
@@ -124,8 +125,10 @@ def read_history(path: str | os.PathLike[str]) -> History:
     if missing:
         raise InputError(f"{p}: history lacks column(s) {', '.join(missing)} (has {', '.join(rows[0])})")
     cols = [header[_norm(c)] for c in _HISTORY_COLUMNS]
-    data = np.array([[_cell(r[i] if i < len(r) else None) for i in cols] for r in rows[1:] if any(r)], dtype=float).reshape(-1, 4)
-    return History(*(data[:, j].copy() for j in range(4)))
+    if "evaluations" in header:
+        cols.append(header["evaluations"])
+    data = np.array([[_cell(r[i] if i < len(r) else None) for i in cols] for r in rows[1:] if any(r)], dtype=float).reshape(-1, len(cols))
+    return History(*(data[:, j].copy() for j in range(len(cols))))
 
 
 def _png_bytes(fig: object) -> bytes:
@@ -171,14 +174,17 @@ def dexterity_png(report: Evaluation, path: str | os.PathLike[str]) -> Path:
     return out
 
 
-def convergence_png(history: History, path: str | os.PathLike[str]) -> Path:
-    """Write the convergence PNG (eta_G best/mean, feasible fraction per generation); returns the path."""
+def convergence_png(history: History, path: str | os.PathLike[str], best_known: float | None = None) -> Path:
+    """Write the convergence PNG (eta_G best/mean, feasible fraction per generation); returns the path.
+
+    ``best_known``: an eta_G to draw as a horizontal line (e.g. the best design known for the problem)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(8, 4), layout="constrained")
     ax = fig.add_subplot()
     ax.plot(history.generation, history.best_eta_G, color="#1f77b4", lw=1.6, label="best η_G")
     ax.plot(history.generation, history.mean_eta_G, color="#1f77b4", lw=1.0, ls="--", label="mean η_G (feasible)")
+    _best_known_line(ax, best_known)
     ax.set_xlabel("generation")
     ax.set_ylabel("η_G (log scale)")
     ax.set_yscale("log")  # eta_G falls from tens to about 1.3: the last percent is where runs differ
@@ -190,6 +196,41 @@ def convergence_png(history: History, path: str | os.PathLike[str]) -> Path:
     ax.legend(lines, [str(ln.get_label()) for ln in lines], loc="upper right", fontsize=8)
     ax.set_title("Optimization convergence")
     ax.grid(True, alpha=0.3)
+    out = Path(path)
+    atomic_write_bytes(out, _png_bytes(fig))
+    return out
+
+
+
+def _best_known_line(ax: Any, best_known: float | None) -> None:
+    if best_known is not None and math.isfinite(best_known) and best_known > 0.0:
+        ax.axhline(best_known, color="#d62728", lw=1.0, ls=":", label=f"best known {best_known:g}")
+
+
+def study_convergence_png(histories: dict[int, History], path: str | os.PathLike[str], best_seed: int | None = None,
+                          best_known: float | None = None) -> Path:  # fmt: skip
+    """Write the convergence of a study: best eta_G against evaluations (or generations), one line per seed, log scale."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    by_evals = all(h.evaluations is not None for h in histories.values()) and bool(histories)
+    finals = []
+    for seed, h in sorted(histories.items()):
+        x = h.evaluations if by_evals and h.evaluations is not None else h.generation
+        last = h.best_eta_G[np.isfinite(h.best_eta_G)]
+        final = float(last[-1]) if len(last) else math.nan
+        finals.append(final)
+        ax.plot(x, h.best_eta_G, lw=2.2 if seed == best_seed else 1.0, label=f"seed {seed}: {final:.4f}" if math.isfinite(final) else f"seed {seed}: none feasible")
+    _best_known_line(ax, best_known)
+    ax.set_xlabel("design evaluations" if by_evals else "generation")
+    ax.set_ylabel("best η_G (log scale)")
+    ax.set_yscale("log")
+    ok = np.array([f for f in finals if math.isfinite(f)])
+    spread = f", spread {100.0 * (ok.max() - ok.min()) / ok.min():.1f} %" if len(ok) > 1 else ""
+    ax.set_title(f"Convergence over {len(histories)} seeds (median final {np.median(ok):.4f}{spread})" if len(ok) else "Convergence over seeds")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, ncols=2 if len(histories) > 8 else 1)
     out = Path(path)
     atomic_write_bytes(out, _png_bytes(fig))
     return out

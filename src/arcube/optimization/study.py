@@ -1,0 +1,319 @@
+"""Design studies: the same optimization over several seeds, to see how much the optimum depends on luck.
+
+Study folder::
+
+    study.toml         format, seeds, when and how it was started
+    base_config.toml   the run config every seed shares (a normal config.toml; its seed is the first one)
+    seed_<S>/          one optimization run folder per seed (config.toml, history.csv, checkpoint/, ...)
+    study.csv          per seed: objective values, feasibility, generations, evaluations, wall time
+    best_design.json   the best seed's best design (best_design_L.json too with --setups 2)
+    convergence.png    best eta_G against evaluations, one line per seed (log scale)
+    summary.json       best / median / worst of the first objective, the best seed, the per-seed rows
+
+Every seed's folder is written (config and anatomy) before any seed runs, and each run checkpoints
+as ``arcube optimize`` does, so an interrupted study is finished by :func:`resume_study`
+(``arcube resume STUDY_DIR``): finished seeds are kept, the others resume from their checkpoints.
+A run's result depends only on its config and seed, so the study's result does not depend on the
+interruption, on the order the seeds ran in, or on how they were spread over processes.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import io
+import json
+import math
+import statistics
+import sys
+import time
+import tomllib
+import uuid
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from arcube.errors import InputError
+from arcube.io.files import atomic_write_text
+from arcube.optimization import run as runmod
+from arcube.optimization.objectives import MAXIMIZED, summary_value
+
+STUDY_FORMAT = "arcube-study"
+STUDY_VERSION = 1
+MAX_SEEDS = 1000
+"""The most seeds one study takes (a typo such as 1-100000 is refused instead of run)."""
+
+__all__ = ["MAX_SEEDS", "is_study", "parse_seeds", "read_study", "resume_study", "seed_dir", "start_study", "study_rows"]
+
+
+def parse_seeds(spec: str) -> list[int]:
+    """``"1-5"``, ``"1,3,7"`` or ``"1-3,10"`` -> ascending distinct seeds (InputError if malformed or empty)."""
+    text = str(spec).strip()
+    if not text:
+        raise InputError("--seeds is empty: give seeds as 1-5, 1,3,7 or 1-3,10")
+    seeds: list[int] = []
+    for item in text.split(","):
+        lo_s, dash, hi_s = item.strip().partition("-")
+        try:
+            lo = int(lo_s)
+            hi = int(hi_s) if dash else lo
+        except ValueError:
+            raise InputError(f"--seeds {spec!r}: {item.strip()!r} is not a seed or a range A-B of non-negative integers") from None
+        if lo > hi:
+            raise InputError(f"--seeds {spec!r}: range {item.strip()!r} runs backwards")
+        if hi - lo + 1 + len(seeds) > MAX_SEEDS:
+            raise InputError(f"--seeds {spec!r}: more than {MAX_SEEDS} seeds")
+        seeds.extend(range(lo, hi + 1))
+    if len(set(seeds)) != len(seeds):
+        raise InputError(f"--seeds {spec!r}: a seed is named twice")
+    if not all(0 <= s < 2**63 for s in seeds):
+        raise InputError(f"--seeds {spec!r}: seeds must be integers in [0, 2^63)")
+    return sorted(seeds)
+
+
+def seed_dir(study_dir: Path, seed: int) -> Path:
+    """The run folder of one seed."""
+    return Path(study_dir) / f"seed_{seed}"
+
+
+def is_study(path: Path) -> bool:
+    """True when ``path`` holds a study (its ``study.toml``)."""
+    return (Path(path) / "study.toml").is_file()
+
+
+def seed_config(base: dict[str, Any], seed: int) -> dict[str, Any]:
+    """The run config of one seed: the study's base config with this seed and its own run id."""
+    cfg = copy.deepcopy(base)
+    cfg["settings"]["seed"] = int(seed)
+    cfg["run_id"] = uuid.uuid4().hex
+    if "rerun" in cfg:
+        words = cfg["rerun"].split(" ")
+        cfg["rerun"] = " ".join(str(seed) if i > 0 and words[i - 1] == "--seed" else w for i, w in enumerate(words))
+    return cfg
+
+
+def read_study(study_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(study.toml, base config) of a study folder; InputError when it is not one."""
+    study_dir = Path(study_dir)
+    if not study_dir.is_dir():
+        raise InputError(f"{study_dir}: no such study or run folder")
+    path = study_dir / "study.toml"
+    try:
+        study = tomllib.loads(path.read_text(encoding="utf-8"))
+        base = tomllib.loads((study_dir / "base_config.toml").read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise InputError(f"{study_dir}: not a study (no {Path(exc.filename).name})") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: unreadable study ({exc})") from None
+    if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
+        raise InputError(f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})")
+    seeds = study.get("seeds")
+    if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
+        raise InputError(f"{path}: no seeds list")
+    return study, base
+
+
+def _prepare_seeds(study_dir: Path, base: dict[str, Any], seeds: list[int]) -> None:
+    """Write the run folder of every seed that has none yet (config.toml and anatomy, nothing run)."""
+    for seed in seeds:
+        d = seed_dir(study_dir, seed)
+        if not (d / "config.toml").exists():
+            runmod.prepare(d, seed_config(base, seed))
+
+
+def start_study(study_dir: Path, base: dict[str, Any], seeds: list[int], *, workers: int = 1, dask: str | None = None,
+                best_known: float | None = None,
+                on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+                on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """Create the study folder, one run folder per seed, run them all; returns the study summary.
+
+    ``base`` is a run config (:func:`arcube.optimization.config.build_config`); its seed is replaced
+    by each of ``seeds``. With ``workers > 1`` that many seeds run at once, each in its own process;
+    with ``dask`` each seed is a task on the scheduler's workers (which must see the study folder).
+    ``on_seed(seed, run_summary)`` is called as each seed finishes, ``on_generation`` with each
+    generation's history row when the seeds run one after another in this process. ``best_known``
+    (an eta_G) is drawn as a line on the convergence figure. A study that
+    stops on a bad input before any seed has a checkpoint leaves nothing behind.
+    """
+    study_dir = Path(study_dir)
+    if study_dir.exists() and (not study_dir.is_dir() or any(study_dir.iterdir())):
+        hint = " (it holds a study: use 'arcube resume')" if is_study(study_dir) else ""
+        raise InputError(f"--out {study_dir}: exists and is not an empty folder{hint}")
+    _check_parallel(workers, dask)
+    if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
+        raise InputError(f"--best-known must be a positive number (an eta_G), got {best_known}")
+    created = not study_dir.exists()
+    try:
+        study_dir.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(study_dir / "base_config.toml", runmod.to_toml(base))
+        study = {"format": STUDY_FORMAT, "format_version": STUDY_VERSION, "study_id": uuid.uuid4().hex,
+                 "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": " ".join(sys.argv), "seeds": list(seeds),
+                 "workers": int(workers), "dask": dask or "", "best_known": best_known}  # fmt: skip
+        atomic_write_text(study_dir / "study.toml", runmod.to_toml(study))
+        _prepare_seeds(study_dir, base, seeds)
+        return _run(study_dir, seeds, workers, dask, on_seed, on_generation)
+    except InputError:
+        if not any((seed_dir(study_dir, s) / "checkpoint").exists() for s in seeds):
+            runmod.remove_folder(study_dir, created)
+        raise
+
+
+def resume_study(study_dir: Path, *, workers: int | None = None, dask: str | None = None,
+                 on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+                 on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """Finish an interrupted study (finished seeds are kept, the others resume); returns its summary.
+
+    ``workers`` / ``dask`` override how the study started (the result does not depend on them)."""
+    study_dir = Path(study_dir)
+    study, base = read_study(study_dir)
+    seeds = [int(s) for s in study["seeds"]]
+    if dask is None and workers is None:
+        workers, dask = int(study.get("workers", 1)), study.get("dask") or None
+    workers = 1 if workers is None else workers
+    _check_parallel(workers, dask)
+    for seed in seeds:  # refuse a corrupt or foreign run folder before running anything
+        d = seed_dir(study_dir, seed)
+        if (d / "config.toml").exists():
+            cfg, raw = runmod.read_config(d)
+            runmod.load_checkpoint(d, cfg, raw)
+    _prepare_seeds(study_dir, base, seeds)
+    return _run(study_dir, seeds, workers, dask, on_seed, on_generation)
+
+
+def _check_parallel(workers: int, dask: str | None) -> None:
+    if workers < 1:
+        raise InputError(f"--workers must be at least 1, got {workers}")
+    if dask and workers > 1:
+        raise InputError("--workers and --dask exclude each other (the Dask cluster has its own workers)")
+
+
+def _run_seed(run_dir: str) -> dict[str, Any]:
+    """Run (or finish) one seed's folder in this process; returns its summary (picklable: a process or dask task)."""
+    path = Path(run_dir)
+    runmod.resume(path, workers=1)
+    return json.loads((path / "summary.json").read_text(encoding="utf-8"))
+
+
+def _run(study_dir: Path, seeds: list[int], workers: int, dask: str | None,
+         on_seed: Callable[[int, dict[str, Any]], None] | None, on_generation: Callable[[dict[str, Any]], None] | None) -> dict[str, Any]:  # fmt: skip
+    pending = [s for s in seeds if not runmod.is_finished(seed_dir(study_dir, s))]
+    for seed in seeds:
+        if seed not in pending and on_seed is not None:
+            on_seed(seed, json.loads((seed_dir(study_dir, seed) / "summary.json").read_text(encoding="utf-8")))
+    if pending and dask:
+        _run_dask(study_dir, pending, dask, on_seed)
+    elif pending and workers > 1 and len(pending) > 1:
+        _run_processes(study_dir, pending, workers, on_seed)
+    else:
+        for seed in pending:
+            runmod.resume(seed_dir(study_dir, seed), workers=1, on_generation=on_generation)
+            if on_seed is not None:
+                on_seed(seed, json.loads((seed_dir(study_dir, seed) / "summary.json").read_text(encoding="utf-8")))
+    return finish(study_dir, seeds)
+
+
+def _run_processes(study_dir: Path, pending: list[int], workers: int, on_seed: Callable[[int, dict[str, Any]], None] | None) -> None:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    ctx = multiprocessing.get_context("spawn")  # no fork under threads (progress bar)
+    with ProcessPoolExecutor(min(workers, len(pending)), mp_context=ctx) as pool:
+        futures = {pool.submit(_run_seed, str(seed_dir(study_dir, s))): s for s in pending}
+        try:
+            for fut in as_completed(futures):
+                summary = fut.result()
+                if on_seed is not None:
+                    on_seed(futures[fut], summary)
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)  # the running seeds write their checkpoints on the interrupt
+            raise
+
+
+def _run_dask(study_dir: Path, pending: list[int], address: str, on_seed: Callable[[int, dict[str, Any]], None] | None) -> None:
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise InputError("--dask needs dask.distributed: pip install 'dask[distributed]'") from None
+    try:
+        client = Client(address, timeout=20, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"--dask {address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+    try:
+        futures = {client.submit(_run_seed, str(seed_dir(study_dir, s).resolve()), pure=False): s for s in pending}
+        for fut in as_completed(list(futures)):
+            summary = fut.result()
+            if on_seed is not None:
+                on_seed(futures[fut], summary)
+    finally:
+        client.close()
+
+
+# ----------------------------------------------------------------------------- results
+def _ranked_value(summary: dict[str, Any], name: str) -> float:
+    """The first objective as minimized (clearance negated); +inf for an infeasible or missing result."""
+    value = summary_value(summary, name)
+    if value is None or not summary.get("feasible") or not math.isfinite(value):
+        return math.inf
+    return -value if name in MAXIMIZED else value
+
+
+def study_rows(study_dir: Path, seeds: list[int]) -> list[dict[str, Any]]:
+    """One row per seed from its run's summary.json: seed, run, feasible, objective_<name>..., eta_G, generations, evaluations, wall_s, eval_s."""
+    rows = []
+    for seed in seeds:
+        d = seed_dir(study_dir, seed)
+        s = json.loads((d / "summary.json").read_text(encoding="utf-8"))
+        names = s.get("objectives") or ["eta_G"]
+        row: dict[str, Any] = {"seed": seed, "run": d.name, "feasible": bool(s["feasible"])}
+        row |= {f"objective_{n}": summary_value(s, n) for n in names}
+        row |= {"eta_G": s["eta_G"], "violation": s["violation"], "generations": s["generations"], "evaluations": s["evaluations"], "wall_s": s["wall_s"], "eval_s": s["eval_s"]}
+        rows.append(row)
+    return rows
+
+
+def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
+    """Write study.csv, best_design.json, convergence.png and summary.json from the finished seeds; returns the summary."""
+    rows = study_rows(study_dir, seeds)
+    first = next(k for k in rows[0] if k.startswith("objective_"))
+    name = first.removeprefix("objective_")
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+    w.writeheader()
+    w.writerows([{k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
+    atomic_write_text(study_dir / "study.csv", buf.getvalue())
+    summaries = {r["seed"]: json.loads((seed_dir(study_dir, r["seed"]) / "summary.json").read_text(encoding="utf-8")) for r in rows}
+    ranked = sorted(rows, key=lambda r: (_ranked_value(summaries[r["seed"]], name), r["seed"]))
+    best_seed = ranked[0]["seed"]
+    for fname in ("best_design.json", "best_design_L.json"):
+        src = seed_dir(study_dir, best_seed) / fname
+        if src.exists():
+            atomic_write_text(study_dir / fname, src.read_text(encoding="utf-8"))
+    values = [_ranked_value(summaries[r["seed"]], name) for r in ranked]
+    finite = [v for v in values if math.isfinite(v)]
+    sign = -1.0 if name in MAXIMIZED else 1.0
+
+    def shown(v: float) -> float | None:
+        return sign * v if math.isfinite(v) else None
+
+    summary = {
+        "format": STUDY_FORMAT, "objective": name, "seeds": seeds, "feasible_seeds": len(finite),
+        "best": shown(values[0]), "median": shown(statistics.median(values)) if values else None, "worst": shown(values[-1]),
+        "best_seed": best_seed, "spread_pct": 100.0 * (finite[-1] - finite[0]) / abs(finite[0]) if len(finite) > 1 and finite[0] else None,
+        "wall_s": round(sum(float(r["wall_s"]) for r in rows), 3), "rows": rows,
+    }  # fmt: skip
+    atomic_write_text(study_dir / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    _convergence(study_dir, seeds, best_seed)
+    return summary
+
+
+def _convergence(study_dir: Path, seeds: list[int], best_seed: int) -> None:
+    best_known = tomllib.loads((study_dir / "study.toml").read_text(encoding="utf-8")).get("best_known")
+    from arcube.report.figures import read_history, study_convergence_png
+
+    histories = {}
+    for seed in seeds:
+        try:
+            histories[seed] = read_history(seed_dir(study_dir, seed) / "history.csv")
+        except InputError:
+            continue
+    study_convergence_png(histories, study_dir / "convergence.png", best_seed=best_seed, best_known=best_known)
