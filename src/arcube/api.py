@@ -145,6 +145,19 @@ class Run:
         return Design.from_json(self.path / "best_design.json")
 
     @property
+    def designs(self) -> list[Design]:
+        """One complete design per patient (its own placement with per-patient docking, else the shared
+        design for every patient); with two setups, the right-side ones."""
+        from arcube.optimization import run as runmod
+
+        cfg = runmod.read_config(self.path)[0]
+        out = []
+        for p in range(len(cfg["patients"])):
+            own = self.path / runmod.placement_file(p)
+            out.append(Design.from_json(own if own.exists() else self.path / "best_design.json"))
+        return out
+
+    @property
     def history(self) -> dict[str, np.ndarray]:
         """``history.csv`` as columns: generation, evaluations, best_eta_G, ... (NaN where empty)."""
         return _read_columns(self.path / "history.csv")
@@ -211,7 +224,8 @@ def optimize(
             ``aggregate``, ``compactness``, ``bounds``, ``checkpoint_every``, ``transform``,
             ``eliminate_duplicates``; ``objectives`` (``"eta_G,lateral_error"``, names of
             :data:`arcube.optimization.objectives.OBJECTIVES`), ``maxima`` / ``minima`` (``["torque=15"]``),
-            ``encoder_deg``, ``thrust``, ``lateral_force``, ``actuator_stiffness`` (MODEL.md 15).
+            ``encoder_deg``, ``thrust``, ``lateral_force``, ``actuator_stiffness`` (MODEL.md 15);
+            ``docking`` (``"per-patient"``, the default, or ``"shared"``) for several plans.
 
     Returns:
         The finished :class:`Run`.

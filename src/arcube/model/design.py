@@ -194,7 +194,8 @@ class Design:
 
     @classmethod
     def from_json(cls, path: str | os.PathLike[str]) -> Design:
-        """Read a flat JSON object keyed by the parameter names."""
+        """Read a flat JSON object keyed by the parameter names (a ``placements`` list beside them, as a
+        per-patient-docking run writes it, is not part of the design and is skipped)."""
         p = Path(path)
         try:
             text = p.read_text(encoding="utf-8")
@@ -206,7 +207,8 @@ class Design:
             raise InputError(f"{p}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
         if not isinstance(data, dict):
             raise InputError(f"{p}: a design file must hold one JSON object keyed by parameter names")
-        return cls.from_dict(data, source=str(p))
+        # a per-patient-docking run's best_design.json lists each patient's placement beside the design
+        return cls.from_dict({k: v for k, v in data.items() if k != "placements"}, source=str(p))
 
     @classmethod
     def paper(cls) -> Design:

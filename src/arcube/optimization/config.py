@@ -22,7 +22,7 @@ from arcube.model.design import ANGLE_NAMES, LENGTH_NAMES, PAPER_NAMES, Design
 from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization.algorithms import DEFAULT_PERIOD, check_algorithm, make_termination
-from arcube.optimization.problem import AGGREGATES, COMPACTNESS, MULTI_OBJECTIVE_ALGORITHMS, parse_bounds, parse_free, resolve_bounds
+from arcube.optimization.problem import AGGREGATES, COMPACTNESS, DOCKINGS, MULTI_OBJECTIVE_ALGORITHMS, parse_bounds, parse_free, resolve_bounds
 
 __all__ = ["build_config"]
 
@@ -71,6 +71,7 @@ def build_config(
     link_radius: float = 8.0, actuator_radius: float = 25.0, motor_radius: float = 20.0, motor_length: float = 120.0,
     objectives: str | None = None, maxima: list[str] | None = None, minima: list[str] | None = None,
     encoder_deg: Any = 0.01, thrust: float = 30.0, lateral_force: float = 10.0, actuator_stiffness: Any = 1e4,
+    docking: str = "per-patient",
 ) -> dict[str, Any]:  # fmt: skip
     """Validate the optimize flags and return the run's config (what config.toml holds)."""
     algorithm = algorithm.strip().lower()
@@ -109,6 +110,9 @@ def build_config(
         raise InputError("--workers and --dask exclude each other (the Dask cluster has its own workers)")
     if aggregate not in AGGREGATES:
         raise InputError(f"--aggregate must be one of {', '.join(AGGREGATES)}, got {aggregate!r}")
+    docking = str(docking).strip().lower()
+    if docking not in DOCKINGS:
+        raise InputError(f"--docking must be one of {', '.join(DOCKINGS)}, got {docking!r}")
     if compactness not in COMPACTNESS:
         raise InputError(f"--compactness must be one of {', '.join(COMPACTNESS)}, got {compactness!r}")
     if checkpoint_every < 1:
@@ -138,7 +142,7 @@ def build_config(
         "anatomy": anatomy_spec, "anatomy_frame": anatomy_frame, "clearance": body.clearance_mm, "self_clearance": body.self_clearance_mm,
         "link_radius": body.link_radius, "actuator_radius": body.actuator_radius, "motor_radius": body.motor_radius, "motor_length": body.motor_length,
         "objectives": list(names), "limits": limits, "encoder_deg": list(loads.encoder_deg), "thrust": loads.thrust_N,
-        "lateral_force": loads.lateral_force_N, "actuator_stiffness": list(loads.actuator_stiffness),
+        "lateral_force": loads.lateral_force_N, "actuator_stiffness": list(loads.actuator_stiffness), "docking": docking,
     }  # fmt: skip
     cfg = runmod.new_run_config(settings, all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
     cfg["rerun"] = _rerun_command(settings, all_bounds, cfg)
@@ -158,6 +162,8 @@ def _rerun_command(s: dict[str, Any], bounds: dict[str, tuple[float, float]], cf
         parts.append("--guards")
     if s["eliminate_duplicates"]:
         parts.append("--eliminate-duplicates")
+    if len(s["trajectories"]) > 1:
+        parts.append(f"--docking {s['docking']}")
     if s.get("anatomy"):
         parts.append(f"--anatomy {' '.join(s['anatomy'])} --anatomy-frame {s['anatomy_frame']}")
     for flag in ("clearance", "self_clearance"):

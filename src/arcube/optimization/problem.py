@@ -5,8 +5,12 @@ Three layers, all picklable and free of pymoo except the last:
 * :class:`VariableSpace` maps an optimizer vector ``x`` ``(n_var,)`` to designs and working modes.
   Its variables are, in order: the free design parameters (in :data:`arcube.model.design.PARAM_NAMES`
   order), then for ``setups=2`` the left-side placement of every free ``m_*`` (``m_x_L`` ...),
-  then for a free working mode four sign genes ``mode_T_x, mode_T_y, mode_R_x, mode_R_y`` in
-  [-1, 1] (sign >= 0 means +1). Fixed parameters keep the start design's values.
+  then, with per-patient docking over several patients, for each patient k >= 2 its own copy of
+  every free placement and mounting parameter (``m_x_p2``, ``mount_rz_p2`` ...; with ``setups=2``
+  also ``m_x_L_p2`` ...), then for a free working mode four sign genes ``mode_T_x, mode_T_y,
+  mode_R_x, mode_R_y`` in [-1, 1] (sign >= 0 means +1). Fixed parameters keep the start design's
+  values. The decoded designs are one per *slot*: a (patient, setup) pair with per-patient
+  docking, a setup otherwise (every patient shares the placement: the paper's robust problem).
 * :class:`FitnessModel` evaluates a whole population: one batch call of
   :func:`arcube.evaluation.engine.evaluate_task` with params ``(pop, 27)`` per task (a task is one setup of
   one patient). It returns F, the violation VIOL (0 exactly when every point of every task is
@@ -66,6 +70,8 @@ PENALTY = 1e6
 """F of an infeasible design: PENALTY * (1 + VIOL). Only CMA-ES (no constraint handling) sees it
 as a ranking; GA, DE and NSGA-II compare infeasible designs by the constraint (feasibility first)."""
 COMPACTNESS = ("links", "bbox")
+DOCKINGS = ("per-patient", "shared")
+"""``--docking`` over several trajectory sets: each patient its own placement (and mounting when free), or one for all."""
 MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
 AGGREGATES = ("mean", "worst")
 
@@ -132,17 +138,21 @@ class TaskData:
 
 @dataclass(frozen=True, eq=False)
 class VariableSpace:
-    """Optimizer vector <-> designs (one per setup) and working modes; see the module docstring."""
+    """Optimizer vector <-> designs (one per slot) and working modes; see the module docstring."""
 
     base: Array  # (27,) start design: the values of the fixed parameters
     free: tuple[str, ...]
     bounds: dict[str, tuple[float, float]] = field(default_factory=lambda: dict(DEFAULT_BOUNDS))
     setups: int = 1
     mode: Array | None = None  # (4,) fixed working mode; None lets the optimizer choose
+    patients: int = 1
+    docking: str = "shared"  # "per-patient": each patient has its own placement (and mounting, when free)
 
     def __post_init__(self) -> None:
         if self.setups not in (1, 2):
             raise InputError(f"--setups must be 1 or 2, got {self.setups}")
+        if self.docking not in DOCKINGS:
+            raise InputError(f"--docking must be one of {', '.join(DOCKINGS)}, got {self.docking!r}")
         for n in self.free:
             lo, hi = self.bounds[n]
             if not lo < hi:
@@ -150,11 +160,38 @@ class VariableSpace:
 
     @property
     def free_m(self) -> tuple[str, ...]:
+        """The free placement parameters that have a left-side copy (``setups=2``)."""
         return tuple(n for n in PLACEMENT_NAMES if n in self.free) if self.setups == 2 else ()
 
     @property
+    def per_patient(self) -> bool:
+        """True when each patient has its own placement (per-patient docking over several patients)."""
+        return self.docking == "per-patient" and self.patients > 1
+
+    @property
+    def docked(self) -> tuple[str, ...]:
+        """The free parameters each patient k >= 2 has its own copy of: placement m and mounting angles."""
+        return tuple(n for n in (*PLACEMENT_NAMES, *MOUNT_NAMES) if n in self.free) if self.per_patient else ()
+
+    @property
+    def n_slots(self) -> int:
+        """Designs per optimizer vector: one per (patient, setup) with per-patient docking, else one per setup."""
+        return self.setups * (self.patients if self.per_patient else 1)
+
+    def slot(self, patient: int, setup: int) -> int:
+        """Index of the design a task of ``patient`` (0-based) and ``setup`` uses in :meth:`decode`'s list."""
+        return (patient * self.setups if self.per_patient else 0) + setup
+
+    def genes(self) -> list[tuple[str, str]]:
+        """(variable name, parameter it sets) in optimizer-vector order (mode genes set no parameter: '')."""
+        out = [(n, n) for n in self.free] + [(f"{n}_L", n) for n in self.free_m]
+        for p in range(1, self.patients if self.per_patient else 1):
+            out += [(f"{n}_p{p + 1}", n) for n in self.docked] + [(f"{n}_L_p{p + 1}", n) for n in self.free_m]
+        return out + ([(g, "") for g in MODE_GENES] if self.mode is None else [])
+
+    @property
     def names(self) -> tuple[str, ...]:
-        return (*self.free, *(f"{n}_L" for n in self.free_m), *(MODE_GENES if self.mode is None else ()))
+        return tuple(g for g, _ in self.genes())
 
     @property
     def n_var(self) -> int:
@@ -162,29 +199,34 @@ class VariableSpace:
 
     @property
     def xl(self) -> Array:
-        return np.array([self._bound(n)[0] for n in self.names])
+        return np.array([self._bound(p)[0] for _, p in self.genes()])
 
     @property
     def xu(self) -> Array:
-        return np.array([self._bound(n)[1] for n in self.names])
+        return np.array([self._bound(p)[1] for _, p in self.genes()])
 
-    def _bound(self, name: str) -> tuple[float, float]:
-        if name in MODE_GENES:
-            return (-1.0, 1.0)
-        return self.bounds[name.removesuffix("_L")]
+    def _bound(self, param: str) -> tuple[float, float]:
+        return (-1.0, 1.0) if not param else self.bounds[param]
 
     def decode(self, X: Array) -> tuple[list[Array], Array]:
-        """``X`` ``(n, n_var)`` -> ([params ``(n, 27)`` per setup], modes ``(n, 4)``)."""
+        """``X`` ``(n, n_var)`` -> ([params ``(n, 27)`` per slot], modes ``(n, 4)``)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        n, k = X.shape[0], len(self.free)
+        n, col = X.shape[0], len(self.free)
         params = np.tile(self.base, (n, 1))
-        params[:, [INDEX[nm] for nm in self.free]] = X[:, :k]
-        out = [params]
-        if self.setups == 2:
-            left = params.copy()
-            for j, nm in enumerate(self.free_m):
-                left[:, INDEX[nm]] = X[:, k + j]
-            out.append(left)
+        params[:, [INDEX[nm] for nm in self.free]] = X[:, :col]
+        out = []
+        for p in range(self.patients if self.per_patient else 1):
+            own = params
+            if p > 0:
+                own = params.copy()
+                own[:, [INDEX[nm] for nm in self.docked]] = X[:, col : col + len(self.docked)]
+                col += len(self.docked)
+            out.append(own)
+            if self.setups == 2:
+                left = own.copy()
+                left[:, [INDEX[nm] for nm in self.free_m]] = X[:, col : col + len(self.free_m)]
+                col += len(self.free_m)
+                out.append(left)
         if self.mode is None:
             modes = np.where(X[:, -4:] >= 0.0, 1.0, -1.0)
         else:
@@ -192,11 +234,10 @@ class VariableSpace:
         return out, modes
 
     def encode(self, design: Array, left_m: Array | None = None, mode: Array | None = None) -> Array:
-        """The optimizer vector of a design (27,), clipped into the bounds."""
+        """The optimizer vector of a design (27,), clipped into the bounds; every patient starts at its placement."""
         d = np.asarray(design, dtype=float)
-        vals = [d[INDEX[n]] for n in self.free]
         lm = d[:3] if left_m is None else np.asarray(left_m, dtype=float)
-        vals += [lm[INDEX[n]] for n in self.free_m]
+        vals = [(lm if g[len(p) :].startswith("_L") else d)[INDEX[p]] for g, p in self.genes() if p]  # m_x_L, m_x_L_p2: left side
         if self.mode is None:
             vals += list(0.5 * (np.ones(4) if mode is None else np.asarray(mode, dtype=float)))
         return np.clip(np.array(vals, dtype=float), self.xl, self.xu)
@@ -277,7 +318,7 @@ class FitnessModel:
 
     def _run_tasks(self, params: list[Array], modes: Array, want_points: bool) -> list[Any]:
         return [
-            core_engine.evaluate_task(params[t.setup], t.E, t.e, modes, self.options, engine=self.engine, want_points=want_points,
+            core_engine.evaluate_task(params[self.space.slot(t.patient, t.setup)], t.E, t.e, modes, self.options, engine=self.engine, want_points=want_points,
                                       anatomy=self.anatomies[t.patient] if self.anatomies else None)
             for t in self.tasks
         ]
@@ -302,7 +343,7 @@ class FitnessModel:
         links = params[0][:, [INDEX[nm] for nm in LINK_NAMES]].sum(axis=1)
         vol = np.zeros(params[0].shape[0])
         for t in self.tasks:
-            lo, hi = bounding_box(params[t.setup], t.E, t.e)
+            lo, hi = bounding_box(params[self.space.slot(t.patient, t.setup)], t.E, t.e)
             vol = np.maximum(vol, np.prod(hi - lo, axis=1) / 1e6)
         return links, vol
 
@@ -338,7 +379,7 @@ class FitnessModel:
         links, vol = self.compactness_values(params)
         tasks = []
         for t, r in zip(self.tasks, results):
-            lo, hi = bounding_box(params[t.setup], t.E, t.e)
+            lo, hi = bounding_box(params[self.space.slot(t.patient, t.setup)], t.E, t.e)
             tasks.append({
                 "label": t.label, "points": t.n_points, "w_G": bool(r.w_G[0]), "eta_G": _num(r.eta_G[0]),
                 "reachable_fraction": float(r.reachable_fraction[0]), "violation": float(r.violation[0]),
@@ -439,7 +480,9 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None) -> FitnessModel:
     # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
     bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
     base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
-    space = VariableSpace(base=base, free=tuple(s["free"]), bounds=bounds, setups=int(s["setups"]), mode=mode)
+    # configs written before --docking existed shared one placement among patients
+    space = VariableSpace(base=base, free=tuple(s["free"]), bounds=bounds, setups=int(s["setups"]), mode=mode,
+                          patients=len(cfg["patients"]), docking=str(s.get("docking", "shared")))  # fmt: skip
     tasks: list[TaskData] = []
     for i, pat in enumerate(cfg["patients"]):
         entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
@@ -521,7 +564,7 @@ class ArcubeProblem(Problem):
 
 
 __all__ = [
-    "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
+    "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "DOCKINGS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
     "ArcubeProblem", "FitnessModel", "TaskData", "VariableSpace", "bounding_box", "mechanism_points",
     "build_model", "check_engine", "evaluate_with", "parse_bounds", "parse_free", "resolve_bounds", "worker_evaluate", "worker_init",
 ]  # fmt: skip

@@ -6,7 +6,9 @@ Run folder::
                      trajectories' coordinates, versions)
     history.csv      one row appended per generation
     checkpoint/      state.json + evals_GGGGGG.npz (allow_pickle=False), written atomically
-    best_design.json (best_design_L.json with --setups 2), summary.json, pareto.csv (nsga2)
+    best_design.json (best_design_L.json with --setups 2), summary.json, pareto.csv (nsga2);
+                     with per-patient docking best_design.json also lists each patient's placement
+                     and best_design_p<K>.json holds patient K's complete design
 
 Checkpoint and bit-identical resume: see :mod:`arcube.optimization.checkpoint` (the evaluation log,
 replayed on resume).
@@ -241,8 +243,13 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
                "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
                **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))}}  # fmt: skip
         row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
-        if len(rep["designs"]) == 2:
-            row.update({f"{n}_L": float(v) for n, v in zip(("m_x", "m_y", "m_z"), rep["designs"][1][:3])})
+        space = model.space
+        for p in range(space.patients if space.per_patient else 1):
+            for setup in range(space.setups):
+                if p or setup:  # the first patient's (R side's) values are the parameter columns
+                    suffix = ("_L" if setup else "") + (f"_p{p + 1}" if p else "")
+                    d = rep["designs"][space.slot(p, setup)]
+                    row.update({f"{n}{suffix}": float(d[PARAM_NAMES.index(n)]) for n in (("m_x", "m_y", "m_z") if setup else space.docked)})
         rows.append(row)
     return rows
 
@@ -251,12 +258,15 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
     best = pick_best(algorithm)
     rep = model.report(best.X)
     designs = rep.pop("designs")
-    Design.from_vector(designs[0]).to_json(run_dir / "best_design.json")
-    files = {"best_design": "best_design.json"}
-    if len(designs) == 2:
-        Design.from_vector(designs[1]).to_json(run_dir / "best_design_L.json")
-        files = {"best_design_R": "best_design.json", "best_design_L": "best_design_L.json"}
     s = cfg["settings"]
+    if model.space.per_patient:
+        files = write_placements(run_dir, cfg, model, designs)
+    else:
+        Design.from_vector(designs[0]).to_json(run_dir / "best_design.json")
+        files = {"best_design": "best_design.json"}
+        if len(designs) == 2:
+            Design.from_vector(designs[1]).to_json(run_dir / "best_design_L.json")
+            files = {"best_design_R": "best_design.json", "best_design_L": "best_design_L.json"}
     summary: dict[str, Any] = {
         "feasible": rep["feasible"], "eta_G": rep["eta_G"], "dexterity_pct": rep["dexterity_pct"],
         "generations": info["generations"], "evaluations": info["evaluations"], "seed": s["seed"],
@@ -269,7 +279,7 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
         **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))},
         "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
         "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
-        "points": model.n_points, "files": files, "resumed": info["resumed"],
+        "points": model.n_points, "files": files, "resumed": info["resumed"], "docking": s.get("docking", "shared"),
     }  # fmt: skip
     if s["algorithm"] in MULTI_OBJECTIVE:
         rows = front_rows(model, algorithm)
@@ -283,6 +293,29 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
         files["pareto"] = "pareto.csv"
     atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return summary
+
+
+def placement_file(patient: int, setup: int = 0) -> str:
+    """File name of one patient's complete design in a per-patient-docking run (patient 0-based)."""
+    return f"best_design_p{patient + 1}{'_L' if setup else ''}.json"
+
+
+def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray]) -> dict[str, str]:
+    """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
+    design (placed for the first patient) with a ``placements`` list: each patient's m and mounting."""
+    space, placements, files = model.space, [], {"best_design": "best_design.json"}
+    own = [n for n in PARAM_NAMES if n in (*space.docked, *space.free_m)] or ["m_x", "m_y", "m_z"]
+    for p, patient in enumerate(cfg["patients"]):
+        for setup in range(space.setups):
+            values = Design.from_vector(designs[space.slot(p, setup)]).to_dict()
+            name = placement_file(p, setup)
+            atomic_write_text(run_dir / name, json.dumps(values, indent=2) + "\n")
+            files[name.removesuffix(".json")] = name
+            entry = {"patient": p + 1, "trajectories": patient["source"], "file": name, **{n: values[n] for n in own}}
+            placements.append(entry if space.setups == 1 else {**entry, "side": "L" if setup else "R"})
+    shared = {**Design.from_vector(designs[0]).to_dict(), "placements": placements}
+    atomic_write_text(run_dir / "best_design.json", json.dumps(shared, indent=2) + "\n")
+    return files
 
 
 # ----------------------------------------------------------------------------- the run loop

@@ -4,8 +4,9 @@ What is read (everything defensively: the run format belongs to :mod:`arcube.opt
 
 * ``config.toml`` (required):
   - ``[[patients]]``: the exact trajectories the run optimized on (``source``, ``ids``,
-    ``levels``, ``sides``, ``entry`` and ``target`` as lists of [x, y, z] mm). The first patient
-    is reported. Without it, ``settings.trajectories[0]`` is reloaded with the subset flags
+    ``levels``, ``sides``, ``entry`` and ``target`` as lists of [x, y, z] mm). Each patient is
+    reported: the first in ``report.html``, patient k in ``report_p<k>.html``, with its own design
+    ``best_design_p<k>.json`` when the run docked per patient. Without it, ``settings.trajectories[0]`` is reloaded with the subset flags
     ``settings.side`` / ``levels`` / ``ids`` / ``transform``;
   - ``[settings]``: ``points`` (default 30), ``mode`` (signs, or ``"free"``: then the mode the
     optimizer picked, ``summary.json`` ``mode``), ``guards`` (bool), ``setups`` (1 or 2) and
@@ -59,12 +60,12 @@ def _read_json(path: Path) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
-def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path) -> TrajectorySet:
-    """The first patient's trajectories, as stored in the config (or reloaded from its spec)."""
+def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path, index: int = 0) -> TrajectorySet:
+    """Patient ``index``'s trajectories, as stored in the config (or the first one reloaded from its spec)."""
     patients = cfg.get("patients")
     try:
         if isinstance(patients, list) and patients:
-            pat = patients[0]
+            pat = patients[index]
             ids = [str(i) for i in pat["ids"]]
             n = len(ids)
             return TrajectorySet(ids=tuple(ids), levels=tuple(pat.get("levels", [""] * n)), sides=tuple(pat.get("sides", [""] * n)),
@@ -122,7 +123,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Pa
     summary = _read_json(run / "summary.json")
     if not (run / "best_design.json").exists():
         raise InputError(f"{run}: no best_design.json yet (the run has not written its result)")
-    design = Design.from_json(run / "best_design.json")
+    Design.from_json(run / "best_design.json")  # a bad design file stops the report before any work
     try:
         points = int(settings.get("points", 30))
     except (TypeError, ValueError):
@@ -130,30 +131,40 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Pa
     if points < 2:
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
     signs = _mode(settings, summary, run / "config.toml")
-    options, run_anatomy, limits = _run_body(run, settings)
-    anatomy = run_anatomy if anatomy is None else (None if isinstance(anatomy, str) else anatomy)
+    options, _, limits = _run_body(run, settings)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
     engine = _run_engine(settings)
-    ts = _trajectories(cfg, settings, run / "config.toml")
     info = _run_info(cfg, settings, summary)
-    if isinstance(cfg.get("patients"), list) and len(cfg["patients"]) > 1:
-        info["note: patients"] = f"{len(cfg['patients'])} patients in the run; this report shows the first ({ts.source})"
+    n_patients = len(cfg["patients"]) if isinstance(cfg.get("patients"), list) and cfg["patients"] else 1
+    if n_patients > 1:
+        info["note: patients"] = (f"{n_patients} patients in the run: this report shows the first; report_p2.html ... the others"
+                                  + (", each with its own placement (per-patient docking)" if (run / "best_design_p2.json").exists() else ""))  # fmt: skip
     history: Path | None = run / "history.csv"
     try:
         read_history(history)  # type: ignore[arg-type]
     except InputError as exc:
         info["note: history"] = f"no convergence plot ({exc})"
         history = None
-    left = settings.get("setups") == 2 and (run / "best_design_L.json").exists()
-    if left:
-        info["note: setups"] = "two placements: this report covers the R trajectories with best_design.json; report_L.html the L ones"
-        right_ts = select(ts, side="R")
-        write_evaluation_report(evaluate_design(Design.from_json(run / "best_design_L.json"), select(ts, side="L"), points, signs, options,
-                                                engine, anatomy=anatomy), run / "report_L.html", history_csv=history, run_info=info, limits=limits)  # fmt: skip
-        ts = right_ts
+    two_sides = settings.get("setups") == 2 and (run / "best_design_L.json").exists() or (run / "best_design_p1_L.json").exists()
+    if two_sides:
+        info["note: setups"] = "two placements: this report covers the R trajectories; report_L.html the L ones"
     pareto = run / "pareto.csv"
-    return write_evaluation_report(evaluate_design(design, ts, points, signs, options, engine, anatomy=anatomy), run / "report.html",
-                                   history_csv=history, run_info=info, pareto_csv=pareto if pareto.exists() else None, limits=limits)  # fmt: skip
+    main = run / "report.html"
+    for i in range(n_patients):
+        ts = _trajectories(cfg, settings, run / "config.toml", i)
+        stem = "report" if i == 0 else f"report_p{i + 1}"
+        own = _run_anatomy(run, settings, i)
+        patient_anatomy = own if anatomy is None else (None if isinstance(anatomy, str) else anatomy)
+        sides = [("R", ""), ("L", "_L")] if two_sides else [(None, "")]
+        for side, suffix in sides:
+            path = run / f"best_design_p{i + 1}{suffix}.json"
+            design = Design.from_json(path if path.exists() else run / f"best_design{suffix}.json")
+            plan = select(ts, side=side) if side else ts
+            patient_info = info if i == 0 else {**info, "patient": f"{i + 1} of {n_patients} ({ts.source})"}
+            write_evaluation_report(evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
+                                    run / f"{stem}{suffix}.html", history_csv=history, run_info=patient_info,
+                                    pareto_csv=pareto if pareto.exists() and i == 0 and not suffix else None, limits=limits)  # fmt: skip
+    return main
 
 
 def _run_engine(settings: dict[str, Any]) -> str:
@@ -171,18 +182,24 @@ def _run_engine(settings: dict[str, Any]) -> str:
 def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[str, float]]:
     """The run's evaluation options (guards, clearance guards, body radii, loads; body on), its first
     patient's anatomy (the copy in the run folder) and its --max / --min limits by name."""
-    from arcube.optimization.problem import anatomy_file, run_options
+    from arcube.optimization.problem import run_options
 
     try:
         options = run_options({**settings, "guards": settings.get("guards") is True}).model_copy(update={"body": True, "tip_metrics": True})
     except (InputError, TypeError, ValueError):  # a hand-edited or older config: the guards alone
         options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
-    anatomy = None
-    path = run / anatomy_file(0)
-    if settings.get("anatomy") and path.exists():
-        from arcube.evaluation.anatomy import Anatomy
-        from arcube.io.meshes import read_meshes
-
-        anatomy = Anatomy.from_meshes(read_meshes([path], "patient"), str(path))
     limits = {str(lim[0]): float(lim[2]) for lim in settings.get("limits", []) if isinstance(lim, list) and len(lim) == 3}
-    return options, anatomy, limits
+    return options, _run_anatomy(run, settings, 0), limits
+
+
+def _run_anatomy(run: Path, settings: dict[str, Any], index: int) -> Any:
+    """Patient ``index``'s anatomy as the run copied it into its folder (None without one)."""
+    from arcube.optimization.problem import anatomy_file
+
+    path = run / anatomy_file(index)
+    if not (settings.get("anatomy") and path.exists()):
+        return None
+    from arcube.evaluation.anatomy import Anatomy
+    from arcube.io.meshes import read_meshes
+
+    return Anatomy.from_meshes(read_meshes([path], "patient"), str(path))
