@@ -185,3 +185,17 @@ def test_study_refuses_a_used_folder_and_a_seed_setting(tmp_path: Path) -> None:
     assert not (tmp_path / "s").exists()
     cfg = build_config(["reference"], seed=9, **SETTINGS)
     assert studymod.seed_config(cfg, 3)["settings"]["seed"] == 3 and "--seed 3 " in studymod.seed_config(cfg, 3)["rerun"]
+
+
+def test_best_known_line_on_the_convergence_plots(tmp_path: Path) -> None:
+    from arcube.report.figures import read_history
+    from arcube.report.html import convergence_figure
+
+    run = arcube.optimize("reference", tmp_path / "run", seed=1, **SETTINGS)
+    history = read_history(run.path / "history.csv")
+    lines = [t for t in convergence_figure(history, 1.25).data if t.name == "best known 1.25"]
+    assert len(lines) == 1 and list(lines[0].y) == [1.25, 1.25] and list(lines[0].x) == [history.generation[0], history.generation[-1]]
+    assert not [t for t in convergence_figure(history).data if str(t.name).startswith("best known")]
+    assert run.write_report(best_known=1.25).exists()
+    res = _cli("report", str(run.path), "--best-known", "0")
+    assert res.returncode == 2 and res.stderr == "error: --best-known must be a positive number (an eta_G), got 0.0\n"

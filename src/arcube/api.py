@@ -168,11 +168,12 @@ class Run:
         path = self.path / "pareto.csv"
         return _read_columns(path) if path.exists() else None
 
-    def write_report(self, anatomy: Any = None, anatomy_frame: str = "LPS") -> Path:
-        """Write ``report.html`` (and PNGs) into the run folder; returns its path.
+    def write_report(self, anatomy: Any = None, anatomy_frame: str = "LPS", best_known: float | None = None) -> Path:
+        """Write ``report.html`` (and PNGs; ``report_p<K>.html`` for each further patient) into the run folder; returns its path.
 
         ``anatomy``: None (the run's own, copied into its folder), ``"none"``, ``"default"`` or mesh
-        files in ``anatomy_frame``, as :func:`evaluate` takes it.
+        files in ``anatomy_frame``, as :func:`evaluate` takes it. ``best_known``: an eta_G drawn as
+        a reference line on the convergence plot.
         """
         from arcube.report.run_report import write_run_report
 
@@ -182,7 +183,7 @@ class Run:
 
             plans = runmod.read_config(self.path)[0]["settings"].get("trajectories") or ["reference"]
             override = resolve_anatomy(anatomy, anatomy_frame, plans[0]) or "none"
-        return write_run_report(self.path, anatomy=override)
+        return write_run_report(self.path, anatomy=override, best_known=best_known)
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:

@@ -201,8 +201,8 @@ def dexterity_figure(report: Evaluation) -> go.Figure:
     return fig
 
 
-def convergence_figure(history: History) -> go.Figure:
-    """best / mean eta_G (left axis) and feasible fraction in % (right axis) per generation."""
+def convergence_figure(history: History, best_known: float | None = None) -> go.Figure:
+    """best / mean eta_G (left axis) and feasible fraction in % (right axis) per generation; ``best_known``: a reference line."""
     from plotly.subplots import make_subplots
 
     g = history.generation.tolist()
@@ -211,6 +211,9 @@ def convergence_figure(history: History) -> go.Figure:
     fig.add_scatter(x=g, y=nan_to_none(history.best_eta_G), name="best η_G", mode="lines", line={"color": "#1f77b4", "width": 2})
     fig.add_scatter(x=g, y=nan_to_none(history.mean_eta_G), name="mean η_G (feasible)", mode="lines", line={"color": "#1f77b4", "dash": "dash"})
     fig.add_scatter(x=g, y=nan_to_none(100.0 * history.feasible_fraction), name="feasible %", mode="lines", line={"color": "#2ca02c"}, secondary_y=True)
+    if best_known is not None and math.isfinite(best_known) and best_known > 0.0:
+        fig.add_scatter(x=[g[0], g[-1]] if g else [], y=[best_known, best_known], name=f"best known {best_known:g}", mode="lines",
+                        line={"color": "#d62728", "dash": "dot", "width": 1})  # fmt: skip
     fig.update_layout(title={"text": TITLES["convergence"]}, height=380, margin={"t": 60})
     fig.update_xaxes(title_text="generation")
     # eta_G falls from tens to about 1.3: a log axis shows the last percent, where runs differ
@@ -321,7 +324,7 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
 def write_evaluation_report(
     report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
     run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
-    limits: dict[str, float] | None = None,
+    limits: dict[str, float] | None = None, best_known: float | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
@@ -329,6 +332,7 @@ def write_evaluation_report(
     ``run_info``: key -> value rows shown at the top (e.g. a run's settings and summary).
     ``pareto_csv``: an NSGA-II run's ``pareto.csv`` (adds the front plot and PNG).
     ``limits``: requirement lines of the drill-tip plots, e.g. ``{"lateral_error": 0.2}``.
+    ``best_known``: an eta_G drawn as a reference line on the convergence plots.
     Returns the HTML path. Every file is written atomically.
     """
     import plotly.io as pio
@@ -339,8 +343,8 @@ def write_evaluation_report(
     figs: list[tuple[str, go.Figure]] = [("dexterity", dexterity_figure(report))]
     if history_csv is not None:
         history = read_history(history_csv)
-        convergence_png(history, f"{stem}_convergence.png")
-        figs.append(("convergence", convergence_figure(history)))
+        convergence_png(history, f"{stem}_convergence.png", best_known=best_known)
+        figs.append(("convergence", convergence_figure(history, best_known)))
     if pareto_csv is not None:
         front = read_pareto(pareto_csv)
         pareto_png(front, f"{stem}_pareto.png")

@@ -25,6 +25,7 @@ engine, no JIT warm-up).
 from __future__ import annotations
 
 import json
+import math
 import os
 import tomllib
 from pathlib import Path
@@ -109,10 +110,11 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
     return {k: v for k, v in info.items() if v is not None}
 
 
-def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Path:
+def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_known: float | None = None) -> Path:
     """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
 
     ``anatomy``: an :class:`~arcube.evaluation.anatomy.Anatomy` instead of the run's own, or ``"none"``.
+    ``best_known``: an eta_G drawn as a reference line on the convergence plot.
     Raises :class:`InputError` (one line) when the folder is not a readable run.
     """
     run = Path(run_dir)
@@ -130,6 +132,8 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Pa
         raise InputError(f"{run / 'config.toml'}: settings.points is not an integer") from None
     if points < 2:
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
+    if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
+        raise InputError(f"--best-known must be a positive number (an eta_G), got {best_known}")
     signs = _mode(settings, summary, run / "config.toml")
     options, _, limits = _run_body(run, settings)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
@@ -163,7 +167,8 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None) -> Pa
             patient_info = info if i == 0 else {**info, "patient": f"{i + 1} of {n_patients} ({ts.source})"}
             write_evaluation_report(evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
                                     run / f"{stem}{suffix}.html", history_csv=history, run_info=patient_info,
-                                    pareto_csv=pareto if pareto.exists() and i == 0 and not suffix else None, limits=limits)  # fmt: skip
+                                    pareto_csv=pareto if pareto.exists() and i == 0 and not suffix else None, limits=limits,
+                                    best_known=best_known)  # fmt: skip
     return main
 
 
