@@ -25,7 +25,7 @@ from arcube.optimization.problem import VariableSpace, build_model, parse_free
 
 REPO = Path(__file__).resolve().parents[1]
 START = REPO / "tests" / "data" / "right_side_design.json"
-SMALL = {"population": 16, "generations": 10, "points": 3, "engine": "numpy", "tolerance": 0.0, "side": "R", "design_from": str(START)}
+SMALL = {"algorithm": "ga", "population": 16, "generations": 10, "points": 3, "engine": "numpy", "tolerance": 0.0, "side": "R", "design_from": str(START)}
 
 
 @pytest.fixture(scope="module")

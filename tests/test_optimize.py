@@ -36,7 +36,7 @@ from arcube.io import load_trajectories, select
 REPO = Path(__file__).resolve().parents[1]
 PAPER = np.array([PAPER_TABLE2[n] for n in PARAM_NAMES])
 LINKS = [n for n in PARAM_NAMES if n[0] in "fpdct" or n == "r"]
-SMALL = ["--engine", "numpy", "--quiet"]
+SMALL = ["--algorithm", "ga", "--engine", "numpy", "--quiet"]
 
 
 def _app() -> typer.Typer:
@@ -75,7 +75,7 @@ def _task(side: str = "R", points: int = 5) -> TaskData:
 
 
 def _config(**kw: object) -> dict:
-    base = {"free": "all", "population": 20, "generations": 30, "points": 4, "seed": 5, "engine": "numpy", "tolerance": 0.0, "side": "R"}
+    base = {"algorithm": "ga", "free": "all", "population": 20, "generations": 30, "points": 4, "seed": 5, "engine": "numpy", "tolerance": 0.0, "side": "R"}
     base.update(kw)
     return build_config(["reference"], **base)
 

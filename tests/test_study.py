@@ -28,9 +28,9 @@ REPO = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(REPO / "src")}
 START = REPO / "tests" / "data" / "right_side_design.json"
 """Table 2's links placed where they reach the right side (m = 88.23, 79.40, 56.89): every seed starts feasible."""
-SETTINGS = {"free": "m_x,m_y,m_z,r,o_x", "population": 16, "generations": 12, "points": 3, "engine": "numpy", "tolerance": 0.0,
+SETTINGS = {"algorithm": "ga", "free": "m_x,m_y,m_z,r,o_x", "population": 16, "generations": 12, "points": 3, "engine": "numpy", "tolerance": 0.0,
             "side": "R", "checkpoint_every": 3, "design_from": str(START)}  # fmt: skip
-FLAGS = ["--trajectories", "reference", "--free", "m_x,m_y,m_z,r,o_x", "--population", "16", "--generations", "12", "--points", "3",
+FLAGS = ["--trajectories", "reference", "--algorithm", "ga", "--free", "m_x,m_y,m_z,r,o_x", "--population", "16", "--generations", "12", "--points", "3",
          "--engine", "numpy", "--tolerance", "0", "--side", "R", "--checkpoint-every", "3", "--design-from", str(START), "--quiet"]  # fmt: skip
 
 

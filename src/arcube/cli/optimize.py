@@ -21,7 +21,7 @@ from arcube.optimization import run as runmod
 
 
 class _Progress:
-    """Rich progress bar on stderr: generation, best eta_G, feasible fraction, evaluations/s, ETA."""
+    """Rich progress bar on stderr: design evaluations out of the budget, best eta_G, feasible fraction, evaluations/s, ETA."""
 
     def __init__(self, total: int, enabled: bool) -> None:
         from rich.console import Console
@@ -33,7 +33,7 @@ class _Progress:
             return
 
         self.progress = Progress(
-            TextColumn("gen"), MofNCompleteColumn(), BarColumn(), TextColumn("best η_G {task.fields[best]}"),
+            TextColumn("evaluations"), MofNCompleteColumn(), BarColumn(), TextColumn("best η_G {task.fields[best]}"),
             TextColumn("feasible {task.fields[feas]}"), TextColumn("{task.fields[eps]} eval/s"),
             TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console,
         )  # fmt: skip
@@ -56,7 +56,7 @@ class _Progress:
         eps = (row["evaluations"] - self.first_evals) / row["session_s"] if row["session_s"] > 0 else 0.0
         best = row["best_eta_G"]
         self.progress.update(
-            self.task, completed=row["generation"], best=f"{best:.4f}" if math.isfinite(best) else "none feasible",
+            self.task, completed=row["evaluations"], best=f"{best:.4f}" if math.isfinite(best) else "none feasible",
             feas=f"{row['feasible_fraction']:.0%}", eps=f"{eps:,.0f}",
         )  # fmt: skip
 
@@ -88,7 +88,7 @@ def register(app: typer.Typer) -> None:
         out: Annotated[Path | None, typer.Option("--out", help="Run folder (created; must be new or empty).")] = None,
         design_from: Annotated[str, typer.Option("--design-from", help="Start design: 'paper' or a design JSON; fixed parameters keep its values.")] = "paper",
         free: Annotated[str, typer.Option("--free", help="Parameters to optimize, comma-separated names and groups: all (the paper's 23), mount (the three mounting angles), e.g. all,mount,L.")] = "all",
-        algorithm: Annotated[str, typer.Option("--algorithm", help="ga (default, the paper's), de, cmaes or nsga2 (eta_G vs compactness).")] = "ga",
+        algorithm: Annotated[str, typer.Option("--algorithm", help="mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, or nsga2 / nsga3 (several objectives).")] = "mscmaes",
         population: Annotated[int, typer.Option("--population", help="Population size.")] = 400,
         generations: Annotated[int, typer.Option("--generations", help="Maximum number of generations.")] = 300,
         tolerance: Annotated[float, typer.Option("--tolerance", help="ftol: stop when the best feasible eta_G moves less than this over 30 generations; 0 runs every generation.")] = 1e-5,
@@ -137,7 +137,7 @@ def register(app: typer.Typer) -> None:
             raise InputError("--out DIR is required (the run folder)")
         from arcube.api import optimize as optimize_api
 
-        with _Progress(generations, enabled=not quiet) as bar:
+        with _Progress(population * generations, enabled=not quiet) as bar:
             run = optimize_api(
                 specs, out, progress=bar, workers=workers, dask=dask, design_from=design_from, free=free,
                 algorithm=algorithm, population=population, generations=generations, tolerance=tolerance, points=points,
@@ -176,7 +176,7 @@ def register(app: typer.Typer) -> None:
         if runmod.is_finished(run_dir):
             sys.stderr.write(f"{run_dir}: the run had already finished; nothing to resume\n")
             return
-        with _Progress(int(cfg["settings"]["generations"]), enabled=not quiet) as bar:
+        with _Progress(int(cfg["settings"]["population"]) * int(cfg["settings"]["generations"]), enabled=not quiet) as bar:
             run = resume_api(run_dir, progress=bar, workers=workers, dask=dask)
         summary = run.summary
         _print_summary(run_dir, summary)

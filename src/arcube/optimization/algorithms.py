@@ -1,6 +1,10 @@
-"""pymoo algorithm and termination factories (nothing hand-written: only pymoo's operators).
+"""pymoo algorithm and termination factories.
 
-* ``ga`` (default, the paper's): real-coded GA, SBX crossover (prob 0.9, eta 15), polynomial
+* ``mscmaes`` (default): multi-start CMA-ES, :mod:`arcube.optimization.multistart`; its budget is
+  ``population * generations`` design evaluations (the GA's at the same flags), spent in batches
+  of 8 runs x cma's default population; ``--tolerance`` does not apply (its runs restart on their
+  own stop criteria until the budget is spent).
+* ``ga`` (the paper's): real-coded GA, SBX crossover (prob 0.9, eta 15), polynomial
   mutation (eta 20), binary tournament that compares feasibility first (constraint violation,
   then eta), elitist (mu + lambda) survival sorted by violation then eta. Duplicates are kept by
   default, as in Matlab's ``ga`` (the paper's tool), which has no duplicate elimination. pymoo's
@@ -40,6 +44,7 @@ from pymoo.operators.sampling.rnd import FloatRandomSampling
 from pymoo.operators.selection.tournament import TournamentSelection
 from pymoo.termination.collection import TerminationCollection
 from pymoo.termination.ftol import MultiObjectiveSpaceTermination, SingleObjectiveSpaceTermination
+from pymoo.termination.max_eval import MaximumFunctionCallTermination
 from pymoo.termination.max_gen import MaximumGenerationTermination
 from pymoo.termination.robust import RobustTermination
 
@@ -47,9 +52,13 @@ from arcube.errors import InputError
 from arcube.optimization.lean import LeanEvaluator, LeanFitnessSurvival, LeanGA, PassRepair, lean_comp_by_cv_and_fitness
 from arcube.optimization.problem import MULTI_OBJECTIVE_ALGORITHMS
 
-ALGORITHMS: tuple[str, ...] = ("ga", "de", "cmaes", "nsga2", "nsga3")
+ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3")
+DEFAULT_ALGORITHM = "mscmaes"
+"""The default single-objective optimizer, chosen by measurement (README, "Which optimizer")."""
+BUDGETED: frozenset[str] = frozenset({"mscmaes"})
+"""Algorithms whose budget is population * generations design evaluations, not generations."""
 MULTI_OBJECTIVE: frozenset[str] = MULTI_OBJECTIVE_ALGORITHMS
-PENALTY_ONLY: frozenset[str] = frozenset({"cmaes"})
+PENALTY_ONLY: frozenset[str] = frozenset({"cmaes", "mscmaes"})
 """Algorithms without constraint handling: they minimize the penalized F of problem.PENALTY."""
 DEFAULT_PERIOD = 30
 """Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
@@ -80,14 +89,20 @@ def check_algorithm(name: str, population: int) -> None:
 
 
 def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None = None, *,
-                   eliminate_duplicates: bool = False, lean: bool = True, n_obj: int = 2) -> Algorithm:  # fmt: skip
+                   eliminate_duplicates: bool = False, lean: bool = True, n_obj: int = 2, generations: int = 300) -> Algorithm:  # fmt: skip
     """A fresh pymoo algorithm; ``x0`` (an optimizer vector) seeds the initial population.
+
+    ``generations`` matters to the budgeted algorithms (``mscmaes``: ``population * generations`` evaluations).
 
     ``eliminate_duplicates`` applies to ``ga`` (see the module docstring); ``lean=False`` builds
     the GA from pymoo's stock components (the reference the lean ones must equal bit for bit).
     """
     check_algorithm(name, population)
     common: dict[str, Any] = {"seed": int(seed), "save_history": False, "verbose": False}
+    if name == "mscmaes":
+        from arcube.optimization.multistart import make_multistart  # noqa: PLC0415
+
+        return make_multistart(population * generations, seed, x0)
     if name == "ga":
         if lean:  # offspring are always new individuals: nothing to skip, no check needed
             common.update(evaluator=LeanEvaluator(skip_already_evaluated=False), repair=PassRepair())
@@ -123,14 +138,17 @@ def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None 
     )  # fmt: skip
 
 
-def make_termination(name: str, generations: int, tolerance: float, period: int = DEFAULT_PERIOD) -> TerminationCollection:
+def make_termination(name: str, generations: int, tolerance: float, period: int = DEFAULT_PERIOD, population: int = 1) -> TerminationCollection:
     """At most ``generations`` generations; with ``tolerance > 0`` also pymoo's ftol criterion
     (the best feasible objective, or the feasible front for nsga2, moved by at most
-    ``tolerance`` over ``period`` generations). ``tolerance == 0`` runs every generation."""
+    ``tolerance`` over ``period`` generations). ``tolerance == 0`` runs every generation.
+    A budgeted algorithm (``mscmaes``) stops at ``population * generations`` evaluations instead."""
     if generations < 1:
         raise InputError(f"--generations must be at least 1, got {generations}")
     if not (tolerance >= 0.0 and np.isfinite(tolerance)):
         raise InputError(f"--tolerance must be a finite number >= 0, got {tolerance}")
+    if name in BUDGETED:
+        return TerminationCollection(MaximumFunctionCallTermination(population * generations))
     criteria: list[Termination] = [MaximumGenerationTermination(generations)]
     if tolerance > 0.0:
         ftol = MultiObjectiveSpaceTermination(tolerance, only_feas=True) if name in MULTI_OBJECTIVE else SingleObjectiveSpaceTermination(tolerance, only_feas=True)
@@ -139,8 +157,11 @@ def make_termination(name: str, generations: int, tolerance: float, period: int 
 
 
 def stop_reason(termination: TerminationCollection) -> str:
-    """Why a run stopped: 'generations', 'tolerance' or 'algorithm' (CMA-ES's own stop), else 'running'."""
+    """Why a run stopped: 'generations', 'evaluations' (a budgeted algorithm), 'tolerance' or 'algorithm'
+    (CMA-ES's own stop), else 'running'."""
     parts = termination.terminations
+    if isinstance(parts[0], MaximumFunctionCallTermination):  # mscmaes also stops itself before overspending
+        return "evaluations" if parts[0].has_terminated() or termination.force_termination else "running"
     if parts[0].has_terminated():
         return "generations"
     if len(parts) > 1 and parts[1].has_terminated():

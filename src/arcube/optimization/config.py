@@ -21,7 +21,7 @@ from arcube.io import TrajectorySet, load_trajectories, select
 from arcube.model.design import ANGLE_NAMES, LENGTH_NAMES, PAPER_NAMES, Design
 from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
-from arcube.optimization.algorithms import DEFAULT_PERIOD, check_algorithm, make_termination
+from arcube.optimization.algorithms import DEFAULT_ALGORITHM, DEFAULT_PERIOD, check_algorithm, make_termination
 from arcube.optimization.problem import AGGREGATES, COMPACTNESS, DOCKINGS, MULTI_OBJECTIVE_ALGORITHMS, parse_bounds, parse_free, resolve_bounds
 
 __all__ = ["build_config"]
@@ -61,7 +61,7 @@ def _check_bounds(bounds: dict[str, tuple[float, float]]) -> None:
 
 
 def build_config(
-    trajectories: list[Any], design_from: str = "paper", free: str = "all", algorithm: str = "ga", population: int = 400,
+    trajectories: list[Any], design_from: str = "paper", free: str = "all", algorithm: str = DEFAULT_ALGORITHM, population: int = 400,
     generations: int = 300, tolerance: float = 1e-5, points: int = 30, mode: str = "+,+,+,+", setups: int = 1,
     guards: bool = False, margin: float | None = None, seed: int | None = None, workers: int = 1, dask: str | None = None,
     side: str | None = None, levels: str | None = None, ids: str | None = None, engine: str = "auto",

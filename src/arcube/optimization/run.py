@@ -343,11 +343,12 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool 
     log = EvalLog(executor, replay)
     # configs written before the setting existed ran pymoo's default (duplicates eliminated)
     algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base), n_obj=model.n_obj,
-                          eliminate_duplicates=bool(s.get("eliminate_duplicates", True)))  # fmt: skip
+                          eliminate_duplicates=bool(s.get("eliminate_duplicates", True)), generations=int(s["generations"]))  # fmt: skip
     problem = ArcubeProblem(model.space, model.n_obj, log, penalty_only=s["algorithm"] in PENALTY_ONLY)
-    termination = make_termination(s["algorithm"], int(s["generations"]), float(s["tolerance"]), int(s["period"]))
+    termination = make_termination(s["algorithm"], int(s["generations"]), float(s["tolerance"]), int(s["period"]), int(s["population"]))
     algo.setup(problem, termination=termination, seed=int(s["seed"]), verbose=False)
     gen, every, algo_s = 0, int(s["checkpoint_every"]), 0.0
+    budget = int(s["population"]) * int(s["generations"])  # evaluations at most (the GA's own count at full length)
     hist = (run_dir / "history.csv").open("a", encoding="utf-8", newline="")
     gc_thresholds = gc.get_threshold()
     gc.set_threshold(max(gc_thresholds[0], GC_GEN0_THRESHOLD), *gc_thresholds[1:])
@@ -373,7 +374,7 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool 
                 state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval)
                 write_checkpoint(run_dir, state, log, gen)
             if on_generation is not None:
-                on_generation({**row, "total": int(s["generations"]), "eval_s": log.eval_s, "optimizer_s": algo_s - log.call_s,
+                on_generation({**row, "total": int(s["generations"]), "total_evaluations": budget, "eval_s": log.eval_s, "optimizer_s": algo_s - log.call_s,
                                "session_s": time.perf_counter() - t0})  # fmt: skip
         if log.replay:
             raise InputError("checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)")

@@ -1,0 +1,125 @@
+"""The default optimizer, multi-start CMA-ES (arcube.optimization.multistart).
+
+Oracles: cma's own bound transformation (one solution at a time) against the batched one; the
+budget arithmetic; bit-identical results for a seed, after a crash and resume, and whatever
+numpy's global generator holds; a restart happens when a run meets its stop criteria.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from arcube.optimization import run as runmod
+from arcube.optimization.config import build_config
+from arcube.optimization.multistart import MARGIN, RUNS, default_popsize, into_box
+
+START = Path(__file__).resolve().parent / "data" / "right_side_design.json"
+
+
+def _config(**kw: object) -> dict:
+    base = {"free": "all", "population": 20, "generations": 100, "points": 3, "seed": 5, "engine": "numpy", "tolerance": 0.0,
+            "side": "R", "checkpoint_every": 4}  # fmt: skip
+    base.update(kw)
+    return build_config(["reference"], **base)
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    return [{k: v for k, v in r.items() if k != "seconds"} for r in csv.DictReader(path.open())]
+
+
+def test_into_box_is_cmas_transformation_batched() -> None:
+    from cma.transformations import BoxConstraintsLinQuadTransformation
+
+    one = BoxConstraintsLinQuadTransformation([[0.0, 1.0]])
+    rng = np.random.default_rng(0)
+    Y = np.concatenate([rng.normal(0.5, 0.4, (200, 23)), rng.normal(0.5, 30.0, (200, 23)), np.array([[-0.05, 1.05, 0.0, 1.0, 0.5] * 4 + [7.3, -7.3, 2.2]])])
+    want = np.array([one(y.copy()) for y in Y])
+    got = into_box(Y)
+    assert np.array_equal(got, want) and got.min() >= 0.0 and got.max() <= 1.0
+    inner = (Y >= MARGIN) & (Y <= 1.0 - MARGIN)
+    assert np.array_equal(got[inner], Y[inner])  # the identity inside the margins
+    assert into_box(np.array([[-MARGIN, 1.0 + MARGIN]])).tolist() == [[0.0, 1.0]]
+
+
+def test_default_is_mscmaes_and_spends_the_budget_in_full_batches(tmp_path: Path) -> None:
+    cfg = _config()
+    assert cfg["settings"]["algorithm"] == "mscmaes"
+    s = runmod.start(tmp_path / "a", dict(cfg))
+    batch = RUNS * default_popsize(23)  # 8 runs x 13
+    rows = _rows(tmp_path / "a/history.csv")
+    evals = [int(r["evaluations"]) for r in rows]
+    assert evals == [batch * (i + 1) for i in range(len(evals))]
+    assert s["evaluations"] == evals[-1] <= 20 * 100 < evals[-1] + batch and s["stopped_by"] == "evaluations"
+    assert s["generations"] == len(rows)
+
+
+def test_seed_gives_the_same_run_whatever_the_global_generator(tmp_path: Path) -> None:
+    cfg = _config(generations=40, seed=11)
+    np.random.seed(1)
+    runmod.start(tmp_path / "a", dict(cfg))
+    state = np.random.get_state()
+    np.random.seed(999)  # a different global state: no effect on the run, and the run does not touch it
+    np.random.random(17)
+    before = np.random.get_state()
+    runmod.start(tmp_path / "b", dict(cfg))
+    after = np.random.get_state()
+    assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y for x, y in zip(before, after))
+    assert state[1].tobytes() != before[1].tobytes()
+    assert (tmp_path / "a/best_design.json").read_bytes() == (tmp_path / "b/best_design.json").read_bytes()
+    assert _rows(tmp_path / "a/history.csv") == _rows(tmp_path / "b/history.csv")
+    runmod.start(tmp_path / "c", _config(generations=40, seed=12))
+    assert (tmp_path / "c/best_design.json").read_bytes() != (tmp_path / "a/best_design.json").read_bytes()
+
+
+class _Crash(Exception):
+    pass
+
+
+def test_crash_then_resume_equals_uninterrupted(tmp_path: Path) -> None:
+    cfg = _config()
+    ref = runmod.start(tmp_path / "ref", dict(cfg))
+
+    def crash(row: dict) -> None:
+        if row["generation"] == 14:
+            raise _Crash
+
+    with pytest.raises(_Crash):
+        runmod.start(tmp_path / "cut", dict(cfg), on_generation=crash)
+    assert json.loads((tmp_path / "cut/checkpoint/state.json").read_text())["generation"] == 12
+    got = runmod.resume(tmp_path / "cut")
+    assert got is not None and got["resumed"] == 1
+    assert (tmp_path / "cut/best_design.json").read_bytes() == (tmp_path / "ref/best_design.json").read_bytes()
+    assert {k: v for k, v in got.items() if k not in ("wall_s", "eval_s", "resumed")} == {
+        k: v for k, v in ref.items() if k not in ("wall_s", "eval_s", "resumed")}
+    assert _rows(tmp_path / "cut/history.csv") == _rows(tmp_path / "ref/history.csv")
+
+
+def test_runs_restart_and_the_best_is_kept(tmp_path: Path) -> None:
+    """Three placement variables, Table 2's links: the runs converge and restart within the budget;
+    the reported best is the lowest eta_G ever evaluated (history's best never rises)."""
+    from arcube.optimization.algorithms import make_algorithm, make_termination
+    from arcube.optimization.problem import ArcubeProblem
+
+    cfg = _config(free="m_x,m_y,m_z", design_from=str(START), population=50, generations=200)
+    model = runmod.build_model(cfg)
+    algo = make_algorithm("mscmaes", 50, 3, model.space.encode(model.space.base), generations=200)
+    seen: list[float] = []
+
+    def batch(X: np.ndarray) -> dict:
+        r = model.evaluate(X)
+        seen.extend(np.asarray(r["ETA"], float).tolist())
+        return r
+
+    algo.setup(ArcubeProblem(model.space, 1, batch, penalty_only=True), termination=make_termination("mscmaes", 200, 0.0, population=50), seed=3)
+    best = []
+    while algo.has_next():
+        algo.next()
+        best.append(float(algo.opt[0].get("ETA")))
+    assert algo.started > RUNS  # some run met its stop criteria and was replaced
+    assert best == sorted(best, reverse=True) and best[-1] == min(seen) < np.inf
+    assert algo.evaluator.n_eval == len(seen) <= 10000
