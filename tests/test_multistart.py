@@ -16,7 +16,7 @@ import pytest
 
 from arcube.optimization import run as runmod
 from arcube.optimization.config import build_config
-from arcube.optimization.multistart import MARGIN, RUNS, default_popsize, into_box
+from arcube.optimization.multistart import MARGIN, POLISH_RUNS, RUNS, default_popsize, into_box
 
 START = Path(__file__).resolve().parent / "data" / "right_side_design.json"
 
@@ -50,12 +50,12 @@ def test_default_is_mscmaes_and_spends_the_budget_in_full_batches(tmp_path: Path
     cfg = _config()
     assert cfg["settings"]["algorithm"] == "mscmaes"
     s = runmod.start(tmp_path / "a", dict(cfg))
-    batch = RUNS * default_popsize(23)  # 8 runs x 13
+    assert RUNS * default_popsize(23) == 104 and POLISH_RUNS * default_popsize(23) == 52
     rows = _rows(tmp_path / "a/history.csv")
     evals = [int(r["evaluations"]) for r in rows]
-    assert evals == [batch * (i + 1) for i in range(len(evals))]
-    assert s["evaluations"] == evals[-1] <= 20 * 100 < evals[-1] + batch and s["stopped_by"] == "evaluations"
-    assert s["generations"] == len(rows)
+    # budget 20 x 100 = 2000: search in batches of 104 up to 90 % (17 x 104 = 1768 <= 1800), then polish in 52s (1976 <= 2000)
+    assert evals == [104 * k for k in range(1, 18)] + [1768 + 52 * j for j in range(1, 5)]
+    assert s["evaluations"] == 1976 and s["stopped_by"] == "evaluations" and s["generations"] == len(rows) == 21
 
 
 def test_seed_gives_the_same_run_whatever_the_global_generator(tmp_path: Path) -> None:
