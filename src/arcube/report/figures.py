@@ -188,6 +188,7 @@ def convergence_png(history: History, path: str | os.PathLike[str], best_known: 
     ax.set_xlabel("generation")
     ax.set_ylabel("η_G (log scale)")
     ax.set_yscale("log")  # eta_G falls from tens to about 1.3: the last percent is where runs differ
+    _plain_log_ticks(ax)
     ax2 = ax.twinx()
     ax2.plot(history.generation, 100.0 * history.feasible_fraction, color="#2ca02c", lw=1.0, label="feasible %")
     ax2.set_ylabel("feasible designs (%)", color="#2ca02c")
@@ -200,6 +201,15 @@ def convergence_png(history: History, path: str | os.PathLike[str], best_known: 
     atomic_write_bytes(out, _png_bytes(fig))
     return out
 
+
+
+def _plain_log_ticks(ax: Any) -> None:
+    """Tick labels of a log axis as plain numbers (1.25, 1.3), not powers of ten (1.25 x 10^0)."""
+    from matplotlib.ticker import FuncFormatter
+
+    plain = FuncFormatter(lambda v, _: f"{v:.3g}")
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain)
 
 
 def _best_known_line(ax: Any, best_known: float | None) -> None:
@@ -227,6 +237,10 @@ def study_convergence_png(histories: dict[int, History], path: str | os.PathLike
     ax.set_ylabel("best η_G (log scale)")
     ax.set_yscale("log")
     ok = np.array([f for f in finals if math.isfinite(f)])
+    if len(ok):  # the early values run into the hundreds: show the last 30 % above the worst final, where seeds differ
+        low = min(float(ok.min()), best_known if best_known is not None and math.isfinite(best_known) and best_known > 0 else math.inf)
+        ax.set_ylim(low / 1.005, float(ok.max()) * 1.3)
+    _plain_log_ticks(ax)
     spread = f", spread {100.0 * (ok.max() - ok.min()) / ok.min():.1f} %" if len(ok) > 1 else ""
     ax.set_title(f"Convergence over {len(histories)} seeds (median final {np.median(ok):.4f}{spread})" if len(ok) else "Convergence over seeds")
     ax.grid(True, which="both", alpha=0.3)
