@@ -86,6 +86,16 @@ def test_same_seeds_same_study_in_processes_or_not(tmp_path: Path) -> None:
     _same_study(tmp_path / "a", tmp_path / "b", [4, 5])
 
 
+def test_dask_study_equals_the_serial_one(tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    arcube.study("reference", tmp_path / "a", seeds="2,3", **SETTINGS)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        arcube.study("reference", tmp_path / "b", seeds="2,3", dask=cluster.scheduler_address, **SETTINGS)
+    _same_study(tmp_path / "a", tmp_path / "b", [2, 3])
+
+
 class _Crash(Exception):
     pass
 

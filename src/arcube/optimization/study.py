@@ -231,7 +231,7 @@ def _run_processes(study_dir: Path, pending: list[int], workers: int, on_seed: C
 
 def _run_dask(study_dir: Path, pending: list[int], address: str, on_seed: Callable[[int, dict[str, Any]], None] | None) -> None:
     try:
-        from distributed import Client, as_completed
+        from distributed import Client
     except ImportError:
         raise InputError("--dask needs dask.distributed: pip install 'dask[distributed]'") from None
     try:
@@ -240,10 +240,10 @@ def _run_dask(study_dir: Path, pending: list[int], address: str, on_seed: Callab
         raise InputError(f"--dask {address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
     try:
         futures = {client.submit(_run_seed, str(seed_dir(study_dir, s).resolve()), pure=False): s for s in pending}
-        for fut in as_completed(list(futures)):
+        for fut, seed in futures.items():  # in seed order (distributed's as_completed wants a default client)
             summary = fut.result()
             if on_seed is not None:
-                on_seed(futures[fut], summary)
+                on_seed(seed, summary)
     finally:
         client.close()
 
