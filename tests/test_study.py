@@ -131,7 +131,7 @@ def test_kill9_study_then_resume_cli(tmp_path: Path) -> None:
     while time.monotonic() < deadline and proc.poll() is None and not state.exists():
         time.sleep(0.005)
     proc.send_signal(signal.SIGKILL)
-    _, err = proc.communicate()
+    _, err = proc.communicate(timeout=60)
     assert proc.returncode == -signal.SIGKILL, err.decode()
     assert not (cut / "study.csv").exists() and not (cut / "seed_2/summary.json").exists()
     res = _cli("resume", str(cut), "--quiet")
@@ -142,6 +142,30 @@ def test_kill9_study_then_resume_cli(tmp_path: Path) -> None:
     _same_study(cut, tmp_path / "ref", [1, 2, 3])
     again = _cli("resume", str(cut), "--quiet")  # a finished study: nothing to run, the same result
     assert again.returncode == 0 and again.stdout == res.stdout
+
+
+def test_killed_parallel_study_leaves_no_orphan_writing_and_resumes(tmp_path: Path) -> None:
+    """kill -9 of a study running two seeds in child processes: the children stop at their next
+    generation (they watch their parent), and resume gives the uninterrupted result."""
+    flags = list(FLAGS)
+    flags[flags.index("--generations") + 1] = "400"
+    cut = tmp_path / "cut"
+    proc = subprocess.Popen([sys.executable, "-m", "arcube", "study", "--seeds", "1,2", "--workers", "2", "--out", str(cut), *flags],
+                            env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    states, deadline = [cut / f"seed_{s}" / "checkpoint" / "state.json" for s in (1, 2)], time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None and not all(p.exists() for p in states):
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=60)  # the pipe closes when the children are gone too  # the children notice within a generation and stop with a checkpoint
+    sizes = [(cut / f"seed_{s}/history.csv").stat().st_size for s in (1, 2)]
+    time.sleep(1.5)
+    assert [(cut / f"seed_{s}/history.csv").stat().st_size for s in (1, 2)] == sizes
+    assert not any((cut / f"seed_{s}/summary.json").exists() for s in (1, 2))
+    res = _cli("resume", str(cut), "--quiet")
+    assert res.returncode == 0, res.stderr
+    ref = _cli("study", "--seeds", "1,2", "--out", str(tmp_path / "ref"), *flags)
+    assert ref.returncode == 0, ref.stderr
+    _same_study(cut, tmp_path / "ref", [1, 2])
 
 
 @pytest.mark.parametrize(("args", "message"), [

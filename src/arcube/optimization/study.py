@@ -24,6 +24,7 @@ import csv
 import io
 import json
 import math
+import os
 import statistics
 import sys
 import time
@@ -187,10 +188,26 @@ def _check_parallel(workers: int, dask: str | None) -> None:
         raise InputError("--workers and --dask exclude each other (the Dask cluster has its own workers)")
 
 
-def _run_seed(run_dir: str) -> dict[str, Any]:
-    """Run (or finish) one seed's folder in this process; returns its summary (picklable: a process or dask task)."""
+def _run_seed(run_dir: str, parent_pid: int | None = None) -> dict[str, Any]:
+    """Run (or finish) one seed's folder in this process; returns its summary (picklable: a process or dask task).
+
+    ``parent_pid``: the study's process, for a seed run in a child process. When it is gone (killed),
+    the run stops at its next generation with a checkpoint, as on Ctrl-C, so that no orphan keeps
+    writing into a folder that ``arcube resume`` will run again."""
     path = Path(run_dir)
-    runmod.resume(path, workers=1)
+    alone: list[bool] = []
+
+    def orphaned(row: dict[str, Any]) -> None:
+        if os.getppid() != parent_pid:
+            alone.append(True)
+            raise KeyboardInterrupt
+
+    try:
+        runmod.resume(path, workers=1, on_generation=orphaned if parent_pid is not None else None)
+    except KeyboardInterrupt:
+        if alone:  # the checkpoint is written and the files closed; the pool's pipes lead nowhere: leave now
+            os._exit(1)
+        raise
     return json.loads((path / "summary.json").read_text(encoding="utf-8"))
 
 
@@ -218,7 +235,7 @@ def _run_processes(study_dir: Path, pending: list[int], workers: int, on_seed: C
 
     ctx = multiprocessing.get_context("spawn")  # no fork under threads (progress bar)
     with ProcessPoolExecutor(min(workers, len(pending)), mp_context=ctx) as pool:
-        futures = {pool.submit(_run_seed, str(seed_dir(study_dir, s))): s for s in pending}
+        futures = {pool.submit(_run_seed, str(seed_dir(study_dir, s)), os.getpid()): s for s in pending}
         try:
             for fut in as_completed(futures):
                 summary = fut.result()
