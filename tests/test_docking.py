@@ -126,3 +126,19 @@ def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patie
     assert res.returncode == 2 and res.stderr == "error: --docking must be one of per-patient, shared, got 'both'\n"
     assert not out.exists()
     assert runmod.placement_file(1) == "best_design_p2.json" and runmod.placement_file(0, 1) == "best_design_p1_L.json"
+
+
+def test_per_patient_files_with_two_setups_and_a_missing_design_is_an_error(tmp_path: Path, second_patient: Path) -> None:
+    both = {**SMALL, "side": None, "generations": 3}
+    run = arcube.optimize(["reference", str(second_patient)], tmp_path / "two", setups=2, free="m_x,m_y,m_z,r", seed=1, **both)
+    names = sorted(p.name for p in run.path.glob("best_design*.json"))
+    assert names == ["best_design.json", "best_design_L.json", "best_design_p1.json", "best_design_p1_L.json",
+                     "best_design_p2.json", "best_design_p2_L.json"]  # fmt: skip
+    assert (run.path / "best_design_L.json").read_bytes() == (run.path / "best_design_p1_L.json").read_bytes()
+    listed = json.loads((run.path / "best_design.json").read_text())["placements"]
+    assert [(p["patient"], p["side"]) for p in listed] == [(1, "R"), (1, "L"), (2, "R"), (2, "L")]
+    (run.path / "best_design_p2.json").unlink()
+    with pytest.raises(InputError, match="best_design_p2.json"):
+        run.designs
+    with pytest.raises(InputError, match="best_design_p2.json is missing"):
+        run.write_report()

@@ -151,11 +151,10 @@ class Run:
         from arcube.optimization import run as runmod
 
         cfg = runmod.read_config(self.path)[0]
-        out = []
-        for p in range(len(cfg["patients"])):
-            own = self.path / runmod.placement_file(p)
-            out.append(Design.from_json(own if own.exists() else self.path / "best_design.json"))
-        return out
+        n = len(cfg["patients"])
+        if cfg["settings"].get("docking", "shared") == "per-patient" and n > 1:
+            return [Design.from_json(self.path / runmod.placement_file(p)) for p in range(n)]  # each must exist
+        return [Design.from_json(self.path / "best_design.json") for _ in range(n)]
 
     @property
     def history(self) -> dict[str, np.ndarray]:
@@ -182,7 +181,7 @@ class Run:
             from arcube.optimization import run as runmod
 
             plans = runmod.read_config(self.path)[0]["settings"].get("trajectories") or ["reference"]
-            override = resolve_anatomy(anatomy, anatomy_frame, plans[0]) or "none"
+            override = [resolve_anatomy(anatomy, anatomy_frame, plan) or "none" for plan in plans]  # each patient's own
         return write_run_report(self.path, anatomy=override, best_known=best_known)
 
 
@@ -287,6 +286,8 @@ class Study:
     @property
     def table(self) -> dict[str, np.ndarray]:
         """``study.csv`` as columns: seed, feasible, objective_<name>..., eta_G, generations, evaluations, wall_s."""
+        if not (self.path / "study.csv").exists():
+            raise InputError(f"{self.path}: the study has not finished (no study.csv)")
         return _read_columns(self.path / "study.csv")
 
     @property

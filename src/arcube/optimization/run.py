@@ -315,6 +315,9 @@ def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, de
             placements.append(entry if space.setups == 1 else {**entry, "side": "L" if setup else "R"})
     shared = {**Design.from_vector(designs[0]).to_dict(), "placements": placements}
     atomic_write_text(run_dir / "best_design.json", json.dumps(shared, indent=2) + "\n")
+    if space.setups == 2:  # the first patient's left side, where runs with two setups always put it
+        Design.from_vector(designs[space.slot(0, 1)]).to_json(run_dir / "best_design_L.json")
+        files["best_design_L"] = "best_design_L.json"
     return files
 
 

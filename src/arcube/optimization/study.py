@@ -299,12 +299,11 @@ def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
     w.writerows([{k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
     atomic_write_text(study_dir / "study.csv", buf.getvalue())
     summaries = {r["seed"]: json.loads((seed_dir(study_dir, r["seed"]) / "summary.json").read_text(encoding="utf-8")) for r in rows}
-    ranked = sorted(rows, key=lambda r: (_ranked_value(summaries[r["seed"]], name), r["seed"]))
+    # the first objective, then (when no seed is feasible) the least violation, then the seed
+    ranked = sorted(rows, key=lambda r: (_ranked_value(summaries[r["seed"]], name), float(r["violation"]), r["seed"]))
     best_seed = ranked[0]["seed"]
-    for fname in ("best_design.json", "best_design_L.json"):
-        src = seed_dir(study_dir, best_seed) / fname
-        if src.exists():
-            atomic_write_text(study_dir / fname, src.read_text(encoding="utf-8"))
+    for src in sorted(seed_dir(study_dir, best_seed).glob("best_design*.json")):  # _L, _p<K>: what the run wrote
+        atomic_write_text(study_dir / src.name, src.read_text(encoding="utf-8"))
     values = [_ranked_value(summaries[r["seed"]], name) for r in ranked]
     finite = [v for v in values if math.isfinite(v)]
     sign = -1.0 if name in MAXIMIZED else 1.0

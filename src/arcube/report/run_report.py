@@ -113,7 +113,8 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
 def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_known: float | None = None) -> Path:
     """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
 
-    ``anatomy``: an :class:`~arcube.evaluation.anatomy.Anatomy` instead of the run's own, or ``"none"``.
+    ``anatomy``: an :class:`~arcube.evaluation.anatomy.Anatomy` instead of the run's own, or ``"none"``;
+    or a list of those, one per patient.
     ``best_known``: an eta_G drawn as a reference line on the convergence plot.
     Raises :class:`InputError` (one line) when the folder is not a readable run.
     """
@@ -157,12 +158,15 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
     for i in range(n_patients):
         ts = _trajectories(cfg, settings, run / "config.toml", i)
         stem = "report" if i == 0 else f"report_p{i + 1}"
-        own = _run_anatomy(run, settings, i)
-        patient_anatomy = own if anatomy is None else (None if isinstance(anatomy, str) else anatomy)
+        given = anatomy[min(i, len(anatomy) - 1)] if isinstance(anatomy, (list, tuple)) else anatomy
+        patient_anatomy = _run_anatomy(run, settings, i) if given is None else (None if isinstance(given, str) else given)
         sides = [("R", ""), ("L", "_L")] if two_sides else [(None, "")]
+        per_patient = settings.get("docking") == "per-patient" and n_patients > 1
         for side, suffix in sides:
-            path = run / f"best_design_p{i + 1}{suffix}.json"
-            design = Design.from_json(path if path.exists() else run / f"best_design{suffix}.json")
+            path = run / (f"best_design_p{i + 1}{suffix}.json" if per_patient else f"best_design{suffix}.json")
+            if not path.exists():
+                raise InputError(f"{run}: {path.name} is missing (the run's design for patient {i + 1})")
+            design = Design.from_json(path)
             plan = select(ts, side=side) if side else ts
             patient_info = info if i == 0 else {**info, "patient": f"{i + 1} of {n_patients} ({ts.source})"}
             write_evaluation_report(evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
