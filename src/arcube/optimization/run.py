@@ -44,6 +44,7 @@ from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: s
     CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
 )  # fmt: skip
 from arcube.optimization.lean import column
+from arcube.optimization.lock import acquire, release
 from arcube.optimization.objectives import MAXIMIZED
 from arcube.optimization.problem import (
     ArcubeProblem, FitnessModel, anatomy_file, build_model, check_engine, evaluate_with, worker_evaluate, worker_init,
@@ -322,8 +323,18 @@ def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, de
 
 
 # ----------------------------------------------------------------------------- the run loop
-def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool = False, workers: int | None = None,
-            dask: str | None = None, on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, **kwargs: Any) -> dict[str, Any]:
+    """Run (or resume) the optimization described by ``cfg`` in ``run_dir`` holding the folder's lock
+    (:mod:`arcube.optimization.lock`); returns the summary. See :func:`_execute` for the arguments."""
+    lock = acquire(run_dir)
+    try:
+        return _execute(run_dir, cfg, cfg_raw, **kwargs)
+    finally:
+        release(lock)
+
+
+def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool = False, workers: int | None = None,
+             dask: str | None = None, on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
     """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary.
 
     ``on_generation`` gets each new generation's history row plus ``total``, this session's
