@@ -1,18 +1,17 @@
 """The default optimizer, multi-start CMA-ES (arcube.optimization.multistart).
 
 Oracles: cma's own bound transformation (one solution at a time) against the batched one; the
-budget arithmetic; bit-identical results for a seed, after a crash and resume, and whatever
-numpy's global generator holds; a restart happens when a run meets its stop criteria.
+budget arithmetic; bit-identical results for a seed whatever numpy's global generator holds; a
+restart happens when a run meets its stop criteria. Crash and resume: tests/test_optimize.py
+(test_crash_then_resume_equals_uninterrupted, with the other algorithms).
 """
 
 from __future__ import annotations
 
 import csv
-import json
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from arcube.optimization import run as runmod
 from arcube.optimization.config import build_config
@@ -74,29 +73,6 @@ def test_seed_gives_the_same_run_whatever_the_global_generator(tmp_path: Path) -
     assert _rows(tmp_path / "a/history.csv") == _rows(tmp_path / "b/history.csv")
     runmod.start(tmp_path / "c", _config(generations=40, seed=12))
     assert (tmp_path / "c/best_design.json").read_bytes() != (tmp_path / "a/best_design.json").read_bytes()
-
-
-class _Crash(Exception):
-    pass
-
-
-def test_crash_then_resume_equals_uninterrupted(tmp_path: Path) -> None:
-    cfg = _config()
-    ref = runmod.start(tmp_path / "ref", dict(cfg))
-
-    def crash(row: dict) -> None:
-        if row["generation"] == 14:
-            raise _Crash
-
-    with pytest.raises(_Crash):
-        runmod.start(tmp_path / "cut", dict(cfg), on_generation=crash)
-    assert json.loads((tmp_path / "cut/checkpoint/state.json").read_text())["generation"] == 12
-    got = runmod.resume(tmp_path / "cut")
-    assert got is not None and got["resumed"] == 1
-    assert (tmp_path / "cut/best_design.json").read_bytes() == (tmp_path / "ref/best_design.json").read_bytes()
-    assert {k: v for k, v in got.items() if k not in ("wall_s", "eval_s", "resumed")} == {
-        k: v for k, v in ref.items() if k not in ("wall_s", "eval_s", "resumed")}
-    assert _rows(tmp_path / "cut/history.csv") == _rows(tmp_path / "ref/history.csv")
 
 
 def test_runs_restart_and_the_best_is_kept(tmp_path: Path) -> None:

@@ -287,9 +287,10 @@ class _Crash(Exception):
     pass
 
 
-@pytest.mark.parametrize("algorithm", ["ga", "de", "cmaes", "nsga2"])
-def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str) -> None:
-    cfg = _config(algorithm=algorithm, checkpoint_every=4, generations=25)
+@pytest.mark.parametrize(("algorithm", "generations"), [("ga", 25), ("de", 25), ("cmaes", 25), ("nsga2", 25),
+                                                       ("mscmaes", 100)])  # mscmaes: 20 x 100 evaluations = 21 batches
+def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str, generations: int) -> None:
+    cfg = _config(algorithm=algorithm, checkpoint_every=4, generations=generations)
     ref = runmod.start(tmp_path / "ref", dict(cfg))
 
     def crash(row: dict) -> None:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -53,3 +53,27 @@ def loads(encoder_deg: str, thrust: float, lateral_force: float, actuator_stiffn
 def radii(link: float, actuator: float, motor: float, motor_length: float) -> BodyRadii:
     """The body radii of the flags (InputError on a bad value)."""
     return BodyRadii(link, actuator, motor, motor_length)
+
+
+class RichBar:
+    """A Rich progress bar on stderr, shown only on a terminal; subclasses give its columns and fields."""
+
+    def __init__(self, enabled: bool, columns: tuple[Any, ...], **fields: Any) -> None:
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+        console = Console(stderr=True)
+        self.enabled, self.task = enabled and console.is_terminal, None
+        if self.enabled:
+            title, *rest = columns
+            self.progress = Progress(TextColumn(title), MofNCompleteColumn(), BarColumn(), *rest, console=console)
+            self.task = self.progress.add_task(title, **fields)
+
+    def __enter__(self) -> RichBar:
+        if self.enabled:
+            self.progress.__enter__()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.enabled:
+            self.progress.__exit__(*exc)

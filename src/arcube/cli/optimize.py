@@ -14,39 +14,22 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import (
-    ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
+    RichBar, ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
 )  # fmt: skip
 from arcube.errors import InputError
 from arcube.optimization import run as runmod
 
 
-class _Progress:
+class _Progress(RichBar):
     """Rich progress bar on stderr: design evaluations out of the budget, best eta_G, feasible fraction, evaluations/s, ETA."""
 
     def __init__(self, total: int, enabled: bool) -> None:
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+        from rich.progress import TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-        console = Console(stderr=True)
-        self.enabled, self.task, self.first_evals = enabled and console.is_terminal, None, None
-        if not self.enabled:
-            return
-
-        self.progress = Progress(
-            TextColumn("evaluations"), MofNCompleteColumn(), BarColumn(), TextColumn("best η_G {task.fields[best]}"),
-            TextColumn("feasible {task.fields[feas]}"), TextColumn("{task.fields[eps]} eval/s"),
-            TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console,
-        )  # fmt: skip
-        self.task = self.progress.add_task("optimize", total=total, best="-", feas="-", eps="-")
-
-    def __enter__(self) -> _Progress:
-        if self.enabled:
-            self.progress.__enter__()
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.enabled:
-            self.progress.__exit__(*exc)
+        columns = ("evaluations", TextColumn("best η_G {task.fields[best]}"), TextColumn("feasible {task.fields[feas]}"),
+                   TextColumn("{task.fields[eps]} eval/s"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())  # fmt: skip
+        super().__init__(enabled, columns, total=total, best="-", feas="-", eps="-")
+        self.first_evals: int | None = None
 
     def __call__(self, row: dict[str, Any]) -> None:
         if not self.enabled:

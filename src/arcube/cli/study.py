@@ -14,7 +14,7 @@ from typing import Annotated, Any
 
 import typer
 
-from arcube.cli.common import loads
+from arcube.cli.common import RichBar, loads
 from arcube.errors import InputError
 
 STUDY_ONLY = {
@@ -47,28 +47,13 @@ def _num(v: Any) -> str:
     return f"{v:.6g}" if isinstance(v, (int, float)) and math.isfinite(v) else "-"
 
 
-class SeedProgress:
+class SeedProgress(RichBar):
     """Rich progress over seeds on stderr (a seed counts when its run finishes)."""
 
     def __init__(self, total: int, enabled: bool) -> None:
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import TextColumn, TimeElapsedColumn
 
-        console = Console(stderr=True)
-        self.enabled = enabled and console.is_terminal
-        if self.enabled:
-            self.progress = Progress(TextColumn("seeds"), MofNCompleteColumn(), BarColumn(), TextColumn("{task.fields[last]}"),
-                                     TimeElapsedColumn(), console=console)  # fmt: skip
-            self.task = self.progress.add_task("study", total=total, last="")
-
-    def __enter__(self) -> SeedProgress:
-        if self.enabled:
-            self.progress.__enter__()
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.enabled:
-            self.progress.__exit__(*exc)
+        super().__init__(enabled, ("seeds", TextColumn("{task.fields[last]}"), TimeElapsedColumn()), total=total, last="")
 
     def __call__(self, seed: int, summary: dict[str, Any]) -> None:
         if self.enabled:

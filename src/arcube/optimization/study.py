@@ -25,6 +25,7 @@ import io
 import json
 import math
 import os
+import re
 import statistics
 import sys
 import time
@@ -44,7 +45,7 @@ STUDY_VERSION = 1
 MAX_SEEDS = 1000
 """The most seeds one study takes (a typo such as 1-100000 is refused instead of run)."""
 
-__all__ = ["MAX_SEEDS", "is_study", "parse_seeds", "read_study", "resume_study", "seed_dir", "start_study", "study_rows"]
+__all__ = ["MAX_SEEDS", "is_study", "parse_seeds", "read_study", "resume_study", "run_summary", "seed_dir", "start_study", "study_rows"]
 
 
 def parse_seeds(spec: str) -> list[int]:
@@ -88,8 +89,7 @@ def seed_config(base: dict[str, Any], seed: int) -> dict[str, Any]:
     cfg["settings"]["seed"] = int(seed)
     cfg["run_id"] = uuid.uuid4().hex
     if "rerun" in cfg:
-        words = cfg["rerun"].split(" ")
-        cfg["rerun"] = " ".join(str(seed) if i > 0 and words[i - 1] == "--seed" else w for i, w in enumerate(words))
+        cfg["rerun"] = re.sub(r"--seed \d+", f"--seed {int(seed)}", cfg["rerun"])
     return cfg
 
 
@@ -195,7 +195,7 @@ def _run_seed(run_dir: str, parent_pid: int | None = None) -> dict[str, Any]:
     the run stops at its next generation with a checkpoint, as on Ctrl-C, so that no orphan keeps
     writing into a folder that ``arcube resume`` will run again."""
     path = Path(run_dir)
-    alone: list[bool] = []
+    alone: list[bool] = []  # set when the parent is gone
 
     def orphaned(row: dict[str, Any]) -> None:
         if os.getppid() != parent_pid:
@@ -208,7 +208,7 @@ def _run_seed(run_dir: str, parent_pid: int | None = None) -> dict[str, Any]:
         if alone:  # the checkpoint is written and the files closed; the pool's pipes lead nowhere: leave now
             os._exit(1)
         raise
-    return json.loads((path / "summary.json").read_text(encoding="utf-8"))
+    return run_summary(path)
 
 
 def _run(study_dir: Path, seeds: list[int], workers: int, dask: str | None,
@@ -216,7 +216,7 @@ def _run(study_dir: Path, seeds: list[int], workers: int, dask: str | None,
     pending = [s for s in seeds if not runmod.is_finished(seed_dir(study_dir, s))]
     for seed in seeds:
         if seed not in pending and on_seed is not None:
-            on_seed(seed, json.loads((seed_dir(study_dir, seed) / "summary.json").read_text(encoding="utf-8")))
+            on_seed(seed, run_summary(seed_dir(study_dir, seed)))
     if pending and dask:
         _run_dask(study_dir, pending, dask, on_seed)
     elif pending and workers > 1 and len(pending) > 1:
@@ -225,7 +225,7 @@ def _run(study_dir: Path, seeds: list[int], workers: int, dask: str | None,
         for seed in pending:
             runmod.resume(seed_dir(study_dir, seed), workers=1, on_generation=on_generation)
             if on_seed is not None:
-                on_seed(seed, json.loads((seed_dir(study_dir, seed) / "summary.json").read_text(encoding="utf-8")))
+                on_seed(seed, run_summary(seed_dir(study_dir, seed)))
     return finish(study_dir, seeds)
 
 
@@ -274,12 +274,16 @@ def _ranked_value(summary: dict[str, Any], name: str) -> float:
     return -value if name in MAXIMIZED else value
 
 
-def study_rows(study_dir: Path, seeds: list[int]) -> list[dict[str, Any]]:
-    """One row per seed from its run's summary.json: seed, run, feasible, objective_<name>..., eta_G, generations, evaluations, wall_s, eval_s."""
+def run_summary(run_dir: Path) -> dict[str, Any]:
+    """A finished run's summary.json."""
+    return json.loads((Path(run_dir) / "summary.json").read_text(encoding="utf-8"))
+
+
+def study_rows(study_dir: Path, summaries: dict[int, dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per seed from its run's summary: seed, run, feasible, objective_<name>..., eta_G, violation, generations, evaluations, wall_s, eval_s."""
     rows = []
-    for seed in seeds:
+    for seed, s in summaries.items():
         d = seed_dir(study_dir, seed)
-        s = json.loads((d / "summary.json").read_text(encoding="utf-8"))
         names = s.get("objectives") or ["eta_G"]
         row: dict[str, Any] = {"seed": seed, "run": d.name, "feasible": bool(s["feasible"])}
         row |= {f"objective_{n}": summary_value(s, n) for n in names}
@@ -290,7 +294,8 @@ def study_rows(study_dir: Path, seeds: list[int]) -> list[dict[str, Any]]:
 
 def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
     """Write study.csv, best_design.json, convergence.png and summary.json from the finished seeds; returns the summary."""
-    rows = study_rows(study_dir, seeds)
+    summaries = {seed: run_summary(seed_dir(study_dir, seed)) for seed in seeds}
+    rows = study_rows(study_dir, summaries)
     first = next(k for k in rows[0] if k.startswith("objective_"))
     name = first.removeprefix("objective_")
     buf = io.StringIO()
@@ -298,7 +303,6 @@ def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
     w.writeheader()
     w.writerows([{k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
     atomic_write_text(study_dir / "study.csv", buf.getvalue())
-    summaries = {r["seed"]: json.loads((seed_dir(study_dir, r["seed"]) / "summary.json").read_text(encoding="utf-8")) for r in rows}
     # the first objective, then (when no seed is feasible) the least violation, then the seed
     ranked = sorted(rows, key=lambda r: (_ranked_value(summaries[r["seed"]], name), float(r["violation"]), r["seed"]))
     best_seed = ranked[0]["seed"]

@@ -150,7 +150,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
     except InputError as exc:
         info["note: history"] = f"no convergence plot ({exc})"
         history = None
-    two_sides = settings.get("setups") == 2 and (run / "best_design_L.json").exists() or (run / "best_design_p1_L.json").exists()
+    two_sides = settings.get("setups") == 2 and (run / "best_design_L.json").exists()  # per-patient runs write it too
     if two_sides:
         info["note: setups"] = "two placements: this report covers the R trajectories; report_L.html the L ones"
     pareto = run / "pareto.csv"
