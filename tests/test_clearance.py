@@ -232,7 +232,7 @@ def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard) -> None
     if guard:
         # what the optimizer runs: only the guard's decision and shortfall, the same violation; the
         # smallest clearance is then reported as a lower bound (the limit when every point clears it)
-        decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.model_copy(update={"clearance_min_exact": False}),
+        decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False),
                                      want_points=False, anatomy=sdf)  # fmt: skip
         assert abs(float(decide.violation) - float(full.violation)) <= TOL_MM * len(task.E) / 10 + 1e-9
         assert float(decide.reachable_fraction) == pytest.approx(float(full.reachable_fraction), abs=2 / len(task.E))
@@ -249,7 +249,7 @@ def test_self_guard_decision_only_gives_the_same_violation(setup) -> None:
     assert s_min > 0.0
     opts = Options(self_clearance_mm=s_min, **thin)
     full = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts, want_points=True)
-    decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.model_copy(update={"clearance_min_exact": False}), want_points=False)
+    decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False)
     assert 0.0 < float(full.reachable_fraction) < 1.0
     assert float(decide.reachable_fraction) == float(full.reachable_fraction)
     assert float(decide.violation) == pytest.approx(float(full.violation), rel=1e-12)

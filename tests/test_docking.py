@@ -71,8 +71,8 @@ def test_genes_and_decode_per_patient() -> None:
 
 
 def test_one_patient_per_patient_docking_is_the_shared_problem(tmp_path: Path) -> None:
-    a = arcube.optimize("reference", tmp_path / "a", docking="per-patient", free="m_x,m_y,m_z,r", seed=3, **SMALL)
-    b = arcube.optimize("reference", tmp_path / "b", docking="shared", free="m_x,m_y,m_z,r", seed=3, **SMALL)
+    a = arcube.optimize("reference", out=tmp_path / "a", docking="per-patient", free="m_x,m_y,m_z,r", seed=3, **SMALL)
+    b = arcube.optimize("reference", out=tmp_path / "b", docking="shared", free="m_x,m_y,m_z,r", seed=3, **SMALL)
     assert (a.path / "best_design.json").read_bytes() == (b.path / "best_design.json").read_bytes()
     assert not list(a.path.glob("best_design_p*.json"))
 
@@ -112,13 +112,13 @@ def test_per_patient_study_re_evaluates_patient_by_patient(tmp_path: Path, secon
 
 
 def test_shared_docking_keeps_one_placement(tmp_path: Path, second_patient: Path) -> None:
-    run = arcube.optimize(["reference", str(second_patient)], tmp_path / "sh", docking="shared", free="m_x,m_y,m_z,r", seed=2, **SMALL)
+    run = arcube.optimize(["reference", str(second_patient)], out=tmp_path / "sh", docking="shared", free="m_x,m_y,m_z,r", seed=2, **SMALL)
     assert "placements" not in json.loads((run.path / "best_design.json").read_text())
     assert run.designs[0] == run.designs[1] == run.best_design
 
 
 def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patient: Path) -> None:
-    with pytest.raises(InputError, match="--docking must be one of per-patient, shared"):
+    with pytest.raises(InputError, match="RunSettings.docking must be one of per-patient, shared"):
         build_config(["reference", str(second_patient)], docking="each", seed=1, **SMALL)
     out = tmp_path / "run"
     res = subprocess.run([sys.executable, "-m", "arcube", "optimize", "--trajectories", "reference", str(second_patient), "--docking", "both",
@@ -130,7 +130,7 @@ def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patie
 
 def test_per_patient_files_with_two_setups_and_a_missing_design_is_an_error(tmp_path: Path, second_patient: Path) -> None:
     both = {**SMALL, "side": None, "generations": 3}
-    run = arcube.optimize(["reference", str(second_patient)], tmp_path / "two", setups=2, free="m_x,m_y,m_z,r", seed=1, **both)
+    run = arcube.optimize(["reference", str(second_patient)], out=tmp_path / "two", setups=2, free="m_x,m_y,m_z,r", seed=1, **both)
     names = sorted(p.name for p in run.path.glob("best_design*.json"))
     assert names == ["best_design.json", "best_design_L.json", "best_design_p1.json", "best_design_p1_L.json",
                      "best_design_p2.json", "best_design_p2_L.json"]  # fmt: skip

@@ -371,8 +371,8 @@ def test_guard_z_dyad(designs, rng, c_z):
 
 def test_z_dyad_off_by_default_and_guards_off_by_default():
     o = Options()
-    assert (o.z_dyad, o.c_z, o.rho_max_deg, o.min_transmission_deg, o.kappa_max, o.single_assembly_mode) == (False, None, None, None, None, False)
-    g = GUARDED_OPTIONS
+    assert (o.guards.z_dyad, o.guards.c_z, o.guards.rho_max_deg, o.guards.min_transmission_deg, o.guards.kappa_max, o.guards.single_assembly_mode) == (False, None, None, None, None, False)
+    g = GUARDED_OPTIONS.guards
     assert g.z_dyad is False and g.single_assembly_mode is True
     assert (g.rho_max_deg, g.min_transmission_deg, g.kappa_max) == (75.0, 20.0, 100.0)
     with pytest.raises(Exception):

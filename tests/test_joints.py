@@ -70,7 +70,7 @@ def test_thrust_torques_balance_the_power_of_drilling():
     the rates come from the velocity model's inverse (B^-1 A), the torques from J_E^T: independent."""
     ts = select(load_trajectories("reference"), side="R")
     task = build_task(ts.entry, ts.target, 8, ids=ts.ids)
-    opts = Options().model_copy(update={"thrust_N": 25.0, "lateral_force_N": 0.0})
+    opts = Options().replace(thrust_N=25.0, lateral_force_N=0.0)
     jt = joint_trajectory(PLACED, task, SPEED, options=opts)
     r = jt.reachable
     assert r.any()

@@ -16,12 +16,15 @@ Nodes are the modules of ``src/arcube`` (a package is its ``__init__``). An edge
   module reaching for an ancestor that is still initialising only fails if it uses a *name*
   from it, and that is an explicit ``from ancestor import name`` edge, which is counted.
 
-Cycle rule. Only **module-level** imports (those that run when the module is imported,
-including inside ``if``/``try``/class bodies) form the graph for the cycle check. Imports
-inside functions run at call time, after every module is initialised; the library uses them
-deliberately to defer heavy dependencies (plotly, trimesh, the compiled kernel), so they
-cannot deadlock an import and are left out. With the edges above, every strongly connected
-component of more than one module is a real cycle:
+Cycle rule. **Every** import counts: module-level ones (those that run when the module is
+imported, including inside ``if``/``try``/class bodies) and function-level ones alike. An import
+inside a function runs at call time, after every module is initialised, so it cannot deadlock an
+import; the library uses them to defer heavy dependencies (plotly, trimesh, the compiled kernel).
+But a deferred import is still a dependency: a loop closed through one means the lower module
+knows the upper one (``Evaluation.write_report`` importing the HTML renderer, which imports
+``Evaluation`` back), so it is reported too. Only imports under ``if TYPE_CHECKING:`` are left
+out. With the edges above, every strongly connected component of more than one module is a
+dependency cycle:
 
 * a package ``__init__`` importing its own submodules (parent -> child) is fine on its own;
 * a child importing a name from its parent ``__init__`` (child -> parent) is fine on its own
@@ -30,7 +33,10 @@ component of more than one module is a real cycle:
   depends on which module is imported first, and is reported.
 
 The same graph collapsed to the top-level packages (``arcube.model``, ``arcube.evaluation``,
-...) must also be acyclic: the library is a stack of layers.
+...) must also be acyclic: the library is a stack of layers. The pipeline runs model / io ->
+evaluation -> optimization -> report, with ``arcube.api`` and ``arcube.cli`` on top, so the lower
+layers (:data:`LOWER_LAYERS`) never import the report, the API or the CLI, not even inside a
+function (:data:`UPPER_LAYERS`).
 """
 
 from __future__ import annotations
@@ -54,6 +60,11 @@ LONG_REASON = "Long module:"
 
 CLI_ALLOWED_PREFIXES = ("arcube.cli",)
 CLI_ALLOWED_MODULES = {"arcube.__main__"}
+
+LOWER_LAYERS = ("arcube.model", "arcube.io", "arcube.evaluation", "arcube.optimization", "arcube.errors", "arcube.options", "arcube.patients")
+"""Packages (and modules) below the report: they compute and write data, and never draw or parse flags."""
+UPPER_LAYERS = ("arcube.report", "arcube.cli", "arcube.api")
+"""What the lower layers must not import; nor the root ``arcube`` itself, whose ``__init__`` imports the API."""
 
 
 # ----------------------------------------------------------------------------- the graph
@@ -161,6 +172,24 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
     return out
 
 
+def merged(*graphs: dict[str, set[str]]) -> dict[str, set[str]]:
+    """The union of edge sets, e.g. module-level and function-level imports."""
+    out: dict[str, set[str]] = {}
+    for g in graphs:
+        for m, ts in g.items():
+            out.setdefault(m, set()).update(ts)
+    return out
+
+
+def _within(module: str, prefixes: tuple[str, ...]) -> bool:
+    return any(module == p or module.startswith(p + ".") for p in prefixes)
+
+
+def upward_imports(graph: dict[str, set[str]], lower: tuple[str, ...], upper: tuple[str, ...], root: str) -> list[str]:
+    """``"A -> B"`` for every edge from a module of ``lower`` to one of ``upper`` or to the ``root`` package."""
+    return sorted(f"{m} -> {t}" for m, ts in graph.items() if _within(m, lower) for t in ts if t == root or _within(t, upper))
+
+
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     """Strongly connected components of more than one node, or a node importing itself."""
     return [c for c in strongly_connected(graph) if len(c) > 1 or c[0] in graph.get(c[0], ())]
@@ -213,7 +242,7 @@ def test_cycle_rule_on_a_made_up_package(tmp_path: Path) -> None:
             "pkg/sib/a.py": "from ..sib import b\n",
             "pkg/sib/b.py": "import pkg.sib.c\n",
             "pkg/sib/c.py": "from .a import x\n",
-            # a loop closed only inside a function, or only for type checkers: not a cycle.
+            # a loop closed only inside a function: a cycle of the full graph; only for type checkers: none.
             "pkg/lazy/__init__.py": "",
             "pkg/lazy/p.py": "from pkg.lazy.q import y\nx = 1\n",
             "pkg/lazy/q.py": "y = 2\ndef f():\n    from pkg.lazy.p import x\n    return x\n",
@@ -229,6 +258,31 @@ def test_cycle_rule_on_a_made_up_package(tmp_path: Path) -> None:
     assert lazy["pkg.lazy.q"] == {"pkg.lazy.p"} and eager["pkg.lazy.q"] == set()
     assert eager["pkg.tc.q"] == set() and lazy["pkg.tc.q"] == set()
     assert cycles({m: eager[m] | lazy[m] for m in modules}) == sorted(cycles(eager) + [["pkg.lazy.p", "pkg.lazy.q"]])
+    assert cycles(merged(eager, lazy)) == sorted(cycles(eager) + [["pkg.lazy.p", "pkg.lazy.q"]])
+
+
+def test_layer_rule_on_a_made_up_package(tmp_path: Path) -> None:
+    """A lower layer importing an upper one is caught at module level and inside a function, through
+    a relative import and through the root package; under ``TYPE_CHECKING`` it is not."""
+    _write_package(
+        tmp_path,
+        {
+            "pkg/__init__.py": "from pkg.top.api import run\n",
+            "pkg/top/__init__.py": "",
+            "pkg/top/api.py": "from pkg.low.core import f\ndef run():\n    return f()\n",
+            "pkg/top/draw.py": "from pkg.low import core\n",
+            "pkg/low/__init__.py": "",
+            "pkg/low/core.py": "def f():\n    from pkg.top.draw import core\n    return core\n",
+            "pkg/low/eager.py": "from ..top import api\n",
+            "pkg/low/root.py": "def g():\n    from pkg import run\n    return run\n",
+            "pkg/low/typed.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from pkg.top.draw import core\n",
+            "pkg/low/fine.py": "from pkg.low.core import f\n",
+        },
+    )
+    eager, lazy, _ = import_graph(tmp_path, "pkg")
+    assert upward_imports(merged(eager, lazy), ("pkg.low",), ("pkg.top",), "pkg") == [
+        "pkg.low.core -> pkg.top.draw", "pkg.low.eager -> pkg.top.api", "pkg.low.root -> pkg"]
+    assert upward_imports(eager, ("pkg.low",), ("pkg.top",), "pkg") == ["pkg.low.eager -> pkg.top.api"]
 
 
 # ----------------------------------------------------------------------------- the library
@@ -250,15 +304,25 @@ def test_every_arcube_import_names_an_existing_module(graph) -> None:
 
 
 def test_no_import_cycles_between_modules(graph) -> None:
-    eager, _, _ = graph
-    found = cycles(eager)
-    assert not found, "module-level import cycles (strongly connected components): " + "; ".join(" <-> ".join(c) for c in found)
+    """No dependency cycle, function-level imports included (``TYPE_CHECKING`` ones excluded)."""
+    eager, lazy, _ = graph
+    found = cycles(merged(eager, lazy))
+    assert not found, "import cycles, deferred imports included (strongly connected components): " + "; ".join(" <-> ".join(c) for c in found)
 
 
 def test_top_level_packages_form_layers(graph) -> None:
-    eager, _, _ = graph
-    found = cycles(package_graph(eager))
-    assert not found, f"cycles between arcube's top-level packages: {found}"
+    eager, lazy, _ = graph
+    found = cycles(package_graph(merged(eager, lazy)))
+    assert not found, f"cycles between arcube's top-level packages (deferred imports included): {found}"
+
+
+def test_lower_layers_never_import_the_report_api_or_cli(graph) -> None:
+    """model, io, evaluation, optimization (and errors, options, patients) never import arcube.report,
+    arcube.api, arcube.cli or the root package, even inside a function: a result does not know its renderer."""
+    eager, lazy, modules = graph
+    assert any(_within(m, ("arcube.optimization",)) for m in modules) and any(_within(m, ("arcube.report",)) for m in modules)
+    offenders = upward_imports(merged(eager, lazy), LOWER_LAYERS, UPPER_LAYERS, "arcube")
+    assert not offenders, f"lower layers importing the report, the API or the CLI: {offenders}"
 
 
 def test_library_never_imports_the_cli(graph) -> None:

@@ -279,12 +279,12 @@ def test_cli_cohort_folder(cli, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--out", "x.csv"], "exactly one of --mean or --seed"),
-    (["--mean", "--seed", "1", "--out", "x.csv"], "exactly one of --mean or --seed"),
-    (["--seed", "1", "--technique", "screw", "--out", "x.csv"], "--technique 'screw'"),
-    (["--seed", "1", "--count", "0", "--out", "x.csv"], "--count 0"),
-    (["--mean", "--count", "2", "--out", "d"], "--count > 1 with --mean"),
-    (["--seed", "-3", "--out", "x.csv"], "--seed -3"),
+    (["--out", "x.csv"], "give exactly one of seed and mean"),
+    (["--mean", "--seed", "1", "--out", "x.csv"], "excludes seed: give exactly one of them"),
+    (["--seed", "1", "--technique", "screw", "--out", "x.csv"], "technique 'screw'"),
+    (["--seed", "1", "--count", "0", "--out", "x.csv"], "count 0"),
+    (["--mean", "--count", "2", "--out", "d"], "count 2 with mean"),
+    (["--seed", "-3", "--out", "x.csv"], "seed -3"),
     (["--seed", "1", "--out", "x.json"], "must not end in .json"),
 ])
 def test_cli_errors_raise_input_error(cli, tmp_path: Path, monkeypatch, args, needle) -> None:

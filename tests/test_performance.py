@@ -310,20 +310,20 @@ def test_batch_equals_loop_and_unreachable_points_give_nan():
 @pytest.mark.parametrize(
     ("kwargs", "name"),
     [
-        ({"encoder_deg": 0.0}, "--encoder-deg"),
-        ({"encoder_deg": -0.01}, "--encoder-deg"),
-        ({"encoder_deg": float("nan")}, "--encoder-deg"),
-        ({"encoder_deg": [0.01] * 4}, "--encoder-deg"),
-        ({"encoder_deg": "fine"}, "--encoder-deg"),
-        ({"thrust_N": -1.0}, "--thrust"),
-        ({"thrust_N": float("nan")}, "--thrust"),
-        ({"thrust_N": float("inf")}, "--thrust"),
-        ({"thrust_N": [30.0, 30.0]}, "--thrust"),
-        ({"lateral_N": -0.5}, "--lateral-force"),
-        ({"lateral_N": float("nan")}, "--lateral-force"),
-        ({"stiffness_Nm_per_rad": 0.0}, "--actuator-stiffness"),
-        ({"stiffness_Nm_per_rad": [1e4] * 3}, "--actuator-stiffness"),
-        ({"stiffness_Nm_per_rad": [1e4, 1e4, float("inf"), 1e4, 1e4]}, "--actuator-stiffness"),
+        ({"encoder_deg": 0.0}, "encoder_deg"),
+        ({"encoder_deg": -0.01}, "encoder_deg"),
+        ({"encoder_deg": float("nan")}, "encoder_deg"),
+        ({"encoder_deg": [0.01] * 4}, "encoder_deg"),
+        ({"encoder_deg": "fine"}, "encoder_deg"),
+        ({"thrust_N": -1.0}, "thrust_N"),
+        ({"thrust_N": float("nan")}, "thrust_N"),
+        ({"thrust_N": float("inf")}, "thrust_N"),
+        ({"thrust_N": [30.0, 30.0]}, "thrust_N"),
+        ({"lateral_N": -0.5}, "lateral_N"),
+        ({"lateral_N": float("nan")}, "lateral_N"),
+        ({"stiffness_Nm_per_rad": 0.0}, "stiffness_Nm_per_rad"),
+        ({"stiffness_Nm_per_rad": [1e4] * 3}, "stiffness_Nm_per_rad"),
+        ({"stiffness_Nm_per_rad": [1e4, 1e4, float("inf"), 1e4, 1e4]}, "stiffness_Nm_per_rad"),
     ],
 )
 def test_bad_parameters_raise_input_error_naming_them(kwargs, name):
@@ -331,6 +331,7 @@ def test_bad_parameters_raise_input_error_naming_them(kwargs, name):
     with pytest.raises(InputError, match=name) as info:
         tip_metrics(J, J, [0.0, 0.0, 1.0], **kwargs)
     assert "\n" not in str(info.value)
+    assert info.value.param == name and str(info.value).startswith(f"{name} ")
 
 
 def test_zero_forces_are_allowed():

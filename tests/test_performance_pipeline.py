@@ -21,7 +21,8 @@ from test_mounting import _reaching_design, _task  # noqa: E402
 
 from arcube.evaluation.kernel import evaluate_task_numba  # noqa: E402
 from arcube.evaluation.performance import ACTUATOR_NAMES, PERFORMANCE_FIELDS  # noqa: E402
-from arcube.evaluation.reference import Options, evaluate_task, with_loads  # noqa: E402
+from arcube.evaluation.reference import Options, evaluate_task  # noqa: E402
+from arcube.options import Loads  # noqa: E402
 from arcube.model.design import Design  # noqa: E402
 from arcube.model.mechanism import ALL_MODES  # noqa: E402
 
@@ -34,8 +35,8 @@ def test_kernel_equals_reference(mount, L) -> None:
     task = _task()
     x = _reaching_design(mount, L, n=300)
     X = np.stack([x, x * np.r_[np.ones(23), 1.0, 1.0, 1.0, 0.95]])
-    opts = with_loads(Options(), encoder_deg=[0.01, 0.02, 0.01, 0.005, 0.01], thrust=25.0, lateral_force=12.0,
-                      stiffness=[1e4, 2e4, 1e4, 5e3, 5e3])  # fmt: skip
+    opts = Options(loads=Loads(encoder_deg=[0.01, 0.02, 0.01, 0.005, 0.01], thrust_N=25.0, lateral_force_N=12.0,
+                               actuator_stiffness=[1e4, 2e4, 1e4, 5e3, 5e3]))  # fmt: skip
     E = np.concatenate([task.E, task.E[:5] + 400.0])  # and five points out of reach
     e = np.concatenate([task.e, task.e[:5]])
     ref = evaluate_task(X, E, e, ALL_MODES[0], opts)
@@ -61,7 +62,7 @@ def test_loads_scale_as_the_model_says() -> None:
     x = _reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
     base = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options())
     other = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0],
-                                with_loads(Options(), encoder_deg=0.03, thrust=60.0, lateral_force=20.0, stiffness=2e4))  # fmt: skip
+                                Options(loads=Loads(encoder_deg=0.03, thrust_N=60.0, lateral_force_N=20.0, actuator_stiffness=2e4)))  # fmt: skip
     r = base.points.reachable
     for name, factor in [("tip_error_mm", 3), ("lateral_error_mm", 3), ("axis_error_deg", 3), ("torque_Nm", 2), ("deflection_mm", 1)]:
         np.testing.assert_allclose(getattr(other.points, name)[r], factor * getattr(base.points, name)[r], rtol=1e-12, err_msg=name)

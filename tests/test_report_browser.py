@@ -19,6 +19,7 @@ from conftest import PAPER
 
 from arcube.model.design import Design
 from arcube.api import evaluate
+from arcube.report import write_report
 from arcube.report.html import DIV_IDS, TITLES
 from arcube.report.run_report import write_run_report
 from arcube.io import load_trajectories, select
@@ -170,7 +171,7 @@ def test_evaluation_report_with_unreachable_points(driver, tmp_path):
     report = evaluate(str(design), "reference", points=8, engine="numpy")  # the left side is unreachable
     n_ok = int(report.results.points.reachable.sum())
     assert 0 < n_ok < len(report.task)
-    html = report.write_report(tmp_path / "eval.html")
+    html = write_report(report, tmp_path / "eval.html")
     assert (tmp_path / "eval_dexterity.png").exists() and not (tmp_path / "eval_convergence.png").exists()
     _self_contained(html.read_text())
     _open(driver, html)
@@ -198,7 +199,7 @@ def test_evaluation_report_draws_the_anatomy_and_the_clearance(driver, tmp_path)
     design = tmp_path / "design.json"
     Design.from_dict(PLACED).to_json(design)
     report = evaluate(str(design), "reference", points=6, side="R", anatomy="default")
-    html = report.write_report(tmp_path / "anat.html")
+    html = write_report(report, tmp_path / "anat.html")
     _open(driver, html)
     plots = _plots(driver)
     assert "anatomy" in plots[DIV_IDS["scene"]]["names"]

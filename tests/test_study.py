@@ -64,7 +64,7 @@ def test_parse_seeds_refuses(spec: str) -> None:
 
 def test_study_seeds_are_ordinary_runs_and_the_summary_is_their_statistics(tmp_path: Path) -> None:
     st = arcube.study("reference", tmp_path / "st", seeds="1-3", **SETTINGS)
-    single = arcube.optimize("reference", tmp_path / "one", seed=2, **SETTINGS)
+    single = arcube.optimize("reference", out=tmp_path / "one", seed=2, **SETTINGS)
     assert (tmp_path / "st/seed_2/best_design.json").read_bytes() == (single.path / "best_design.json").read_bytes()
     etas = {s: json.loads((tmp_path / f"st/seed_{s}/summary.json").read_text())["eta_G"] for s in (1, 2, 3)}
     assert all(v is not None for v in etas.values()), etas  # these settings reach every point within 12 generations
@@ -225,7 +225,7 @@ def test_best_known_line_on_the_convergence_plots(tmp_path: Path) -> None:
     from arcube.report.figures import read_history
     from arcube.report.html import convergence_figure
 
-    run = arcube.optimize("reference", tmp_path / "run", seed=1, **SETTINGS)
+    run = arcube.optimize("reference", out=tmp_path / "run", seed=1, **SETTINGS)
     history = read_history(run.path / "history.csv")
     lines = [t for t in convergence_figure(history, 1.25).data if t.name == "best known 1.25"]
     assert len(lines) == 1 and list(lines[0].y) == [1.25, 1.25] and list(lines[0].x) == [history.generation[0], history.generation[-1]]

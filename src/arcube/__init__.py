@@ -15,17 +15,20 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-from arcube.api import Run, Study, evaluate, optimize, resume, study
+from arcube.api import OptimizeResult, Run, Study, evaluate, optimize, resume, study
 from arcube.errors import InputError
-from arcube.evaluation.reference import GUARDED_OPTIONS, Options
+from arcube.optimization.settings import RunSettings
+from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Options, Outputs
 from arcube.evaluation.result import Evaluation
 from arcube.export.mjcf import export_mjcf
 from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.patients import generate_patient
+from arcube.report import write_report
 
 __all__ = [
-    "GUARDED_OPTIONS", "PARAM_NAMES", "Design", "Evaluation", "InputError", "Options", "Run", "Study", "TrajectorySet",
+    "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
+    "Outputs", "Run", "RunSettings", "Study", "TrajectorySet",
     "__version__", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select", "study",
-    "write_csv", "write_markups",
+    "write_csv", "write_markups", "write_report",
 ]  # fmt: skip

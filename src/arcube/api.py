@@ -4,20 +4,21 @@
 import arcube
 design = arcube.Design.paper()                       # or arcube.Design.load("best_design.json")
 plan = arcube.load_trajectories("reference")         # CSV, Slicer markups, a folder
-ev = arcube.evaluate(design, plan, points=30, mode="+,+,+,+", guards=False)
+ev = arcube.evaluate(design, plan, points=30, mode=(1, 1, 1, 1), guards=False)
 ev.summary["eta_G"], ev.points.dexterity_pct
-run = arcube.optimize(plan, out="run", population=40, generations=5, seed=1)
-run.best_design, run.history, run.pareto
+result = arcube.optimize(plan, arcube.RunSettings(population=40, generations=5, seed=1))   # in memory
+result.best_design, result.summary["eta_G"], result.history
+run = arcube.optimize(plan, arcube.RunSettings(population=40, generations=5, seed=1), out="run")  # a run folder
 ```
 
-Every function raises :class:`arcube.InputError` with the one-line message the CLI prints.
+Every function raises :class:`arcube.InputError` with a one-line message that names the argument
+or setting as written here (the CLI replaces it with its flag).
 """
 
 from __future__ import annotations
 
 import csv
 import json
-import math
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -29,16 +30,18 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import resolve
-from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body, with_loads
-from arcube.evaluation.result import Evaluation, evaluate_design, load_trajectory_set, parse_mode_option
+from arcube.evaluation.result import Evaluation, evaluate_design, load_trajectory_set
 from arcube.io.trajectories import TrajectorySet, select
 from arcube.model.body import BodyRadii
 from arcube.model.design import Design
+from arcube.model.mechanism import format_mode, parse_mode
+from arcube.optimization.settings import RunSettings
+from arcube.options import GUARDED_OPTIONS, Options
 
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
 
-__all__ = ["Run", "evaluate", "optimize", "resume"]
+__all__ = ["OptimizeResult", "Run", "Study", "evaluate", "optimize", "resume", "study"]
 
 PathLike = str | os.PathLike[str]
 
@@ -47,17 +50,31 @@ def _design(design: Design | PathLike) -> Design:
     return design if isinstance(design, Design) else Design.load(os.fspath(design))
 
 
+def _signs(mode: str | Sequence[float]) -> np.ndarray:
+    """A working mode as text (``"+,+,-,+"``) or four signs (``(1, 1, -1, 1)``) -> signs ``(4,)``."""
+    try:
+        return parse_mode(mode if isinstance(mode, str) else format_mode(mode) if len(list(mode)) == 4 else repr(mode))
+    except (TypeError, ValueError) as exc:
+        raise InputError.of("mode", f"{exc}") from None
+
+
+def _points(points: Any) -> int:
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
+        raise InputError.of("points", f"must be an integer >= 2 (both ends of a trajectory), got {points!r}")
+    return int(points)
+
+
 def evaluate(
     design: Design | PathLike = "paper",
     plan: TrajectorySet | PathLike = "reference",
     *,
     points: int = 30,
-    mode: str = "+,+,+,+",
+    mode: str | Sequence[float] = "+,+,+,+",
     guards: bool = False,
     options: Options | None = None,
     side: str | None = None,
-    levels: str | None = None,
-    ids: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[str] | None = None,
     transform: PathLike | None = None,
     engine: str = "auto",
     anatomy: Anatomy | Sequence[PathLike] | PathLike | None = None,
@@ -65,10 +82,10 @@ def evaluate(
     clearance: float | None = None,
     self_clearance: float | None = None,
     radii: BodyRadii | None = None,
-    encoder_deg: float | list[float] | None = None,
+    encoder_deg: float | Sequence[float] | None = None,
     thrust: float | None = None,
     lateral_force: float | None = None,
-    actuator_stiffness: float | list[float] | None = None,
+    actuator_stiffness: float | Sequence[float] | None = None,
 ) -> Evaluation:
     """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers, dexterity.
 
@@ -77,44 +94,49 @@ def evaluate(
         plan: a :class:`TrajectorySet` or what :func:`arcube.load_trajectories` reads
             (CSV, Slicer ``.mrk.json`` file or folder, ``"reference"``).
         points: N samples per trajectory (>= 2), both ends included.
-        mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y (``"+,+,-,+"``).
+        mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``.
         guards: turn on the guards of MODEL.md 8.2 (all but the z dyad); ignored when ``options`` is given.
-        options: explicit :class:`Options` (guards, z-dyad check).
-        side, levels, ids: keep only some trajectories (``"R"``, ``"C3-C5"``, ``"1,3"``).
+        options: explicit :class:`arcube.Options` (guards, body, loads); the keywords below change it.
+        side, levels, ids: keep only some trajectories (``"R"``, ``"C3-C5"`` or ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``).
         transform: a JSON 4x4 rigid transform from the file's frame to the patient frame (file plans only).
         engine: ``auto`` (compiled kernel when available), ``numba`` or ``numpy`` (the reference).
         anatomy: an :class:`~arcube.evaluation.anatomy.Anatomy`, ``"default"`` (the plan's default
             anatomy, MODEL.md 14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
             patient), or None: then no clearance to the anatomy is computed.
-        clearance, self_clearance: turn on the guards ``clearance >= MM`` (``collision/patient``)
-            and ``self_clearance >= MM`` (``collision/self``) of MODEL.md 14.3.
+        clearance, self_clearance: the guards ``clearance >= MM`` (``collision/patient``) and
+            ``self_clearance >= MM`` (``collision/self``) of MODEL.md 14.3 (``Guards.clearance_mm``, ...).
         radii: the body radii of MODEL.md 14.1 (default 8 / 25 / 20 mm, motor 120 mm long).
         encoder_deg, thrust, lateral_force, actuator_stiffness: the parameters of the tip metrics of MODEL.md 15
             (deg, N, N, N·m/rad; encoder and stiffness one value or five); None keeps ``options``'s
             (defaults 0.01 deg, 30 N, 10 N, 1e4 N·m/rad).
 
     Returns:
-        An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``, ``.write_report()``).
+        An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``).
     """
-    signs = parse_mode_option(mode)
+    signs = _signs(mode)
     try:
         engine_name = resolve(engine)
     except ValueError as exc:
-        raise InputError(f"--engine: {exc}") from None
+        raise InputError.of("engine", str(exc)) from None
+    n = _points(points)
     d = _design(design)
+    levels_text = levels if levels is None or isinstance(levels, str) else ",".join(levels)
+    ids_text = ids if ids is None or isinstance(ids, str) else ",".join(str(i) for i in ids)
     if isinstance(plan, TrajectorySet):
-        if points < 2:
-            raise InputError(f"--points must be at least 2 (both ends of a trajectory), got {points}")
-        ts = select(plan, side=side, levels=levels, ids=ids) if (side or levels or ids) else plan
+        ts = select(plan, side=side, levels=levels_text, ids=ids_text) if (side or levels_text or ids_text) else plan
     else:
-        ts = load_trajectory_set(os.fspath(plan), points, side, levels, ids, None if transform is None else Path(transform))
-    opts = with_body(options if options is not None else (GUARDED_OPTIONS if guards else Options()),
-                        clearance=clearance, self_clearance=self_clearance, radii=radii, body=True)
-    opts = with_loads(opts, encoder_deg=encoder_deg, thrust=thrust, lateral_force=lateral_force, stiffness=actuator_stiffness)
+        ts = load_trajectory_set(os.fspath(plan), n, side, levels_text, ids_text, None if transform is None else Path(transform))
+    base = options if options is not None else (GUARDED_OPTIONS if guards else Options())
+    changes: dict[str, Any] = {"clearance_mm": clearance, "self_clearance_mm": self_clearance, "encoder_deg": encoder_deg,
+                               "thrust_N": thrust, "lateral_force_N": lateral_force, "actuator_stiffness": actuator_stiffness}  # fmt: skip
+    if radii is not None:
+        changes.update(link_radius=radii.link, actuator_radius=radii.actuator, motor_radius=radii.motor, motor_length=radii.motor_length)
+    opts = base.replace(**{k: v for k, v in changes.items() if v is not None})
+    opts = opts.replace(outputs=opts.outputs.replace(clearances=True))
     anat = resolve_anatomy(anatomy, anatomy_frame, plan)
-    if opts.clearance_mm is not None and anat is None:
-        raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")
-    return evaluate_design(d, ts, points, signs, opts, engine_name, anatomy=anat)
+    if opts.guards.clearance_mm is not None and anat is None:
+        raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
+    return evaluate_design(d, ts, n, signs, opts, engine_name, anatomy=anat)
 
 
 @dataclass(frozen=True)
@@ -201,47 +223,126 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
+@dataclass(frozen=True)
+class OptimizeResult:
+    """An optimization run held in memory (what :func:`optimize` returns without ``out``): the same
+    summary, designs, history and front a run folder's files hold."""
+
+    summary: dict[str, Any]
+    """What ``summary.json`` holds (``files`` empty)."""
+    designs: list[Design]
+    """The best design of each slot (one per setup, and per patient with per-patient docking)."""
+    history: dict[str, np.ndarray]
+    """One row per generation, as columns (``history.csv``'s)."""
+    pareto: dict[str, np.ndarray] | None
+    """The feasible front (multi-objective runs, ``pareto.csv``'s columns), else None."""
+    config: dict[str, Any]
+    """What ``config.toml`` would hold."""
+
+    @property
+    def best_design(self) -> Design:
+        """The best design found (the first slot's: patient 1, right side)."""
+        return self.designs[0]
+
+
+def _plans(plan: Any) -> list[Any]:
+    plans = list(plan) if isinstance(plan, (list, tuple)) else [plan]
+    return [p if isinstance(p, TrajectorySet) else os.fspath(p) for p in plans]
+
+
+def _settings(settings: Any, fields: dict[str, Any], what: str) -> RunSettings:
+    from arcube.optimization.config import run_settings
+
+    if settings is not None and not isinstance(settings, RunSettings):
+        raise InputError.of("settings", f"must be an arcube.RunSettings (give the {what} folder as out=...), got {type(settings).__name__}")
+    return run_settings(settings, **fields)
+
+
 def optimize(
     plan: TrajectorySet | PathLike | Sequence[TrajectorySet | PathLike] = "reference",
+    settings: RunSettings | None = None,
     out: PathLike | None = None,
     *,
     progress: Callable[[dict[str, Any]], None] | None = None,
     workers: int = 1,
     dask: str | None = None,
-    **settings: Any,
-) -> Run:
+    **fields: Any,
+) -> Any:
     """Optimize the design (MODEL.md 12): minimize eta_G subject to every point reachable.
 
     Args:
         plan: one plan or several (a robust problem over patients); each a :class:`TrajectorySet`
             or what :func:`arcube.load_trajectories` reads.
-        out: the run folder to create (must be absent or empty).
+        settings: a :class:`arcube.RunSettings` (algorithm, budget, seed, free parameters, bounds,
+            objectives, limits, docking, options); None: the defaults.
+        out: the run folder to create (must be absent or empty); None runs in memory and writes nothing.
         progress: called with each generation's history row.
         workers, dask: evaluate each population over local processes or a dask.distributed scheduler.
-        **settings: the flags of ``arcube optimize`` as keywords: ``algorithm`` (ga, de, cmaes, nsga2),
-            ``population``, ``generations``, ``tolerance``, ``points``, ``mode``, ``setups``, ``guards``,
-            ``margin``, ``seed``, ``free``, ``design_from``, ``side``, ``levels``, ``ids``, ``engine``,
-            ``aggregate``, ``compactness``, ``bounds``, ``checkpoint_every``, ``transform``,
-            ``eliminate_duplicates``; ``objectives`` (``"eta_G,lateral_error"``, names of
-            :data:`arcube.optimization.objectives.OBJECTIVES`), ``maxima`` / ``minima`` (``["torque=15"]``),
-            ``encoder_deg``, ``thrust``, ``lateral_force``, ``actuator_stiffness`` (MODEL.md 15);
-            ``docking`` (``"per-patient"``, the default, or ``"shared"``) for several plans.
+        **fields: changes to ``settings`` by field name (``population=40``, ``free=["all", "L"]``);
+            the flat option names ``clearance``, ``thrust``, ``link_radius``, ... are accepted.
 
     Returns:
-        The finished :class:`Run`.
+        The finished :class:`Run` (with ``out``) or an :class:`OptimizeResult` (in memory).
     """
     from arcube.optimization import run as runmod
     from arcube.optimization.config import build_config
 
+    s = _settings(settings, fields, "run")
+    specs = _plans(plan)
+    cfg = build_config(specs, s, workers=workers, dask=dask)
     if out is None:
-        raise InputError("--out DIR is required (the run folder)")
-    plans = list(plan) if isinstance(plan, (list, tuple)) else [plan]
-    specs = [p if isinstance(p, TrajectorySet) else os.fspath(p) for p in plans]
-    cfg = build_config(specs, workers=workers, dask=dask, **settings)
+        return _optimize_in_memory(cfg, specs, progress)
     run_dir = Path(out)
     runmod.check_new_folder(run_dir)
     runmod.start(run_dir, cfg, on_generation=progress)
     return Run(run_dir)
+
+
+def _optimize_in_memory(cfg: dict[str, Any], specs: list[Any], progress: Callable[[dict[str, Any]], None] | None) -> OptimizeResult:
+    """Run ``cfg`` with nothing written: the same designs and summary as a run folder's."""
+    import time
+
+    from arcube.optimization.algorithms import stop_reason
+    from arcube.optimization.loop import HISTORY_COLUMNS, describe, run_algorithm
+    from arcube.optimization.problem import build_model, stl_roundtrip
+    from arcube.optimization.run import make_executor
+
+    s = RunSettings.from_table(cfg["settings"])
+    anatomies = tuple(stl_roundtrip(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec)) for spec in specs) if s.anatomy else ()
+    for p, spec in zip(cfg["patients"], specs):
+        if s.anatomy:
+            p["anatomy_source"] = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec).source
+    model = build_model(cfg, anatomies=anatomies)
+    ex = cfg["executor"]
+    executor = make_executor(model, int(ex.get("workers", 1)), ex.get("dask") or None)
+    rows: list[dict[str, Any]] = []
+    t0 = time.perf_counter()
+    eval_s = 0.0
+
+    def batch(X: np.ndarray) -> dict[str, np.ndarray]:
+        nonlocal eval_s
+        t = time.perf_counter()
+        try:
+            return executor(X)
+        finally:
+            eval_s += time.perf_counter() - t
+
+    def generation(loop: Any, row: dict[str, Any]) -> None:
+        rows.append({**row, "seconds": time.perf_counter() - t0})
+        if progress is not None:
+            progress({**rows[-1], "total": s.generations, "total_evaluations": s.population * s.generations, "eval_s": eval_s,
+                      "optimizer_s": loop.algorithm_s - eval_s, "session_s": time.perf_counter() - t0})  # fmt: skip
+
+    try:
+        loop = run_algorithm(model, s, batch, on_generation=generation)
+    finally:
+        executor.close()
+    info = {"generations": loop.generation, "evaluations": int(loop.algorithm.evaluator.n_eval), "wall_s": time.perf_counter() - t0,
+            "eval_s": eval_s, "stopped_by": stop_reason(loop.termination), "resumed": 0}  # fmt: skip
+    summary, designs, front = describe(cfg, model, loop.algorithm, info)
+    history = {c: np.array([float(r[c]) for r in rows]) for c in HISTORY_COLUMNS}
+    pareto = None if front is None else {k: np.array([r.get(k) for r in front]) for k in (front[0] if front else {})}
+    return OptimizeResult(summary, [Design.from_vector(d) for d in designs], history, pareto, cfg)
 
 
 def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
@@ -314,12 +415,13 @@ def study(
     best_known: float | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
     on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-    **settings: Any,
+    settings: RunSettings | None = None,
+    **fields: Any,
 ) -> Study:
     """Run the same optimization once per seed and compare: how much does the optimum depend on luck?
 
     Args:
-        plan, settings: as :func:`optimize` takes them (every setting but ``seed``).
+        plan, settings, fields: as :func:`optimize` takes them (every setting but ``seed``).
         out: the study folder to create (must be absent or empty).
         seeds: ``"1-5"``, ``"1,3,7"``, ``"1-3,10"`` or a sequence of integers.
         workers, dask: run that many seeds at once in local processes, or each seed as a task on a
@@ -335,12 +437,11 @@ def study(
     from arcube.optimization.config import build_config
 
     if out is None:
-        raise InputError("--out DIR is required (the study folder)")
-    if "seed" in settings:
-        raise InputError("a study sets each run's seed from seeds=...; drop seed=")
+        raise InputError.of("out", "is required (the study folder)")
+    if "seed" in fields or (settings is not None and getattr(settings, "seed", None) is not None):
+        raise InputError.of("seed", "is set for each run from seeds=...; drop it")
     seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
-    plans = list(plan) if isinstance(plan, (list, tuple)) else [plan]
-    specs = [p if isinstance(p, TrajectorySet) else os.fspath(p) for p in plans]
-    base = build_config(specs, seed=seed_list[0], **settings)
+    s = _settings(settings, fields, "study")
+    base = build_config(_plans(plan), s.replace(seed=seed_list[0]))
     studymod.start_study(Path(out), base, seed_list, workers=workers, dask=dask, best_known=best_known, on_seed=on_seed, on_generation=progress)
     return Study(Path(out))

@@ -13,6 +13,7 @@ import typer
 
 from arcube import __version__
 from arcube.cli import demo, evaluate, export, joints, optimize, patients, report, study
+from arcube.cli.flags import flag_message
 from arcube.errors import InputError
 
 __all__ = ["app", "main"]
@@ -72,7 +73,7 @@ def main(argv: list[str] | None = None) -> None:
     command = typer.main.get_command(app)
     args = expand_multi_value(list(sys.argv[1:] if argv is None else argv))
     try:
-        command.main(args=args, prog_name="arcube", standalone_mode=False)
+        code = command.main(args=args, prog_name="arcube", standalone_mode=False)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except typer.Abort:
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> None:
         sys.stderr.write(f"error: {_one_line(exc.format_message())}\n")
         sys.exit(2)
     except InputError as exc:
-        sys.stderr.write(f"error: {_one_line(str(exc))}\n")
+        sys.stderr.write(f"error: {_one_line(flag_message(exc))}\n")
         sys.exit(2)
     except OSError as exc:
         # A file the user named cannot be read or written (permissions, missing folder, full disk).
@@ -95,6 +96,11 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         sys.stderr.write("error: interrupted\n")
         sys.exit(130)
+    if code == 130:  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
+        sys.stderr.write("error: interrupted\n")
+        sys.exit(130)
+    if isinstance(code, int) and code:
+        sys.exit(code)
 
 
 def _one_line(text: str) -> str:

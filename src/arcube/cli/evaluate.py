@@ -46,6 +46,7 @@ def evaluate(
 ) -> None:
     """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity."""
     from arcube.api import evaluate as evaluate_api
+    from arcube.report import check_report_path, write_report
     from arcube.report.text import print_evaluation
 
     result = evaluate_api(
@@ -56,7 +57,7 @@ def evaluate(
         **loads(encoder_deg, thrust, lateral_force, actuator_stiffness),
     )  # fmt: skip
     if report is not None:
-        result.write_report(report)
+        write_report(result, check_report_path(report, "--report"))  # the error names the flag
     if as_json:
         sys.stdout.write(json.dumps(result.to_json(), allow_nan=False) + "\n")
     else:

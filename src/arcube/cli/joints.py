@@ -43,7 +43,7 @@ def joints(
     motor_length: MotorLengthOpt = 120.0,
 ) -> None:
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV."""
-    from arcube.evaluation.reference import GUARDED_OPTIONS, Options
+    from arcube.options import GUARDED_OPTIONS, Options
     from arcube.evaluation.result import load_task, parse_mode_option
     from arcube.export.joints import joint_trajectory
     from arcube.model.design import Design
@@ -56,13 +56,14 @@ def joints(
     d = Design.load(design)
     _, task = load_task(trajectories, points, side, levels, ids, transform)
     from arcube.evaluation.anatomy import resolve_anatomy
-    from arcube.evaluation.reference import with_body, with_loads
-
-    opts = with_loads(GUARDED_OPTIONS if guards else Options(), thrust=thrust, lateral_force=lateral_force)
-    opts = with_body(opts, clearance=clearance, self_clearance=self_clearance,
-                     radii=radii(link_radius, actuator_radius, motor_radius, motor_length))  # fmt: skip
+    body = radii(link_radius, actuator_radius, motor_radius, motor_length)
+    changes = {"clearance_mm": clearance, "self_clearance_mm": self_clearance}
+    opts = (GUARDED_OPTIONS if guards else Options()).replace(
+        thrust_N=thrust, lateral_force_N=lateral_force, link_radius=body.link, actuator_radius=body.actuator, motor_radius=body.motor,
+        motor_length=body.motor_length, **{k: v for k, v in changes.items() if v is not None},
+    )  # fmt: skip
     anat = resolve_anatomy(anatomy, anatomy_frame, trajectories) if anatomy else None
-    if opts.clearance_mm is not None and anat is None:
+    if opts.guards.clearance_mm is not None and anat is None:
         raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")
     jt = joint_trajectory(d, task, speed, signs, opts, None if anat is None else anat.distance)
     try:

@@ -122,7 +122,7 @@ def register(app: typer.Typer) -> None:
 
         with _Progress(population * generations, enabled=not quiet) as bar:
             run = optimize_api(
-                specs, out, progress=bar, workers=workers, dask=dask, design_from=design_from, free=free,
+                specs, out=out, progress=bar, workers=workers, dask=dask, design_from=design_from, free=free,
                 algorithm=algorithm, population=population, generations=generations, tolerance=tolerance, points=points,
                 mode=mode, setups=setups, guards=guards, margin=margin, seed=seed, side=side, levels=levels, ids=ids,
                 engine=engine, aggregate=aggregate, compactness=compactness, bounds=bounds,

@@ -77,7 +77,7 @@ def _default_for(plan: str | None) -> Anatomy:
     stl = Path(plan)
     stl = stl.with_name(stl.name.removesuffix(".csv") + ".anatomy.stl") if stl.suffix.lower() == ".csv" else stl / "anatomy.stl"
     if not stl.exists():
-        raise InputError(f"--anatomy default: no default anatomy for {plan} (expected {stl}, written by 'arcube patients')")
+        raise InputError.of("anatomy", f"'default': no default anatomy for {plan} (expected {stl}, written by 'arcube patients')")
     return Anatomy.from_meshes(read_meshes([stl], "patient"), f"default ({stl})")
 
 
@@ -85,12 +85,12 @@ def load_anatomy(spec: Sequence[str] | str | None, frame: str = "LPS", plan: str
     """The anatomy named by ``--anatomy`` (None for ``none``); ``plan`` is the ``--trajectories`` value."""
     items = [spec] if isinstance(spec, str) else list(spec or [])
     if frame not in FRAMES:
-        raise InputError(f"--anatomy-frame {frame!r}: expected one of {', '.join(FRAMES)}")
+        raise InputError.of("anatomy_frame", f"{frame!r}: expected one of {', '.join(FRAMES)}")
     if not items or items == ["none"]:
         return None
     if "none" in items or "default" in items:
         if items != ["default"]:
-            raise InputError("--anatomy: 'none' and 'default' stand alone (not with mesh files)")
+            raise InputError.of("anatomy", "'none' and 'default' stand alone (not with mesh files)")
         return _default_for(plan)
     from arcube.io.meshes import read_meshes
 

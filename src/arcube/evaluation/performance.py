@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
+from arcube.io.inputs import short_repr
 from arcube.model import frames
 from arcube.model.design import unpack
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics, velocity_model
@@ -138,26 +139,26 @@ class TipMetrics(NamedTuple):
     deflection_mm: NDArray[np.float64]  # F_t |P_perp C_E e| + F_l lambda_max(P_perp C_E P_perp)
 
 
-def check_per_actuator(value: ArrayLike, flag: str, unit: str) -> NDArray[np.float64]:
-    """A scalar or 5 finite numbers > 0 as a ``(5,)`` array; else InputError naming ``flag``."""
+def check_per_actuator(value: ArrayLike, param: str, unit: str) -> NDArray[np.float64]:
+    """A scalar or 5 finite numbers > 0 as a ``(5,)`` array; else InputError naming ``param``."""
     try:
         a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{flag} must be one or five finite numbers of {unit} > 0, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InputError.of(param, f"must be one or five finite numbers of {unit} > 0, got {short_repr(value)}") from None
     if a.shape not in ((), (5,)) or not np.all(np.isfinite(a)) or not np.all(a > 0.0):
         shown = a.tolist() if a.size <= 5 else f"an array of shape {a.shape}"
-        raise InputError(f"{flag} must be one or five finite numbers of {unit} > 0, got {shown}")
+        raise InputError.of(param, f"must be one or five finite numbers of {unit} > 0, got {shown}")
     return np.broadcast_to(a, (5,)).astype(float)
 
 
-def check_force(value: ArrayLike, flag: str) -> float:
-    """A finite scalar force >= 0 (N); else InputError naming ``flag``."""
+def check_force(value: ArrayLike, param: str) -> float:
+    """A finite scalar force >= 0 (N); else InputError naming ``param``."""
     try:
         a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{flag} must be a finite number of N >= 0, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InputError.of(param, f"must be a finite number of N >= 0, got {short_repr(value)}") from None
     if a.shape != () or not math.isfinite(float(a)) or float(a) < 0.0:
-        raise InputError(f"{flag} must be a finite number of N >= 0, got {a.tolist()}")
+        raise InputError.of(param, f"must be a finite number of N >= 0, got {a.tolist()}")
     return float(a)
 
 
@@ -195,11 +196,11 @@ def tip_metrics(
 
     Raises:
         InputError: a parameter is not finite, out of range or of the wrong shape (one line that
-            names it as its command-line flag, e.g. ``--thrust``).
+            names it as the keyword of this function, e.g. ``thrust_N``).
     """
-    eps = np.deg2rad(check_per_actuator(encoder_deg, "--encoder-deg", "deg"))
-    k = check_per_actuator(stiffness_Nm_per_rad, "--actuator-stiffness", "N·m/rad") * 1000.0  # N·mm/rad
-    F_t, F_l = check_force(thrust_N, "--thrust"), check_force(lateral_N, "--lateral-force")
+    eps = np.deg2rad(check_per_actuator(encoder_deg, "encoder_deg", "deg"))
+    k = check_per_actuator(stiffness_Nm_per_rad, "stiffness_Nm_per_rad", "N·m/rad") * 1000.0  # N·mm/rad
+    F_t, F_l = check_force(thrust_N, "thrust_N"), check_force(lateral_N, "lateral_N")
     JE, Je = np.asarray(J_E, dtype=float), np.asarray(J_e, dtype=float)
     if JE.shape[-2:] != (3, 5) or Je.shape[-2:] != (3, 5):
         raise ValueError(f"J_E and J_e must have shape (..., 3, 5), got {JE.shape} and {Je.shape}")

@@ -2,101 +2,28 @@
 
 :func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
 against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per point and
-``(...)`` per design. No Python loop over designs or points.
-
-Long module: the NumPy reference evaluation is the oracle of the kernel; its Options, failure codes, result types and judge stay side by side.
+``(...)`` per design. No Python loop over designs or points. The settings it reads are
+:class:`arcube.options.Options` (re-exported here with :data:`GUARDED_OPTIONS`).
 """
 
 from __future__ import annotations
 
-import math
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from pydantic import BaseModel, ConfigDict, Field
 
 from arcube.model.design import unpack
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
 from arcube.evaluation.clearance import Distance, anatomy_clearance, self_clearance
-from arcube.errors import InputError
-from arcube.evaluation.performance import PERFORMANCE_FIELDS, check_force, check_per_actuator, metrics_of_solution
-from arcube.model.body import BodyRadii, body_parts, mechanism_points
+from arcube.evaluation.performance import PERFORMANCE_FIELDS, metrics_of_solution
+from arcube.model.body import body_parts, mechanism_points
+from arcube.options import GUARDED_OPTIONS, Options
+
+__all__ = ["FAILURES", "GUARDED_OPTIONS", "Options", "PointResults", "TaskResults", "evaluate_points", "evaluate_task", "failure_name"]
 from arcube.model.stages import rts, zleg
 
-
-class Options(BaseModel):
-    """Reachability options. Every guard is an [ADDITION] of MODEL.md 8.2, off by default."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    z_dyad: bool = False
-    """Check the z-leg dyad closure (MODEL.md 6)."""
-    c_z: float | None = Field(default=None, gt=0)
-    """Second link of the z dyad (mm); None means c_z = d_z."""
-    rho_max_deg: float | None = Field(default=None, gt=0, le=90)
-    """|rho_u| <= rho_max (deg), away from the TLS singularity cos rho = 0."""
-    min_transmission_deg: float | None = Field(default=None, gt=0, le=90)
-    """|sin| of the four transmission angles (s_F, s_H, s_AS, s_AP) >= sin(this)."""
-    kappa_max: float | None = Field(default=None, ge=1)
-    """eta_L <= kappa_max."""
-    single_assembly_mode: bool = False
-    """sign H_x, sign H_y, sign det[x_b, y_b, e] equal at all task points (global)."""
-    clearance_mm: float | None = Field(default=None, ge=0, allow_inf_nan=False)
-    """[ADDITION, MODEL.md 14.3] clearance to the anatomy >= this (mm); failure ``collision/patient``."""
-    self_clearance_mm: float | None = Field(default=None, ge=0, allow_inf_nan=False)
-    """[ADDITION, MODEL.md 14.3] clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
-    body: bool = False
-    clearance_min_exact: bool = True
-    """With a clearance guard, whether summary-only kernel runs find the exact smallest clearance
-    (False: they only decide the guard and its shortfall, and report the limit as the smallest
-    clearance when every point clears it; what an optimizer that does not optimize it needs)."""
-    want_clearance: bool = False
-    """Compute the clearance to the anatomy (when there is one) even without its guard (an optimizer objective)."""
-    """Compute the body clearances at every point (MODEL.md 14.3) even when no clearance guard is on."""
-    link_radius: float = Field(default=8.0, gt=0, allow_inf_nan=False)
-    """Radius of every link of the body (MODEL.md 14.1), mm."""
-    actuator_radius: float = Field(default=25.0, gt=0, allow_inf_nan=False)
-    """Radius of the actuators at P_u and D_u, mm."""
-    motor_radius: float = Field(default=20.0, gt=0, allow_inf_nan=False)
-    """Radius of the drill motor, mm."""
-    motor_length: float = Field(default=120.0, gt=0, allow_inf_nan=False)
-    """Length L_m of the drill motor beyond the holder H, mm."""
-    tip_metrics: bool = True
-    """Compute the drill-tip metrics of MODEL.md 15 (NaN when off: an optimizer that does not need them)."""
-    encoder_deg: tuple[float, float, float, float, float] = (0.01,) * 5
-    """Position error bound of each actuator (MODEL.md 15.2), deg; see :func:`with_loads`."""
-    thrust_N: float = Field(default=30.0, ge=0, allow_inf_nan=False)
-    """Drilling thrust along e (MODEL.md 15.3), N."""
-    lateral_force_N: float = Field(default=10.0, ge=0, allow_inf_nan=False)
-    """Largest lateral (skiving) force across e (MODEL.md 15.3), N."""
-    actuator_stiffness: tuple[float, float, float, float, float] = (1e4,) * 5
-    """Torsional stiffness of each actuator (MODEL.md 15.4), N·m/rad."""
-
-    @property
-    def radii(self) -> BodyRadii:
-        """The body radii of MODEL.md 14.1."""
-        return BodyRadii(self.link_radius, self.actuator_radius, self.motor_radius, self.motor_length)
-
-    @property
-    def wants_clearance(self) -> bool:
-        """Whether the evaluation computes the clearance to the anatomy (when there is one)."""
-        return self.body or self.want_clearance or self.clearance_mm is not None
-
-    @property
-    def wants_self_clearance(self) -> bool:
-        """Whether the evaluation computes the clearance between the body's own parts."""
-        return self.body or self.self_clearance_mm is not None
-
-    @property
-    def wants_body(self) -> bool:
-        """Whether the evaluation computes the body at all."""
-        return self.wants_clearance or self.wants_self_clearance
-
-
-GUARDED_OPTIONS = Options(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True)
-"""What ``--guards`` turns on: every guard of 8.2 except z_dyad."""
 
 FAILURES: tuple[str, ...] = (
     "TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y",
@@ -190,14 +117,14 @@ def _guard_checks(
     """(reason, failed, shortfall) of each active local guard."""
     g = unpack(params)
     out: list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]] = []
-    if options.z_dyad:
-        c_z = g.d[..., 2] if options.c_z is None else options.c_z
+    if options.guards.z_dyad:
+        c_z = g.d[..., 2] if options.guards.c_z is None else options.guards.c_z
         short = zleg.closure_shortfall(zleg.span(sol.E_m, sol.rho[..., 2], g.p[..., 2]), g.d[..., 2], c_z)
         out.append(("guard/z_dyad", short > 0.0, short))
-    if options.rho_max_deg is not None:
-        short = np.sum(np.maximum(np.abs(sol.rho) - np.deg2rad(options.rho_max_deg), 0.0), axis=-1)
+    if options.guards.rho_max_deg is not None:
+        short = np.sum(np.maximum(np.abs(sol.rho) - np.deg2rad(options.guards.rho_max_deg), 0.0), axis=-1)
         out.append(("guard/rho_max", short > 0.0, short))
-    if options.min_transmission_deg is not None:
+    if options.guards.min_transmission_deg is not None:
         T = sol.terms
         sa, sb = np.sin(g.alpha), np.sin(g.beta)
         sines = np.concatenate(
@@ -209,11 +136,11 @@ def _guard_checks(
             ],
             axis=-1,
         )
-        short = np.sum(np.maximum(np.sin(np.deg2rad(options.min_transmission_deg)) - np.abs(sines), 0.0), axis=-1)
+        short = np.sum(np.maximum(np.sin(np.deg2rad(options.guards.min_transmission_deg)) - np.abs(sines), 0.0), axis=-1)
         out.append(("guard/transmission", short > 0.0, short))
-    if options.kappa_max is not None:
-        short = np.minimum(np.maximum(eta - options.kappa_max, 0.0) / options.kappa_max, _EXCESS_CAP)
-        out.append(("guard/kappa_max", eta > options.kappa_max, short))
+    if options.guards.kappa_max is not None:
+        short = np.minimum(np.maximum(eta - options.guards.kappa_max, 0.0) / options.guards.kappa_max, _EXCESS_CAP)
+        out.append(("guard/kappa_max", eta > options.guards.kappa_max, short))
     return out
 
 
@@ -239,7 +166,7 @@ def _body_clearances(
     if not options.wants_body:
         return nan, np.full(shape, -1, dtype=np.intp), nan
     radii = options.radii
-    mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.c_z, motor_length=radii.motor_length, sol=sol)
+    mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.guards.c_z, motor_length=radii.motor_length, sol=sol)
     parts = body_parts(mp, radii)
     selfc = np.broadcast_to(self_clearance(parts), shape) if options.wants_self_clearance else nan
     if anatomy is None or not options.wants_clearance:
@@ -266,19 +193,19 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)
     clear, part, selfc = _body_clearances(sol, params, options, anatomy, shape)
     guards = _guard_checks(sol, params, eta_raw, options)
-    if options.clearance_mm is not None and anatomy is not None:
-        short = np.maximum(options.clearance_mm - clear, 0.0)  # mm, MODEL.md 14.3
+    if options.guards.clearance_mm is not None and anatomy is not None:
+        short = np.maximum(options.guards.clearance_mm - clear, 0.0)  # mm, MODEL.md 14.3
         guards.append(("collision/patient", short > 0.0, short))
-    if options.self_clearance_mm is not None:
-        short = np.maximum(options.self_clearance_mm - selfc, 0.0)
+    if options.guards.self_clearance_mm is not None:
+        short = np.maximum(options.guards.self_clearance_mm - selfc, 0.0)
         guards.append(("collision/self", short > 0.0, short))
     for name, failed, short in guards:
         checks.append((name, failed & stages_ok))
         excess = excess + np.where(stages_ok, np.nan_to_num(short, nan=0.0), 0.0)
     failure = _first_failure(checks, shape)
     reachable = failure == 0
-    perf = metrics_of_solution(sol, params, options.encoder_deg, options.thrust_N, options.lateral_force_N,
-                               options.actuator_stiffness) if options.tip_metrics else None  # fmt: skip
+    perf = metrics_of_solution(sol, params, options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N,
+                               options.loads.actuator_stiffness) if options.outputs.tip_metrics else None  # fmt: skip
     eta = np.where(reachable, eta_raw, np.inf)
     with np.errstate(divide="ignore"):
         dex = np.where(reachable, 100.0 / eta, 0.0)
@@ -344,7 +271,7 @@ def evaluate_task(
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(p, E, e, m)
         pts = _judge(sol, p, options, anatomy)
-        if options.single_assembly_mode:
+        if options.guards.single_assembly_mode:
             pts = _single_assembly_mode(sol, pts)
         n = pts.reachable.shape[-1]
         n_bad = np.sum(~pts.reachable, axis=-1)
@@ -379,42 +306,3 @@ def _min_reachable(values: NDArray[np.float64], reachable: NDArray[np.bool_]) ->
     with np.errstate(invalid="ignore"):
         out = np.min(np.where(np.isnan(v), np.inf, v), axis=-1)
     return np.where(np.isfinite(out), out, np.nan)
-
-
-def _check_mm(value: float | None, flag: str) -> float | None:
-    if value is None:
-        return None
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
-        raise InputError(f"{flag} must be a finite number of mm >= 0, got {value!r}")
-    return float(value)
-
-
-def with_body(options: Options, *, clearance: float | None = None, self_clearance: float | None = None,
-                 radii: BodyRadii | None = None, body: bool | None = None) -> Options:  # fmt: skip
-    """``options`` with the clearance guards, body radii and body flag of MODEL.md 14 set (validated)."""
-    changes: dict[str, Any] = {}
-    if clearance is not None:
-        changes["clearance_mm"] = _check_mm(clearance, "--clearance")
-    if self_clearance is not None:
-        changes["self_clearance_mm"] = _check_mm(self_clearance, "--self-clearance")
-    if radii is not None:
-        changes.update(link_radius=radii.link, actuator_radius=radii.actuator, motor_radius=radii.motor, motor_length=radii.motor_length)
-    if body is not None:
-        changes["body"] = body
-    return options.model_copy(update=changes) if changes else options
-
-
-def with_loads(options: Options, *, encoder_deg: ArrayLike | None = None, thrust: float | None = None,
-               lateral_force: float | None = None, stiffness: ArrayLike | None = None) -> Options:  # fmt: skip
-    """``options`` with the encoder resolution, drilling loads and actuator stiffness of MODEL.md 15 set
-    (validated: one line naming the flag, :class:`InputError`); one value or five per actuator."""
-    changes: dict[str, Any] = {}
-    if encoder_deg is not None:
-        changes["encoder_deg"] = tuple(check_per_actuator(encoder_deg, "--encoder-deg", "deg").tolist())
-    if thrust is not None:
-        changes["thrust_N"] = check_force(thrust, "--thrust")
-    if lateral_force is not None:
-        changes["lateral_force_N"] = check_force(lateral_force, "--lateral-force")
-    if stiffness is not None:
-        changes["actuator_stiffness"] = tuple(check_per_actuator(stiffness, "--actuator-stiffness", "N·m/rad").tolist())
-    return options.model_copy(update=changes) if changes else options

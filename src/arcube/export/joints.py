@@ -118,9 +118,9 @@ def joint_trajectory(
         sigma_dot = j_ap_omega / rts.J_AS_diag(sol.e, sol.u_beta)  # J_AS is diagonal: σ̇_u = (J_AP ω)_u / J_AS,u
         J_E, J_e = jacobians_of_solution(sol, params)
         e_w = frames.directions_to_world(unpack(params), sol.e)
-        tau = -np.einsum("...ij,...i->...j", J_E, options.thrust_N * e_w) / 1000.0  # N·mm -> N·m
-        worst = tip_metrics(J_E, J_e, e_w, options.encoder_deg, options.thrust_N, options.lateral_force_N,
-                            options.actuator_stiffness).torque_per_actuator_Nm  # fmt: skip
+        tau = -np.einsum("...ij,...i->...j", J_E, options.loads.thrust_N * e_w) / 1000.0  # N·mm -> N·m
+        worst = tip_metrics(J_E, J_e, e_w, options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N,
+                            options.loads.actuator_stiffness).torque_per_actuator_Nm  # fmt: skip
     q = np.concatenate([sol.rho, sol.delta, sol.sigma], axis=-1)
     rates = np.concatenate([q_dot, sigma_dot], axis=-1)
     first = np.flatnonzero(task.k == 0)  # entry point of each trajectory (trajectory-major order)

@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
+from arcube.io.inputs import short_repr
 from arcube.model import frames
 from arcube.model.body import U_HAT, V_HAT, W_HAT, BodyRadii, mechanism_points
 from arcube.model.design import Design, unpack
@@ -101,6 +102,9 @@ _COLORS = {
 }  # fmt: skip
 
 
+_FLOAT_MAX = float(np.finfo(float).max)
+
+
 def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
     """Angles into (-pi, pi]."""
     return -np.remainder(np.pi - a, 2.0 * np.pi) + np.pi
@@ -119,7 +123,8 @@ def _signs(mode: str | ArrayLike) -> NDArray[np.float64]:
         try:
             return parse_mode(mode)
         except ValueError as exc:
-            raise InputError(f"--mode: {exc}") from None
+            problem = str(exc).removeprefix("working mode ")  # "must be four signs ..., got '...'"
+            raise InputError.of("mode", problem) from None
     return np.asarray(mode, dtype=float)
 
 
@@ -196,7 +201,7 @@ def _plan(plan: Any, points: int) -> _Plan:
     from arcube.evaluation.result import load_trajectory_set
 
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
-        raise InputError(f"--points must be an integer of at least 2 (both ends of a trajectory), got {points!r}")
+        raise InputError.of("points", f"must be an integer of at least 2 (both ends of a trajectory), got {short_repr(points)}")
     if plan is None:
         plan = "reference"
     ts = plan if isinstance(plan, TrajectorySet) else load_trajectory_set(os.fspath(plan), int(points))
@@ -213,18 +218,18 @@ def _resolve_point(plan: _Plan, at: str | tuple[Any, int] | None) -> int:
     if isinstance(at, str):
         tid, sep, ktext = at.strip().rpartition(":")
         if not sep or not tid:
-            raise InputError(f"--at {at!r}: expected ID:K, a trajectory id and a sample index, e.g. --at 1:0")
+            raise InputError.of("at", f"{short_repr(at)}: expected ID:K, a trajectory id and a sample index, e.g. '1:0'")
         try:
             k = int(ktext)
         except ValueError:
-            raise InputError(f"--at {at!r}: the sample index K must be an integer, got {ktext!r}") from None
+            raise InputError.of("at", f"{short_repr(at)}: the sample index K must be an integer, got {short_repr(ktext)}") from None
     else:
         tid, k = str(at[0]), int(at[1])
     if tid not in plan.ids:
         shown = ", ".join(plan.ids[:12]) + (", ..." if len(plan.ids) > 12 else "")
-        raise InputError(f"--at {tid}:{k}: no trajectory with id {tid!r} in the plan (ids: {shown})")
+        raise InputError.of("at", f"{tid}:{k}: no trajectory with id {short_repr(tid)} in the plan (ids: {shown})")
     if not 0 <= k < plan.n_points:
-        raise InputError(f"--at {tid}:{k}: sample index k must lie in 0..{plan.n_points - 1} (--points {plan.n_points})")
+        raise InputError.of("at", f"{tid}:{k}: sample index k must lie in 0..{plan.n_points - 1} (points={plan.n_points})")
     t = plan.ids.index(tid)
     return int(np.flatnonzero((plan.trajectory == t) & (plan.k == k))[0])
 
@@ -351,11 +356,11 @@ def export_mjcf(
     Design.from_vector(params)  # validates (InputError)
     signs = _signs(mode)
     if not isinstance(radii, BodyRadii):
-        raise InputError("radii must be an arcube.model.body.BodyRadii")
+        raise InputError.of("radii", "must be an arcube.model.body.BodyRadii")
     g = unpack(params)
     d_z = float(g.d[2])
-    if c_z is not None and not (isinstance(c_z, (int, float)) and math.isfinite(c_z) and c_z > 0.0):
-        raise InputError(f"--c-z must be a finite number of mm > 0, got {c_z!r}")
+    if c_z is not None and not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
+        raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
     cz = d_z if c_z is None else float(c_z)
     pl = _plan(plan, points)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -365,7 +370,7 @@ def export_mjcf(
         one = inverse_kinematics(params, pl.E[0], pl.e[0], signs)
         raise InputError(
             f"the design reaches no point of the plan in mode {format_mode(signs)} (at trajectory "
-            f"{pl.ids[0]}, k=0: {_no_ik_reason(one)}); pick another --mode, design or plan"
+            f"{pl.ids[0]}, k=0: {_no_ik_reason(one)}); pick another mode, design or plan"
         )
     idx = int(np.flatnonzero(ok)[0]) if at is None else _resolve_point(pl, at)
     where = f"trajectory {pl.ids[pl.trajectory[idx]]}, k={int(pl.k[idx])}"
@@ -373,7 +378,7 @@ def export_mjcf(
         one = inverse_kinematics(params, pl.E[idx], pl.e[idx], signs)
         raise InputError(
             f"the design has no IK solution at {where} in mode {format_mode(signs)}: {_no_ik_reason(one)}; "
-            "pick another --at, --mode or design"
+            "pick another point (at), mode or design"
         )
     # z dyad (MODEL.md 6) at every point of the plan that the IK solves: D_z and Q_z lie in one plane z_m = const.
     mp_all = mechanism_points(params, pl.E[ok], pl.e[ok], signs, c_z=cz)
@@ -384,7 +389,7 @@ def export_mjcf(
         head = (f"the z-leg dyad (d_z = {d_z:.4g} mm, c_z = {cz:.4g} mm) cannot close at {bad} of {len(L_z)} "
                 f"solvable points of the plan (|Q_z - D_z| spans {L_z.min():.1f}-{L_z.max():.1f} mm)")  # fmt: skip
         if lo <= hi:
-            raise InputError(f"{head}; --c-z in [{lo:.2f}, {hi:.2f}] mm closes it at every point")
+            raise InputError(f"{head}; c_z in [{lo:.2f}, {hi:.2f}] mm closes it at every point")
         raise InputError(f"{head}; no c_z closes it at every point (it would need c_z >= {lo:.1f} and <= {hi:.1f} mm): change d_z or the placement")
 
     return _build_xml(params, pl.E[idx], pl.e[idx], signs, cz, radii, _mesh_items(anatomy), where)

@@ -3,7 +3,9 @@
 * :mod:`arcube.io.trajectories`: trajectory sets (CSV), subsets, rigid transforms;
 * :mod:`arcube.io.slicer`: 3D Slicer markups (``.mrk.json``);
 * :mod:`arcube.io.load`: :func:`load_trajectories`, one entry point for every format;
-* :mod:`arcube.io.files`: atomic writes (temporary file, then rename).
+* :mod:`arcube.io.files`: atomic writes (temporary file, then rename; special files written in place);
+* :mod:`arcube.io.inputs`: the layer under every reader (regular files only, size, encoding, JSON
+  nesting and number limits, the coordinate range).
 """
 
 from __future__ import annotations

@@ -7,7 +7,10 @@ from pathlib import Path
 
 from arcube.errors import InputError
 from arcube.io.slicer import read_markups
-from arcube.io.trajectories import TrajectorySet, read_reference, apply_transform, read_csv, read_transform
+from arcube.io.inputs import short_repr
+from arcube.io.trajectories import (
+    TrajectorySet, apply_transform, read_csv, read_reference, read_transform, validate_points,
+)  # fmt: skip
 
 __all__ = ["load_trajectories"]
 
@@ -29,12 +32,19 @@ def load_trajectories(spec: str | os.PathLike[str],
         ts = read_reference()
     else:
         p = Path(spec)
-        if p.is_dir() or p.name.lower().endswith(".json"):
+        try:
+            markups, exists = p.is_dir() or p.name.lower().endswith(".json"), p.exists()
+        except OSError as exc:  # e.g. a name too long
+            raise InputError(f"{p}: cannot read ({exc.strerror or exc})") from None
+        if markups:
             ts = read_markups(p)
-        elif not p.exists():
+        elif not exists:
             raise InputError(f"{p}: no such file")
         else:
             ts = read_csv(p)
     if transform is not None:
         ts = apply_transform(ts, read_transform(transform))
+        # the moved points must still lie within the coordinate range of every reader
+        labels = [f"{ts.source} trajectory {short_repr(tid)} (after the transform {os.fspath(transform)})" for tid in ts.ids]
+        validate_points(labels, ts.ids, ts.entry, ts.target)
     return ts

@@ -11,7 +11,8 @@ When the file's header declares a coordinate system (3D Slicer writes ``SPACE=LP
 ``frame=patient``, ``SPACE=LPS`` or ``SPACE=RAS``) and it contradicts the given frame, reading
 fails rather than silently mirroring the anatomy.
 
-A mesh is accepted when it has at least one triangle, only finite vertex coordinates, and is
+A mesh is accepted when it is a regular file of at most 1 GiB, has at least one triangle, only
+finite vertex coordinates within ±1e5 mm (:mod:`arcube.io.inputs`), and is
 closed with consistent orientation: after merging coincident vertices, every directed edge
 a→b is matched by an opposite edge b→a (so several closed shells in one file, even touching
 ones, are fine), and every connected shell encloses a positive volume (faces oriented
@@ -30,6 +31,7 @@ import trimesh
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes
+from arcube.io.inputs import COORDINATE_LIMIT_MM, MAX_MESH_BYTES, read_bytes
 from arcube.io.slicer import PATIENT_FROM_LPS, PATIENT_FROM_RAS
 
 __all__ = ["FRAMES", "MESH_SUFFIXES", "read_mesh", "read_meshes", "split_shells", "write_stl"]
@@ -132,12 +134,7 @@ def read_mesh(path: str | os.PathLike[str], frame: str) -> trimesh.Trimesh:
     suffix = p.suffix.lower()
     if suffix not in MESH_SUFFIXES:
         raise InputError(f"{p}: unknown mesh format {p.suffix!r} (expected .stl, .obj or .ply)")
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read ({exc.strerror or exc})") from exc
+    data = read_bytes(p, MAX_MESH_BYTES)  # a regular file of at most 1 GiB, else InputError
     binary_stl = suffix == ".stl" and _sniff_stl(p, data)
     declared = _declared_frame(data[:80] if binary_stl else data[:_HEADER_BYTES])
     if declared is not None and declared != frame:
@@ -165,6 +162,9 @@ def read_mesh(path: str | os.PathLike[str], frame: str) -> trimesh.Trimesh:
     if not np.isfinite(vertices).all():
         bad = int((~np.isfinite(vertices).all(axis=1)).sum())
         raise InputError(f"{p}: {bad} vertices have non-finite (NaN or inf) coordinates")
+    if len(vertices) and float(np.abs(vertices).max()) > COORDINATE_LIMIT_MM:
+        raise InputError(f"{p}: a vertex coordinate of {float(np.abs(vertices).max()):g} mm is beyond the "
+                         f"±{COORDINATE_LIMIT_MM:g} mm range (a unit mistake?)")
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise InputError(f"{p}: a face refers to a vertex that does not exist")
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
+from arcube.io.inputs import load_json, short_repr
 from arcube.io.trajectories import TrajectorySet, atomic_write, validate_points
 
 __all__ = ["MARKUPS_SCHEMA", "PATIENT_FROM_LPS", "PATIENT_FROM_RAS", "read_markups", "write_markups"]
@@ -64,24 +65,19 @@ def _units_scale(markup: dict[str, Any], where: str) -> float:
     units = markup.get("coordinateUnits", "mm")
     if isinstance(units, list) and units:  # DICOM coded form ["mm", "UCUM", "millimeter"]
         units = units[0]
-    if units not in _UNIT_TO_MM:
-        raise InputError(f"{where}: unknown coordinateUnits {units!r} (expected mm or um)")
+    if not isinstance(units, str) or units not in _UNIT_TO_MM:
+        raise InputError(f"{where}: unknown coordinateUnits {short_repr(units)} (expected mm or um)")
     return _UNIT_TO_MM[units]
 
 
 def _read_file(path: Path) -> list[tuple[str, str, str, str, np.ndarray, np.ndarray]]:
     """Lines of one markups file as (label, id, level, side, entry, target), patient frame."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from exc
+    data = load_json(path)
     if not isinstance(data, dict) or not isinstance(data.get("markups"), list):
         raise InputError(f"{path}: not a Slicer markups file (no 'markups' list)")
     schema = data.get("@schema")
     if schema is not None and not (isinstance(schema, str) and _SCHEMA_RE.match(schema)):
-        raise InputError(f"{path}: not a Slicer markups file (@schema {schema!r})")
+        raise InputError(f"{path}: not a Slicer markups file (@schema {short_repr(schema)})")
     lines = [(k, m) for k, m in enumerate(data["markups"], start=1)
              if isinstance(m, dict) and m.get("type") == "Line"]
     if not lines:
@@ -91,11 +87,11 @@ def _read_file(path: Path) -> list[tuple[str, str, str, str, np.ndarray, np.ndar
     for pos, (k, markup) in enumerate(lines, start=1):
         name = markup.get("name")
         has_name = isinstance(name, str) and name.strip() != ""
-        where = f"{path} markup {k}" + (f" ({name!r})" if has_name else "")
+        where = f"{path} markup {k}" + (f" ({short_repr(name)})" if has_name else "")
         tid = name.strip() if has_name else (stem if len(lines) == 1 else f"{stem}-{pos}")
         system = markup.get("coordinateSystem", "LPS")  # absent means LPS, as Slicer writes
-        if system not in _TO_PATIENT:
-            raise InputError(f"{where}: unknown coordinate system {system!r} (expected RAS or LPS)")
+        if not isinstance(system, str) or system not in _TO_PATIENT:
+            raise InputError(f"{where}: unknown coordinate system {short_repr(system)} (expected RAS or LPS)")
         scale = _units_scale(markup, where)
         cps = markup.get("controlPoints")
         if not isinstance(cps, list) or len(cps) != 2:
@@ -106,14 +102,17 @@ def _read_file(path: Path) -> list[tuple[str, str, str, str, np.ndarray, np.ndar
             pos_value = cp.get("position") if isinstance(cp, dict) else None
             if not _number_list(pos_value):
                 raise InputError(f"{where}: control point {j} has no position of 3 numbers")
-            pts.append(_TO_PATIENT[system] @ (np.array(pos_value, dtype=float) * scale))
+            raw = np.array(pos_value, dtype=float)  # an int past the float range was read as inf
+            if not np.all(np.isfinite(raw)):
+                raise InputError(f"{where}: control point {j} position is not finite ({short_repr(pos_value)})")
+            pts.append(_TO_PATIENT[system] @ (raw * scale))
         level, side = "", ""
         desc = cps[0].get("description", "")
         meta = _META_RE.match(desc) if isinstance(desc, str) else None
         if meta:
             level, side = meta.group(1).strip().upper(), meta.group(2).strip().upper()
             if side not in ("R", "L", ""):
-                raise InputError(f"{where}: side must be R, L or empty ({side!r})")
+                raise InputError(f"{where}: side must be R, L or empty ({short_repr(side)})")
         out.append((where, tid, level, side, pts[0], pts[1]))
     return out
 
@@ -126,14 +125,17 @@ def read_markups(path: str | os.PathLike[str]) -> TrajectorySet:
         mm or um) to the patient frame, mm. ``source`` is the given path.
     """
     p = Path(path)
-    if p.is_dir():
-        files = sorted(f for f in p.iterdir() if f.is_file() and f.name.lower().endswith(".mrk.json"))
-        if not files:
-            raise InputError(f"{p}: folder holds no .mrk.json file")
-    elif p.exists():
-        files = [p]
-    else:
-        raise InputError(f"{p}: no such file or folder")
+    try:
+        if p.is_dir():
+            files = sorted(f for f in p.iterdir() if f.is_file() and f.name.lower().endswith(".mrk.json"))
+            if not files:
+                raise InputError(f"{p}: folder holds no .mrk.json file")
+        elif p.exists():
+            files = [p]
+        else:
+            raise InputError(f"{p}: no such file or folder")
+    except OSError as exc:  # e.g. a name too long, an unreadable folder
+        raise InputError(f"{p}: cannot read ({exc.strerror or exc})") from None
     rows = [row for f in files for row in _read_file(f)]
     labels, ids, levels, sides, entry, target = (list(c) for c in zip(*rows))
     entry_arr, target_arr = np.array(entry), np.array(target)

@@ -7,15 +7,16 @@ CSV layout (one trajectory per row, header required, extra columns ignored)::
 
     trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z
 
-``level`` and ``side`` may be missing or empty (unknown). Row numbers in error messages are
-line numbers in the file, the header being row 1.
+``level`` and ``side`` may be missing or empty (unknown); each column may appear once.
+Coordinates are plain decimal numbers (``-12.5``, ``1e3``; not ``1_000``) within ±1e5 mm
+(:mod:`arcube.io.inputs`, which also sets the size, file-type and encoding limits of every
+reader). Row numbers in error messages are line numbers in the file, the header being row 1.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import os
 import re
@@ -28,6 +29,7 @@ import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
+from arcube.io.inputs import coordinate_problem, load_json, parse_decimal, read_text, short_repr
 
 __all__ = [
     "CSV_COLUMNS",
@@ -132,28 +134,32 @@ def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray
     Args:
         labels: per trajectory, where it came from (``"plan.csv row 4"``), for messages.
         ids: trajectory ids; must be non-empty and unique.
-        entry, target: (T, 3) arrays, mm; must be finite and distinct per row.
+        entry, target: (T, 3) arrays, mm; must be finite, within ±1e5 mm
+            (:data:`arcube.io.inputs.COORDINATE_LIMIT_MM`) and distinct per row.
     """
     seen: dict[str, str] = {}
     for i, tid in enumerate(ids):
         if tid == "":
             raise InputError(f"{labels[i]}: empty trajectory id")
         if tid in seen:
-            raise InputError(f"{labels[i]}: duplicate trajectory id '{tid}' (also at {seen[tid]})")
+            raise InputError(f"{labels[i]}: duplicate trajectory id {short_repr(tid)} (also at {seen[tid]})")
         seen[tid] = labels[i]
         if not (np.all(np.isfinite(entry[i])) and np.all(np.isfinite(target[i]))):
             raise InputError(f"{labels[i]}: coordinates are not finite numbers")
+        for role, point in (("entry", entry[i]), ("target", target[i])):
+            problem = coordinate_problem(point)
+            if problem:
+                raise InputError(f"{labels[i]}: {role} {problem} (a unit mistake?)")
         if float(np.linalg.norm(target[i] - entry[i])) < _MIN_LENGTH_MM:
             raise InputError(f"{labels[i]}: zero-length trajectory (entry == target)")
 
 
 def _parse_number(text: str, where: str, column: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"{where}: {column} is not a number ({text!r})") from None
+    value = parse_decimal(text)
+    if value is None:
+        raise InputError(f"{where}: {column} is not a number ({short_repr(text)})")
     if not math.isfinite(value):
-        raise InputError(f"{where}: {column} is not finite ({text!r})")
+        raise InputError(f"{where}: {column} is not finite ({short_repr(text)})")
     return value
 
 
@@ -164,10 +170,23 @@ def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
     if not text.strip():
         raise InputError(f"{name}: empty file")
     reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        return _parse_rows(reader, name, source)
+    except csv.Error as exc:  # e.g. a field over csv.field_size_limit() (131,072 characters)
+        problem = (f"a field is longer than {csv.field_size_limit()} characters" if "field limit" in str(exc)
+                   else f"not valid CSV ({exc})")
+        raise InputError(f"{name} row {reader.line_num}: {problem}") from None
+
+
+def _parse_rows(reader: Any, name: str, source: str) -> TrajectorySet:
     header = [h.strip().lower() for h in next(reader)]
     missing = [c for c in _REQUIRED_COLUMNS if c not in header]
     if missing:
         raise InputError(f"{name}: missing column(s) {', '.join(missing)}")
+    for c in CSV_COLUMNS:
+        if header.count(c) > 1:
+            first, second = [i + 1 for i, h in enumerate(header) if h == c][:2]
+            raise InputError(f"{name}: column {c} appears more than once (columns {first} and {second})")
     col = {c: header.index(c) for c in CSV_COLUMNS if c in header}
     ids: list[str] = []
     levels: list[str] = []
@@ -185,7 +204,7 @@ def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
         levels.append(row[col["level"]].strip().upper() if "level" in col else "")
         side = row[col["side"]].strip().upper() if "side" in col else ""
         if side not in _SIDES:
-            raise InputError(f"{where}: side must be R, L or empty ({side!r})")
+            raise InputError(f"{where}: side must be R, L or empty ({short_repr(side)})")
         sides.append(side)
         labels.append(where)
     if not ids:
@@ -198,10 +217,8 @@ def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
 def read_csv(path: str | os.PathLike[str]) -> TrajectorySet:
     """Read a trajectory CSV (see module docstring). Raises InputError on any problem."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{p}: cannot read ({exc})") from exc
+    text = read_text(p)
+    text = text.replace("\r\n", "\n").replace("\r", "\n")  # universal newlines, as open() in text mode
     return _parse_csv_text(text, str(p), str(p))
 
 
@@ -224,12 +241,7 @@ def read_transform(path: str | os.PathLike[str]) -> np.ndarray:
     def bad(reason: str) -> InputError:
         return InputError(f"{p}: unreadable transform ({reason})")
 
-    try:
-        data: Any = json.loads(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise bad(exc.strerror or str(exc)) from exc
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise bad(f"not valid JSON: {exc}") from exc
+    data: Any = load_json(p, fail=bad)
     if isinstance(data, dict):
         if "matrix" not in data:
             raise bad("expected a 4x4 list or an object with a 'matrix' key")
@@ -244,10 +256,14 @@ def read_transform(path: str | os.PathLike[str]) -> np.ndarray:
     if np.max(np.abs(m[3] - [0.0, 0.0, 0.0, 1.0])) > _RIGID_TOL:
         raise bad("last row is not 0 0 0 1")
     rot = m[:3, :3]
-    if np.max(np.abs(rot @ rot.T - np.eye(3))) > _RIGID_TOL:
-        raise bad("rotation part is not orthonormal: not a rigid transform")
+    with np.errstate(all="ignore"):  # entries such as 1e300 overflow here; they fail the test all the same
+        if not np.max(np.abs(rot @ rot.T - np.eye(3))) <= _RIGID_TOL:
+            raise bad("rotation part is not orthonormal: not a rigid transform")
     if abs(np.linalg.det(rot) - 1.0) > _RIGID_TOL:
         raise bad("rotation determinant is not +1: a reflection, not a rigid transform")
+    problem = coordinate_problem(m[:3, 3])
+    if problem:
+        raise bad(f"translation {problem}")
     return m
 
 
@@ -263,17 +279,17 @@ def _expand_levels(spec: str) -> set[str]:
     wanted: set[str] = set()
     for token in (t.strip().upper() for t in spec.split(",")):
         if not token:
-            raise InputError(f"levels {spec!r}: empty item")
+            raise InputError.of("levels", f"{spec!r}: empty item")
         m = re.fullmatch(r"(\w+)\s*-\s*(\w+)", token)
         if m is None:
             wanted.add(token)
             continue
         lo, hi = m.groups()
         if lo not in LEVEL_ORDER or hi not in LEVEL_ORDER:
-            raise InputError(f"levels {spec!r}: range {token!r} must use levels C1..C7")
+            raise InputError.of("levels", f"{spec!r}: range {token!r} must use levels C1..C7")
         i, j = LEVEL_ORDER.index(lo), LEVEL_ORDER.index(hi)
         if i > j:
-            raise InputError(f"levels {spec!r}: range {token!r} runs backwards")
+            raise InputError.of("levels", f"{spec!r}: range {token!r} runs backwards")
         wanted.update(LEVEL_ORDER[i:j + 1])
     return wanted
 
@@ -294,7 +310,7 @@ def select(ts: TrajectorySet, side: str | None = None, levels: str | None = None
     if side is not None:
         s = side.strip().upper()
         if s not in ("R", "L"):
-            raise InputError(f"side {side!r}: expected R or L")
+            raise InputError.of("side", f"{side!r}: expected R or L")
         keep &= np.array([v == s for v in ts.sides], dtype=bool)
     if levels is not None:
         wanted = _expand_levels(levels)
@@ -302,10 +318,10 @@ def select(ts: TrajectorySet, side: str | None = None, levels: str | None = None
     if ids is not None:
         wanted_ids = [t.strip() for t in ids.split(",")]
         if any(t == "" for t in wanted_ids):
-            raise InputError(f"ids {ids!r}: empty item")
+            raise InputError.of("ids", f"{ids!r}: empty item")
         unknown = [t for t in wanted_ids if t not in ts.ids]
         if unknown:
-            raise InputError(f"ids {ids!r}: unknown trajectory id(s) {', '.join(unknown)} in {ts.source}")
+            raise InputError.of("ids", f"{ids!r}: unknown trajectory id(s) {', '.join(unknown)} in {ts.source}")
         keep &= np.array([v in wanted_ids for v in ts.ids], dtype=bool)
     if not keep.any():
         given = ", ".join(f"{k}={v}" for k, v in (("side", side), ("levels", levels), ("ids", ids))

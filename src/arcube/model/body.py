@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
+from arcube.io.inputs import short_repr
 from arcube.model import frames
 from arcube.model.design import unpack
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
@@ -189,6 +190,13 @@ PART_NAMES: tuple[str, ...] = (
 _PART = {name: i for i, name in enumerate(PART_NAMES)}
 
 
+def _finite(value: float) -> bool:
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int beyond the float range
+        return False
+
+
 @dataclass(frozen=True)
 class BodyRadii:
     """Radii of the body parts (MODEL.md 14.1), mm: links, actuators (spheres at P_u, D_u), drill motor."""
@@ -199,11 +207,10 @@ class BodyRadii:
     motor_length: float = 120.0
 
     def __post_init__(self) -> None:
-        flags = {"link": "--link-radius", "actuator": "--actuator-radius", "motor": "--motor-radius", "motor_length": "--motor-length"}
-        for name, flag in flags.items():
+        for name in ("link", "actuator", "motor", "motor_length"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0):
-                raise InputError(f"{flag} must be a finite number of mm > 0, got {value!r}")
+            if not (isinstance(value, (int, float)) and _finite(value) and value > 0.0):
+                raise InputError.of(f"BodyRadii.{name}", f"must be a finite number of mm > 0, got {short_repr(value)}")
 
 
 # Primitive tables: (part, joint points it touches, leg, stage). Joints: O, P_u, D_u, K_u, T_u, Q_u, J_z, B_u, H.

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
+from arcube.io.inputs import load_json, short_repr
 
 PARAM_NAMES: tuple[str, ...] = (
     "m_x", "m_y", "m_z",
@@ -42,6 +43,18 @@ PARAM_NAMES: tuple[str, ...] = (
     "L",
 )  # fmt: skip
 """Code order of the 27 parameters (MODEL.md 2 and 13.3)."""
+
+SLICES: dict[str, slice | int] = {
+    "m": slice(0, 3), "f": slice(3, 6), "p": slice(6, 9), "d": slice(9, 12),
+    "c": slice(12, 14), "t": slice(14, 16), "r": 16,
+    "o": slice(17, 19), "alpha": slice(19, 21), "beta": slice(21, 23),
+    "mount": slice(23, 26), "L": 26,
+}  # fmt: skip
+"""The one parameter layout: where each :class:`Geometry` field sits on the last axis of a design
+array, i.e. the :data:`PARAM_NAMES` ``<key>_*`` (an int: the one scalar parameter ``<key>``).
+``x[..., SLICES["p"]]`` is ``(..., 3)``, ``x[..., SLICES["r"]]`` is ``(...)``."""
+ANGLE_GROUPS: frozenset[str] = frozenset({"o", "alpha", "beta", "mount"})
+"""The :data:`SLICES` keys in degrees in a design array (radians in :class:`Geometry`)."""
 
 N_PARAMS = len(PARAM_NAMES)
 N_PAPER = 23
@@ -112,20 +125,8 @@ def full_params(params: ArrayLike) -> NDArray[np.float64]:
 def unpack(params: ArrayLike) -> Geometry:
     """Split a design array ``(..., 27)`` or ``(..., 23)`` (mm, deg) into a :class:`Geometry` (mm, rad)."""
     x = full_params(params)
-    return Geometry(
-        m=x[..., 0:3],
-        f=x[..., 3:6],
-        p=x[..., 6:9],
-        d=x[..., 9:12],
-        c=x[..., 12:14],
-        t=x[..., 14:16],
-        r=x[..., 16],
-        o=np.deg2rad(x[..., 17:19]),
-        alpha=np.deg2rad(x[..., 19:21]),
-        beta=np.deg2rad(x[..., 21:23]),
-        mount=np.deg2rad(x[..., 23:26]),
-        L=x[..., 26],
-    )
+    fields = {key: x[..., at] for key, at in SLICES.items()}
+    return Geometry(**{key: np.deg2rad(v) if key in ANGLE_GROUPS else v for key, v in fields.items()})
 
 
 def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[str, float]:
@@ -135,9 +136,11 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
     Returns the values as floats in :data:`PARAM_NAMES` order. Raises :class:`InputError` with
     a one-line message naming ``source`` and the first problem found.
     """
+    if not isinstance(values, Mapping):
+        raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
     unknown = [k for k in values if k not in INDEX]
     if unknown:
-        raise InputError(f"{source}: unknown parameter {unknown[0]!r} (expected the 27 names of MODEL.md 2 and 13.3: {', '.join(PARAM_NAMES)})")
+        raise InputError(f"{source}: unknown parameter {short_repr(unknown[0])} (expected the 27 names of MODEL.md 2 and 13.3: {', '.join(PARAM_NAMES)})")
     values = {**{n: 0.0 for n in ADDED_NAMES}, **values}
     missing = [n for n in PARAM_NAMES if n not in values]
     if missing:
@@ -146,10 +149,13 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
     for name in PARAM_NAMES:
         raw = values[name]
         if isinstance(raw, bool) or not isinstance(raw, (int, float)):
-            raise InputError(f"{source}: parameter {name} is not a number ({raw!r})")
-        val = float(raw)
+            raise InputError(f"{source}: parameter {name} is not a number ({short_repr(raw)})")
+        try:
+            val = float(raw)
+        except OverflowError:  # an int beyond the float range
+            raise InputError(f"{source}: parameter {name} is out of range ({short_repr(raw)})") from None
         if not math.isfinite(val):
-            raise InputError(f"{source}: parameter {name} is not finite ({raw!r})")
+            raise InputError(f"{source}: parameter {name} is not finite ({short_repr(raw)})")
         if name in LENGTH_NAMES and val <= 0.0:
             raise InputError(f"{source}: length {name} must be positive, got {val:g} mm")
         if name.startswith(("alpha_", "beta_")) and not 0.0 < val < 180.0:
@@ -182,7 +188,10 @@ class Design:
     @classmethod
     def from_vector(cls, vector: ArrayLike) -> Design:
         """Build from a length-27 (or the paper's 23) vector in :data:`PARAM_NAMES` order (mm, deg)."""
-        v = np.asarray(vector, dtype=float).reshape(-1)
+        try:
+            v = np.asarray(vector, dtype=float).reshape(-1)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise InputError(f"design: the vector must hold numbers (mm, deg) ({' '.join(str(exc).split())[:120]})") from None
         return cls(tuple(float(a) for a in v))
 
     @classmethod
@@ -197,14 +206,8 @@ class Design:
         """Read a flat JSON object keyed by the parameter names (a ``placements`` list beside them, as a
         per-patient-docking run writes it, is not part of the design and is skipped)."""
         p = Path(path)
-        try:
-            text = p.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise InputError(f"{p}: cannot read design file ({exc.strerror or exc})") from None
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{p}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+        # a regular file of at most 64 MiB, UTF-8 or UTF-16/32 with a BOM, JSON nested <= 64 levels
+        data = load_json(p)
         if not isinstance(data, dict):
             raise InputError(f"{p}: a design file must hold one JSON object keyed by parameter names")
         # a per-patient-docking run's best_design.json lists each patient's placement beside the design

@@ -50,18 +50,13 @@ from pymoo.termination.robust import RobustTermination
 
 from arcube.errors import InputError
 from arcube.optimization.lean import LeanEvaluator, LeanFitnessSurvival, LeanGA, PassRepair, lean_comp_by_cv_and_fitness
-from arcube.optimization.problem import MULTI_OBJECTIVE_ALGORITHMS
+from arcube.optimization.settings import ALGORITHMS, DEFAULT_ALGORITHM, DEFAULT_PERIOD, MULTI_OBJECTIVE_ALGORITHMS  # noqa: F401 (re-exported)
 
-ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3")
-DEFAULT_ALGORITHM = "mscmaes"
-"""The default single-objective optimizer, chosen by measurement (README, "Which optimizer")."""
 BUDGETED: frozenset[str] = frozenset({"mscmaes"})
 """Algorithms whose budget is population * generations design evaluations, not generations."""
 MULTI_OBJECTIVE: frozenset[str] = MULTI_OBJECTIVE_ALGORITHMS
 PENALTY_ONLY: frozenset[str] = frozenset({"cmaes", "mscmaes"})
 """Algorithms without constraint handling: they minimize the penalized F of problem.PENALTY."""
-DEFAULT_PERIOD = 30
-"""Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
 
 
 class SeededSampling(Sampling):
@@ -82,10 +77,10 @@ class SeededSampling(Sampling):
 def check_algorithm(name: str, population: int) -> None:
     """InputError for an unknown algorithm or a population it cannot use."""
     if name not in ALGORITHMS:
-        raise InputError(f"--algorithm must be one of {', '.join(ALGORITHMS)}, got {name!r}")
+        raise InputError.of("RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {name!r}")
     least = 4 if name in ("de", "nsga2", "nsga3", "cmaes") else 2
     if population < least:
-        raise InputError(f"--population must be at least {least} for {name}, got {population}")
+        raise InputError.of("RunSettings.population", f"must be at least {least} for {name}, got {population}")
 
 
 def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None = None, *,
@@ -144,9 +139,9 @@ def make_termination(name: str, generations: int, tolerance: float, period: int 
     ``tolerance`` over ``period`` generations). ``tolerance == 0`` runs every generation.
     A budgeted algorithm (``mscmaes``) stops at ``population * generations`` evaluations instead."""
     if generations < 1:
-        raise InputError(f"--generations must be at least 1, got {generations}")
+        raise InputError.of("RunSettings.generations", f"must be at least 1, got {generations}")
     if not (tolerance >= 0.0 and np.isfinite(tolerance)):
-        raise InputError(f"--tolerance must be a finite number >= 0, got {tolerance}")
+        raise InputError.of("RunSettings.tolerance", f"must be a finite number >= 0, got {tolerance}")
     if name in BUDGETED:
         return TerminationCollection(MaximumFunctionCallTermination(population * generations))
     criteria: list[Termination] = [MaximumGenerationTermination(generations)]

@@ -1,42 +1,40 @@
-"""Validated optimization settings: the flags of ``arcube optimize`` -> a run config (what config.toml holds).
+"""A run's config (what config.toml holds): validated settings, the plans' coordinates, the start design.
 
-:func:`build_config` checks every setting (raising :class:`~arcube.errors.InputError` with one
-line), loads the trajectory sets and returns the config dict that :mod:`arcube.optimization.run`
-writes to ``config.toml`` and runs.
+:func:`build_config` takes the plans and a :class:`~arcube.optimization.settings.RunSettings`
+(or its fields as keywords), loads the trajectory sets and the start design, checks the anatomy
+can be read, and returns the config dict that :mod:`arcube.optimization.run` writes to
+``config.toml`` and runs.
 """
 
 from __future__ import annotations
 
-import math
-import os
 import secrets
 from typing import Any
 
-from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.errors import InputError
-from arcube.evaluation.reference import Options, with_body, with_loads
-from arcube.optimization.objectives import needs_clearance, parse_limits, parse_objectives
-from arcube.model.body import BodyRadii
+from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.io import TrajectorySet, load_trajectories, select
-from arcube.model.design import ANGLE_NAMES, LENGTH_NAMES, PAPER_NAMES, Design
-from arcube.model.mechanism import parse_mode
+from arcube.model.design import PAPER_NAMES, Design
 from arcube.optimization import run as runmod
-from arcube.optimization.algorithms import DEFAULT_ALGORITHM, DEFAULT_PERIOD, check_algorithm, make_termination
-from arcube.optimization.problem import AGGREGATES, COMPACTNESS, DOCKINGS, MULTI_OBJECTIVE_ALGORITHMS, parse_bounds, parse_free, resolve_bounds
+from arcube.optimization.algorithms import make_termination
+from arcube.optimization.settings import RunSettings, resolve_bounds
+from arcube.options import validated
 
-__all__ = ["build_config"]
+__all__ = ["build_config", "run_settings"]
 
 
-def _load_patients(specs: list[Any], transform: str | None, side: str | None, levels: str | None, ids: str | None, setups: int) -> list[dict[str, Any]]:
+def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
     patients = []
     for spec in specs:
-        ts = spec if isinstance(spec, TrajectorySet) else load_trajectories(spec, transform)
-        if side is not None or levels is not None or ids is not None:
-            ts = select(ts, side=side, levels=levels, ids=ids)
-        if setups == 2:
+        ts = spec if isinstance(spec, TrajectorySet) else load_trajectories(spec, s.transform)
+        if s.side is not None or s.levels is not None or s.ids is not None:
+            ts = select(ts, side=s.side, levels=s.levels, ids=s.ids)
+        if not len(ts.ids):
+            raise InputError(f"{ts.source}: no trajectories to optimize over")
+        if s.setups == 2:
             for sd in ("R", "L"):
                 if sd not in ts.sides:
-                    raise InputError(f"--setups 2 needs R and L trajectories; {spec} has no side {sd} (after the subset flags)")
+                    raise InputError.of("RunSettings.setups", f"2 needs R and L trajectories; {spec} has no side {sd} (after the selection)")
         patients.append({
             "source": ts.source if isinstance(spec, TrajectorySet) else str(spec), "ids": list(ts.ids), "levels": list(ts.levels), "sides": list(ts.sides),
             "entry": [[float(v) for v in row] for row in ts.entry], "target": [[float(v) for v in row] for row in ts.target],
@@ -44,108 +42,38 @@ def _load_patients(specs: list[Any], transform: str | None, side: str | None, le
     return patients
 
 
-def _anatomy_spec(anatomy: Any) -> list[str]:
-    """``--anatomy`` values as a list of strings ([] for none)."""
-    if anatomy is None:
-        return []
-    items = [os.fspath(anatomy)] if isinstance(anatomy, (str, os.PathLike)) else [os.fspath(a) for a in anatomy]
-    return [] if items == ["none"] else items
+def run_settings(settings: RunSettings | None = None, **fields: Any) -> RunSettings:
+    """``settings`` with ``fields`` changed (flat names accepted: ``thrust=25``), validated once."""
+    base = settings.model_dump() if settings is not None else {}
+    return validated(RunSettings, {**base, **fields}) if fields or settings is None else settings
 
 
-def _check_bounds(bounds: dict[str, tuple[float, float]]) -> None:
-    for name, (lo, hi) in bounds.items():
-        if name in LENGTH_NAMES and lo <= 0.0:
-            raise InputError(f"--bounds {name}: a length needs a lower bound > 0, got {lo:g}")
-        if name in ANGLE_NAMES and name.startswith(("alpha", "beta")) and not (0.0 < lo and hi < 180.0):
-            raise InputError(f"--bounds {name}: spherical link angles must stay within (0, 180) deg")
+def build_config(trajectories: list[Any], settings: RunSettings | None = None, *, workers: int = 1, dask: str | None = None,
+                 **fields: Any) -> dict[str, Any]:  # fmt: skip
+    """The run's config for these plans (each a TrajectorySet or what ``load_trajectories`` reads).
 
-
-def build_config(
-    trajectories: list[Any], design_from: str = "paper", free: str = "all", algorithm: str = DEFAULT_ALGORITHM, population: int = 400,
-    generations: int = 300, tolerance: float = 1e-5, points: int = 30, mode: str = "+,+,+,+", setups: int = 1,
-    guards: bool = False, margin: float | None = None, seed: int | None = None, workers: int = 1, dask: str | None = None,
-    side: str | None = None, levels: str | None = None, ids: str | None = None, engine: str = "auto",
-    aggregate: str = "mean", compactness: str = "links", bounds: str | None = None, checkpoint_every: int = 10,
-    transform: str | None = None, eliminate_duplicates: bool = False,
-    anatomy: Any = None, anatomy_frame: str = "LPS", clearance: float | None = None, self_clearance: float | None = None,
-    link_radius: float = 8.0, actuator_radius: float = 25.0, motor_radius: float = 20.0, motor_length: float = 120.0,
-    objectives: str | None = None, maxima: list[str] | None = None, minima: list[str] | None = None,
-    encoder_deg: Any = 0.01, thrust: float = 30.0, lateral_force: float = 10.0, actuator_stiffness: Any = 1e4,
-    docking: str = "per-patient",
-) -> dict[str, Any]:  # fmt: skip
-    """Validate the optimize flags and return the run's config (what config.toml holds)."""
-    algorithm = algorithm.strip().lower()
-    names = parse_objectives(objectives)
-    limits = parse_limits(maxima, minima)
-    if len(names) > 1:  # MODEL.md 15.5: two or three objectives -> NSGA-II, more -> NSGA-III
-        algorithm = "nsga2" if len(names) <= 3 else "nsga3"
-    elif names and algorithm in MULTI_OBJECTIVE_ALGORITHMS:
-        raise InputError(f"--algorithm {algorithm} needs two or more --objectives (got {names[0]} alone)")
-    loads = with_loads(Options(), encoder_deg=encoder_deg, thrust=thrust, lateral_force=lateral_force, stiffness=actuator_stiffness)
-    check_algorithm(algorithm, population)
-    make_termination(algorithm, generations, tolerance)
+    ``workers`` and ``dask`` say where the evaluations run (recorded, not part of the settings).
+    """
+    s = run_settings(settings, **fields)
     if not trajectories:
-        raise InputError("--trajectories: give at least one trajectory set (CSV, .mrk.json, folder or 'reference')")
-    if points < 2:
-        raise InputError(f"--points must be at least 2, got {points}")
-    if setups not in (1, 2):
-        raise InputError(f"--setups must be 1 or 2, got {setups}")
-    if setups == 2 and side is not None:
-        raise InputError("--setups 2 uses both sides (one placement each); drop --side")
-    mode_text = mode.strip().lower()
-    if mode_text != "free":
-        try:
-            parse_mode(mode_text)
-        except ValueError as exc:
-            raise InputError(f"--mode: {exc}; or 'free'") from None
-    if margin is not None and not (math.isfinite(margin) and margin >= 0.0):
-        raise InputError(f"--margin must be a finite angle >= 0 (deg), got {margin}")
-    if seed is None:
-        seed = secrets.randbelow(2**31)
-    if not 0 <= seed < 2**63:
-        raise InputError(f"--seed must be an integer in [0, 2^63), got {seed}")
-    if workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
+        raise InputError.of("plan", "give at least one trajectory set (CSV, .mrk.json, folder or 'reference')")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError.of("workers", f"must be an integer >= 1, got {workers!r}")
     if dask and workers > 1:
-        raise InputError("--workers and --dask exclude each other (the Dask cluster has its own workers)")
-    if aggregate not in AGGREGATES:
-        raise InputError(f"--aggregate must be one of {', '.join(AGGREGATES)}, got {aggregate!r}")
-    docking = str(docking).strip().lower()
-    if docking not in DOCKINGS:
-        raise InputError(f"--docking must be one of {', '.join(DOCKINGS)}, got {docking!r}")
-    if compactness not in COMPACTNESS:
-        raise InputError(f"--compactness must be one of {', '.join(COMPACTNESS)}, got {compactness!r}")
-    if checkpoint_every < 1:
-        raise InputError(f"--checkpoint-every must be at least 1, got {checkpoint_every}")
-    engine_resolved = runmod.check_engine(engine)
-    free_names = parse_free(free)
-    all_bounds = resolve_bounds(parse_bounds(bounds))
-    _check_bounds(all_bounds)
-    design = Design.load(design_from)
-    patients = _load_patients(trajectories, transform, side, levels, ids, setups)
-    body = with_body(Options(), clearance=clearance, self_clearance=self_clearance,
-                        radii=BodyRadii(link_radius, actuator_radius, motor_radius, motor_length))  # fmt: skip
-    anatomy_spec = _anatomy_spec(anatomy)
-    if anatomy_spec:  # read now, so that a bad file stops the run before its folder exists
+        raise InputError.of("workers", "and dask exclude each other (the Dask cluster has its own workers)")
+    make_termination(s.algorithm, s.generations, s.tolerance)
+    if s.seed is None:
+        s = s.replace(seed=secrets.randbelow(2**31))
+    engine_resolved = runmod.check_engine(s.engine)
+    design = Design.load(s.design_from)
+    patients = _load_patients(trajectories, s)
+    if s.anatomy:  # read now, so that a bad file stops the run before its folder exists
         for spec in trajectories:
-            resolve_anatomy(anatomy_spec, anatomy_frame, spec)
-    elif clearance is not None:
-        raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")
-    elif needs_clearance(names, limits):
-        raise InputError("the clearance objective or limit needs an anatomy (--anatomy default or mesh files)")
-    settings = {
-        "algorithm": algorithm, "population": population, "generations": generations, "tolerance": tolerance,
-        "period": DEFAULT_PERIOD, "points": points, "mode": mode_text, "setups": setups, "guards": guards, "margin": margin,
-        "seed": seed, "engine": engine, "engine_resolved": engine_resolved, "aggregate": aggregate, "compactness": compactness,
-        "checkpoint_every": checkpoint_every, "eliminate_duplicates": bool(eliminate_duplicates), "design_from": design_from, "free": list(free_names),
-        "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in trajectories], "side": side, "levels": levels, "ids": ids, "transform": transform,
-        "anatomy": anatomy_spec, "anatomy_frame": anatomy_frame, "clearance": body.clearance_mm, "self_clearance": body.self_clearance_mm,
-        "link_radius": body.link_radius, "actuator_radius": body.actuator_radius, "motor_radius": body.motor_radius, "motor_length": body.motor_length,
-        "objectives": list(names), "limits": limits, "encoder_deg": list(loads.encoder_deg), "thrust": loads.thrust_N,
-        "lateral_force": loads.lateral_force_N, "actuator_stiffness": list(loads.actuator_stiffness), "docking": docking,
-    }  # fmt: skip
-    cfg = runmod.new_run_config(settings, all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
-    cfg["rerun"] = _rerun_command(settings, all_bounds, cfg)
+            resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec)
+    table = {**s.to_table(), "engine_resolved": engine_resolved,
+             "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in trajectories]}  # fmt: skip
+    cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
+    cfg["rerun"] = _rerun_command(table, s.all_bounds, cfg)
     return cfg
 
 

@@ -48,42 +48,6 @@ def summary_value(summary: dict[str, Any], name: str) -> float | None:
     return None if value is None else float(value)
 
 
-def parse_objectives(text: str | None) -> tuple[str, ...]:
-    """``"eta_G,lateral_error"`` -> ``("eta_G", "lateral_error")``; InputError for unknown or repeated names."""
-    if text is None or not text.strip():
-        return ()
-    names = tuple(n.strip() for n in text.split(","))
-    for n in names:
-        if n not in OBJECTIVES:
-            raise InputError(f"--objectives: unknown objective {n!r} (known: {', '.join(OBJECTIVES)})")
-    if len(set(names)) != len(names):
-        raise InputError(f"--objectives {text!r}: an objective is named twice")
-    return names
-
-
-def parse_limits(maxima: list[str] | None, minima: list[str] | None) -> list[list[Any]]:
-    """``--max lateral_error=0.2`` and ``--min clearance=5`` as ``[[name, "max"|"min", value], ...]``."""
-    out: list[list[Any]] = []
-    for flag, items in (("max", maxima or []), ("min", minima or [])):
-        for item in items:
-            name, sep, value = str(item).partition("=")
-            name = name.strip()
-            if not sep or not name:
-                raise InputError(f"--{flag} {item!r}: expected NAME=VALUE, e.g. --{flag} lateral_error=0.2")
-            if name not in OBJECTIVES:
-                raise InputError(f"--{flag} {item!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})")
-            try:
-                v = float(value)
-            except ValueError:
-                raise InputError(f"--{flag} {item!r}: the value {value.strip()!r} is not a number") from None
-            if not math.isfinite(v):
-                raise InputError(f"--{flag} {item!r}: the value must be finite")
-            if flag == "max" and v <= 0.0:
-                raise InputError(f"--max {item!r}: an upper limit must be > 0")
-            out.append([name, flag, v])
-    return out
-
-
 def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the clearance to the anatomy must be computed for these objectives and limits."""
     return "clearance" in objectives or any(n == "clearance" for n, _, _ in limits)

@@ -34,33 +34,19 @@ from pymoo.core.problem import Problem
 
 from arcube.evaluation import engine as core_engine
 from arcube.model import frames
-from arcube.model.body import BodyRadii
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PAPER_NAMES, PARAM_NAMES, full_params, unpack
 from arcube.errors import InputError
-from arcube.evaluation.reference import GUARDED_OPTIONS, Options, with_body, with_loads
-from arcube.optimization.objectives import limit_shortfall, metric_values, needs_clearance, needs_tip_metrics, objective_columns, parse_objectives
+from arcube.options import Options
+from arcube.optimization.objectives import limit_shortfall, metric_values, objective_columns
+from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
+    DEFAULT_BOUNDS, FREE_GROUPS, MULTI_OBJECTIVE_ALGORITHMS, RunSettings, parse_bounds, parse_free, resolve_bounds,
+)  # fmt: skip
 from arcube.model.mechanism import format_mode, parse_mode
 from arcube.model.poses import LEG_PERM
 from arcube.model.stages import tls
 from arcube.evaluation.task import build_task
 
 Array = NDArray[np.float64]
-
-_B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (-400.0, 400.0), (20.0, 250.0), (30.0, 200.0), (50.0, 80.0), (-270.0, 270.0), (30.0, 90.0)
-DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
-    "m_x": _B_M, "m_y": _B_M, "m_z": _B_M,
-    "f_x": _B_F, "f_y": _B_F, "f_z": _B_F,
-    "p_x": _B_L, "p_y": _B_L, "p_z": _B_L,
-    "d_x": _B_L, "d_y": _B_L, "d_z": _B_L,
-    "c_x": _B_L, "c_y": _B_L, "t_x": _B_L, "t_y": _B_L,
-    "r": _B_R,
-    "o_x": _B_O, "o_y": _B_O,
-    "alpha_x": _B_A, "alpha_y": _B_A, "beta_x": _B_A, "beta_y": _B_A,
-    "mount_rx": (-180.0, 180.0), "mount_ry": (-180.0, 180.0), "mount_rz": (-180.0, 180.0), "L": (0.0, 200.0),
-}  # fmt: skip
-"""MODEL.md 12.1 and 13.3 default bounds (mm, deg)."""
-FREE_GROUPS: dict[str, tuple[str, ...]] = {"all": PAPER_NAMES, "mount": MOUNT_NAMES}
-"""Group words of ``--free``: ``all`` (the paper's 23) and ``mount`` (the three mounting angles)."""
 
 PLACEMENT_NAMES = ("m_x", "m_y", "m_z")
 LINK_NAMES: tuple[str, ...] = PARAM_NAMES[3:17]
@@ -72,53 +58,7 @@ as a ranking; GA, DE and NSGA-II compare infeasible designs by the constraint (f
 COMPACTNESS = ("links", "bbox")
 DOCKINGS = ("per-patient", "shared")
 """``--docking`` over several trajectory sets: each patient its own placement (and mounting when free), or one for all."""
-MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
 AGGREGATES = ("mean", "worst")
-
-
-def parse_free(spec: str) -> tuple[str, ...]:
-    """Comma-separated parameter names and group words (``all``: the paper's 23, ``mount``: the three
-    mounting angles), e.g. ``all,mount,L`` -> names in PARAM_NAMES order (InputError if bad)."""
-    items = [s.strip() for s in spec.strip().split(",")]
-    if not items or any(not n for n in items):
-        raise InputError(f"--free {spec!r}: expected comma-separated parameter names or the groups 'all' and 'mount'")
-    names: set[str] = set()
-    for item in items:
-        if item.lower() in FREE_GROUPS:
-            names.update(FREE_GROUPS[item.lower()])
-        elif item in INDEX:
-            names.add(item)
-        else:
-            raise InputError(f"--free: unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)})")
-    return tuple(n for n in PARAM_NAMES if n in names)
-
-
-def parse_bounds(spec: str | None) -> dict[str, tuple[float, float]]:
-    """``'p_x=30:250,r=50:90'`` -> overrides {name: (lo, hi)} (InputError if bad)."""
-    out: dict[str, tuple[float, float]] = {}
-    if not spec:
-        return out
-    for item in spec.split(","):
-        name, sep, rng = item.partition("=")
-        lo_s, sep2, hi_s = rng.partition(":")
-        name = name.strip()
-        if not sep or not sep2 or name not in INDEX:
-            raise InputError(f"--bounds item {item.strip()!r}: expected NAME=LO:HI with NAME one of the 27 parameters")
-        try:
-            lo, hi = float(lo_s), float(hi_s)
-        except ValueError:
-            raise InputError(f"--bounds item {item.strip()!r}: LO and HI must be numbers") from None
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise InputError(f"--bounds item {item.strip()!r}: need finite LO < HI")
-        out[name] = (lo, hi)
-    return out
-
-
-def resolve_bounds(overrides: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
-    """DEFAULT_BOUNDS updated with ``overrides``."""
-    b = dict(DEFAULT_BOUNDS)
-    b.update(overrides or {})
-    return b
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,9 +90,9 @@ class VariableSpace:
 
     def __post_init__(self) -> None:
         if self.setups not in (1, 2):
-            raise InputError(f"--setups must be 1 or 2, got {self.setups}")
+            raise InputError.of("RunSettings.setups", f"must be 1 or 2, got {self.setups}")
         if self.docking not in DOCKINGS:
-            raise InputError(f"--docking must be one of {', '.join(DOCKINGS)}, got {self.docking!r}")
+            raise InputError.of("RunSettings.docking", f"must be one of {', '.join(DOCKINGS)}, got {self.docking!r}")
         for n in self.free:
             lo, hi = self.bounds[n]
             if not lo < hi:
@@ -292,8 +232,8 @@ class FitnessModel:
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
-            raise InputError(f"--aggregate must be one of {', '.join(AGGREGATES)}, got {self.aggregate!r}")
-        parse_objectives(",".join(self.objectives))  # validates the names
+            raise InputError.of("RunSettings.aggregate", f"must be one of {', '.join(AGGREGATES)}, got {self.aggregate!r}")
+        RunSettings(objectives=self.objectives)  # validates the names
         e_all = np.concatenate([t.e for t in self.tasks])
         ang = np.degrees(np.arccos(np.clip(e_all[:, :2], -1.0, 1.0)))  # angle(e, +u) for legs x, y
         object.__setattr__(self, "_ang_max", ang.max(axis=0))
@@ -372,7 +312,7 @@ class FitnessModel:
         """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
         X = np.atleast_2d(np.asarray(x, dtype=float))
         params, modes = self.space.decode(X)
-        described = replace(self, options=self.options.model_copy(update={"body": True, "tip_metrics": True, "clearance_min_exact": True}))
+        described = replace(self, options=self.options.replace(outputs=self.options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True)))
         results = described._run_tasks(params, modes, want_points=True)
         eta, viol, _ = self._judge(results, params)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for r in results])
@@ -438,18 +378,8 @@ def anatomy_file(i: int) -> str:
 
 
 def run_options(s: dict[str, Any]) -> Options:
-    """The evaluation options of a run's settings (guards, clearance guards, body radii)."""
-    base = GUARDED_OPTIONS if s["guards"] else Options()
-    radii = BodyRadii(*(float(s.get(k, d)) for k, d in (("link_radius", 8.0), ("actuator_radius", 25.0), ("motor_radius", 20.0), ("motor_length", 120.0))))
-    opts = with_body(base, clearance=s.get("clearance"), self_clearance=s.get("self_clearance"), radii=radii)
-    opts = with_loads(opts, encoder_deg=s.get("encoder_deg"), thrust=s.get("thrust"), lateral_force=s.get("lateral_force"),
-                      stiffness=s.get("actuator_stiffness"))  # fmt: skip
-    limits = [list(lim) for lim in s.get("limits", [])]
-    if needs_clearance(tuple(s.get("objectives") or ()), limits) and opts.clearance_mm is None:
-        opts = opts.model_copy(update={"want_clearance": True})
-    # the drill-tip metrics cost time: only when an objective or a limit needs them (reports turn them on)
-    return opts.model_copy(update={"tip_metrics": needs_tip_metrics(run_objectives(s), limits),
-                                   "clearance_min_exact": needs_clearance(run_objectives(s), limits)})
+    """The evaluation options of a run's ``[settings]`` table (guards, clearance guards, body, loads)."""
+    return RunSettings.from_table(s).evaluation_options()
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
@@ -472,11 +402,35 @@ def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
     return tuple(out)
 
 
-def build_model(cfg: dict[str, Any], run_dir: Any = None) -> FitnessModel:
+def stl_roundtrip(anatomy: Any) -> Any:
+    """The distance grids of ``anatomy`` as a run folder's ``anatomy.stl`` gives them (float32
+    coordinates, merged vertices), built in memory: an in-memory run equals a folder run."""
+    import io
+
+    import trimesh
+
+    from arcube.evaluation.anatomy import Anatomy
+    from arcube.io.meshes import _stl_bytes
+
+    vertices, faces, offset = [], [], 0
+    for m in anatomy.meshes:
+        vertices.append(np.asarray(m.vertices, dtype=np.float64))
+        faces.append(np.asarray(m.faces, dtype=np.int64) + offset)
+        offset += len(m.vertices)
+    data = _stl_bytes(np.concatenate(vertices), np.concatenate(faces), "arcube anatomy, mm, frame=patient")
+    loaded = trimesh.load(io.BytesIO(data), file_type="stl", force="mesh", process=False)
+    mesh = trimesh.Trimesh(vertices=np.asarray(loaded.vertices, dtype=np.float64), faces=np.asarray(loaded.faces, dtype=np.int64), process=False)
+    mesh.merge_vertices()
+    mesh = trimesh.Trimesh(vertices=np.asarray(mesh.vertices) @ np.eye(3), faces=np.asarray(mesh.faces), process=False)
+    return Anatomy.from_meshes([mesh], anatomy.source).distance
+
+
+def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None) -> FitnessModel:
     """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
-    from the run folder (None: not loaded, for validating a config)."""
+    from the run folder (None: not loaded, for validating a config), or given as ``anatomies``."""
     s = cfg["settings"]
-    mode = None if s["mode"] == "free" else parse_mode(s["mode"])
+    rs = RunSettings.from_table(s)
+    mode = None if rs.mode == "free" else parse_mode(rs.mode)
     # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
     bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
     base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
@@ -493,17 +447,15 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None) -> FitnessModel:
     margin = s.get("margin")
     return FitnessModel(
         space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
-        options=run_options(s), engine=s["engine_resolved"], aggregate=s["aggregate"], anatomies=load_run_anatomies(cfg, run_dir),
+        options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
         margin_deg=None if margin is None else float(margin),
-        objectives=run_objectives(s), limits=tuple((str(n), str(k), float(v)) for n, k, v in s.get("limits", [])),
+        objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
     )  # fmt: skip
 
 
 def run_objectives(s: dict[str, Any]) -> tuple[str, ...]:
-    """A run's objectives: ``--objectives``, else eta_G (and nsga2's --compactness, the older shorthand)."""
-    if s.get("objectives"):
-        return tuple(s["objectives"])
-    return ("eta_G", s["compactness"]) if s["algorithm"] in MULTI_OBJECTIVE_ALGORITHMS else ("eta_G",)
+    """A run's objectives, from its ``[settings]`` table (see :attr:`RunSettings.run_objectives`)."""
+    return RunSettings.from_table(s).run_objectives
 
 
 def check_engine(name: str) -> str:
@@ -511,12 +463,12 @@ def check_engine(name: str) -> str:
     try:
         resolved = core_engine.resolve(name)
     except ValueError as exc:
-        raise InputError(f"--engine: {exc}") from None
+        raise InputError.of("engine", str(exc)) from None
     if resolved == "numba":
         try:
             import arcube.evaluation.kernel  # noqa: F401, PLC0415
         except ImportError as exc:
-            raise InputError(f"--engine numba: the compiled kernel is not available ({exc})") from None
+            raise InputError.of("engine", f"numba: the compiled kernel is not available ({exc})") from None
     return resolved
 
 

@@ -19,7 +19,6 @@ Long module: the whole run-folder lifecycle in one place: config TOML, history, 
 from __future__ import annotations
 
 import csv
-import gc
 import io
 import json
 import shutil
@@ -39,24 +38,16 @@ import numpy as np
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
-from arcube.optimization.algorithms import MULTI_OBJECTIVE, PENALTY_ONLY, make_algorithm, make_termination, stop_reason
+from arcube.optimization.algorithms import stop_reason
 from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: still importable from here)
     CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
 )  # fmt: skip
-from arcube.optimization.lean import column
 from arcube.optimization.lock import acquire, release
-from arcube.optimization.objectives import MAXIMIZED
-from arcube.optimization.problem import (
-    ArcubeProblem, FitnessModel, anatomy_file, build_model, check_engine, evaluate_with, worker_evaluate, worker_init,
-)  # fmt: skip
+from arcube.optimization.loop import HISTORY_COLUMNS, Loop, describe, run_algorithm
+from arcube.optimization.problem import FitnessModel, anatomy_file, build_model, check_engine, evaluate_with, worker_evaluate, worker_init
+from arcube.optimization.settings import RunSettings
 
 RUN_FORMAT = "arcube-optimize-run"
-HISTORY_COLUMNS = ("generation", "evaluations", "best_eta_G", "mean_eta_G", "feasible_fraction", "best_violation", "seconds")
-GC_GEN0_THRESHOLD = 100_000
-"""During a run the cyclic garbage collector's first threshold is raised to this many allocations
-(Python's default is 700): pymoo makes a few thousand small objects per generation (individuals,
-their dicts and arrays) and frees them by reference counting, so the default threshold only made
-the collector rescan them about ten times per generation. Restored when the run returns."""
 
 
 def versions() -> dict[str, str]:
@@ -198,19 +189,6 @@ def _fmt(v: float) -> str:
     return repr(float(v)) if math.isfinite(v) else ""
 
 
-def generation_stats(algorithm: Any) -> dict[str, float]:
-    viol = np.asarray(column(algorithm.pop, "VIOL"), float).reshape(-1)
-    eta = np.asarray(column(algorithm.pop, "ETA"), float).reshape(-1)
-    best = np.asarray(column(algorithm.opt, "ETA"), float).reshape(-1) if algorithm.opt is not None else eta
-    feas = eta[np.isfinite(eta)]
-    return {
-        "best_eta_G": float(np.min(best)) if np.isfinite(best).any() else math.inf,
-        "mean_eta_G": float(np.mean(feas)) if len(feas) else math.inf,
-        "feasible_fraction": float(np.mean(viol == 0.0)),
-        "best_violation": float(np.min(viol)),
-    }
-
-
 def reset_history(path: Path, keep_rows: int) -> None:
     rows: list[str] = []
     if path.exists() and keep_rows:
@@ -218,48 +196,9 @@ def reset_history(path: Path, keep_rows: int) -> None:
     atomic_write_text(path, "\n".join([",".join(HISTORY_COLUMNS), *rows]) + "\n")
 
 
-def pick_best(algorithm: Any) -> Any:
-    """The best individual: pymoo's optimum (best feasible, else least infeasible); on a front, lowest eta."""
-    opt = algorithm.opt
-    if len(opt) == 1:
-        return opt[0]
-    F, viol = opt.get("F"), np.asarray(opt.get("VIOL"), float)
-    order = np.lexsort([F[:, 0], viol])
-    return opt[int(order[0])]
-
-
-def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
-    opt = algorithm.opt
-    feas = np.asarray(opt.get("VIOL"), float) == 0.0
-    X, F = opt.get("X")[feas], opt.get("F")[feas]
-    rows = []
-    for i in np.lexsort([F[:, 1], F[:, 0]]):
-        rep = model.report(X[i])
-        big = max(rep["tasks"], key=lambda t: t["bbox_volume_L"])
-        ext = [hi - lo for lo, hi in zip(big["bbox_min_mm"], big["bbox_max_mm"])]
-        row = {f"objective_{name}": float(F[i, j]) * (-1.0 if name in MAXIMIZED else 1.0) for j, name in enumerate(model.objectives)}
-        row |= {"eta_G": rep["eta_G"], "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
-               "bbox_dx_mm": ext[0], "bbox_dy_mm": ext[1], "bbox_dz_mm": ext[2],
-               "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"],
-               "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))}}  # fmt: skip
-        row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
-        space = model.space
-        for p in range(space.patients if space.per_patient else 1):
-            for setup in range(space.setups):
-                if p or setup:  # the first patient's (R side's) values are the parameter columns
-                    suffix = ("_L" if setup else "") + (f"_p{p + 1}" if p else "")
-                    d = rep["designs"][space.slot(p, setup)]
-                    row.update({f"{n}{suffix}": float(d[PARAM_NAMES.index(n)]) for n in (("m_x", "m_y", "m_z") if setup else space.docked)})
-        rows.append(row)
-    return rows
-
-
 def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]) -> dict[str, Any]:
-    best = pick_best(algorithm)
-    rep = model.report(best.X)
-    designs = rep.pop("designs")
-    s = cfg["settings"]
+    """Write the best design(s), pareto.csv (multi-objective) and summary.json; returns the summary."""
+    summary, designs, front = describe(cfg, model, algorithm, info)
     if model.space.per_patient:
         files = write_placements(run_dir, cfg, model, designs)
     else:
@@ -268,32 +207,22 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
         if len(designs) == 2:
             Design.from_vector(designs[1]).to_json(run_dir / "best_design_L.json")
             files = {"best_design_R": "best_design.json", "best_design_L": "best_design_L.json"}
-    summary: dict[str, Any] = {
-        "feasible": rep["feasible"], "eta_G": rep["eta_G"], "dexterity_pct": rep["dexterity_pct"],
-        "generations": info["generations"], "evaluations": info["evaluations"], "seed": s["seed"],
-        "wall_s": round(info["wall_s"], 3), "eval_s": round(info["eval_s"], 3), "stopped_by": info["stopped_by"],
-        "algorithm": s["algorithm"], "population": s["population"], "engine": s["engine_resolved"],
-        "mode": rep["mode"], "setups": s["setups"], "aggregate": s["aggregate"], "free": s["free"],
-        "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
-        "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
-        "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))},
-        "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
-        "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
-        "points": model.n_points, "files": files, "resumed": info["resumed"], "docking": s.get("docking", "shared"),
-    }  # fmt: skip
-    if s["algorithm"] in MULTI_OBJECTIVE:
-        rows = front_rows(model, algorithm)
-        buf = io.StringIO()
-        cols = list(rows[0]) if rows else ["eta_G", "links_sum_mm", "bbox_volume_L", *PARAM_NAMES]
-        w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
-        w.writeheader()
-        w.writerows([{k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
-        atomic_write_text(run_dir / "pareto.csv", buf.getvalue())
-        summary["front_size"], summary["compactness"] = len(rows), s["compactness"]
+    summary["files"] = files
+    if front is not None:
+        atomic_write_text(run_dir / "pareto.csv", front_csv(front))
         files["pareto"] = "pareto.csv"
     atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return summary
+
+
+def front_csv(rows: list[dict[str, Any]]) -> str:
+    """pareto.csv's text: one row per front design (floats written exactly)."""
+    buf = io.StringIO()
+    cols = list(rows[0]) if rows else ["eta_G", "links_sum_mm", "bbox_volume_L", *PARAM_NAMES]
+    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    w.writeheader()
+    w.writerows([{k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
+    return buf.getvalue()
 
 
 def placement_file(patient: int, setup: int = 0) -> str:
@@ -343,6 +272,7 @@ def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool
     own bookkeeping (setup, history, checkpoints, outputs).
     """
     s = cfg["settings"]
+    settings = RunSettings.from_table(s)
     state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
     if state is None:
         state = {"format": CHECKPOINT_FORMAT, "format_version": FORMAT_VERSION, "run_id": cfg["run_id"], "config_sha256": _sha(cfg_raw),
@@ -355,56 +285,45 @@ def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool
     ex = cfg.get("executor", {})
     executor = make_executor(model, workers if workers is not None else int(ex.get("workers", 1)), dask if dask is not None else ex.get("dask") or None)
     log = EvalLog(executor, replay)
-    # configs written before the setting existed ran pymoo's default (duplicates eliminated)
-    algo = make_algorithm(s["algorithm"], int(s["population"]), int(s["seed"]), model.space.encode(model.space.base), n_obj=model.n_obj,
-                          eliminate_duplicates=bool(s.get("eliminate_duplicates", True)), generations=int(s["generations"]))  # fmt: skip
-    problem = ArcubeProblem(model.space, model.n_obj, log, penalty_only=s["algorithm"] in PENALTY_ONLY)
-    termination = make_termination(s["algorithm"], int(s["generations"]), float(s["tolerance"]), int(s["period"]), int(s["population"]))
-    algo.setup(problem, termination=termination, seed=int(s["seed"]), verbose=False)
-    gen, every, algo_s = 0, int(s["checkpoint_every"]), 0.0
-    budget = int(s["population"]) * int(s["generations"])  # evaluations at most (the GA's own count at full length)
+    every = settings.checkpoint_every
+    budget = settings.population * settings.generations  # evaluations at most (the GA's own count at full length)
     hist = (run_dir / "history.csv").open("a", encoding="utf-8", newline="")
-    gc_thresholds = gc.get_threshold()
-    gc.set_threshold(max(gc_thresholds[0], GC_GEN0_THRESHOLD), *gc_thresholds[1:])
+    loop: Loop | None = None
 
     def elapsed() -> float:
         return prior_s + time.perf_counter() - t0
 
+    def generation(current: Loop, row: dict[str, Any]) -> None:
+        nonlocal loop
+        loop = current
+        gen, n_eval = current.generation, current.algorithm.evaluator.n_eval
+        row = {**row, "seconds": elapsed()}
+        hist.write(",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS) + "\n")
+        hist.flush()
+        if gen % every == 0:
+            state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=n_eval)
+            write_checkpoint(run_dir, state, log, gen)
+        if on_generation is not None:
+            on_generation({**row, "total": settings.generations, "total_evaluations": budget, "eval_s": log.eval_s,
+                           "optimizer_s": current.algorithm_s - log.call_s, "session_s": time.perf_counter() - t0})  # fmt: skip
+
     try:
-        while algo.has_next():
-            t_step = time.perf_counter()
-            algo.next()
-            algo_s += time.perf_counter() - t_step
-            if algo.n_iter - 1 == gen:
-                continue
-            gen = algo.n_iter - 1
-            if gen <= done_gen:
-                continue
-            st = generation_stats(algo)
-            row = {"generation": gen, "evaluations": algo.evaluator.n_eval, **st, "seconds": elapsed()}
-            hist.write(",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS) + "\n")
-            hist.flush()
-            if gen % every == 0:
-                state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval)
-                write_checkpoint(run_dir, state, log, gen)
-            if on_generation is not None:
-                on_generation({**row, "total": int(s["generations"]), "total_evaluations": budget, "eval_s": log.eval_s, "optimizer_s": algo_s - log.call_s,
-                               "session_s": time.perf_counter() - t0})  # fmt: skip
+        loop = run_algorithm(model, settings, log, on_generation=generation, done_generation=done_gen)
         if log.replay:
             raise InputError("checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)")
+        gen, algo = loop.generation, loop.algorithm
         info = {"generations": gen, "evaluations": int(algo.evaluator.n_eval), "wall_s": elapsed(), "eval_s": prior_eval + log.eval_s,
-                "stopped_by": stop_reason(termination), "resumed": state["sessions"] - 1}  # fmt: skip
+                "stopped_by": stop_reason(loop.termination), "resumed": state["sessions"] - 1}  # fmt: skip
         summary = write_outputs(run_dir, cfg, model, algo, info)
         state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval, finished=True)
         write_checkpoint(run_dir, state, log, gen)
         return summary
     except KeyboardInterrupt:
-        if gen > done_gen:
+        if loop is not None and loop.generation > done_gen:
             state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s)
-            write_checkpoint(run_dir, state, log, gen)
+            write_checkpoint(run_dir, state, log, loop.generation)
         raise
     finally:
-        gc.set_threshold(*gc_thresholds)
         hist.close()
         executor.close()
 

@@ -7,8 +7,10 @@ Study folder::
     seed_<S>/          one optimization run folder per seed (config.toml, history.csv, checkpoint/, ...)
     study.csv          per seed: objective values, feasibility, generations, evaluations, wall time
     best_design.json   the best seed's best design (best_design_L.json too with --setups 2)
-    convergence.png    best eta_G against evaluations, one line per seed (log scale)
     summary.json       best / median / worst of the first objective, the best seed, the per-seed rows
+    convergence.png    best eta_G against evaluations, one line per seed (log scale); drawn from the
+                       files above by arcube.report.study.write_study_convergence, which arcube.study
+                       and arcube.resume call once the study has finished (this layer draws nothing)
 
 Every seed's folder is written (config and anatomy) before any seed runs, and each run checkpoints
 as ``arcube optimize`` does, so an interrupted study is finished by :func:`resume_study`
@@ -133,7 +135,7 @@ def start_study(study_dir: Path, base: dict[str, Any], seeds: list[int], *, work
     with ``dask`` each seed is a task on the scheduler's workers (which must see the study folder).
     ``on_seed(seed, run_summary)`` is called as each seed finishes, ``on_generation`` with each
     generation's history row when the seeds run one after another in this process. ``best_known``
-    (an eta_G) is drawn as a line on the convergence figure. A study that
+    (an eta_G) is recorded in study.toml for the convergence figure. A study that
     stops on a bad input before any seed has a checkpoint leaves nothing behind.
     """
     study_dir = Path(study_dir)
@@ -293,7 +295,9 @@ def study_rows(study_dir: Path, summaries: dict[int, dict[str, Any]]) -> list[di
 
 
 def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
-    """Write study.csv, best_design.json, convergence.png and summary.json from the finished seeds; returns the summary."""
+    """Write study.csv, best_design.json and summary.json from the finished seeds; returns the summary.
+
+    The figure (convergence.png) is the report layer's: :func:`arcube.report.study.write_study_convergence`."""
     summaries = {seed: run_summary(seed_dir(study_dir, seed)) for seed in seeds}
     rows = study_rows(study_dir, summaries)
     first = next(k for k in rows[0] if k.startswith("objective_"))
@@ -322,18 +326,4 @@ def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
         "wall_s": round(sum(float(r["wall_s"]) for r in rows), 3), "rows": rows,
     }  # fmt: skip
     atomic_write_text(study_dir / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
-    _convergence(study_dir, seeds, best_seed)
     return summary
-
-
-def _convergence(study_dir: Path, seeds: list[int], best_seed: int) -> None:
-    best_known = tomllib.loads((study_dir / "study.toml").read_text(encoding="utf-8")).get("best_known")
-    from arcube.report.figures import read_history, study_convergence_png
-
-    histories = {}
-    for seed in seeds:
-        try:
-            histories[seed] = read_history(seed_dir(study_dir, seed) / "history.csv")
-        except InputError:
-            continue
-    study_convergence_png(histories, study_dir / "convergence.png", best_seed=best_seed, best_known=best_known)

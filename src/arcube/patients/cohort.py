@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from arcube.errors import InputError
+from arcube.io.inputs import short_repr
 from arcube.io.trajectories import read_csv
 from arcube.patients.anatomy import write_anatomy
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
@@ -27,25 +28,27 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
             anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
             (binary STL, patient frame, one closed shell per box).
     """
-    if mean == (seed is not None):
-        raise InputError("patients: give exactly one of --mean or --seed S")
+    if mean and seed is not None:
+        raise InputError.of("mean", "excludes seed: give exactly one of them (the mean patient, or random ones)")
+    if not mean and seed is None:
+        raise InputError.of("seed", "is missing: give exactly one of seed and mean (random patients, or the mean one)")
     if technique not in TECHNIQUES:
-        raise InputError(f"patients: --technique {technique!r}: expected one of {', '.join(TECHNIQUES)}")
+        raise InputError.of("technique", f"{short_repr(technique)}: expected one of {', '.join(TECHNIQUES)}")
     if count < 1:
-        raise InputError(f"patients: --count {count}: expected at least 1")
+        raise InputError.of("count", f"{count}: expected at least 1")
     if mean and count > 1:
-        raise InputError("patients: --count > 1 with --mean would write identical patients")
+        raise InputError.of("count", f"{count} with mean would write identical patients")
     if seed is not None and seed < 0:
-        raise InputError(f"patients: --seed {seed}: expected a non-negative integer")
+        raise InputError.of("seed", f"{seed}: expected a non-negative integer")
     width = max(3, len(str(count - 1)))
     if count == 1 and not out.is_dir():
         paths = [out]
     else:
         if out.exists() and not out.is_dir():
-            raise InputError(f"patients: --out {out}: exists and is not a folder (needed for --count > 1)")
+            raise InputError.of("out", f"{out}: exists and is not a folder (needed for count > 1)")
         paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
     if any(p.suffix.lower() == ".json" for p in paths):
-        raise InputError(f"patients: --out {out}: the CSV path must not end in .json (the parameters go there)")
+        raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")
     texts = []
     for k, path in enumerate(paths):
         ts, params = generate_patient(None if mean else seed + k, technique)

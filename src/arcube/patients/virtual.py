@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
+from arcube.io.inputs import short_repr
 from arcube.io.trajectories import TrajectorySet, atomic_write, write_csv
 
 __all__ = [
@@ -119,11 +120,11 @@ def draw_parameters(seed: int | None = None, technique: str = "pedicle") -> dict
         JSON-able dict: everything :func:`build_patient` needs (mm, degrees).
     """
     if technique not in TECHNIQUES:
-        raise InputError(f"technique {technique!r}: expected one of {', '.join(TECHNIQUES)}")
+        raise InputError.of("technique", f"{short_repr(technique)}: expected one of {', '.join(TECHNIQUES)}")
     if seed is not None:
         # numbers.Integral also admits numpy integers; bool is an int but never a meant seed.
         if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-            raise InputError(f"seed {seed!r}: expected a non-negative integer")
+            raise InputError.of("seed", f"{short_repr(seed)}: expected a non-negative integer")
         seed = int(seed)  # a plain int keeps the parameters JSON-able
     rng = None if seed is None else np.random.default_rng(seed)
 

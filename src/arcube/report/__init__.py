@@ -3,7 +3,11 @@
 * :mod:`arcube.report.text`: the terminal tables of an evaluation;
 * :mod:`arcube.report.figures`: matplotlib PNGs (the paper's Fig 4, optimizer convergence);
 * :mod:`arcube.report.html`: one self-contained HTML file (plotly, with plotly.js embedded);
-* :mod:`arcube.report.run_report`: the report of an optimization run folder.
+* :mod:`arcube.report.run_report`: the report of an optimization run folder;
+* :mod:`arcube.report.study`: the convergence figure of a design-study folder.
+
+The layers below (model, io, evaluation, optimization) never import this one: a result does not
+know its renderer. :func:`write_report` draws an :class:`~arcube.evaluation.result.Evaluation`.
 
 Submodules are imported lazily so that ``import arcube.report`` stays cheap (plotly and
 matplotlib load only when a report is written).
@@ -11,9 +15,40 @@ matplotlib load only when a report is written).
 
 from __future__ import annotations
 
-from typing import Any
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["mechanism_points", "write_evaluation_report", "write_run_report"]
+from arcube.errors import InputError
+
+if TYPE_CHECKING:
+    from arcube.evaluation.result import Evaluation
+
+__all__ = ["REPORT_SUFFIXES", "check_report_path", "mechanism_points", "write_evaluation_report", "write_report", "write_run_report",
+           "write_study_convergence"]  # fmt: skip
+
+REPORT_SUFFIXES = (".html", ".htm")
+"""File endings of an HTML report (its PNGs are named from the stem)."""
+
+
+def check_report_path(path: str | os.PathLike[str], name: str = "path") -> Path:
+    """``path`` as a :class:`Path`; :class:`InputError` naming ``name`` unless it ends in .html/.htm."""
+    out = Path(path)
+    if out.suffix.lower() not in REPORT_SUFFIXES:
+        raise InputError(f"{name} {out}: the report file must end in .html")
+    return out
+
+
+def write_report(evaluation: Evaluation, path: str | os.PathLike[str]) -> Path:
+    """Write the self-contained HTML report of an evaluation (plots, 3D mechanism) and its PNGs; returns the path.
+
+    ``evaluation`` is what :func:`arcube.evaluate` returns. Raises :class:`InputError` if ``path`` does
+    not end in .html/.htm (the PNGs beside it are named from its stem).
+    """
+    out = check_report_path(path)
+    from arcube.report.html import write_evaluation_report
+
+    return write_evaluation_report(evaluation, out)
 
 
 def __getattr__(name: str) -> Any:
@@ -29,4 +64,8 @@ def __getattr__(name: str) -> Any:
         from arcube.report.run_report import write_run_report
 
         return write_run_report
+    if name == "write_study_convergence":
+        from arcube.report.study import write_study_convergence
+
+        return write_study_convergence
     raise AttributeError(f"module 'arcube.report' has no attribute {name!r}")

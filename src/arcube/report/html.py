@@ -7,7 +7,7 @@ is embedded once, ``include_plotlyjs=True``) holding:
   x, y, z), the summary and the per-trajectory table;
 * the paper's Fig 4 (local inverted dexterity along all task points), div ``fig-dexterity``;
 * for a run, convergence per generation from ``history.csv``, div ``fig-convergence``;
-* a 3D scene, div ``fig-scene``: the mechanism drawn from :mod:`arcube.report.geometry` (frame,
+* a 3D scene, div ``fig-scene``: the mechanism drawn from :mod:`arcube.model.body` (frame,
   cranks, four-bars, z dyad, spherical links as arcs, drill) and the trajectories, with a
   slider and a play button that move it along the reachable task points (plotly frames).
 
@@ -119,7 +119,7 @@ def scene_figure(report: Evaluation) -> go.Figure:
 
     task, ts = report.task, report.trajectories
     series = dexterity_series(report)
-    mp = mechanism_points(report.design.to_vector(), task.E, task.e, parse_mode(report.mode), c_z=report.options.c_z)
+    mp = mechanism_points(report.design.to_vector(), task.E, task.e, parse_mode(report.mode), c_z=report.options.guards.c_z)
     shown = np.flatnonzero(series.reachable & np.isfinite(mp.D).all(axis=(-2, -1)))
     fig = go.Figure()
     seg = [np.stack([a, b]) for a, b in zip(ts.entry, ts.target)]
@@ -251,9 +251,9 @@ def design_table(report: Evaluation) -> str:
 
 def summary_html(report: Evaluation) -> str:
     """Summary list, the per-trajectory table and the diagnosis lines."""
-    s = report.summary_json()
+    s = report.summary
     dex = s["dexterity_pct"]
-    guards = {k: v for k, v in report.options.model_dump().items() if v not in (None, False)}
+    guards = {k: v for k, v in report.options.guards.model_dump().items() if v not in (None, False)}
     items = [
         ("trajectories", f"{report.trajectories.source}: {len(report.task.ids)} × {report.task.n_points} points"),
         ("working mode", report.mode), ("guards", ", ".join(f"{k}={v}" for k, v in guards.items()) or "none (paper)"),

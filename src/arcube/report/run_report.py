@@ -36,7 +36,7 @@ import numpy as np
 from arcube.model.design import Design
 from arcube.errors import InputError
 from arcube.evaluation.result import evaluate_design
-from arcube.evaluation.reference import GUARDED_OPTIONS, Options
+from arcube.options import GUARDED_OPTIONS, Options
 from arcube.model.mechanism import parse_mode
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
@@ -194,7 +194,8 @@ def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[s
     from arcube.optimization.problem import run_options
 
     try:
-        options = run_options({**settings, "guards": settings.get("guards") is True}).model_copy(update={"body": True, "tip_metrics": True})
+        options = run_options({**settings, "guards": settings.get("guards") is True})
+        options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True))
     except (InputError, TypeError, ValueError):  # a hand-edited or older config: the guards alone
         options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
     limits = {str(lim[0]): float(lim[2]) for lim in settings.get("limits", []) if isinstance(lim, list) and len(lim) == 3}

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from rich.console import Console
 from rich.table import Table
 
-from arcube.evaluation.result import Evaluation
+if TYPE_CHECKING:
+    from arcube.evaluation.result import Evaluation
 
 PAPER_DEXTERITY_PCT = (20.26, 40.25, 66.48)
 """The paper's min / mean / max inverted dexterity (Section 3.2), for comparison."""
@@ -37,7 +39,7 @@ def print_evaluation(report: Evaluation, console: Console | None = None) -> None
             cells.append("-" if row.clearance_min_mm is None else f"{row.clearance_min_mm:.1f}")
         table.add_row(*cells)
     out.print(table)
-    s = report.summary_json()
+    s = report.summary
     fails = report.failure_counts()
     if fails:
         out.print("unreachable points by first failure: " + ", ".join(f"{k}: {n}" for k, n in fails.items()))
@@ -72,7 +74,7 @@ def print_tip_performance(report: Evaluation, console: Console | None = None, su
     """The compact second table (MODEL.md 15): what a surgeon and a motor supplier need, worst case over
     the reachable points of each trajectory and of the plan."""
     out = console or _console()
-    o = report.options
+    o = report.options.loads
     enc = o.encoder_deg[0] if len(set(o.encoder_deg)) == 1 else ",".join(f"{v:g}" for v in o.encoder_deg)
     table = Table(title=(f"at the drill tip, worst case (encoders {enc} deg, thrust {o.thrust_N:g} N, "
                          f"lateral {o.lateral_force_N:g} N)"))  # fmt: skip
@@ -91,7 +93,7 @@ def print_tip_performance(report: Evaluation, console: Console | None = None, su
 
     for t, tid in enumerate(report.task.ids):
         table.add_row(tid, *worst(report.task.trajectory == t))
-    s = summary if summary is not None else report.summary_json()
+    s = summary if summary is not None else report.summary
     table.add_row("all", *worst(report.task.trajectory >= 0), end_section=True)
     out.print(table)
     if s["torque_max_actuator"] is not None:

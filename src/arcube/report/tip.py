@@ -7,11 +7,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from arcube.evaluation.result import Evaluation
 from arcube.report.figures import dexterity_series
 
 if TYPE_CHECKING:
     import plotly.graph_objects as go
+
+    from arcube.evaluation.result import Evaluation
 
 PANELS: tuple[tuple[str, str, str], ...] = (
     ("lateral_error_mm", "lateral error (mm)", "lateral_error"),
@@ -47,7 +48,7 @@ def tip_figure(report: Evaluation, limits: dict[str, float] | None = None) -> go
         if limits and name in limits:
             fig.add_hline(y=float(limits[name]), line={"color": "#d62728", "width": 2}, row=r, col=c,
                           annotation_text=f"limit {limits[name]:g}", annotation_position="top left")  # fmt: skip
-    o = report.options
+    o = report.options.loads
     enc = ", ".join(f"{v:g}" for v in sorted(set(o.encoder_deg)))
     fig.update_layout(
         title={"text": f"At the drill tip, per reachable point (encoders {enc} deg, thrust {o.thrust_N:g} N, lateral force "

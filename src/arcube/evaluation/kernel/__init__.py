@@ -100,30 +100,30 @@ _PERF_COLUMNS = tuple(zip((0, 1, 2, 3, 4, 6), PERFORMANCE_FIELDS))
 def _option_vector(options: Options, exact: bool = False, anatomy: bool = False) -> np.ndarray:
     """The guards as numbers, thresholds computed as evaluation._guard_checks computes them."""
     opt = np.zeros(N_OPT)
-    opt[_O_ZDYAD] = float(options.z_dyad)
-    opt[_O_CZ] = np.nan if options.c_z is None else float(options.c_z)
-    if options.rho_max_deg is not None:
+    opt[_O_ZDYAD] = float(options.guards.z_dyad)
+    opt[_O_CZ] = np.nan if options.guards.c_z is None else float(options.guards.c_z)
+    if options.guards.rho_max_deg is not None:
         opt[_O_RHO_ON] = 1.0
-        opt[_O_RHO] = np.deg2rad(options.rho_max_deg)
-    if options.min_transmission_deg is not None:
+        opt[_O_RHO] = np.deg2rad(options.guards.rho_max_deg)
+    if options.guards.min_transmission_deg is not None:
         opt[_O_TR_ON] = 1.0
-        opt[_O_TR] = np.sin(np.deg2rad(options.min_transmission_deg))
-    if options.kappa_max is not None:
+        opt[_O_TR] = np.sin(np.deg2rad(options.guards.min_transmission_deg))
+    if options.guards.kappa_max is not None:
         opt[_O_KM_ON] = 1.0
-        opt[_O_KM] = float(options.kappa_max)
-    opt[_O_SAM] = float(options.single_assembly_mode)
+        opt[_O_KM] = float(options.guards.kappa_max)
+    opt[_O_SAM] = float(options.guards.single_assembly_mode)
     opt[_O_EXACT] = float(exact)
     opt[O_DO_SELF] = float(options.wants_self_clearance)
     opt[O_DO_CLR] = float(options.wants_clearance and anatomy)
     opt[O_ANAT] = float(anatomy)
-    opt[O_CLR_ON] = float(options.clearance_mm is not None and anatomy)
-    opt[O_CLR] = options.clearance_mm if options.clearance_mm is not None else 0.0
-    opt[O_SELF_ON] = float(options.self_clearance_mm is not None)
-    opt[O_SELF] = options.self_clearance_mm if options.self_clearance_mm is not None else 0.0
-    opt[O_LM] = options.motor_length
-    opt[O_PERF_ON] = float(options.tip_metrics)
-    opt[O_CMIN_EXACT] = float(options.clearance_min_exact)
-    opt[O_PERF:O_PERF + 12] = perf_vector(options.encoder_deg, options.thrust_N, options.lateral_force_N, options.actuator_stiffness)
+    opt[O_CLR_ON] = float(options.guards.clearance_mm is not None and anatomy)
+    opt[O_CLR] = options.guards.clearance_mm if options.guards.clearance_mm is not None else 0.0
+    opt[O_SELF_ON] = float(options.guards.self_clearance_mm is not None)
+    opt[O_SELF] = options.guards.self_clearance_mm if options.guards.self_clearance_mm is not None else 0.0
+    opt[O_LM] = options.body.motor_length
+    opt[O_PERF_ON] = float(options.outputs.tip_metrics)
+    opt[O_CMIN_EXACT] = float(options.outputs.clearance_min_exact)
+    opt[O_PERF:O_PERF + 12] = perf_vector(options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N, options.loads.actuator_stiffness)
     return opt
 
 

@@ -1,0 +1,368 @@
+"""The settings of one optimization run, typed and validated once: :class:`RunSettings`.
+
+``arcube optimize``'s flags, ``arcube.optimize(plan, RunSettings(...))`` and a run folder's
+``config.toml`` all hold the same object. Python callers write Python values
+(``free=["all", "mount", "L"]``, ``bounds={"p_x": (30, 250)}``, ``mode=(1, 1, -1, 1)``,
+``maxima={"torque": 15}``); the command line's text forms (``"all,mount,L"``, ``"p_x=30:250"``,
+``"+,+,-,+"``, ``["torque=15"]``) are accepted too. Every check lives on a field or in one
+validator; an error names the field (``RunSettings.population must be >= 1, got 0``).
+
+``config.toml``'s ``[settings]`` table is :meth:`RunSettings.to_table` (flat keys, the file format
+since the first runs); :meth:`RunSettings.from_table` reads it back, old tables included: the
+mapping between the typed settings and the file's keys lives here and nowhere else.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from typing import Annotated, Any, Literal
+
+from pydantic import BeforeValidator, Field, model_validator
+
+from arcube.errors import InputError
+from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
+from arcube.model.mechanism import format_mode, parse_mode
+from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_tip_metrics
+from arcube.options import GUARDED_OPTIONS, Options, Settings
+
+__all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "parse_bounds", "parse_free", "resolve_bounds"]
+
+_B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (-400.0, 400.0), (20.0, 250.0), (30.0, 200.0), (50.0, 80.0), (-270.0, 270.0), (30.0, 90.0)
+DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
+    "m_x": _B_M, "m_y": _B_M, "m_z": _B_M,
+    "f_x": _B_F, "f_y": _B_F, "f_z": _B_F,
+    "p_x": _B_L, "p_y": _B_L, "p_z": _B_L,
+    "d_x": _B_L, "d_y": _B_L, "d_z": _B_L,
+    "c_x": _B_L, "c_y": _B_L, "t_x": _B_L, "t_y": _B_L,
+    "r": _B_R,
+    "o_x": _B_O, "o_y": _B_O,
+    "alpha_x": _B_A, "alpha_y": _B_A, "beta_x": _B_A, "beta_y": _B_A,
+    "mount_rx": (-180.0, 180.0), "mount_ry": (-180.0, 180.0), "mount_rz": (-180.0, 180.0), "L": (0.0, 200.0),
+}  # fmt: skip
+"""MODEL.md 12.1 and 13.3 default bounds (mm, deg)."""
+FREE_GROUPS: dict[str, tuple[str, ...]] = {"all": PAPER_NAMES, "mount": MOUNT_NAMES}
+"""Group words of ``free``: ``all`` (the paper's 23) and ``mount`` (the three mounting angles)."""
+ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3")
+DEFAULT_ALGORITHM = "mscmaes"
+"""The default single-objective optimizer, chosen by measurement (README, "Which optimizer")."""
+MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
+DEFAULT_PERIOD = 30
+"""Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
+
+
+def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
+    """Parameter names and group words (``all``: the paper's 23, ``mount``: the three mounting
+    angles), as a list or comma-separated text (``"all,mount,L"``) -> names in PARAM_NAMES order."""
+    text = spec if isinstance(spec, str) else ",".join(str(s) for s in spec)
+    items = [s.strip() for s in text.strip().split(",")]
+    if not items or any(not n for n in items):
+        raise InputError.of("RunSettings.free", f"{text!r}: expected parameter names or the groups 'all' and 'mount'")
+    names: set[str] = set()
+    for item in items:
+        if item.lower() in FREE_GROUPS:
+            names.update(FREE_GROUPS[item.lower()])
+        elif item in INDEX:
+            names.add(item)
+        else:
+            raise InputError.of("RunSettings.free", f"has an unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)})")
+    return tuple(n for n in PARAM_NAMES if n in names)
+
+
+def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, tuple[float, float]]:
+    """Bound overrides ``{name: (lo, hi)}``, or their text form ``'p_x=30:250,r=50:90'``; checked."""
+    out: dict[str, tuple[float, float]] = {}
+    if not spec:
+        return out
+    items: list[tuple[str, Any]]
+    if isinstance(spec, str):
+        items = []
+        for item in spec.split(","):
+            name, sep, rng = item.partition("=")
+            lo_s, sep2, hi_s = rng.partition(":")
+            if not sep or not sep2:
+                raise InputError.of("RunSettings.bounds", f"item {item.strip()!r}: expected NAME=LO:HI with NAME one of the 27 parameters")
+            try:
+                items.append((name.strip(), (float(lo_s), float(hi_s))))
+            except ValueError:
+                raise InputError.of("RunSettings.bounds", f"item {item.strip()!r}: LO and HI must be numbers") from None
+    else:
+        items = list(dict(spec).items())
+    for name, pair in items:
+        if name not in INDEX:
+            raise InputError.of("RunSettings.bounds", f"{name!r}: not one of the 27 parameters")
+        try:
+            lo, hi = (float(v) for v in pair)
+        except (TypeError, ValueError):
+            raise InputError.of("RunSettings.bounds", f"{name}: expected two numbers (lo, hi), got {pair!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise InputError.of("RunSettings.bounds", f"{name}={lo!r}:{hi!r}: need finite lo < hi")
+        if name in LENGTH_NAMES and lo <= 0.0:
+            raise InputError.of("RunSettings.bounds", f"{name}: a length needs a lower bound > 0, got {lo:g}")
+        if name == "L" and lo < 0.0:
+            raise InputError.of("RunSettings.bounds", f"L: the tool offset needs a lower bound >= 0, got {lo:g}")
+        if name in ANGLE_NAMES and name.startswith(("alpha", "beta")) and not (0.0 < lo and hi < 180.0):
+            raise InputError.of("RunSettings.bounds", f"{name}: spherical link angles must stay within (0, 180) deg")
+        out[name] = (lo, hi)
+    return out
+
+
+def resolve_bounds(overrides: Mapping[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
+    """DEFAULT_BOUNDS updated with ``overrides``."""
+    return {**DEFAULT_BOUNDS, **(overrides or {})}
+
+
+def _limits(kind: str) -> Any:
+    """``{"torque": 15}`` or ``["torque=15"]`` -> ``{"torque": 15.0}`` (checked)."""
+
+    def parse(value: Any) -> dict[str, float]:
+        if value is None:
+            return {}
+        pairs: list[tuple[str, Any, str]] = []
+        if isinstance(value, Mapping):
+            pairs = [(str(k), v, f"{k}={v}") for k, v in value.items()]
+        else:
+            for item in [value] if isinstance(value, str) else value:
+                name, sep, v = str(item).partition("=")
+                if not sep or not name.strip():
+                    raise InputError.of(f"RunSettings.{kind}", f"{item!r}: expected NAME=VALUE, e.g. lateral_error=0.2")
+                pairs.append((name.strip(), v, str(item)))
+        out: dict[str, float] = {}
+        for name, v, shown in pairs:
+            if name not in OBJECTIVES:
+                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})")
+            try:
+                number = float(v)
+            except (TypeError, ValueError):
+                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: the value {str(v).strip()!r} is not a number") from None
+            if not math.isfinite(number):
+                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: the value must be finite")
+            if kind == "maxima" and number <= 0.0:
+                raise InputError.of("RunSettings.maxima", f"{shown!r}: an upper limit must be > 0")
+            out[name] = number
+        return out
+
+    return BeforeValidator(parse)
+
+
+def _objectives(value: Any) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    names = tuple(n.strip() for n in value.split(",")) if isinstance(value, str) else tuple(str(n).strip() for n in value)
+    if names == ("",):
+        return ()
+    for n in names:
+        if n not in OBJECTIVES:
+            raise InputError.of("RunSettings.objectives", f"has an unknown objective {n!r} (known: {', '.join(OBJECTIVES)})")
+    if len(set(names)) != len(names):
+        raise InputError.of("RunSettings.objectives", f"{','.join(names)!r}: an objective is named twice")
+    return names
+
+
+def _mode(value: Any) -> str:
+    if isinstance(value, str):
+        text = value.strip().lower()
+        if text == "free":
+            return text
+    else:
+        text = format_mode(value) if len(list(value)) == 4 else repr(value)
+    try:
+        parse_mode(text)
+    except ValueError as exc:
+        raise InputError.of("RunSettings.mode", f"{exc}; or 'free'") from None
+    return text
+
+
+def _text_list(value: Any) -> str | None:
+    """``["C3", "C5"]`` or ``"C3,C5"`` -> ``"C3,C5"`` (the selection's text form)."""
+    if value is None or isinstance(value, str):
+        return value
+    return ",".join(str(v) for v in value)
+
+
+def _anatomy(value: Any) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    items = [os.fspath(value)] if isinstance(value, (str, os.PathLike)) else [os.fspath(a) for a in value]
+    return () if items == ["none"] else tuple(items)
+
+
+class RunSettings(Settings):
+    """Everything that decides an optimization run except the plans themselves."""
+
+    algorithm: str = DEFAULT_ALGORITHM
+    """mscmaes (default), ga (the paper's), de, cmaes, nsga2, nsga3 (set by two or more objectives)."""
+    population: int = Field(default=400, ge=1)
+    generations: int = Field(default=300, ge=1)
+    """Generations (the budget is population x generations evaluations for mscmaes)."""
+    tolerance: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
+    """pymoo's ftol over ``period`` generations; 0 runs every generation."""
+    period: int = Field(default=DEFAULT_PERIOD, ge=1)
+    points: int = Field(default=30, ge=2)
+    """Points per trajectory, both ends included."""
+    mode: Annotated[str, BeforeValidator(_mode)] = "+,+,+,+"
+    """Working mode (signs of TMS x, TMS y, RTS x, RTS y) or ``"free"`` (optimized)."""
+    setups: Literal[1, 2] = 1
+    """1, or 2: one placement per side."""
+    guards: bool = False
+    """The guards of MODEL.md 8.2 but the z dyad (:data:`arcube.options.GUARDED_OPTIONS`)."""
+    margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
+    """Orientation margin mu of MODEL.md 12.2, deg."""
+    seed: int | None = Field(default=None, ge=0, lt=2**63)
+    """None draws one (recorded in the run)."""
+    engine: str = "auto"
+    aggregate: Literal["mean", "worst"] = "mean"
+    compactness: Literal["links", "bbox"] = "links"
+    checkpoint_every: int = Field(default=10, ge=1)
+    eliminate_duplicates: bool = False
+    design_from: str = "paper"
+    """The start design and the values of fixed parameters: a preset name or a design JSON."""
+    free: Annotated[tuple[str, ...], BeforeValidator(parse_free)] = PAPER_NAMES
+    bounds: Annotated[dict[str, tuple[float, float]], BeforeValidator(parse_bounds)] = {}
+    """Overrides of :data:`DEFAULT_BOUNDS`."""
+    side: Literal["R", "L"] | None = None
+    levels: Annotated[str | None, BeforeValidator(_text_list)] = None
+    ids: Annotated[str | None, BeforeValidator(_text_list)] = None
+    transform: str | None = None
+    anatomy: Annotated[tuple[str, ...], BeforeValidator(_anatomy)] = ()
+    """``("default",)``, mesh files, or () for none."""
+    anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
+    objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
+    maxima: Annotated[dict[str, float], _limits("maxima")] = {}
+    minima: Annotated[dict[str, float], _limits("minima")] = {}
+    docking: Literal["per-patient", "shared"] = "per-patient"
+    options: Options = Options()
+    """Clearance guards, body radii and loads (the guards of ``guards`` are added on top)."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _normalize(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        data = dict(data)
+        if isinstance(data.get("algorithm"), str):
+            data["algorithm"] = data["algorithm"].strip().lower()
+        if isinstance(data.get("docking"), str):
+            data["docking"] = data["docking"].strip().lower()
+        _route_flat(data)
+        names = _objectives(data.get("objectives"))
+        if len(names) > 1:  # MODEL.md 15.5: two or three objectives -> NSGA-II, more -> NSGA-III
+            data["algorithm"] = "nsga2" if len(names) <= 3 else "nsga3"
+        return data
+
+    @model_validator(mode="after")
+    def _check(self) -> RunSettings:
+        from arcube.optimization.algorithms import check_algorithm  # noqa: PLC0415 (algorithms imports pymoo)
+
+        if self.algorithm not in ALGORITHMS:
+            raise InputError.of("RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
+        if len(self.objectives) == 1 and self.algorithm in MULTI_OBJECTIVE_ALGORITHMS:
+            raise InputError.of("RunSettings.algorithm", f"{self.algorithm} needs two or more objectives (got {self.objectives[0]} alone)")
+        check_algorithm(self.algorithm, self.population)
+        if self.setups == 2 and self.side is not None:
+            raise InputError.of("RunSettings.setups", "2 uses both sides (one placement each); drop side")
+        if not self.anatomy:
+            if self.options.guards.clearance_mm is not None:
+                raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
+            if needs_clearance(self.objectives, self.limits):
+                raise InputError("the clearance objective or limit needs an anatomy (default or mesh files)", param="RunSettings.anatomy")
+        return self
+
+    @property
+    def limits(self) -> list[list[Any]]:
+        """``[[name, "max" | "min", value], ...]``: the maxima, then the minima."""
+        return [[n, "max", v] for n, v in self.maxima.items()] + [[n, "min", v] for n, v in self.minima.items()]
+
+    @property
+    def run_objectives(self) -> tuple[str, ...]:
+        """The objectives, else eta_G (and ``compactness``, the older shorthand, for nsga2/nsga3)."""
+        if self.objectives:
+            return self.objectives
+        return ("eta_G", self.compactness) if self.algorithm in MULTI_OBJECTIVE_ALGORITHMS else ("eta_G",)
+
+    @property
+    def all_bounds(self) -> dict[str, tuple[float, float]]:
+        """Every parameter's bounds: the defaults with the overrides."""
+        return resolve_bounds(self.bounds)
+
+    def evaluation_options(self) -> Options:
+        """The options the run's evaluations use: guards, body, loads, and only the outputs its
+        objectives and limits need (the drill-tip metrics and the exact clearance cost time)."""
+        guards = self.options.guards
+        if self.guards:
+            on = GUARDED_OPTIONS.guards
+            guards = guards.replace(rho_max_deg=on.rho_max_deg, min_transmission_deg=on.min_transmission_deg,
+                                    kappa_max=on.kappa_max, single_assembly_mode=True)  # fmt: skip
+        clearance = needs_clearance(self.run_objectives, self.limits)
+        outputs = self.options.outputs.replace(
+            anatomy_clearance=clearance and guards.clearance_mm is None, tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
+            clearance_min_exact=clearance,
+        )  # fmt: skip
+        return Options(guards=guards, body=self.options.body, loads=self.options.loads, outputs=outputs)
+
+    # ------------------------------------------------------------------ config.toml's [settings] table
+    def to_table(self) -> dict[str, Any]:
+        """The flat ``[settings]`` table of config.toml (keys as every earlier run wrote them; a
+        guard of 8.2 set one by one adds its own key)."""
+        g, b, ld = self.options.guards, self.options.body, self.options.loads
+        table: dict[str, Any] = {
+            "algorithm": self.algorithm, "population": self.population, "generations": self.generations, "tolerance": self.tolerance,
+            "period": self.period, "points": self.points, "mode": self.mode, "setups": self.setups, "guards": self.guards,
+            "margin": self.margin, "seed": self.seed, "engine": self.engine, "aggregate": self.aggregate,
+            "compactness": self.compactness, "checkpoint_every": self.checkpoint_every,
+            "eliminate_duplicates": self.eliminate_duplicates, "design_from": self.design_from, "free": list(self.free),
+            "side": self.side, "levels": self.levels, "ids": self.ids, "transform": self.transform,
+            "anatomy": list(self.anatomy), "anatomy_frame": self.anatomy_frame, "clearance": g.clearance_mm,
+            "self_clearance": g.self_clearance_mm, "link_radius": b.link_radius, "actuator_radius": b.actuator_radius,
+            "motor_radius": b.motor_radius, "motor_length": b.motor_length, "objectives": list(self.objectives),
+            "limits": self.limits, "encoder_deg": list(ld.encoder_deg), "thrust": ld.thrust_N, "lateral_force": ld.lateral_force_N,
+            "actuator_stiffness": list(ld.actuator_stiffness), "docking": self.docking,
+        }  # fmt: skip
+        for name in _TABLE_GUARDS:
+            if getattr(g, name) not in (None, False):
+                table[name] = getattr(g, name)
+        return table
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any]) -> RunSettings:
+        """Read a ``[settings]`` table, of this version or an older one (missing keys: what those
+        runs ran: shared docking, duplicates eliminated, default body and loads)."""
+        t = {k: v for k, v in table.items() if k not in _DERIVED}
+        t.setdefault("docking", "shared")  # runs before per-patient docking shared one placement
+        t.setdefault("eliminate_duplicates", True)  # and ran pymoo's default
+        return cls(**t)
+
+
+_TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
+"""Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
+_DERIVED = ("engine_resolved", "trajectories")
+"""Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
+FLAT_OPTIONS: dict[str, tuple[str, str]] = {
+    **{name: ("guards", name) for name in _TABLE_GUARDS},
+    "clearance": ("guards", "clearance_mm"), "self_clearance": ("guards", "self_clearance_mm"),
+    **{name: ("body", name) for name in ("link_radius", "actuator_radius", "motor_radius", "motor_length")},
+    "encoder_deg": ("loads", "encoder_deg"), "thrust": ("loads", "thrust_N"), "lateral_force": ("loads", "lateral_force_N"),
+    "actuator_stiffness": ("loads", "actuator_stiffness"),
+}  # fmt: skip
+"""The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields."""
+
+
+def _route_flat(data: dict[str, Any]) -> None:
+    """In place: flat option keys into ``options``, a table's ``limits`` into ``maxima``/``minima``."""
+    changes: dict[str, dict[str, Any]] = {}
+    for key, (group, name) in FLAT_OPTIONS.items():
+        value = data.pop(key, None)
+        if value is not None:
+            changes.setdefault(group, {})[name] = value
+    if changes:
+        base = data.get("options") or {}
+        base = base.model_dump() if isinstance(base, Options) else dict(base)
+        for group, values in changes.items():
+            current = base.get(group) or {}
+            base[group] = {**(current.model_dump() if isinstance(current, Settings) else dict(current)), **values}
+        data["options"] = base
+    if "limits" in data:
+        limits = data.pop("limits") or []
+        data.setdefault("maxima", {n: v for n, k, v in limits if k == "max"})
+        data.setdefault("minima", {n: v for n, k, v in limits if k == "min"})
