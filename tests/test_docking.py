@@ -21,7 +21,8 @@ from arcube.errors import InputError
 from arcube.model.design import INDEX, PARAM_NAMES
 from arcube.optimization import run as runmod
 from arcube.optimization.config import build_config
-from arcube.optimization.problem import VariableSpace, build_model, parse_free
+from arcube.optimization.build import build_model
+from arcube.optimization.problem import VariableSpace, parse_free
 
 REPO = Path(__file__).resolve().parents[1]
 START = REPO / "tests" / "data" / "right_side_design.json"

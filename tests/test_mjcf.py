@@ -195,7 +195,7 @@ def test_mujoco_dynamics_track_the_trajectory_with_five_actuators(designs, which
 
 def test_z_dyad_that_cannot_close_names_the_c_z_range_or_says_none_can() -> None:
     d = _design_a()
-    with pytest.raises(InputError, match=r"c_z in \[153\.9\d, 170\.2\d\] mm closes it at every point"):
+    with pytest.raises(InputError, match=r"^c_z in \[153\.9\d, 170\.2\d\] mm closes the z-leg dyad at every point"):
         export_mjcf(d)  # c_z = d_z = 53.6 mm is far too short
     with pytest.raises(InputError, match="no c_z closes it at every point"):
         export_mjcf(d.replace(d_z=30.0), c_z=100.0)

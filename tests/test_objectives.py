@@ -18,7 +18,7 @@ from test_cli_evaluate import arcube  # noqa: E402
 import arcube as ac  # noqa: E402
 from arcube.model.design import PARAM_NAMES, Design  # noqa: E402
 from arcube.optimization.config import build_config  # noqa: E402
-from arcube.optimization.problem import build_model  # noqa: E402
+from arcube.optimization.build import build_model  # noqa: E402
 
 RIGHT = {"m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
 

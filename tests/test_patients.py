@@ -279,11 +279,11 @@ def test_cli_cohort_folder(cli, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--out", "x.csv"], "give exactly one of seed and mean"),
-    (["--mean", "--seed", "1", "--out", "x.csv"], "excludes seed: give exactly one of them"),
+    (["--out", "x.csv"], "seed is missing: give a seed for random patients, or ask for the mean patient"),
+    (["--mean", "--seed", "1", "--out", "x.csv"], "mean excludes a seed"),
     (["--seed", "1", "--technique", "screw", "--out", "x.csv"], "technique 'screw'"),
     (["--seed", "1", "--count", "0", "--out", "x.csv"], "count 0"),
-    (["--mean", "--count", "2", "--out", "d"], "count 2 with mean"),
+    (["--mean", "--count", "2", "--out", "d"], "count 2 for the mean patient would write identical patients"),
     (["--seed", "-3", "--out", "x.csv"], "seed -3"),
     (["--seed", "1", "--out", "x.json"], "must not end in .json"),
 ])

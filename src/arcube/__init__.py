@@ -15,7 +15,7 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-from arcube.api import OptimizeResult, Run, Study, evaluate, optimize, resume, study
+from arcube.api import OptimizeResult, Run, Study, design, evaluate, optimize, resume, study
 from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Options, Outputs
@@ -29,6 +29,6 @@ from arcube.report import write_report
 __all__ = [
     "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
     "Outputs", "Run", "RunSettings", "Study", "TrajectorySet",
-    "__version__", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select", "study",
+    "__version__", "design", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select", "study",
     "write_csv", "write_markups", "write_report",
 ]  # fmt: skip

@@ -17,11 +17,8 @@ or setting as written here (the CLI replaces it with its flag).
 
 from __future__ import annotations
 
-import csv
-import json
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,10 +35,14 @@ from arcube.model.mechanism import format_mode, parse_mode
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Options
 
+from arcube.design_job import DesignResult
+from arcube.report.study import write_study_convergence
+from arcube.results import OptimizeResult, Run, Study
+
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
 
-__all__ = ["OptimizeResult", "Run", "Study", "evaluate", "optimize", "resume", "study"]
+__all__ = ["OptimizeResult", "Run", "Study", "design", "evaluate", "optimize", "resume", "study"]
 
 PathLike = str | os.PathLike[str]
 
@@ -55,7 +56,7 @@ def _signs(mode: str | Sequence[float]) -> np.ndarray:
     try:
         return parse_mode(mode if isinstance(mode, str) else format_mode(mode) if len(list(mode)) == 4 else repr(mode))
     except (TypeError, ValueError) as exc:
-        raise InputError.of("mode", f"{exc}") from None
+        raise InputError(f"mode: {exc}", param="mode") from None
 
 
 def _points(points: Any) -> int:
@@ -139,112 +140,6 @@ def evaluate(
     return evaluate_design(d, ts, n, signs, opts, engine_name, anatomy=anat)
 
 
-@dataclass(frozen=True)
-class Run:
-    """An optimization run folder (``config.toml``, ``history.csv``, ``best_design.json``, ``summary.json``)."""
-
-    path: Path
-
-    @classmethod
-    def load(cls, path: PathLike) -> Run:
-        """Open an existing run folder (InputError if it is not one)."""
-        p = Path(path)
-        if not (p / "config.toml").exists():
-            raise InputError(f"{p}: not an optimization run (no config.toml)")
-        return cls(p)
-
-    @property
-    def summary(self) -> dict[str, Any]:
-        """``summary.json``: feasible, eta_G, dexterity, generations, wall time, per-task details."""
-        try:
-            return json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError(f"{self.path}: the run has not finished (no summary.json)") from None
-
-    @property
-    def best_design(self) -> Design:
-        """The best design found (right-side placement when the run had two setups)."""
-        return Design.from_json(self.path / "best_design.json")
-
-    @property
-    def designs(self) -> list[Design]:
-        """One complete design per patient (its own placement with per-patient docking, else the shared
-        design for every patient); with two setups, the right-side ones."""
-        from arcube.optimization import run as runmod
-
-        cfg = runmod.read_config(self.path)[0]
-        n = len(cfg["patients"])
-        if cfg["settings"].get("docking", "shared") == "per-patient" and n > 1:
-            return [Design.from_json(self.path / runmod.placement_file(p)) for p in range(n)]  # each must exist
-        return [Design.from_json(self.path / "best_design.json") for _ in range(n)]
-
-    @property
-    def history(self) -> dict[str, np.ndarray]:
-        """``history.csv`` as columns: generation, evaluations, best_eta_G, ... (NaN where empty)."""
-        return _read_columns(self.path / "history.csv")
-
-    @property
-    def pareto(self) -> dict[str, np.ndarray] | None:
-        """``pareto.csv`` as columns (multi-objective runs), else None."""
-        path = self.path / "pareto.csv"
-        return _read_columns(path) if path.exists() else None
-
-    def write_report(self, anatomy: Any = None, anatomy_frame: str = "LPS", best_known: float | None = None) -> Path:
-        """Write ``report.html`` (and PNGs; ``report_p<K>.html`` for each further patient) into the run folder; returns its path.
-
-        ``anatomy``: None (the run's own, copied into its folder), ``"none"``, ``"default"`` or mesh
-        files in ``anatomy_frame``, as :func:`evaluate` takes it. ``best_known``: an eta_G drawn as
-        a reference line on the convergence plot.
-        """
-        from arcube.report.run_report import write_run_report
-
-        override = None
-        if anatomy is not None:
-            from arcube.optimization import run as runmod
-
-            plans = runmod.read_config(self.path)[0]["settings"].get("trajectories") or ["reference"]
-            override = [resolve_anatomy(anatomy, anatomy_frame, plan) or "none" for plan in plans]  # each patient's own
-        return write_run_report(self.path, anatomy=override, best_known=best_known)
-
-
-def _read_columns(path: Path) -> dict[str, np.ndarray]:
-    """A CSV of numbers (and a few text columns) as name -> array; numeric columns as float."""
-    with path.open(encoding="utf-8", newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    if not rows:
-        return {}
-    out: dict[str, np.ndarray] = {}
-    for key in rows[0]:
-        values = [r[key] for r in rows]
-        try:
-            out[key] = np.array([float(v) if v != "" else np.nan for v in values])
-        except ValueError:
-            out[key] = np.array(values)
-    return out
-
-
-@dataclass(frozen=True)
-class OptimizeResult:
-    """An optimization run held in memory (what :func:`optimize` returns without ``out``): the same
-    summary, designs, history and front a run folder's files hold."""
-
-    summary: dict[str, Any]
-    """What ``summary.json`` holds (``files`` empty)."""
-    designs: list[Design]
-    """The best design of each slot (one per setup, and per patient with per-patient docking)."""
-    history: dict[str, np.ndarray]
-    """One row per generation, as columns (``history.csv``'s)."""
-    pareto: dict[str, np.ndarray] | None
-    """The feasible front (multi-objective runs, ``pareto.csv``'s columns), else None."""
-    config: dict[str, Any]
-    """What ``config.toml`` would hold."""
-
-    @property
-    def best_design(self) -> Design:
-        """The best design found (the first slot's: patient 1, right side)."""
-        return self.designs[0]
-
-
 def _plans(plan: Any) -> list[Any]:
     plans = list(plan) if isinstance(plan, (list, tuple)) else [plan]
     return [p if isinstance(p, TrajectorySet) else os.fspath(p) for p in plans]
@@ -304,8 +199,8 @@ def _optimize_in_memory(cfg: dict[str, Any], specs: list[Any], progress: Callabl
 
     from arcube.optimization.algorithms import stop_reason
     from arcube.optimization.loop import HISTORY_COLUMNS, describe, run_algorithm
-    from arcube.optimization.problem import build_model, stl_roundtrip
-    from arcube.optimization.run import make_executor
+    from arcube.optimization.build import build_model, stl_roundtrip
+    from arcube.optimization.executors import make_executor
 
     s = RunSettings.from_table(cfg["settings"])
     anatomies = tuple(stl_roundtrip(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec)) for spec in specs) if s.anatomy else ()
@@ -355,54 +250,12 @@ def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None 
     run_dir = Path(path)
     if studymod.is_study(run_dir):
         studymod.resume_study(run_dir, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
+        write_study_convergence(run_dir)
         return Study(run_dir)
     cfg, raw = runmod.read_config(run_dir)
     runmod.load_checkpoint(run_dir, cfg, raw)  # refuse a corrupt or foreign checkpoint before anything else
     runmod.resume(run_dir, workers=workers if workers is not None else (1 if dask else None), dask=dask, on_generation=progress)
     return Run(run_dir)
-
-
-@dataclass(frozen=True)
-class Study:
-    """A design study folder: one optimization run per seed (``seed_<S>/``), ``study.csv``, ``summary.json``."""
-
-    path: Path
-
-    @classmethod
-    def load(cls, path: PathLike) -> Study:
-        """Open an existing study folder (InputError if it is not one)."""
-        from arcube.optimization import study as studymod
-
-        studymod.read_study(Path(path))
-        return cls(Path(path))
-
-    @property
-    def summary(self) -> dict[str, Any]:
-        """``summary.json``: objective, best / median / worst, best_seed, spread_pct, wall_s, one row per seed."""
-        try:
-            return json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError(f"{self.path}: the study has not finished (no summary.json)") from None
-
-    @property
-    def table(self) -> dict[str, np.ndarray]:
-        """``study.csv`` as columns: seed, feasible, objective_<name>..., eta_G, generations, evaluations, wall_s."""
-        if not (self.path / "study.csv").exists():
-            raise InputError(f"{self.path}: the study has not finished (no study.csv)")
-        return _read_columns(self.path / "study.csv")
-
-    @property
-    def best_design(self) -> Design:
-        """The best seed's best design."""
-        return Design.from_json(self.path / "best_design.json")
-
-    @property
-    def runs(self) -> dict[int, Run]:
-        """Each seed's :class:`Run`."""
-        from arcube.optimization import study as studymod
-
-        seeds = studymod.read_study(self.path)[0]["seeds"]
-        return {int(s): Run(studymod.seed_dir(self.path, int(s))) for s in seeds}
 
 
 def study(
@@ -439,9 +292,54 @@ def study(
     if out is None:
         raise InputError.of("out", "is required (the study folder)")
     if "seed" in fields or (settings is not None and getattr(settings, "seed", None) is not None):
-        raise InputError.of("seed", "is set for each run from seeds=...; drop it")
+        raise InputError("a study sets each run's seed from seeds=...; drop seed=", param="seed")
     seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
     s = _settings(settings, fields, "study")
     base = build_config(_plans(plan), s.replace(seed=seed_list[0]))
     studymod.start_study(Path(out), base, seed_list, workers=workers, dask=dask, best_known=best_known, on_seed=on_seed, on_generation=progress)
+    write_study_convergence(Path(out))
     return Study(Path(out))
+
+
+def design(
+    plan: TrajectorySet | PathLike | Sequence[TrajectorySet | PathLike] = "reference",
+    out: PathLike | None = None,
+    *,
+    seeds: str | Sequence[int] = "1-3",
+    minima: dict[str, float] | None = None,
+    maxima: dict[str, float] | None = None,
+    drop: Sequence[str] = (),
+    settings: RunSettings | None = None,
+    workers: int = 1,
+    dask: str | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    **fields: Any,
+) -> DesignResult:
+    """Find a robot that meets every requirement (``arcube design``; MODEL.md 16-17).
+
+    Args:
+        plan: one plan or several (one placement per patient).
+        out: the design folder to create (must be absent or empty).
+        seeds: one optimization per seed (``"1-3"`` or a sequence).
+        minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``);
+            the defaults are clearance >= 5 mm, self_clearance >= 2 mm, lateral_error <= 0.5 mm,
+            axis_error <= 0.25 deg, torque <= 20 N m.
+        drop: requirements to drop (``["torque"]``).
+        settings, fields: the optimization's budget, engine, anatomy, objectives, standoff (as
+            :func:`optimize` takes them); the free parameters, working mode, guards and limits are
+            the design job's.
+
+    Returns:
+        A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).
+    """
+    from arcube.design_job import design_settings, start_design
+    from arcube.optimization import study as studymod
+    from arcube.optimization.requirements import requirements_from
+
+    if out is None:
+        raise InputError.of("out", "is required (the design folder)")
+    reqs = requirements_from(minima, maxima, drop)
+    seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
+    s = design_settings(reqs, _settings(settings, fields, "design"))
+    return start_design(Path(out), _plans(plan), s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)

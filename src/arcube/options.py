@@ -186,6 +186,16 @@ class Options(Settings):
         """The body radii of MODEL.md 14.1."""
         return self.body.radii
 
+    def flat(self) -> dict[str, Any]:
+        """Every field under its flat name (``thrust_N``, ``body`` for ``outputs.clearances``): the
+        ``guards`` object of ``arcube evaluate --json``, as it always was."""
+        legacy = {field: key for key, (_, field) in _LEGACY.items()}
+        out: dict[str, Any] = {}
+        for group in _GROUPS:
+            for name, value in getattr(self, group).model_dump().items():
+                out[legacy.get(name, name)] = list(value) if isinstance(value, tuple) else value
+        return out
+
     @property
     def wants_clearance(self) -> bool:
         """Whether the evaluation computes the clearance to the anatomy (when there is one)."""

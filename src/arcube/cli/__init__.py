@@ -7,12 +7,13 @@ stderr and exit code 2, with no traceback (see :func:`main`).
 
 from __future__ import annotations
 
+import os
 import sys
 
 import typer
 
 from arcube import __version__
-from arcube.cli import demo, evaluate, export, joints, optimize, patients, report, study
+from arcube.cli import demo, design, evaluate, export, joints, optimize, patients, report, study
 from arcube.cli.flags import flag_message
 from arcube.errors import InputError
 
@@ -41,7 +42,7 @@ def _root(
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, study, report, joints, patients, demo, export):
+for _module in (evaluate, optimize, study, design, report, joints, patients, demo, export):
     _module.register(app)
 
 
@@ -96,6 +97,12 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         sys.stderr.write("error: interrupted\n")
         sys.exit(130)
+    except Exception as exc:  # a bug, not bad input: one line and a hint, the traceback only on request
+        if os.environ.get("ARCUBE_DEBUG"):
+            raise
+        sys.stderr.write(f"error: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); "
+                         "rerun with ARCUBE_DEBUG=1 for the traceback and please report it\n")  # fmt: skip
+        sys.exit(1)
     if code == 130:  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
         sys.stderr.write("error: interrupted\n")
         sys.exit(130)

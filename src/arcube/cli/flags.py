@@ -15,7 +15,9 @@ FLAGS: dict[str, str] = {
     "points": "--points", "mode": "--mode", "engine": "--engine", "side": "--side", "levels": "--levels", "ids": "--ids",
     "transform": "--transform", "out": "--out", "plan": "--trajectories", "workers": "--workers", "dask": "--dask",
     "seed": "--seed", "seeds": "--seeds", "anatomy": "--anatomy", "anatomy_frame": "--anatomy-frame", "c_z": "--c-z",
-    "speed": "--speed", "radii": "--link-radius",
+    "speed": "--speed", "best_known": "--best-known", "at": "--at", "technique": "--technique", "count": "--count",
+    "mean": "--mean", "encoder_deg": "--encoder-deg", "thrust_N": "--thrust", "lateral_N": "--lateral-force",
+    "stiffness_Nm_per_rad": "--actuator-stiffness",
     # arcube.Options groups (MODEL.md 8.2, 14, 15)
     "Guards.clearance_mm": "--clearance", "Guards.self_clearance_mm": "--self-clearance",
     "Guards.rho_max_deg": "--guards", "Guards.min_transmission_deg": "--guards", "Guards.kappa_max": "--guards",
@@ -29,7 +31,8 @@ FLAGS: dict[str, str] = {
         "algorithm", "population", "generations", "tolerance", "points", "mode", "setups", "margin", "seed", "engine",
         "aggregate", "compactness", "checkpoint_every", "eliminate_duplicates", "design_from", "free", "bounds", "side",
         "levels", "ids", "transform", "anatomy", "anatomy_frame", "objectives", "docking")},
-    "RunSettings.maxima": "--max", "RunSettings.minima": "--min",
+    "RunSettings.maxima": "--max", "RunSettings.minima": "--min", "RunSettings.standoff": "--standoff",
+    "requirements.min": "--min", "requirements.max": "--max",
 }  # fmt: skip
 """Setting (as :class:`~arcube.errors.InputError` names it) -> the flag that sets it."""
 

@@ -103,11 +103,11 @@ class Evaluation:
 
 
 def parse_mode_option(text: str) -> np.ndarray:
-    """``--mode`` value -> signs, with the CLI's error type."""
+    """A working mode's text (``"+,+,-,+"``) -> signs ``(4,)``; InputError naming ``mode``."""
     try:
         return parse_mode(text)
     except ValueError as exc:
-        raise InputError(f"--mode: {exc}") from None
+        raise InputError(f"mode: {exc}", param="mode") from None
 
 
 def load_trajectory_set(
@@ -116,7 +116,7 @@ def load_trajectory_set(
 ) -> TrajectorySet:  # fmt: skip
     """Read and subset trajectories, checking ``points`` first (raises InputError)."""
     if points < 2:
-        raise InputError(f"--points must be at least 2 (both ends of a trajectory), got {points}")
+        raise InputError.of("points", f"must be at least 2 (both ends of a trajectory), got {points}")
     return select(load_trajectories(trajectories, transform=transform), side=side, levels=levels, ids=ids)
 
 

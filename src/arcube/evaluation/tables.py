@@ -187,7 +187,7 @@ def to_json(evaluation: Evaluation) -> dict[str, Any]:
         "design": ev.design.to_dict(),
         "mode": ev.mode,
         "engine": ev.engine,
-        "guards": ev.options.model_dump(),
+        "guards": ev.options.flat(),
         "anatomy": None if ev.anatomy is None else ev.anatomy.source,
         "points": point_rows(ev.results.points, ev.task),
         "summary": ev.summary_json(),

@@ -388,8 +388,8 @@ def export_mjcf(
         bad = int(np.sum((L_z > d_z + cz) | (L_z < abs(d_z - cz))))
         head = (f"the z-leg dyad (d_z = {d_z:.4g} mm, c_z = {cz:.4g} mm) cannot close at {bad} of {len(L_z)} "
                 f"solvable points of the plan (|Q_z - D_z| spans {L_z.min():.1f}-{L_z.max():.1f} mm)")  # fmt: skip
-        if lo <= hi:
-            raise InputError(f"{head}; c_z in [{lo:.2f}, {hi:.2f}] mm closes it at every point")
+        if lo <= hi:  # the message leads with the parameter to change (the CLI puts its flag there)
+            raise InputError.of("c_z", f"in [{lo:.2f}, {hi:.2f}] mm closes the z-leg dyad at every point: {head}")
         raise InputError(f"{head}; no c_z closes it at every point (it would need c_z >= {lo:.1f} and <= {hi:.1f} mm): change d_z or the placement")
 
     return _build_xml(params, pl.E[idx], pl.e[idx], signs, cz, radii, _mesh_items(anatomy), where)

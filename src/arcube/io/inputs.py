@@ -99,8 +99,8 @@ def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: 
         fd = os.open(path, flags)
     except FileNotFoundError:
         raise fail("no such file") from None
-    except OSError as exc:
-        raise fail(f"cannot read ({exc.strerror or exc})") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL character in the name
+        raise fail(f"cannot read ({getattr(exc, 'strerror', None) or exc})") from None
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
@@ -136,8 +136,9 @@ def decode_text(data: bytes, fail: Fail) -> str:
     except UnicodeDecodeError as exc:
         bad = data[start + exc.start: start + exc.start + 1]
         detail = f"byte 0x{bad.hex()} at offset {start + exc.start}" if bad else f"truncated at offset {start + exc.start}"
-        what = "UTF-8" if encoding == "utf-8" else f"{encoding.upper()} (as its byte-order mark says)"
-        raise fail(f"not {what} text ({detail}); save it as UTF-8") from None
+        if encoding != "utf-8":
+            detail += ", though its byte-order mark says so"
+        raise fail(f"not {encoding.upper()} text ({detail}); save it as UTF-8") from None
     nul = text.find("\x00")
     if nul >= 0:
         raise fail(f"holds a NUL character at offset {nul}: a binary file, or UTF-16 text without a "

@@ -50,7 +50,9 @@ from pymoo.termination.robust import RobustTermination
 
 from arcube.errors import InputError
 from arcube.optimization.lean import LeanEvaluator, LeanFitnessSurvival, LeanGA, PassRepair, lean_comp_by_cv_and_fitness
-from arcube.optimization.settings import ALGORITHMS, DEFAULT_ALGORITHM, DEFAULT_PERIOD, MULTI_OBJECTIVE_ALGORITHMS  # noqa: F401 (re-exported)
+from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_ALGORITHM, check_algorithm: still importable from here)
+    ALGORITHMS, DEFAULT_ALGORITHM, DEFAULT_PERIOD, MULTI_OBJECTIVE_ALGORITHMS, check_algorithm,
+)  # fmt: skip
 
 BUDGETED: frozenset[str] = frozenset({"mscmaes"})
 """Algorithms whose budget is population * generations design evaluations, not generations."""
@@ -72,15 +74,6 @@ class SeededSampling(Sampling):
         if self.x0 is not None and n_samples > 0:
             X[0] = self.x0
         return X
-
-
-def check_algorithm(name: str, population: int) -> None:
-    """InputError for an unknown algorithm or a population it cannot use."""
-    if name not in ALGORITHMS:
-        raise InputError.of("RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {name!r}")
-    least = 4 if name in ("de", "nsga2", "nsga3", "cmaes") else 2
-    if population < least:
-        raise InputError.of("RunSettings.population", f"must be at least {least} for {name}, got {population}")
 
 
 def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None = None, *,

@@ -29,7 +29,7 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes, atomic_write_text
 from arcube.optimization.algorithms import MULTI_OBJECTIVE
-from arcube.optimization.problem import run_objectives
+from arcube.optimization.build import run_objectives
 
 CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
 FORMAT_VERSION = 1

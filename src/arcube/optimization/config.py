@@ -13,6 +13,7 @@ from typing import Any
 
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
+from arcube.evaluation.standoff import standoff_points
 from arcube.io import TrajectorySet, load_trajectories, select
 from arcube.model.design import PAPER_NAMES, Design
 from arcube.optimization import run as runmod
@@ -35,10 +36,15 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
             for sd in ("R", "L"):
                 if sd not in ts.sides:
                     raise InputError.of("RunSettings.setups", f"2 needs R and L trajectories; {spec} has no side {sd} (after the selection)")
-        patients.append({
+        patient = {
             "source": ts.source if isinstance(spec, TrajectorySet) else str(spec), "ids": list(ts.ids), "levels": list(ts.levels), "sides": list(ts.sides),
             "entry": [[float(v) for v in row] for row in ts.entry], "target": [[float(v) for v in row] for row in ts.target],
-        })  # fmt: skip
+        }  # fmt: skip
+        if s.standoff is not None:  # MODEL.md 17.1: computed once, with the anatomy as given, and kept in config.toml
+            anatomy = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec) if s.anatomy else None
+            S, _ = standoff_points(ts.entry, ts.target, anatomy, s.standoff)
+            patient["standoff"] = [[float(v) for v in row] for row in S]
+        patients.append(patient)
     return patients
 
 

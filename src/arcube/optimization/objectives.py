@@ -9,12 +9,10 @@ objective column is its negative).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
-from arcube.errors import InputError
 
 OBJECTIVES: dict[str, str] = {
     "eta_G": "the paper's global conditioning index (mean of the worst kappa), lower is better",
@@ -58,8 +56,10 @@ def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> b
     return any(n in _SUMMARY for n in objectives) or any(n in _SUMMARY for n, _, _ in limits)
 
 
-def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray) -> dict[str, np.ndarray]:
-    """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable)."""
+def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray,
+                  clearance_results: list[Any] | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+    """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable);
+    the clearance over ``clearance_results`` when given (the plan's and the approach lines' tasks)."""
     out: dict[str, np.ndarray] = {}
     for name in names:
         if name == "eta_G":
@@ -69,7 +69,7 @@ def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: n
         elif name == "bbox":
             out[name] = vol
         elif name == "clearance":
-            vals = np.stack([np.asarray(r.clearance_min, float) for r in results])
+            vals = np.stack([np.asarray(r.clearance_min, float) for r in (clearance_results or results)])
             out[name] = np.where(np.isnan(vals).any(axis=0), np.nan, vals.min(axis=0))
         else:
             vals = np.stack([np.asarray(getattr(r, _SUMMARY[name]), float) for r in results])

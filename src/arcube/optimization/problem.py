@@ -17,8 +17,6 @@ Three layers, all picklable and free of pymoo except the last:
   reachable and the orientation margin holds) and the aggregate eta ETA (+inf when infeasible).
 * :class:`ArcubeProblem` is the pymoo Problem; it delegates the batch to a callable so that
   run.py can log, replay and distribute evaluations.
-
-Long module: the picklable optimization problem: variable space, bounds, fitness model and the pymoo Problem travel to workers together.
 """
 
 from __future__ import annotations
@@ -33,23 +31,20 @@ from numpy.typing import NDArray
 from pymoo.core.problem import Problem
 
 from arcube.evaluation import engine as core_engine
-from arcube.model import frames
-from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PAPER_NAMES, PARAM_NAMES, full_params, unpack
+from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PARAM_NAMES, SLICES
 from arcube.errors import InputError
 from arcube.options import Options
 from arcube.optimization.objectives import limit_shortfall, metric_values, objective_columns
+from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
-    DEFAULT_BOUNDS, FREE_GROUPS, MULTI_OBJECTIVE_ALGORITHMS, RunSettings, parse_bounds, parse_free, resolve_bounds,
+    DEFAULT_BOUNDS, FREE_GROUPS, RunSettings, parse_bounds, parse_free, resolve_bounds,
 )  # fmt: skip
-from arcube.model.mechanism import format_mode, parse_mode
-from arcube.model.poses import LEG_PERM
-from arcube.model.stages import tls
-from arcube.evaluation.task import build_task
+from arcube.model.mechanism import format_mode
 
 Array = NDArray[np.float64]
 
 PLACEMENT_NAMES = ("m_x", "m_y", "m_z")
-LINK_NAMES: tuple[str, ...] = PARAM_NAMES[3:17]
+LINK_NAMES: tuple[str, ...] = PARAM_NAMES[SLICES["f"].start : SLICES["r"] + 1]  # type: ignore[union-attr,operator]
 """The 14 link lengths f_u, p_u, d_u, c_x, c_y, t_x, t_y and r, summed by the ``links`` compactness."""
 MODE_GENES = ("mode_T_x", "mode_T_y", "mode_R_x", "mode_R_y")
 PENALTY = 1e6
@@ -70,6 +65,9 @@ class TaskData:
     label: str
     E: Array  # (P, 3)
     e: Array  # (P, 3)
+    role: str = "plan"
+    """``plan``: the plan's points (eta_G, accuracy, loads, reach, guards, clearances); ``approach``: the
+    lines from each trajectory's standoff to its entry (MODEL.md 17.1: reach, guards, clearances only)."""
 
     @property
     def n_points(self) -> int:
@@ -183,38 +181,6 @@ class VariableSpace:
         return np.clip(np.array(vals, dtype=float), self.xl, self.xu)
 
 
-def mechanism_points(params: Array, E: Array, e: Array) -> Array:
-    """Joint positions in R_w ``(n, P, 11, 3)``: P_x, P_y, P_z, D_x, D_y, D_z, Q_x, Q_y, Q_z, C, C + r e.
-
-    In R_m: P_u = -f_u u (fixed pivots); D_u = (-f_u + p_u a_u) u + p_u sqrt(1 - a_u^2) w with
-    a_u = (u + f_u + r)/p_u the Eq 1 argument (clipped to [-1, 1] where a leg cannot reach);
-    Q_u = C + r u; the centre C = E + L e of the spherical stage and the drill holder C + r e
-    (MODEL.md 3.1, 5.1, 13); then mapped to R_w by the mounting rotation and m.
-    """
-    params = full_params(np.atleast_2d(params))
-    n, P = params.shape[0], E.shape[0]
-    f, p, r = params[:, 3:6], params[:, 6:9], params[:, 16]
-    g = unpack(params[:, None, :])
-    E_m, e_m = frames.to_mechanism(g, E[None, :, :], e[None, :, :])  # (n, P, 3) each
-    arg = np.clip(tls.ik_argument(E_m, f[:, None, :], p[:, None, :], r[:, None]), -1.0, 1.0)
-    pts = np.zeros((n, P, 11, 3))
-    for leg, (u, _, w) in enumerate(LEG_PERM):  # world axes u, w of each leg (MODEL.md 1.2)
-        pts[:, :, leg, u] = -f[:, None, leg]
-        pts[:, :, 3 + leg, u] = -f[:, None, leg] + p[:, None, leg] * arg[..., leg]
-        pts[:, :, 3 + leg, w] = p[:, None, leg] * np.sqrt(1.0 - arg[..., leg] ** 2)
-        pts[:, :, 6 + leg, :] = E_m
-        pts[:, :, 6 + leg, u] += r[:, None]
-    pts[:, :, 9, :] = E_m
-    pts[:, :, 10, :] = E_m + r[:, None, None] * e_m
-    return frames.points_to_world(g, pts)
-
-
-def bounding_box(params: Array, E: Array, e: Array) -> tuple[Array, Array]:
-    """Axis-aligned box in R_w ``(lo, hi)`` each ``(n, 3)`` mm of :func:`mechanism_points` over the task."""
-    pts = mechanism_points(params, E, e)
-    return pts.min(axis=(1, 2)), pts.max(axis=(1, 2))
-
-
 @dataclass(frozen=True, eq=False)
 class FitnessModel:
     """Everything a worker needs to evaluate a population; see the module docstring."""
@@ -238,6 +204,8 @@ class FitnessModel:
         ang = np.degrees(np.arccos(np.clip(e_all[:, :2], -1.0, 1.0)))  # angle(e, +u) for legs x, y
         object.__setattr__(self, "_ang_max", ang.max(axis=0))
         object.__setattr__(self, "_ang_min", ang.min(axis=0))
+        # the approach lines need no drill-tip metrics: the drill works between entry and target only
+        object.__setattr__(self, "_approach_options", self.options.replace(outputs=self.options.outputs.replace(tip_metrics=False)))
 
     @property
     def n_obj(self) -> int:
@@ -245,21 +213,23 @@ class FitnessModel:
 
     @property
     def n_points(self) -> int:
-        return sum(t.n_points for t in self.tasks)
+        """The plan's points (approach lines not counted)."""
+        return sum(t.n_points for t in self.tasks if t.role == "plan")
 
     def margin_shortfall(self, params: Array) -> Array:
         """Orientation-margin shortfall (rad, 0 when met) ``(n,)`` of MODEL.md 12.2 [ADDITION]."""
         if self.margin_deg is None:
             return np.zeros(params.shape[0])
-        a, b = params[:, 19:21], params[:, 21:23]
+        a, b = params[:, SLICES["alpha"]], params[:, SLICES["beta"]]
         mu = self.margin_deg
         short = np.maximum(self._ang_max + mu - (a + b), 0.0) + np.maximum(np.abs(a - b) - (self._ang_min - mu), 0.0)  # type: ignore[attr-defined]
         return np.radians(short.sum(axis=1))
 
     def _run_tasks(self, params: list[Array], modes: Array, want_points: bool) -> list[Any]:
         return [
-            core_engine.evaluate_task(params[self.space.slot(t.patient, t.setup)], t.E, t.e, modes, self.options, engine=self.engine, want_points=want_points,
-                                      anatomy=self.anatomies[t.patient] if self.anatomies else None)
+            core_engine.evaluate_task(params[self.space.slot(t.patient, t.setup)], t.E, t.e, modes,
+                                      self.options if t.role == "plan" else self._approach_options,  # type: ignore[attr-defined]
+                                      engine=self.engine, want_points=want_points, anatomy=self.anatomies[t.patient] if self.anatomies else None)
             for t in self.tasks
         ]
 
@@ -271,6 +241,8 @@ class FitnessModel:
         for t, res in zip(self.tasks, results):
             v = np.nan_to_num(np.asarray(res.violation, dtype=float), nan=1e6, posinf=1e6)
             viol = viol + np.where(np.asarray(res.w_G), 0.0, np.maximum(v, 1e-12))
+            if t.role != "plan":
+                continue
             eta_sum[t.patient] += t.n_points * np.where(np.asarray(res.w_G), np.asarray(res.eta_G, dtype=float), 0.0)
             pts[t.patient] += t.n_points
         eta_p = eta_sum / pts[:, None]
@@ -302,7 +274,8 @@ class FitnessModel:
         links = vol = np.zeros(0)
         if names & {"links", "bbox"}:
             links, vol = self.compactness_values(params)
-        values = metric_values(names, results, eta, links, vol)
+        plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
+        values = metric_values(names, plan, eta, links, vol, clearance_results=results)
         viol = viol + limit_shortfall([list(lim) for lim in self.limits], values, len(viol))
         return np.where(viol == 0.0, eta, np.inf), viol, values
 
@@ -315,13 +288,13 @@ class FitnessModel:
         described = replace(self, options=self.options.replace(outputs=self.options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True)))
         results = described._run_tasks(params, modes, want_points=True)
         eta, viol, _ = self._judge(results, params)
-        dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for r in results])
+        dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"])
         links, vol = self.compactness_values(params)
         tasks = []
         for t, r in zip(self.tasks, results):
             lo, hi = bounding_box(params[self.space.slot(t.patient, t.setup)], t.E, t.e)
             tasks.append({
-                "label": t.label, "points": t.n_points, "w_G": bool(r.w_G[0]), "eta_G": _num(r.eta_G[0]),
+                "label": t.label, **({} if t.role == "plan" else {"role": t.role}), "points": t.n_points, "w_G": bool(r.w_G[0]), "eta_G": _num(r.eta_G[0]),
                 "reachable_fraction": float(r.reachable_fraction[0]), "violation": float(r.violation[0]),
                 "bbox_min_mm": [float(v) for v in lo[0]], "bbox_max_mm": [float(v) for v in hi[0]],
                 "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
@@ -340,7 +313,7 @@ class FitnessModel:
             "clearance_min_mm": _min_num([tk["clearance_min_mm"] for tk in tasks]),
             "self_clearance_min_mm": _min_num([tk["self_clearance_min_mm"] for tk in tasks]),
             "bbox_volume_L": float(vol[0]),
-            **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks]) for name, unit in _METRICS.items()},
+            **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in _METRICS.items()},
             "tasks": tasks,
         }
 
@@ -364,112 +337,6 @@ def _num(v: Any) -> float | None:
     """A finite float, or None (JSON null) for +inf/NaN."""
     f = float(v)
     return f if math.isfinite(f) else None
-
-
-# Config -> model (the same for a new run and a resume)
-ANATOMY_FILES = "anatomy.stl"
-"""The anatomy a run uses, copied into its folder (patient frame): ``anatomy.stl`` for the first
-patient, ``anatomy_<i>.stl`` for patient i > 0."""
-
-
-def anatomy_file(i: int) -> str:
-    """File name of patient i's anatomy in a run folder."""
-    return ANATOMY_FILES if i == 0 else f"anatomy_{i}.stl"
-
-
-def run_options(s: dict[str, Any]) -> Options:
-    """The evaluation options of a run's ``[settings]`` table (guards, clearance guards, body, loads)."""
-    return RunSettings.from_table(s).evaluation_options()
-
-
-def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
-    """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy)."""
-    if not cfg["settings"].get("anatomy"):
-        return ()
-    from pathlib import Path
-
-    from arcube.evaluation.anatomy import Anatomy
-    from arcube.io.meshes import read_meshes
-
-    if run_dir is None:
-        return ()
-    out = []
-    for i in range(len(cfg["patients"])):
-        path = Path(run_dir) / anatomy_file(i)
-        if not path.exists():
-            raise InputError(f"{run_dir}: the run's anatomy file {path.name} is missing")
-        out.append(Anatomy.from_meshes(read_meshes([path], "patient"), str(path)).distance)
-    return tuple(out)
-
-
-def stl_roundtrip(anatomy: Any) -> Any:
-    """The distance grids of ``anatomy`` as a run folder's ``anatomy.stl`` gives them (float32
-    coordinates, merged vertices), built in memory: an in-memory run equals a folder run."""
-    import io
-
-    import trimesh
-
-    from arcube.evaluation.anatomy import Anatomy
-    from arcube.io.meshes import _stl_bytes
-
-    vertices, faces, offset = [], [], 0
-    for m in anatomy.meshes:
-        vertices.append(np.asarray(m.vertices, dtype=np.float64))
-        faces.append(np.asarray(m.faces, dtype=np.int64) + offset)
-        offset += len(m.vertices)
-    data = _stl_bytes(np.concatenate(vertices), np.concatenate(faces), "arcube anatomy, mm, frame=patient")
-    loaded = trimesh.load(io.BytesIO(data), file_type="stl", force="mesh", process=False)
-    mesh = trimesh.Trimesh(vertices=np.asarray(loaded.vertices, dtype=np.float64), faces=np.asarray(loaded.faces, dtype=np.int64), process=False)
-    mesh.merge_vertices()
-    mesh = trimesh.Trimesh(vertices=np.asarray(mesh.vertices) @ np.eye(3), faces=np.asarray(mesh.faces), process=False)
-    return Anatomy.from_meshes([mesh], anatomy.source).distance
-
-
-def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None) -> FitnessModel:
-    """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
-    from the run folder (None: not loaded, for validating a config), or given as ``anatomies``."""
-    s = cfg["settings"]
-    rs = RunSettings.from_table(s)
-    mode = None if rs.mode == "free" else parse_mode(rs.mode)
-    # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
-    bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
-    base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
-    # configs written before --docking existed shared one placement among patients
-    space = VariableSpace(base=base, free=tuple(s["free"]), bounds=bounds, setups=int(s["setups"]), mode=mode,
-                          patients=len(cfg["patients"]), docking=str(s.get("docking", "shared")))  # fmt: skip
-    tasks: list[TaskData] = []
-    for i, pat in enumerate(cfg["patients"]):
-        entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
-        groups = [("", np.ones(len(sides), bool))] if space.setups == 1 else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
-        for setup, (side, keep) in enumerate(groups):
-            task = build_task(entry[keep], target[keep], int(s["points"]))
-            tasks.append(TaskData(i, setup, f"{pat['source']}{' ' + side if side else ''}", task.E, task.e))
-    margin = s.get("margin")
-    return FitnessModel(
-        space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
-        options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
-        margin_deg=None if margin is None else float(margin),
-        objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
-    )  # fmt: skip
-
-
-def run_objectives(s: dict[str, Any]) -> tuple[str, ...]:
-    """A run's objectives, from its ``[settings]`` table (see :attr:`RunSettings.run_objectives`)."""
-    return RunSettings.from_table(s).run_objectives
-
-
-def check_engine(name: str) -> str:
-    """The resolved engine ('numba' or 'numpy'); InputError if unknown or unavailable."""
-    try:
-        resolved = core_engine.resolve(name)
-    except ValueError as exc:
-        raise InputError.of("engine", str(exc)) from None
-    if resolved == "numba":
-        try:
-            import arcube.evaluation.kernel  # noqa: F401, PLC0415
-        except ImportError as exc:
-            raise InputError.of("engine", f"numba: the compiled kernel is not available ({exc})") from None
-    return resolved
 
 
 # Worker-side entry points (kept in this light module so that spawned processes import little).
@@ -518,5 +385,5 @@ class ArcubeProblem(Problem):
 __all__ = [
     "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "DOCKINGS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
     "ArcubeProblem", "FitnessModel", "TaskData", "VariableSpace", "bounding_box", "mechanism_points",
-    "build_model", "check_engine", "evaluate_with", "parse_bounds", "parse_free", "resolve_bounds", "worker_evaluate", "worker_init",
+    "evaluate_with", "parse_bounds", "parse_free", "resolve_bounds", "worker_evaluate", "worker_init",
 ]  # fmt: skip

@@ -12,8 +12,6 @@ Run folder::
 
 Checkpoint and bit-identical resume: see :mod:`arcube.optimization.checkpoint` (the evaluation log,
 replayed on resume).
-
-Long module: the whole run-folder lifecycle in one place: config TOML, history, executors (process/dask), run loop, outputs, resume.
 """
 
 from __future__ import annotations
@@ -44,7 +42,9 @@ from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: s
 )  # fmt: skip
 from arcube.optimization.lock import acquire, release
 from arcube.optimization.loop import HISTORY_COLUMNS, Loop, describe, run_algorithm
-from arcube.optimization.problem import FitnessModel, anatomy_file, build_model, check_engine, evaluate_with, worker_evaluate, worker_init
+from arcube.optimization.build import anatomy_file, build_model, check_engine
+from arcube.optimization.executors import make_executor  # noqa: F401 (still importable from here)
+from arcube.optimization.problem import FitnessModel
 from arcube.optimization.settings import RunSettings
 
 RUN_FORMAT = "arcube-optimize-run"
@@ -112,76 +112,6 @@ def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
             raise
         raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
     return cfg, raw
-
-
-# ----------------------------------------------------------------------------- executors
-def _merge(parts: list[Batch]) -> Batch:
-    return {k: np.concatenate([p[k] for p in parts], axis=0) for k in parts[0]}
-
-
-class Executor:
-    """Evaluates a population batch with the model; subclasses split it into row chunks.
-    Every design is evaluated independently, so the result does not depend on the split."""
-
-    n_chunks = 1
-
-    def __init__(self, model: FitnessModel) -> None:
-        self.model = model
-
-    def __call__(self, X: np.ndarray) -> Batch:
-        chunks = [c for c in np.array_split(X, min(self.n_chunks, max(len(X), 1))) if len(c)]
-        return _merge(self._map(chunks)) if len(chunks) > 1 else self.model.evaluate(X)
-
-    def _map(self, chunks: list[np.ndarray]) -> list[Batch]:
-        return [self.model.evaluate(c) for c in chunks]
-
-    def close(self) -> None:
-        pass
-
-
-class ProcessExecutor(Executor):
-    def __init__(self, model: FitnessModel, workers: int) -> None:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        super().__init__(model)
-        self.n_chunks = workers
-        ctx = multiprocessing.get_context("spawn")  # no fork under threads (progress bar, dask)
-        self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_init, initargs=(model,))
-
-    def _map(self, chunks: list[np.ndarray]) -> list[Batch]:
-        return list(self.pool.map(worker_evaluate, chunks))
-
-    def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
-
-
-class DaskExecutor(Executor):
-    def __init__(self, model: FitnessModel, address: str) -> None:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise InputError("--dask needs dask.distributed: pip install 'dask[distributed]'") from None
-        super().__init__(model)
-        try:
-            self.client = Client(address, timeout=20, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"--dask {address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
-        self.n_chunks = max(1, sum(self.client.nthreads().values()))
-        self.model_future = self.client.scatter(model, broadcast=True)
-
-    def _map(self, chunks: list[np.ndarray]) -> list[Batch]:
-        futures = [self.client.submit(evaluate_with, self.model_future, c, pure=False) for c in chunks]
-        return self.client.gather(futures)
-
-    def close(self) -> None:
-        self.client.close()
-
-
-def make_executor(model: FitnessModel, workers: int = 1, dask: str | None = None) -> Executor:
-    if dask:
-        return DaskExecutor(model, dask)
-    return ProcessExecutor(model, workers) if workers > 1 else Executor(model)
 
 
 # ----------------------------------------------------------------------------- history and outputs
@@ -343,7 +273,7 @@ def check_new_folder(run_dir: Path) -> None:
     """InputError unless ``run_dir`` is absent or an empty folder."""
     if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
         hint = " (it holds a run: use 'arcube resume')" if (run_dir / "config.toml").exists() else ""
-        raise InputError(f"--out {run_dir}: exists and is not an empty folder{hint}")
+        raise InputError.of("out", f"{run_dir}: exists and is not an empty folder{hint}")
 
 
 def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:

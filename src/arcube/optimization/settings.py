@@ -27,7 +27,7 @@ from arcube.model.mechanism import format_mode, parse_mode
 from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_tip_metrics
 from arcube.options import GUARDED_OPTIONS, Options, Settings
 
-__all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "parse_bounds", "parse_free", "resolve_bounds"]
+__all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "parse_bounds", "parse_free", "resolve_bounds"]
 
 _B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (-400.0, 400.0), (20.0, 250.0), (30.0, 200.0), (50.0, 80.0), (-270.0, 270.0), (30.0, 90.0)
 DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
@@ -50,6 +50,15 @@ DEFAULT_ALGORITHM = "mscmaes"
 MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
 DEFAULT_PERIOD = 30
 """Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
+
+
+def check_algorithm(name: str, population: int) -> None:
+    """InputError for an unknown algorithm or a population it cannot use."""
+    if name not in ALGORITHMS:
+        raise InputError.of("RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {name!r}")
+    least = 4 if name in ("de", "nsga2", "nsga3", "cmaes") else 2
+    if population < least:
+        raise InputError.of("RunSettings.population", f"must be at least {least} for {name}, got {population}")
 
 
 def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
@@ -232,6 +241,9 @@ class RunSettings(Settings):
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
     minima: Annotated[dict[str, float], _limits("minima")] = {}
     docking: Literal["per-patient", "shared"] = "per-patient"
+    standoff: float | None = Field(default=None, ge=0, allow_inf_nan=False)
+    """[MODEL.md 17.1] With a value s (mm), reach, guards and clearances also hold on each trajectory's
+    approach line, from its standoff (s beyond where the axis leaves the anatomy) to its entry."""
     options: Options = Options()
     """Clearance guards, body radii and loads (the guards of ``guards`` are added on top)."""
 
@@ -253,8 +265,6 @@ class RunSettings(Settings):
 
     @model_validator(mode="after")
     def _check(self) -> RunSettings:
-        from arcube.optimization.algorithms import check_algorithm  # noqa: PLC0415 (algorithms imports pymoo)
-
         if self.algorithm not in ALGORITHMS:
             raise InputError.of("RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
         if len(self.objectives) == 1 and self.algorithm in MULTI_OBJECTIVE_ALGORITHMS:
@@ -322,6 +332,8 @@ class RunSettings(Settings):
         for name in _TABLE_GUARDS:
             if getattr(g, name) not in (None, False):
                 table[name] = getattr(g, name)
+        if self.standoff is not None:  # written only when set: earlier tables stay as they were
+            table["standoff"] = self.standoff
         return table
 
     @classmethod
@@ -332,6 +344,12 @@ class RunSettings(Settings):
         t.setdefault("docking", "shared")  # runs before per-patient docking shared one placement
         t.setdefault("eliminate_duplicates", True)  # and ran pymoo's default
         return cls(**t)
+
+    @classmethod
+    def from_config(cls, cfg: Mapping[str, Any]) -> RunSettings:
+        """The settings of a whole run config: its ``[settings]`` table and its ``[bounds]``."""
+        bounds = {k: (float(v[0]), float(v[1])) for k, v in (cfg.get("bounds") or {}).items()}
+        return cls.from_table({**cfg["settings"], "bounds": {k: v for k, v in bounds.items() if v != DEFAULT_BOUNDS.get(k)}})
 
 
 _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")

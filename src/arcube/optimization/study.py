@@ -54,7 +54,7 @@ def parse_seeds(spec: str) -> list[int]:
     """``"1-5"``, ``"1,3,7"`` or ``"1-3,10"`` -> ascending distinct seeds (InputError if malformed or empty)."""
     text = str(spec).strip()
     if not text:
-        raise InputError("--seeds is empty: give seeds as 1-5, 1,3,7 or 1-3,10")
+        raise InputError.of("seeds", "is empty: give seeds as 1-5, 1,3,7 or 1-3,10")
     seeds: list[int] = []
     for item in text.split(","):
         lo_s, dash, hi_s = item.strip().partition("-")
@@ -62,16 +62,16 @@ def parse_seeds(spec: str) -> list[int]:
             lo = int(lo_s)
             hi = int(hi_s) if dash else lo
         except ValueError:
-            raise InputError(f"--seeds {spec!r}: {item.strip()!r} is not a seed or a range A-B of non-negative integers") from None
+            raise InputError.of("seeds", f"{spec!r}: {item.strip()!r} is not a seed or a range A-B of non-negative integers") from None
         if lo > hi:
-            raise InputError(f"--seeds {spec!r}: range {item.strip()!r} runs backwards")
+            raise InputError.of("seeds", f"{spec!r}: range {item.strip()!r} runs backwards")
         if hi - lo + 1 + len(seeds) > MAX_SEEDS:
-            raise InputError(f"--seeds {spec!r}: more than {MAX_SEEDS} seeds")
+            raise InputError.of("seeds", f"{spec!r}: more than {MAX_SEEDS} seeds")
         seeds.extend(range(lo, hi + 1))
     if len(set(seeds)) != len(seeds):
-        raise InputError(f"--seeds {spec!r}: a seed is named twice")
+        raise InputError.of("seeds", f"{spec!r}: a seed is named twice")
     if not all(0 <= s < 2**63 for s in seeds):
-        raise InputError(f"--seeds {spec!r}: seeds must be integers in [0, 2^63)")
+        raise InputError.of("seeds", f"{spec!r}: seeds must be integers in [0, 2^63)")
     return sorted(seeds)
 
 
@@ -141,10 +141,10 @@ def start_study(study_dir: Path, base: dict[str, Any], seeds: list[int], *, work
     study_dir = Path(study_dir)
     if study_dir.exists() and (not study_dir.is_dir() or any(study_dir.iterdir())):
         hint = " (it holds a study: use 'arcube resume')" if is_study(study_dir) else ""
-        raise InputError(f"--out {study_dir}: exists and is not an empty folder{hint}")
+        raise InputError.of("out", f"{study_dir}: exists and is not an empty folder{hint}")
     _check_parallel(workers, dask)
     if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
-        raise InputError(f"--best-known must be a positive number (an eta_G), got {best_known}")
+        raise InputError.of("best_known", f"must be a positive number (an eta_G), got {best_known}")
     created = not study_dir.exists()
     try:
         study_dir.mkdir(parents=True, exist_ok=True)
@@ -185,9 +185,9 @@ def resume_study(study_dir: Path, *, workers: int | None = None, dask: str | Non
 
 def _check_parallel(workers: int, dask: str | None) -> None:
     if workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
+        raise InputError.of("workers", f"must be at least 1, got {workers}")
     if dask and workers > 1:
-        raise InputError("--workers and --dask exclude each other (the Dask cluster has its own workers)")
+        raise InputError.of("workers", "and dask exclude each other (the Dask cluster has its own workers)")
 
 
 def _run_seed(run_dir: str, parent_pid: int | None = None) -> dict[str, Any]:
@@ -252,11 +252,11 @@ def _run_dask(study_dir: Path, pending: list[int], address: str, on_seed: Callab
     try:
         from distributed import Client
     except ImportError:
-        raise InputError("--dask needs dask.distributed: pip install 'dask[distributed]'") from None
+        raise InputError.of("dask", "needs dask.distributed: pip install 'dask[distributed]'") from None
     try:
         client = Client(address, timeout=20, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
-        raise InputError(f"--dask {address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+        raise InputError.of("dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
     try:
         futures = {client.submit(_run_seed, str(seed_dir(study_dir, s).resolve()), pure=False): s for s in pending}
         for fut, seed in futures.items():  # in seed order (distributed's as_completed wants a default client)

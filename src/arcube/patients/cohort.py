@@ -29,15 +29,15 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
             (binary STL, patient frame, one closed shell per box).
     """
     if mean and seed is not None:
-        raise InputError.of("mean", "excludes seed: give exactly one of them (the mean patient, or random ones)")
+        raise InputError.of("mean", "excludes a seed: the mean patient has no random draws (give one or the other)")
     if not mean and seed is None:
-        raise InputError.of("seed", "is missing: give exactly one of seed and mean (random patients, or the mean one)")
+        raise InputError.of("seed", "is missing: give a seed for random patients, or ask for the mean patient")
     if technique not in TECHNIQUES:
         raise InputError.of("technique", f"{short_repr(technique)}: expected one of {', '.join(TECHNIQUES)}")
     if count < 1:
         raise InputError.of("count", f"{count}: expected at least 1")
     if mean and count > 1:
-        raise InputError.of("count", f"{count} with mean would write identical patients")
+        raise InputError.of("count", f"{count} for the mean patient would write identical patients")
     if seed is not None and seed < 0:
         raise InputError.of("seed", f"{seed}: expected a non-negative integer")
     width = max(3, len(str(count - 1)))
@@ -45,7 +45,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         paths = [out]
     else:
         if out.exists() and not out.is_dir():
-            raise InputError.of("out", f"{out}: exists and is not a folder (needed for count > 1)")
+            raise InputError.of("out", f"{out}: exists and is not a folder (needed for more than one patient)")
         paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
     if any(p.suffix.lower() == ".json" for p in paths):
         raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")

@@ -134,7 +134,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
     if points < 2:
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
     if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
-        raise InputError(f"--best-known must be a positive number (an eta_G), got {best_known}")
+        raise InputError.of("best_known", f"must be a positive number (an eta_G), got {best_known}")
     signs = _mode(settings, summary, run / "config.toml")
     options, _, limits = _run_body(run, settings)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
@@ -178,7 +178,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
 
 def _run_engine(settings: dict[str, Any]) -> str:
     """The run's own engine when this machine has it, else the NumPy reference."""
-    from arcube.optimization.problem import check_engine
+    from arcube.optimization.build import check_engine
 
     if settings.get("engine_resolved") != "numba":
         return "numpy"
@@ -191,7 +191,7 @@ def _run_engine(settings: dict[str, Any]) -> str:
 def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[str, float]]:
     """The run's evaluation options (guards, clearance guards, body radii, loads; body on), its first
     patient's anatomy (the copy in the run folder) and its --max / --min limits by name."""
-    from arcube.optimization.problem import run_options
+    from arcube.optimization.build import run_options
 
     try:
         options = run_options({**settings, "guards": settings.get("guards") is True})
@@ -204,7 +204,7 @@ def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[s
 
 def _run_anatomy(run: Path, settings: dict[str, Any], index: int) -> Any:
     """Patient ``index``'s anatomy as the run copied it into its folder (None without one)."""
-    from arcube.optimization.problem import anatomy_file
+    from arcube.optimization.build import anatomy_file
 
     path = run / anatomy_file(index)
     if not (settings.get("anatomy") and path.exists()):

@@ -12,35 +12,26 @@ import math
 
 from numba import njit
 
-from arcube.evaluation.kernel._layout import G_D, G_F, G_FLAT, G_M, G_P, G_R, G_ROT, G_T
+from arcube.evaluation.kernel._layout import G_D, G_F, G_M, G_P, G_R, G_T
+from arcube.evaluation.kernel._scalar import rot
 
 
 @njit(cache=True, error_model="numpy")
 def _put(g, out, i, j, x0, x1, x2):
-    """out[i, j] = m + R x (x + m where R = I)."""
-    if g[G_FLAT] != 0.0:
-        out[i, j, 0] = x0 + g[G_M]
-        out[i, j, 1] = x1 + g[G_M + 1]
-        out[i, j, 2] = x2 + g[G_M + 2]
-    else:
-        R = g[G_ROT:G_ROT + 9]
-        out[i, j, 0] = (R[0] * x0 + R[1] * x1 + R[2] * x2) + g[G_M]
-        out[i, j, 1] = (R[3] * x0 + R[4] * x1 + R[5] * x2) + g[G_M + 1]
-        out[i, j, 2] = (R[6] * x0 + R[7] * x1 + R[8] * x2) + g[G_M + 2]
+    """out[i, j] = m + R x: a point from mechanism to patient coordinates (MODEL.md 13.1)."""
+    y0, y1, y2 = rot(g, x0, x1, x2)
+    out[i, j, 0] = y0 + g[G_M]
+    out[i, j, 1] = y1 + g[G_M + 1]
+    out[i, j, 2] = y2 + g[G_M + 2]
 
 
 @njit(cache=True, error_model="numpy")
 def _dir(g, out, i, j, x0, x1, x2):
-    """out[i, j] = R x (a direction)."""
-    if g[G_FLAT] != 0.0:
-        out[i, j, 0] = x0
-        out[i, j, 1] = x1
-        out[i, j, 2] = x2
-    else:
-        R = g[G_ROT:G_ROT + 9]
-        out[i, j, 0] = R[0] * x0 + R[1] * x1 + R[2] * x2
-        out[i, j, 1] = R[3] * x0 + R[4] * x1 + R[5] * x2
-        out[i, j, 2] = R[6] * x0 + R[7] * x1 + R[8] * x2
+    """out[i, j] = R x: a direction from mechanism to patient axes."""
+    y0, y1, y2 = rot(g, x0, x1, x2)
+    out[i, j, 0] = y0
+    out[i, j, 1] = y1
+    out[i, j, 2] = y2
 
 
 @njit(cache=True, error_model="numpy")
@@ -122,13 +113,8 @@ def _body_world(g, c_z, motor_length, C0, C1, C2, e0, e1, e2, cr0, sr0, cr1, sr1
     _dir(g, arcs, 2, 1, e0, e1, e2)
     _dir(g, arcs, 3, 0, yb0, yb1, yb2)
     _dir(g, arcs, 3, 1, e0, e1, e2)
-    if g[G_FLAT] != 0.0:
-        arc_c[0] = C0 + g[G_M]
-        arc_c[1] = C1 + g[G_M + 1]
-        arc_c[2] = C2 + g[G_M + 2]
-    else:
-        R = g[G_ROT:G_ROT + 9]
-        arc_c[0] = (R[0] * C0 + R[1] * C1 + R[2] * C2) + g[G_M]
-        arc_c[1] = (R[3] * C0 + R[4] * C1 + R[5] * C2) + g[G_M + 1]
-        arc_c[2] = (R[6] * C0 + R[7] * C1 + R[8] * C2) + g[G_M + 2]
+    c0, c1, c2 = rot(g, C0, C1, C2)
+    arc_c[0] = c0 + g[G_M]
+    arc_c[1] = c1 + g[G_M + 1]
+    arc_c[2] = c2 + g[G_M + 2]
     return r

@@ -112,15 +112,20 @@ def _grid(o, h, v, x, y, z):
 
 
 @njit(cache=True, error_model="numpy")
-def _lookup(fo, fh, fv, co, ch, cv, x, y, z):
-    """Signed distance to the anatomy: the fine grid inside its box, else the coarse grid."""
-    nx, ny, nz = fv.shape
-    gx = (x - fo[0]) / fh
-    gy = (y - fo[1]) / fh
-    gz = (z - fo[2]) / fh
+def _lookup(grids, x, y, z):
+    """Signed distance to the anatomy at (x, y, z), mm: the fine grid inside its box, else the coarse grid.
+
+    ``grids``: (fine_origin (3,), fine_spacing, fine_values (nx, ny, nz), coarse_origin, coarse_spacing,
+    coarse_values, fine_gradients, coarse_gradients), mm; the gradients are :func:`block_gradients`.
+    """
+    fine_origin, fine_spacing, fine_values, coarse_origin, coarse_spacing, coarse_values, _, _ = grids
+    nx, ny, nz = fine_values.shape
+    gx = (x - fine_origin[0]) / fine_spacing
+    gy = (y - fine_origin[1]) / fine_spacing
+    gz = (z - fine_origin[2]) / fine_spacing
     if 0.0 <= gx <= nx - 1.0 and 0.0 <= gy <= ny - 1.0 and 0.0 <= gz <= nz - 1.0:
-        return _grid(fo, fh, fv, x, y, z)
-    return _grid(co, ch, cv, x, y, z)
+        return _grid(fine_origin, fine_spacing, fine_values, x, y, z)
+    return _grid(coarse_origin, coarse_spacing, coarse_values, x, y, z)
 
 
 @njit(cache=True, error_model="numpy")
@@ -140,7 +145,7 @@ def _curve_point(is_arc, a, b, c, r, nrm, s, out):
 def _lipschitz(grids, p, q, sag, is_arc):
     """Lipschitz bound of the looked-up field along the piece from p to q (an arc piece: its chord
     grown by its sag, any direction)."""
-    fo, fh, fv, co, ch, cv, fg, cg = grids
+    fine_origin, fine_spacing, fine_values, coarse_origin, coarse_spacing, coarse_values, fine_gradients, coarse_gradients = grids
     lo0 = min(p[0], q[0]) - sag
     lo1 = min(p[1], q[1]) - sag
     lo2 = min(p[2], q[2]) - sag
@@ -159,16 +164,16 @@ def _lipschitz(grids, p, q, sag, is_arc):
         u0 = d0 / n
         u1 = d1 / n
         u2 = d2 / n
-    bound = _block_bound(fo, fh, fv, fg, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
+    bound = _block_bound(fine_origin, fine_spacing, fine_values, fine_gradients, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
     if bound == math.inf:
         # outside the fine box entirely: the coarse grid's blocks; across its boundary: 1
-        nx, ny, nz = fv.shape
-        fhi0 = fo[0] + fh * (nx - 1)
-        fhi1 = fo[1] + fh * (ny - 1)
-        fhi2 = fo[2] + fh * (nz - 1)
-        apart = hi0 < fo[0] or lo0 > fhi0 or hi1 < fo[1] or lo1 > fhi1 or hi2 < fo[2] or lo2 > fhi2
+        nx, ny, nz = fine_values.shape
+        fhi0 = fine_origin[0] + fine_spacing * (nx - 1)
+        fhi1 = fine_origin[1] + fine_spacing * (ny - 1)
+        fhi2 = fine_origin[2] + fine_spacing * (nz - 1)
+        apart = hi0 < fine_origin[0] or lo0 > fhi0 or hi1 < fine_origin[1] or lo1 > fhi1 or hi2 < fine_origin[2] or lo2 > fhi2
         if apart:
-            bound = _block_bound(co, ch, cv, cg, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
+            bound = _block_bound(coarse_origin, coarse_spacing, coarse_values, coarse_gradients, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
     return min(bound, 1.0)
 
 
@@ -177,7 +182,6 @@ def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo
     """Branch and bound over s in [0, total] (mm per unit of s: ``scale``); returns the best value and
     a lower bound of this primitive's minimum (the least of d - Lipschitz bound x half-length over the
     intervals it dropped). ``pt``, ``p``, ``q``: (3,) work buffers."""
-    fo, fh, fv, co, ch, cv, fg, cg = grids
     floor = math.inf
     top = 0
     stack_lo[0] = 0.0
@@ -188,7 +192,7 @@ def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo
         top -= 1
         mid = 0.5 * (lo + hi)
         _curve_point(is_arc, a, b, c, r, nrm, mid, pt)
-        d = _lookup(fo, fh, fv, co, ch, cv, pt[0], pt[1], pt[2]) - radius
+        d = _lookup(grids, pt[0], pt[1], pt[2]) - radius
         if d < best:
             best = d
         half = 0.5 * (hi - lo) * scale

@@ -1,19 +1,42 @@
-"""Constants shared by the kernel's modules: array layouts, failure codes, numeric constants."""
+"""Constants shared by the kernel's modules: the layouts of its float rows, failure codes, numbers.
+
+Every row the kernel hands around is a float64 vector of named blocks laid end to end, declared
+once here as ``(name, width)`` entries. A :class:`Layout` turns the entries into offsets, and each
+offset is also a module constant ``<PREFIX>_<NAME>`` (the name upper-cased, e.g. ``G_SIN_ALPHA``,
+``S_ETA_G``, ``X_TORQUE_ACTUATOR``), which the compiled code reads: Numba freezes module-level
+ints into the machine code.
+
+* ``G_*``: :data:`GEOMETRY`, one design's geometry row (built by ``kernel._geometry``), ``N_GEO``;
+* ``O_*``: :data:`OPTIONS`, the option vector (built by ``kernel._option_vector``), ``N_OPT``;
+* ``S_*``: :data:`SUMMARY`, one design's summary row: one column per field of
+  :class:`~arcube.evaluation.reference.TaskResults` after ``w_G``, and ``n_bad`` for ``w_G``, ``N_SUMM``;
+* ``X_*``: :data:`EXTRA`, one point's extra row: one column per field of
+  :class:`~arcube.evaluation.reference.PointResults` without an array of its own, ``N_EXTRA``.
+
+So a new result field gets its column, and ``kernel.evaluate_task_numba`` packs it, without an edit
+here; the compiled code then has to fill it (tests/test_kernel.py compares every field with the
+reference, and fails on a field it has no tolerance for).
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
-from arcube.evaluation.reference import _EXCESS_CAP, FAILURES
+from arcube.evaluation.performance import PERFORMANCE_FIELDS
+from arcube.evaluation.reference import FAILURES, PointResults, TaskResults
+from arcube.model.design import SLICES
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
-CAP = float(_EXCESS_CAP)
 BIG = float(np.finfo(np.float64).max)
 INF = math.inf
 NAN = math.nan
+EXCESS_CAP = 10.0
+"""Cap on one argument's excess in the graded violation (MODEL.md 12.2), as the reference's
+``_EXCESS_CAP`` (tests/test_kernel_layout.py holds the two equal)."""
 
 CODE_SINGULAR = FAILURES.index("singular/J_LV") + 1  # 8 .. 14 in JACOBIAN_NAMES order
 CODE_Z_DYAD = FAILURES.index("guard/z_dyad") + 1
@@ -25,31 +48,94 @@ CODE_PATIENT = FAILURES.index("collision/patient") + 1
 CODE_SELF = FAILURES.index("collision/self") + 1
 assert FAILURES[:7] == ("TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y")
 
-# Layout of the per-design geometry rows built by ``_geometry`` (mm, rad, trig of the angles).
-G_M, G_F, G_P, G_D, G_C, G_T, G_R, G_O = 0, 3, 6, 9, 12, 14, 16, 17
-G_SA, G_CA, G_CB, G_SB = 19, 21, 23, 25
-G_ROT = 27  # 9 entries of the mounting rotation R, row-major (MODEL.md 13.1)
-G_L = 36  # tool offset L, mm (MODEL.md 13.2)
-G_FLAT = 37  # 1.0 where R = I exactly (the stages then see E - m unrotated, bit for bit)
-N_GEO = 38
-
-# Layout of the option vector built by ``_option_vector``.
-O_ZDYAD, O_CZ, O_RHO_ON, O_RHO, O_TR_ON, O_TR, O_KM_ON, O_KM, O_SAM, O_EXACT = range(10)
-O_DO_SELF, O_ANAT, O_CLR_ON, O_CLR, O_SELF_ON, O_SELF, O_LM, O_DO_CLR = range(10, 18)  # body clearances, MODEL.md 14
-O_PERF = 18  # 12 entries: encoder (5, rad), thrust, lateral force (N), stiffness (5, N·mm/rad); MODEL.md 15
-O_PERF_ON = 30  # 1.0: compute the metrics of MODEL.md 15
-O_CMIN_EXACT = 31  # 1.0: summaries need the exact smallest clearance, not only the guard's decision
-N_OPT = 32
-
-# Layout of the per-design summary rows.
-S_NBAD, S_RF, S_ETAG, S_VIOL, S_DMIN, S_DMEAN, S_DMAX, S_CMIN, S_SMIN = range(9)
-S_PERF = 9  # 6 maxima: tip, lateral, axial, axis error, torque, deflection (MODEL.md 15.5)
-N_SUMM = 15
-
-# Layout of the per-point extra rows (body clearances).
-X_CLR, X_PART, X_SELF = range(3)
-X_PERF = 3  # 7 entries: kernel._performance.N_PERF (MODEL.md 15)
-N_EXTRA = 10
-
 CHUNK = 64
 """Points per tile when a few designs are split over threads."""
+
+
+class Layout:
+    """Named blocks laid end to end in a float64 row: ``offset[name]``, ``width[name]``, ``size``."""
+
+    def __init__(self, prefix: str, entries: Iterable[tuple[str, int]]) -> None:
+        self.prefix = prefix
+        self.entries: tuple[tuple[str, int], ...] = tuple(entries)
+        self.offset: dict[str, int] = {}
+        self.width: dict[str, int] = {}
+        at = 0
+        for name, width in self.entries:
+            if name in self.offset or width < 1:
+                raise ValueError(f"layout {prefix}: {name!r} repeated or of width {width}")
+            self.offset[name] = at
+            self.width[name] = width
+            at += width
+        self.size = at
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The block names, in row order."""
+        return tuple(name for name, _ in self.entries)
+
+    def constants(self) -> dict[str, int]:
+        """``{"<PREFIX>_<NAME>": offset}`` of every block (the name upper-cased)."""
+        out = {f"{self.prefix}_{name.upper()}": at for name, at in self.offset.items()}
+        if len(out) != len(self.offset):
+            raise ValueError(f"layout {self.prefix}: names that differ only in case")
+        return out
+
+
+def _width(at: slice | int) -> int:
+    return 1 if isinstance(at, int) else at.stop - at.start
+
+
+GEOMETRY = Layout("G", (
+    *((key, _width(SLICES[key])) for key in ("m", "f", "p", "d", "c", "t", "r")),  # mm, as in the design array
+    ("o", _width(SLICES["o"])),  # transmitting offsets, rad
+    ("sin_alpha", _width(SLICES["alpha"])), ("cos_alpha", _width(SLICES["alpha"])),
+    ("cos_beta", _width(SLICES["beta"])), ("sin_beta", _width(SLICES["beta"])),
+    ("rot", 9),  # the mounting rotation R, row-major (MODEL.md 13.1)
+    ("L", 1),  # tool offset, mm (MODEL.md 13.2)
+    ("flat", 1),  # 1.0 where R = I exactly (the stages then see E - m unrotated, bit for bit)
+))  # fmt: skip
+"""One design's geometry row ``(N_GEO,)``: mm, rad and the trig of the spherical angles."""
+
+OPTIONS = Layout("O", (
+    # guards (MODEL.md 8.2, 14.3); an optional threshold is a pair <name>_on (1.0: active), <name>
+    ("z_dyad", 1), ("c_z", 1),  # c_z in mm, NaN: c_z = d_z
+    ("rho_max_on", 1), ("rho_max", 1),  # rad
+    ("transmission_on", 1), ("transmission", 1),  # sine of the smallest transmission angle
+    ("kappa_max_on", 1), ("kappa_max", 1),
+    ("single_assembly_mode", 1),
+    ("clearance_on", 1), ("clearance", 1),  # mm
+    ("self_clearance_on", 1), ("self_clearance", 1),  # mm
+    # body (MODEL.md 14.1)
+    ("motor_length", 1),  # mm
+    # loads (MODEL.md 15)
+    ("encoder", 5),  # rad, per actuator
+    ("thrust", 1), ("lateral_force", 1),  # N
+    ("stiffness", 5),  # N·mm/rad, per actuator
+    # what to compute (1.0: yes)
+    ("exact", 1), ("do_clearance", 1), ("do_self_clearance", 1), ("tip_metrics", 1), ("clearance_min_exact", 1),
+))  # fmt: skip
+"""The option vector ``(N_OPT,)``: the settings as numbers, thresholds as the reference compares them."""
+
+assert TaskResults._fields[:2] == ("points", "w_G")
+SUMMARY_FIELDS: tuple[str, ...] = ("n_bad", *TaskResults._fields[2:])
+"""Columns of a summary row: the number of failing points (w_G is n_bad == 0), then the TaskResults fields."""
+SUMMARY = Layout("S", ((name, 1) for name in SUMMARY_FIELDS))
+"""One design's summary row ``(N_SUMM,)``."""
+
+POINT_ARRAYS: tuple[str, ...] = ("reachable", "failure", "kappa", "eta_L", "dexterity_pct", "excess", "rho", "delta", "sigma")
+"""PointResults fields with arrays of their own in the kernel (``reachable`` is failure == 0)."""
+EXTRA_FIELDS: tuple[str, ...] = tuple(name for name in PointResults._fields if name not in POINT_ARRAYS)
+"""Columns of an extra row: every other PointResults field (body clearances, MODEL.md 14.3; tip metrics, 15)."""
+EXTRA = Layout("X", ((name, 1) for name in EXTRA_FIELDS))
+"""One point's extra row ``(N_EXTRA,)``; integer fields (parts, actuators) held as floats."""
+
+for _row in (GEOMETRY, OPTIONS, SUMMARY, EXTRA):
+    globals().update(_row.constants())
+del _row
+N_GEO, N_OPT, N_SUMM, N_EXTRA = GEOMETRY.size, OPTIONS.size, SUMMARY.size, EXTRA.size
+
+METRIC_COLUMNS = np.array([EXTRA.offset[name] for name in PERFORMANCE_FIELDS], dtype=np.int64)
+"""Extra columns of the tip metrics of MODEL.md 15 that have a maximum (all but ``torque_actuator``)."""
+MAXIMA = np.array([(SUMMARY.offset[name.rsplit("_", 1)[0] + "_max"], EXTRA.offset[name]) for name in PERFORMANCE_FIELDS], dtype=np.int64)
+"""(summary column, extra column) of each maximum over the reachable points (MODEL.md 15.5), ``(6, 2)``."""

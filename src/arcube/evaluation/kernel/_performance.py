@@ -16,13 +16,20 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
-from arcube.evaluation.kernel._layout import G_FLAT, G_L, G_ROT
+from arcube.evaluation.kernel._layout import G_L, METRIC_COLUMNS, NAN, O_ENCODER, O_LATERAL_FORCE, O_STIFFNESS, O_THRUST
+from arcube.evaluation.kernel._layout import X_AXIAL_ERROR_MM, X_AXIS_ERROR_DEG, X_DEFLECTION_MM, X_LATERAL_ERROR_MM
+from arcube.evaluation.kernel._layout import X_TIP_ERROR_MM, X_TORQUE_ACTUATOR, X_TORQUE_NM
+from arcube.evaluation.kernel._scalar import rot
 
-N_PERF = 7
-"""Outputs: tip, lateral, axial error (mm), axis error (deg), torque (N·m), its actuator, deflection (mm)."""
+
+@njit(cache=True, error_model="numpy")
+def _no_metrics(row):
+    """The metrics of an unreachable point in an extra row: NaN, and actuator -1."""
+    for j in range(METRIC_COLUMNS.shape[0]):
+        row[METRIC_COLUMNS[j]] = NAN
+    row[X_TORQUE_ACTUATOR] = -1.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -66,9 +73,10 @@ def _box_maxima(J, eps, e0, e1, e2):
 
 @njit(cache=True, error_model="numpy")
 def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
-                 xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, perf_opt, J, out):  # fmt: skip
-    """Write the 7 metrics of one point to ``out``; ``perf_opt``: encoder (5, rad), thrust, lateral force
-    (N), stiffness (5, N·mm/rad); ``J``: (2, 3, 5) work buffer (J_E, J_e)."""
+                 xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, J, row):  # fmt: skip
+    """Write the metrics of one point to its extra row ``row`` (the ``X_*`` columns of the PointResults
+    fields tip_error_mm .. deflection_mm), with the loads of the option vector ``opt``: encoder (rad),
+    thrust, lateral force (N), stiffness (N·mm/rad); ``J``: (2, 3, 5) work buffer (J_E, J_e)."""
     # J_AP rows q = u_beta x e (mechanism axes)
     qx0 = xb1 * em2 - xb2 * em1
     qx1 = xb2 * em0 - xb0 * em2
@@ -89,14 +97,8 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
     mx = (rx * G0, rx * D0 * pcr1, rx * E0 * pcr2, rx * F0, 0.0)
     my = (ry * E1 * pcr0, ry * G1, ry * D1 * pcr2, 0.0, ry * F1)
     lv = (-pcr0, -pcr1, -pcr2)
-    flat = g[G_FLAT] != 0.0
     L = g[G_L]
-    if flat:
-        e0, e1, e2 = em0, em1, em2
-    else:
-        e0 = g[G_ROT] * em0 + g[G_ROT + 1] * em1 + g[G_ROT + 2] * em2
-        e1 = g[G_ROT + 3] * em0 + g[G_ROT + 4] * em1 + g[G_ROT + 5] * em2
-        e2 = g[G_ROT + 6] * em0 + g[G_ROT + 7] * em1 + g[G_ROT + 8] * em2
+    e0, e1, e2 = rot(g, em0, em1, em2)
     for i in range(5):
         # column i of J_C and J_ω (mechanism axes), then to R_w
         c0 = lv[0] if i == 0 else 0.0
@@ -105,13 +107,8 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
         w0 = px0 * mx[i] + py0 * my[i]
         w1 = px1 * mx[i] + py1 * my[i]
         w2 = px2 * mx[i] + py2 * my[i]
-        if not flat:
-            c0, c1, c2 = (g[G_ROT] * c0 + g[G_ROT + 1] * c1 + g[G_ROT + 2] * c2,
-                          g[G_ROT + 3] * c0 + g[G_ROT + 4] * c1 + g[G_ROT + 5] * c2,
-                          g[G_ROT + 6] * c0 + g[G_ROT + 7] * c1 + g[G_ROT + 8] * c2)  # fmt: skip
-            w0, w1, w2 = (g[G_ROT] * w0 + g[G_ROT + 1] * w1 + g[G_ROT + 2] * w2,
-                          g[G_ROT + 3] * w0 + g[G_ROT + 4] * w1 + g[G_ROT + 5] * w2,
-                          g[G_ROT + 6] * w0 + g[G_ROT + 7] * w1 + g[G_ROT + 8] * w2)  # fmt: skip
+        c0, c1, c2 = rot(g, c0, c1, c2)
+        w0, w1, w2 = rot(g, w0, w1, w2)
         x0 = e1 * w2 - e2 * w1  # e x ω-column
         x1 = e2 * w0 - e0 * w2
         x2 = e0 * w1 - e1 * w0
@@ -121,14 +118,14 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
         J[1, 0, i] = -x0
         J[1, 1, i] = -x1
         J[1, 2, i] = -x2
-    eps = perf_opt[0:5]
-    F_t = perf_opt[5]
-    F_l = perf_opt[6]
-    k = perf_opt[7:12]
+    eps = opt[O_ENCODER:O_ENCODER + 5]
+    F_t = opt[O_THRUST]
+    F_l = opt[O_LATERAL_FORCE]
+    k = opt[O_STIFFNESS:O_STIFFNESS + 5]
     tip, lat, axis = _box_maxima(J, eps, e0, e1, e2)
-    out[0] = tip
-    out[1] = lat
-    out[3] = math.degrees(axis)
+    row[X_TIP_ERROR_MM] = tip
+    row[X_LATERAL_ERROR_MM] = lat
+    row[X_AXIS_ERROR_DEG] = math.degrees(axis)
     axial = 0.0
     torque = -1.0
     which = -1.0
@@ -159,13 +156,9 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
     m2 = (s00 * s11 - s01 * s01) + (s00 * s22 - s02 * s02) + (s11 * s22 - s12 * s12)
     half = 0.5 * tr
     lam = half + math.sqrt(max(half * half - m2, 0.0))
-    out[2] = axial
-    out[4] = torque if torque == torque and torque >= 0.0 else math.nan
-    out[5] = which if out[4] == out[4] else -1.0
-    out[6] = F_t * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + F_l * lam
+    row[X_AXIAL_ERROR_MM] = axial
+    torque = torque if torque == torque and torque >= 0.0 else math.nan
+    row[X_TORQUE_NM] = torque
+    row[X_TORQUE_ACTUATOR] = which if torque == torque else -1.0
+    row[X_DEFLECTION_MM] = F_t * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + F_l * lam
 
-
-def perf_vector(encoder_deg, thrust_N, lateral_N, stiffness_Nm_per_rad) -> np.ndarray:
-    """The kernel's ``perf_opt`` (12,): encoder (rad), thrust, lateral force (N), stiffness (N·mm/rad)."""
-    return np.concatenate([np.radians(np.broadcast_to(np.asarray(encoder_deg, float), (5,))), [float(thrust_N), float(lateral_N)],
-                           1000.0 * np.broadcast_to(np.asarray(stiffness_Nm_per_rad, float), (5,))])  # fmt: skip

@@ -10,24 +10,25 @@ from numba import njit
 
 from arcube.evaluation.clearance import ARC_CHORDS
 from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
+from arcube.evaluation.kernel._layout import EXCESS_CAP as _CAP
+from arcube.evaluation.kernel._layout import CODE_KAPPA, CODE_PATIENT, CODE_RHO, CODE_SELF, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
+from arcube.evaluation.kernel._layout import G_C, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
+from arcube.evaluation.kernel._layout import INF as _INF
+from arcube.evaluation.kernel._layout import NAN as _NAN
+from arcube.evaluation.kernel._layout import O_C_Z, O_EXACT, O_KAPPA_MAX, O_KAPPA_MAX_ON, O_RHO_MAX, O_RHO_MAX_ON, O_SINGLE_ASSEMBLY_MODE
+from arcube.evaluation.kernel._layout import O_TRANSMISSION, O_TRANSMISSION_ON, O_Z_DYAD
+from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT, O_CLEARANCE_ON, O_DO_CLEARANCE, O_DO_SELF_CLEARANCE
+from arcube.evaluation.kernel._layout import O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
+from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_SELF_CLEARANCE_MM
+from arcube.evaluation.kernel._body import _body_world
+from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
+from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
+from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap, rot_t
+from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
 
 N_LINES = N_SEGMENTS + N_SPHERES
 N_PRIMS = N_LINES + 4  # and the four spherical arcs
 PRIM_PART = PRIMITIVE_PART.astype(np.int64)
-
-from arcube.evaluation.kernel._layout import CAP as _CAP
-from arcube.evaluation.kernel._layout import CODE_KAPPA, CODE_RHO, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
-from arcube.evaluation.kernel._layout import G_C, G_CA, G_CB, G_D, G_F, G_FLAT, G_L, G_M, G_O, G_P, G_R, G_ROT, G_SA, G_SB, G_T
-from arcube.evaluation.kernel._layout import INF as _INF
-from arcube.evaluation.kernel._layout import NAN as _NAN
-from arcube.evaluation.kernel._layout import O_CZ, O_EXACT, O_KM, O_KM_ON, O_RHO, O_RHO_ON, O_SAM, O_TR, O_TR_ON, O_ZDYAD
-from arcube.evaluation.kernel._body import _body_world
-from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
-from arcube.evaluation.kernel._performance import N_PERF, _tip_metrics
-from arcube.evaluation.kernel._layout import O_CMIN_EXACT, O_PERF, O_PERF_ON, X_PERF
-from arcube.evaluation.kernel._layout import CODE_PATIENT, CODE_SELF, O_DO_CLR, O_DO_SELF, O_CLR, O_CLR_ON, O_LM, O_SELF, O_SELF_ON, X_CLR, X_PART, X_SELF
-from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap
-from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
 
 
 @njit(cache=True, error_model="numpy")
@@ -80,18 +81,6 @@ def _rts_direction(e0, e1, e2, sa0, ca0, cb0, o0, epsR0, sa1, ca1, cb1, o1, epsR
 
 
 @njit(cache=True, error_model="numpy")
-def _to_mechanism(g, a0, a1, a2):
-    """R^T a (MODEL.md 13.1) as NumPy's einsum sums three products, (p0 + p2) + p1; a itself where R = I."""
-    if g[G_FLAT] != 0.0:
-        return a0, a1, a2
-    R = g[G_ROT:G_ROT + 9]
-    b0 = (R[0] * a0 + R[6] * a2) + R[3] * a1
-    b1 = (R[1] * a0 + R[7] * a2) + R[4] * a1
-    b2 = (R[2] * a0 + R[8] * a2) + R[5] * a1
-    return b0, b1, b2
-
-
-@njit(cache=True, error_model="numpy")
 def _centre_m(g, E0, E1, E2, e0, e1, e2):
     """Mechanism coordinates of the centre C = E + L e of the spherical stage: R^T (C - m) (MODEL.md 13)."""
     L = g[G_L]
@@ -99,7 +88,7 @@ def _centre_m(g, E0, E1, E2, e0, e1, e2):
         E0 = E0 + L * e0
         E1 = E1 + L * e1
         E2 = E2 + L * e2
-    return _to_mechanism(g, E0 - g[G_M], E1 - g[G_M + 1], E2 - g[G_M + 2])
+    return rot_t(g, E0 - g[G_M], E1 - g[G_M + 1], E2 - g[G_M + 2])
 
 
 @njit(cache=True, error_model="numpy")
@@ -170,8 +159,8 @@ def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0,
     d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
     c0, c1 = g[G_C], g[G_C + 1]
     t0, t1 = g[G_T], g[G_T + 1]
-    if opt[O_ZDYAD] != 0.0:
-        cz = opt[O_CZ]
+    if opt[O_Z_DYAD] != 0.0:
+        cz = opt[O_C_Z]
         if cz != cz:
             cz = d2
         reach_z = d2 + cz
@@ -180,27 +169,27 @@ def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0,
         if short > 0.0 and fc == 0:
             fc = CODE_Z_DYAD
         ex = ex + _nan_to_num(short)
-    if opt[O_RHO_ON] != 0.0:
-        rho_th = opt[O_RHO]
+    if opt[O_RHO_MAX_ON] != 0.0:
+        rho_th = opt[O_RHO_MAX]
         short = ((0.0 + _pos(abs(rho0) - rho_th)) + _pos(abs(rho1) - rho_th)) + _pos(abs(rho2) - rho_th)
         if short > 0.0 and fc == 0:
             fc = CODE_RHO
         ex = ex + _nan_to_num(short)
-    if opt[O_TR_ON] != 0.0:
-        s0 = opt[O_TR]
-        sb0, sb1 = g[G_SB], g[G_SB + 1]
+    if opt[O_TRANSMISSION_ON] != 0.0:
+        s0 = opt[O_TRANSMISSION]
+        sb0, sb1 = g[G_SIN_BETA], g[G_SIN_BETA + 1]
         short = 0.0 + _pos(s0 - abs(F0 / (d0 * c0)))
         short += _pos(s0 - abs(F1 / (d1 * c1)))
         short += _pos(s0 - abs(H0 / (t0 * c0)))
         short += _pos(s0 - abs(H1 / (t1 * c1)))
-        short += _pos(s0 - abs(jas0 / (g[G_SA] * sb0)))
-        short += _pos(s0 - abs(jas1 / (g[G_SA + 1] * sb1)))
+        short += _pos(s0 - abs(jas0 / (g[G_SIN_ALPHA] * sb0)))
+        short += _pos(s0 - abs(jas1 / (g[G_SIN_ALPHA + 1] * sb1)))
         short += _pos(s0 - abs(det / (sb0 * sb1)))
         if short > 0.0 and fc == 0:
             fc = CODE_TRANS
         ex = ex + _nan_to_num(short)
-    if opt[O_KM_ON] != 0.0:
-        km = opt[O_KM]
+    if opt[O_KAPPA_MAX_ON] != 0.0:
+        km = opt[O_KAPPA_MAX]
         short = _pos(eta_raw - km) / km
         if short > _CAP:
             short = _CAP
@@ -235,33 +224,31 @@ def _carry_bounds(lower, lines, prev, valid):
 
 
 @njit(cache=True, error_model="numpy")
-def _no_metrics(row):
-    """NaN metrics of MODEL.md 15 (actuator -1) in an ``extra`` row."""
-    for j in range(N_PERF):
-        row[X_PERF + j] = _NAN
-    row[X_PERF + 5] = -1.0
+def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body,
+                   failure, eta, excess, assembly, extra, detail):  # fmt: skip
+    """Points k0..k1-1 of design i, in the reference's order.
 
-
-@njit(cache=True, error_model="numpy")
-def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, co, ch, cv, fg, cg, radius, order, pairs,
-                   fail, eta, exc, code, extra, kappa_o, rho_o, delta_o, sigma_o):  # fmt: skip
-    """Points k0..k1-1 of design i: writes failure (before the global guard), eta_raw, excess,
-    assembly code into the rows fail/eta/exc/code, the body clearances into ``extra`` (P, 3), and
-    the detailed fields when ``full``. The anatomy's grids (fine, coarse: origin, spacing, values;
-    then their block gradient bounds),
-    the primitives' radii (27,), their search order and the self-clearance pairs are MODEL.md 14.1-14.3."""
-    g = geo[i]
-    grids = (fo, fh, fv, co, ch, cv, fg, cg)
-    do_clr = opt[O_DO_CLR] != 0.0
-    do_self = opt[O_DO_SELF] != 0.0
+    Inputs: ``geometry`` (D, N_GEO) and ``modes`` (D, 4) of every design; the task's ``E`` (P, 3) mm and
+    ``e`` (P, 3) unit, ``same_e`` (P,) true where e[k] equals e[k - 1] bitwise; the option vector ``opt``;
+    ``grids``: the anatomy's fine and coarse grids (origin (3,) mm, spacing mm, values (nx, ny, nz) mm, for
+    each), then their block gradient bounds (kernel._clearance); ``body``: the primitives' radii (27,) mm,
+    their search order and the self-clearance pairs (MODEL.md 14.1-14.3).
+    Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
+    ``excess``, ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0]) and ``extra`` (P, N_EXTRA); with
+    ``full`` also row i of ``detail`` = (kappa (D, P, 7), rho (D, P, 3), delta (D, P, 2), sigma (D, P, 2)), rad.
+    """
+    g = geometry[i]
+    radius, order, pairs = body
+    kappa_o, rho_o, delta_o, sigma_o = detail
+    do_clr = opt[O_DO_CLEARANCE] != 0.0
+    do_self = opt[O_DO_SELF_CLEARANCE] != 0.0
     lines = np.empty((N_LINES, 2, 3))
     arcs = np.empty((4, 2, 3))
     arc_c = np.empty(3)
     chords = np.empty((4, ARC_CHORDS + 1, 3))
     work = np.empty((6, 96))
     jbuf = np.empty((2, 3, 5))
-    perf_opt = opt[O_PERF:O_PERF + 12]
-    do_perf = opt[O_PERF_ON] != 0.0
+    do_perf = opt[O_TIP_METRICS] != 0.0
     f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
     d0, d1 = g[G_D], g[G_D + 1]
@@ -270,7 +257,7 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
     r = g[G_R]
     epsT0, epsT1, epsR0, epsR1 = modes[i, 0], modes[i, 1], modes[i, 2], modes[i, 3]
     exact = opt[O_EXACT] != 0.0
-    need_rho = full or opt[O_RHO_ON] != 0.0
+    need_rho = full or opt[O_RHO_MAX_ON] != 0.0
 
     # RTS cache (depends on the direction only)
     have = False
@@ -289,16 +276,16 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
     lower = np.full(N_PRIMS, -_INF)
     prev = np.empty((N_LINES, 2, 3))
     have_prev = False
-    floor = opt[O_CLR] if opt[O_CLR_ON] != 0.0 else -_INF
-    track_min = opt[O_CMIN_EXACT] != 0.0 or opt[O_CLR_ON] == 0.0  # else only the guard's decision matters
-    track_self = opt[O_CMIN_EXACT] != 0.0 or opt[O_SELF_ON] == 0.0
+    floor = opt[O_CLEARANCE] if opt[O_CLEARANCE_ON] != 0.0 else -_INF
+    track_min = opt[O_CLEARANCE_MIN_EXACT] != 0.0 or opt[O_CLEARANCE_ON] == 0.0  # else only the guard's decision matters
+    track_self = opt[O_CLEARANCE_MIN_EXACT] != 0.0 or opt[O_SELF_CLEARANCE_ON] == 0.0
     for k in range(k0, k1):
         if not (have and same_e[k]):
             have = True
-            em0, em1, em2 = _to_mechanism(g, e[k, 0], e[k, 1], e[k, 2])
+            em0, em1, em2 = rot_t(g, e[k, 0], e[k, 1], e[k, 2])
             sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2 = _rts_direction(
-                em0, em1, em2, g[G_SA], g[G_CA], g[G_CB], g[G_O], epsR0,
-                g[G_SA + 1], g[G_CA + 1], g[G_CB + 1], g[G_O + 1], epsR1,
+                em0, em1, em2, g[G_SIN_ALPHA], g[G_COS_ALPHA], g[G_COS_BETA], g[G_O], epsR0,
+                g[G_SIN_ALPHA + 1], g[G_COS_ALPHA + 1], g[G_COS_BETA + 1], g[G_O + 1], epsR1,
             )  # fmt: skip
 
         # TLS (Eq 1), at the centre C in mechanism coordinates
@@ -326,53 +313,53 @@ def _design_points(i, k0, k1, geo, modes, E, e, same_e, opt, full, fo, fh, fv, c
             clr = selfc = _NAN
             part = -1.0
             if do_clr or do_self:
-                arc_r = _body_world(g, opt[O_CZ], opt[O_LM], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
+                arc_r = _body_world(g, opt[O_C_Z], opt[O_MOTOR_LENGTH], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
                                     cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
                 if do_self:
-                    self_cap = _INF if full or track_self or opt[O_SAM] != 0.0 else opt[O_SELF]
+                    self_cap = _INF if full or track_self or opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else opt[O_SELF_CLEARANCE]
                     selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap)
                 if do_clr:
-                    cap = _INF if full or opt[O_SAM] != 0.0 else (max(floor, run_min) if track_min else floor)  # SAM may fail points later
+                    cap = _INF if full or opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else (max(floor, run_min) if track_min else floor)  # SAM may fail points later
                     _carry_bounds(lower, lines, prev, have_prev and cap < _INF)
                     have_prev = True
                     clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap, lower)
                     part = float(PRIM_PART[kbest]) if kbest >= 0 else -1.0
-                    if opt[O_CLR_ON] != 0.0:
-                        short = _pos(opt[O_CLR] - clr)
+                    if opt[O_CLEARANCE_ON] != 0.0:
+                        short = _pos(opt[O_CLEARANCE] - clr)
                         if short > 0.0 and fc == 0:
                             fc = CODE_PATIENT
                         ex = ex + _nan_to_num(short)
-                if opt[O_SELF_ON] != 0.0:
-                    short = _pos(opt[O_SELF] - selfc)
+                if opt[O_SELF_CLEARANCE_ON] != 0.0:
+                    short = _pos(opt[O_SELF_CLEARANCE] - selfc)
                     if short > 0.0 and fc == 0:
                         fc = CODE_SELF
                     ex = ex + _nan_to_num(short)
                 if fc == 0 and clr < run_min:
                     run_min = clr  # the summary's minimum is over the points that pass every guard
-            extra[k, X_CLR] = clr
-            extra[k, X_PART] = part
-            extra[k, X_SELF] = selfc
+            extra[k, X_CLEARANCE_MM] = clr
+            extra[k, X_CLEARANCE_PART] = part
+            extra[k, X_SELF_CLEARANCE_MM] = selfc
             if not (do_clr or do_self):
                 have_prev = False
             if fc == 0 and do_perf:
                 _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
-                             xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, perf_opt, jbuf, extra[k, X_PERF:X_PERF + N_PERF])  # fmt: skip
+                             xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, jbuf, extra[k])  # fmt: skip
             else:
                 _no_metrics(extra[k])
         else:
-            extra[k, X_CLR] = _NAN
-            extra[k, X_PART] = -1.0
-            extra[k, X_SELF] = _NAN
+            extra[k, X_CLEARANCE_MM] = _NAN
+            extra[k, X_CLEARANCE_PART] = -1.0
+            extra[k, X_SELF_CLEARANCE_MM] = _NAN
             _no_metrics(extra[k])
             have_prev = False
             if full:
                 for j in range(7):
                     kappa_o[i, k, j] = _NAN
 
-        fail[k] = fc
+        failure[k] = fc
         eta[k] = eta_raw
-        exc[k] = ex
-        code[k] = (4 if H0 > 0.0 else 0) + (2 if H1 > 0.0 else 0) + (1 if det > 0.0 else 0)
+        excess[k] = ex
+        assembly[k] = (4 if H0 > 0.0 else 0) + (2 if H1 > 0.0 else 0) + (1 if det > 0.0 else 0)
         if full:
             rho_o[i, k, 0] = rho0
             rho_o[i, k, 1] = rho1

@@ -1,4 +1,5 @@
-"""Scalar helpers of the kernel: the stage modules' closed forms for one value, NumPy's summation order."""
+"""Scalar helpers of the kernel: the stage modules' closed forms for one value, NumPy's summation order,
+and the mounting rotation of MODEL.md 13.1 in its two summation orders (:func:`rot`, :func:`rot_t`)."""
 
 from __future__ import annotations
 
@@ -8,11 +9,40 @@ import numpy as np
 from numba import njit
 
 from arcube.evaluation.kernel._layout import BIG as _BIG
-from arcube.evaluation.kernel._layout import CAP as _CAP
+from arcube.evaluation.kernel._layout import EXCESS_CAP as _CAP
+from arcube.evaluation.kernel._layout import G_FLAT, G_ROT
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
 from arcube.evaluation.kernel._layout import PI as _PI
 from arcube.evaluation.kernel._layout import TWO_PI as _TWO_PI
+
+
+@njit(cache=True, error_model="numpy")
+def rot(g, x0, x1, x2):
+    """R x, R the mounting rotation of the geometry row ``g`` (MODEL.md 13.1): mechanism to patient
+    axes. Each component is summed left to right, (R_i0 x0 + R_i1 x1) + R_i2 x2, as the body and the
+    tip metrics always have; x itself where R = I exactly (``G_FLAT``)."""
+    if g[G_FLAT] != 0.0:
+        return x0, x1, x2
+    R = g[G_ROT:G_ROT + 9]
+    return (R[0] * x0 + R[1] * x1 + R[2] * x2,
+            R[3] * x0 + R[4] * x1 + R[5] * x2,
+            R[6] * x0 + R[7] * x1 + R[8] * x2)  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy")
+def rot_t(g, a0, a1, a2):
+    """R^T a (patient to mechanism axes, MODEL.md 13.1), each component summed (p0 + p2) + p1: the order
+    of NumPy's einsum in :func:`arcube.model.frames.to_mechanism` on the build the kernel was written
+    against (einsum's order depends on the build: NumPy 2.4 sums left to right there, one ulp away at
+    times, within the tests' tolerance). Kept, so that the kernel's results stay the same bits; a itself
+    where R = I exactly (``G_FLAT``)."""
+    if g[G_FLAT] != 0.0:
+        return a0, a1, a2
+    R = g[G_ROT:G_ROT + 9]
+    return ((R[0] * a0 + R[6] * a2) + R[3] * a1,
+            (R[1] * a0 + R[7] * a2) + R[4] * a1,
+            (R[2] * a0 + R[8] * a2) + R[5] * a1)  # fmt: skip
 
 
 @njit(cache=True, error_model="numpy")

@@ -1,0 +1,220 @@
+"""``arcube design``: from a plan and a segmentation to a robot that meets every requirement.
+
+One folder holds the job::
+
+    design.toml        the requirements, the seeds, the standoff (what resume needs beside the study)
+    study/             one optimization per seed (arcube study), all 27 parameters and the working mode free
+    design.json        the chosen design (patient 1's placement; design_p<K>.json for patient K)
+    summary.json       meets_requirements, mode (+,+,-,+), seed, every summary figure, the requirements
+    requirements.csv   each requirement: limit, value, margin, pass/fail, where it is tightest
+    report.html        the design on the plan with the anatomy (plotly)
+    design.xml         the MuJoCo model (when the z dyad closes with some c_z)
+
+The best seed whose design meets every requirement when **re-evaluated by the NumPy reference**
+is chosen; when none does, the best design found is written all the same and
+:attr:`DesignResult.met` is False (the CLI exits with code 3 and names what was missed).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import time
+import tomllib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from arcube.errors import InputError
+from arcube.evaluation.anatomy import resolve_anatomy
+from arcube.io import load_trajectories, select
+from arcube.io.files import atomic_write_text
+from arcube.model.design import Design
+from arcube.model.mechanism import parse_mode
+from arcube.optimization import run as runmod
+from arcube.optimization import study as studymod
+from arcube.optimization.config import build_config
+from arcube.optimization.requirements import Requirement, assess, design_options, write_requirements_csv
+from arcube.optimization.settings import RunSettings
+from arcube.results import Run
+
+__all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
+
+DESIGN_FORMAT = "arcube-design"
+STUDY = "study"
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """What ``arcube design`` decided: whether the chosen design meets every requirement, the summary
+    written to summary.json, and the requirement rows (requirements.csv)."""
+
+    path: Path
+    met: bool
+    summary: dict[str, Any]
+    rows: list[dict[str, Any]]
+
+    @property
+    def design(self) -> Design:
+        """The chosen design (patient 1's placement)."""
+        return Design.from_json(self.path / "design.json")
+
+    @property
+    def missed(self) -> list[dict[str, Any]]:
+        """The requirement rows that fail."""
+        return [r for r in self.rows if not r["passed"]]
+
+
+def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = None, **fields: Any) -> RunSettings:
+    """The optimization a design job runs: ``settings`` (budget, engine, anatomy, objective ...) with
+    every parameter and the working mode free, the guards of 8.2, the clearance guards and the limits
+    of ``reqs``, and the standoff lines of MODEL.md 17.1 (20 mm unless set)."""
+    from arcube.optimization.config import run_settings
+
+    s = run_settings(settings, **fields)
+    maxima = {r.name: r.limit for r in reqs if r.kind == "max"}
+    options = design_options(reqs, s.options)
+    return s.replace(free=["all", "mount", "L"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
+                     standoff=20.0 if s.standoff is None else s.standoff)  # fmt: skip
+
+
+def is_design(path: Path) -> bool:
+    """Whether ``path`` holds a design job (design.toml)."""
+    return (Path(path) / "design.toml").is_file()
+
+
+def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
+                 workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+                 on_generation: Callable[[dict[str, Any]], None] | None = None) -> DesignResult:  # fmt: skip
+    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs."""
+    out = Path(out)
+    runmod.check_new_folder(out)
+    if settings.anatomy == () and any(r.name == "clearance" for r in reqs):
+        raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
+    base = build_config(list(plans), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        meta = {"format": DESIGN_FORMAT, "format_version": 1, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "seeds": [int(s) for s in seeds], "requirements": [[r.name, r.kind, r.limit] for r in reqs]}  # fmt: skip
+        atomic_write_text(out / "design.toml", runmod.to_toml(meta))
+        studymod.start_study(out / STUDY, base, list(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=on_generation)
+    except InputError:
+        if not (out / STUDY).exists():
+            runmod.remove_folder(out, created)
+        raise
+    return finish_design(out)
+
+
+def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
+    """design.toml and its requirements (InputError if it is not a design folder)."""
+    path = Path(out) / "design.toml"
+    try:
+        meta = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: not a readable design job ({exc})") from None
+    if meta.get("format") != DESIGN_FORMAT:
+        raise InputError(f"{path}: not an arcube design job")
+    return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
+
+
+def _patients(cfg: dict[str, Any]) -> tuple[list[Any], list[Any]]:
+    """Per patient of a run config: its plan (as the run selected it) and its anatomy (or None)."""
+    s = RunSettings.from_config(cfg)
+    plans, anatomies = [], []
+    for spec, pat in zip(cfg["settings"]["trajectories"], cfg["patients"]):
+        ts = load_trajectories(spec, s.transform)
+        plans.append(select(ts, ids=",".join(pat["ids"])))
+        anatomies.append(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec) if s.anatomy else None)
+    return plans, anatomies
+
+
+def finish_design(out: Path) -> DesignResult:
+    """Choose the design, re-evaluate it with the NumPy reference and write the outputs."""
+    out = Path(out)
+    _, reqs = read_design(out)
+    study = json.loads((out / STUDY / "summary.json").read_text(encoding="utf-8"))
+    # feasible seeds by objective, then the others by violation (the study's own ranking)
+    order = sorted(study["rows"], key=lambda r: (not r["feasible"], r.get(f"objective_{study['objective']}") or math.inf, r["violation"], r["seed"]))
+    chosen = None
+    for row in order:
+        run = Run(studymod.seed_dir(out / STUDY, int(row["seed"])))
+        cfg = runmod.read_config(run.path)[0]
+        s = RunSettings.from_config(cfg)
+        plans, anatomies = _patients(cfg)
+        summary = run.summary
+        designs = [d.to_vector() for d in run.designs]
+        rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(),
+                      points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
+        if chosen is None:
+            chosen = (row, run, cfg, s, plans, anatomies, summary, rows)
+        if row["feasible"] and all(r["passed"] for r in rows):
+            chosen = (row, run, cfg, s, plans, anatomies, summary, rows)
+            break
+        if not row["feasible"]:
+            break  # the infeasible seeds after the first cannot do better than the best one
+    assert chosen is not None
+    row, run, cfg, s, plans, anatomies, summary, rows = chosen
+    met = bool(row["feasible"] and all(r["passed"] for r in rows))
+    return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows)
+
+
+def _write_outputs(out: Path, met: bool, seed: int, run: Run, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
+                   anatomies: list[Any], summary: dict[str, Any], rows: list[dict[str, Any]]) -> DesignResult:  # fmt: skip
+    from arcube.evaluation.result import evaluate_design
+    from arcube.export.mjcf import export_mjcf
+    from arcube.report import write_report
+
+    designs = run.designs
+    designs[0].to_json(out / "design.json")
+    for k, d in enumerate(designs[1:], start=2):
+        d.to_json(out / f"design_p{k}.json")
+    options = s.evaluation_options()
+    options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
+    ev = evaluate_design(designs[0], plans[0], s.points, parse_mode(summary["mode"]), options, "numpy", anatomy=anatomies[0])
+    write_report(ev, out / "report.html")
+    mujoco = "design.xml"
+    try:
+        xml = export_mjcf(designs[0], plans[0], points=s.points, mode=summary["mode"], c_z=_closing_c_z(designs[0], plans[0], s, summary),
+                          radii=s.options.radii, anatomy=anatomies[0])  # fmt: skip
+        atomic_write_text(out / mujoco, xml)
+    except InputError as exc:
+        mujoco = f"not written: {exc}"
+    result = {
+        "meets_requirements": met, "seed": seed, "mode": summary["mode"], "objective": summary["objectives"][0] if summary.get("objectives") else "eta_G",
+        "missed": [r["requirement"] for r in rows if not r["passed"]],
+        "requirements": [{k: v for k, v in r.items()} for r in rows],
+        **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
+        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "mujoco": mujoco, "study": STUDY},
+    }  # fmt: skip
+    write_requirements_csv(out / "requirements.csv", rows)
+    atomic_write_text(out / "summary.json", json.dumps(_finite(result), indent=2, allow_nan=False) + "\n")
+    return DesignResult(out, met, result, rows)
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with every non-finite float as None (JSON null)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def _closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
+    """A z-dyad link c_z that closes the dyad at every point (the middle of the range the export names), or None (c_z = d_z)."""
+    from arcube.export.mjcf import export_mjcf
+
+    try:
+        export_mjcf(design, plan, points=s.points, mode=summary["mode"])
+        return None
+    except InputError as exc:
+        found = re.search(r"c_z in \[([0-9.eE+-]+), ([0-9.eE+-]+)\]", str(exc))
+        if not found:
+            raise
+        lo, hi = float(found.group(1)), float(found.group(2))
+        return 0.5 * (lo + hi)

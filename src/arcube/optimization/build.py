@@ -1,0 +1,129 @@
+"""From a run's config to its fitness model: options, anatomy, tasks (the same for a new run, a
+resume, an in-memory run and a report)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from arcube.errors import InputError
+from arcube.evaluation import engine as core_engine
+from arcube.evaluation.task import build_task
+from arcube.model.design import PARAM_NAMES
+from arcube.model.mechanism import parse_mode
+from arcube.optimization.problem import DEFAULT_BOUNDS, FitnessModel, TaskData, VariableSpace
+from arcube.optimization.settings import RunSettings
+from arcube.options import Options
+
+__all__ = ["ANATOMY_FILES", "anatomy_file", "build_model", "check_engine", "load_run_anatomies", "run_objectives", "run_options", "stl_roundtrip"]
+
+
+ANATOMY_FILES = "anatomy.stl"
+"""The anatomy a run uses, copied into its folder (patient frame): ``anatomy.stl`` for the first
+patient, ``anatomy_<i>.stl`` for patient i > 0."""
+
+
+def anatomy_file(i: int) -> str:
+    """File name of patient i's anatomy in a run folder."""
+    return ANATOMY_FILES if i == 0 else f"anatomy_{i}.stl"
+
+
+def run_options(s: dict[str, Any]) -> Options:
+    """The evaluation options of a run's ``[settings]`` table (guards, clearance guards, body, loads)."""
+    return RunSettings.from_table(s).evaluation_options()
+
+
+def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
+    """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy)."""
+    if not cfg["settings"].get("anatomy"):
+        return ()
+    from pathlib import Path
+
+    from arcube.evaluation.anatomy import Anatomy
+    from arcube.io.meshes import read_meshes
+
+    if run_dir is None:
+        return ()
+    out = []
+    for i in range(len(cfg["patients"])):
+        path = Path(run_dir) / anatomy_file(i)
+        if not path.exists():
+            raise InputError(f"{run_dir}: the run's anatomy file {path.name} is missing")
+        out.append(Anatomy.from_meshes(read_meshes([path], "patient"), str(path)).distance)
+    return tuple(out)
+
+
+def stl_roundtrip(anatomy: Any) -> Any:
+    """The distance grids of ``anatomy`` as a run folder's ``anatomy.stl`` gives them (float32
+    coordinates, merged vertices), built in memory: an in-memory run equals a folder run."""
+    import io
+
+    import trimesh
+
+    from arcube.evaluation.anatomy import Anatomy
+    from arcube.io.meshes import _stl_bytes
+
+    vertices, faces, offset = [], [], 0
+    for m in anatomy.meshes:
+        vertices.append(np.asarray(m.vertices, dtype=np.float64))
+        faces.append(np.asarray(m.faces, dtype=np.int64) + offset)
+        offset += len(m.vertices)
+    data = _stl_bytes(np.concatenate(vertices), np.concatenate(faces), "arcube anatomy, mm, frame=patient")
+    loaded = trimesh.load(io.BytesIO(data), file_type="stl", force="mesh", process=False)
+    mesh = trimesh.Trimesh(vertices=np.asarray(loaded.vertices, dtype=np.float64), faces=np.asarray(loaded.faces, dtype=np.int64), process=False)
+    mesh.merge_vertices()
+    mesh = trimesh.Trimesh(vertices=np.asarray(mesh.vertices) @ np.eye(3), faces=np.asarray(mesh.faces), process=False)
+    return Anatomy.from_meshes([mesh], anatomy.source).distance
+
+
+def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None) -> FitnessModel:
+    """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
+    from the run folder (None: not loaded, for validating a config), or given as ``anatomies``."""
+    s = cfg["settings"]
+    rs = RunSettings.from_table(s)
+    mode = None if rs.mode == "free" else parse_mode(rs.mode)
+    # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
+    bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
+    base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
+    # configs written before --docking existed shared one placement among patients
+    space = VariableSpace(base=base, free=tuple(s["free"]), bounds=bounds, setups=int(s["setups"]), mode=mode,
+                          patients=len(cfg["patients"]), docking=str(s.get("docking", "shared")))  # fmt: skip
+    tasks: list[TaskData] = []
+    for i, pat in enumerate(cfg["patients"]):
+        entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
+        groups = [("", np.ones(len(sides), bool))] if space.setups == 1 else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
+        for setup, (side, keep) in enumerate(groups):
+            task = build_task(entry[keep], target[keep], int(s["points"]))
+            label = f"{pat['source']}{' ' + side if side else ''}"
+            tasks.append(TaskData(i, setup, label, task.E, task.e))
+            if "standoff" in pat:  # MODEL.md 17.1: the line from each standoff S_j to its entry A_j
+                approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], int(s["points"]))
+                direction = np.repeat(task.e.reshape(-1, int(s["points"]), 3)[:, 0], int(s["points"]), axis=0)
+                tasks.append(TaskData(i, setup, f"{label} approach", approach.E, direction, role="approach"))
+    margin = s.get("margin")
+    return FitnessModel(
+        space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
+        options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
+        margin_deg=None if margin is None else float(margin),
+        objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
+    )  # fmt: skip
+
+
+def run_objectives(s: dict[str, Any]) -> tuple[str, ...]:
+    """A run's objectives, from its ``[settings]`` table (see :attr:`RunSettings.run_objectives`)."""
+    return RunSettings.from_table(s).run_objectives
+
+
+def check_engine(name: str) -> str:
+    """The resolved engine ('numba' or 'numpy'); InputError if unknown or unavailable."""
+    try:
+        resolved = core_engine.resolve(name)
+    except ValueError as exc:
+        raise InputError.of("engine", str(exc)) from None
+    if resolved == "numba":
+        try:
+            import arcube.evaluation.kernel  # noqa: F401, PLC0415
+        except ImportError as exc:
+            raise InputError.of("engine", f"numba: the compiled kernel is not available ({exc})") from None
+    return resolved

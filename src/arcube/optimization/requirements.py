@@ -1,0 +1,173 @@
+"""The requirements of a buildable robot (``arcube design``) and their check by the NumPy reference.
+
+A requirement is a limit on one figure over the points where it applies:
+
+* ``clearance`` >= 5 mm and ``self_clearance`` >= 2 mm (MODEL.md 14.3) over each trajectory's whole
+  line, from its standoff to its target (MODEL.md 17.1): the robot must pull the drill out;
+* ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2) and ``torque`` <= 20 N m (15.3)
+  where the drill works, from entry to target;
+* and always: every point of every line reachable with the guards of MODEL.md 8.2 (rho_max 75 deg,
+  transmission 20 deg, kappa_max 100, a single assembly mode) in one working mode.
+
+:func:`assess` re-evaluates a design with the NumPy reference (not the kernel the optimizer ran)
+and returns one row per requirement: its limit, the value, the margin, pass or fail, and where it
+is tightest (patient, trajectory, segment, point, part or actuator).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from arcube.errors import InputError
+from arcube.evaluation.engine import evaluate_task
+from arcube.evaluation.performance import ACTUATOR_NAMES
+from arcube.evaluation.reference import FAILURES
+from arcube.evaluation.standoff import approach_lines
+from arcube.evaluation.task import build_task
+from arcube.model.body import PART_NAMES
+from arcube.options import GUARDED_OPTIONS, Options
+
+__all__ = ["DEFAULTS", "REQUIREMENTS", "Requirement", "assess", "requirements_from", "write_requirements_csv"]
+
+REQUIREMENTS: dict[str, tuple[str, str, str]] = {
+    "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"),
+    "lateral_error": ("max", "mm", "drill"), "axis_error": ("max", "deg", "drill"), "torque": ("max", "N·m", "drill"),
+}  # fmt: skip
+"""Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
+DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "lateral_error": 0.5, "axis_error": 0.25, "torque": 20.0}
+"""The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
+_GUARDS = ("guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode")
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """One limit: ``name`` (a key of :data:`REQUIREMENTS`), its kind and value."""
+
+    name: str
+    kind: str
+    limit: float
+
+
+def requirements_from(minima: Mapping[str, float] | None = None, maxima: Mapping[str, float] | None = None,
+                      drop: Sequence[str] = ()) -> list[Requirement]:  # fmt: skip
+    """The defaults, changed by ``minima`` / ``maxima`` and without the names in ``drop`` (checked)."""
+    limits = dict(DEFAULTS)
+    for kind, given in (("min", minima or {}), ("max", maxima or {})):
+        for name, value in given.items():
+            if name not in REQUIREMENTS:
+                raise InputError.of(f"requirements.{kind}", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+            if REQUIREMENTS[name][0] != kind:
+                raise InputError.of(f"requirements.{kind}", f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE")
+            v = float(value)
+            if not (math.isfinite(v) and v >= 0.0) or (kind == "max" and v == 0.0):
+                raise InputError.of(f"requirements.{kind}", f"{name}={value!r}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}")
+            limits[name] = v
+    for name in drop:
+        if name not in REQUIREMENTS:
+            raise InputError.of("requirements.drop", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+        limits.pop(name, None)
+    return [Requirement(n, REQUIREMENTS[n][0], v) for n, v in limits.items()]
+
+
+def design_options(reqs: Sequence[Requirement], base: Options = GUARDED_OPTIONS) -> Options:
+    """The evaluation options of a design problem: the guards of 8.2 and the two clearance guards."""
+    limit = {r.name: r.limit for r in reqs}
+    return base.replace(clearance_mm=limit.get("clearance"), self_clearance_mm=limit.get("self_clearance"))
+
+
+def _where(patient: int, ids: Sequence[str], segment: str, n_points: int, index: int) -> dict[str, Any]:
+    return {"patient": patient + 1, "trajectory": ids[index // n_points], "segment": segment, "point": index % n_points}
+
+
+def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: Sequence[Any], reqs: Sequence[Requirement], *,
+           options: Options, points: int, standoff_mm: float, engine: str = "numpy") -> list[dict[str, Any]]:  # fmt: skip
+    """One row per requirement (and per guard of 8.2, and reach): the worst over every patient.
+
+    ``designs``: per patient, a ``(27,)`` vector; ``plans``: per patient a TrajectorySet; ``anatomies``:
+    per patient an :class:`~arcube.evaluation.anatomy.Anatomy` or None; ``mode``: four signs.
+    """
+    opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
+    worst: dict[str, dict[str, Any]] = {}
+    reach = {"requirement": "reach", "kind": "min", "limit": 1.0, "value": 1.0, "unit": "fraction", "where": {}, "part": ""}
+    guard_fail = {g: 0 for g in _GUARDS}
+    for p, (x, plan, anat) in enumerate(zip(designs, plans, anatomies)):
+        dist = None if anat is None else anat.distance
+        drill = build_task(plan.entry, plan.target, points)
+        E_a, e_a = approach_lines(plan.entry, plan.target, anat, points, standoff_mm)
+        for segment, E, e in (("drill", drill.E, drill.e), ("approach", E_a, e_a)):
+            res = evaluate_task(np.asarray(x, float), E, e, mode, opts, engine=engine, anatomy=dist)
+            pts = res.points
+            ok = np.asarray(pts.reachable)
+            failure = np.asarray(pts.failure)
+            frac = float(ok.mean())
+            if frac < reach["value"]:
+                bad = int(np.argmin(ok))
+                reach.update(value=frac, where=_where(p, plan.ids, segment, points, bad), part=FAILURES[failure[bad] - 1])
+            for g in _GUARDS:
+                guard_fail[g] += int(np.sum(failure == FAILURES.index(g) + 1))
+            for r in reqs:
+                if segment == "approach" and REQUIREMENTS[r.name][2] == "drill":
+                    continue
+                values, part = _figure(pts, r.name)
+                values = np.where(np.isfinite(values), values, np.nan)
+                if np.all(np.isnan(values)):
+                    continue
+                i = int(np.nanargmin(values) if r.kind == "min" else np.nanargmax(values))
+                v = float(values[i])
+                old = worst.get(r.name)
+                if old is None or (v < old["value"] if r.kind == "min" else v > old["value"]):
+                    worst[r.name] = {"value": v, "where": _where(p, plan.ids, segment, points, i), "part": part(i)}
+    rows = [reach]
+    for g in _GUARDS:
+        rows.append({"requirement": g.split("/")[1], "kind": "max", "limit": 0.0, "value": float(guard_fail[g]),
+                     "unit": "failing points", "where": {}, "part": ""})  # fmt: skip
+    for r in reqs:
+        w = worst.get(r.name, {"value": math.nan, "where": {}, "part": ""})
+        rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], **w})
+    for row in rows:
+        v, lim = row["value"], row["limit"]
+        row["margin"] = (v - lim) if row["kind"] == "min" else (lim - v)
+        row["passed"] = bool(math.isfinite(v) and row["margin"] >= 0.0)
+    return rows
+
+
+def _figure(pts: Any, name: str) -> tuple[np.ndarray, Any]:
+    """(values per point, index -> part or actuator name) of a requirement's figure."""
+    if name == "clearance":
+        part = np.asarray(pts.clearance_part)
+        return np.asarray(pts.clearance_mm, float), lambda i: PART_NAMES[part[i]] if part[i] >= 0 else ""
+    if name == "self_clearance":
+        return np.asarray(pts.self_clearance_mm, float), lambda i: ""
+    if name == "torque":
+        act = np.asarray(pts.torque_actuator)
+        return np.asarray(pts.torque_Nm, float), lambda i: ACTUATOR_NAMES[act[i]] if act[i] >= 0 else ""
+    field = {"lateral_error": "lateral_error_mm", "axis_error": "axis_error_deg"}[name]
+    return np.asarray(getattr(pts, field), float), lambda i: ""
+
+
+CSV_COLUMNS = ("requirement", "kind", "limit", "value", "unit", "margin", "passed", "patient", "trajectory", "segment", "point", "part")
+"""The columns of ``requirements.csv``."""
+
+
+def requirements_csv(rows: Sequence[Mapping[str, Any]]) -> str:
+    """``requirements.csv``'s text: one row per requirement, numbers in full precision."""
+    lines = [",".join(CSV_COLUMNS)]
+    for row in rows:
+        w = row.get("where") or {}
+        cells = [row["requirement"], row["kind"], repr(float(row["limit"])), "" if not math.isfinite(row["value"]) else repr(float(row["value"])),
+                 row["unit"], "" if not math.isfinite(row["margin"]) else repr(float(row["margin"])), "pass" if row["passed"] else "fail",
+                 str(w.get("patient", "")), str(w.get("trajectory", "")), str(w.get("segment", "")), str(w.get("point", "")), row.get("part", "")]  # fmt: skip
+        lines.append(",".join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def write_requirements_csv(path: Any, rows: Sequence[Mapping[str, Any]]) -> None:
+    """Write ``requirements.csv`` atomically."""
+    from arcube.io.files import atomic_write_text
+
+    atomic_write_text(path, requirements_csv(rows))

@@ -1,0 +1,160 @@
+"""One settings model (arcube.options, arcube.RunSettings): declared checks that name the field,
+Python values equal to the command line's text forms, config.toml's table read back (old tables
+included), the CLI's flag table complete, and an optimizer that runs in memory."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import typer
+
+import arcube
+from arcube import Body, Guards, InputError, Loads, Options, RunSettings
+from arcube.cli import app
+from arcube.cli.flags import FLAGS, flag_message
+from arcube.optimization.settings import FLAT_OPTIONS
+
+
+# --------------------------------------------------------------------------- Options
+def test_flat_keywords_route_to_their_group() -> None:
+    flat = Options(kappa_max=80.0, clearance_mm=5.0, link_radius=6.0, thrust_N=25.0, tip_metrics=False, body=True)
+    grouped = Options(guards=Guards(kappa_max=80.0, clearance_mm=5.0), body=Body(link_radius=6.0), loads=Loads(thrust_N=25.0),
+                      outputs={"tip_metrics": False, "clearances": True})  # fmt: skip
+    assert flat == grouped
+    assert flat.replace(thrust_N=30.0).loads.thrust_N == 30.0 and flat.replace(thrust_N=30.0).guards == flat.guards
+
+
+@pytest.mark.parametrize(
+    "make, param",
+    [
+        (lambda: Options(thrust_N=-1.0), "Loads.thrust_N"),
+        (lambda: Loads(lateral_force_N=math.nan), "Loads.lateral_force_N"),
+        (lambda: Options(loads={"encoder_deg": [0.01, 0.02]}), "Loads.encoder_deg"),
+        (lambda: Options(link_radius=0.0), "Body.link_radius"),
+        (lambda: Options(guards=Guards(rho_max_deg=95.0)), "Guards.rho_max_deg"),
+        (lambda: Options().replace(self_clearance_mm=-2.0), "Guards.self_clearance_mm"),
+        (lambda: Options(unknown_guard=True), "Options.unknown_guard"),
+        (lambda: RunSettings(population=0), "RunSettings.population"),
+        (lambda: RunSettings(population=8.5), "RunSettings.population"),
+        (lambda: RunSettings(docking="each"), "RunSettings.docking"),
+        (lambda: RunSettings(free=["all", "nope"]), "RunSettings.free"),
+        (lambda: RunSettings(bounds={"L": (-10.0, -1.0)}), "RunSettings.bounds"),
+        (lambda: RunSettings(maxima={"torque": -1}), "RunSettings.maxima"),
+        (lambda: RunSettings(thrust=-3.0), "Loads.thrust_N"),
+    ],
+)  # fmt: skip
+def test_a_bad_value_names_its_field_in_one_line(make, param: str) -> None:
+    with pytest.raises(InputError) as info:
+        make()
+    assert info.value.param == param and str(info.value).startswith(param) and "\n" not in str(info.value)
+    assert "--" not in str(info.value)
+
+
+def test_the_cli_names_the_flag_of_the_field() -> None:
+    err = InputError.of("Loads.thrust_N", "must be >= 0, got -3.0")
+    assert flag_message(err) == "--thrust must be >= 0, got -3.0"
+    assert flag_message(InputError("plain message")) == "plain message"
+
+
+# --------------------------------------------------------------------------- RunSettings: Python values
+def test_python_values_equal_the_command_lines_text() -> None:
+    py = RunSettings(free=["all", "mount", "L"], bounds={"p_x": (30, 250), "r": (50, 90)}, mode=(1, 1, -1, 1),
+                     maxima={"torque": 15}, minima={"clearance": 5}, objectives=["eta_G", "torque"], anatomy="default",
+                     levels=["C3", "C4"], ids=[1, 3])  # fmt: skip
+    text = RunSettings(free="all,mount,L", bounds="p_x=30:250,r=50:90", mode="+,+,-,+", maxima=["torque=15"], minima=["clearance=5"],
+                       objectives="eta_G,torque", anatomy=["default"], levels="C3,C4", ids="1,3")  # fmt: skip
+    assert py == text
+    assert py.free == arcube.PARAM_NAMES and py.algorithm == "nsga2"  # two objectives pick NSGA-II
+    assert py.limits == [["torque", "max", 15.0], ["clearance", "min", 5.0]]
+
+
+def test_guards_add_the_papers_guards_to_the_options() -> None:
+    opts = RunSettings(guards=True, self_clearance=2.0).evaluation_options()
+    assert opts.guards == arcube.GUARDED_OPTIONS.guards.replace(self_clearance_mm=2.0)
+
+
+# --------------------------------------------------------------------------- config.toml's table
+def test_table_round_trip() -> None:
+    s = RunSettings(algorithm="ga", population=20, generations=7, seed=5, free=["all", "L"], bounds={"L": (10, 150)}, mode="free",
+                    setups=2, guards=True, margin=3.0, anatomy="default", clearance=4.0, self_clearance=1.5, link_radius=7.0,
+                    thrust=22.0, encoder_deg=[0.01, 0.02, 0.01, 0.01, 0.01], maxima={"torque": 12}, minima={"clearance": 3},
+                    kappa_max=80.0, docking="shared")  # fmt: skip
+    table = s.to_table()
+    assert RunSettings.from_config({"settings": table, "bounds": s.all_bounds}) == s
+    assert RunSettings.from_table(table) == s.replace(bounds={})  # the bounds are config.toml's own table
+    # the file's flat keys, as every earlier run wrote them
+    assert (table["clearance"], table["thrust"], table["link_radius"], table["limits"]) == (4.0, 22.0, 7.0, [["torque", "max", 12.0], ["clearance", "min", 3.0]])
+
+
+def test_a_table_written_before_docking_loads_and_duplicates_reads_as_those_runs_ran() -> None:
+    old = {  # the [settings] of a run folder written before --docking, --thrust and --eliminate-duplicates existed
+        "algorithm": "ga", "population": 40, "generations": 10, "tolerance": 1e-5, "period": 30, "points": 10, "mode": "+,+,+,+",
+        "setups": 1, "guards": False, "seed": 7, "engine": "auto", "engine_resolved": "numba", "aggregate": "mean",
+        "compactness": "links", "checkpoint_every": 10, "design_from": "paper", "free": ["m_x", "m_y", "m_z"],
+        "trajectories": ["reference"],
+    }  # fmt: skip
+    s = RunSettings.from_table(old)
+    assert s.docking == "shared" and s.eliminate_duplicates is True and s.options == Options()
+    assert s.free == ("m_x", "m_y", "m_z") and s.seed == 7
+
+
+# --------------------------------------------------------------------------- the flag table
+def _cli_flags() -> set[str]:
+    command = typer.main.get_command(app)
+    flags: set[str] = set()
+    for sub in command.commands.values():  # type: ignore[attr-defined]
+        for param in sub.params:
+            flags.update(o for o in param.opts if o.startswith("--"))
+    return flags
+
+
+def test_every_flag_in_the_table_exists() -> None:
+    missing = sorted({flag for flag in FLAGS.values() if flag not in _cli_flags()})
+    assert not missing, f"flags in cli/flags.py that no command has: {missing}"
+
+
+def test_every_setting_with_a_flag_is_in_the_table() -> None:
+    """A new setting gets its flag by one line in the table (the optimizer's own bookkeeping fields excepted)."""
+    no_flag = {"period", "options", "guards"}  # period: pymoo's; options: the groups below; guards: a switch, not an error source
+    run = {f"RunSettings.{n}" for n in RunSettings.model_fields if n not in no_flag}
+    groups = {f"{cls.__name__}.{n}" for cls in (Guards, Body, Loads) for n in cls.model_fields}
+    groups -= {"Guards.z_dyad", "Guards.c_z", "Guards.single_assembly_mode"}  # set by --guards or not on the CLI
+    assert sorted((run | groups) - FLAGS.keys()) == []
+    # and every flat optimize keyword of an option is a field of its group
+    for key, (group, name) in FLAT_OPTIONS.items():
+        assert name in type(getattr(Options(), group)).model_fields, key
+
+
+# --------------------------------------------------------------------------- in memory
+SMALL = {"algorithm": "ga", "population": 16, "generations": 4, "tolerance": 0.0, "points": 5, "ids": "1,2", "seed": 3,
+         "free": ["m_x", "m_y", "m_z", "L"], "checkpoint_every": 2}  # fmt: skip
+_TIMES = ("wall_s", "eval_s", "files")
+
+
+def _untimed(summary: dict) -> dict:
+    return {k: v for k, v in summary.items() if k not in _TIMES}
+
+
+@pytest.mark.parametrize("extra", [{}, {"anatomy": "default", "clearance": 0.0, "design_from": "paper"}], ids=["plain", "anatomy"])
+def test_in_memory_run_equals_the_folder_run_and_writes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, extra: dict) -> None:
+    plan = arcube.load_trajectories("reference")
+    empty = tmp_path / "cwd"
+    empty.mkdir()
+    monkeypatch.chdir(empty)
+    result = arcube.optimize(plan, RunSettings(**SMALL, **extra))
+    assert isinstance(result, arcube.OptimizeResult) and os.listdir(empty) == []
+    run = arcube.optimize(plan, RunSettings(**SMALL, **extra), out=tmp_path / "run")
+    assert _untimed(result.summary) == _untimed(run.summary)
+    assert result.best_design == run.best_design
+    for col in ("generation", "evaluations", "best_eta_G", "mean_eta_G", "feasible_fraction", "best_violation"):
+        mine = result.history[col]  # history.csv leaves a non-finite value empty: NaN when read back
+        np.testing.assert_array_equal(np.where(np.isfinite(mine), mine, np.nan), run.history[col], err_msg=col)
+
+
+def test_optimize_refuses_a_folder_in_place_of_settings(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="settings must be an arcube.RunSettings"):
+        arcube.optimize("reference", tmp_path / "run")  # type: ignore[arg-type]
