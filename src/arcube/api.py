@@ -60,8 +60,10 @@ def _signs(mode: str | Sequence[float]) -> np.ndarray:
 
 
 def _points(points: Any) -> int:
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
-        raise InputError.of("points", f"must be an integer >= 2 (both ends of a trajectory), got {points!r}")
+    from arcube.evaluation.task import MAX_POINTS
+
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or not 2 <= points <= MAX_POINTS:
+        raise InputError.of("points", f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {points!r}")
     return int(points)
 
 
@@ -241,13 +243,21 @@ def _optimize_in_memory(cfg: dict[str, Any], specs: list[Any], progress: Callabl
 
 
 def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
-           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> Run | Study:  # fmt: skip
-    """Continue an interrupted run from its checkpoint, or finish an interrupted study (the same result
-    as an uninterrupted one); returns the :class:`Run` or the :class:`Study`."""
+           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> Run | Study | DesignResult:  # fmt: skip
+    """Continue an interrupted run from its checkpoint, or finish an interrupted study or design job
+    (the same result as an uninterrupted one); returns the :class:`Run`, the :class:`Study` or the
+    :class:`~arcube.design_job.DesignResult`."""
+    from arcube.design_job import STUDY, finish_design, is_design, read_design
     from arcube.optimization import run as runmod
     from arcube.optimization import study as studymod
 
     run_dir = Path(path)
+    if is_design(run_dir):
+        read_design(run_dir)
+        if not (run_dir / STUDY / "summary.json").exists():
+            studymod.resume_study(run_dir / STUDY, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
+            write_study_convergence(run_dir / STUDY)
+        return finish_design(run_dir)
     if studymod.is_study(run_dir):
         studymod.resume_study(run_dir, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
         write_study_convergence(run_dir)

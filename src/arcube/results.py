@@ -114,8 +114,13 @@ class Run:
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
     """A CSV of numbers (and a few text columns) as name -> array; numeric columns as float."""
-    with path.open(encoding="utf-8", newline="") as fh:
-        rows = list(csv.DictReader(fh))
+    try:
+        with path.open(encoding="utf-8", newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise InputError(f"{path}: missing (the run has not written it)") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise InputError(f"{path}: unreadable ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})") from None
     if not rows:
         return {}
     out: dict[str, np.ndarray] = {}

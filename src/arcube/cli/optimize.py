@@ -136,17 +136,29 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def resume(
-        run_dir: Annotated[Path, typer.Argument(help="Run folder of an interrupted 'arcube optimize', or study folder of an interrupted 'arcube study'.")],
+        run_dir: Annotated[Path, typer.Argument(help="Run folder of an interrupted 'arcube optimize', or the folder of an interrupted 'arcube study' or 'arcube design'.")],
         workers: Annotated[int | None, typer.Option("--workers", help="Override the run's local worker processes.")] = None,
         dask: Annotated[str | None, typer.Option("--dask", help="Override: send batches to this dask scheduler.")] = None,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
     ) -> None:
-        """Continue a killed optimization run from its checkpoint, or finish a killed study (same result as an uninterrupted one)."""
+        """Continue a killed optimization run from its checkpoint, or finish a killed study or design job (same result as an uninterrupted one)."""
         if workers is not None and workers < 1:
             raise InputError(f"--workers must be at least 1, got {workers}")
         from arcube.api import resume as resume_api
         from arcube.cli.study import SeedProgress, print_study
+        from arcube.design_job import STUDY, is_design
         from arcube.optimization import study as studymod
+
+        if is_design(run_dir):
+            from arcube.cli.design import print_design
+
+            seeds = studymod.read_study(run_dir / STUDY)[0]["seeds"] if studymod.is_study(run_dir / STUDY) else []
+            with SeedProgress(len(seeds), enabled=not quiet) as seed_bar:
+                result = resume_api(run_dir, workers=workers, dask=dask, on_seed=seed_bar)
+            print_design(result)
+            if not result.met:
+                raise typer.Exit(3)
+            return
 
         if studymod.is_study(run_dir):
             seeds = studymod.read_study(run_dir)[0]["seeds"]

@@ -21,7 +21,7 @@ from arcube.evaluation import tables
 from arcube.evaluation.engine import evaluate_task
 from arcube.evaluation.reference import Options, PointResults, TaskResults
 from arcube.evaluation.tables import TrajectorySummary
-from arcube.evaluation.task import Task, build_task
+from arcube.evaluation.task import MAX_POINTS, Task, build_task
 from arcube.errors import InputError
 from arcube.io import TrajectorySet, load_trajectories, select
 from arcube.model.design import Design
@@ -115,8 +115,8 @@ def load_trajectory_set(
     ids: str | None = None, transform: Path | None = None,
 ) -> TrajectorySet:  # fmt: skip
     """Read and subset trajectories, checking ``points`` first (raises InputError)."""
-    if points < 2:
-        raise InputError.of("points", f"must be at least 2 (both ends of a trajectory), got {points}")
+    if not 2 <= points <= MAX_POINTS:
+        raise InputError.of("points", f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {points}")
     return select(load_trajectories(trajectories, transform=transform), side=side, levels=levels, ids=ids)
 
 

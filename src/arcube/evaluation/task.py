@@ -14,6 +14,11 @@ from numpy.typing import ArrayLike, NDArray
 from arcube.model.poses import angles_from_e, sample_trajectories
 
 
+MAX_POINTS = 10_000
+"""Most samples per trajectory any command takes (0.005 mm apart on a 50 mm trajectory): more only
+exhausts memory."""
+
+
 @dataclass(frozen=True)
 class Task:
     """P = T * N points: N samples on each of T trajectories, trajectory-major order."""

@@ -98,7 +98,21 @@ def write_checkpoint(run_dir: Path, state: dict[str, Any], log: EvalLog, generat
         state["chunks"].append({"file": name, "sha256": _sha(buf.getvalue()), "calls": len(entries)})
         log.pending = []
     state["generation"] = generation
+    history = run_dir / "history.csv"
+    if history.exists():
+        state["history_sha256"] = history_digest(history.read_bytes(), generation)
+    state["state_sha256"] = _state_digest(state)
     atomic_write_text(ckdir / "state.json", json.dumps(state, indent=1, allow_nan=False) + "\n")
+
+
+def history_digest(data: bytes, rows: int) -> str:
+    """SHA-256 of history.csv's header and first ``rows`` rows (what a resume keeps)."""
+    return _sha(b"\n".join(data.split(b"\n")[: rows + 1]))
+
+
+def _state_digest(state: dict[str, Any]) -> str:
+    """SHA-256 of state.json's content but its own digest (an edited state is refused)."""
+    return _sha(json.dumps({k: v for k, v in state.items() if k != "state_sha256"}, sort_keys=True, allow_nan=False).encode("utf-8"))
 
 
 def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
@@ -114,6 +128,16 @@ def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple
         raise InputError(f"{path}: not an arcube optimize checkpoint")
     if state.get("run_id") != cfg["run_id"] or state.get("config_sha256") != _sha(cfg_raw):
         raise InputError(f"{path}: checkpoint of another run or config (run_id/config.toml do not match); refusing to resume")
+    # checkpoints written before these digests existed have neither: nothing to check then
+    if "state_sha256" in state and state["state_sha256"] != _state_digest(state):
+        raise InputError(f"{path}: edited or corrupt checkpoint state (it does not match its SHA-256); refusing to resume")
+    if "history_sha256" in state:
+        try:
+            data = (run_dir / "history.csv").read_bytes()
+        except OSError as exc:
+            raise InputError(f"{run_dir / 'history.csv'}: cannot read ({exc.strerror or exc})") from None
+        if history_digest(data, int(state["generation"])) != state["history_sha256"]:
+            raise InputError(f"{run_dir / 'history.csv'}: edited or corrupt (its first {state['generation']} rows do not match the checkpoint); refusing to resume")
     entries: list[tuple[bytes, Batch]] = []
     n_obj = len(run_objectives(cfg["settings"]))
     try:

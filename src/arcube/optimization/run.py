@@ -40,7 +40,7 @@ from arcube.optimization.algorithms import stop_reason
 from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: still importable from here)
     CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
 )  # fmt: skip
-from arcube.optimization.lock import acquire, release
+from arcube.optimization.lock import LOCK_FILE, acquire, release
 from arcube.optimization.loop import HISTORY_COLUMNS, Loop, describe, run_algorithm
 from arcube.optimization.build import anatomy_file, build_model, check_engine
 from arcube.optimization.executors import make_executor  # noqa: F401 (still importable from here)
@@ -292,16 +292,26 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
 def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
     """Create the run folder (anatomy files, config.toml, empty history.csv) and run.
 
-    A run that stops on a bad input before its first checkpoint (e.g. an unreachable --dask
-    scheduler) leaves nothing behind: the folder was absent or empty, and is so again."""
+    The folder's lock is taken before anything is written: of two runs started into one folder at
+    once, one runs and the other is refused, and the refused one removes nothing. A run that stops
+    on a bad input or an unexpected error before its first checkpoint (e.g. an unreachable dask
+    scheduler) leaves nothing behind: the folder was absent or empty, and is so again (Ctrl-C
+    leaves it resumable)."""
     check_new_folder(run_dir)
     created = not run_dir.exists()
+    run_dir.mkdir(parents=True, exist_ok=True)
+    lock = acquire(run_dir)
     try:
-        return execute(run_dir, cfg, prepare(run_dir, cfg), **kwargs)
-    except InputError:
-        if not (run_dir / "checkpoint").exists():
-            remove_folder(run_dir, created)
-        raise
+        if any(p.name != LOCK_FILE for p in run_dir.iterdir()):  # another run started and finished here meanwhile
+            raise InputError.of("out", f"{run_dir}: exists and is not an empty folder (another run wrote it)")
+        try:
+            return _execute(run_dir, cfg, prepare(run_dir, cfg), **kwargs)
+        except Exception:
+            if not (run_dir / "checkpoint").exists():
+                remove_folder(run_dir, created)
+            raise
+    finally:
+        release(lock)
 
 
 def prepare(run_dir: Path, cfg: dict[str, Any]) -> bytes:

@@ -22,6 +22,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BeforeValidator, Field, model_validator
 
 from arcube.errors import InputError
+from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
 from arcube.model.mechanism import format_mode, parse_mode
 from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_tip_metrics
@@ -208,7 +209,7 @@ class RunSettings(Settings):
     tolerance: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
     """pymoo's ftol over ``period`` generations; 0 runs every generation."""
     period: int = Field(default=DEFAULT_PERIOD, ge=1)
-    points: int = Field(default=30, ge=2)
+    points: int = Field(default=30, ge=2, le=MAX_POINTS)
     """Points per trajectory, both ends included."""
     mode: Annotated[str, BeforeValidator(_mode)] = "+,+,+,+"
     """Working mode (signs of TMS x, TMS y, RTS x, RTS y) or ``"free"`` (optimized)."""

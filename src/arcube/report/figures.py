@@ -115,9 +115,11 @@ def read_history(path: str | os.PathLike[str]) -> History:
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
+        rows = list(csv.reader(io.StringIO(text)))
     except OSError as exc:
         raise InputError(f"{p}: cannot read history ({exc.strerror or exc})") from None
-    rows = list(csv.reader(io.StringIO(text)))
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise InputError(f"{p}: unreadable history ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})") from None
     if not rows:
         raise InputError(f"{p}: empty history file (no header)")
     header = {_norm(h): i for i, h in enumerate(rows[0])}

@@ -1,0 +1,108 @@
+"""The CLI's promise under interrupts, races and damaged run folders: a one-line error with the right
+exit code, nothing deleted that another process owns, and no edited checkpoint trusted."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from arcube.optimization import run as runmod
+
+SMALL = ["--trajectories", "reference", "--ids", "1,3", "--points", "5", "--algorithm", "ga", "--population", "20", "--tolerance", "0",
+         "--seed", "7", "--quiet", "--engine", "numpy"]  # fmt: skip
+
+
+def _arcube(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "arcube", *args], capture_output=True, text=True, cwd=cwd, timeout=timeout)
+
+
+def test_ctrl_c_exits_130_with_one_line_and_leaves_a_resumable_run(tmp_path: Path) -> None:
+    p = subprocess.Popen([sys.executable, "-m", "arcube", "optimize", *SMALL, "--generations", "5000", "--checkpoint-every", "1", "--out", "r"],
+                         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    state = tmp_path / "r" / "checkpoint" / "state.json"
+    deadline = time.monotonic() + 120
+    while not state.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.2)
+    assert state.exists(), "no checkpoint within 120 s"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130 and err == "error: interrupted\n", err
+    cfg, raw = runmod.read_config(tmp_path / "r")
+    saved, _ = runmod.load_checkpoint(tmp_path / "r", cfg, raw)  # a resume would accept it
+    assert saved is not None and saved["generation"] >= 1 and not runmod.is_finished(tmp_path / "r")
+
+
+def test_two_runs_started_into_one_folder_one_runs_nothing_is_deleted(tmp_path: Path) -> None:
+    for trial in range(3):
+        out = f"r{trial}"
+        procs = [subprocess.Popen([sys.executable, "-m", "arcube", "optimize", *SMALL, "--generations", "5", "--out", out], cwd=tmp_path,
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]  # fmt: skip
+        results = [(p.wait(timeout=600), p.stderr.read()) for p in procs]  # type: ignore[union-attr]
+        codes = sorted(rc for rc, _ in results)
+        assert codes == [0, 2], results
+        refused = next(err for rc, err in results if rc == 2)
+        assert refused.count("\n") == 1 and refused.startswith("error: ")
+        assert json.loads((tmp_path / out / "summary.json").read_text())["generations"] == 5
+        assert not (tmp_path / out / ".running").exists()
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    base = tmp_path_factory.mktemp("run")
+    out = _arcube("optimize", *SMALL, "--generations", "4", "--checkpoint-every", "1", "--out", "r", cwd=base)
+    assert out.returncode == 0, out.stderr
+    return base / "r"
+
+
+def _unfinish(run: Path, tmp_path: Path) -> Path:
+    """A copy of the finished run that looks interrupted (state not finished, no summary)."""
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(run, copy)
+    (copy / "summary.json").unlink()
+    return copy
+
+
+def test_an_edited_checkpoint_state_is_refused(finished_run: Path, tmp_path: Path) -> None:
+    run = _unfinish(finished_run, tmp_path)
+    path = run / "checkpoint" / "state.json"
+    state = json.loads(path.read_text())
+    state["generation"] = state["generation"] + 10  # "generation edited past the end"
+    path.write_text(json.dumps(state))
+    out = _arcube("resume", str(run), "--quiet", cwd=tmp_path)
+    assert out.returncode == 2 and "edited or corrupt checkpoint state" in out.stderr and out.stderr.count("\n") == 1, out.stderr
+
+
+def test_a_damaged_history_is_refused_by_resume(finished_run: Path, tmp_path: Path) -> None:
+    run = _unfinish(finished_run, tmp_path)
+    lines = (run / "history.csv").read_text().splitlines()
+    lines[2] = "2,40,garbage,,,,"
+    (run / "history.csv").write_text("\n".join(lines) + "\n")
+    out = _arcube("resume", str(run), "--quiet", cwd=tmp_path)
+    assert out.returncode == 2 and "history.csv: edited or corrupt" in out.stderr and out.stderr.count("\n") == 1, out.stderr
+
+
+def test_a_history_that_is_not_utf8_leaves_the_report_without_its_plot(finished_run: Path, tmp_path: Path) -> None:
+    import shutil
+
+    run = tmp_path / "latin"
+    shutil.copytree(finished_run, run)
+    (run / "history.csv").write_bytes((run / "history.csv").read_bytes() + "é,1\n".encode("latin-1"))
+    out = _arcube("report", str(run), cwd=tmp_path)
+    assert out.returncode == 0 and out.stderr == "", out.stderr  # the run report says why it has no convergence plot
+    assert "no convergence plot" in (run / "report.html").read_text() and "UnicodeDecodeError" in (run / "report.html").read_text()
+
+
+@pytest.mark.parametrize("points", ["20000000000000000000", "1000000000"])
+def test_points_are_bounded_and_leave_no_folder(tmp_path: Path, points: str) -> None:
+    out = _arcube("optimize", "--trajectories", "reference", "--points", points, "--out", "r", "--quiet", cwd=tmp_path)
+    assert out.returncode == 2 and "--points must be" in out.stderr and out.stderr.count("\n") == 1, out.stderr
+    assert not (tmp_path / "r").exists()
