@@ -34,6 +34,15 @@ LateralForceOpt = Annotated[float, typer.Option("--lateral-force", help="Largest
 StiffnessOpt = Annotated[str, typer.Option("--actuator-stiffness", help="Torsional stiffness of the actuators (MODEL.md 15.4), N·m/rad: one value or five.")]
 
 
+def plan_specs(trajectories: list[str] | None, more: list[str] | None, out: Path | None, folder: str) -> list[str]:
+    """The trajectory sets given after ``--trajectories`` (several values allowed), with ``--out`` required."""
+    if more and not trajectories:
+        raise InputError(f"unexpected argument {more[0]!r} (trajectory sets go after --trajectories)")
+    if out is None:
+        raise InputError(f"--out DIR is required (the {folder} folder)")
+    return [*(trajectories or []), *(more or [])]
+
+
 def numbers(text: str, flag: str) -> float | list[float]:
     """One number or a comma-separated list of numbers (``--encoder-deg 0.01`` or ``0.01,0.01,0.02,0.01,0.01``)."""
     try:

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from arcube.cli.common import AnatomyFrameOpt, AnatomyOpt, EncoderOpt, numbers
+from arcube.cli.common import AnatomyFrameOpt, AnatomyOpt, EncoderOpt, numbers, plan_specs
 from arcube.errors import InputError
 
 Strs = Annotated[list[str] | None, typer.Option("--trajectories", help="Trajectory sets (CSV, .mrk.json, folder or 'reference'); several: one placement per patient.")]
@@ -96,11 +96,7 @@ def register(app: typer.Typer) -> None:
         from arcube.cli.study import SeedProgress
         from arcube.optimization.study import parse_seeds
 
-        specs = [*(trajectories or []), *(more_trajectories or [])]
-        if more_trajectories and not trajectories:
-            raise InputError(f"unexpected argument {more_trajectories[0]!r} (trajectory sets go after --trajectories)")
-        if out is None:
-            raise InputError("--out DIR is required (the design folder)")
+        specs = plan_specs(trajectories, more_trajectories, out, "design")
         drop = [n for n, off in (("clearance", no_clearance), ("self_clearance", no_self_clearance), ("lateral_error", no_lateral_error),
                                  ("axis_error", no_axis_error), ("torque", no_torque)) if off]  # fmt: skip
         n = len(parse_seeds(seeds))

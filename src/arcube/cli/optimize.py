@@ -14,7 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import (
-    RichBar, ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
+    RichBar, plan_specs, ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
 )  # fmt: skip
 from arcube.errors import InputError
 from arcube.optimization import run as runmod
@@ -113,11 +113,7 @@ def register(app: typer.Typer) -> None:
         more_trajectories: Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE_TRAJECTORIES")] = None,
     ) -> None:
         """Optimize the design (MODEL.md 12): minimize eta_G with every task point reachable."""
-        specs = [*(trajectories or []), *(more_trajectories or [])]
-        if more_trajectories and not trajectories:
-            raise InputError(f"unexpected argument {more_trajectories[0]!r} (trajectory sets go after --trajectories)")
-        if out is None:
-            raise InputError("--out DIR is required (the run folder)")
+        specs = plan_specs(trajectories, more_trajectories, out, "run")
         from arcube.api import optimize as optimize_api
 
         with _Progress(population * generations, enabled=not quiet) as bar:

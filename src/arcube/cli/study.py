@@ -14,7 +14,7 @@ from typing import Annotated, Any
 
 import typer
 
-from arcube.cli.common import RichBar, loads
+from arcube.cli.common import RichBar, loads, plan_specs
 from arcube.errors import InputError
 
 STUDY_ONLY = {
@@ -70,13 +70,8 @@ def register(app: typer.Typer) -> None:
         """Run the same optimization once per seed (in parallel with --workers or --dask) and report best / median / worst."""
         from arcube.api import study as study_api
 
-        more = kwargs.pop("more_trajectories") or []
-        if more and not kwargs["trajectories"]:
-            raise InputError(f"unexpected argument {more[0]!r} (trajectory sets go after --trajectories)")
-        specs = [*(kwargs.pop("trajectories") or []), *more]
         out = kwargs.pop("out")
-        if out is None:
-            raise InputError("--out DIR is required (the study folder)")
+        specs = plan_specs(kwargs.pop("trajectories"), kwargs.pop("more_trajectories"), out, "study")
         seeds, quiet = kwargs.pop("seeds"), kwargs.pop("quiet")
         load = loads(kwargs.pop("encoder_deg"), kwargs.pop("thrust"), kwargs.pop("lateral_force"), kwargs.pop("actuator_stiffness"))
         settings = {**kwargs, **load}
