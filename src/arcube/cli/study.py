@@ -15,7 +15,6 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import RichBar, loads, plan_specs
-from arcube.errors import InputError
 
 STUDY_ONLY = {
     "seeds": Annotated[str, typer.Option("--seeds", help="Seeds, one run each: 1-5, 1,3,7 or 1-3,10.")],
