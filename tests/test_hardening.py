@@ -106,3 +106,36 @@ def test_points_are_bounded_and_leave_no_folder(tmp_path: Path, points: str) -> 
     out = _arcube("optimize", "--trajectories", "reference", "--points", points, "--out", "r", "--quiet", cwd=tmp_path)
     assert out.returncode == 2 and "--points must be" in out.stderr and out.stderr.count("\n") == 1, out.stderr
     assert not (tmp_path / "r").exists()
+
+
+def test_an_anatomy_metres_wide_is_refused_before_its_grids_are_allocated() -> None:
+    import trimesh
+
+    from arcube import InputError
+    from arcube.evaluation.sdf import AnatomyDistance
+
+    with pytest.raises(InputError, match=r"^anatomy spans 3000 x 3000 x 3000 mm: .* GiB .* in mm"):
+        AnatomyDistance.from_meshes([trimesh.creation.box(extents=(3000.0, 3000.0, 3000.0))])
+
+
+def test_the_api_checks_what_the_cli_checks() -> None:
+    import numpy as np
+
+    import arcube
+    from arcube import InputError
+    from arcube.io.trajectories import TrajectorySet
+
+    with pytest.raises(InputError, match="expected 27 values"):
+        arcube.evaluate([1.0] * 26, "reference")
+    with pytest.raises(InputError, match="^points must be an integer"):
+        arcube.evaluate("paper", "reference", points=2.5)  # type: ignore[arg-type]
+    hand = TrajectorySet(("1",), ("C3",), ("R",), np.array([[np.nan, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), "hand")
+    with pytest.raises(InputError, match="not finite"):
+        arcube.evaluate("paper", hand)
+    with pytest.raises(InputError, match="^RunSettings.population"):
+        arcube.RunSettings(population=8.5)
+    # a preset name is a design for the MuJoCo export too (it used to fail converting 'paper' to float)
+    xml = arcube.export_mjcf(arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89), arcube.select(arcube.load_trajectories("reference"), side="R"), c_z=160.0)
+    assert "<mujoco" in xml and xml.rstrip().endswith("</mujoco>")
+    with pytest.raises(InputError, match="reaches no point"):
+        arcube.export_mjcf("paper", "reference")

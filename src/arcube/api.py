@@ -28,7 +28,7 @@ from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import resolve
 from arcube.evaluation.result import Evaluation, evaluate_design, load_trajectory_set
-from arcube.io.trajectories import TrajectorySet, select
+from arcube.io.trajectories import TrajectorySet, select, validate_points
 from arcube.model.body import BodyRadii
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode, parse_mode
@@ -47,8 +47,8 @@ __all__ = ["OptimizeResult", "Run", "Study", "design", "evaluate", "optimize", "
 PathLike = str | os.PathLike[str]
 
 
-def _design(design: Design | PathLike) -> Design:
-    return design if isinstance(design, Design) else Design.load(os.fspath(design))
+def _design(design: Design | PathLike | Sequence[float]) -> Design:
+    return Design.coerce(design)
 
 
 def _signs(mode: str | Sequence[float]) -> np.ndarray:
@@ -126,6 +126,7 @@ def evaluate(
     levels_text = levels if levels is None or isinstance(levels, str) else ",".join(levels)
     ids_text = ids if ids is None or isinstance(ids, str) else ",".join(str(i) for i in ids)
     if isinstance(plan, TrajectorySet):
+        validate_points([f"{plan.source} trajectory {i}" for i in plan.ids], plan.ids, np.asarray(plan.entry), np.asarray(plan.target))
         ts = select(plan, side=side, levels=levels_text, ids=ids_text) if (side or levels_text or ids_text) else plan
     else:
         ts = load_trajectory_set(os.fspath(plan), n, side, levels_text, ids_text, None if transform is None else Path(transform))

@@ -115,7 +115,7 @@ def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _params(design: Design | ArrayLike) -> NDArray[np.float64]:
-    return design.to_vector() if isinstance(design, Design) else np.asarray(design, dtype=float)
+    return Design.coerce(design).to_vector()
 
 
 def _signs(mode: str | ArrayLike) -> NDArray[np.float64]:

@@ -195,6 +195,18 @@ class Design:
         return cls(tuple(float(a) for a in v))
 
     @classmethod
+    def coerce(cls, design: Any) -> Design:
+        """A :class:`Design` from what a caller may give: a Design, a preset name or a design JSON path,
+        or a vector of 27 (or 23) numbers; InputError naming ``design`` otherwise."""
+        if isinstance(design, Design):
+            return design
+        if isinstance(design, (str, os.PathLike)):
+            return cls.load(os.fspath(design))
+        if isinstance(design, (bytes, dict)) or design is None:
+            raise InputError.of("design", f"must be a Design, a preset name, a design JSON path or 27 numbers, got {type(design).__name__}")
+        return cls.from_vector(design)
+
+    @classmethod
     def preset(cls, name: str) -> Design:
         """A named preset; ``paper`` is Table 2."""
         if name not in PRESETS:

@@ -11,10 +11,16 @@ from typing import Any
 
 import numpy as np
 
+from arcube.errors import InputError
+
 from arcube.evaluation.sdf._boxes import _box_arrays, _boxes_bounds, _boxes_on_grid
 from arcube.evaluation.sdf._mesh import _Shells
 
-__all__ = ["AnatomyDistance", "DistanceGrid", "grid_for_bounds"]
+__all__ = ["AnatomyDistance", "DistanceGrid", "MAX_GRID_BYTES", "grid_for_bounds"]
+
+MAX_GRID_BYTES = 4 * 2**30
+"""Largest memory the two distance grids of an anatomy may take (a few metres of mesh read in the
+wrong unit would ask for hundreds of GiB)."""
 
 
 @dataclass(frozen=True)
@@ -164,8 +170,12 @@ class AnatomyDistance:
     @classmethod
     def _build(cls, lo: np.ndarray, hi: np.ndarray, fill: Any, fine_spacing: float, fine_margin: float,
                coarse_spacing: float, coarse_margin: float) -> AnatomyDistance:
-        grids = []
-        for spacing, margin in ((fine_spacing, fine_margin), (coarse_spacing, coarse_margin)):
-            origin, shape = grid_for_bounds(lo, hi, spacing, margin)
-            grids.append(DistanceGrid(origin, spacing, fill(origin, shape, float(spacing))))
+        layout = [(spacing, *grid_for_bounds(lo, hi, spacing, margin)) for spacing, margin in ((fine_spacing, fine_margin), (coarse_spacing, coarse_margin))]
+        need = sum(8 * int(np.prod(shape, dtype=np.float64)) for _, _, shape in layout)
+        if need > MAX_GRID_BYTES:  # checked before anything is allocated
+            extent = np.asarray(hi, float) - np.asarray(lo, float)
+            raise InputError.of("anatomy", f"spans {extent[0]:.4g} x {extent[1]:.4g} x {extent[2]:.4g} mm: its distance grids would need "
+                                f"{need / 2**30:.1f} GiB (at most {MAX_GRID_BYTES / 2**30:.0f}); is the segmentation in mm "
+                                "(not um or m), and only the operated region?")  # fmt: skip
+        grids = [DistanceGrid(origin, spacing, fill(origin, shape, float(spacing))) for spacing, origin, shape in layout]
         return cls(grids[0], grids[1], (np.asarray(lo, dtype=np.float64).copy(), np.asarray(hi, dtype=np.float64).copy()))
