@@ -139,3 +139,10 @@ def test_the_api_checks_what_the_cli_checks() -> None:
     assert "<mujoco" in xml and xml.rstrip().endswith("</mujoco>")
     with pytest.raises(InputError, match="reaches no point"):
         arcube.export_mjcf("paper", "reference")
+
+
+def test_a_dask_address_without_port_is_refused_at_once(tmp_path: Path) -> None:
+    start = time.monotonic()
+    out = _arcube("optimize", "--trajectories", "reference", "--dask", "127.0.0.1", "--out", "r", "--quiet", cwd=tmp_path, timeout=120)
+    assert out.returncode == 2 and out.stderr.startswith("error: --dask '127.0.0.1': expected a scheduler address HOST:PORT")
+    assert out.stderr.count("\n") == 1 and time.monotonic() - start < 30 and not (tmp_path / "r").exists()

@@ -65,6 +65,10 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
         raise InputError.of("plan", "give at least one trajectory set (CSV, .mrk.json, folder or 'reference')")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise InputError.of("workers", f"must be an integer >= 1, got {workers!r}")
+    if dask:
+        from arcube.optimization.executors import check_dask_address
+
+        check_dask_address(dask)
     if dask and workers > 1:
         raise InputError.of("workers", "and dask exclude each other (the Dask cluster has its own workers)")
     make_termination(s.algorithm, s.generations, s.tolerance)

@@ -3,13 +3,26 @@ dask.distributed cluster. Each executor maps ``X`` ``(n, n_var)`` to the model's
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from arcube.errors import InputError
 from arcube.optimization.checkpoint import Batch
 from arcube.optimization.problem import FitnessModel, evaluate_with, worker_evaluate, worker_init
 
-__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "make_executor"]
+__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "check_dask_address", "make_executor"]
+
+
+_ADDRESS = re.compile(r"^(?:(?:tcp|tls|inproc|ucx|ws|wss)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
+
+
+def check_dask_address(address: str) -> str:
+    """``address`` if it names a scheduler as ``[tcp://]HOST:PORT``; InputError otherwise, before any
+    connection is tried (a malformed one left dask's half-built client hanging at exit)."""
+    if not isinstance(address, str) or not _ADDRESS.match(address.strip()):
+        raise InputError.of("dask", f"{address!r}: expected a scheduler address HOST:PORT, e.g. tcp://10.0.0.5:8786")
+    return address.strip()
 
 
 def _merge(parts: list[Batch]) -> Batch:
@@ -60,6 +73,7 @@ class DaskExecutor(Executor):
         except ImportError:
             raise InputError.of("dask", "needs dask.distributed: pip install 'dask[distributed]'") from None
         super().__init__(model)
+        address = check_dask_address(address)
         try:
             self.client = Client(address, timeout=20, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:

@@ -188,6 +188,10 @@ def _check_parallel(workers: int, dask: str | None) -> None:
         raise InputError.of("workers", f"must be at least 1, got {workers}")
     if dask and workers > 1:
         raise InputError.of("workers", "and dask exclude each other (the Dask cluster has its own workers)")
+    if dask:
+        from arcube.optimization.executors import check_dask_address
+
+        check_dask_address(dask)
 
 
 def _run_seed(run_dir: str, parent_pid: int | None = None) -> dict[str, Any]:
