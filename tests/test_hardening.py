@@ -146,3 +146,9 @@ def test_a_dask_address_without_port_is_refused_at_once(tmp_path: Path) -> None:
     out = _arcube("optimize", "--trajectories", "reference", "--dask", "127.0.0.1", "--out", "r", "--quiet", cwd=tmp_path, timeout=120)
     assert out.returncode == 2 and out.stderr.startswith("error: --dask '127.0.0.1': expected a scheduler address HOST:PORT")
     assert out.stderr.count("\n") == 1 and time.monotonic() - start < 30 and not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("args", [["joints", "--points", "3", "--ids", "1,2", "--out", ""], ["optimize", "--trajectories", "reference", "--out="]])
+def test_an_empty_out_is_not_the_current_folder(tmp_path: Path, args: list[str]) -> None:
+    out = _arcube(*args, cwd=tmp_path)
+    assert out.returncode == 2 and out.stderr == "error: --out: empty path (give a file or folder name)\n" and os.listdir(tmp_path) == []

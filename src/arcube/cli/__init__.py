@@ -69,11 +69,23 @@ def expand_multi_value(argv: list[str]) -> list[str]:
     return out
 
 
+PATH_OPTIONS = frozenset({"--out", "--report", "--html", "--design", "--trajectories", "--transform"})
+"""Options naming a file or folder: an empty value would silently mean the current folder."""
+
+
+def _check_empty_paths(args: list[str]) -> None:
+    for i, token in enumerate(args):
+        name, eq, value = token.partition("=")
+        if name in PATH_OPTIONS and ((eq and not value.strip()) or (not eq and i + 1 < len(args) and not args[i + 1].strip())):
+            raise InputError(f"{name}: empty path (give a file or folder name)")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``arcube`` script: one-line errors and exit code 2 on bad input."""
     command = typer.main.get_command(app)
     args = expand_multi_value(list(sys.argv[1:] if argv is None else argv))
     try:
+        _check_empty_paths(args)
         code = command.main(args=args, prog_name="arcube", standalone_mode=False)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
