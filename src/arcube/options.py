@@ -6,6 +6,7 @@ are the only checks of its values:
 * :class:`Guards`: the guards of MODEL.md 8.2 and 14.3 (all off by default);
 * :class:`Body`: the radii of the robot's body (MODEL.md 14.1);
 * :class:`Loads`: the encoder resolution, drilling loads and actuator stiffness (MODEL.md 15);
+* :class:`Masses`: the links' tubes, the actuators' and drill motor's masses, gravity (MODEL.md 18.1);
 * :class:`Outputs`: what to compute beyond what the guards need (engine requests, not model).
 
 A bad value raises :class:`~arcube.errors.InputError` naming the field as the caller wrote it
@@ -29,7 +30,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from arcube.errors import InputError
 from arcube.model.body import BodyRadii
 
-__all__ = ["Body", "GUARDED_OPTIONS", "Guards", "Loads", "Options", "Outputs", "Settings", "settings_error", "validated"]
+__all__ = ["Body", "GUARDED_OPTIONS", "Guards", "Loads", "Masses", "Options", "Outputs", "Settings", "settings_error", "validated"]
 
 
 class Settings(BaseModel):
@@ -126,6 +127,34 @@ class Loads(Settings):
     """Torsional stiffness of each actuator (15.4), N·m/rad."""
 
 
+def _gravity(value: Any) -> tuple[float, float, float]:
+    """Three finite numbers (m/s^2, patient frame), as a sequence or ``"0,0,-9.81"``."""
+    items = value.split(",") if isinstance(value, str) else value
+    try:
+        g = tuple(float(v) for v in items)
+    except (TypeError, ValueError):
+        raise ValueError("must be three numbers (m/s^2, patient frame), e.g. 0,0,-9.81") from None
+    if len(g) != 3 or not all(math.isfinite(v) for v in g):
+        raise ValueError("must be three finite numbers (m/s^2, patient frame), e.g. 0,0,-9.81")
+    return g  # type: ignore[return-value]
+
+
+class Masses(Settings):
+    """The mass model of MODEL.md 18.1: thin-walled aluminium tubes as links, the delta actuators
+    riding on the cranks, the drill motor; gravity in the patient frame (prone: posterior up)."""
+
+    wall_mm: float = Field(default=2.0, gt=0, allow_inf_nan=False)
+    """Wall thickness w of every moving link's tube (outer radius: Body.link_radius), mm."""
+    density_kg_m3: float = Field(default=2700.0, gt=0, allow_inf_nan=False)
+    """Density of the links' material, kg/m^3 (aluminium)."""
+    m_delta_kg: float = Field(default=0.8, ge=0, allow_inf_nan=False)
+    """Mass of each delta actuator at D_u (u = x, y), kg."""
+    m_motor_kg: float = Field(default=1.5, ge=0, allow_inf_nan=False)
+    """Mass of the drill motor (a solid cylinder from H to H + L_m e, radius Body.motor_radius), kg."""
+    gravity: Annotated[tuple[float, float, float], BeforeValidator(_gravity)] = (0.0, 0.0, -9.81)
+    """Gravity, m/s^2, patient frame."""
+
+
 class Outputs(Settings):
     """What an evaluation computes beyond what its guards need (requests to the engine, not model)."""
 
@@ -141,7 +170,7 @@ class Outputs(Settings):
     """The drill-tip metrics of MODEL.md 15 (NaN when off: an optimizer that does not need them)."""
 
 
-_GROUPS: dict[str, type[Settings]] = {"guards": Guards, "body": Body, "loads": Loads, "outputs": Outputs}
+_GROUPS: dict[str, type[Settings]] = {"guards": Guards, "body": Body, "loads": Loads, "masses": Masses, "outputs": Outputs}
 _LEGACY = {"body": ("outputs", "clearances"), "want_clearance": ("outputs", "anatomy_clearance")}
 """Flat keywords of the former single ``Options`` whose names changed with the groups."""
 FLAT: dict[str, tuple[str, str]] = {
@@ -160,6 +189,7 @@ class Options(Settings):
     guards: Guards = Guards()
     body: Body = Body()
     loads: Loads = Loads()
+    masses: Masses = Masses()
     outputs: Outputs = Outputs()
 
     @model_validator(mode="before")
@@ -180,6 +210,12 @@ class Options(Settings):
             current = out.get(group, {})
             out[group] = {**(current if isinstance(current, dict) else dict(current)), name: value}
         return out
+
+    @model_validator(mode="after")
+    def _wall_inside_the_tube(self) -> Options:
+        if self.masses.wall_mm >= self.body.link_radius:
+            raise InputError.of("Masses.wall_mm", f"must be < Body.link_radius ({self.body.link_radius:g} mm: a tube's wall inside its radius), got {self.masses.wall_mm:g}")
+        return self
 
     @property
     def radii(self) -> BodyRadii:
