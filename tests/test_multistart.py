@@ -1,9 +1,11 @@
 """The default optimizer, multi-start CMA-ES (arcube.optimization.multistart).
 
 Oracles: cma's own bound transformation (one solution at a time) against the batched one; the
-budget arithmetic; bit-identical results for a seed whatever numpy's global generator holds; a
-restart happens when a run meets its stop criteria. Crash and resume: tests/test_optimize.py
-(test_crash_then_resume_equals_uninterrupted, with the other algorithms).
+``cma`` package itself for the batched CMA-ES (its default parameters, and the same candidates
+and stop generation from the same normal draws); the budget arithmetic; bit-identical results for
+a seed whatever numpy's global generator holds; a restart happens when a run meets its stop
+criteria. Crash and resume: tests/test_optimize.py (test_crash_then_resume_equals_uninterrupted,
+with the other algorithms).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from arcube.optimization import run as runmod
+from arcube.optimization.batch_cma import BatchCMA, parameters
 from arcube.optimization.config import build_config
 from arcube.optimization.multistart import MARGIN, POLISH_RUNS, RUNS, default_popsize, into_box
 
@@ -43,6 +46,57 @@ def test_into_box_is_cmas_transformation_batched() -> None:
     inner = (Y >= MARGIN) & (Y <= 1.0 - MARGIN)
     assert np.array_equal(got[inner], Y[inner])  # the identity inside the margins
     assert into_box(np.array([[-MARGIN, 1.0 + MARGIN]])).tolist() == [[0.0, 1.0]]
+
+
+def test_batch_cma_parameters_are_cmas() -> None:
+    import cma
+    from cma.utilities.math import Mh
+
+    for n, lam in ((23, 13), (3, 7), (5, 2), (40, 15)):
+        es = cma.CMAEvolutionStrategy(np.full(n, 0.5), 0.3, {"popsize": lam, "verbose": -9, "seed": np.nan})
+        p = parameters(n, lam)
+        assert np.allclose(p["weights"], list(es.sp.weights), rtol=1e-12, atol=1e-15) and p["mu"] == es.sp.weights.mu
+        want = {"mueff": es.sp.weights.mueff, "cc": es.sp.cc, "c1": es.sm.parameters()["c1"], "cmu": es.sm.parameters()["cmu"],
+                "cs": es.adapt_sigma.cs, "damps": es.adapt_sigma.damps, "chin": Mh.chiN(n)}  # fmt: skip
+        assert all(np.isclose(p[k], v, rtol=1e-12) for k, v in want.items()), (n, lam)
+
+
+def test_batch_cma_samples_what_cma_samples_and_stops_when_it_stops() -> None:
+    """Two runs (a rotated ellipsoid from two starts), each against a cma run fed the same normal draws:
+    the same candidates to round-off for every generation, and the same stop (tolfun) generation."""
+    import cma
+
+    n, lam, tol = 6, 10, 1e-9
+    Q = np.linalg.qr(np.random.default_rng(1).standard_normal((n, n)))[0]
+    scale = 10.0 ** np.linspace(0, 3, n)
+
+    def f(X: np.ndarray) -> np.ndarray:
+        return np.sum((scale * ((X - 0.3) @ Q)) ** 2, axis=-1)
+
+    starts = [np.full(n, 0.5), np.linspace(-1.0, 1.0, n)]
+    batch = BatchCMA(2, n, lam, 0.4, tol)
+    ours, theirs, stopped = [], [], [0, 0]
+    for r, x0 in enumerate(starts):
+        batch.restart(r, x0, np.random.default_rng(10 + r))
+        g = np.random.default_rng(10 + r)
+        opts = {"popsize": lam, "tolfun": tol, "tolfunhist": tol, "tolx": tol / 10, "maxiter": 10**9, "seed": np.nan, "verbose": -9,
+                "randn": lambda *shape, g=g: g.standard_normal(shape)}  # fmt: skip
+        theirs.append(cma.CMAEvolutionStrategy(x0, 0.4, opts))
+    for gen in range(1, 400):
+        U = batch.ask().reshape(2, lam, n)
+        ours = batch.tell(f(U).ravel())
+        for r, es in enumerate(theirs):
+            if stopped[r]:
+                continue
+            X = np.asarray(es.ask())
+            assert np.allclose(X, U[r], rtol=0, atol=1e-8), (r, gen)
+            es.tell(list(X), list(f(X)))
+            assert bool(es.stop()) == bool(ours[r]), (r, gen, es.stop())
+            stopped[r] = gen if ours[r] else 0
+        if all(stopped):
+            break
+    assert all(stopped) and 50 < min(stopped)
+    assert all("tolfun" in es.stop() for es in theirs)
 
 
 def test_default_is_mscmaes_and_spends_the_budget_in_full_batches(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-from arcube.api import OptimizeResult, Run, Study, design, evaluate, optimize, resume, study
+from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Run, Study, design, evaluate, optimize, program, resume, study
 from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Options, Outputs
@@ -25,10 +25,14 @@ from arcube.io import TrajectorySet, load_trajectories, read_markups, select, wr
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.patients import generate_patient
 from arcube.report import write_report
+from arcube.explore import explore  # noqa: E402 (after api: polish imports arcube.api lazily)
+from arcube.options import Masses
+
+from arcube.api import program  # noqa: E402,F811 (the function, not the subpackage that importing arcube.program binds)
 
 __all__ = [
     "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
-    "Outputs", "Run", "RunSettings", "Study", "TrajectorySet",
-    "__version__", "design", "evaluate", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "read_markups", "resume", "select", "study",
+    "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "Run", "RunSettings", "Study", "TrajectorySet",
+    "__version__", "design", "evaluate", "explore", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study",
     "write_csv", "write_markups", "write_report",
 ]  # fmt: skip

@@ -36,6 +36,7 @@ from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Options
 
 from arcube.design_job import DesignResult
+from arcube.program import Planner, Program, ProgramLimits, program  # noqa: F401 (re-exported by arcube)
 from arcube.report.study import write_study_convergence
 from arcube.results import OptimizeResult, Run, Study
 

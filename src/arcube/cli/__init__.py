@@ -13,7 +13,7 @@ import sys
 import typer
 
 from arcube import __version__
-from arcube.cli import demo, design, evaluate, export, joints, optimize, patients, report, study
+from arcube.cli import demo, design, evaluate, explore, export, joints, optimize, patients, program, report, study
 from arcube.cli.flags import flag_message
 from arcube.errors import InputError
 
@@ -42,7 +42,7 @@ def _root(
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, study, design, report, joints, patients, demo, export):
+for _module in (evaluate, optimize, study, design, report, joints, patients, demo, export, explore, program):
     _module.register(app)
 
 

@@ -33,6 +33,15 @@ FLAGS: dict[str, str] = {
         "levels", "ids", "transform", "anatomy", "anatomy_frame", "objectives", "docking")},
     "RunSettings.maxima": "--max", "RunSettings.minima": "--min", "RunSettings.standoff": "--standoff",
     "requirements.min": "--min", "requirements.max": "--max",
+    # arcube.program (MODEL.md 17)
+    "ProgramLimits.standoff_mm": "--standoff", "ProgramLimits.approach_speed": "--approach-speed", "ProgramLimits.feed": "--feed",
+    "ProgramLimits.retract_speed": "--retract-speed", "ProgramLimits.max_joint_speed_deg": "--max-joint-speed",
+    "ProgramLimits.max_joint_accel_deg": "--max-joint-accel", "ProgramLimits.max_tip_speed": "--max-tip-speed",
+    "ProgramLimits.tool_radius": "--tool-radius", "ProgramLimits.dt": "--dt", "ProgramLimits.clearance": "--clearance",
+    "ProgramLimits.self_clearance": "--self-clearance", "ProgramLimits.kappa_max": "--kappa-max", "Planner.seed": "--seed",
+    "Planner.time_s": "--plan-time", "order": "--order",
+    # arcube.explore
+    "port": "--port", "point": "--point",
 }  # fmt: skip
 """Setting (as :class:`~arcube.errors.InputError` names it) -> the flag that sets it."""
 

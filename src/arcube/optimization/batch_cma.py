@@ -13,18 +13,24 @@ The algorithm is the one of the ``cma`` package (4.x) with its default options, 
 rescaled to Mahalanobis length sqrt(n)), cumulative step-size adaptation with cma's ``cs``,
 ``damps`` and exact E||N(0, I)||, the hsig stall of the rank-one path, the change of log sigma
 clipped to +-1, an eigendecomposition every generation (cma's lazy gap 1/(c1+cmu)/n/10 is below one
-generation here), no mirrors, no elitism, no bounds (the caller maps samples into its box).
+generation here), no elitism, no bounds (the caller maps samples into its box), and no mirrored
+samples (cma mirrors only populations below 6, which ``mscmaes`` uses only for tiny budgets).
 
 Stop tests, each cma's (options ``tolfun = tolfunhist = tol``, ``tolx = tol/10``, the rest cma's
 defaults): tolfun (this generation's values and the best-of-generation history both span less
 than tol), tolfunhist (that history, once over 9 generations long, spans less than tol), tolx,
 tolfacupx, tolconditioncov, noeffectcoord, noeffectaxis, tolflatfitness. Left out: tolstagnation
-and tolxstagnation (they need several hundred stagnant generations: in the paper's problem every
-search run stops by tolfun/tolfunhist after ~300-650 generations, and a polish phase is ~230
-generations long), tolupsigma, maxiter, and cma's conditioning alleviation (condition above 1e8).
+(no improvement over ~900 generations at n = 23: in the paper's problem every search run stops by
+tolfun/tolfunhist after ~350-700 generations, and the polish phase is ~230 generations long),
+tolxstagnation (a mean that moves less than 1e-9 for 20+ generations: tolx comes first),
+tolupsigma, maxiter, and cma's alleviation of a condition number above 1e8.
 
-Randomness: every sample comes from the one ``numpy.random.Generator`` given at construction, all
-runs' standard normals drawn in one call per generation; nothing else is random.
+Randomness: each run draws its standard normals from its own ``numpy.random.Generator`` (given at
+:meth:`restart`), one ``(lam, n)`` array per generation as cma's ``randn`` option does, and starts
+with cma's initial C = diag(exp(1e-4 i / n)) (distinct variances, so the eigenvectors do not
+depend on round-off). Fed the same start and generator, a run samples the same candidates as a
+``cma`` run to ~1e-10 and stops at the same generation (tests/test_multistart.py), until two
+nearly equal function values rank the other way round.
 """
 
 from __future__ import annotations
@@ -68,17 +74,18 @@ def parameters(n: int, lam: int) -> dict[str, float | np.ndarray]:
 
 class BatchCMA:
     """``runs`` CMA-ES runs in ``n`` dimensions with population ``lam``, initial step ``sigma0`` and
-    stop tolerance ``tol`` (function values; tolx is ``tol/10``), sampling from ``rng``.
+    stop tolerance ``tol`` (in units of the function values; tolx is ``tol/10`` in units of x).
 
-    State, per run ``r``: ``mean`` (R, n), ``sigma`` (R,), covariance ``C`` (R, n, n) and its
+    Positions and steps are in the caller's coordinates (for ``mscmaes`` the normalized box
+    [0, 1]^n, which the runs may leave); function values are minimized. State, per run ``r``: ``mean`` (R, n), ``sigma`` (R,), covariance ``C`` (R, n, n) and its
     eigendecomposition ``C = B diag(D**2) B^T`` (``B`` (R, n, n), ``D`` (R, n) ascending), paths
     ``ps``, ``pc`` (R, n), generation count ``it`` (R,), best-of-generation history ``hist`` (R, H)
-    (a ring, H = floor(10 + 30 n / lam) as cma), flat-fitness count ``flat`` (R,). Every run must
-    be started with :meth:`restart` before the first :meth:`ask`.
+    (a ring, H = floor(10 + 30 n / lam) as cma), flat-fitness count ``flat`` (R,), generators
+    ``rngs``. Every run must be started with :meth:`restart` before the first :meth:`ask`.
     """
 
-    def __init__(self, runs: int, n: int, lam: int, sigma0: float, tol: float, rng: np.random.Generator) -> None:
-        self.R, self.n, self.lam, self.sigma0, self.tol, self.rng = int(runs), int(n), int(lam), float(sigma0), float(tol), rng
+    def __init__(self, runs: int, n: int, lam: int, sigma0: float, tol: float) -> None:
+        self.R, self.n, self.lam, self.sigma0, self.tol = int(runs), int(n), int(lam), float(sigma0), float(tol)
         p = parameters(self.n, self.lam)
         self.w, self.mu, self.mueff = p["weights"], int(p["mu"]), float(p["mueff"])
         self.cc, self.c1, self.cmu, self.cs, self.damps, self.chin = (float(p[k]) for k in ("cc", "c1", "cmu", "cs", "damps", "chin"))
@@ -90,16 +97,18 @@ class BatchCMA:
         self.it, self.flat = np.zeros(R, dtype=np.int64), np.zeros(R, dtype=np.int64)
         self.hist = np.zeros((R, self.H))
         self.Y = np.zeros((R, self.lam, n))  # the last steps asked, in units of sigma
+        self.rngs: list[np.random.Generator | None] = [None] * R
+        self.C0 = np.exp((1e-4 / n) * np.arange(n))  # cma's initial variances (distinct: unique eigenvectors)
 
-    def restart(self, r: int, x0: np.ndarray) -> None:
-        """Run ``r`` afresh at ``x0`` (n,): sigma0, C = I, zero paths and history."""
-        self.mean[r], self.sigma[r] = x0, self.sigma0
-        self.C[r], self.B[r], self.D[r] = np.eye(self.n), np.eye(self.n), 1.0
+    def restart(self, r: int, x0: np.ndarray, rng: np.random.Generator) -> None:
+        """Run ``r`` afresh at ``x0`` (n,), sampling from ``rng``: sigma0, C ~ I (:attr:`C0`), zero paths and history."""
+        self.mean[r], self.sigma[r], self.rngs[r] = x0, self.sigma0, rng
+        self.C[r], self.B[r], self.D[r] = np.diag(self.C0), np.eye(self.n), np.sqrt(self.C0)
         self.ps[r], self.pc[r], self.it[r], self.flat[r] = 0.0, 0.0, 0, 0
 
     def ask(self) -> np.ndarray:
         """All runs' candidates, ``(R * lam, n)``, run by run: ``mean_r + sigma_r B_r diag(D_r) z``, z ~ N(0, I)."""
-        Z = self.rng.standard_normal((self.R, self.lam, self.n))
+        Z = np.stack([g.standard_normal((self.lam, self.n)) for g in self.rngs])
         self.Y = (Z * self.D[:, None, :]) @ self.B.transpose(0, 2, 1)
         return (self.mean[:, None, :] + self.sigma[:, None, None] * self.Y).reshape(-1, self.n)
 

@@ -23,10 +23,10 @@ The settings below were chosen by measurement over 15 seeds (8 concurrent runs, 
 tolerance 3e-3, then a 10 % polish: 1.2475 / 1.2479 / 1.2488 best / median / worst; the GA, islands
 of GAs, and a GA followed by a local CMA-ES stayed in the GA's seed-dependent basins).
 
-Reproducible: the restart points come from the algorithm's ``random_state``
-(``np.random.default_rng(seed)``) and each phase's Gaussian samples from one generator seeded from
-it, never from numpy's global generator, so a run replays bit for bit from its evaluation log
-(resume).
+Reproducible: the restart points and each run's Gaussian samples come from generators derived
+from the algorithm's ``random_state`` (``np.random.default_rng(seed)``), in the order the
+``cma``-based version drew them, never from numpy's global generator, so a run replays bit for
+bit from its evaluation log (resume).
 """
 
 from __future__ import annotations
@@ -117,21 +117,23 @@ class MultiStartCMAES(Algorithm):
         if self.search_budget < self.runs * self.lam:  # too small to split: search only
             self.search_budget = self.budget
 
-    def _start(self) -> np.ndarray:
-        """Where the next run starts (n,), in the normalized box."""
-        self.started += 1
+    def _start(self, r: int) -> None:
+        """(Re)start run ``r``: its start point in the normalized box, then its own generator, both from ``random_state``."""
         if self.polishing:
-            return self.best_u
-        if self.started == 1 and self.x0 is not None:
-            return np.clip((self.x0 - self.xl) / (self.xu - self.xl), 0.0, 1.0)
-        return self.random_state.random(len(self.xl))
+            start = self.best_u
+        elif self.started == 0 and self.x0 is not None:
+            start = np.clip((self.x0 - self.xl) / (self.xu - self.xl), 0.0, 1.0)
+        else:
+            start = self.random_state.random(len(self.xl))
+        self.started += 1
+        self.es.restart(r, start, np.random.default_rng(self.random_state.integers(2**63)))
 
     def _new_phase(self, runs: int) -> None:
-        """``runs`` fresh runs with the phase's step size and tolerance, sampling from a new generator."""
+        """``runs`` fresh runs with the phase's step size and tolerance."""
         sigma, tol = (POLISH_SIGMA, POLISH_TOL) if self.polishing else (self.sigma, self.tol)
-        self.es = BatchCMA(runs, len(self.xl), self.lam, sigma, tol, np.random.default_rng(self.random_state.integers(2**63)))
+        self.es = BatchCMA(runs, len(self.xl), self.lam, sigma, tol)
         for r in range(runs):
-            self.es.restart(r, self._start())
+            self._start(r)
 
     def _ask(self) -> Any:
         if self.evaluator.n_eval + self.es.R * self.lam > self.budget:  # a budget smaller than one batch: nothing to do
@@ -146,7 +148,7 @@ class MultiStartCMAES(Algorithm):
         if self.best is None or F[j] < self.best.F[0]:  # first: a polish run that stops restarts at the newest best
             self.best, self.best_u = infills[j], self.U[j].copy()
         for r in np.flatnonzero(self.es.tell(F)):
-            self.es.restart(int(r), self._start())
+            self._start(int(r))
         self.pop = infills
         if not self.polishing and self.evaluator.n_eval + len(F) > self.search_budget:  # search spent: polish the best
             self.polishing = True

@@ -1,0 +1,73 @@
+"""The settings of a drilling program (MODEL.md 17): speeds, limits, clearances, and the planner's own.
+
+:class:`ProgramLimits` holds what 17.1-17.3 name, with their defaults; :class:`Planner` the sampling
+planner's reproducibility knobs (not model). Both are frozen pydantic groups whose ``Field``
+constraints are their only checks: a bad value is a one-line :class:`~arcube.errors.InputError`
+naming the field (``ProgramLimits.feed must be > 0, got -1.0``), which the CLI maps to its flag.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pydantic import Field
+
+from arcube.options import Settings
+
+__all__ = ["ORDERS", "Planner", "ProgramLimits", "RESOLUTION_MM"]
+
+ORDERS = ("shortest", "given")
+"""The trajectory orders of MODEL.md 17.1: the shortest total time, or the plan's own."""
+
+RESOLUTION_MM = 0.5
+"""MODEL.md 17.2: no point of the body or tool moves more than this between two checked states."""
+
+_Pos = dict(gt=0, allow_inf_nan=False)
+
+
+class ProgramLimits(Settings):
+    """Speeds and limits of MODEL.md 17 (mm, s, deg)."""
+
+    standoff_mm: float = Field(default=20.0, ge=0, allow_inf_nan=False)
+    """s: the tip waits this far outside the anatomy along its own axis (17.1)."""
+    approach_speed: float = Field(default=10.0, **_Pos)
+    """v_a, mm/s: standoff -> entry."""
+    feed: float = Field(default=1.5, **_Pos)
+    """v_f, mm/s: entry -> target (drilling)."""
+    retract_speed: float = Field(default=10.0, **_Pos)
+    """v_r, mm/s: target -> standoff."""
+    max_joint_speed_deg: float = Field(default=30.0, **_Pos)
+    """|q_dot_i| <= this, deg/s, for each of the five actuators."""
+    max_joint_accel_deg: float = Field(default=120.0, **_Pos)
+    """|q_ddot_i| <= this, deg/s^2."""
+    max_tip_speed: float = Field(default=50.0, **_Pos)
+    """v_max, mm/s: the tip's speed in transit."""
+    tool_radius: float = Field(default=1.5, ge=0, allow_inf_nan=False)
+    """rho_t, mm: the tool E -> H clears the anatomy by >= 0 in transit."""
+    dt: float = Field(default=0.01, gt=0, le=1.0, allow_inf_nan=False)
+    """Time step of the program's rows, s."""
+    clearance: float = Field(default=5.0, ge=0, allow_inf_nan=False)
+    """c_min, mm: body to anatomy (with an anatomy)."""
+    self_clearance: float = Field(default=2.0, allow_inf_nan=False)
+    """c_self, mm: between the body's own parts (negative: an overlap the caller accepts, e.g. a skeleton design)."""
+    kappa_max: float = Field(default=100.0, ge=1, allow_inf_nan=False)
+    """eta_L <= this everywhere."""
+
+    @property
+    def qd_max(self) -> float:
+        """The joint speed limit in rad/s."""
+        return math.radians(self.max_joint_speed_deg)
+
+    @property
+    def qdd_max(self) -> float:
+        """The joint acceleration limit in rad/s^2."""
+        return math.radians(self.max_joint_accel_deg)
+
+
+class Planner(Settings):
+    """The sampling planner of the transits (OMPL RRTConnect): a seed and a time budget per transit."""
+
+    seed: int = Field(default=1, ge=0, le=2**31 - 1)
+    """OMPL's random seed: the same seed gives the same program."""
+    time_s: float = Field(default=10.0, gt=0, le=3600, allow_inf_nan=False)
+    """Wall-clock budget of one planner call (a blocked transit), s."""
