@@ -348,7 +348,9 @@ def test_unwritable_output(tmp_path: Path, capsys) -> None:
 
 def test_a_failed_run_keeps_no_partial_program(tmp_path: Path, monkeypatch) -> None:
     """If the second file cannot be written, the first is removed again."""
-    import arcube.program.output as output
+    import importlib
+
+    output = importlib.import_module("arcube.program.output")  # the module: ``arcube.program`` is the function
 
     real = output.atomic_write_text
 

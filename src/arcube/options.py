@@ -144,7 +144,9 @@ class Masses(Settings):
     riding on the cranks, the drill motor; gravity in the patient frame (prone: posterior up)."""
 
     wall_mm: float = Field(default=2.0, gt=0, allow_inf_nan=False)
-    """Wall thickness w of every moving link's tube (outer radius: Body.link_radius), mm."""
+    """Wall thickness w of every moving link's tube (outer radius: Body.link_radius), mm; checked to be
+    < Body.link_radius where the mass model is used (:class:`arcube.evaluation.bodies.MassModel`),
+    so that thin links without masses stay valid."""
     density_kg_m3: float = Field(default=2700.0, gt=0, allow_inf_nan=False)
     """Density of the links' material, kg/m^3 (aluminium)."""
     m_delta_kg: float = Field(default=0.8, ge=0, allow_inf_nan=False)
@@ -210,12 +212,6 @@ class Options(Settings):
             current = out.get(group, {})
             out[group] = {**(current if isinstance(current, dict) else dict(current)), name: value}
         return out
-
-    @model_validator(mode="after")
-    def _wall_inside_the_tube(self) -> Options:
-        if self.masses.wall_mm >= self.body.link_radius:
-            raise InputError.of("Masses.wall_mm", f"must be < Body.link_radius ({self.body.link_radius:g} mm: a tube's wall inside its radius), got {self.masses.wall_mm:g}")
-        return self
 
     @property
     def radii(self) -> BodyRadii:

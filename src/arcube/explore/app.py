@@ -56,7 +56,7 @@ def check_port(host: str, port: int) -> None:
             probe.bind((host, port))
             probe.listen(1)
         except OSError as exc:
-            raise InputError.of("port", f"{port} on {host} is in use or not available ({exc.strerror or exc}); choose another with --port") from None
+            raise InputError.of("port", f"{port} on {host} is in use or not available ({exc.strerror or exc}); choose another") from None
 
 
 class ExplorerApp:
@@ -74,7 +74,7 @@ class ExplorerApp:
         self.port = int(self.server.get_port())
         if self.port != port:  # viser moves to the next free port; a race with another program
             self._stop_server()
-            raise InputError.of("port", f"{port} on {host} is in use; choose another with --port")
+            raise InputError.of("port", f"{port} on {host} is in use; choose another")
         self.figures: Figures | None = None
         self.view: View | None = None
         self.timings: dict[str, float] = {}
