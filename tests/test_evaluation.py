@@ -68,15 +68,23 @@ def test_evaluate_task_batch_equals_loop_of_evaluate_points(designs, rng, option
         eta = np.array([float(r.eta_L) for r in loop])
         dex = np.array([float(r.dexterity_pct) for r in loop])
         exc = np.array([float(r.excess) for r in loop])
+        grade = np.array([float(r.guard_grade) for r in loop])
+        ik_fail = np.array([0 < int(r.failure) <= ev.IK_FAILURES for r in loop])
         w_G = bool(reach.all())
         assert bool(res.w_G[i]) == w_G
         assert res.reachable_fraction[i] == pytest.approx(reach.mean(), abs=1e-15)
+        # MODEL.md 16: V = V_reach (IK failures and their excess) + G / (1 + G) / (2P), G = mean guard grade
+        v_reach = ik_fail.mean() + exc.sum() if ik_fail.any() else 0.0
+        G = grade.sum() / P
+        assert res.violation_reach[i] == pytest.approx(v_reach, rel=1e-12)
+        assert res.guard_grade[i] == pytest.approx(grade.sum(), rel=1e-12)
+        assert res.violation[i] == pytest.approx(v_reach + G / (1.0 + G) / (2 * P), rel=1e-12)
+        assert np.all(exc[~ik_fail] == 0.0) and np.all(grade[ik_fail] == 0.0)
         if w_G:
             assert res.eta_G[i] == pytest.approx(eta.mean(), rel=1e-12)
             assert res.violation[i] == 0.0
         else:
-            assert res.eta_G[i] == np.inf
-            assert res.violation[i] == pytest.approx((~reach).mean() + exc.sum(), rel=1e-12)
+            assert res.eta_G[i] == np.inf and res.violation[i] > 0.0
         assert res.dexterity_min[i] == pytest.approx(dex.min(), abs=1e-12)
         assert res.dexterity_mean[i] == pytest.approx(dex.mean(), rel=1e-12)
         assert res.dexterity_max[i] == pytest.approx(dex.max(), rel=1e-12)
@@ -303,9 +311,12 @@ def _check_guard(x, E, e, options, condition, reason):
     np.testing.assert_array_equal(guarded.reachable, base.reachable & condition)
     assert all(failure_name(int(c)) == reason for c in guarded.failure[~condition])
     np.testing.assert_array_equal(guarded.eta_L[condition], base.eta_L[condition])
-    assert np.all(guarded.excess[~condition] > 0) and np.all(guarded.excess[condition] == 0)
+    # MODEL.md 16: a guard's failure is graded apart from the IK (its excess stays 0), by terms min(s/S, 1)
+    assert np.all(guarded.excess == 0)
+    assert np.all(guarded.guard_grade[~condition] > 0) and np.all(guarded.guard_grade[condition] == 0)
+    assert np.all(guarded.guard_grade <= 7.0)  # at most one term per transmission sine
     task = evaluate_task(x, E, e, options=options)
-    assert not task.w_G and task.violation > 0
+    assert not task.w_G and task.violation > 0 and task.violation_reach == 0 and task.violation < 1 / (2 * len(E))
     task_ok = evaluate_task(x, E[condition], e[condition], options=options)
     assert task_ok.w_G and task_ok.violation == 0
 

@@ -3,8 +3,8 @@
 Agreement asserted, field by field for every field of TaskResults and PointResults (a field without
 a tolerance in :data:`POINT_TOL` / :data:`SUMMARY_TOL` fails): the same shapes and dtypes; failure
 codes, reachability, w_G, reachable_fraction, parts and actuators identical; NaN and +-inf at the
-same places; finite values to 1e-10 relative (angles and the graded excess: 1e-10 of
-max(|value|, 1); the drill-tip metrics, a closed form against a 5x5 solve: 10x that; the
+same places; finite values to 1e-10 relative (angles, the excess, the guard grade and the violations
+of MODEL.md 16: 1e-10 of max(|value|, 1); the drill-tip metrics, a closed form against a 5x5 solve: 10x that; the
 clearances as tests/test_clearance.py). The one allowance is rounding amplified by the conditioning of the
 point itself: the reference's own last-bit noise (e.g. AVX-512 NumPy's SVML arcsin/arccos/
 arctan2 against libm) grows like eps * kappa near a singular Jacobian and like eps / (1 - arg^2)
@@ -120,9 +120,13 @@ minimum along the body, the reference samples every 0.25 mm (within 0.125); as t
 SELF_CLEARANCE = Tol(rel=0.0, abs=1e-9)
 """Self clearance, mm: the same closest-point formulas and chord polylines in both (tests/test_clearance.py)."""
 
+GRADE = Tol(floor=1.0)
+"""The guard grade of MODEL.md 16 (a sum of terms min(s/S, 1), unitless): as the graded excess; its terms
+come from the same shortfalls the failure codes (compared exactly) are decided by."""
+
 POINT_TOL: dict[str, Tol] = {
     "reachable": EXACT, "failure": EXACT,
-    "kappa": Tol(), "eta_L": Tol(), "dexterity_pct": Tol(), "excess": Tol(floor=1.0),
+    "kappa": Tol(), "eta_L": Tol(), "dexterity_pct": Tol(), "excess": Tol(floor=1.0), "guard_grade": GRADE,
     "rho": Tol(floor=1.0), "delta": Tol(floor=1.0), "sigma": Tol(floor=1.0),
     "clearance_mm": CLEARANCE, "clearance_part": EXACT, "self_clearance_mm": SELF_CLEARANCE,
     "tip_error_mm": TIP, "lateral_error_mm": TIP, "axial_error_mm": TIP, "axis_error_deg": TIP,
@@ -131,7 +135,7 @@ POINT_TOL: dict[str, Tol] = {
 """Every PointResults field: how the kernel's must equal the reference's (a field missing here fails)."""
 SUMMARY_TOL: dict[str, Tol] = {
     "w_G": EXACT, "reachable_fraction": EXACT,
-    "eta_G": Tol(), "violation": Tol(floor=1.0),
+    "eta_G": Tol(), "violation": Tol(floor=1.0), "violation_reach": Tol(floor=1.0), "guard_grade": GRADE,
     "dexterity_min": Tol(), "dexterity_mean": Tol(), "dexterity_max": Tol(),
     "clearance_min": CLEARANCE, "self_clearance_min": SELF_CLEARANCE,
     "tip_error_max": TIP, "lateral_error_max": TIP, "axial_error_max": TIP, "axis_error_max": TIP,
@@ -339,9 +343,10 @@ def test_shapes_broadcasting_and_point_chunks(designs, points) -> None:
     assert got.points.kappa.shape == (len(E), 7) and np.shape(got.eta_G) == ()
     # chunked and per-design paths give the same bits
     many = kernel.evaluate_task_numba(designs, E, e, ALL_MODES[3], GUARDED_OPTIONS)
-    for field in ("failure", "kappa", "eta_L", "excess", "delta"):
+    for field in ("failure", "kappa", "eta_L", "excess", "guard_grade", "delta"):
         np.testing.assert_array_equal(getattr(got.points, field), getattr(many.points, field)[0])
-    np.testing.assert_array_equal(got.violation, many.violation[0])
+    for field in ("violation", "violation_reach", "guard_grade"):
+        np.testing.assert_array_equal(getattr(got, field), getattr(many, field)[0])
     # designs (2, 3, 23) against modes (3, 4): batch (2, 3)
     X = designs[:6].reshape(2, 3, 23)
     ref = check(X, E, e, ALL_MODES[[0, 7, 12]], Options(single_assembly_mode=True))

@@ -1,9 +1,15 @@
-"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2).
+"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2, 16).
 
 :func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
 against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per point and
 ``(...)`` per design. No Python loop over designs or points. The settings it reads are
 :class:`arcube.options.Options` (re-exported here with :data:`GUARDED_OPTIONS`).
+
+The graded violation is MODEL.md 16's V = V_reach + V_fit: V_reach (12.2 over the inverse
+kinematics alone) counts the points where sections 3-5 have no solution or eta_L = inf, plus their
+domain excess; V_fit = G / (1 + G) / (2 P) < 1 / (2 P), G = (1/P) sum over the points that solve the
+IK of each active guard's min(s / S, 1) (:data:`GRADE_SCALES`). So a design that misses a point
+always ranks below one that solves the IK everywhere, and among those V grows with every shortfall.
 """
 
 from __future__ import annotations
@@ -21,7 +27,10 @@ from arcube.evaluation.performance import PERFORMANCE_FIELDS, metrics_of_solutio
 from arcube.model.body import body_parts, mechanism_points
 from arcube.options import GUARDED_OPTIONS, Options
 
-__all__ = ["FAILURES", "GUARDED_OPTIONS", "Options", "PointResults", "TaskResults", "evaluate_points", "evaluate_task", "failure_name"]
+__all__ = [
+    "FAILURES", "GRADE_SCALES", "GUARDED_OPTIONS", "IK_FAILURES", "Options", "PointResults", "TaskResults", "evaluate_points",
+    "evaluate_task", "failure_name", "fit_violation",
+]  # fmt: skip
 from arcube.model.stages import rts, zleg
 
 
@@ -37,6 +46,17 @@ collision guards (MODEL.md 14.3) come after the other local guards and before th
 k >= 1 means ``FAILURES[k - 1]``."""
 
 _CODE = {name: i + 1 for i, name in enumerate(FAILURES)}
+IK_FAILURES = _CODE["guard/z_dyad"] - 1
+"""Failure codes 1 .. IK_FAILURES are the inverse-kinematic failures of MODEL.md 16 (a stage has no
+solution, or eta_L = inf); the codes above are guards, which a point fails only once the IK solves it."""
+GRADE_SCALES: dict[str, float] = {
+    "z_dyad": 1.0,  # closure shortfall, already relative to d_z + c_z (8.2)
+    "rho_max": float(np.deg2rad(10.0)),  # rad, of the summed |rho_u| excess
+    "transmission": float(np.sin(np.deg2rad(20.0))),  # each of the seven sines its own term
+    "clearance": 10.0,  # mm, anatomy and self clearance (14.3)
+}
+"""The scales S of MODEL.md 16 by which a guard's shortfall s is graded, min(s / S, 1); ``kappa_max``'s
+scale is kappa_max itself, ``single_assembly_mode`` counts 1 at each point outside the majority mode."""
 _EXCESS_CAP = 10.0
 """Cap on one argument's excess in the graded violation, so that a degenerate argument (C/0)
 cannot swamp the rest; the violation stays 0 exactly when every point is reachable."""
@@ -55,7 +75,8 @@ class PointResults(NamedTuple):
     kappa: NDArray[np.float64]  # (..., P, 7), NaN where the IK has no solution
     eta_L: NDArray[np.float64]  # +inf where unreachable
     dexterity_pct: NDArray[np.float64]  # 100/eta_L, 0 where unreachable
-    excess: NDArray[np.float64]  # graded distance outside the domain (0 where reachable)
+    excess: NDArray[np.float64]  # IK domain excess of 12.2 (0 where the IK solves the point; guards not included)
+    guard_grade: NDArray[np.float64]  # MODEL.md 16: sum over the active guards of min(s/S, 1); 0 where the IK fails
     rho: NDArray[np.float64]  # (..., P, 3) rad
     delta: NDArray[np.float64]  # (..., P, 2) rad
     sigma: NDArray[np.float64]  # (..., P, 2) rad
@@ -78,7 +99,9 @@ class TaskResults(NamedTuple):
     w_G: NDArray[np.bool_]
     reachable_fraction: NDArray[np.float64]
     eta_G: NDArray[np.float64]  # mean eta_L if w_G else +inf
-    violation: NDArray[np.float64]  # graded constraint of 12.2, 0 iff w_G
+    violation: NDArray[np.float64]  # MODEL.md 16: violation_reach + G/(1+G)/(2P), G = guard_grade/P; 0 iff w_G
+    violation_reach: NDArray[np.float64]  # V_reach: fraction of IK failures + their excess; 0 iff the IK solves every point
+    guard_grade: NDArray[np.float64]  # sum of points.guard_grade over the P points (not divided by P)
     dexterity_min: NDArray[np.float64]
     dexterity_mean: NDArray[np.float64]
     dexterity_max: NDArray[np.float64]
@@ -111,19 +134,29 @@ def _first_failure(checks: list[tuple[str, NDArray[np.bool_]]], shape: tuple[int
     return code
 
 
+def _grade(short: ArrayLike, scale: ArrayLike) -> NDArray[np.float64]:
+    """One guard term of MODEL.md 16, min(s / S, 1) (NaN propagates)."""
+    return np.minimum(np.asarray(short) / scale, 1.0)
+
+
 def _guard_checks(
     sol: IKSolution, params: ArrayLike, eta: NDArray[np.float64], options: Options,
 ) -> list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]]:  # fmt: skip
-    """(reason, failed, shortfall) of each active local guard."""
+    """(reason, failed, grade) of each active local guard; ``grade`` is its MODEL.md 16 term(s) at each
+    point, sum of min(s / S, 1), 0 where undefined (NaN). Points without an IK solution are masked later."""
     g = unpack(params)
     out: list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]] = []
+
+    def add(reason: str, failed: NDArray[np.bool_], grade: NDArray[np.float64]) -> None:
+        out.append((reason, failed, np.nan_to_num(grade, nan=0.0)))
+
     if options.guards.z_dyad:
         c_z = g.d[..., 2] if options.guards.c_z is None else options.guards.c_z
         short = zleg.closure_shortfall(zleg.span(sol.E_m, sol.rho[..., 2], g.p[..., 2]), g.d[..., 2], c_z)
-        out.append(("guard/z_dyad", short > 0.0, short))
+        add("guard/z_dyad", short > 0.0, _grade(short, GRADE_SCALES["z_dyad"]))
     if options.guards.rho_max_deg is not None:
         short = np.sum(np.maximum(np.abs(sol.rho) - np.deg2rad(options.guards.rho_max_deg), 0.0), axis=-1)
-        out.append(("guard/rho_max", short > 0.0, short))
+        add("guard/rho_max", short > 0.0, _grade(short, GRADE_SCALES["rho_max"]))
     if options.guards.min_transmission_deg is not None:
         T = sol.terms
         sa, sb = np.sin(g.alpha), np.sin(g.beta)
@@ -136,11 +169,11 @@ def _guard_checks(
             ],
             axis=-1,
         )
-        short = np.sum(np.maximum(np.sin(np.deg2rad(options.guards.min_transmission_deg)) - np.abs(sines), 0.0), axis=-1)
-        out.append(("guard/transmission", short > 0.0, short))
+        shorts = np.maximum(np.sin(np.deg2rad(options.guards.min_transmission_deg)) - np.abs(sines), 0.0)
+        add("guard/transmission", np.sum(shorts, axis=-1) > 0.0, np.sum(_grade(shorts, GRADE_SCALES["transmission"]), axis=-1))
     if options.guards.kappa_max is not None:
-        short = np.minimum(np.maximum(eta - options.guards.kappa_max, 0.0) / options.guards.kappa_max, _EXCESS_CAP)
-        out.append(("guard/kappa_max", eta > options.guards.kappa_max, short))
+        km = options.guards.kappa_max
+        add("guard/kappa_max", eta > km, _grade(np.maximum(eta - km, 0.0), km))
     return out
 
 
@@ -190,18 +223,21 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         *((f"TMS/{leg}", tms_bad[..., i]) for i, leg in enumerate("xy")),
         *((f"singular/{name}", singular[..., i]) for i, name in enumerate(JACOBIAN_NAMES)),
     ]
-    excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)
+    excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)  # 0 where the stages solve the point
+    solved = stages_ok & ~np.any(singular, axis=-1)  # the IK solves the point (MODEL.md 16)
     clear, part, selfc = _body_clearances(sol, params, options, anatomy, shape)
     guards = _guard_checks(sol, params, eta_raw, options)
+    scale = GRADE_SCALES["clearance"]
     if options.guards.clearance_mm is not None and anatomy is not None:
         short = np.maximum(options.guards.clearance_mm - clear, 0.0)  # mm, MODEL.md 14.3
-        guards.append(("collision/patient", short > 0.0, short))
+        guards.append(("collision/patient", short > 0.0, np.nan_to_num(_grade(short, scale), nan=0.0)))
     if options.guards.self_clearance_mm is not None:
         short = np.maximum(options.guards.self_clearance_mm - selfc, 0.0)
-        guards.append(("collision/self", short > 0.0, short))
-    for name, failed, short in guards:
+        guards.append(("collision/self", short > 0.0, np.nan_to_num(_grade(short, scale), nan=0.0)))
+    grade: NDArray[np.float64] | float = 0.0
+    for name, failed, term in guards:
         checks.append((name, failed & stages_ok))
-        excess = excess + np.where(stages_ok, np.nan_to_num(short, nan=0.0), 0.0)
+        grade = grade + term
     failure = _first_failure(checks, shape)
     reachable = failure == 0
     perf = metrics_of_solution(sol, params, options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N,
@@ -216,6 +252,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         eta_L=eta,
         dexterity_pct=dex,
         excess=np.broadcast_to(excess, shape),
+        guard_grade=np.broadcast_to(np.where(solved, grade, 0.0), shape),
         rho=np.broadcast_to(sol.rho, shape + (3,)),
         delta=np.broadcast_to(sol.delta, shape + (2,)),
         sigma=np.broadcast_to(sol.sigma, shape + (2,)),
@@ -239,20 +276,25 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
     """Fail the points whose assembly signs differ from the task's most common ones (per design).
 
     The reference triple is the most frequent (sign H_x, sign H_y, sign det) among the points
-    that are reachable so far; ties go to the lowest code.
+    that are reachable so far; ties go to the lowest code. The points that pass so far and differ
+    from it fail; every point that the IK solves and that differs from it (whether or not it also
+    fails a local guard) adds 1 to its ``guard_grade`` (MODEL.md 16).
     """
     asm = sol.assembly
     code = ((asm[..., 0] > 0) * 4 + (asm[..., 1] > 0) * 2 + (asm[..., 2] > 0)).astype(np.int64)
     counts = np.sum((code[..., None] == np.arange(8)) & pts.reachable[..., None], axis=-2)
     ref = np.argmax(counts, axis=-1)
-    off = pts.reachable & (code != ref[..., None])
+    other = code != ref[..., None]
+    off = pts.reachable & other
     failure = np.where(off, np.int16(_CODE["guard/single_assembly_mode"]), pts.failure)
     reachable = failure == 0
+    solved = (pts.failure == 0) | (pts.failure > IK_FAILURES)
     return _mask_performance(pts._replace(
         reachable=reachable,
         failure=failure,
         eta_L=np.where(reachable, pts.eta_L, np.inf),
         dexterity_pct=np.where(reachable, pts.dexterity_pct, 0.0),
+        guard_grade=np.where(solved & other, pts.guard_grade + 1.0, pts.guard_grade),
     ))  # fmt: skip
 
 
@@ -264,7 +306,9 @@ def evaluate_task(
 
     ``mode`` broadcasts as ``(..., 4)`` (one working mode per design, or one for all).
     Per-point fields have shape ``(..., P)``; summaries ``(...)``. Dexterity statistics run
-    over all P points, counting 0 at unreachable points.
+    over all P points, counting 0 at unreachable points. ``violation`` is MODEL.md 16's V_reach + V_fit
+    for this task alone (no --max/--min limits: the optimizer adds them, with several tasks, from
+    ``violation_reach`` and ``guard_grade``).
     """
     p = np.asarray(params, dtype=float)[..., None, :]
     m = np.asarray(mode, dtype=float)[..., None, :]
@@ -277,13 +321,17 @@ def evaluate_task(
         n_bad = np.sum(~pts.reachable, axis=-1)
         w_G = n_bad == 0
         eta_G = np.where(w_G, np.mean(np.where(pts.reachable, pts.eta_L, 0.0), axis=-1), np.inf)
-        violation = n_bad / n + np.sum(pts.excess, axis=-1)
+        n_ik = np.sum((pts.failure > 0) & (pts.failure <= IK_FAILURES), axis=-1)
+        reach = np.where(n_ik == 0, 0.0, n_ik / n + np.sum(pts.excess, axis=-1))
+        grade = np.sum(pts.guard_grade, axis=-1)
     return TaskResults(
         points=pts,
         w_G=w_G,
         reachable_fraction=1.0 - n_bad / n,
         eta_G=eta_G,
-        violation=np.where(w_G, 0.0, violation),
+        violation=reach + fit_violation(grade / n, n),
+        violation_reach=reach,
+        guard_grade=grade,
         dexterity_min=np.min(pts.dexterity_pct, axis=-1),
         dexterity_mean=np.mean(pts.dexterity_pct, axis=-1),
         dexterity_max=np.max(pts.dexterity_pct, axis=-1),
@@ -291,6 +339,14 @@ def evaluate_task(
         self_clearance_min=_min_reachable(pts.self_clearance_mm, pts.reachable),
         **{name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable) for name in PERFORMANCE_FIELDS},
     )
+
+
+def fit_violation(G: ArrayLike, n: int) -> NDArray[np.float64]:
+    """V_fit of MODEL.md 16, G / (1 + G) / (2 n), from G >= 0 (+inf gives 1 / (2 n)) and n points: < 1 / (2 n)
+    for finite G (up to rounding), 0 exactly when G = 0."""
+    G = np.asarray(G, dtype=float)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isposinf(G), 1.0, G / (1.0 + G)) / (2.0 * n)
 
 
 def _max_reachable(values: NDArray[np.float64], reachable: NDArray[np.bool_]) -> NDArray[np.float64]:

@@ -13,10 +13,13 @@ Three layers, all picklable and free of pymoo except the last:
   docking, a setup otherwise (every patient shares the placement: the paper's robust problem).
 * :class:`FitnessModel` evaluates a whole population: one batch call of
   :func:`arcube.evaluation.engine.evaluate_task` with params ``(pop, 27)`` per task (a task is one setup of
-  one patient). It returns F, the violation VIOL (0 exactly when every point of every task is
-  reachable and the orientation margin holds) and the aggregate eta ETA (+inf when infeasible).
+  one patient). It returns F, the violation VIOL of MODEL.md 16 (0 exactly when every point of every
+  task is reachable, the orientation margin holds and every --max/--min is met; any design that misses
+  a point ranks below every design that reaches them all) and the aggregate eta ETA (+inf when infeasible).
 * :class:`ArcubeProblem` is the pymoo Problem; it delegates the batch to a callable so that
   run.py can log, replay and distribute evaluations.
+
+Long module: the variable space, the fitness model with MODEL.md 16's combination over tasks and the pymoo Problem travel to workers together.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from numpy.typing import NDArray
 from pymoo.core.problem import Problem
 
 from arcube.evaluation import engine as core_engine
+from arcube.evaluation.reference import fit_violation
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PARAM_NAMES, SLICES
 from arcube.errors import InputError
 from arcube.options import Options
@@ -233,22 +237,27 @@ class FitnessModel:
             for t in self.tasks
         ]
 
-    def _combine(self, results: list[Any], params: list[Array]) -> tuple[Array, Array]:
+    def _combine(self, results: list[Any], params: list[Array]) -> tuple[Array, Array, Array, Array]:
+        """Over all tasks, each ``(n,)``: eta (of the plan's tasks; +inf unless the margin holds and every task is
+        w_G), the margin shortfall plus every task's V_reach, the guard grades summed over all points, all w_G."""
         n = params[0].shape[0]
-        viol = self.margin_shortfall(params[0])
+        reach = self.margin_shortfall(params[0])
+        grade = np.zeros(n)
+        all_w = np.ones(n, dtype=bool)
         eta_sum = np.zeros((self.n_patients, n))
         pts = np.zeros(self.n_patients)
         for t, res in zip(self.tasks, results):
-            v = np.nan_to_num(np.asarray(res.violation, dtype=float), nan=1e6, posinf=1e6)
-            viol = viol + np.where(np.asarray(res.w_G), 0.0, np.maximum(v, 1e-12))
+            w = np.asarray(res.w_G)
+            reach = reach + np.nan_to_num(np.asarray(res.violation_reach, dtype=float), nan=1e6, posinf=1e6)
+            grade = grade + np.asarray(res.guard_grade, dtype=float)
+            all_w = all_w & w
             if t.role != "plan":
                 continue
-            eta_sum[t.patient] += t.n_points * np.where(np.asarray(res.w_G), np.asarray(res.eta_G, dtype=float), 0.0)
+            eta_sum[t.patient] += t.n_points * np.where(w, np.asarray(res.eta_G, dtype=float), 0.0)
             pts[t.patient] += t.n_points
         eta_p = eta_sum / pts[:, None]
         eta = eta_p.mean(axis=0) if self.aggregate == "mean" else eta_p.max(axis=0)
-        feasible = viol == 0.0
-        return np.where(feasible, eta, np.inf), viol
+        return np.where((reach == 0.0) & all_w, eta, np.inf), reach, grade, all_w
 
     def compactness_values(self, params: list[Array]) -> tuple[Array, Array]:
         """(sum of link lengths mm, largest bounding-box volume over the tasks in litres), each ``(n,)``."""
@@ -268,15 +277,23 @@ class FitnessModel:
         return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta}
 
     def _judge(self, results: list[Any], params: list[Array]) -> tuple[Array, Array, dict[str, Array]]:
-        """(eta, violation with the --max/--min shortfalls, the objectives' and limits' values), each ``(n,)``."""
-        eta, viol = self._combine(results, params)
+        """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is MODEL.md 16's:
+        margin shortfall + sum of the tasks' V_reach + G / (1 + G) / (2n), n = the points of all tasks (approach
+        lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible."""
+        eta, reach, grade, all_w = self._combine(results, params)
         names = set(self.objectives) | {name for name, _, _ in self.limits}
         links = vol = np.zeros(0)
         if names & {"links", "bbox"}:
             links, vol = self.compactness_values(params)
         plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
         values = metric_values(names, plan, eta, links, vol, clearance_results=results)
-        viol = viol + limit_shortfall([list(lim) for lim in self.limits], values, len(viol))
+        n_all = sum(t.n_points for t in self.tasks)
+        defined = dict(values)
+        if "eta_G" in values:  # +inf (a task not w_G): no eta_G to bound; the reach and the guards grade that design
+            defined["eta_G"] = np.where(np.isfinite(eta), eta, np.nan)
+        fit = fit_violation(grade / n_all + limit_shortfall([list(lim) for lim in self.limits], defined, len(reach)), n_all)
+        fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
+        viol = reach + fit
         return np.where(viol == 0.0, eta, np.inf), viol, values
 
     __call__ = evaluate

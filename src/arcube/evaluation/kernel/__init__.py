@@ -1,9 +1,10 @@
 """Compiled evaluation kernel (Numba): :func:`evaluate_task_numba` == :func:`arcube.evaluation.reference.evaluate_task`.
 
 One fused pass per (design, point): TLS IK (Eq 1), RTS IK (MODEL.md 5.2), TMS IK (4.2), the
-seven condition numbers by the closed forms of 8.1, the local guards of 8.2 and the graded
-excess of 12.2. A design's points then get the global ``single_assembly_mode`` guard and the
-summaries (w_G, eta_G, violation, dexterity statistics). Designs run in parallel (``prange``,
+seven condition numbers by the closed forms of 8.1, the local guards of 8.2, the IK domain
+excess of 12.2 and the guard grade of 16. A design's points then get the global
+``single_assembly_mode`` guard and the summaries (w_G, eta_G, the violation of MODEL.md 16 and its
+parts violation_reach and guard_grade, dexterity statistics). Designs run in parallel (``prange``,
 Numba's default thread count); when there are fewer than two designs per thread, the points
 are split into chunks instead. With ``want_points=False`` no designs x points array exists.
 

@@ -26,7 +26,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from arcube.evaluation.performance import PERFORMANCE_FIELDS
-from arcube.evaluation.reference import FAILURES, PointResults, TaskResults
+from arcube.evaluation.reference import FAILURES, GRADE_SCALES, IK_FAILURES, PointResults, TaskResults
 from arcube.model.design import SLICES
 
 PI = math.pi
@@ -38,6 +38,14 @@ EXCESS_CAP = 10.0
 """Cap on one argument's excess in the graded violation (MODEL.md 12.2), as the reference's
 ``_EXCESS_CAP`` (tests/test_kernel_layout.py holds the two equal)."""
 
+GRADE_Z_DYAD = GRADE_SCALES["z_dyad"]
+GRADE_RHO = GRADE_SCALES["rho_max"]  # rad
+GRADE_SINE = GRADE_SCALES["transmission"]
+GRADE_CLEARANCE = GRADE_SCALES["clearance"]  # mm
+"""The scales S of MODEL.md 16's guard terms min(s / S, 1), the reference's ``GRADE_SCALES``."""
+CODE_IK_LAST = IK_FAILURES
+"""Failure codes 1 .. CODE_IK_LAST: the inverse kinematics fails (a stage, or eta_L = inf; MODEL.md 16)."""
+
 CODE_SINGULAR = FAILURES.index("singular/J_LV") + 1  # 8 .. 14 in JACOBIAN_NAMES order
 CODE_Z_DYAD = FAILURES.index("guard/z_dyad") + 1
 CODE_RHO = FAILURES.index("guard/rho_max") + 1
@@ -47,6 +55,7 @@ CODE_SAM = FAILURES.index("guard/single_assembly_mode") + 1
 CODE_PATIENT = FAILURES.index("collision/patient") + 1
 CODE_SELF = FAILURES.index("collision/self") + 1
 assert FAILURES[:7] == ("TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y")
+assert CODE_IK_LAST == CODE_SINGULAR + 6 == CODE_Z_DYAD - 1
 
 CHUNK = 64
 """Points per tile when a few designs are split over threads."""
@@ -126,7 +135,8 @@ SUMMARY = Layout("S", ((name, 1) for name in SUMMARY_FIELDS))
 POINT_ARRAYS: tuple[str, ...] = ("reachable", "failure", "kappa", "eta_L", "dexterity_pct", "excess", "rho", "delta", "sigma")
 """PointResults fields with arrays of their own in the kernel (``reachable`` is failure == 0)."""
 EXTRA_FIELDS: tuple[str, ...] = tuple(name for name in PointResults._fields if name not in POINT_ARRAYS)
-"""Columns of an extra row: every other PointResults field (body clearances, MODEL.md 14.3; tip metrics, 15)."""
+"""Columns of an extra row: every other PointResults field (the guard grade, MODEL.md 16; body clearances, 14.3;
+tip metrics, 15)."""
 EXTRA = Layout("X", ((name, 1) for name in EXTRA_FIELDS))
 """One point's extra row ``(N_EXTRA,)``; integer fields (parts, actuators) held as floats."""
 

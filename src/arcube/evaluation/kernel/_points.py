@@ -1,5 +1,6 @@
 """The per-point pass of one design: TLS, RTS and TMS inverse kinematics, the seven condition
-numbers, the local guards and the graded excess (MODEL.md 3-8, 12.2), in the reference's order."""
+numbers, the local guards, the IK domain excess (MODEL.md 3-8, 12.2) and each point's guard grade
+(MODEL.md 16), in the reference's order."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from numba import njit
 
 from arcube.evaluation.clearance import ARC_CHORDS
 from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
-from arcube.evaluation.kernel._layout import EXCESS_CAP as _CAP
+from arcube.evaluation.kernel._layout import GRADE_CLEARANCE, GRADE_RHO, GRADE_SINE, GRADE_Z_DYAD
 from arcube.evaluation.kernel._layout import CODE_KAPPA, CODE_PATIENT, CODE_RHO, CODE_SELF, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
 from arcube.evaluation.kernel._layout import G_C, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
 from arcube.evaluation.kernel._layout import INF as _INF
@@ -19,11 +20,11 @@ from arcube.evaluation.kernel._layout import O_C_Z, O_EXACT, O_KAPPA_MAX, O_KAPP
 from arcube.evaluation.kernel._layout import O_TRANSMISSION, O_TRANSMISSION_ON, O_Z_DYAD
 from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT, O_CLEARANCE_ON, O_DO_CLEARANCE, O_DO_SELF_CLEARANCE
 from arcube.evaluation.kernel._layout import O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
-from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_SELF_CLEARANCE_MM
+from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
-from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _wrap, rot_t
+from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
 
 N_LINES = N_SEGMENTS + N_SPHERES
@@ -154,12 +155,12 @@ def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, ful
 
 
 @njit(cache=True, error_model="numpy")
-def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det):
-    """The active local guards of MODEL.md 8.2 in FAILURES order: (failure code, excess with their shortfalls)."""
-    d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
-    c0, c1 = g[G_C], g[G_C + 1]
-    t0, t1 = g[G_T], g[G_T + 1]
+def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det):
+    """The active local guards of MODEL.md 8.2 in FAILURES order: (failure code, grade), the grade being the
+    sum of their MODEL.md 16 terms min(s / S, 1) (a guard's NaN counts 0), as ``reference._guard_checks``."""
+    gr = 0.0
     if opt[O_Z_DYAD] != 0.0:
+        d2 = g[G_D + 2]
         cz = opt[O_C_Z]
         if cz != cz:
             cz = d2
@@ -168,35 +169,46 @@ def _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0,
         short = (_pos(L - reach_z) + _pos(abs(d2 - cz) - L)) / reach_z
         if short > 0.0 and fc == 0:
             fc = CODE_Z_DYAD
-        ex = ex + _nan_to_num(short)
+        gr = gr + _nan_to_num(_term(short, GRADE_Z_DYAD))
     if opt[O_RHO_MAX_ON] != 0.0:
         rho_th = opt[O_RHO_MAX]
         short = ((0.0 + _pos(abs(rho0) - rho_th)) + _pos(abs(rho1) - rho_th)) + _pos(abs(rho2) - rho_th)
         if short > 0.0 and fc == 0:
             fc = CODE_RHO
-        ex = ex + _nan_to_num(short)
+        gr = gr + _nan_to_num(_term(short, GRADE_RHO))
     if opt[O_TRANSMISSION_ON] != 0.0:
         s0 = opt[O_TRANSMISSION]
         sb0, sb1 = g[G_SIN_BETA], g[G_SIN_BETA + 1]
-        short = 0.0 + _pos(s0 - abs(F0 / (d0 * c0)))
-        short += _pos(s0 - abs(F1 / (d1 * c1)))
-        short += _pos(s0 - abs(H0 / (t0 * c0)))
-        short += _pos(s0 - abs(H1 / (t1 * c1)))
-        short += _pos(s0 - abs(jas0 / (g[G_SIN_ALPHA] * sb0)))
-        short += _pos(s0 - abs(jas1 / (g[G_SIN_ALPHA + 1] * sb1)))
-        short += _pos(s0 - abs(det / (sb0 * sb1)))
+        q = _pos(s0 - abs(F0 / (g[G_D] * g[G_C])))
+        short = 0.0 + q
+        tg = 0.0 + _term(q, GRADE_SINE)
+        q = _pos(s0 - abs(F1 / (g[G_D + 1] * g[G_C + 1])))
+        short += q
+        tg += _term(q, GRADE_SINE)
+        q = _pos(s0 - abs(H0 / (g[G_T] * g[G_C])))
+        short += q
+        tg += _term(q, GRADE_SINE)
+        q = _pos(s0 - abs(H1 / (g[G_T + 1] * g[G_C + 1])))
+        short += q
+        tg += _term(q, GRADE_SINE)
+        q = _pos(s0 - abs(jas0 / (g[G_SIN_ALPHA] * sb0)))
+        short += q
+        tg += _term(q, GRADE_SINE)
+        q = _pos(s0 - abs(jas1 / (g[G_SIN_ALPHA + 1] * sb1)))
+        short += q
+        tg += _term(q, GRADE_SINE)
+        q = _pos(s0 - abs(det / (sb0 * sb1)))
+        short += q
+        tg += _term(q, GRADE_SINE)
         if short > 0.0 and fc == 0:
             fc = CODE_TRANS
-        ex = ex + _nan_to_num(short)
+        gr = gr + _nan_to_num(tg)
     if opt[O_KAPPA_MAX_ON] != 0.0:
         km = opt[O_KAPPA_MAX]
-        short = _pos(eta_raw - km) / km
-        if short > _CAP:
-            short = _CAP
         if eta_raw > km and fc == 0:
             fc = CODE_KAPPA
-        ex = ex + _nan_to_num(short)
-    return fc, ex
+        gr = gr + _nan_to_num(_term(_pos(eta_raw - km), km))
+    return fc, gr
 
 
 @njit(cache=True, error_model="numpy")
@@ -234,7 +246,8 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     each), then their block gradient bounds (kernel._clearance); ``body``: the primitives' radii (27,) mm,
     their search order and the self-clearance pairs (MODEL.md 14.1-14.3).
     Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
-    ``excess``, ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0]) and ``extra`` (P, N_EXTRA); with
+    ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0]) and ``extra`` (P, N_EXTRA: the guard grade of MODEL.md 16
+    before the global guard, the clearances, the tip metrics); with
     ``full`` also row i of ``detail`` = (kappa (D, P, 7), rho (D, P, 3), delta (D, P, 2), sigma (D, P, 2)), rad.
     """
     g = geometry[i]
@@ -309,7 +322,8 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
         eta_raw = _INF
         if fc == 0:
             eta_raw, fc = _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_o[i, k] if full else kappa_o[0, 0])
-            fc, ex = _local_guards(fc, ex, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
+            solved = fc == 0  # the IK solves the point: its guards are graded (MODEL.md 16)
+            fc, gr = _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
             clr = selfc = _NAN
             part = -1.0
             if do_clr or do_self:
@@ -328,14 +342,15 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                         short = _pos(opt[O_CLEARANCE] - clr)
                         if short > 0.0 and fc == 0:
                             fc = CODE_PATIENT
-                        ex = ex + _nan_to_num(short)
+                        gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
                 if opt[O_SELF_CLEARANCE_ON] != 0.0:
                     short = _pos(opt[O_SELF_CLEARANCE] - selfc)
                     if short > 0.0 and fc == 0:
                         fc = CODE_SELF
-                    ex = ex + _nan_to_num(short)
+                    gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
                 if fc == 0 and clr < run_min:
                     run_min = clr  # the summary's minimum is over the points that pass every guard
+            extra[k, X_GUARD_GRADE] = gr if solved else 0.0
             extra[k, X_CLEARANCE_MM] = clr
             extra[k, X_CLEARANCE_PART] = part
             extra[k, X_SELF_CLEARANCE_MM] = selfc
@@ -347,6 +362,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             else:
                 _no_metrics(extra[k])
         else:
+            extra[k, X_GUARD_GRADE] = 0.0
             extra[k, X_CLEARANCE_MM] = _NAN
             extra[k, X_CLEARANCE_PART] = -1.0
             extra[k, X_SELF_CLEARANCE_MM] = _NAN

@@ -135,6 +135,15 @@ def _clip_excess(a):
 
 
 @njit(cache=True, error_model="numpy")
+def _term(short, scale):
+    """One guard term of MODEL.md 16: np.minimum(short / scale, 1.0) (NaN propagates)."""
+    x = short / scale
+    if x > 1.0:
+        return 1.0
+    return x
+
+
+@njit(cache=True, error_model="numpy")
 def _nan_to_num(x):
     if x != x:
         return 0.0
