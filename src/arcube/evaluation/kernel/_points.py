@@ -246,8 +246,9 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     each), then their block gradient bounds (kernel._clearance); ``body``: the primitives' radii (27,) mm,
     their search order and the self-clearance pairs (MODEL.md 14.1-14.3).
     Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
-    ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0]) and ``extra`` (P, N_EXTRA: the guard grade of MODEL.md 16
-    before the global guard, the clearances, the tip metrics); with
+    ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0])
+    and ``extra`` (P, N_EXTRA: the guard grade of MODEL.md 16 before the global guard, the clearances, the
+    tip metrics); with
     ``full`` also row i of ``detail`` = (kappa (D, P, 7), rho (D, P, 3), delta (D, P, 2), sigma (D, P, 2)), rad.
     """
     g = geometry[i]
