@@ -81,6 +81,10 @@ def register(app: typer.Typer) -> None:
         objective: Annotated[str, typer.Option("--objective", help="What to minimize among the designs that meet the requirements: eta_G, or another objective name.")] = "eta_G",
         standoff: Annotated[float, typer.Option("--standoff", help="The drill waits this far outside the anatomy (MODEL.md 17.1), mm.")] = 20.0,
         points: Annotated[int, typer.Option("--points", help="Points per trajectory.")] = 30,
+        side: Annotated[str | None, typer.Option("--side", help="Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).")] = None,
+        levels: Annotated[str | None, typer.Option("--levels", help="Keep levels, e.g. C3-C5.")] = None,
+        ids: Annotated[str | None, typer.Option("--ids", help="Keep trajectory ids, e.g. 1,3,5.")] = None,
+        setups: Annotated[int, typer.Option("--setups", help="1, or 2: one robot docked once per side (R and L placements, shared links).")] = 1,
         population: Annotated[int, typer.Option("--population", help="Population size.")] = 400,
         generations: Annotated[int, typer.Option("--generations", help="Generations (the budget is population x generations evaluations per seed).")] = 300,
         tolerance: Annotated[float, typer.Option("--tolerance", help="ftol (see arcube optimize); 0 runs the whole budget.")] = 1e-5,
@@ -104,7 +108,8 @@ def register(app: typer.Typer) -> None:
             result = design_api(
                 specs, out, seeds=seeds, minima=_pairs(minima, "--min"), maxima=_pairs(maxima, "--max"), drop=drop, workers=workers,
                 dask=dask, on_seed=bar, anatomy=anatomy, anatomy_frame=anatomy_frame, encoder_deg=numbers(encoder_deg, "--encoder-deg"),
-                objectives=[objective] if objective != "eta_G" else None, standoff=standoff, points=points, population=population,
+                objectives=[objective] if objective != "eta_G" else None, standoff=standoff, points=points, side=side, levels=levels,
+                ids=ids, setups=setups, population=population,
                 generations=generations, tolerance=tolerance, algorithm=algorithm, engine=engine,
             )  # fmt: skip
         print_design(result)

@@ -109,6 +109,7 @@ def register(app: typer.Typer) -> None:
         lateral_force: LateralForceOpt = 10.0,
         actuator_stiffness: StiffnessOpt = "1e4",
         docking: Annotated[str, typer.Option("--docking", help="Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem).")] = "per-patient",
+        standoff: Annotated[float | None, typer.Option("--standoff", help="Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1).")] = None,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
         more_trajectories: Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE_TRAJECTORIES")] = None,
     ) -> None:
@@ -125,7 +126,7 @@ def register(app: typer.Typer) -> None:
                 checkpoint_every=checkpoint_every, transform=transform, eliminate_duplicates=eliminate_duplicates,
                 anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
                 link_radius=link_radius, actuator_radius=actuator_radius, motor_radius=motor_radius, motor_length=motor_length,
-                objectives=objectives, maxima=maxima, minima=minima, docking=docking,
+                objectives=objectives, maxima=maxima, minima=minima, docking=docking, standoff=standoff,
                 **loads(encoder_deg, thrust, lateral_force, actuator_stiffness),
             )  # fmt: skip
         _print_summary(out, run.summary)

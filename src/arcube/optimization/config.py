@@ -104,7 +104,7 @@ def _rerun_command(s: dict[str, Any], bounds: dict[str, tuple[float, float]], cf
         parts.append(f"--docking {s['docking']}")
     if s.get("anatomy"):
         parts.append(f"--anatomy {' '.join(s['anatomy'])} --anatomy-frame {s['anatomy_frame']}")
-    for flag in ("clearance", "self_clearance"):
+    for flag in ("clearance", "self_clearance", "standoff"):
         if s.get(flag) is not None:
             parts.append(f"--{flag.replace('_', '-')} {s[flag]!r}")
     for flag, default in (("link_radius", 8.0), ("actuator_radius", 25.0), ("motor_radius", 20.0), ("motor_length", 120.0)):

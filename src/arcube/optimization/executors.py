@@ -4,6 +4,8 @@ dask.distributed cluster. Each executor maps ``X`` ``(n, n_var)`` to the model's
 from __future__ import annotations
 
 import re
+import socket
+from typing import Any
 
 import numpy as np
 
@@ -11,7 +13,7 @@ from arcube.errors import InputError
 from arcube.optimization.checkpoint import Batch
 from arcube.optimization.problem import FitnessModel, evaluate_with, worker_evaluate, worker_init
 
-__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "check_dask_address", "make_executor"]
+__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "check_dask_address", "connect_dask", "make_executor"]
 
 
 _ADDRESS = re.compile(r"^(?:(?:tcp|tls|inproc|ucx|ws|wss)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
@@ -23,6 +25,27 @@ def check_dask_address(address: str) -> str:
     if not isinstance(address, str) or not _ADDRESS.match(address.strip()):
         raise InputError.of("dask", f"{address!r}: expected a scheduler address HOST:PORT, e.g. tcp://10.0.0.5:8786")
     return address.strip()
+
+
+def connect_dask(address: str) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``; InputError naming it when dask is
+    missing or the scheduler cannot be reached. A refused TCP port fails at once: dask's client
+    would retry it for its whole 20 s timeout."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError.of("dask", "needs dask.distributed: pip install 'dask[distributed]'") from None
+    address = check_dask_address(address)
+    host, _, port = address.split("://")[-1].rpartition(":")
+    if address.startswith("tcp://") or "://" not in address:
+        try:
+            socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
+        except OSError as exc:
+            raise InputError.of("dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+    try:
+        return Client(address, timeout=20, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError.of("dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
 
 
 def _merge(parts: list[Batch]) -> Batch:
@@ -68,16 +91,8 @@ class ProcessExecutor(Executor):
 
 class DaskExecutor(Executor):
     def __init__(self, model: FitnessModel, address: str) -> None:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise InputError.of("dask", "needs dask.distributed: pip install 'dask[distributed]'") from None
         super().__init__(model)
-        address = check_dask_address(address)
-        try:
-            self.client = Client(address, timeout=20, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError.of("dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+        self.client = connect_dask(address)
         self.n_chunks = max(1, sum(self.client.nthreads().values()))
         self.model_future = self.client.scatter(model, broadcast=True)
 

@@ -253,14 +253,9 @@ def _run_processes(study_dir: Path, pending: list[int], workers: int, on_seed: C
 
 
 def _run_dask(study_dir: Path, pending: list[int], address: str, on_seed: Callable[[int, dict[str, Any]], None] | None) -> None:
-    try:
-        from distributed import Client
-    except ImportError:
-        raise InputError.of("dask", "needs dask.distributed: pip install 'dask[distributed]'") from None
-    try:
-        client = Client(address, timeout=20, set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise InputError.of("dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+    from arcube.optimization.executors import connect_dask
+
+    client = connect_dask(address)
     try:
         futures = {client.submit(_run_seed, str(seed_dir(study_dir, s).resolve()), pure=False): s for s in pending}
         for fut, seed in futures.items():  # in seed order (distributed's as_completed wants a default client)

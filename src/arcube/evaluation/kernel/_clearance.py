@@ -178,10 +178,10 @@ def _lipschitz(grids, p, q, sag, is_arc):
 
 
 @njit(cache=True, error_model="numpy")
-def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo, stack_hi, pt, p, q):
+def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo, stack_hi, pt, p, q, enough):
     """Branch and bound over s in [0, total] (mm per unit of s: ``scale``); returns the best value and
     a lower bound of this primitive's minimum (the least of d - Lipschitz bound x half-length over the
-    intervals it dropped). ``pt``, ``p``, ``q``: (3,) work buffers."""
+    intervals it dropped; -inf when it stopped at a value <= ``enough``). ``pt``, ``p``, ``q``: (3,) work buffers."""
     floor = math.inf
     top = 0
     stack_lo[0] = 0.0
@@ -195,6 +195,8 @@ def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo
         d = _lookup(grids, pt[0], pt[1], pt[2]) - radius
         if d < best:
             best = d
+            if best <= enough:
+                return best, -math.inf
         half = 0.5 * (hi - lo) * scale
         if d - half >= best - TOL_MM or half <= 0.5 * TOL_MM or top + 2 >= _STACK:
             floor = min(floor, d - half)
@@ -217,14 +219,16 @@ def _search(is_arc, a, b, c, r, nrm, total, scale, radius, grids, best, stack_lo
 
 
 @njit(cache=True, error_model="numpy")
-def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order, work, cap, lower):
+def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order, work, cap, lower, enough):
     """(clearance, primitive index) of the body primitives to the anatomy; ``order``: primitives to try first.
 
     ``cap``: a value the caller does not need beaten (inf for the exact minimum). Parts that cannot
     come within ``TOL_MM`` below it are pruned; when none does, returns (cap, -1).
     ``lower`` (27,): known lower bounds of each primitive's clearance (-inf: none); a primitive whose
     bound cannot beat the best so far is not searched; the others' entries are set to the bound their
-    search proves (the caller carries them to the next point, less how far the primitive moved)."""
+    search proves (the caller carries them to the next point, less how far the primitive moved).
+    ``enough``: a value below which the caller needs no more (a guard's shortfall past its grading scale,
+    MODEL.md 16; -inf: none): the search stops at the first body point found at or below it."""
     stack_lo = work[0]
     stack_hi = work[1]
     pt = work[2, :3]
@@ -242,7 +246,7 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
             a = lines[k, 0]
             b = lines[k, 1]
             length = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
-            best, lower[k] = _search(False, a, b, a, 0.0, nrm, 1.0, length, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
+            best, lower[k] = _search(False, a, b, a, 0.0, nrm, 1.0, length, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf, enough)
         else:
             j = k - n_lines
             a = arcs[j, 0]
@@ -257,9 +261,11 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
                 angle = math.atan2(nn, dot)
             else:
                 angle = 0.0
-            best, lower[k] = _search(True, a, b, arc_c, arc_r, nrm, angle, arc_r, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf)
+            best, lower[k] = _search(True, a, b, arc_c, arc_r, nrm, angle, arc_r, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf, enough)
         if best < before:
             best_k = k
+        if best <= enough:
+            break
     return best, best_k
 
 
@@ -336,11 +342,12 @@ def _chords(arc_c, arc_r, arcs, n, out):
 
 
 @njit(cache=True, error_model="numpy")
-def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords, cap):
+def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords, cap, enough):
     """Smallest distance between the primitive pairs, minus both radii (arcs as chord polylines).
 
     ``cap``: a value the caller does not need beaten (inf for the exact minimum; the guard's limit
-    when only its decision and shortfall matter): pairs that cannot come below it are skipped."""
+    when only its decision and shortfall matter): pairs that cannot come below it are skipped.
+    ``enough``: stop at the first pair at or below it (-inf: never)."""
     n = chords.shape[1] - 1
     _chords(arc_c, arc_r, arcs, n, chords)
     best = cap
@@ -375,4 +382,6 @@ def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords, c
                     d = dm
         if d - rad < best:
             best = d - rad
+            if best <= enough:
+                break
     return best

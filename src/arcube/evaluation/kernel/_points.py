@@ -331,13 +331,18 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                 arc_r = _body_world(g, opt[O_C_Z], opt[O_MOTOR_LENGTH], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
                                     cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
                 if do_self:
-                    self_cap = _INF if full or track_self or opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else opt[O_SELF_CLEARANCE]
-                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap)
+                    self_cap = _INF if full or track_self else opt[O_SELF_CLEARANCE]
+                    # a shortfall past the grading scale counts 1 whatever its size (MODEL.md 16): no need to find it
+                    self_enough = -_INF if self_cap == _INF else self_cap - GRADE_CLEARANCE
+                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap, self_enough)
                 if do_clr:
-                    cap = _INF if full or opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else (max(floor, run_min) if track_min else floor)  # SAM may fail points later
+                    # the running minimum may come from a point that single_assembly_mode fails later: with that
+                    # guard on, an exact summary minimum searches every point; a guard decision never needs to
+                    cap = _INF if full else (floor if not track_min else (_INF if opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else max(floor, run_min)))
                     _carry_bounds(lower, lines, prev, have_prev and cap < _INF)
                     have_prev = True
-                    clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap, lower)
+                    enough = floor - GRADE_CLEARANCE if cap == floor else -_INF
+                    clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap, lower, enough)
                     part = float(PRIM_PART[kbest]) if kbest >= 0 else -1.0
                     if opt[O_CLEARANCE_ON] != 0.0:
                         short = _pos(opt[O_CLEARANCE] - clr)
