@@ -93,3 +93,109 @@ def test_bad_design_input_is_one_line_exit_2_and_leaves_nothing(tmp_path: Path, 
 def test_design_without_trajectories_is_one_line(tmp_path: Path) -> None:
     out = _arcube("design", "--out", "d", "--quiet", cwd=tmp_path)
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and not (tmp_path / "d").exists(), out.stderr
+
+
+# --------------------------------------------------------------------------- a design that meets everything
+# The right side of the reference patient, 8 points per line, 16,000 evaluations: seed 2 meets every
+# default requirement in about 20 s (README "arcube design" gives the full-budget figures).
+_SMALL = ["--trajectories", "reference", "--side", "R", "--anatomy", "default", "--points", "8", "--generations", "40", "--quiet"]
+
+
+@pytest.fixture(scope="module")
+def met_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("design")
+    out = _arcube("design", *_SMALL, "--seeds", "2", "--out", "d", cwd=root)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "design meets every requirement" in out.stdout
+    return root / "d"
+
+
+def _check_met(points: list[dict], summary: dict, lines: str) -> None:
+    """Every default requirement at every point of an ``arcube evaluate --json`` output."""
+    assert summary["reachable_fraction"] == 1.0 and summary["failures"] == {}, (lines, summary["failures"])
+    assert summary["clearance_min_mm"] >= 5.0 and summary["self_clearance_min_mm"] >= 2.0, lines
+    if lines == "drill":
+        assert summary["lateral_error_max_mm"] <= 0.5 and summary["axis_error_max_deg"] <= 0.25 and summary["torque_max_Nm"] <= 20.0
+    assert all(p["reachable"] for p in points)
+
+
+def test_a_met_design_meets_every_requirement_in_arcube_evaluate_and_the_numpy_reference(met_design: Path, tmp_path: Path) -> None:
+    import json
+
+    summary = json.loads((met_design / "summary.json").read_text())
+    assert summary["meets_requirements"] is True and summary["missed"] == []
+    rows = {r["requirement"]: r for r in summary["requirements"]}
+    assert {"clearance", "self_clearance", "lateral_error", "axis_error", "torque", "reach"} <= set(rows)
+    assert all(r["passed"] for r in rows.values())
+    # the plan's lines (entry -> target), by the command a user would type, with the NumPy reference
+    guards = ["--mode=" + summary["mode"], "--guards", "--anatomy", "default", "--clearance", "5", "--self-clearance", "2",
+              "--engine", "numpy", "--json", "--points", "8"]  # fmt: skip
+    ev = _arcube("evaluate", "--design", str(met_design / "design.json"), "--trajectories", "reference", "--side", "R", *guards, cwd=tmp_path)
+    assert ev.returncode == 0, ev.stderr
+    plan = json.loads(ev.stdout)
+    _check_met(plan["points"], plan["summary"], "drill")
+    assert plan["summary"]["eta_G"] == pytest.approx(summary["eta_G"], rel=1e-9)
+    # the approach lines (standoff S_j -> entry A_j, MODEL.md 17.1) as a plan of their own
+    ref = arcube.load_trajectories("reference")
+    right = np.array([s == "R" for s in ref.sides])
+    anatomy = resolve_anatomy("default", "LPS", "reference")
+    S, _ = standoff_points(ref.entry[right], ref.target[right], anatomy, 20.0)
+    csv = tmp_path / "approach.csv"
+    rows_csv = ["trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"]
+    rows_csv += [f"{k + 1},{lv},R," + ",".join(repr(float(v)) for v in (*s, *a))
+                 for k, (lv, s, a) in enumerate(zip(np.asarray(ref.levels)[right], S, ref.entry[right]))]  # fmt: skip
+    csv.write_text("\n".join(rows_csv) + "\n")
+    from arcube.patients.anatomy import reference_anatomy_path
+
+    mesh = ["--anatomy", str(reference_anatomy_path()), "--anatomy-frame", "patient"]  # the same anatomy, given as a file
+    ev = _arcube("evaluate", "--design", str(met_design / "design.json"), "--trajectories", str(csv), *guards[:2], *mesh, *guards[4:],
+                 cwd=tmp_path)  # fmt: skip
+    assert ev.returncode == 0, ev.stderr
+    approach = json.loads(ev.stdout)
+    _check_met(approach["points"], approach["summary"], "approach")
+
+
+def test_the_written_files_agree(met_design: Path) -> None:
+    import csv
+    import json
+
+    summary = json.loads((met_design / "summary.json").read_text())
+    with open(met_design / "requirements.csv", newline="") as f:
+        table = {r["requirement"]: r for r in csv.DictReader(f)}
+    assert set(table) == {r["requirement"] for r in summary["requirements"]} and all(r["passed"] == "pass" for r in table.values())
+    design = arcube.Design.load(met_design / "design.json")
+    best = json.loads((met_design / "study" / f"seed_{summary['seed']}" / "best_design.json").read_text())
+    assert design.to_dict() == best
+    assert (met_design / "report.html").stat().st_size > 0
+
+
+def test_an_impossible_requirement_exits_3_naming_it(tmp_path: Path) -> None:
+    out = _arcube("design", "--trajectories", "reference", "--ids", "5", "--anatomy", "default", "--points", "4", "--population", "20",
+                  "--generations", "3", "--seeds", "1", "--max", "lateral_error=0.001", "--out", "d", "--quiet", cwd=tmp_path)  # fmt: skip
+    assert out.returncode == 3, out.stdout + out.stderr
+    assert "does NOT meet" in out.stdout and "missed: lateral_error" in out.stdout
+    assert (tmp_path / "d" / "summary.json").exists() and (tmp_path / "d" / "requirements.csv").exists()
+
+
+def test_kill_then_resume_gives_the_same_design(tmp_path: Path) -> None:
+    import json
+    import signal
+    import time
+
+    flags = ["--trajectories", "reference", "--ids", "5", "--anatomy", "default", "--points", "4", "--population", "56",
+             "--generations", "120", "--seeds", "1", "--quiet"]  # fmt: skip
+    whole = _arcube("design", *flags, "--out", "whole", cwd=tmp_path)
+    assert whole.returncode in (0, 3), whole.stderr
+    proc = subprocess.Popen([sys.executable, "-m", "arcube", "design", *flags, "--out", "cut"], cwd=tmp_path,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    mark, deadline = tmp_path / "cut" / "study" / "seed_1" / "checkpoint" / "evals_000020.npz", time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None and not mark.exists():
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL and not (tmp_path / "cut" / "summary.json").exists()
+    res = _arcube("resume", "cut", "--quiet", cwd=tmp_path)
+    assert res.returncode == whole.returncode, res.stdout + res.stderr
+    assert (tmp_path / "cut" / "design.json").read_text() == (tmp_path / "whole" / "design.json").read_text()
+    a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("cut", "whole"))
+    assert {k: a[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")} == {k: b[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")}

@@ -43,6 +43,9 @@ from arcube.results import Run
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
 
 DESIGN_FORMAT = "arcube-design"
+DESIGN_GENERATIONS = 100
+"""The design job's default budget: population 400 x 100 generations = 40,000 evaluations per seed
+(about 2 min on one core for one side of the reference plan; README "arcube design")."""
 STUDY = "study"
 
 
@@ -73,6 +76,8 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
     of ``reqs``, and the standoff lines of MODEL.md 17.1 (20 mm unless set)."""
     from arcube.optimization.config import run_settings
 
+    if settings is None and "generations" not in fields:
+        fields["generations"] = DESIGN_GENERATIONS
     s = run_settings(settings, **fields)
     maxima = {r.name: r.limit for r in reqs if r.kind == "max"}
     options = design_options(reqs, s.options)

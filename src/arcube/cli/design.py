@@ -86,7 +86,7 @@ def register(app: typer.Typer) -> None:
         ids: Annotated[str | None, typer.Option("--ids", help="Keep trajectory ids, e.g. 1,3,5.")] = None,
         setups: Annotated[int, typer.Option("--setups", help="1, or 2: one robot docked once per side (R and L placements, shared links).")] = 1,
         population: Annotated[int, typer.Option("--population", help="Population size.")] = 400,
-        generations: Annotated[int, typer.Option("--generations", help="Generations (the budget is population x generations evaluations per seed).")] = 300,
+        generations: Annotated[int, typer.Option("--generations", help="Generations (the budget is population x generations evaluations per seed).")] = 100,
         tolerance: Annotated[float, typer.Option("--tolerance", help="ftol (see arcube optimize); 0 runs the whole budget.")] = 1e-5,
         algorithm: Annotated[str, typer.Option("--algorithm", help="The optimizer (default mscmaes).")] = "mscmaes",
         engine: Annotated[str, typer.Option("--engine", help="Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference).")] = "auto",
