@@ -97,16 +97,22 @@ def test_design_without_trajectories_is_one_line(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------------------- a design that meets everything
 # The right side of the reference patient, 8 points per line, 16,000 evaluations: seed 2 meets every
-# default requirement in about 20 s (README "arcube design" gives the full-budget figures).
+# sampled requirement in about 20 s (README "arcube design" gives the full-budget figures). Its
+# drilling program, checked every 0.5 mm (MODEL.md 17.2), may still be blocked between the samples:
+# then the job says so and exits 3 (test_the_program_decides below holds both outcomes to account).
 _SMALL = ["--trajectories", "reference", "--side", "R", "--anatomy", "default", "--points", "8", "--generations", "40", "--quiet"]
 
 
 @pytest.fixture(scope="module")
 def met_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    import json
+
     root = tmp_path_factory.mktemp("design")
     out = _arcube("design", *_SMALL, "--seeds", "2", "--out", "d", cwd=root)
-    assert out.returncode == 0, out.stdout + out.stderr
-    assert "design meets every requirement" in out.stdout
+    assert out.returncode in (0, 3), out.stdout + out.stderr
+    summary = json.loads((root / "d" / "summary.json").read_text())
+    assert set(summary["missed"]) <= {"program"}, out.stdout  # every sampled requirement met
+    assert ("design meets every requirement" in out.stdout) == (out.returncode == 0) == (summary["missed"] == [])
     return root / "d"
 
 
@@ -123,10 +129,9 @@ def test_a_met_design_meets_every_requirement_in_arcube_evaluate_and_the_numpy_r
     import json
 
     summary = json.loads((met_design / "summary.json").read_text())
-    assert summary["meets_requirements"] is True and summary["missed"] == []
     rows = {r["requirement"]: r for r in summary["requirements"]}
-    assert {"clearance", "self_clearance", "lateral_error", "axis_error", "torque", "reach"} <= set(rows)
-    assert all(r["passed"] for r in rows.values())
+    assert {"clearance", "self_clearance", "lateral_error", "axis_error", "torque", "reach", "program"} <= set(rows)
+    assert all(r["passed"] for name, r in rows.items() if name != "program")
     # the plan's lines (entry -> target), by the command a user would type, with the NumPy reference
     guards = ["--mode=" + summary["mode"], "--guards", "--anatomy", "default", "--clearance", "5", "--self-clearance", "2",
               "--engine", "numpy", "--json", "--points", "8"]  # fmt: skip
@@ -162,7 +167,8 @@ def test_the_written_files_agree(met_design: Path) -> None:
     summary = json.loads((met_design / "summary.json").read_text())
     with open(met_design / "requirements.csv", newline="") as f:
         table = {r["requirement"]: r for r in csv.DictReader(f)}
-    assert set(table) == {r["requirement"] for r in summary["requirements"]} and all(r["passed"] == "pass" for r in table.values())
+    assert set(table) == {r["requirement"] for r in summary["requirements"]}
+    assert [n for n, r in table.items() if r["passed"] != "pass"] == summary["missed"]
     design = arcube.Design.load(met_design / "design.json")
     best = json.loads((met_design / "study" / f"seed_{summary['seed']}" / "best_design.json").read_text())
     assert design.to_dict() == best
@@ -183,7 +189,7 @@ def test_kill_then_resume_gives_the_same_design(tmp_path: Path) -> None:
     import time
 
     flags = ["--trajectories", "reference", "--ids", "5", "--anatomy", "default", "--points", "4", "--population", "56",
-             "--generations", "120", "--seeds", "1", "--quiet"]  # fmt: skip
+             "--generations", "60", "--seeds", "1", "--quiet"]  # fmt: skip
     whole = _arcube("design", *flags, "--out", "whole", cwd=tmp_path)
     assert whole.returncode in (0, 3), whole.stderr
     proc = subprocess.Popen([sys.executable, "-m", "arcube", "design", *flags, "--out", "cut"], cwd=tmp_path,
@@ -199,3 +205,35 @@ def test_kill_then_resume_gives_the_same_design(tmp_path: Path) -> None:
     assert (tmp_path / "cut" / "design.json").read_text() == (tmp_path / "whole" / "design.json").read_text()
     a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("cut", "whole"))
     assert {k: a[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")} == {k: b[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")}
+
+
+def test_the_program_decides(met_design: Path) -> None:
+    """A design met at the sampled points comes with its program, or the job names the blocked segment;
+    a blocked claim is re-checked here with the NumPy reference at the pose it names."""
+    import json
+    import re
+
+    from arcube.evaluation.reference import Options, evaluate_task
+
+    summary = json.loads((met_design / "summary.json").read_text())
+    row = {r["requirement"]: r for r in summary["requirements"]}["program"]
+    if row["passed"]:
+        assert summary["meets_requirements"] and summary["files"]["program"] == "program"
+        prog = json.loads((met_design / "program" / "program.json").read_text())
+        assert prog["mode"] == summary["mode"] and prog["clearance_min_mm"] >= 5.0 and prog["self_clearance_min_mm"] >= 2.0
+        lines = (met_design / "program" / "program.csv").read_text().splitlines()
+        assert len({r.split(",")[2] for r in lines[1:] if ",drill," in r}) == 5  # the five right-side trajectories
+        return
+    assert not summary["meets_requirements"] and not (met_design / "program").exists()
+    found = re.match(r"approach (\d+) blocked: guard/kappa_max at E = \(([-0-9.]+), ([-0-9.]+), ([-0-9.]+)\) mm \(eta_L ([0-9.]+) > 100\)", row["part"])
+    if found is None:
+        pytest.skip(f"blocked by another constraint, not re-checked here: {row['part']}")
+    ref = arcube.load_trajectories("reference")
+    k = list(ref.ids).index(found.group(1))
+    axis = (ref.entry[k] - ref.target[k]) / np.linalg.norm(ref.entry[k] - ref.target[k])
+    E = np.array([float(found.group(i)) for i in (2, 3, 4)])
+    assert np.linalg.norm(np.cross(E - ref.entry[k], axis)) < 0.01  # on trajectory k's approach line (2-decimal print)
+    design = arcube.Design.load(met_design / "design.json").to_vector()
+    mode = np.array([1.0 if c == "+" else -1.0 for c in summary["mode"].split(",")])
+    res = evaluate_task(design, E[None], axis[None], mode, Options())
+    assert float(np.asarray(res.points.eta_L)[0]) > 100.0

@@ -8,6 +8,8 @@ One folder holds the job::
     summary.json       meets_requirements, mode (+,+,-,+), seed, every summary figure, the requirements
     requirements.csv   each requirement: limit, value, margin, pass/fail, where it is tightest
     report.html        the design on the plan with the anatomy (plotly)
+    program/           the drilling program of a design that meets everything (MODEL.md 17): program.csv,
+                       program.json; a design whose program is blocked does not meet the requirements
     design.xml         the MuJoCo model (when the z dyad closes with some c_z)
 
 The best seed whose design meets every requirement when **re-evaluated by the NumPy reference**
@@ -47,6 +49,7 @@ DESIGN_GENERATIONS = 100
 """The design job's default budget: population 400 x 100 generations = 40,000 evaluations per seed
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
 STUDY = "study"
+PROGRAM = "program"
 
 
 @dataclass(frozen=True)
@@ -163,7 +166,30 @@ def finish_design(out: Path) -> DesignResult:
     assert chosen is not None
     row, run, cfg, s, plans, anatomies, summary, rows = chosen
     met = bool(row["feasible"] and all(r["passed"] for r in rows))
+    if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
+        rows = [*rows, _program_row(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs)]
+        met = rows[-1]["passed"]
     return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows)
+
+
+def _program_row(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement]) -> dict[str, Any]:
+    """Build the drilling program of the chosen design (MODEL.md 17, patient 1) into ``out/program`` with
+    the design's clearances and standoff; its requirement row: met, or the blocked segment named."""
+    from arcube.program import program
+
+    limits = {r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance")}
+    import shutil
+
+    shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job builds it again
+    started = time.perf_counter()
+    row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
+    try:
+        prog = program(design, plan, out / PROGRAM, anatomy=anatomy, mode=mode, standoff_mm=float(s.standoff or 0.0),
+                       body=s.options.body, **limits)  # fmt: skip
+    except InputError as exc:
+        return {**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}
+    summary = prog.summary
+    return {**row, "value": 1.0, "margin": 0.0, "passed": True, "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s"}
 
 
 def _write_outputs(out: Path, met: bool, seed: int, run: Run, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
@@ -192,7 +218,8 @@ def _write_outputs(out: Path, met: bool, seed: int, run: Run, cfg: dict[str, Any
         "missed": [r["requirement"] for r in rows if not r["passed"]],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
-        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "mujoco": mujoco, "study": STUDY},
+        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "mujoco": mujoco, "study": STUDY,
+                  **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(_finite(result), indent=2, allow_nan=False) + "\n")

@@ -4,6 +4,8 @@
 2. Keep Table 2's links and search only the placement m for the right side.
 3. Run the paper's GA (population 400, up to 300 generations, tolerance 1e-5) with all 23
    parameters free on both sides.
+4. ``arcube design`` for the right side: a robot that clears the patient and itself and meets every
+   default requirement (all 27 parameters free; 40,000 evaluations, about 2 min).
 
 Each optimization writes a run folder with its HTML report; the paths are printed at the end.
 """
@@ -41,8 +43,19 @@ def _optimize(out: Path, *, seed: int, engine: str, quick: bool, **flags: object
     return write_run_report(out)
 
 
+def _design(out: Path, *, seed: int, engine: str, quick: bool) -> Path:
+    """``arcube design`` on the reference plan's right side into ``out``; prints its requirement table, returns its report."""
+    from arcube.api import design as design_api
+    from arcube.cli.design import print_design
+
+    sizes = {"population": 12, "generations": 2, "points": 4} if quick else {}
+    result = design_api(REFERENCE, out, seeds=[seed], side="R", anatomy="default", engine=engine, **sizes)  # type: ignore[arg-type]
+    print_design(result)
+    return out / "report.html"
+
+
 def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False) -> list[Path]:
-    """Run the three steps into ``out`` (must be new or empty); returns the written reports."""
+    """Run the four steps into ``out`` (must be new or empty); returns the written reports."""
     from arcube.report import text as report_text
     from arcube.api import evaluate
     from arcube.optimization import run as runmod
@@ -53,17 +66,20 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     except ValueError as exc:
         raise InputError(f"--engine: {exc}") from None
     started = time.perf_counter()
-    typer.echo("1/3  The paper's design (Table 2) on the bundled reference patient (bilateral C3-C7 pedicle screws)")
+    typer.echo("1/4  The paper's design (Table 2) on the bundled reference patient (bilateral C3-C7 pedicle screws)")
     report_text.print_evaluation(evaluate("paper", REFERENCE, engine=engine))
-    typer.echo("\n2/3  Table 2's links, placement m searched for the right side (GA, m_x, m_y, m_z free)")
+    typer.echo("\n2/4  Table 2's links, placement m searched for the right side (GA, m_x, m_y, m_z free)")
     reports = [
         _optimize(out / "paper_links_right", seed=seed, engine=engine, quick=quick, design_from="paper",
                   free="m_x,m_y,m_z", side="R", population=100, generations=60, tolerance=0.0, algorithm="ga"),
     ]  # fmt: skip
     scale = "tiny population (--quick)" if quick else "the paper's GA: population 400, up to 300 generations, tolerance 1e-5"
-    typer.echo(f"\n3/3  All 23 dimensions free, both sides ({scale})")
+    typer.echo(f"\n3/4  All 23 dimensions free, both sides ({scale})")
     reports.append(_optimize(out / "all_free_bilateral", seed=seed, engine=engine, quick=quick, population=400, generations=300, tolerance=1e-5,
                              algorithm="ga"))  # fmt: skip
+    typer.echo("\n4/4  A robot that fits the patient and meets every default requirement (arcube design, right side,"
+               f" all 27 parameters free, seed {seed}" + (", tiny budget (--quick): expect it to fall short)" if quick else ")"))
+    reports.append(_design(out / "design_right", seed=seed, engine=engine, quick=quick))
     typer.echo(f"\ndone in {time.perf_counter() - started:.0f} s (engine {engine}). Reports:")
     for path in reports:
         typer.echo(f"  {path}")

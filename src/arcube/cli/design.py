@@ -38,7 +38,8 @@ def print_design(result: Any) -> None:
     for r in result.rows:
         w = r.get("where") or {}
         where = f"patient {w['patient']}, trajectory {w['trajectory']} ({w['segment']}, point {w['point']})" if w else ""
-        part = f", {r['part']}" if r.get("part") else ""
+        part = f", {r['part']}" if r.get("part") and r["requirement"] != "program" else ""
+        part = f"{r['part']}" if r["requirement"] == "program" and r["passed"] else part
         sign = ">=" if r["kind"] == "min" else "<="
         typer.echo(f"{r['requirement']:<22} {sign}{r['limit']:>7.4g} {_num(r['value']):>10} {_num(r['margin']):>10}  "
                    f"{'ok' if r['passed'] else 'FAIL':4}  {where}{part}")  # fmt: skip
@@ -49,6 +50,8 @@ def print_design(result: Any) -> None:
         need = f">= {r['value']:.4g}" if r["kind"] == "max" else f"<= {r['value']:.4g}"
         if not math.isfinite(r["value"]):
             typer.echo(f"  missed: {r['requirement']} (not measured: the design reaches none of the points where it holds)")
+        elif r["requirement"] == "program":
+            typer.echo(f"  missed: program: {r['part']}")
         elif r["requirement"] in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode"):
             typer.echo(f"  missed: {r['requirement']} ({_num(r['value'])} {r['unit']}); a larger budget or more seeds may find a design")
         else:
