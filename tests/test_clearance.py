@@ -208,8 +208,8 @@ def test_batch_of_designs_equals_loop(setup) -> None:
             np.testing.assert_allclose(batch.points.self_clearance_mm[i], one.points.self_clearance_mm, atol=1e-9)
 
 
-@pytest.mark.parametrize("guard", [False, True])
-def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard) -> None:
+@pytest.mark.parametrize("guard, sam", [(False, False), (True, False), (True, True)])
+def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard, sam) -> None:
     """Summaries-only runs start each point's search at a cap (the guard's limit or the smallest
     clearance so far): the summary must still be the minimum of the exact per-point values, and the
     graded violation (each point's shortfall) the same, within the search tolerance."""
@@ -223,7 +223,7 @@ def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard) -> None
     clear = free.points.clearance_mm[free.points.reachable]
     c_min = float(np.quantile(clear, 0.3)) if guard else 0.0
     assert not guard or c_min > 0.0
-    opts = Options(clearance_mm=c_min, **thin) if guard else Options(body=True, **thin)
+    opts = Options(clearance_mm=c_min, single_assembly_mode=sam, **thin) if guard else Options(body=True, **thin)
     full = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts, want_points=True, anatomy=sdf)
     summ = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts, want_points=False, anatomy=sdf)
     passing = full.points.clearance_mm[full.points.reachable]
@@ -241,17 +241,42 @@ def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard) -> None
         assert c_min - TOL_MM <= float(decide.clearance_min) <= passing.min() + TOL_MM
 
 
-def test_self_guard_decision_only_gives_the_same_violation(setup) -> None:
+@pytest.mark.parametrize("sam", [False, True])
+def test_self_guard_decision_only_gives_the_same_violation(setup, sam) -> None:
     """Summary-only runs that only decide the self-clearance guard (pairs pruned against its limit,
-    arcs against their chord's capsule) fail the same points by the same shortfall."""
+    arcs against their chord's capsule, straight pairs skipped while their bound carried from the
+    previous point, less both parts' moves, stays above it) fail the same points by the same
+    shortfall; with single_assembly_mode on too (it fails points only after all are seen)."""
     task, x, mp, ok = setup
     thin = {"link_radius": 1.0, "actuator_radius": 2.0, "motor_radius": 2.0}
     free = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options(body=True, **thin), want_points=True)
     s_min = float(np.nanquantile(free.points.self_clearance_mm[free.points.reachable], 0.5))
     assert s_min > 0.0
-    opts = Options(self_clearance_mm=s_min, **thin)
+    opts = Options(self_clearance_mm=s_min, single_assembly_mode=sam, **thin)
     full = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts, want_points=True)
     decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False)
     assert 0.0 < float(full.reachable_fraction) < 1.0
     assert float(decide.reachable_fraction) == float(full.reachable_fraction)
     assert float(decide.violation) == pytest.approx(float(full.violation), rel=1e-12)
+
+
+def test_carried_self_bounds_decide_as_the_exact_minimum_at_every_threshold(setup) -> None:
+    """Along finely sampled lines the summary-only kernel skips a self-clearance pair while its bound
+    carried from the previous point (less both parts' moves) stays above the limit: at every limit
+    the graded violation and the reach equal those of the exact per-point minimum."""
+    from arcube.evaluation.task import build_task
+
+    task, x, mp, ok = setup
+    a, b = task.E[::12], task.E[11::12]
+    fine = build_task(np.concatenate([a, b]), np.concatenate([b, a]), 60)  # the same lines, 60 points each, both ways
+    thin = {"link_radius": 1.0, "actuator_radius": 2.0, "motor_radius": 2.0}
+    free = evaluate_task_numba(x, fine.E, fine.e, ALL_MODES[0], Options(body=True, **thin), want_points=True)
+    values = free.points.self_clearance_mm[free.points.reachable]
+    values = values[values > 0.0]  # a limit is >= 0
+    assert values.size > 100 and np.ptp(values) > 5.0
+    for q in np.linspace(0.05, 0.95, 10):
+        opts = Options(self_clearance_mm=float(np.quantile(values, q)), **thin)
+        full = evaluate_task_numba(x, fine.E, fine.e, ALL_MODES[0], opts, want_points=True)
+        decide = evaluate_task_numba(x, fine.E, fine.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False)
+        assert float(decide.reachable_fraction) == float(full.reachable_fraction), q
+        assert float(decide.violation) == pytest.approx(float(full.violation), rel=1e-12), q

@@ -22,7 +22,7 @@ from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT,
 from arcube.evaluation.kernel._layout import O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
 from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._body import _body_world
-from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance
+from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance, self_moves
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
 from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
@@ -288,6 +288,10 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     # ... and carry each primitive's proven lower bound from point to point, less how far it moved
     # (a distance is 1-Lipschitz): a part that stays far from the anatomy is then not looked up again.
     lower = np.full(N_PRIMS, -_INF)
+    pair_lower = np.full(pairs.shape[0], -_INF)  # the same for the self-clearance pairs
+    prev_self = np.zeros((N_LINES, 2, 3))
+    move = np.empty(N_LINES)
+    have_prev_self = False
     prev = np.empty((N_LINES, 2, 3))
     have_prev = False
     floor = opt[O_CLEARANCE] if opt[O_CLEARANCE_ON] != 0.0 else -_INF
@@ -334,7 +338,10 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                     self_cap = _INF if full or track_self else opt[O_SELF_CLEARANCE]
                     # a shortfall past the grading scale counts 1 whatever its size (MODEL.md 16): no need to find it
                     self_enough = -_INF if self_cap == _INF else self_cap - GRADE_CLEARANCE
-                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap, self_enough)
+                    self_moves(lines, prev_self, have_prev_self, move)
+                    have_prev_self = True
+                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap, self_enough,
+                                            pair_lower, move)  # fmt: skip
                 if do_clr:
                     # the running minimum may come from a point that single_assembly_mode fails later: with that
                     # guard on, an exact summary minimum searches every point; a guard decision never needs to
@@ -362,6 +369,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             extra[k, X_SELF_CLEARANCE_MM] = selfc
             if not (do_clr or do_self):
                 have_prev = False
+                have_prev_self = False
             if fc == 0 and do_perf:
                 _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
                              xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, jbuf, extra[k])  # fmt: skip
@@ -374,6 +382,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             extra[k, X_SELF_CLEARANCE_MM] = _NAN
             _no_metrics(extra[k])
             have_prev = False
+            have_prev_self = False
             if full:
                 for j in range(7):
                     kappa_o[i, k, j] = _NAN
