@@ -12,7 +12,8 @@ One folder holds the job::
                        program.json; a design whose program is blocked does not meet the requirements
     design.xml         the MuJoCo model (when the z dyad closes with some c_z)
 
-The best seed whose design meets every requirement when **re-evaluated by the NumPy reference**
+The best seed whose design meets every requirement when **re-evaluated by the NumPy reference**,
+its drilling program included (a seed whose program is blocked gives way to the next),
 is chosen; when none does, the best design found is written all the same and
 :attr:`DesignResult.met` is False (the CLI exits with code 3 and names what was missed).
 """
@@ -22,6 +23,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import shutil
 import time
 import tomllib
 from collections.abc import Callable, Sequence
@@ -156,19 +158,17 @@ def finish_design(out: Path) -> DesignResult:
         designs = [d.to_vector() for d in run.designs]
         rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(),
                       points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
-        if chosen is None:
-            chosen = (row, run, cfg, s, plans, anatomies, summary, rows)
-        if row["feasible"] and all(r["passed"] for r in rows):
-            chosen = (row, run, cfg, s, plans, anatomies, summary, rows)
-            break
-        if not row["feasible"]:
-            break  # the infeasible seeds after the first cannot do better than the best one
+        met = bool(row["feasible"] and all(r["passed"] for r in rows))
+        if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
+            rows = [*rows, _program_row(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs)]
+            met = rows[-1]["passed"]
+        if chosen is None or (met and not chosen[-1]):
+            chosen = (row, run, cfg, s, plans, anatomies, summary, rows, met)
+        if met or not row["feasible"]:
+            break  # met; or the infeasible seeds after the first cannot do better than the best one
+        # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
     assert chosen is not None
-    row, run, cfg, s, plans, anatomies, summary, rows = chosen
-    met = bool(row["feasible"] and all(r["passed"] for r in rows))
-    if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
-        rows = [*rows, _program_row(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs)]
-        met = rows[-1]["passed"]
+    row, run, cfg, s, plans, anatomies, summary, rows, met = chosen
     return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows)
 
 
@@ -178,9 +178,7 @@ def _program_row(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, 
     from arcube.program import program
 
     limits = {r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance")}
-    import shutil
-
-    shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job builds it again
+    shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
     started = time.perf_counter()
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
     try:
