@@ -22,7 +22,8 @@ from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT,
 from arcube.evaluation.kernel._layout import O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
 from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._body import _body_world
-from arcube.evaluation.kernel._clearance import _anatomy_clearance, _self_clearance, self_moves
+from arcube.evaluation.kernel._clearance import _anatomy_clearance
+from arcube.evaluation.kernel._self import _self_clearance, self_moves
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
 from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
@@ -336,15 +337,13 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                                     cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
                 if do_self:
                     self_cap = _INF if full or track_self else opt[O_SELF_CLEARANCE]
-                    # a shortfall past the grading scale counts 1 whatever its size (MODEL.md 16): no need to find it
-                    self_enough = -_INF if self_cap == _INF else self_cap - GRADE_CLEARANCE
+                    self_enough = -_INF if self_cap == _INF else self_cap - GRADE_CLEARANCE  # past it a shortfall counts 1 (16)
                     self_moves(lines, prev_self, have_prev_self, move)
                     have_prev_self = True
                     selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap, self_enough,
                                             pair_lower, move)  # fmt: skip
                 if do_clr:
-                    # the running minimum may come from a point that single_assembly_mode fails later: with that
-                    # guard on, an exact summary minimum searches every point; a guard decision never needs to
+                    # single_assembly_mode may fail a point later: with it on, an exact summary minimum searches every point
                     cap = _INF if full else (floor if not track_min else (_INF if opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else max(floor, run_min)))
                     _carry_bounds(lower, lines, prev, have_prev and cap < _INF)
                     have_prev = True
