@@ -364,3 +364,20 @@ def test_a_failed_run_keeps_no_partial_program(tmp_path: Path, monkeypatch) -> N
     with pytest.raises(OSError):
         program(_design(), _plan("5"), out, dt=0.05)
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_the_timeline_figure_shows_every_segment_and_the_limits(right, tmp_path: Path) -> None:
+    """program.png is written beside the CSV; its figure draws one span per run of rows (each drill
+    labelled with its trajectory) and the joint limits as lines at +-30 deg/s and +-120 deg/s^2."""
+    from arcube.report.program import _spans, timeline_figure
+
+    prog, rows, summary, ts = right
+    assert (prog.path / "program.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    spans = _spans(np.asarray(rows["segment"]), np.asarray(rows["trajectory"]))
+    assert [(s, t) for _, _, s, t in spans if s == "drill"] == [("drill", k) for k in summary["order"]]
+    assert spans[0][0] == 0 and spans[-1][1] == len(rows["t_s"]) - 1
+    assert all(b[0] == a[1] + 1 for a, b in zip(spans, spans[1:]))  # contiguous, no row left out
+    ax_seg, ax_rate, ax_acc = timeline_figure(prog).axes
+    assert [t.get_text() for t in ax_seg.texts] == summary["order"]
+    levels = lambda ax: sorted({round(float(line.get_ydata()[0]), 9) for line in ax.get_lines() if line.get_linestyle() == "--"})  # noqa: E731
+    assert levels(ax_rate) == [-30.0, 30.0] and levels(ax_acc) == [-120.0, 120.0]

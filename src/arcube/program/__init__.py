@@ -105,6 +105,9 @@ def program(
         if folder is None:
             return prog
         prog.write(folder)
+        from arcube.report.program import timeline_png
+
+        timeline_png(prog, Path(folder) / "program.png")
     except BaseException:
         if created and folder is not None:
             remove_folder(folder)
