@@ -369,8 +369,11 @@ def test_a_failed_run_keeps_no_partial_program(tmp_path: Path, monkeypatch) -> N
 def test_the_timeline_figure_shows_every_segment_and_the_limits(right, tmp_path: Path) -> None:
     """program.png is written beside the CSV; its figure draws one span per run of rows (each drill
     labelled with its trajectory) and the joint limits as lines at +-30 deg/s and +-120 deg/s^2."""
-    from arcube.report.program import _spans, timeline_figure
+    import importlib
 
+    from arcube.report.program import JOINTS, _spans, timeline_figure
+
+    assert JOINTS == importlib.import_module("arcube.program.output").JOINTS  # the figure labels q's columns as the CSV does
     prog, rows, summary, ts = right
     assert (prog.path / "program.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     spans = _spans(np.asarray(rows["segment"]), np.asarray(rows["trajectory"]))

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from arcube.evaluation.performance import ACTUATOR_NAMES as JOINTS  # q's order in a program (arcube.program.output.JOINTS)
 from arcube.io.files import atomic_write_bytes
 from arcube.report.figures import _png_bytes
 
@@ -35,8 +36,6 @@ def timeline_figure(prog: Any) -> Any:
     the limits of ``prog.summary["limits"]`` as dashed lines."""
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
-
-    from arcube.program.output import JOINTS
 
     t = np.asarray(prog.t_s, dtype=float)
     rate = np.asarray(prog.q_dot_deg, dtype=float)
