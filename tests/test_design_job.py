@@ -237,3 +237,19 @@ def test_the_program_decides(met_design: Path) -> None:
     mode = np.array([1.0 if c == "+" else -1.0 for c in summary["mode"].split(",")])
     res = evaluate_task(design, E[None], axis[None], mode, Options())
     assert float(np.asarray(res.points.eta_L)[0]) > 100.0
+
+
+def test_the_api_and_the_cli_share_the_design_budget(monkeypatch, tmp_path: Path) -> None:
+    """arcube.design without a budget runs what arcube design runs (40,000 evaluations per seed)."""
+    import typer
+
+    import arcube.design_job as job
+    from arcube.cli import app
+
+    seen = {}
+    monkeypatch.setattr(job, "start_design", lambda out, plans, s, *a, **k: seen.setdefault("s", s))
+    arcube.design("reference", tmp_path / "d", side="R", anatomy="default")
+    command = typer.main.get_command(app).commands["design"]  # type: ignore[attr-defined]
+    cli_default = next(p.default for p in command.params if p.name == "generations")
+    assert seen["s"].generations == job.DESIGN_GENERATIONS == cli_default == 100
+    assert seen["s"].population * seen["s"].generations == 40_000

@@ -345,13 +345,15 @@ def design(
     Returns:
         A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).
     """
-    from arcube.design_job import design_settings, start_design
+    from arcube.design_job import DESIGN_GENERATIONS, design_settings, start_design
     from arcube.optimization import study as studymod
     from arcube.optimization.requirements import requirements_from
 
     if out is None:
         raise InputError.of("out", "is required (the design folder)")
     reqs = requirements_from(minima, maxima, drop)
+    if settings is None and "generations" not in fields:
+        fields = {**fields, "generations": DESIGN_GENERATIONS}  # the design job's budget, as the CLI's
     seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
     s = design_settings(reqs, _settings(settings, fields, "design"))
     return start_design(Path(out), _plans(plan), s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
