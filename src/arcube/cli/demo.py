@@ -5,7 +5,8 @@
 3. Run the paper's GA (population 400, up to 300 generations, tolerance 1e-5) with all 23
    parameters free on both sides.
 4. ``arcube design`` for the right side: a robot that clears the patient and itself and meets every
-   default requirement (all 27 parameters free; 40,000 evaluations, about 2 min).
+   default requirement, with its drilling program (all 27 parameters free; three seeds of 40,000
+   evaluations, two at a time: about 4 min).
 
 Each optimization writes a run folder with its HTML report; the paths are printed at the end.
 """
@@ -49,7 +50,10 @@ def _design(out: Path, *, seed: int, engine: str, quick: bool) -> Path:
     from arcube.cli.design import print_design
 
     sizes = {"population": 12, "generations": 2, "points": 4} if quick else {}
-    result = design_api(REFERENCE, out, seeds=[seed], side="R", anatomy="default", engine=engine, **sizes)  # type: ignore[arg-type]
+    # three seeds, two at a time, as arcube design runs by default: the job takes the best seed whose
+    # program is feasible (on the right side seed 1's is blocked between samples, README)
+    result = design_api(REFERENCE, out, seeds=[seed, seed + 1, seed + 2], side="R", anatomy="default", engine=engine,
+                        workers=1 if quick else 2, **sizes)  # type: ignore[arg-type]  # fmt: skip
     print_design(result)
     return out / "report.html"
 
@@ -78,7 +82,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     reports.append(_optimize(out / "all_free_bilateral", seed=seed, engine=engine, quick=quick, population=400, generations=300, tolerance=1e-5,
                              algorithm="ga"))  # fmt: skip
     typer.echo("\n4/4  A robot that fits the patient and meets every default requirement (arcube design, right side,"
-               f" all 27 parameters free, seed {seed}" + (", tiny budget (--quick): expect it to fall short)" if quick else ")"))
+               f" all 27 parameters free, seeds {seed}-{seed + 2}" + (", tiny budget (--quick): expect it to fall short)" if quick else ")"))
     reports.append(_design(out / "design_right", seed=seed, engine=engine, quick=quick))
     typer.echo(f"\ndone in {time.perf_counter() - started:.0f} s (engine {engine}). Reports:")
     for path in reports:
