@@ -15,6 +15,7 @@ poses (keep reachable ones); whether the IK is right is what the tests then chec
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -278,3 +279,32 @@ def pose_bank(designs):
             E, e = reachable_poses(rng, x, mode, 12)
             bank.append((x, mode, E, e))
     return bank
+
+
+# ----------------------------------------------------------------------------- headless Chromium (browser tests)
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+CHROMIUM_SKIP = pytest.mark.skipif(
+    not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()) and os.environ.get("CI") != "true",
+    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
+)
+"""Skip a browser test when Chromium is missing, except on CI (CI=true), where that is a failure."""
+
+
+def start_chromium(profile: Path, *args: str):  # noqa: ANN201 - a selenium driver
+    """A headless Chromium driver with a fresh profile in ``profile``, the browser log kept, and ``args``
+    added to the common ones; skips without selenium unless on CI."""
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        if os.environ.get("CI") == "true":
+            raise
+        pytest.skip("selenium not installed (pip install -e '.[test]')")
+    assert os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER), f"{CHROMIUM} or {CHROMEDRIVER} is missing (CI=true: install chromium and chromium-driver)"
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run", *args, f"--user-data-dir={profile}"):  # fmt: skip
+        opts.add_argument(arg)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)

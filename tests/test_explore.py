@@ -22,6 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from conftest import CHROMIUM_SKIP, start_chromium
 from arcube.cli import main as cli_main
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import evaluate_task
@@ -34,7 +35,6 @@ from arcube.model.mechanism import parse_mode
 from arcube.optimization.requirements import assess, design_options, requirements_from
 from arcube.options import Options
 
-CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
 """A design that reaches the reference plan's right side."""
 MODE = parse_mode("+,+,+,+")
@@ -209,32 +209,14 @@ def test_save_and_polish(app):
 
 # ----------------------------------------------------------------------------- in headless Chromium, with no network
 
-needs_chromium = pytest.mark.skipif(
-    not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)) and os.environ.get("CI") != "true",
-    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
-)
+needs_chromium = CHROMIUM_SKIP
 
 
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
-    on_ci = os.environ.get("CI") == "true"
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        if on_ci:
-            raise
-        pytest.skip("selenium not installed (pip install -e '.[test]')")
-    assert os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER), f"{CHROMIUM} or {CHROMEDRIVER} is missing"
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1000", "--enable-unsafe-swiftshader",
-                "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--no-first-run"):  # fmt: skip
-        opts.add_argument(arg)
-    opts.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    # WebGL in software; only 127.0.0.1 resolves, so the page cannot load anything from elsewhere
+    drv = start_chromium(tmp_path_factory.mktemp("chromium-profile"), "--window-size=1400,1000", "--enable-unsafe-swiftshader",
+                         "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1")  # fmt: skip
     drv.set_script_timeout(60)
     yield drv
     drv.quit()

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import PAPER
+from conftest import CHROMIUM_SKIP, PAPER, start_chromium
 
 from arcube.model.design import Design
 from arcube.api import evaluate
@@ -24,34 +24,14 @@ from arcube.report.html import DIV_IDS, TITLES
 from arcube.report.run_report import write_run_report
 from arcube.io import load_trajectories, select
 
-CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 PLACED = {**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
 
-pytestmark = pytest.mark.skipif(
-    not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)) and os.environ.get("CI") != "true",
-    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
-)
+pytestmark = CHROMIUM_SKIP
 
 
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
-    on_ci = os.environ.get("CI") == "true"
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        if on_ci:
-            raise
-        pytest.skip("selenium not installed (pip install -e '.[test]')")
-    assert os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER), f"{CHROMIUM} or {CHROMEDRIVER} is missing (CI=true: install chromium and chromium-driver)"
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--no-first-run", "--window-size=1300,1000"):  # fmt: skip
-        opts.add_argument(arg)
-    opts.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    drv = start_chromium(tmp_path_factory.mktemp("chromium-profile"), "--disable-gpu", "--window-size=1300,1000")
     yield drv
     drv.quit()
 

@@ -81,8 +81,6 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
     of ``reqs``, and the standoff lines of MODEL.md 17.1 (20 mm unless set)."""
     from arcube.optimization.config import run_settings
 
-    if settings is None and "generations" not in fields:
-        fields["generations"] = DESIGN_GENERATIONS
     s = run_settings(settings, **fields)
     maxima = {r.name: r.limit for r in reqs if r.kind == "max"}
     options = design_options(reqs, s.options)
@@ -177,7 +175,8 @@ def _program_row(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, 
     the design's clearances and standoff; its requirement row: met, or the blocked segment named."""
     from arcube.program import program
 
-    limits = {r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance")}
+    # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
+    limits = {"clearance": 0.0, "self_clearance": 0.0, **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance")}}
     shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
     started = time.perf_counter()
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}

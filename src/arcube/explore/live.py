@@ -34,7 +34,7 @@ from arcube.io.trajectories import TrajectorySet
 from arcube.model.body import PART_NAMES, BodyRadii
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.model.mechanism import format_mode
-from arcube.optimization.requirements import REQUIREMENTS, Requirement, design_options, requirements_from
+from arcube.optimization.requirements import REQUIREMENTS, Requirement, design_options, requirement_figure, requirements_from
 from arcube.options import GUARDED_OPTIONS, Options
 
 __all__ = ["Figures", "LiveModel", "View"]
@@ -212,7 +212,7 @@ class LiveModel:
             segments = (drill,) if where == "drill" else (drill, app)
             best, part = math.nan, ""
             for res in segments:
-                values, names = _figure(res, r.name)
+                values, names = requirement_figure(res.points, r.name)
                 v, i = _min_at(values) if kind == "min" else _max_at(values)
                 if math.isfinite(v) and (not math.isfinite(best) or (v < best if kind == "min" else v > best)):
                     best, part = v, names(i)
@@ -255,18 +255,3 @@ class LiveModel:
 
     def __len__(self) -> int:
         return int(len(self.line_source))
-
-
-def _figure(res: TaskResults, name: str) -> tuple[NDArray[np.float64], Any]:
-    """(values per point, index -> part or actuator name) of a requirement's figure (as ``assess``)."""
-    p = res.points
-    if name == "clearance":
-        part = np.asarray(p.clearance_part)
-        return np.asarray(p.clearance_mm, float), lambda i: PART_NAMES[part[i]] if part[i] >= 0 else ""
-    if name == "self_clearance":
-        return np.asarray(p.self_clearance_mm, float), lambda i: ""
-    if name == "torque":
-        act = np.asarray(p.torque_actuator)
-        return np.asarray(p.torque_Nm, float), lambda i: ACTUATOR_NAMES[act[i]] if act[i] >= 0 else ""
-    field_ = {"lateral_error": "lateral_error_mm", "axis_error": "axis_error_deg"}[name]
-    return np.asarray(getattr(p, field_), float), lambda i: ""

@@ -32,7 +32,7 @@ from arcube.evaluation.task import build_task
 from arcube.model.body import PART_NAMES
 from arcube.options import GUARDED_OPTIONS, Options
 
-__all__ = ["DEFAULTS", "REQUIREMENTS", "Requirement", "assess", "requirements_from", "write_requirements_csv"]
+__all__ = ["DEFAULTS", "REQUIREMENTS", "Requirement", "assess", "requirement_figure", "requirements_from", "write_requirements_csv"]
 
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
     "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"),
@@ -113,7 +113,7 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
             for r in reqs:
                 if segment == "approach" and REQUIREMENTS[r.name][2] == "drill":
                     continue
-                values, part = _figure(pts, r.name)
+                values, part = requirement_figure(pts, r.name)
                 values = np.where(np.isfinite(values), values, np.nan)
                 if np.all(np.isnan(values)):
                     continue
@@ -136,8 +136,9 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
     return rows
 
 
-def _figure(pts: Any, name: str) -> tuple[np.ndarray, Any]:
-    """(values per point, index -> part or actuator name) of a requirement's figure."""
+def requirement_figure(pts: Any, name: str) -> tuple[np.ndarray, Any]:
+    """(values per point, index -> part or actuator name) of a requirement's figure, from a result's
+    ``points`` (:class:`arcube.evaluation.reference.PointResults`)."""
     if name == "clearance":
         part = np.asarray(pts.clearance_part)
         return np.asarray(pts.clearance_mm, float), lambda i: PART_NAMES[part[i]] if part[i] >= 0 else ""
