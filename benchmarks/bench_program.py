@@ -4,8 +4,10 @@
   no anatomy), with the design of tests/test_program.py (every transit is the straight move);
 * ``wall``: two trajectories (C3, C4) with a wall between their standoffs (the test's), so the
   transit is blocked and OMPL RRTConnect plans around it: the whole program, and the planner alone;
+* ``torques``: what the actuator torques along the rows (MODEL.md 18.2) and the motor figures add
+  to ``plan`` (the same program with ``masses=False``);
 * ``checks``: states per second of the continuous check (:class:`arcube.program.check.Checker`,
-  NumPy reference) with the default anatomy of the reference patient: the fine check of 17.2
+  the NumPy reference and the compiled kernel's ``engine="numba"``) with the default anatomy of the reference patient: the fine check of 17.2
   (axes sampled every 0.25 mm) and the planner's (every 2 mm), one state per call (what OMPL's state
   validity checker asks) and 200 per call (an edge or a line).
 
@@ -49,6 +51,9 @@ def main() -> None:
     s = prog.summary
     print(f"plan  (right side, 5 trajectories, no anatomy): {t:.2f} s; order {' '.join(s['order'])}, program {s['total_s']:.1f} s, "
           f"{s['rows']} rows, {s['checked_states']} states checked")  # fmt: skip
+    t_plain, _ = best_time(lambda: program(design, _plan("1,3,5,7,9"), None, masses=False), args.repeats)
+    print(f"torques (MODEL.md 18.2 along the {s['rows']} rows, motor figures): {t - t_plain:.2f} s of the {t:.2f} s "
+          f"({(t - t_plain) / s['rows'] * 1e6:.0f} us per row; the program without masses {t_plain:.2f} s)")
 
     ts = _plan("1,3")
     S, _ = _standoffs(ts)
@@ -61,16 +66,17 @@ def main() -> None:
 
     plan = _plan("1,3,5,7,9")
     anat = load_anatomy("default", plan="reference")
-    checker = Checker(design.to_vector(), np.ones(4), ProgramLimits(), distance=anat.distance)
     line = np.linspace(0.0, 1.0, 200)[:, None]
     E = plan.target[0] + line * (plan.entry[0] + 20 * (plan.entry[0] - plan.target[0]) / np.linalg.norm(plan.entry[0] - plan.target[0]) - plan.target[0])
     e = (plan.entry[0] - plan.target[0]) / np.linalg.norm(plan.entry[0] - plan.target[0])
-    checker.assembly = checker.poses(E[:1], e).assembly[0]
-    coarse = checker.coarse()
-    for name, c in (("fine (17.2, 0.25 mm samples)", checker), ("planner (2 mm samples)", coarse)):
-        t1, _ = best_time(lambda: [c.poses(E[i : i + 1], e, tool=True) for i in range(20)], args.repeats)
-        tb, _ = best_time(lambda: c.poses(E, e, tool=True), args.repeats)
-        print(f"checks, {name}: {20 / t1:,.0f} states/s one per call, {len(E) / tb:,.0f} states/s 200 per call")
+    for engine in ("numpy", "numba"):
+        checker = Checker(design.to_vector(), np.ones(4), ProgramLimits(), distance=anat.distance, engine=engine)
+        checker.assembly = checker.poses(E[:1], e).assembly[0]  # also compiles the kernel, outside the timing
+        coarse = checker.coarse()
+        for name, c in (("fine (17.2)", checker), ("planner (2 mm)", coarse)):
+            t1, _ = best_time(lambda: [c.poses(E[i : i + 1], e, tool=True) for i in range(20)], args.repeats)
+            tb, _ = best_time(lambda: c.poses(E, e, tool=True), args.repeats)
+            print(f"checks, {engine}, {name}: {20 / t1:,.0f} states/s one per call, {len(E) / tb:,.0f} states/s 200 per call")
     print("rerun: .venv/bin/python benchmarks/bench_program.py [--repeats N]")
 
 

@@ -182,7 +182,7 @@ def _program_row(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, 
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
     try:
         prog = program(design, plan, out / PROGRAM, anatomy=anatomy, mode=mode, standoff_mm=float(s.standoff or 0.0),
-                       body=s.options.body, **limits)  # fmt: skip
+                       body=s.options.body, masses=s.options.masses, loads=s.options.loads, **limits)  # fmt: skip
     except InputError as exc:
         return {**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}
     summary = prog.summary

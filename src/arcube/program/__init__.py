@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from arcube.errors import InputError
-from arcube.options import Body, validated
+from arcube.options import Body, Loads, Masses, Options, validated
 from arcube.program.limits import ORDERS, Planner, ProgramLimits
 from arcube.program.output import CSV_COLUMNS, JOINTS, Program
 
@@ -48,7 +48,7 @@ def program(
     anatomy_frame: str = "LPS", mode: Any = "+,+,+,+", order: str = "shortest", side: str | None = None,
     levels: str | None = None, ids: str | None = None, transform: Any = None, limits: ProgramLimits | None = None,
     body: Body | None = None, planner: Planner | None = None, seed: int | None = None, log: Callable[[str], None] | None = None,
-    **changes: Any,
+    masses: Masses | bool | None = None, loads: Loads | None = None, engine: str = "auto", **changes: Any,
 ) -> Program:  # fmt: skip
     """The drilling program of ``design`` for a plan (MODEL.md 17).
 
@@ -64,6 +64,12 @@ def program(
         limits: a :class:`ProgramLimits`; keyword ``changes`` override its fields
             (``feed=1.0``, ``clearance=3``, ...).
         body: the body's radii (:class:`arcube.options.Body`).
+        masses: the mass model (:class:`arcube.options.Masses`, MODEL.md 18.1; None: its defaults,
+            False: no masses): the rows get the actuator torques of 18.2 (``tau_*_Nm`` columns) and
+            ``program.json`` the motor figures of 18.3 (``motors``).
+        loads: the drilling thrust and lateral bound (:class:`arcube.options.Loads`, 15.3).
+        engine: the continuous check's: ``numba`` (the compiled kernel's condition numbers and body
+            clearances), ``numpy`` (the reference) or ``auto`` (numba when it imports).
         planner, seed: the transit planner's settings (``seed`` overrides ``planner.seed``).
         log: called with one line per transit planned (progress).
 
@@ -84,7 +90,13 @@ def program(
     from arcube.program.assemble import build_program
     from arcube.program.output import prepare_folder, remove_folder
 
+    from arcube.evaluation.engine import resolve
+
     lim = _limits(limits, changes)
+    try:
+        engine = resolve(engine)
+    except ValueError as exc:
+        raise InputError.of("engine", str(exc)) from None
     if order not in ORDERS:
         raise InputError.of("order", f"must be one of {', '.join(ORDERS)}, got {order!r}")
     signs = parse_mode_option(mode) if isinstance(mode, str) else np.sign(np.asarray(mode, dtype=float)).reshape(4)
@@ -94,6 +106,13 @@ def program(
     if seed is not None:
         plan = plan.replace(seed=seed)
     body = validated(Body, body.model_dump()) if body is not None else Body()
+    mass_model = None
+    if masses is not False:
+        from arcube.evaluation.bodies import MassModel
+
+        m = Masses() if masses is None or masses is True else validated(Masses, masses.model_dump())
+        mass_model = MassModel.of(Options(body=body, masses=m))
+    loads = validated(Loads, loads.model_dump()) if loads is not None else Loads()
     d = Design.coerce(design)
     ts = trajectories if isinstance(trajectories, TrajectorySet) else load_trajectories(trajectories, transform=transform)
     if side or levels or ids:
@@ -101,7 +120,7 @@ def program(
     anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(trajectories, TrajectorySet) else trajectories)
     folder, created = prepare_folder(out) if out is not None else (None, False)
     try:
-        prog = build_program(d, ts, anat, signs, order, lim, body, plan, log)
+        prog = build_program(d, ts, anat, signs, order, lim, body, plan, log, mass_model, loads, engine)
         if folder is None:
             return prog
         prog.write(folder)

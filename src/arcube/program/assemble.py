@@ -24,9 +24,13 @@ from arcube.evaluation.standoff import standoff_points
 from arcube.io.trajectories import TrajectorySet
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode
-from arcube.options import Body
+from arcube.evaluation.bodies import MassModel
+from arcube.evaluation.masses import moving_mass_kg
+from arcube.options import Body, Loads
 from arcube.program.check import Checker, StateChecks
+from arcube.program.dynamics import program_torques
 from arcube.program.limits import RESOLUTION_MM, Planner, ProgramLimits
+from arcube.program.motors import motor_figures
 from arcube.program.order import EXACT_MAX, path_cost, shortest_order
 from arcube.program.output import JOINTS, Program
 from arcube.program.sampling import cruise_problem, sample_piece
@@ -77,13 +81,13 @@ def _proxy(q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker,
 
 class _Builder:
     def __init__(self, design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], limits: ProgramLimits,
-                 body: Body, planner: Planner, log: Callable[[str], None]) -> None:  # fmt: skip
+                 body: Body, planner: Planner, log: Callable[[str], None], engine: str = "numpy") -> None:  # fmt: skip
         self.ts, self.limits, self.planner, self.log = ts, limits, planner, log
         self.mode, self.mode_text = mode, format_mode(mode)
         self.lines = _lines(ts, anatomy, limits)
         self.anatomy_source = None if anatomy is None else str(anatomy.source)
         distance = None if anatomy is None else anatomy.distance
-        self.checker = Checker(design.to_vector(), mode, limits, body, distance)
+        self.checker = Checker(design.to_vector(), mode, limits, body, distance, engine=engine)
         self.transits: dict[tuple[int, int], tuple[Transit, list[dict[str, Any]], float]] = {}
 
     def check_lines(self) -> None:
@@ -190,9 +194,15 @@ def _extreme(values: list[tuple[NDArray[np.float64], str]], smallest: bool) -> t
 
 
 def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], order: str, limits: ProgramLimits,
-                  body: Body, planner: Planner, log: Callable[[str], None] | None = None) -> Program:  # fmt: skip
-    """The program of ``design`` for the plan ``ts`` (MODEL.md 17); InputError naming the segment if none exists."""
-    b = _Builder(design, ts, anatomy, mode, limits, body, planner, log or (lambda _: None))
+                  body: Body, planner: Planner, log: Callable[[str], None] | None = None, masses: MassModel | None = None,
+                  loads: Loads | None = None, engine: str = "numpy") -> Program:  # fmt: skip
+    """The program of ``design`` for the plan ``ts`` (MODEL.md 17); InputError naming the segment if none exists.
+
+    With ``masses`` (MODEL.md 18.1) the rows get the actuator torques of 18.2 and the summary the motor
+    figures of 18.3 (``loads``: the drilling thrust and lateral bound of 15.3, default :class:`Loads`).
+    ``engine``: ``numpy`` or ``numba``, the continuous check's (:class:`~arcube.program.check.Checker`).
+    """
+    b = _Builder(design, ts, anatomy, mode, limits, body, planner, log or (lambda _: None), engine)
     b.check_lines()
     seq, order_method = b.choose_order(order)
     blocks: list[tuple[str, str, dict[str, Any]]] = []  # (segment, trajectory label, rows)
@@ -214,7 +224,21 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
                              "straight_blocked_by": None if tr.blocked is None else str(tr.blocked.reason[tr.blocked_index])})  # fmt: skip
             blocks += [("transit", label, rows) for rows in rows_list]
             checked += [(piece.checks, label, True) for piece in tr.pieces]
-    return _program(b, seq, order_method, blocks, per_traj, transits, checked)
+    prog = _program(b, seq, order_method, blocks, per_traj, transits, checked)
+    return prog if masses is None else with_torques(prog, b.checker.params, b.mode, masses, loads or Loads())
+
+
+def with_torques(prog: Program, params: NDArray[np.float64], mode: NDArray[np.float64], masses: MassModel, loads: Loads) -> Program:
+    """``prog`` with its actuator torques per row (18.2) and its motor figures (18.3) in the summary."""
+    import dataclasses
+
+    tq = program_torques(params, prog.E, prog.e, mode, float(prog.summary["dt_s"]), prog.segment == "drill", masses,
+                         loads.thrust_N, loads.lateral_force_N)  # fmt: skip
+    summary = dict(prog.summary)
+    summary["motors"] = motor_figures(prog.t_s, np.radians(prog.q_dot_deg), tq, JOINTS)
+    summary["masses"] = {**dataclasses.asdict(masses), "moving_mass_kg": float(moving_mass_kg(params, masses))}
+    summary["loads"] = {"thrust_N": loads.thrust_N, "lateral_force_N": loads.lateral_force_N}
+    return dataclasses.replace(prog, tau_Nm=tq.tau_Nm, summary=summary)
 
 
 def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[str, str, dict[str, Any]]], per_traj: list[dict[str, Any]],
@@ -263,7 +287,7 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
         "joint_speed_max_deg_s": {j: float(np.degrees(np.max(np.abs(qd[:, i])))) for i, j in enumerate(JOINTS)},
         "joint_accel_max_deg_s2": {j: float(np.degrees(np.max(accel[:, i], initial=0.0))) for i, j in enumerate(JOINTS)},
         "tip_speed_max_transit_mm_s": float(np.max(tip[in_transit[:-1] & in_transit[1:]], initial=0.0)),
-        "checked_states": int(b.checker.calls), "resolution_mm": RESOLUTION_MM,
+        "checked_states": int(b.checker.calls), "resolution_mm": RESOLUTION_MM, "check_engine": b.checker.engine,
         "timing": "toppra (TOPP-RA, time-optimal on the checked grid; rows verified, retimed if a limit is exceeded)",
         "limits": lim.model_dump(), "planner": {"name": "OMPL RRTConnect + PathSimplifier", **b.planner.model_dump()},
         "anatomy": b.anatomy_source, "plan": b.ts.source,

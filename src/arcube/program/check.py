@@ -21,6 +21,15 @@ states (:data:`PLANNING_RESOLUTION_MM` apart, axes every :data:`PLANNING_STEP_MM
 raised to match (:meth:`Checker.coarse`), so what it accepts passes the fine check too (a distance is
 1-Lipschitz).
 
+**Compiled** (``engine="numba"``): the condition numbers and both body clearances come from the
+kernel (:func:`arcube.evaluation.kernel.evaluate_task_numba`); the IK's branch and assembly signs,
+the tool clearance and the points that measure the resolution stay NumPy (cheap next to the
+clearances). eta_L and the self clearance equal the reference's to rounding. The kernel's body
+clearance is a branch-and-bound minimum at most ``TOL_MM`` (0.1 mm) above the exact one, so the
+check takes it less ``TOL_MM``: a lower bound, where the reference's samples every 0.25 mm give an
+upper bound; the compiled check is the stricter, by at most both. Calls of fewer than 16 states use
+the reference (the kernel's per-call set-up costs more than it saves there).
+
 :func:`refine` samples a path so that no point of the body or the tool moves more than
 :data:`~arcube.program.limits.RESOLUTION_MM` between two consecutive checked states (MODEL.md 17.2).
 """
@@ -37,7 +46,7 @@ from arcube.evaluation.clearance import SAMPLE_STEP_MM, Distance, anatomy_cleara
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.body import BodyParts, body_parts, great_circle, mechanism_points
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
-from arcube.options import Body
+from arcube.options import Body, Options, Outputs
 from arcube.program.limits import RESOLUTION_MM, ProgramLimits
 
 __all__ = ["Checker", "PLANNING_RESOLUTION_MM", "StateChecks", "displacement", "refine"]
@@ -47,6 +56,10 @@ PLANNING_RESOLUTION_MM = 2.0
 see :meth:`Checker.coarse`), and its samples along the body's axes (the reference: 0.25 mm)."""
 _Q_TOL = 1e-7
 """rad: a joint state and the IK of its pose agree to this (else it is in another working mode)."""
+_KERNEL_MIN_STATES = 16
+"""With ``engine="numba"``, fewer states per call are checked by the reference: the kernel's per-call set-up
+costs more than it saves there (one state per call, e.g. OMPL's validity checks: measured by
+benchmarks/bench_program.py)."""
 _STAGES = (("TLS", "xyz", "tls_arg"), ("RTS", "xy", "rts_arg"), ("TMS", "xy", "tms_arg"))
 
 
@@ -101,7 +114,10 @@ class Checker:
 
     def __init__(self, params: ArrayLike, mode: ArrayLike, limits: ProgramLimits, body: Body = Body(),
                  distance: Distance | None = None, assembly: ArrayLike | None = None, *,
-                 step: float = SAMPLE_STEP_MM, margin: float = 0.0) -> None:  # fmt: skip
+                 step: float = SAMPLE_STEP_MM, margin: float = 0.0, engine: str = "numpy") -> None:  # fmt: skip
+        if engine not in ("numpy", "numba"):
+            raise ValueError(f"engine must be numpy or numba, got {engine!r}")
+        self.engine = engine
         self.params = np.asarray(params, dtype=float)
         self.mode = np.asarray(mode, dtype=float)
         self.limits, self.body, self.distance = limits, body, distance
@@ -124,7 +140,8 @@ class Checker:
                 slack += [ends.clearance - lim.clearance, ends.tool_clearance]
             least = float(np.nanmin(np.concatenate(slack)))
             res = float(np.clip(0.9 * least, RESOLUTION_MM, PLANNING_RESOLUTION_MM))
-        out = Checker(self.params, self.mode, self.limits, self.body, self.distance, self.assembly, step=res, margin=res)
+        out = Checker(self.params, self.mode, self.limits, self.body, self.distance, self.assembly, step=res, margin=res,
+                      engine=self.engine)  # fmt: skip
         out.resolution = res
         return out
 
@@ -136,14 +153,19 @@ class Checker:
         self.calls += n
         with np.errstate(invalid="ignore", divide="ignore"):
             sol = inverse_kinematics(self.params, E, e, self.mode)
-            kappa = condition_numbers(sol, self.params)
-            eta = np.max(np.where(np.isnan(kappa), np.inf, kappa), axis=-1)
             mp = mechanism_points(self.params, E, e, c_z=None, motor_length=self.body.motor_length, sol=sol)
-            parts = body_parts(mp, self.body.radii)
-            selfc = self_clearance(parts)
             clear = tool_clear = np.full(n, np.nan)
+            if self.engine == "numba" and n >= _KERNEL_MIN_STATES:
+                kappa, clear_k, selfc = self._compiled(E, e)
+                clear = clear if self.distance is None else clear_k
+            else:
+                kappa = condition_numbers(sol, self.params)
+                parts = body_parts(mp, self.body.radii)
+                selfc = self_clearance(parts)
+                if self.distance is not None:
+                    clear = self._body_clearance(parts)
+            eta = np.max(np.where(np.isnan(kappa), np.inf, kappa), axis=-1)
             if self.distance is not None:
-                clear = self._body_clearance(parts)
                 if tool:
                     tool_clear = self._tool_clearance(mp.E, mp.H)
         q = np.concatenate([sol.rho, sol.delta], axis=-1)
@@ -171,6 +193,20 @@ class Checker:
              mp.arc_beta.reshape(n, -1, 3), mp.E[:, None], mp.drill_end[:, None]], axis=1,
         )  # fmt: skip
         return StateChecks(reason == "", reason, mp.E, mp.e, q, asm, eta, clear, tool_clear, selfc, points)
+
+    def _compiled(self, E: NDArray[np.float64], e: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """(kappa ``(n, 7)``, clearance ``(n,)``, self clearance ``(n,)``) of poses from the compiled kernel."""
+        from arcube.evaluation.kernel import evaluate_task_numba
+        from arcube.evaluation.kernel._clearance import TOL_MM
+
+        outputs = Outputs(clearances=True, anatomy_clearance=self.distance is not None, tip_metrics=False)
+        ok = np.all(np.isfinite(E), axis=-1) & np.all(np.isfinite(e), axis=-1)
+        kappa, clear, selfc = np.full((len(E), 7), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan)
+        if ok.any():
+            pts = evaluate_task_numba(self.params, E[ok], e[ok], self.mode, Options(body=self.body, outputs=outputs),
+                                      anatomy=self.distance).points  # fmt: skip
+            kappa[ok], clear[ok], selfc[ok] = pts.kappa, pts.clearance_mm - TOL_MM, pts.self_clearance_mm
+        return kappa, clear, selfc
 
     def _body_clearance(self, parts: BodyParts) -> NDArray[np.float64]:
         """The body's clearance to the anatomy: the reference's :func:`anatomy_clearance` at the default

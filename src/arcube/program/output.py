@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 
-__all__ = ["CSV_COLUMNS", "JOINTS", "Program", "prepare_folder", "remove_folder"]
+__all__ = ["CSV_COLUMNS", "JOINTS", "TORQUE_COLUMNS", "Program", "prepare_folder", "remove_folder"]
 
 JOINTS = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuators, in q's order."""
@@ -30,6 +30,8 @@ CSV_COLUMNS: tuple[str, ...] = (
     "t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", *JOINTS, *(f"{j}_dot" for j in JOINTS),
 )  # fmt: skip
 """Columns of ``program.csv`` (MODEL.md 17.3): s; patient frame, mm; deg; deg/s."""
+TORQUE_COLUMNS: tuple[str, ...] = tuple(f"tau_{j}_Nm" for j in JOINTS)
+"""Columns appended to ``program.csv`` when the program has its actuator torques (MODEL.md 18.2), N m."""
 CSV_NAME, JSON_NAME = "program.csv", "program.json"
 
 
@@ -39,7 +41,8 @@ class Program:
 
     Rows ``(n, ...)``: ``t_s`` time, ``segment`` (approach, drill, retract, transit), ``trajectory``
     (the plan's id, or ``"a->b"`` in a transit), ``E`` tip and ``e`` axis (patient frame, mm),
-    ``q_deg`` the five actuator angles and ``q_dot_deg`` their rates (deg, deg/s), in :data:`JOINTS` order.
+    ``q_deg`` the five actuator angles and ``q_dot_deg`` their rates (deg, deg/s), in :data:`JOINTS` order;
+    ``tau_Nm`` the actuator torques (gravity, inertia, thrust; MODEL.md 18.2) when masses were given.
     """
 
     t_s: NDArray[np.float64]
@@ -51,6 +54,7 @@ class Program:
     q_dot_deg: NDArray[np.float64]
     summary: dict[str, Any]
     path: Path | None = None
+    tau_Nm: NDArray[np.float64] | None = None
 
     @property
     def order(self) -> list[str]:
@@ -65,9 +69,10 @@ class Program:
     def to_csv(self) -> str:
         """The text of ``program.csv``."""
         buf = io.StringIO()
-        buf.write(",".join(CSV_COLUMNS) + "\n")
+        tau = self.tau_Nm
+        buf.write(",".join(CSV_COLUMNS + (TORQUE_COLUMNS if tau is not None else ())) + "\n")
         for i in range(len(self.t_s)):
-            nums = (*self.E[i], *self.e[i], *self.q_deg[i], *self.q_dot_deg[i])
+            nums = (*self.E[i], *self.e[i], *self.q_deg[i], *self.q_dot_deg[i], *(tau[i] if tau is not None else ()))
             buf.write(f"{_num(self.t_s[i])},{self.segment[i]},{self.trajectory[i]},{','.join(_num(v) for v in nums)}\n")
         return buf.getvalue()
 
