@@ -10,8 +10,9 @@ The model starts from its keyframe ``assembled``; the five position actuators (r
 delta_x, delta_y) are ramped to the first point of the trajectory, then set point after point to the
 CSV's angles (deg -> rad), with ``--steps`` simulation steps per point so that MuJoCo's own loop closure
 settles. At each point the ``tip`` site is printed beside the CSV's x, y, z (mm, patient frame), and at
-the end the largest distance. Gravity is off unless ``--gravity`` is given (the position servos are
-not stiff enough to hold the links' weight to within a tenth of a millimetre).
+the end the largest distance. Gravity is off unless ``--gravity`` is given (the position servos alone
+let the weight of the model's masses, MODEL.md 18.1, sag the tip by a millimetre or more;
+``examples/mujoco_replay.py`` adds the torques that hold it).
 """
 
 from __future__ import annotations

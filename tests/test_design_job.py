@@ -21,9 +21,10 @@ from arcube.optimization.requirements import DEFAULTS, requirements_from
 def test_requirements_defaults_changes_and_drops() -> None:
     reqs = {r.name: (r.kind, r.limit) for r in requirements_from()}
     assert reqs == {"clearance": ("min", 5.0), "self_clearance": ("min", 2.0), "lateral_error": ("max", 0.5),
-                    "axis_error": ("max", 0.25), "torque": ("max", 20.0)}  # fmt: skip
+                    "axis_error": ("max", 0.25), "torque": ("max", 20.0), "holding_torque": ("max", 20.0)}  # fmt: skip
     changed = {r.name: r.limit for r in requirements_from({"clearance": 8}, {"torque": 15}, drop=["axis_error"])}
-    assert changed == {"clearance": 8.0, "self_clearance": DEFAULTS["self_clearance"], "lateral_error": DEFAULTS["lateral_error"], "torque": 15.0}
+    assert changed == {"clearance": 8.0, "self_clearance": DEFAULTS["self_clearance"], "lateral_error": DEFAULTS["lateral_error"], "torque": 15.0,
+                       "holding_torque": DEFAULTS["holding_torque"]}
 
 
 @pytest.mark.parametrize(

@@ -23,7 +23,7 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from arcube.evaluation.performance import PERFORMANCE_FIELDS
+from arcube.evaluation.performance import MAXIMUM_FIELDS
 from arcube.evaluation import kernel
 from arcube.model.design import Design
 from arcube.evaluation.reference import FAILURES, GUARDED_OPTIONS, Options, PointResults, TaskResults, evaluate_task
@@ -114,6 +114,8 @@ rounding noise, ~1e-15 of the design's other values and different in each engine
 1e-9 of max(|value|, 1e-3) in the metric's unit (mm, deg, N·m)."""
 ACTUATOR = Tol(exact=True, where=("torque_Nm", 1e-6))
 """The actuator of the largest torque, where that torque (N·m) is not 0 up to rounding (-1 at the same points)."""
+HOLDING_ACTUATOR = Tol(exact=True, where=("holding_torque_Nm", 1e-6))
+"""The same for the holding torque of MODEL.md 18.2 (tests/test_kernel_masses.py turns it on)."""
 CLEARANCE = Tol(abs=0.15)
 """Clearance to the anatomy, mm: the kernel's branch and bound stops within TOL_MM = 0.1 of the field's
 minimum along the body, the reference samples every 0.25 mm (within 0.125); as tests/test_clearance.py."""
@@ -131,6 +133,7 @@ POINT_TOL: dict[str, Tol] = {
     "clearance_mm": CLEARANCE, "clearance_part": EXACT, "self_clearance_mm": SELF_CLEARANCE,
     "tip_error_mm": TIP, "lateral_error_mm": TIP, "axial_error_mm": TIP, "axis_error_deg": TIP,
     "torque_Nm": TIP, "torque_actuator": ACTUATOR, "deflection_mm": TIP,
+    "holding_torque_Nm": TIP, "holding_torque_actuator": HOLDING_ACTUATOR,
 }  # fmt: skip
 """Every PointResults field: how the kernel's must equal the reference's (a field missing here fails)."""
 SUMMARY_TOL: dict[str, Tol] = {
@@ -139,7 +142,7 @@ SUMMARY_TOL: dict[str, Tol] = {
     "dexterity_min": Tol(), "dexterity_mean": Tol(), "dexterity_max": Tol(),
     "clearance_min": CLEARANCE, "self_clearance_min": SELF_CLEARANCE,
     "tip_error_max": TIP, "lateral_error_max": TIP, "axial_error_max": TIP, "axis_error_max": TIP,
-    "torque_max": TIP, "deflection_max": TIP,
+    "torque_max": TIP, "deflection_max": TIP, "holding_torque_max": TIP,
 }  # fmt: skip
 """Every TaskResults summary field (all but ``points``), as :data:`POINT_TOL`."""
 
@@ -303,7 +306,7 @@ def _numpy_trig_is_libm() -> bool:
     return all(np.array_equal(a, np.array(b)) for a, b in pairs)
 
 
-_TIP_FIELDS = frozenset({*PERFORMANCE_FIELDS, "torque_actuator", *(f.rsplit("_", 1)[0] + "_max" for f in PERFORMANCE_FIELDS)})
+_TIP_FIELDS = frozenset({*MAXIMUM_FIELDS, "torque_actuator", "holding_torque_actuator", *(f.rsplit("_", 1)[0] + "_max" for f in MAXIMUM_FIELDS)})
 
 
 def test_exact_path_is_bitwise_where_numpy_uses_libm(designs, points) -> None:

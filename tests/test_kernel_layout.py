@@ -21,11 +21,11 @@ import pytest
 from arcube.evaluation import kernel, reference
 from arcube.evaluation.kernel import _cache, _layout
 from arcube.evaluation.kernel._layout import EXTRA, GEOMETRY, OPTIONS, SUMMARY, Layout
-from arcube.evaluation.performance import PERFORMANCE_FIELDS
+from arcube.evaluation.performance import MAXIMUM_FIELDS, PERFORMANCE_FIELDS
 from arcube.evaluation.reference import PointResults, TaskResults
 from arcube.model import frames
 from arcube.model.design import ANGLE_GROUPS, ANGLE_NAMES, INDEX, PARAM_NAMES, SLICES, Geometry, unpack
-from arcube.options import Body, Guards, Loads, Options, Outputs
+from arcube.options import Body, Guards, Loads, Masses, Options, Outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -103,7 +103,24 @@ def test_result_rows_follow_the_result_types() -> None:
     s_cols, x_cols = _layout.MAXIMA.T
     tip = TaskResults._fields.index("tip_error_max")
     assert [SUMMARY.names[c] for c in s_cols] == list(TaskResults._fields[tip:])  # MODEL.md 15.5, the last fields
-    assert [EXTRA.names[c] for c in x_cols] == [EXTRA.names[c] for c in _layout.METRIC_COLUMNS] == list(PERFORMANCE_FIELDS)
+    assert [EXTRA.names[c] for c in x_cols] == [EXTRA.names[c] for c in _layout.METRIC_COLUMNS] == list(MAXIMUM_FIELDS)
+    assert MAXIMUM_FIELDS == (*PERFORMANCE_FIELDS, "holding_torque_Nm") and TaskResults._fields[-1] == "holding_torque_max"  # MODEL.md 18.2
+
+
+def test_geometry_rows_hold_the_arcs_chords_and_slerp_sums() -> None:
+    """The per-design sums of the holding torque's collapsed chords (kernel._masses), against the 13 slerp
+    samples of each spherical link summed here by hand: sum_k (c_k + c_{k+1}) / 2 of sin(k phi / 12) / sin(phi)."""
+    x = np.random.default_rng(3).uniform(30.0, 150.0, (4, len(PARAM_NAMES)))
+    rows, g = kernel._geometry(x), unpack(x)
+    phi = np.concatenate([g.alpha, g.beta], axis=-1)
+    k = np.arange(13)
+    b = np.sin(k[None, None, :] * phi[..., None] / 12.0) / np.sin(phi[..., None])
+    a = b[..., ::-1]  # sin((1 - s) phi) / sin(phi): the samples in reverse
+    trapezoid = lambda c: c[..., 1:-1].sum(axis=-1) + 0.5 * (c[..., 0] + c[..., -1])  # noqa: E731
+    block = lambda name: rows[:, GEOMETRY.offset[name] : GEOMETRY.offset[name] + 4]  # noqa: E731
+    np.testing.assert_allclose(block("arc_a"), trapezoid(a), rtol=1e-14)
+    np.testing.assert_allclose(block("arc_b"), trapezoid(b), rtol=1e-14)
+    np.testing.assert_allclose(block("arc_chord"), np.sin(phi / 24.0), rtol=1e-15)
 
 
 def test_layout_refuses_repeated_blocks() -> None:
@@ -125,10 +142,11 @@ SAMPLES = {
              "single_assembly_mode": True, "clearance_mm": 3.0, "self_clearance_mm": 2.0},
     Body: {"link_radius": 3.0, "actuator_radius": 9.0, "motor_radius": 7.0, "motor_length": 80.0},
     Loads: {"encoder_deg": 0.02, "thrust_N": 12.0, "lateral_force_N": 3.0, "actuator_stiffness": 2e3},
-    Outputs: {"clearances": True, "anatomy_clearance": True, "clearance_min_exact": False, "tip_metrics": False},
+    Masses: {"wall_mm": 3.0, "density_kg_m3": 7800.0, "m_delta_kg": 0.5, "m_motor_kg": 2.0, "gravity": (0.0, -9.81, 0.0)},
+    Outputs: {"clearances": True, "anatomy_clearance": True, "clearance_min_exact": False, "tip_metrics": False, "holding_torque": True},
 }  # fmt: skip
 """A value other than the default for every setting (a new setting needs one here)."""
-GROUP = {Guards: "guards", Body: "body", Loads: "loads", Outputs: "outputs"}
+GROUP = {Guards: "guards", Body: "body", Loads: "loads", Masses: "masses", Outputs: "outputs"}
 
 
 def _seen(options: Options) -> tuple[np.ndarray, ...]:

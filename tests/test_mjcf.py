@@ -6,17 +6,23 @@
   reference plan; two designs, one of them rotated and with a tool offset L > 0;
 * dynamic: gravity off, only the five position actuators driven to our IK's angles point after point,
   MuJoCo's own loop closure brings the drill tip to E and the axis to e;
-* the CLI's bad input ends as one ``error:`` line, exit 2, no file; the example script tracks a
-  joints CSV.
+* masses (MODEL.md 18.1): every body's mass is the closed form of 18.1 restated here, their sum the
+  moving mass; the motor's and a spherical link's inertia are recomputed from the sites; MuJoCo's
+  torques that hold the weight, projected through the closed loops (G^T qfrc_bias), equal our dV/dq
+  (MODEL.md 18.2), and applied as the actuators' torques they hold the tip within 0.05 mm with gravity on;
+* the CLI's bad input ends as one ``error:`` line, exit 2, no file; the mass flags reach the model; the
+  example script tracks a joints CSV.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +31,8 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from arcube.errors import InputError  # noqa: E402
+from arcube.evaluation.bodies import MassModel  # noqa: E402
+from arcube.evaluation.masses import gravity_torque_Nm, moving_mass_kg  # noqa: E402
 from arcube.evaluation.reference import evaluate_task  # noqa: E402
 from arcube.evaluation.result import load_trajectory_set  # noqa: E402
 from arcube.evaluation.task import build_task  # noqa: E402
@@ -214,6 +222,139 @@ def test_anatomy_meshes_become_static_mesh_geoms() -> None:
     assert np.all(model.geom_contype == 0) and np.all(model.geom_conaffinity == 0)
 
 
+# ------------------------------------------------------------------------------------------ masses (MODEL.md 18.1, 18.2)
+
+
+def _closed_form_masses(design: Design, c_z: float, m: MassModel) -> dict[str, float]:
+    """Each MuJoCo body's mass from MODEL.md 18.1 by hand: tubes lambda x length, lambda = rho pi (r_o^2 - r_i^2);
+    a spherical link is 12 chords of 2 r sin(phi / 24); the delta actuators ride at D_u (on knee_u)."""
+    lam = m.density_kg_m3 * math.pi * ((m.link_radius_mm * 1e-3) ** 2 - ((m.link_radius_mm - m.wall_mm) * 1e-3) ** 2) * 1e-3  # kg/mm
+    out = {f"crank_{u}": lam * design[f"p_{u}"] for u in "xyz"}
+    for u in "xy":
+        out |= {f"input_{u}": lam * design[f"d_{u}"], f"coupler_{u}": lam * design[f"c_{u}"], f"output_{u}": lam * design[f"t_{u}"],
+                f"knee_{u}": m.m_delta_kg}  # fmt: skip
+        for kind in ("alpha", "beta"):
+            out[f"{kind}_{u}"] = lam * 12 * 2 * design["r"] * math.sin(math.radians(design[f"{kind}_{u}"]) / 24)
+    out |= {"zdyad_d": lam * design["d_z"], "zdyad_c": lam * c_z, "platform": lam * 3 * math.sqrt(2) * design["r"], "drill": m.m_motor_kg}
+    return out
+
+
+@pytest.mark.parametrize("which", ["paper_right", "rotated_offset"])
+def test_body_masses_and_moving_mass_are_the_mass_model(designs, which) -> None:
+    design, c_z = designs[which]
+    cz = design["d_z"] if c_z is None else c_z
+    masses = MassModel(wall_mm=1.5, density_kg_m3=7800.0, m_delta_kg=0.6, m_motor_kg=2.0, gravity=(1.0, -2.0, -9.0))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z, masses=masses))
+    got = {model.body(b).name: float(model.body_mass[b]) for b in range(2, model.nbody)}  # after world and the static base
+    want = _closed_form_masses(design, cz, masses)
+    assert set(got) - set(want) == {"knee_z"} and got["knee_z"] <= 1e-6  # MuJoCo's floor for a massless moving body
+    for name, value in want.items():
+        assert got[name] == pytest.approx(value, rel=1e-12), name
+    total = sum(got.values())
+    assert total == pytest.approx(sum(want.values()), abs=2e-6)
+    assert total == pytest.approx(float(moving_mass_kg(design.to_vector(), replace(masses, c_z_mm=cz))), abs=2e-6)
+    np.testing.assert_allclose(model.opt.gravity, [1000.0, -2000.0, -9000.0], rtol=0, atol=1e-12)  # m/s^2 -> mm/s^2
+
+
+def test_inertias_of_the_motor_and_of_a_spherical_link(designs) -> None:
+    """The drill motor: a cylinder H -> H + L_m e, inertia m (L_m^2/12 + rho_m^2/4) across e and none along it
+    (its spin is the spindle's, 18.2); beta_x: 12 equal rods on the great circle from u_beta to e about C."""
+    design, c_z = designs["rotated_offset"]
+    m = MassModel()
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+
+    def world_inertia(name: str) -> np.ndarray:
+        b = model.body(name).id
+        R = data.ximat[b].reshape(3, 3)
+        return R @ np.diag(model.body_inertia[b]) @ R.T
+
+    H, E = data.site("holder").xpos, data.site("tip").xpos
+    e = (H - E) / np.linalg.norm(H - E)
+    np.testing.assert_allclose(data.xipos[model.body("drill").id], H + 60.0 * e, atol=1e-9)
+    across = m.m_motor_kg * (120.0**2 / 12 + 20.0**2 / 4)
+    np.testing.assert_allclose(world_inertia("drill"), across * (np.eye(3) - np.outer(e, e)), atol=1e-6)
+
+    C, B = data.site("C").xpos, data.site("B_x").xpos
+    r, phi = design["r"], math.radians(design["beta_x"])
+    ub = (B - C) / r
+    s = np.linspace(0.0, 1.0, 13)[:, None]
+    pts = C + r * (np.sin((1 - s) * phi) * ub + np.sin(s * phi) * e) / math.sin(phi)
+    mass = model.body_mass[model.body("beta_x").id] / 12
+    mid = 0.5 * (pts[1:] + pts[:-1])
+    com = mid.mean(axis=0)
+    inertia = sum(mass * (d @ d / 12 * np.eye(3) - np.outer(d, d) / 12) + mass * (q @ q * np.eye(3) - np.outer(q, q))
+                  for d, q in zip(pts[1:] - pts[:-1], mid - com))  # fmt: skip
+    np.testing.assert_allclose(data.xipos[model.body("beta_x").id], com, atol=1e-9)
+    np.testing.assert_allclose(world_inertia("beta_x"), inertia, atol=1e-6 * np.abs(inertia).max())
+
+
+def _loop_basis(model, data) -> np.ndarray:
+    """G (17, 5): hinge rates per actuator rate at data's pose, the null space of the closures' Jacobian
+    with its actuated rows scaled to the identity."""
+    J = data.efc_J[: data.nefc * model.nv].reshape(data.nefc, model.nv)
+    _, sv, vt = np.linalg.svd(J)
+    N = vt[int(np.sum(sv > 1e-9 * sv[0])) :].T
+    assert N.shape == (17, 5)
+    return N @ np.linalg.inv(N[[model.joint(n).dofadr[0] for n in ACTUATED]])
+
+
+@pytest.mark.parametrize(("which", "gravity"), [("paper_right", (0.0, 0.0, -9.81)), ("rotated_offset", (2.0, -3.0, -9.0))])
+def test_mujoco_gravity_torques_through_the_loops_equal_ours(designs, which, gravity) -> None:
+    """At rest, the torques that hold the weight are G^T qfrc_bias (MuJoCo cuts the loops: an actuator's own
+    entry is not its torque). They equal :func:`gravity_torque_Nm` (MODEL.md 18.2, dV/dq through our FK
+    Jacobians) to 1e-5 N m: the one modelling difference is knee_z's floor mass of 1e-6 kg (MuJoCo refuses a
+    massless moving body), whose weight moves a torque by at most 1e-6 kg x 9.81 m/s^2 x 1 m = 1e-5 N m."""
+    design, c_z = designs[which]
+    cz = design["d_z"] if c_z is None else c_z
+    ts, task = _plan()
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, c_z=c_z, masses=MassModel(gravity=gravity)))
+    model.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
+    data = mujoco.MjData(model)
+    sel = np.arange(0, len(task.E), 7)
+    q = joint_values(design, task.E[sel], task.e[sel], c_z=c_z)
+    ours = gravity_torque_Nm(design.to_vector(), task.E[sel], task.e[sel], np.ones(4), MassModel(gravity=gravity, c_z_mm=cz))
+    dofs = [model.joint(n).dofadr[0] for n in ACTUATED]
+    worst, naive = 0.0, 0.0
+    for j in np.flatnonzero(np.isfinite(ours).all(axis=1)):
+        _set_joints(model, data, q, j)
+        mujoco.mj_forward(model, data)
+        theirs = _loop_basis(model, data).T @ data.qfrc_bias / 1e6  # kg mm^2/s^2 -> N m
+        worst = max(worst, float(np.abs(theirs - ours[j]).max()))
+        naive = max(naive, float(np.abs(data.qfrc_bias[dofs] / 1e6 - ours[j]).max()))
+    print(which, f"|G^T qfrc_bias - dV/dq| {worst:.2e} N m, naive entries off by {naive:.2f} N m, |dV/dq| max {np.nanmax(np.abs(ours)):.2f}")
+    assert np.nanmax(np.abs(ours)) > 1.0
+    assert worst < 1e-5
+    assert naive > 0.1  # the actuated entries alone are not the holding torques
+
+
+@pytest.mark.parametrize(("which", "tid"), [("paper_right", "1"), ("rotated_offset", "9")])
+def test_our_gravity_torques_hold_the_pose_in_mujoco(designs, which, tid) -> None:
+    """Gravity on: with our dV/dq as the actuators' torque at the pose (ctrl = q + tau / kp) the tip stays within
+    0.05 mm of E; with the servos alone it sags by more than half a millimetre (so the torques carry the weight)."""
+    design, c_z = designs[which]
+    cz = design["d_z"] if c_z is None else c_z
+    ts, task = _plan()
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, at=f"{tid}:5", c_z=c_z))
+    data = mujoco.MjData(model)
+    i = int(np.flatnonzero((task.trajectory == ts.ids.index(tid)) & (task.k == 5))[0])
+    tau = gravity_torque_Nm(design.to_vector(), task.E[i], task.e[i], np.ones(4), MassModel(c_z_mm=cz))
+    kp = model.actuator_gainprm[[model.actuator(n).id for n in ACTUATED], 0]
+    err = {}
+    for held in (True, False):
+        mujoco.mj_resetDataKeyframe(model, data, model.key("assembled").id)
+        data.ctrl[:] = model.key("assembled").ctrl + (tau * 1e6 / kp if held else 0.0)
+        for _ in range(1000):
+            mujoco.mj_step(model, data)
+        err[held] = float(np.linalg.norm(data.site("tip").xpos - task.E[i]))
+        assert np.abs(data.qvel).max() < 1e-3  # settled
+    print(which, f"tip error with our gravity torques {err[True]:.2e} mm, servos alone {err[False]:.2f} mm")
+    assert err[True] < 0.05
+    assert err[False] > 0.5
+
+
 # ------------------------------------------------------------------------------------------ CLI
 
 
@@ -238,8 +379,9 @@ def design_file(tmp_path_factory) -> Path:
         (["--at", "2:0", "--c-z", "162"], "no IK solution at trajectory 2, k=0"),
         (["--c-z", "60"], r"--c-z in \[153"),
         (["--c-z", "162", "--out", "{blocker}/model.xml"], "cannot write"),
+        (["--c-z", "162", "--wall", "8"], r"--wall must be < the link radius \(8 mm\)"),
     ],
-    ids=["format", "missing-id", "k-range", "unreachable", "z-dyad", "unwritable"],
+    ids=["format", "missing-id", "k-range", "unreachable", "z-dyad", "unwritable", "wall"],
 )
 def test_cli_bad_input_one_line_exit_2_no_file(tmp_path, design_file, extra, message) -> None:
     blocker = tmp_path / "blocker.txt"
@@ -254,6 +396,16 @@ def test_cli_bad_input_one_line_exit_2_no_file(tmp_path, design_file, extra, mes
     assert re.search(message, lines[0]), lines[0]
     assert "Traceback" not in res.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker.txt"]  # no file, no temporary left
+
+
+def test_cli_mass_flags_set_the_masses_and_gravity(tmp_path, design_file) -> None:
+    xml = tmp_path / "robot.xml"
+    res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--m-motor", "3", "--m-delta", "0.5",
+               "--gravity", "0,-9.81,0", cwd=tmp_path)  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    assert model.body_mass[model.body("drill").id] == 3.0 and model.body_mass[model.body("knee_x").id] == 0.5
+    np.testing.assert_allclose(model.opt.gravity, [0.0, -9810.0, 0.0], rtol=0, atol=1e-9)
 
 
 def test_example_script_drives_the_exported_model_along_a_joints_csv(tmp_path, design_file) -> None:

@@ -76,6 +76,72 @@ def test_pareto_rows_hold_27_parameters_and_reevaluate_to_their_objectives(start
         assert s["torque_max_Nm"] <= 40.0
 
 
+def _holding_summary(start: Path, **masses) -> dict:
+    """The summary of arcube.evaluate with the holding torque of MODEL.md 18.2 on (the reference engine)."""
+    opts = ac.Options(outputs=ac.Outputs(holding_torque=True), masses=ac.Masses(**masses))
+    return ac.evaluate(Design.load(start), "reference", side="R", points=6, options=opts, engine="numpy").summary_json()
+
+
+def test_holding_torque_and_mass_limits_add_their_normalized_shortfall(start: Path) -> None:
+    """MODEL.md 16 grading of --max holding_torque / --max mass, against an independent arcube.evaluate."""
+    s = _holding_summary(start, m_motor_kg=2.0)
+    hold, mass = s["holding_torque_max_Nm"], s["moving_mass_kg"]
+    assert s["w_G"] and hold > s["torque_max_Nm"] + 0.1 and 2.0 < mass < 10.0
+    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": "numpy", "free": "m_x", "m_motor": 2.0}
+    for maxima, want in [
+        ([f"holding_torque={hold / 2!r}"], 1.0),
+        ([f"holding_torque={2 * hold!r}", f"mass={2 * mass!r}"], 0.0),
+        ([f"mass={mass / 4!r}"], 3.0),
+        ([f"holding_torque={hold / 2!r}", f"mass={mass / 2!r}"], 2.0),
+    ]:
+        model = build_model(build_config(["reference"], maxima=maxima, **common))
+        out = model.evaluate(model.space.encode(model.space.base)[None, :])
+        n = model.n_points
+        assert out["VIOL"][0] == pytest.approx(want / (1.0 + want) / (2 * n), rel=1e-9)
+        assert np.isfinite(out["ETA"][0]) == (want == 0.0)
+
+
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_holding_torque_and_mass_objectives_are_the_evaluated_values(start: Path, engine: str) -> None:
+    s = _holding_summary(start, gravity=(0.0, -9.81, 0.0))
+    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": engine, "free": "m_x", "gravity": "0,-9.81,0"}
+    model = build_model(build_config(["reference"], objectives="eta_G,holding_torque,mass,torque", **common))
+    F = model.evaluate(model.space.encode(model.space.base)[None, :])["F"][0]
+    np.testing.assert_allclose(F, [s["eta_G"], s["holding_torque_max_Nm"], s["moving_mass_kg"], s["torque_max_Nm"]], rtol=1e-9)
+    rep = model.report(model.space.encode(model.space.base))
+    assert rep["holding_torque_max_Nm"] == pytest.approx(s["holding_torque_max_Nm"], rel=1e-9)
+    assert rep["moving_mass_kg"] == pytest.approx(s["moving_mass_kg"], rel=1e-12)
+
+
+def test_only_runs_that_use_the_masses_compute_or_report_them(start: Path) -> None:
+    from arcube.optimization.settings import RunSettings
+
+    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": "numpy", "free": "m_x"}
+    model = build_model(build_config(["reference"], objectives="eta_G,torque", **common))
+    assert not model.options.outputs.holding_torque
+    rep = model.report(model.space.encode(model.space.base))
+    assert "holding_torque_max_Nm" not in rep and "moving_mass_kg" not in rep
+    assert RunSettings(maxima={"holding_torque": 9}).evaluation_options().outputs.holding_torque
+    assert not RunSettings(maxima={"mass": 9}).evaluation_options().outputs.holding_torque  # a design quantity
+    with pytest.raises(ac.InputError, match="Masses.wall_mm must be < the link radius"):
+        RunSettings(maxima={"mass": 9}, link_radius=2.0)
+    RunSettings(maxima={"torque": 9}, link_radius=2.0)  # thin links without masses stay valid
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [(["--wall", "9"], "--wall must be < the link radius"), (["--wall", "3", "--link-radius", "3"], "--wall"),
+     (["--density", "-2700"], "--density"), (["--m-delta", "-1"], "--m-delta"), (["--m-motor", "nan"], "--m-motor"),
+     (["--gravity", "0,-9.81"], "--gravity"), (["--gravity", "x,y,z"], "--gravity"), (["--max", "mass=0"], "must be > 0"),
+     (["--max", "holding_torque=-1"], "must be > 0"), (["--objectives", "eta_G,mass", "--link-radius", "2"], "--wall")],
+)  # fmt: skip
+def test_bad_mass_flags_of_optimize_are_one_line_exit_2(args, needle, tmp_path: Path) -> None:
+    out = arcube("optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args)
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.count("\n") == 1 and needle in out.stderr and "Traceback" not in out.stderr
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [(["--objectives", "eta_G,speed"], "unknown objective 'speed'"), (["--max", "torque"], "expected NAME=VALUE"),

@@ -308,6 +308,10 @@ def test_cli_writes_the_program(tmp_path: Path, capsys) -> None:
     summary = json.loads((out / "program.json").read_text())
     assert summary["limits"]["feed"] == 2.0 and set(rows["segment"]) == {"approach", "drill", "retract"}
     check_rows(rows, summary, _plan("5"), 0.05)
+    # the motor table printed: one line per actuator, its peak torque as program.json has it
+    for joint in ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y"):
+        (line,) = [ln for ln in text.out.splitlines() if ln.startswith(joint + " ")]
+        assert float(line.split()[1]) == pytest.approx(summary["motors"][joint]["torque_peak_Nm"], rel=5e-3)
 
 
 @pytest.mark.parametrize(

@@ -220,3 +220,21 @@ def test_torques_follow_lagranges_equations_on_a_smooth_motion() -> None:
         assert np.allclose(tq.inertia_Nm[1], inertia, rtol=1e-4, atol=1e-4 * np.max(np.abs(inertia)))
         assert np.allclose(tq.gravity_Nm[1], dV_dq, rtol=1e-6, atol=1e-8)
         assert np.max(np.abs(inertia)) > 1e-3
+
+
+def test_a_program_folder_reports_itself(run) -> None:
+    """program.json records the design, so ``arcube report`` on the folder alone plays the program back, and the
+    report's motor table shows program.json's figures."""
+    from arcube.cli import main
+    from arcube.report.program_html import DIV_IDS
+
+    prog, _, _, summary, _ = run
+    assert summary["design"] == pytest.approx(_design().to_dict(), rel=0, abs=0)
+    folder = prog.path
+    try:
+        main(["report", str(folder)])
+    except SystemExit as exc:
+        assert not exc.code
+    html = (folder / "report.html").read_text()
+    assert DIV_IDS["playback"] in html and "No playback" not in html
+    assert f"{summary['motors']['rho_x']['torque_peak_Nm']:.3g}" in html

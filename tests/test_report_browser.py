@@ -74,29 +74,29 @@ def _plots(driver) -> dict[str, dict]:
     )}  # fmt: skip
 
 
-def _mechanism(driver) -> dict:
+def _mechanism(driver, div: str = DIV_IDS["scene"]) -> dict:
     """The coordinates of the scene's traces, as the browser holds them."""
     return driver.execute_script(
         "const g = document.getElementById(arguments[0]);"
         "return {title: g.layout.title.text, data: g.data.map(t => [t.name, Array.from(t.x || []), Array.from(t.y || []), Array.from(t.z || [])])};",
-        DIV_IDS["scene"],
+        div,
     )
 
 
-def _move_slider(driver, step: int) -> None:
+def _move_slider(driver, step: int, div: str = DIV_IDS["scene"]) -> None:
     """Do what clicking slider step ``step`` does: Plotly.animate with that step's own args."""
     driver.set_script_timeout(20)
     driver.execute_async_script(
         "const done = arguments[arguments.length - 1]; const g = document.getElementById(arguments[0]);"
         "const s = g.layout.sliders[0].steps[arguments[1]];"
         "Plotly.animate(g, s.args[0], s.args[1]).then(() => done(true), e => done(String(e)));",
-        DIV_IDS["scene"], step,
+        div, step,
     )  # fmt: skip
     time.sleep(0.3)
 
 
-def _screenshot(driver, name: str, tmp_path: Path) -> Path:
-    scene = driver.find_element("id", DIV_IDS["scene"])
+def _screenshot(driver, name: str, tmp_path: Path, div: str = DIV_IDS["scene"]) -> Path:
+    scene = driver.find_element("id", div)
     driver.execute_script("arguments[0].scrollIntoView()", scene)
     time.sleep(0.3)
     shot = tmp_path / f"{name}.png"
@@ -186,3 +186,30 @@ def test_evaluation_report_draws_the_anatomy_and_the_clearance(driver, tmp_path)
     titles = driver.execute_script("return document.getElementById(arguments[0]).layout.annotations.map(a => a.text)", DIV_IDS["tip"])
     assert "clearance to the anatomy (mm)" in titles
     assert _errors(driver) == []
+
+
+def test_program_report_in_browser(driver, tmp_path):
+    """A program folder's report (arcube report DIR): the timeline, the motors and the playback render,
+    and the playback's slider moves the robot to the row its step names."""
+    from test_report_program import make_program, read_csv
+
+    from arcube.report.program_html import DIV_IDS as PROGRAM_DIVS
+    from arcube.report.program_html import write_program_report
+
+    folder = make_program(tmp_path / "program")
+    html = write_program_report(folder)
+    _self_contained(html.read_text())
+    _open(driver, html)
+    assert set(_plots(driver)) == set(PROGRAM_DIVS.values())
+    div = PROGRAM_DIVS["playback"]
+    names = driver.execute_script("return document.getElementById(arguments[0]).layout.sliders[0].steps.map(s => s.args[0][0])", div)
+    before = _mechanism(driver, div)
+    _move_slider(driver, len(names) - 1, div)
+    after = _mechanism(driver, div)
+    assert after["title"] != before["title"]
+    row = int(names[-1][1:])
+    col = read_csv(folder)
+    tip = next(d for d in after["data"] if d[0] == "drill tip")
+    assert [v[0] for v in tip[1:]] == pytest.approx([col["E_x"][row], col["E_y"][row], col["E_z"][row]], abs=1e-9)
+    assert _errors(driver) == []
+    _screenshot(driver, "program_report", tmp_path, div)

@@ -13,7 +13,7 @@ import pytest
 import typer
 
 import arcube
-from arcube import Body, Guards, InputError, Loads, Options, RunSettings
+from arcube import Body, Guards, InputError, Loads, Masses, Options, RunSettings
 from arcube.cli import app
 from arcube.cli.flags import FLAGS, flag_message
 from arcube.optimization.settings import FLAT_OPTIONS
@@ -90,6 +90,19 @@ def test_table_round_trip() -> None:
     assert (table["clearance"], table["thrust"], table["link_radius"], table["limits"]) == (4.0, 22.0, 7.0, [["torque", "max", 12.0], ["clearance", "min", 3.0]])
 
 
+def test_masses_round_trip_through_the_table_and_are_written_only_when_set() -> None:
+    """MODEL.md 18.1's settings: flat keys (wall, density, m_delta, m_motor, gravity) in config.toml only when
+    not the defaults, so that every earlier table is written as it was."""
+    assert not {"wall", "density", "m_delta", "m_motor", "gravity"} & set(RunSettings().to_table())
+    s = RunSettings(wall=1.5, m_motor=2.5, gravity="0,-9.81,0", maxima={"holding_torque": 12, "mass": 4})
+    table = s.to_table()
+    assert (table["wall"], table["m_motor"], table["gravity"]) == (1.5, 2.5, [0.0, -9.81, 0.0]) and "density" not in table
+    assert RunSettings.from_table(table) == s
+    assert s.options.masses == Masses(wall_mm=1.5, m_motor_kg=2.5, gravity=(0.0, -9.81, 0.0))
+    assert s.evaluation_options().masses == s.options.masses
+    assert s.evaluation_options().outputs.holding_torque and s.evaluation_options().outputs.tip_metrics
+
+
 def test_a_table_written_before_docking_loads_and_duplicates_reads_as_those_runs_ran() -> None:
     old = {  # the [settings] of a run folder written before --docking, --thrust and --eliminate-duplicates existed
         "algorithm": "ga", "population": 40, "generations": 10, "tolerance": 1e-5, "period": 30, "points": 10, "mode": "+,+,+,+",
@@ -121,7 +134,7 @@ def test_every_setting_with_a_flag_is_in_the_table() -> None:
     """A new setting gets its flag by one line in the table (the optimizer's own bookkeeping fields excepted)."""
     no_flag = {"period", "options", "guards"}  # period: pymoo's; options: the groups below; guards: a switch, not an error source
     run = {f"RunSettings.{n}" for n in RunSettings.model_fields if n not in no_flag}
-    groups = {f"{cls.__name__}.{n}" for cls in (Guards, Body, Loads) for n in cls.model_fields}
+    groups = {f"{cls.__name__}.{n}" for cls in (Guards, Body, Loads, Masses) for n in cls.model_fields}
     groups -= {"Guards.z_dyad", "Guards.c_z", "Guards.single_assembly_mode"}  # set by --guards or not on the CLI
     assert sorted((run | groups) - FLAGS.keys()) == []
     # and every flat optimize keyword of an option is a field of its group

@@ -206,7 +206,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: Run, cfg: dict[str, Any
     mujoco = "design.xml"
     try:
         xml = export_mjcf(designs[0], plans[0], points=s.points, mode=summary["mode"], c_z=_closing_c_z(designs[0], plans[0], s, summary),
-                          radii=s.options.radii, anatomy=anatomies[0])  # fmt: skip
+                          radii=s.options.radii, anatomy=anatomies[0], masses=s.options)  # fmt: skip
         atomic_write_text(out / mujoco, xml)
     except InputError as exc:
         mujoco = f"not written: {exc}"

@@ -170,6 +170,9 @@ class Outputs(Settings):
     clearance when every point clears it; what an optimizer that does not optimize it needs)."""
     tip_metrics: bool = True
     """The drill-tip metrics of MODEL.md 15 (NaN when off: an optimizer that does not need them)."""
+    holding_torque: bool = False
+    """With ``tip_metrics``, also the holding torque of MODEL.md 18.2 at each point, from :class:`Masses`
+    (off by default: every earlier result stays as it was, and thin links need no valid mass model)."""
 
 
 _GROUPS: dict[str, type[Settings]] = {"guards": Guards, "body": Body, "loads": Loads, "masses": Masses, "outputs": Outputs}
@@ -227,6 +230,14 @@ class Options(Settings):
             for name, value in getattr(self, group).model_dump().items():
                 out[legacy.get(name, name)] = list(value) if isinstance(value, tuple) else value
         return out
+
+    def check_masses(self) -> Options:
+        """``self``, once the links' wall (``Masses.wall_mm``) is checked thinner than their radius
+        (``Body.link_radius``), which the mass model of MODEL.md 18.1 needs; else InputError naming the wall."""
+        wall, radius = self.masses.wall_mm, self.body.link_radius
+        if not wall < radius:
+            raise InputError.of("Masses.wall_mm", f"must be < the link radius ({radius:g} mm), got {wall:g}")
+        return self
 
     @property
     def wants_clearance(self) -> bool:

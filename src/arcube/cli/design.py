@@ -14,6 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import AnatomyFrameOpt, AnatomyOpt, EncoderOpt, numbers, plan_specs
+from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, given_masses, mass_keywords
 from arcube.errors import InputError
 
 Strs = Annotated[list[str] | None, typer.Option("--trajectories", help="Trajectory sets (CSV, .mrk.json, folder or 'reference'); several: one placement per patient.")]
@@ -74,12 +75,18 @@ def register(app: typer.Typer) -> None:
         anatomy_frame: AnatomyFrameOpt = "LPS",
         seeds: Annotated[str, typer.Option("--seeds", help="Seeds, one optimization each: 1-3, 1,3,7.")] = "1-3",
         minima: Annotated[list[str] | None, typer.Option("--min", help="Change a lower limit: clearance=5, self_clearance=2 (mm).")] = None,
-        maxima: Annotated[list[str] | None, typer.Option("--max", help="Change an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20 (N m).")] = None,
+        maxima: Annotated[list[str] | None, typer.Option("--max", help="Change an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m).")] = None,
         no_clearance: Annotated[bool, typer.Option("--no-clearance", help="Drop the clearance requirement.")] = False,
         no_self_clearance: Annotated[bool, typer.Option("--no-self-clearance", help="Drop the self-clearance requirement.")] = False,
         no_lateral_error: Annotated[bool, typer.Option("--no-lateral-error", help="Drop the lateral-error requirement.")] = False,
         no_axis_error: Annotated[bool, typer.Option("--no-axis-error", help="Drop the axis-error requirement.")] = False,
         no_torque: Annotated[bool, typer.Option("--no-torque", help="Drop the torque requirement.")] = False,
+        no_holding_torque: Annotated[bool, typer.Option("--no-holding-torque", help="Drop the holding-torque requirement (MODEL.md 18.2: the robot's weight and the drilling loads).")] = False,
+        wall: WallOpt = None,
+        density: DensityOpt = None,
+        m_delta: MDeltaOpt = None,
+        m_motor: MMotorOpt = None,
+        gravity: GravityOpt = None,
         encoder_deg: EncoderOpt = "0.01",
         objective: Annotated[str, typer.Option("--objective", help="What to minimize among the designs that meet the requirements: eta_G, or another objective name.")] = "eta_G",
         standoff: Annotated[float, typer.Option("--standoff", help="The drill waits this far outside the anatomy (MODEL.md 17.1), mm.")] = 20.0,
@@ -103,9 +110,12 @@ def register(app: typer.Typer) -> None:
         from arcube.cli.study import SeedProgress
         from arcube.optimization.study import parse_seeds
 
+        from arcube.options import Body
+
         specs = plan_specs(trajectories, more_trajectories, out, "design")
+        masses = mass_keywords(given_masses(wall, density, m_delta, m_motor, gravity), Body().link_radius)
         drop = [n for n, off in (("clearance", no_clearance), ("self_clearance", no_self_clearance), ("lateral_error", no_lateral_error),
-                                 ("axis_error", no_axis_error), ("torque", no_torque)) if off]  # fmt: skip
+                                 ("axis_error", no_axis_error), ("torque", no_torque), ("holding_torque", no_holding_torque)) if off]  # fmt: skip
         n = len(parse_seeds(seeds))
         with SeedProgress(n, enabled=not quiet) as bar:
             result = design_api(
@@ -113,7 +123,7 @@ def register(app: typer.Typer) -> None:
                 dask=dask, on_seed=bar, anatomy=anatomy, anatomy_frame=anatomy_frame, encoder_deg=numbers(encoder_deg, "--encoder-deg"),
                 objectives=[objective] if objective != "eta_G" else None, standoff=standoff, points=points, side=side, levels=levels,
                 ids=ids, setups=setups, population=population,
-                generations=generations, tolerance=tolerance, algorithm=algorithm, engine=engine,
+                generations=generations, tolerance=tolerance, algorithm=algorithm, engine=engine, **masses,
             )  # fmt: skip
         print_design(result)
         if not result.met:

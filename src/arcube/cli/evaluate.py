@@ -14,6 +14,7 @@ from arcube.cli.common import (
     LinkRadiusOpt, ModeOpt, EncoderOpt, ThrustOpt, LateralForceOpt, StiffnessOpt, loads, MotorLengthOpt, MotorRadiusOpt, PointsOpt, SelfClearanceOpt, SideOpt, TrajOpt, TransformOpt,
     radii,
 )  # fmt: skip
+from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, given_masses, masses_of
 
 __all__ = ["register"]
 
@@ -43,14 +44,27 @@ def evaluate(
     thrust: ThrustOpt = 30.0,
     lateral_force: LateralForceOpt = 10.0,
     actuator_stiffness: StiffnessOpt = "1e4",
+    wall: WallOpt = None,
+    density: DensityOpt = None,
+    m_delta: MDeltaOpt = None,
+    m_motor: MMotorOpt = None,
+    gravity: GravityOpt = None,
 ) -> None:
-    """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity."""
+    """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity, and the
+    holding torque of MODEL.md 18.2 with the robot's masses (the mass flags' defaults unless given)."""
     from arcube.api import evaluate as evaluate_api
+    from arcube.options import GUARDED_OPTIONS, Masses, Options
     from arcube.report import check_report_path, write_report
     from arcube.report.text import print_evaluation
 
+    given = given_masses(wall, density, m_delta, m_motor, gravity)
+    # the default mass model, unless the links are too thin for its wall and no mass flag asks for one
+    masses = masses_of(given, link_radius) if given or link_radius > Masses().wall_mm else None
+    base = GUARDED_OPTIONS if guards else Options()
+    if masses is not None:
+        base = base.replace(masses=masses, outputs=base.outputs.replace(holding_torque=True))
     result = evaluate_api(
-        design, trajectories, points=points, mode=mode, guards=guards,
+        design, trajectories, points=points, mode=mode, guards=guards, options=base,
         side=side, levels=levels, ids=ids, transform=transform, engine=engine,
         anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
         radii=radii(link_radius, actuator_radius, motor_radius, motor_length),

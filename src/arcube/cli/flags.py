@@ -4,9 +4,16 @@ library error about a setting into an error about its flag.
 Library errors name what a Python caller wrote (``Loads.thrust_N must be >= 0, got -1.0``,
 ``points must be an integer >= 2``) and carry that name in ``InputError.param``; the CLI prints
 the same message with the flag in its place (``--thrust must be >= 0, got -1.0``).
+
+Also the flags of the mass model (MODEL.md 18.1), shared by ``evaluate``, ``optimize``, ``design``,
+``joints`` and ``program``: :data:`MASS_FLAGS` and :func:`given_masses`.
 """
 
 from __future__ import annotations
+
+from typing import Annotated, Any
+
+import typer
 
 from arcube.errors import InputError
 
@@ -26,6 +33,11 @@ FLAGS: dict[str, str] = {
     "BodyRadii.motor": "--motor-radius", "BodyRadii.motor_length": "--motor-length",
     "Loads.encoder_deg": "--encoder-deg", "Loads.thrust_N": "--thrust", "Loads.lateral_force_N": "--lateral-force",
     "Loads.actuator_stiffness": "--actuator-stiffness",
+    # MODEL.md 18.1 (arcube.options.Masses, and the plain model arcube.evaluation.bodies.MassModel)
+    **{f"{cls}.{name}": flag for cls in ("Masses", "MassModel") for name, flag in (
+        ("wall_mm", "--wall"), ("density_kg_m3", "--density"), ("m_delta_kg", "--m-delta"), ("m_motor_kg", "--m-motor"),
+        ("gravity", "--gravity"))},
+    "MassModel.link_radius_mm": "--link-radius", "MassModel.motor_length_mm": "--motor-length",
     # arcube.RunSettings
     **{f"RunSettings.{name}": f"--{name.replace('_', '-')}" for name in (
         "algorithm", "population", "generations", "tolerance", "points", "mode", "setups", "margin", "seed", "engine",
@@ -54,3 +66,44 @@ def flag_message(exc: InputError) -> str:
     if flag is not None and text.startswith(param):
         return flag + text[len(param):]
     return text
+
+
+# ----------------------------------------------------------------------------- the mass model's flags (MODEL.md 18.1)
+WallOpt = Annotated[float | None, typer.Option("--wall", help="Wall of the links' tubes (MODEL.md 18.1), mm; default 2, < --link-radius.")]
+DensityOpt = Annotated[float | None, typer.Option("--density", help="Density of the links' material, kg/m^3; default 2700 (aluminium).")]
+MDeltaOpt = Annotated[float | None, typer.Option("--m-delta", help="Mass of each delta actuator (riding at D_x, D_y), kg; default 0.8.")]
+MMotorOpt = Annotated[float | None, typer.Option("--m-motor", help="Mass of the drill motor, kg; default 1.5.")]
+GravityOpt = Annotated[str | None, typer.Option("--gravity", help="Gravity in the patient frame, m/s^2, three numbers; default 0,0,-9.81 (prone, posterior up).")]
+MASS_FLAGS: dict[str, str] = {"wall_mm": "--wall", "density_kg_m3": "--density", "m_delta_kg": "--m-delta", "m_motor_kg": "--m-motor",
+                              "gravity": "--gravity"}  # fmt: skip
+"""Each field of :class:`arcube.options.Masses` and its flag."""
+_KEYWORDS = {"wall_mm": "wall", "density_kg_m3": "density", "m_delta_kg": "m_delta", "m_motor_kg": "m_motor", "gravity": "gravity"}
+"""Each field's flat keyword of :func:`arcube.optimize` (``arcube.optimization.settings.FLAT_OPTIONS``)."""
+
+
+def given_masses(wall: float | None, density: float | None, m_delta: float | None, m_motor: float | None,
+                 gravity: str | None) -> dict[str, Any]:  # fmt: skip
+    """The mass flags a user gave (None: not given), by :class:`arcube.options.Masses` field."""
+    values = dict(zip(MASS_FLAGS, (wall, density, m_delta, m_motor, gravity)))
+    return {name: value for name, value in values.items() if value is not None}
+
+
+def mass_keywords(given: dict[str, Any], link_radius: float) -> dict[str, Any]:
+    """The given mass flags as the flat keywords of :func:`arcube.optimize` and :func:`arcube.design`
+    (``wall``, ``density``, ``m_delta``, ``m_motor``, ``gravity``), after checking them as :func:`masses_of`."""
+    if given:
+        masses_of(given, link_radius)
+    return {_KEYWORDS[name]: value for name, value in given.items()}
+
+
+def masses_of(given: dict[str, Any], link_radius: float) -> Any:
+    """:class:`arcube.options.Masses` of the given flags (defaults for the others), checked against the
+    link radius (``--wall`` < ``--link-radius``); InputError naming the flag."""
+    from arcube.options import Body, Masses, Options, validated
+
+    try:
+        masses = validated(Masses, given)
+        Options(body=Body(link_radius=link_radius), masses=masses).check_masses()
+    except InputError as exc:
+        raise InputError(flag_message(exc)) from None
+    return masses

@@ -14,6 +14,7 @@ from arcube.cli.common import (
     LinkRadiusOpt, ModeOpt, MotorLengthOpt, MotorRadiusOpt, PointsOpt, SelfClearanceOpt, SideOpt, ThrustOpt, TrajOpt, TransformOpt,
     radii,
 )  # fmt: skip
+from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, given_masses, masses_of
 from arcube.errors import InputError
 
 __all__ = ["register"]
@@ -41,8 +42,14 @@ def joints(
     actuator_radius: ActuatorRadiusOpt = 25.0,
     motor_radius: MotorRadiusOpt = 20.0,
     motor_length: MotorLengthOpt = 120.0,
+    wall: WallOpt = None,
+    density: DensityOpt = None,
+    m_delta: MDeltaOpt = None,
+    m_motor: MMotorOpt = None,
+    gravity: GravityOpt = None,
 ) -> None:
-    """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV."""
+    """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV. With any
+    mass flag (e.g. --gravity 0,0,-9.81 for the defaults) also the holding torque of MODEL.md 18.2 per row."""
     from arcube.options import GUARDED_OPTIONS, Options
     from arcube.evaluation.result import load_task, parse_mode_option
     from arcube.export.joints import joint_trajectory
@@ -62,6 +69,9 @@ def joints(
         thrust_N=thrust, lateral_force_N=lateral_force, link_radius=body.link, actuator_radius=body.actuator, motor_radius=body.motor,
         motor_length=body.motor_length, **{k: v for k, v in changes.items() if v is not None},
     )  # fmt: skip
+    given = given_masses(wall, density, m_delta, m_motor, gravity)
+    if given:  # the columns of MODEL.md 18.2 (arcube.export.joints.MASS_COLUMNS)
+        opts = opts.replace(masses=masses_of(given, link_radius), outputs=opts.outputs.replace(holding_torque=True))
     anat = resolve_anatomy(anatomy, anatomy_frame, trajectories) if anatomy else None
     if opts.guards.clearance_mm is not None and anat is None:
         raise InputError("--clearance needs an anatomy (--anatomy default or mesh files)")

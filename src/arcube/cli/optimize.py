@@ -16,6 +16,7 @@ import typer
 from arcube.cli.common import (
     RichBar, plan_specs, ActuatorRadiusOpt, EncoderOpt, LateralForceOpt, StiffnessOpt, ThrustOpt, loads, AnatomyFrameOpt, AnatomyOpt, ClearanceOpt, LinkRadiusOpt, MotorLengthOpt, MotorRadiusOpt, SelfClearanceOpt,
 )  # fmt: skip
+from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, given_masses, mass_keywords
 from arcube.errors import InputError
 from arcube.optimization import run as runmod
 
@@ -101,8 +102,8 @@ def register(app: typer.Typer) -> None:
         actuator_radius: ActuatorRadiusOpt = 25.0,
         motor_radius: MotorRadiusOpt = 20.0,
         motor_length: MotorLengthOpt = 120.0,
-        objectives: Annotated[str | None, typer.Option("--objectives", help="Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3.")] = None,
-        maxima: Annotated[list[str] | None, typer.Option("--max", help="Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15.")] = None,
+        objectives: Annotated[str | None, typer.Option("--objectives", help="Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3.")] = None,
+        maxima: Annotated[list[str] | None, typer.Option("--max", help="Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3.")] = None,
         minima: Annotated[list[str] | None, typer.Option("--min", help="Lower limit NAME=VALUE (repeatable), e.g. --min clearance=5.")] = None,
         encoder_deg: EncoderOpt = "0.01",
         thrust: ThrustOpt = 30.0,
@@ -110,11 +111,17 @@ def register(app: typer.Typer) -> None:
         actuator_stiffness: StiffnessOpt = "1e4",
         docking: Annotated[str, typer.Option("--docking", help="Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem).")] = "per-patient",
         standoff: Annotated[float | None, typer.Option("--standoff", help="Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1).")] = None,
+        wall: WallOpt = None,
+        density: DensityOpt = None,
+        m_delta: MDeltaOpt = None,
+        m_motor: MMotorOpt = None,
+        gravity: GravityOpt = None,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
         more_trajectories: Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE_TRAJECTORIES")] = None,
     ) -> None:
         """Optimize the design (MODEL.md 12): minimize eta_G with every task point reachable."""
         specs = plan_specs(trajectories, more_trajectories, out, "run")
+        masses = mass_keywords(given_masses(wall, density, m_delta, m_motor, gravity), link_radius)
         from arcube.api import optimize as optimize_api
 
         with _Progress(population * generations, enabled=not quiet) as bar:
@@ -127,7 +134,7 @@ def register(app: typer.Typer) -> None:
                 anatomy=anatomy, anatomy_frame=anatomy_frame, clearance=clearance, self_clearance=self_clearance,
                 link_radius=link_radius, actuator_radius=actuator_radius, motor_radius=motor_radius, motor_length=motor_length,
                 objectives=objectives, maxima=maxima, minima=minima, docking=docking, standoff=standoff,
-                **loads(encoder_deg, thrust, lateral_force, actuator_stiffness),
+                **loads(encoder_deg, thrust, lateral_force, actuator_stiffness), **masses,
             )  # fmt: skip
         _print_summary(out, run.summary)
 

@@ -10,10 +10,10 @@ from typing import Annotated, Any
 import typer
 
 from arcube.cli.common import (
-    ActuatorRadiusOpt, AnatomyFrameOpt, AnatomyOpt, DesignOpt, IdsOpt, LevelsOpt, LinkRadiusOpt, ModeOpt, MotorLengthOpt,
-    MotorRadiusOpt, SideOpt, TrajOpt, TransformOpt,
+    ActuatorRadiusOpt, AnatomyFrameOpt, AnatomyOpt, DesignOpt, IdsOpt, LateralForceOpt, LevelsOpt, LinkRadiusOpt, ModeOpt, MotorLengthOpt,
+    MotorRadiusOpt, SideOpt, ThrustOpt, TrajOpt, TransformOpt,
 )  # fmt: skip
-from arcube.cli.flags import flag_message
+from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, flag_message, given_masses, masses_of
 from arcube.errors import InputError
 
 __all__ = ["register"]
@@ -57,12 +57,20 @@ def program(
     actuator_radius: ActuatorRadiusOpt = 25.0,
     motor_radius: MotorRadiusOpt = 20.0,
     motor_length: MotorLengthOpt = 120.0,
+    thrust: ThrustOpt = 30.0,
+    lateral_force: LateralForceOpt = 10.0,
+    wall: WallOpt = None,
+    density: DensityOpt = None,
+    m_delta: MDeltaOpt = None,
+    m_motor: MMotorOpt = None,
+    gravity: GravityOpt = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines (one per transit) on stderr.")] = False,
 ) -> None:
     """A timed, collision-free joint program that drills every trajectory (MODEL.md 17): program.csv and program.json."""
-    from arcube.options import Body
+    from arcube.options import Body, Loads
     from arcube.program import Planner, ProgramLimits
     from arcube.program import program as program_api
+    from arcube.program.motors import motor_table_text
 
     for flag, value in (("--design", design), ("--trajectories", trajectories), ("--out", out)):
         if not value:
@@ -74,10 +82,13 @@ def program(
             tool_radius=tool_radius, dt=dt, clearance=clearance, self_clearance=self_clearance, kappa_max=kappa_max,
         )  # fmt: skip
         body = Body(link_radius=link_radius, actuator_radius=actuator_radius, motor_radius=motor_radius, motor_length=motor_length)
+        loads = Loads(thrust_N=thrust, lateral_force_N=lateral_force)
+        given = given_masses(wall, density, m_delta, m_motor, gravity)
+        masses = masses_of(given, link_radius) if given else None  # None: the program's default masses (MODEL.md 18.1)
         log = None if quiet else (lambda line: sys.stderr.write(line + "\n"))
         prog = program_api(design, trajectories, out, anatomy=anatomy, anatomy_frame=anatomy_frame, mode=mode, order=order, side=side,
                            levels=levels, ids=ids, transform=transform, limits=limits, body=body, planner=Planner(seed=seed, time_s=plan_time),
-                           log=log)  # fmt: skip
+                           log=log, masses=masses, loads=loads)  # fmt: skip
     except InputError as exc:
         raise _flagged(exc) from None
     s = prog.summary
@@ -85,7 +96,7 @@ def program(
         f"program: order {' '.join(s['order'])}; total {_num(s['total_s'], ' s')} (drilling {_num(s['drilling_s'], ' s')}, "
         f"transit {_num(s['transit_s'], ' s')}); clearance min {_num(s['clearance_min_mm'], ' mm')}, tool {_num(s['tool_clearance_min_mm'], ' mm')}, "
         f"self {_num(s['self_clearance_min_mm'], ' mm')}; eta_L max {_num(s['eta_L_max'])}; "
-        f"joint rate max {_num(max(s['joint_speed_max_deg_s'].values()), ' deg/s')}\n{prog.path}\n"
+        f"joint rate max {_num(max(s['joint_speed_max_deg_s'].values()), ' deg/s')}\n{motor_table_text(s)}{prog.path}\n"
     )  # fmt: skip
 
 

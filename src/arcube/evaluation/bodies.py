@@ -179,7 +179,7 @@ class Bodies(NamedTuple):
         return 0.5 * (self.J_ends[..., 0, :, :] + self.J_ends[..., 1, :, :])
 
 
-def _slerp_coefficients(phi: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def slerp_coefficients(phi: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(a_k, b_k) ``(..., 13)`` with sample k = a_k v1 + b_k v2 on the arc of angle phi from v1 to v2."""
     s = np.linspace(0.0, 1.0, N_CHORDS + 1)
     ph = phi[..., None]
@@ -229,7 +229,7 @@ def bodies_of_solution(
     # the spherical links: 13 samples each, as slerp between fixed unit vectors with fixed coefficients.
     arc_pts, arc_J = [], []
     for kind, phi in (("alpha", g.alpha), ("beta", g.beta)):
-        a, b = _slerp_coefficients(np.broadcast_to(phi, lead + (2,)))  # (..., 2, 13)
+        a, b = slerp_coefficients(np.broadcast_to(phi, lead + (2,)))  # (..., 2, 13)
         if kind == "alpha":
             v1, v2, J1, J2 = u_hat[..., :2, :], ub, np.zeros(lead + (2, 3, 5)), J_ub
         else:

@@ -45,6 +45,11 @@ body of the closed chain is thus moved exactly as the forward kinematics moves i
 * units: gravity in m/s^2 in R_w, positions in mm -> V in J after /1000; torques in N m.
 
 With zero masses (or zero gravity) the holding torque is MODEL.md 15.3's ``torque``.
+
+The evaluation computes it per point with ``Outputs.holding_torque`` (:func:`arcube.evaluation.reference.evaluate_task`:
+``holding_torque_Nm``, ``holding_torque_actuator``, summary ``holding_torque_max``); the compiled kernel
+collapses the same sum over bodies into a few terms (:mod:`arcube.evaluation.kernel._masses`), held equal
+to this reference by tests/test_kernel_masses.py.
 """
 
 from __future__ import annotations

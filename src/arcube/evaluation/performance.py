@@ -255,6 +255,9 @@ PERFORMANCE_FIELDS: tuple[str, ...] = (
     "tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "deflection_mm",
 )  # fmt: skip
 """The per-point metrics of MODEL.md 15.2-15.4 that have a per-design maximum (15.5)."""
+MAXIMUM_FIELDS: tuple[str, ...] = (*PERFORMANCE_FIELDS, "holding_torque_Nm")
+"""Every per-point metric with a per-design maximum over the reachable points (``<name>_max``): those of
+MODEL.md 15 and the holding torque of 18.2 (:mod:`arcube.evaluation.masses`, with ``Outputs.holding_torque``)."""
 
 
 def metrics_of_solution(

@@ -14,7 +14,7 @@ always ranks below one that solves the IK everywhere, and among those V grows wi
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,7 +23,9 @@ from arcube.model.design import unpack
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
 from arcube.evaluation.clearance import Distance, anatomy_clearance, self_clearance
-from arcube.evaluation.performance import PERFORMANCE_FIELDS, metrics_of_solution
+from arcube.evaluation.masses import holding_torque_of_solution
+from arcube.evaluation.performance import MAXIMUM_FIELDS, jacobians_of_solution, tip_metrics
+from arcube.model import frames
 from arcube.model.body import body_parts, mechanism_points
 from arcube.options import GUARDED_OPTIONS, Options
 
@@ -90,6 +92,8 @@ class PointResults(NamedTuple):
     torque_Nm: NDArray[np.float64]
     torque_actuator: NDArray[np.int64]  # index into ACTUATOR_NAMES of the largest torque, -1 where unreachable
     deflection_mm: NDArray[np.float64]
+    holding_torque_Nm: NDArray[np.float64]  # MODEL.md 18.2 (Outputs.holding_torque); NaN where off or unreachable
+    holding_torque_actuator: NDArray[np.int64]  # index into ACTUATOR_NAMES of the largest holding torque, -1 where none
 
 
 class TaskResults(NamedTuple):
@@ -113,6 +117,7 @@ class TaskResults(NamedTuple):
     axis_error_max: NDArray[np.float64]
     torque_max: NDArray[np.float64]
     deflection_max: NDArray[np.float64]
+    holding_torque_max: NDArray[np.float64]  # MODEL.md 18.2 over the reachable points (NaN if none or not computed)
 
     @property
     def fitness(self) -> NDArray[np.float64]:
@@ -240,8 +245,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         grade = grade + term
     failure = _first_failure(checks, shape)
     reachable = failure == 0
-    perf = metrics_of_solution(sol, params, options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N,
-                               options.loads.actuator_stiffness) if options.outputs.tip_metrics else None  # fmt: skip
+    perf = _performance(sol, params, options)
     eta = np.where(reachable, eta_raw, np.inf)
     with np.errstate(divide="ignore"):
         dex = np.where(reachable, 100.0 / eta, 0.0)
@@ -259,17 +263,35 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         clearance_mm=np.where(stages_ok, clear, np.nan),
         clearance_part=np.where(stages_ok, part, -1),
         self_clearance_mm=np.where(stages_ok, selfc, np.nan),
-        **{name: np.broadcast_to(getattr(perf, name) if perf else np.nan, shape) for name in PERFORMANCE_FIELDS},
-        torque_actuator=np.broadcast_to(perf.torque_actuator if perf else -1, shape),
+        **{name: np.broadcast_to(perf[name] if perf else np.nan, shape) for name in MAXIMUM_FIELDS},
+        torque_actuator=np.broadcast_to(perf["torque_actuator"] if perf else -1, shape),
+        holding_torque_actuator=np.broadcast_to(perf["holding_torque_actuator"] if perf else -1, shape),
     )
     return _mask_performance(pts)
+
+
+def _performance(sol: IKSolution, params: ArrayLike, options: Options) -> dict[str, Any] | None:
+    """The drill-tip metrics of MODEL.md 15 and, with ``Outputs.holding_torque``, the holding torque of
+    18.2 (NaN and -1 without it) at the points of ``sol``, by field name; None without ``Outputs.tip_metrics``."""
+    if not options.outputs.tip_metrics:
+        return None
+    loads = options.loads
+    J_E, J_e = jacobians_of_solution(sol, params)
+    e_w = frames.directions_to_world(unpack(params), sol.e)
+    out: dict[str, Any] = tip_metrics(J_E, J_e, e_w, loads.encoder_deg, loads.thrust_N, loads.lateral_force_N, loads.actuator_stiffness)._asdict()
+    out["holding_torque_Nm"], out["holding_torque_actuator"] = np.nan, -1
+    if options.outputs.holding_torque:
+        hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e))
+        out["holding_torque_Nm"], out["holding_torque_actuator"] = hold.holding_torque_Nm, hold.holding_torque_actuator
+    return out
 
 
 def _mask_performance(pts: PointResults) -> PointResults:
     """NaN (and -1) for the metrics of MODEL.md 15 where a point is not reachable."""
     r = pts.reachable
-    fields = {name: np.where(r, getattr(pts, name), np.nan) for name in PERFORMANCE_FIELDS}
-    return pts._replace(torque_actuator=np.where(r, pts.torque_actuator, -1), **fields)
+    fields = {name: np.where(r, getattr(pts, name), np.nan) for name in MAXIMUM_FIELDS}
+    return pts._replace(torque_actuator=np.where(r, pts.torque_actuator, -1),
+                        holding_torque_actuator=np.where(r, pts.holding_torque_actuator, -1), **fields)  # fmt: skip
 
 
 def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
@@ -337,7 +359,7 @@ def evaluate_task(
         dexterity_max=np.max(pts.dexterity_pct, axis=-1),
         clearance_min=_min_reachable(pts.clearance_mm, pts.reachable),
         self_clearance_min=_min_reachable(pts.self_clearance_mm, pts.reachable),
-        **{name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable) for name in PERFORMANCE_FIELDS},
+        **{name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable) for name in MAXIMUM_FIELDS},
     )
 
 

@@ -69,10 +69,16 @@ class Evaluation:
 
     @cached_property
     def summary(self) -> dict[str, Any]:
-        """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity, failures.
+        """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity, failures,
+        the maxima of MODEL.md 15 and 18.2 and (with ``Outputs.holding_torque``) the moving mass.
 
         Computed on first access and kept (the evaluation is immutable); :meth:`summary_json` returns a copy."""
-        return tables.summary(self.results, len(self.task))
+        mass = None
+        if self.options.outputs.holding_torque:  # MODEL.md 18.3's per-design moving mass, beside the holding torque
+            from arcube.evaluation.masses import moving_mass_kg
+
+            mass = float(moving_mass_kg(self.design.to_vector(), self.options))
+        return tables.summary(self.results, len(self.task), mass)
 
     def summary_json(self) -> dict[str, Any]:
         """A fresh copy of :attr:`summary` (the ``summary`` of :meth:`to_json`), safe to modify."""

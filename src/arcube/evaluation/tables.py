@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from arcube.evaluation.indices import JACOBIAN_NAMES
-from arcube.evaluation.performance import ACTUATOR_NAMES, PERFORMANCE_FIELDS
+from arcube.evaluation.performance import ACTUATOR_NAMES, MAXIMUM_FIELDS
 from arcube.evaluation.reference import FAILURES, PointResults, TaskResults
 from arcube.evaluation.task import Task
 from arcube.io import TrajectorySet
@@ -119,9 +119,10 @@ def diagnosis(design: Design, task: Task) -> list[str]:
     return lines
 
 
-def summary(results: TaskResults, n_points: int) -> dict[str, Any]:
+def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = None) -> dict[str, Any]:
     """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity,
-    failures, the smallest clearances and the largest tip errors, torque and deflection."""
+    failures, the smallest clearances, the largest tip errors, torque and deflection, and the largest
+    holding torque of MODEL.md 18.2 with the design's moving mass (None where not computed)."""
     r = results
     pts = r.points
     eta_G = float(r.eta_G)
@@ -144,6 +145,10 @@ def summary(results: TaskResults, n_points: int) -> dict[str, Any]:
         # the actuator that needs the largest torque over the reachable points (MODEL.md 15.3)
         "torque_max_actuator": _name_at(pts, -pts.torque_Nm, pts.torque_actuator, ACTUATOR_NAMES),
         "deflection_max_mm": _num(r.deflection_max),
+        # MODEL.md 18: with Outputs.holding_torque (else None)
+        "holding_torque_max_Nm": _num(r.holding_torque_max),
+        "holding_torque_max_actuator": _name_at(pts, -pts.holding_torque_Nm, pts.holding_torque_actuator, ACTUATOR_NAMES),
+        "moving_mass_kg": None if moving_mass_kg is None else _num(moving_mass_kg),
     }
 
 
@@ -173,8 +178,9 @@ def point_rows(pts: PointResults, task: Task) -> list[dict[str, Any]]:
                 "clearance_mm": _num(pts.clearance_mm[i]),
                 "clearance_part": PART_NAMES[int(pts.clearance_part[i])] if pts.clearance_part[i] >= 0 else None,
                 "self_clearance_mm": _num(pts.self_clearance_mm[i]),
-                **{name: _num(getattr(pts, name)[i]) for name in PERFORMANCE_FIELDS},
+                **{name: _num(getattr(pts, name)[i]) for name in MAXIMUM_FIELDS},
                 "torque_actuator": ACTUATOR_NAMES[int(pts.torque_actuator[i])] if pts.torque_actuator[i] >= 0 else None,
+                "holding_torque_actuator": ACTUATOR_NAMES[int(pts.holding_torque_actuator[i])] if pts.holding_torque_actuator[i] >= 0 else None,
             }
         )
     return points

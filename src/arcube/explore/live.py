@@ -170,7 +170,8 @@ class LiveModel:
         else:
             base = Options()
         base = base.replace(link_radius=r.link, actuator_radius=r.actuator, motor_radius=r.motor, motor_length=r.motor_length)
-        return base.replace(outputs=base.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
+        holding = any(q.name == "holding_torque" for q in self.requirements)  # MODEL.md 18.2, as arcube design's
+        return base.replace(outputs=base.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
 
     # ------------------------------------------------------------------ figures
     def evaluate(self) -> Figures:

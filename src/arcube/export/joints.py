@@ -17,6 +17,12 @@ Actuator torques for the drilling loads (MODEL.md 15.3, Options' thrust and late
 torque that holds the thrust F_t e alone, tau = -J_E^T (F_t e), signed, and the worst case of each
 actuator over the lateral directions, F_t |e^T J_E,i| + F_l |P_perp J_E,i|; N·m.
 
+With ``Options.outputs.holding_torque`` (``arcube joints`` with a mass flag) the rows also get the
+holding torque of MODEL.md 18.2, from the masses of ``Options.masses``: the signed torque that holds
+the robot's weight, dV/dq (``tau_gravity_*_Nm``), each actuator's worst case with the drilling loads
+|dV/dq_i - F_t e^T J_E,i| + F_l |P_perp J_E,i| (``hold_*_max_Nm``), their maximum and its actuator
+(:data:`MASS_COLUMNS`, before ``reachable``).
+
 Reachability is that of :func:`arcube.evaluation.evaluate_task` with the given options (guards
 included); unreachable points have empty cells in the CSV and ``reachable=false``.
 """
@@ -35,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.model import frames
 from arcube.model.design import Design, unpack
+from arcube.evaluation.masses import holding_torque_of_solution
 from arcube.evaluation.performance import ACTUATOR_NAMES, jacobians_of_solution, tip_metrics
 from arcube.evaluation.reference import Options, evaluate_task
 from arcube.io.files import atomic_write_text
@@ -50,6 +57,11 @@ CSV_COLUMNS: tuple[str, ...] = (
     *(f"{n}_deg" for n in JOINT_NAMES), *(f"{n}_dps" for n in JOINT_NAMES),
     *(f"tau_{n}_Nm" for n in ACTUATOR_NAMES), *(f"tau_{n}_max_Nm" for n in ACTUATOR_NAMES), "reachable",
 )  # fmt: skip
+MASS_COLUMNS: tuple[str, ...] = (
+    *(f"tau_gravity_{n}_Nm" for n in ACTUATOR_NAMES), *(f"hold_{n}_max_Nm" for n in ACTUATOR_NAMES), "holding_torque_Nm",
+    "holding_torque_actuator",
+)  # fmt: skip
+"""Columns of MODEL.md 18.2 inserted before ``reachable`` when the trajectory has the holding torque."""
 
 
 @dataclass(frozen=True)
@@ -67,14 +79,26 @@ class JointTrajectory:
     speed_mm_s: float
     tau_thrust_Nm: NDArray[np.float64]  # (P, 5) torques holding the thrust alone, ACTUATOR_NAMES order (NaN where unreachable)
     tau_max_Nm: NDArray[np.float64]  # (P, 5) worst case with the lateral force (MODEL.md 15.3)
+    tau_gravity_Nm: NDArray[np.float64] | None = None  # (P, 5) dV/dq (MODEL.md 18.2), or None without masses
+    hold_max_Nm: NDArray[np.float64] | None = None  # (P, 5) |dV/dq_i - F_t e^T J_E,i| + F_l |P_perp J_E,i|, or None
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """:data:`CSV_COLUMNS`, with :data:`MASS_COLUMNS` before ``reachable`` when the holding torque is there."""
+        return CSV_COLUMNS if self.hold_max_Nm is None else (*CSV_COLUMNS[:-1], *MASS_COLUMNS, CSV_COLUMNS[-1])
 
     def to_csv(self) -> str:
-        """CSV text with :data:`CSV_COLUMNS`; empty cells where a value does not exist."""
+        """CSV text with :attr:`columns`; empty cells where a value does not exist."""
         buf = io.StringIO()
-        buf.write(",".join(CSV_COLUMNS) + "\n")
+        buf.write(",".join(self.columns) + "\n")
         for i in range(len(self.k)):
             ok = bool(self.reachable[i])
             joints = [_cell(v) if ok else "" for v in (*self.q_deg[i], *self.q_dot_dps[i], *self.tau_thrust_Nm[i], *self.tau_max_Nm[i])]
+            if self.hold_max_Nm is not None and self.tau_gravity_Nm is not None:
+                hold = self.hold_max_Nm[i]
+                best = int(np.argmax(hold)) if ok and np.all(np.isfinite(hold)) else -1
+                joints += [_cell(v) if ok else "" for v in (*self.tau_gravity_Nm[i], *hold)]
+                joints += [_cell(hold[best]), ACTUATOR_NAMES[best]] if best >= 0 else ["", ""]
             row = [self.ids[int(self.trajectory[i])], str(int(self.k[i])), _cell(self.t_s[i]), *(_cell(v) for v in self.E[i]), *joints, "true" if ok else "false"]
             buf.write(",".join(row) + "\n")
         return buf.getvalue()
@@ -121,6 +145,7 @@ def joint_trajectory(
         tau = -np.einsum("...ij,...i->...j", J_E, options.loads.thrust_N * e_w) / 1000.0  # N·mm -> N·m
         worst = tip_metrics(J_E, J_e, e_w, options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N,
                             options.loads.actuator_stiffness).torque_per_actuator_Nm  # fmt: skip
+        hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e)) if options.outputs.holding_torque else None
     q = np.concatenate([sol.rho, sol.delta, sol.sigma], axis=-1)
     rates = np.concatenate([q_dot, sigma_dot], axis=-1)
     first = np.flatnonzero(task.k == 0)  # entry point of each trajectory (trajectory-major order)
@@ -138,4 +163,6 @@ def joint_trajectory(
         speed_mm_s=float(speed_mm_s),
         tau_thrust_Nm=np.where(keep, tau, np.nan),
         tau_max_Nm=np.where(keep, worst, np.nan),
+        tau_gravity_Nm=None if hold is None else np.where(keep, hold.gravity_Nm, np.nan),
+        hold_max_Nm=None if hold is None else np.where(keep, hold.per_actuator_Nm, np.nan),
     )

@@ -3,9 +3,11 @@
 :func:`export_mjcf` writes one body per rigid link of MODEL.md 3-6 and 14.1, joined by hinges at the
 model's joint points and about the model's axes (mechanism axes turned into the patient frame by the
 mounting rotation R, MODEL.md 13), with the three loops of the mechanism closed by ``<connect>``
-equality constraints. Lengths are in mm, angles in rad, masses in kg (links of density 1e-6 kg/mm^3,
-about water), time in s; gravity is -9810 mm/s^2 along z of the patient frame (posterior is up with
-the patient prone).
+equality constraints. Lengths are in mm, angles in rad, masses in kg, inertias in kg mm^2, time in s,
+forces in kg mm/s^2 (1 N m of torque = 1e6 kg mm^2/s^2). Masses and inertias are those of MODEL.md 18.1
+(``masses``, :mod:`arcube.export.inertia`: each body carries the 18.1 parts rigidly attached to it; the
+geoms are drawn only); gravity is the mass model's, m/s^2 x 1000, in the patient frame, which is the
+model's world frame (default (0, 0, -9810) mm/s^2: posterior is up with the patient prone).
 
 Body tree (every body frame is parallel to the patient frame in the assembled pose; hinge angle =
 the model's angle, thanks to each hinge's ``ref``)::
@@ -40,50 +42,40 @@ keyframe ``assembled`` holds the pose and the actuator targets at ``at``; load i
 (``mujoco.mj_resetDataKeyframe(model, data, 0)``) before simulating, because MuJoCo starts with every
 control at 0. No geom collides (contype 0); the anatomy, when given, is drawn only.
 
+The loop closures are near-rigid (:data:`SOLIMP`): MuJoCo's default soft constraints would let the
+weight of the links sag the tip by 0.3-30 mm. A closed loop also means that an actuator's holding
+torque is not its own entry of ``qfrc_inverse`` (MuJoCo treats the loops as cut): it is G^T
+qfrc_bias at rest, with G ``(17, 5)`` the hinge rates per actuator rate (the null space of the
+closures' Jacobian), which equals :func:`arcube.evaluation.masses.gravity_torque_Nm`.
+
 Accuracy (tests/test_mjcf.py): with every hinge set from the IK, MuJoCo's forward kinematics puts the
 tip on E and every closure at rest to ~1e-12 mm; driven by the five actuators with gravity off, the
-tip settles on E to ~1e-5..1e-2 mm within 0.3 s per point. With gravity on, the finite servo
-stiffness and the soft constraints let the mechanism sag by a few tenths of a millimetre.
-
-Long module: one MJCF body-tree builder, with the docstring that documents the body tree and its loop closures.
+tip settles on E to ~1e-3 mm within 0.3 s per point. With gravity on, the position servos alone
+(100 N m/rad) let the tip sag by about a millimetre; with the gravity torques of MODEL.md 18.2 as a
+feed-forward (ctrl = q + tau / KP) it stays within ~0.01 mm.
 """
 
 from __future__ import annotations
 
-import math
-import os
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
+from arcube.evaluation.bodies import MassModel
+from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, design_vector, joint_values, mode_signs, z_dyad_range
+from arcube.export.inertia import INERTIA_FLOOR_KG_MM2, MASS_FLOOR_KG, body_inertials, mass_model_for
+from arcube.export.plan_point import no_ik_reason, plan_points, resolve_point
+from arcube.export.xmltree import COLORS, XmlBody, mesh_items, num, vec
 from arcube.io.inputs import short_repr
-from arcube.model import frames
-from arcube.model.body import U_HAT, V_HAT, W_HAT, BodyRadii, mechanism_points
+from arcube.model.body import BodyRadii, mechanism_points
 from arcube.model.design import Design, unpack
-from arcube.model.mechanism import format_mode, inverse_kinematics, parse_mode
+from arcube.model.mechanism import format_mode, inverse_kinematics
+from arcube.options import Options
 
-__all__ = [
-    "ACTUATED",
-    "JOINT_NAMES",
-    "export_mjcf",
-    "joint_values",
-    "z_dyad_range",
-]
-
-ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
-"""The five actuated hinges (and their position actuators), in the order of MODEL.md 7.4."""
-
-JOINT_NAMES: tuple[str, ...] = (
-    "rho_x", "kappa_x", "delta_x", "gamma_x",
-    "rho_y", "kappa_y", "delta_y", "gamma_y",
-    "rho_z", "kappa_z", "zdyad_D", "zdyad_J", "zdyad_Q",
-    "sigma_x", "tau_x", "sigma_y", "tau_y",
-)  # fmt: skip
-"""Every hinge of the exported model, in the order of ``qpos`` (depth-first body tree)."""
+__all__ = ["ACTUATED", "JOINT_NAMES", "KP", "KV", "check_z_dyad", "checked_inputs", "export_mjcf", "joint_values", "model_xml", "z_dyad_range"]
 
 PIN_MM = 100.0
 """Distance between the two points of a hinge closure along its axis (close_T_u, close_T_u_axis), mm: the
@@ -91,235 +83,16 @@ wider apart, the stiffer MuJoCo's soft constraint holds the hinge's direction.""
 
 KP = 1.0e8
 """Stiffness of the position actuators, kg mm^2 / s^2 per rad (= 100 N m/rad)."""
-KV = 1.0e6
-"""Damping of the actuated joints, kg mm^2 / s per rad (= 1 N m s/rad): the servo's velocity gain."""
-
-_COLORS = {
-    "base": "0.35 0.35 0.40 1", "actuator": "0.15 0.15 0.18 1", "tls": "0.30 0.45 0.75 1",
-    "tms": "0.90 0.55 0.15 1", "zdyad": "0.60 0.40 0.80 1", "platform": "0.80 0.80 0.30 1",
-    "rts": "0.25 0.70 0.40 1", "tool": "0.85 0.85 0.90 1", "motor": "0.20 0.20 0.25 1",
-    "anatomy": "0.95 0.85 0.75 0.35",
-}  # fmt: skip
-
+KV = 3.0e6
+"""Damping of the actuated joints, kg mm^2 / s per rad (= 3 N m s/rad): the servo's velocity gain (about
+critical damping of KP against the 18.1 masses: the tip settles fastest, tests/test_mjcf.py)."""
+SOLREF = "0.002 1"
+"""``solref`` of the loop closures: time constant 2 ms, critical damping."""
+SOLIMP = "0.9999 0.9999 0.001 0.5 2"
+"""``solimp`` of the loop closures: impedance 0.9999 (MuJoCo's largest) at any violation, near-rigid, so
+that the closures carry the links' weight without sagging (MuJoCo issues 1818, 701, 278)."""
 
 _FLOAT_MAX = float(np.finfo(float).max)
-
-
-def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Angles into (-pi, pi]."""
-    return -np.remainder(np.pi - a, 2.0 * np.pi) + np.pi
-
-
-def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.sum(a * b, axis=-1)
-
-
-def _params(design: Design | ArrayLike) -> NDArray[np.float64]:
-    return Design.coerce(design).to_vector()
-
-
-def _signs(mode: str | ArrayLike) -> NDArray[np.float64]:
-    if isinstance(mode, str):
-        try:
-            return parse_mode(mode)
-        except ValueError as exc:
-            problem = str(exc).removeprefix("working mode ")  # "must be four signs ..., got '...'"
-            raise InputError.of("mode", problem) from None
-    return np.asarray(mode, dtype=float)
-
-
-def _axes_world(params: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """(û, v̂, ŵ) of legs x, y, z in R_w, each ``(3 legs, 3)``, and R ``(3, 3)`` (one design)."""
-    R = frames.mount_rotation(unpack(params))
-    return U_HAT @ R.T, V_HAT @ R.T, W_HAT @ R.T, R
-
-
-def joint_values(
-    design: Design | ArrayLike, E: ArrayLike, e: ArrayLike, mode: str | ArrayLike = "+,+,+,+", *, c_z: float | None = None,
-) -> dict[str, NDArray[np.float64]]:  # fmt: skip
-    """Every hinge angle of the exported model (rad) at poses (E, e) in R_w, from the IK; each ``(...)``.
-
-    Keys are :data:`JOINT_NAMES`. Actuated hinges are the model's rho_u, delta_u; ``sigma_u`` is the
-    model's sigma_u; ``kappa_u`` = rho_u (the knee that keeps the planar chain parallel); ``gamma_u``
-    is the coupler's angle minus delta_u (about û); ``tau_u`` the dihedral angle at u_beta from the
-    great circle toward û to the one toward e (about u_beta); ``zdyad_D`` the angle of J_z - D_z from
-    x_m toward y_m, ``zdyad_J`` that of Q_z - J_z minus it, ``zdyad_Q`` minus the angle of Q_z - J_z.
-    NaN where the IK (or the z dyad) has no solution. One design, poses broadcast.
-    """
-    params = _params(design)
-    signs = _signs(mode)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sol = inverse_kinematics(params, E, e, signs)
-        mp = mechanism_points(params, E, e, signs, c_z=c_z, sol=sol)
-    U, V, W, R = _axes_world(params)
-    out: dict[str, NDArray[np.float64]] = {}
-    for i, u in enumerate("xyz"):
-        out[f"rho_{u}"] = sol.rho[..., i]
-        out[f"kappa_{u}"] = sol.rho[..., i]
-    ub_w = sol.u_beta @ R.T  # (..., 2, 3)
-    for i, u in enumerate("xy"):
-        out[f"delta_{u}"] = sol.delta[..., i]
-        ct = mp.T[..., i, :] - mp.K[..., i, :]
-        phi = np.arctan2(_dot(ct, V[i]), -_dot(ct, W[i]))
-        out[f"gamma_{u}"] = _wrap(phi - sol.delta[..., i])
-        out[f"sigma_{u}"] = sol.sigma[..., i]
-        ub = ub_w[..., i, :]
-        a = U[i] - _dot(U[i], ub)[..., None] * ub
-        b = mp.e - _dot(mp.e, ub)[..., None] * ub
-        out[f"tau_{u}"] = np.arctan2(_dot(np.cross(a, b), ub), _dot(a, b))
-    xm, ym = R[:, 0], R[:, 1]
-    dj = mp.J_z - mp.D[..., 2, :]
-    jq = mp.Q[..., 2, :] - mp.J_z
-    phi1 = np.arctan2(_dot(dj, ym), _dot(dj, xm))
-    phi2 = np.arctan2(_dot(jq, ym), _dot(jq, xm))
-    out["zdyad_D"] = phi1
-    out["zdyad_J"] = _wrap(phi2 - phi1)
-    out["zdyad_Q"] = _wrap(-phi2)
-    return {name: np.asarray(out[name], dtype=float) for name in JOINT_NAMES}
-
-
-def z_dyad_range(L_z: ArrayLike, d_z: float) -> tuple[float, float]:
-    """The c_z range [lo, hi] (mm) that closes the z dyad at every span L_z = |Q_z - D_z| (MODEL.md 6):
-    the intersection of [|L_z - d_z|, L_z + d_z]; empty (lo > hi) when no c_z can."""
-    L = np.asarray(L_z, dtype=float).reshape(-1)
-    return float(np.max(np.abs(L - d_z))), float(np.min(L + d_z))
-
-
-@dataclass(frozen=True)
-class _Plan:
-    E: NDArray[np.float64]  # (P, 3)
-    e: NDArray[np.float64]
-    ids: tuple[str, ...]
-    trajectory: NDArray[np.intp]
-    k: NDArray[np.intp]
-    n_points: int
-
-
-def _plan(plan: Any, points: int) -> _Plan:
-    from arcube.evaluation.task import build_task
-    from arcube.io import TrajectorySet
-    from arcube.evaluation.result import load_trajectory_set
-
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
-        raise InputError.of("points", f"must be an integer of at least 2 (both ends of a trajectory), got {short_repr(points)}")
-    if plan is None:
-        plan = "reference"
-    ts = plan if isinstance(plan, TrajectorySet) else load_trajectory_set(os.fspath(plan), int(points))
-    if len(ts.ids) == 0:
-        raise InputError("the plan has no trajectories")
-    task = build_task(ts.entry, ts.target, int(points), ids=ts.ids)
-    return _Plan(task.E, task.e, tuple(task.ids), task.trajectory, task.k, int(points))
-
-
-def _resolve_point(plan: _Plan, at: str | tuple[Any, int] | None) -> int:
-    """Index into the plan's points of ``at`` = ``"ID:K"`` (or ``(id, k)``); None: first point."""
-    if at is None:
-        return 0
-    if isinstance(at, str):
-        tid, sep, ktext = at.strip().rpartition(":")
-        if not sep or not tid:
-            raise InputError.of("at", f"{short_repr(at)}: expected ID:K, a trajectory id and a sample index, e.g. '1:0'")
-        try:
-            k = int(ktext)
-        except ValueError:
-            raise InputError.of("at", f"{short_repr(at)}: the sample index K must be an integer, got {short_repr(ktext)}") from None
-    else:
-        tid, k = str(at[0]), int(at[1])
-    if tid not in plan.ids:
-        shown = ", ".join(plan.ids[:12]) + (", ..." if len(plan.ids) > 12 else "")
-        raise InputError.of("at", f"{tid}:{k}: no trajectory with id {short_repr(tid)} in the plan (ids: {shown})")
-    if not 0 <= k < plan.n_points:
-        raise InputError.of("at", f"{tid}:{k}: sample index k must lie in 0..{plan.n_points - 1} (points={plan.n_points})")
-    t = plan.ids.index(tid)
-    return int(np.flatnonzero((plan.trajectory == t) & (plan.k == k))[0])
-
-
-def _no_ik_reason(sol: Any) -> str:
-    parts, undefined = [], []
-    for stage, arg, legs in (("TLS", sol.tls_arg, "xyz"), ("RTS", sol.rts_arg, "xy"), ("TMS", sol.tms_arg, "xy")):
-        for leg, a in zip(legs, np.asarray(arg, dtype=float).reshape(-1)):
-            if math.isfinite(a) and abs(a) > 1.0:
-                parts.append(f"{stage} {leg} out of reach (|arg| = {abs(a):.3g} > 1)")
-            elif not math.isfinite(a):
-                undefined.append(f"{stage} {leg}")
-    # a NaN argument follows from an earlier stage's failure; name it only when nothing else failed
-    return ", ".join(parts or undefined) or "a stage has no finite solution"
-
-
-# ------------------------------------------------------------------------------------------ XML building
-
-
-def _num(x: float) -> str:
-    v = float(x) + 0.0
-    if not math.isfinite(v):
-        raise InputError("MJCF export: a computed position is not finite (degenerate pose)")
-    return repr(v)
-
-
-def _vec(v: ArrayLike) -> str:
-    return " ".join(_num(x) for x in np.asarray(v, dtype=float).reshape(-1))
-
-
-class _Body:
-    """A body built in the assembled pose: frame parallel to the patient frame, origin at ``origin`` (R_w)."""
-
-    def __init__(self, parent_el: ET.Element, name: str, origin: NDArray[np.float64], parent_origin: NDArray[np.float64] | None):
-        self.origin = np.asarray(origin, dtype=float)
-        attrs = {"name": name}
-        if parent_origin is not None:
-            attrs["pos"] = _vec(self.origin - parent_origin)
-        self.el = ET.SubElement(parent_el, "body", attrs)
-        self.name = name
-        self.registry: dict[str, _Body] = {name: self}
-
-    def child(self, name: str, origin: NDArray[np.float64]) -> _Body:
-        body = _Body(self.el, name, origin, self.origin)
-        body.registry = self.registry  # one name -> body map for the whole tree
-        self.registry[name] = body
-        return body
-
-    def local(self, p: ArrayLike) -> NDArray[np.float64]:
-        return np.asarray(p, dtype=float) - self.origin
-
-    def hinge(self, name: str, point: ArrayLike, axis: ArrayLike, ref: float, cls: str) -> None:
-        ax = np.asarray(axis, dtype=float)
-        ax = ax / np.linalg.norm(ax)
-        ET.SubElement(self.el, "joint", {"name": name, "class": cls, "type": "hinge", "pos": _vec(self.local(point)), "axis": _vec(ax), "ref": _num(ref)})
-
-    def capsule(self, name: str, a: ArrayLike, b: ArrayLike, radius: float, color: str) -> None:
-        pa, pb = self.local(a), self.local(b)
-        if np.linalg.norm(pb - pa) < 1e-6:
-            self.sphere(name, a, radius, color)
-            return
-        ET.SubElement(self.el, "geom", {"name": name, "type": "capsule", "fromto": _vec(np.concatenate([pa, pb])), "size": _num(radius), "rgba": _COLORS[color]})
-
-    def sphere(self, name: str, p: ArrayLike, radius: float, color: str) -> None:
-        ET.SubElement(self.el, "geom", {"name": name, "type": "sphere", "pos": _vec(self.local(p)), "size": _num(radius), "rgba": _COLORS[color]})
-
-    def polyline(self, name: str, pts: NDArray[np.float64], radius: float, color: str) -> None:
-        for j in range(len(pts) - 1):
-            self.capsule(f"{name}_{j}", pts[j], pts[j + 1], radius, color)
-
-    def site(self, name: str, p: ArrayLike, zaxis: ArrayLike | None = None, size: float = 2.0, group: int | None = None) -> None:
-        attrs = {"name": name, "pos": _vec(self.local(p)), "size": _num(size)}
-        if group is not None:
-            attrs["group"] = str(group)
-        if zaxis is not None:
-            attrs["zaxis"] = _vec(zaxis)
-        ET.SubElement(self.el, "site", attrs)
-
-
-def _mesh_items(anatomy: Any) -> list[Any]:
-    if anatomy is None:
-        return []
-    meshes = getattr(anatomy, "meshes", anatomy)  # an arcube Anatomy, or a sequence of trimesh meshes
-    if hasattr(meshes, "vertices") and hasattr(meshes, "faces"):
-        meshes = [meshes]
-    items = list(meshes)
-    for i, m in enumerate(items):
-        if not (hasattr(m, "vertices") and hasattr(m, "faces")):
-            raise InputError(f"anatomy item {i}: not a triangle mesh (needs vertices and faces)")
-    return items
 
 
 def export_mjcf(
@@ -332,6 +105,7 @@ def export_mjcf(
     c_z: float | None = None,
     radii: BodyRadii = BodyRadii(),
     anatomy: Any = None,
+    masses: MassModel | Options | None = None,
 ) -> str:
     """The MJCF XML (a string) of ``design`` assembled at one point of ``plan``; see the module docstring.
 
@@ -349,20 +123,15 @@ def export_mjcf(
     radii : body radii of MODEL.md 14.1 (links, actuators, drill motor radius and length).
     anatomy : None, an :class:`~arcube.evaluation.anatomy.Anatomy` or trimesh meshes (patient frame, mm),
         written as static, non-colliding mesh geoms.
+    masses : the mass model of MODEL.md 18.1 (:class:`arcube.options.Options`, whose ``masses`` group is
+        read, or a :class:`~arcube.evaluation.bodies.MassModel`); None: ``Options()``. Its geometry is the
+        export's (``radii``, ``c_z``); it sets every body's mass and inertia and the model's gravity
+        (:mod:`arcube.export.inertia`).
 
     Raises :class:`InputError` for a bad ``at``, no IK solution at ``at``, or a z dyad that cannot close.
     """
-    params = _params(design)
-    Design.from_vector(params)  # validates (InputError)
-    signs = _signs(mode)
-    if not isinstance(radii, BodyRadii):
-        raise InputError.of("radii", "must be an arcube.model.body.BodyRadii")
-    g = unpack(params)
-    d_z = float(g.d[2])
-    if c_z is not None and not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
-        raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
-    cz = d_z if c_z is None else float(c_z)
-    pl = _plan(plan, points)
+    params, signs, cz = checked_inputs(design, mode, c_z, radii)
+    pl = plan_points(plan, points)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, pl.E, pl.e, signs)
     ok = np.all(np.isfinite(np.concatenate([sol.rho, sol.delta, sol.sigma], axis=-1)), axis=-1)
@@ -370,37 +139,66 @@ def export_mjcf(
         one = inverse_kinematics(params, pl.E[0], pl.e[0], signs)
         raise InputError(
             f"the design reaches no point of the plan in mode {format_mode(signs)} (at trajectory "
-            f"{pl.ids[0]}, k=0: {_no_ik_reason(one)}); pick another mode, design or plan"
+            f"{pl.ids[0]}, k=0: {no_ik_reason(one)}); pick another mode, design or plan"
         )
-    idx = int(np.flatnonzero(ok)[0]) if at is None else _resolve_point(pl, at)
+    idx = int(np.flatnonzero(ok)[0]) if at is None else resolve_point(pl, at)
     where = f"trajectory {pl.ids[pl.trajectory[idx]]}, k={int(pl.k[idx])}"
     if not ok[idx]:
         one = inverse_kinematics(params, pl.E[idx], pl.e[idx], signs)
         raise InputError(
-            f"the design has no IK solution at {where} in mode {format_mode(signs)}: {_no_ik_reason(one)}; "
+            f"the design has no IK solution at {where} in mode {format_mode(signs)}: {no_ik_reason(one)}; "
             "pick another point (at), mode or design"
         )
-    # z dyad (MODEL.md 6) at every point of the plan that the IK solves: D_z and Q_z lie in one plane z_m = const.
-    mp_all = mechanism_points(params, pl.E[ok], pl.e[ok], signs, c_z=cz)
+    check_z_dyad(params, pl.E[ok], pl.e[ok], signs, cz, "solvable points of the plan")
+    return model_xml(params, pl.E[idx], pl.e[idx], signs, cz, radii, anatomy, masses, where)
+
+
+def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike, c_z: float | None, radii: BodyRadii) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm: d_z when None) of an export; InputError on bad input."""
+    params = design_vector(design)
+    Design.from_vector(params)  # validates (InputError)
+    signs = mode_signs(mode)
+    if not isinstance(radii, BodyRadii):
+        raise InputError.of("radii", "must be an arcube.model.body.BodyRadii")
+    if c_z is not None and not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
+        raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
+    return params, signs, float(unpack(params).d[2]) if c_z is None else float(c_z)
+
+
+def check_z_dyad(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float, what: str) -> None:
+    """InputError unless the z dyad (MODEL.md 6; D_z and Q_z lie in one plane z_m = const) closes with c_z (mm)
+    at every pose (E, e) ``(P, 3)``; the message names the c_z range that would, or says that none can."""
+    d_z = float(unpack(params).d[2])
+    mp_all = mechanism_points(params, E, e, signs, c_z=c_z)
     L_z = np.linalg.norm(mp_all.Q[:, 2, :] - mp_all.D[:, 2, :], axis=-1)
     lo, hi = z_dyad_range(L_z, d_z)
-    if not lo <= cz <= hi:
-        bad = int(np.sum((L_z > d_z + cz) | (L_z < abs(d_z - cz))))
-        head = (f"the z-leg dyad (d_z = {d_z:.4g} mm, c_z = {cz:.4g} mm) cannot close at {bad} of {len(L_z)} "
-                f"solvable points of the plan (|Q_z - D_z| spans {L_z.min():.1f}-{L_z.max():.1f} mm)")  # fmt: skip
+    if not lo <= c_z <= hi:
+        bad = int(np.sum((L_z > d_z + c_z) | (L_z < abs(d_z - c_z))))
+        head = (f"the z-leg dyad (d_z = {d_z:.4g} mm, c_z = {c_z:.4g} mm) cannot close at {bad} of {len(L_z)} "
+                f"{what} (|Q_z - D_z| spans {L_z.min():.1f}-{L_z.max():.1f} mm)")  # fmt: skip
         if lo <= hi:  # the message leads with the parameter to change (the CLI puts its flag there)
             raise InputError.of("c_z", f"in [{lo:.2f}, {hi:.2f}] mm closes the z-leg dyad at every point: {head}")
         raise InputError(f"{head}; no c_z closes it at every point (it would need c_z >= {lo:.1f} and <= {hi:.1f} mm): change d_z or the placement")
 
-    return _build_xml(params, pl.E[idx], pl.e[idx], signs, cz, radii, _mesh_items(anatomy), where)
+
+def model_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
+              radii: BodyRadii, anatomy: Any, masses: MassModel | Options | None, where: str, *,
+              actuated: dict[str, float] | None = None, note: str = "") -> str:  # fmt: skip
+    """The MJCF text assembled at the pose (E, e) ``(3,)``, R_w; inputs checked by the caller (:func:`export_mjcf`).
+
+    ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
+    2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment.
+    """
+    model = mass_model_for(masses, radii, c_z)
+    return _build_xml(params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note)
 
 
-def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64],
-               c_z: float, radii: BodyRadii, meshes: list[Any], where: str) -> str:  # fmt: skip
-    g = unpack(params)
+def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
+               radii: BodyRadii, meshes: list[Any], where: str, masses: MassModel, actuated: dict[str, float], note: str) -> str:  # fmt: skip
     mp = mechanism_points(params, E, e, signs, c_z=c_z, motor_length=radii.motor_length, arc_samples=9)
-    q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()}
-    U, V, W, R = _axes_world(params)
+    q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()} | actuated
+    inertials = body_inertials(params, E, e, signs, masses)
+    U, V, W, R = axes_world(params)
     zm = R[:, 2]
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, E, e, signs)
@@ -410,21 +208,23 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
     C, H, Ew, ew, Jz = mp.C, mp.H, mp.E, mp.e, mp.J_z
 
     root = ET.Element("mujoco", {"model": "arcube"})
-    ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true"})
-    opt = ET.SubElement(root, "option", {"timestep": "0.001", "integrator": "implicitfast", "gravity": "0 0 -9810"})
+    ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true", "inertiafromgeom": "false",
+                                     "boundmass": num(MASS_FLOOR_KG), "boundinertia": num(INERTIA_FLOOR_KG_MM2)})  # fmt: skip
+    gravity = vec(1000.0 * np.asarray(masses.gravity, dtype=float))  # m/s^2 -> mm/s^2, patient frame = model frame
+    opt = ET.SubElement(root, "option", {"timestep": "0.001", "integrator": "implicitfast", "gravity": gravity})
     ET.SubElement(opt, "flag", {"contact": "disable"})
     vis = ET.SubElement(root, "visual")
     ET.SubElement(vis, "global", {"offwidth": "1280", "offheight": "960"})
     ET.SubElement(vis, "map", {"znear": "0.001", "zfar": "50"})
     ET.SubElement(vis, "scale", {"framelength": "0.3", "framewidth": "0.02", "jointlength": "0.3", "jointwidth": "0.03"})
     default = ET.SubElement(root, "default")
-    ET.SubElement(default, "geom", {"contype": "0", "conaffinity": "0", "density": "1e-6", "group": "1"})
+    ET.SubElement(default, "geom", {"contype": "0", "conaffinity": "0", "group": "1"})
     ET.SubElement(default, "site", {"group": "3", "rgba": "1 0.2 0.2 1"})
     active = ET.SubElement(default, "default", {"class": "active"})
-    ET.SubElement(active, "joint", {"damping": _num(KV), "armature": "100"})
+    ET.SubElement(active, "joint", {"damping": num(KV), "armature": "100"})
     passive = ET.SubElement(default, "default", {"class": "passive"})
     ET.SubElement(passive, "joint", {"damping": "1", "armature": "1"})
-    ET.SubElement(default, "equality", {"solref": "0.002 1"})
+    ET.SubElement(default, "equality", {"solref": SOLREF, "solimp": SOLIMP})
 
     asset = ET.SubElement(root, "asset")
     ET.SubElement(asset, "texture", {"name": "sky", "type": "skybox", "builtin": "gradient", "rgb1": "0.55 0.65 0.75", "rgb2": "0.05 0.05 0.08", "width": "256", "height": "256"})
@@ -433,15 +233,15 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
             v = np.asarray(m.vertices, dtype=float)
             f = np.asarray(m.faces, dtype=np.int64)
             ET.SubElement(asset, "mesh", {"name": f"anatomy_{i}", "inertia": "shell",
-                                          "vertex": " ".join(_num(x) for x in v.reshape(-1)),
+                                          "vertex": " ".join(num(x) for x in v.reshape(-1)),
                                           "face": " ".join(str(int(x)) for x in f.reshape(-1))})  # fmt: skip
 
     world = ET.SubElement(root, "worldbody")
-    ET.SubElement(world, "light", {"name": "top", "pos": _vec(C + np.array([0.0, 0.0, 1500.0])), "dir": "0 0 -1", "directional": "true"})
+    ET.SubElement(world, "light", {"name": "top", "pos": vec(C + np.array([0.0, 0.0, 1500.0])), "dir": "0 0 -1", "directional": "true"})
     for i in range(len(meshes)):
-        ET.SubElement(world, "geom", {"name": f"anatomy_{i}", "type": "mesh", "mesh": f"anatomy_{i}", "rgba": _COLORS["anatomy"], "group": "2", "mass": "0"})
+        ET.SubElement(world, "geom", {"name": f"anatomy_{i}", "type": "mesh", "mesh": f"anatomy_{i}", "rgba": COLORS["anatomy"], "group": "2", "mass": "0"})
 
-    base = _Body(world, "base", O, np.zeros(3))
+    base = XmlBody(world, "base", O, np.zeros(3))
     bodies = base.registry  # every body by name, shared down the tree
     base.site("O", O)
     for i, u in enumerate("xyz"):
@@ -449,7 +249,7 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
         base.sphere(f"actuator_P_{u}", P[i], ra, "actuator")
         base.site(f"P_{u}", P[i])
 
-    platform: _Body | None = None
+    platform: XmlBody | None = None
     for i, u in enumerate("xyz"):
         crank = base.child(f"crank_{u}", P[i])
         crank.hinge(f"rho_{u}", P[i], -V[i], q[f"rho_{u}"], "active")
@@ -508,32 +308,37 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
         else:
             beta.site("beta_y_H", H)
 
+    for name, part in inertials.items():
+        bodies[name].inertial(part)
+
     # connect = body1's anchor (local) and, computed by the compiler in the assembled pose, the same point of body2
     eq = ET.SubElement(root, "equality")
     for i, u in enumerate("xy"):
         cpl, out = bodies[f"coupler_{u}"], bodies[f"output_{u}"]
-        ET.SubElement(eq, "connect", {"name": f"close_T_{u}", "body1": cpl.name, "body2": out.name, "anchor": _vec(cpl.local(T[i]))})
+        ET.SubElement(eq, "connect", {"name": f"close_T_{u}", "body1": cpl.name, "body2": out.name, "anchor": vec(cpl.local(T[i]))})
         ET.SubElement(eq, "connect", {"name": f"close_T_{u}_axis", "body1": cpl.name, "body2": out.name,
-                                      "anchor": _vec(cpl.local(T[i] + PIN_MM * U[i]))})  # fmt: skip
-    ET.SubElement(eq, "connect", {"name": "close_H", "body1": "beta_y", "body2": "drill", "anchor": _vec(bodies["beta_y"].local(H))})
+                                      "anchor": vec(cpl.local(T[i] + PIN_MM * U[i]))})  # fmt: skip
+    ET.SubElement(eq, "connect", {"name": "close_H", "body1": "beta_y", "body2": "drill", "anchor": vec(bodies["beta_y"].local(H))})
 
     act = ET.SubElement(root, "actuator")
     for name in ACTUATED:
-        ET.SubElement(act, "position", {"name": name, "joint": name, "kp": _num(KP)})
+        ET.SubElement(act, "position", {"name": name, "joint": name, "kp": num(KP)})
 
     sensor = ET.SubElement(root, "sensor")
     ET.SubElement(sensor, "framepos", {"name": "tip_pos", "objtype": "site", "objname": "tip"})
     ET.SubElement(sensor, "framezaxis", {"name": "drill_axis", "objtype": "site", "objname": "tip"})
 
     keys = ET.SubElement(root, "keyframe")
-    ET.SubElement(keys, "key", {"name": "assembled", "qpos": " ".join(_num(q[n]) for n in JOINT_NAMES),
-                                "ctrl": " ".join(_num(q[n]) for n in ACTUATED)})  # fmt: skip
+    ET.SubElement(keys, "key", {"name": "assembled", "qpos": " ".join(num(q[n]) for n in JOINT_NAMES),
+                                "ctrl": " ".join(num(q[n]) for n in ACTUATED)})  # fmt: skip
 
     ET.indent(root, space="  ")
     d = Design.from_vector(params).to_dict()
     header = (
         f" arcube MJCF export: AR-CUBE assembled at {where}, mode {format_mode(signs)}, c_z = {c_z:.6g} mm.\n"
         "     Units: mm, rad, kg, s. Load the keyframe 'assembled' before simulating (MuJoCo starts with ctrl = 0).\n"
-        f"     Design: {', '.join(f'{k}={v:.6g}' for k, v in d.items())} "
+        f"     Design: {', '.join(f'{k}={v:.6g}' for k, v in d.items())}\n"
+        f"     Masses (MODEL.md 18.1): moving mass {sum(p.mass for p in inertials.values()):.6g} kg, gravity {gravity} mm/s^2. "
+        + (f"\n     {note} " if note else "")
     )
     return "<!--" + header + "-->\n" + ET.tostring(root, encoding="unicode") + "\n"

@@ -117,6 +117,10 @@ def _rerun_command(s: dict[str, Any], bounds: dict[str, tuple[float, float]], cf
         value = s.get(flag, default)
         if value != default:
             parts.append(f"--{flag.replace('_', '-')} " + (",".join(repr(v) for v in value) if isinstance(value, list) else repr(value)))
+    for flag in ("wall", "density", "m_delta", "m_motor", "gravity"):  # MODEL.md 18.1: in the table only when not the defaults
+        if s.get(flag) is not None:
+            value = s[flag]
+            parts.append(f"--{flag.replace('_', '-')}=" + (",".join(repr(v) for v in value) if isinstance(value, list) else repr(value)))
     changed = [f"{k}={lo!r}:{hi!r}" for k, (lo, hi) in bounds.items() if (lo, hi) != resolve_bounds()[k]]
     if changed:
         parts.append("--bounds " + ",".join(changed))

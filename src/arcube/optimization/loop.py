@@ -124,7 +124,7 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
                "bbox_dx_mm": ext[0], "bbox_dy_mm": ext[1], "bbox_dz_mm": ext[2],
                "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"],
                "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))}}  # fmt: skip
+               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k == "moving_mass_kg"}}  # fmt: skip
         row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
         space = model.space
         for p in range(space.patients if space.per_patient else 1):
@@ -151,7 +151,7 @@ def describe(cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dic
         "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
         "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
         "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm"))},
+        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k == "moving_mass_kg"},
         "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
         "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
         "points": model.n_points, "files": {}, "resumed": info["resumed"], "docking": s.get("docking", "shared"),

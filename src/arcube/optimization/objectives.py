@@ -2,9 +2,11 @@
 ``--max NAME=VALUE`` and ``--min NAME=VALUE``, and the per-design values of a population.
 
 Every value is per design over all tasks of the run: the worst (largest) of the metrics of
-MODEL.md 15 over the tasks' reachable points, the smallest clearance, eta_G as aggregated by the
-run, the sum of link lengths and the bounding-box volume. ``clearance`` is maximized (its
-objective column is its negative).
+MODEL.md 15 and of the holding torque of 18.2 over the tasks' reachable points, the smallest
+clearance, eta_G as aggregated by the run, the sum of link lengths, the bounding-box volume and the
+moving mass of 18.1. ``clearance`` is maximized (its objective column is its negative). The holding
+torque is computed only when an objective or limit names it (:func:`needs_holding_torque`): every
+other run keeps its speed and its results.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ OBJECTIVES: dict[str, str] = {
     "axis_error": "largest drill-direction error, deg (15.2)",
     "torque": "largest actuator torque under the drilling loads, N·m (15.3)",
     "deflection": "largest lateral tip deflection under the loads, mm (15.4)",
+    "holding_torque": "largest actuator torque holding the robot's weight and the drilling loads, N·m (18.2)",
+    "mass": "moving mass of the robot, kg (18.1)",
     "links": "sum of the 14 link lengths, mm",
     "bbox": "largest bounding-box volume of the body over a task, litres",
     "clearance": "smallest clearance to the anatomy, mm (maximized; needs --anatomy)",
@@ -30,12 +34,13 @@ OBJECTIVES: dict[str, str] = {
 
 MAXIMIZED = frozenset({"clearance"})
 _SUMMARY = {"tip_error": "tip_error_max", "lateral_error": "lateral_error_max", "axial_error": "axial_error_max",
-            "axis_error": "axis_error_max", "torque": "torque_max", "deflection": "deflection_max"}  # fmt: skip
+            "axis_error": "axis_error_max", "torque": "torque_max", "deflection": "deflection_max",
+            "holding_torque": "holding_torque_max"}  # fmt: skip
 
 SUMMARY_KEYS: dict[str, str] = {
     "eta_G": "eta_G", "tip_error": "tip_error_max_mm", "lateral_error": "lateral_error_max_mm", "axial_error": "axial_error_max_mm",
     "axis_error": "axis_error_max_deg", "torque": "torque_max_Nm", "deflection": "deflection_max_mm", "links": "links_sum_mm",
-    "bbox": "bbox_volume_L", "clearance": "clearance_min_mm",
+    "bbox": "bbox_volume_L", "clearance": "clearance_min_mm", "holding_torque": "holding_torque_max_Nm", "mass": "moving_mass_kg",
 }  # fmt: skip
 """The field of a run's summary.json (and of arcube.evaluate's summary) that holds each objective's value."""
 
@@ -56,14 +61,28 @@ def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> b
     return any(n in _SUMMARY for n in objectives) or any(n in _SUMMARY for n, _, _ in limits)
 
 
+def needs_holding_torque(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether the holding torque of MODEL.md 18.2 must be computed for these objectives and limits."""
+    return "holding_torque" in objectives or any(n == "holding_torque" for n, _, _ in limits)
+
+
+def needs_masses(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether these objectives and limits use the mass model of MODEL.md 18.1 (holding torque, moving mass)."""
+    return any(n in ("holding_torque", "mass") for n in (*objectives, *(n for n, _, _ in limits)))
+
+
 def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray,
-                  clearance_results: list[Any] | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+                  clearance_results: list[Any] | None = None, mass: np.ndarray | None = None) -> dict[str, np.ndarray]:  # fmt: skip
     """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable);
-    the clearance over ``clearance_results`` when given (the plan's and the approach lines' tasks)."""
+    the clearance over ``clearance_results`` when given (the plan's and the approach lines' tasks);
+    ``mass``: the moving mass per design (kg), needed for the name ``mass``."""
     out: dict[str, np.ndarray] = {}
     for name in names:
         if name == "eta_G":
             out[name] = eta
+        elif name == "mass":
+            assert mass is not None, "the mass objective needs the designs' moving masses"
+            out[name] = mass
         elif name == "links":
             out[name] = links
         elif name == "bbox":

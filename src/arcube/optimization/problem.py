@@ -38,7 +38,7 @@ from arcube.evaluation.reference import fit_violation
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PARAM_NAMES, SLICES
 from arcube.errors import InputError
 from arcube.options import Options
-from arcube.optimization.objectives import limit_shortfall, metric_values, objective_columns
+from arcube.optimization.objectives import limit_shortfall, metric_values, needs_masses, objective_columns
 from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
     DEFAULT_BOUNDS, FREE_GROUPS, RunSettings, parse_bounds, parse_free, resolve_bounds,
@@ -268,6 +268,12 @@ class FitnessModel:
             vol = np.maximum(vol, np.prod(hi - lo, axis=1) / 1e6)
         return links, vol
 
+    def moving_mass(self, params: list[Array]) -> Array:
+        """The moving mass (kg, MODEL.md 18.1) of each design ``(n,)``: the links are shared by every slot."""
+        from arcube.evaluation.masses import moving_mass_kg
+
+        return moving_mass_kg(params[0], self.options)
+
     def evaluate(self, X: Array) -> dict[str, Array]:
         """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)``."""
         params, modes = self.space.decode(X)
@@ -286,7 +292,8 @@ class FitnessModel:
         if names & {"links", "bbox"}:
             links, vol = self.compactness_values(params)
         plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
-        values = metric_values(names, plan, eta, links, vol, clearance_results=results)
+        mass = self.moving_mass(params) if "mass" in names else None
+        values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass)
         n_all = sum(t.n_points for t in self.tasks)
         defined = dict(values)
         if "eta_G" in values:  # +inf (a task not w_G): no eta_G to bound; the reach and the guards grade that design
@@ -302,7 +309,10 @@ class FitnessModel:
         """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
         X = np.atleast_2d(np.asarray(x, dtype=float))
         params, modes = self.space.decode(X)
-        described = replace(self, options=self.options.replace(outputs=self.options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True)))
+        masses = needs_masses(self.objectives, [list(lim) for lim in self.limits])  # else the summary stays as it always was
+        outputs = self.options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=masses)
+        described = replace(self, options=self.options.replace(outputs=outputs))
+        metrics = {**_METRICS, **_MASS_METRICS} if masses else _METRICS
         results = described._run_tasks(params, modes, want_points=True)
         eta, viol, _ = self._judge(results, params)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"])
@@ -316,7 +326,7 @@ class FitnessModel:
                 "bbox_min_mm": [float(v) for v in lo[0]], "bbox_max_mm": [float(v) for v in hi[0]],
                 "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
                 "clearance_min_mm": _num(r.clearance_min[0]), "self_clearance_min_mm": _num(r.self_clearance_min[0]),
-                **{f"{name}_max": _num(getattr(r, name + "_max")[0]) for name in _METRICS},
+                **{f"{name}_max": _num(getattr(r, name + "_max")[0]) for name in metrics},
             })  # fmt: skip
         return {
             "designs": [p[0] for p in params],
@@ -330,13 +340,16 @@ class FitnessModel:
             "clearance_min_mm": _min_num([tk["clearance_min_mm"] for tk in tasks]),
             "self_clearance_min_mm": _min_num([tk["self_clearance_min_mm"] for tk in tasks]),
             "bbox_volume_L": float(vol[0]),
-            **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in _METRICS.items()},
+            **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in metrics.items()},
+            **({"moving_mass_kg": float(self.moving_mass(params)[0])} if masses else {}),
             "tasks": tasks,
         }
 
 
 _METRICS = {"tip_error": "mm", "lateral_error": "mm", "axial_error": "mm", "axis_error": "deg", "torque": "Nm", "deflection": "mm"}
 """The summary maxima of MODEL.md 15.5 (TaskResults fields ``<name>_max``) and their units."""
+_MASS_METRICS = {"holding_torque": "Nm"}
+"""The maximum of MODEL.md 18.2, in a report when an objective or limit uses the masses (with ``moving_mass_kg``)."""
 
 
 def _max_num(values: list[float | None]) -> float | None:

@@ -4,8 +4,9 @@ A requirement is a limit on one figure over the points where it applies:
 
 * ``clearance`` >= 5 mm and ``self_clearance`` >= 2 mm (MODEL.md 14.3) over each trajectory's whole
   line, from its standoff to its target (MODEL.md 17.1): the robot must pull the drill out;
-* ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2) and ``torque`` <= 20 N m (15.3)
-  where the drill works, from entry to target;
+* ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2), ``torque`` <= 20 N m (15.3) and
+  ``holding_torque`` <= 20 N m (18.2: the robot's weight with the drilling loads, the masses of
+  :class:`arcube.options.Masses`) where the drill works, from entry to target;
 * and always: every point of every line reachable with the guards of MODEL.md 8.2 (rho_max 75 deg,
   transmission 20 deg, kappa_max 100, a single assembly mode) in one working mode.
 
@@ -37,9 +38,11 @@ __all__ = ["DEFAULTS", "REQUIREMENTS", "Requirement", "assess", "requirement_fig
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
     "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"),
     "lateral_error": ("max", "mm", "drill"), "axis_error": ("max", "deg", "drill"), "torque": ("max", "N·m", "drill"),
+    "holding_torque": ("max", "N·m", "drill"),
 }  # fmt: skip
 """Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
-DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "lateral_error": 0.5, "axis_error": 0.25, "torque": 20.0}
+DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "lateral_error": 0.5, "axis_error": 0.25, "torque": 20.0,
+                               "holding_torque": 20.0}  # fmt: skip
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
 _GUARDS = ("guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode")
 
@@ -91,7 +94,8 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
     ``designs``: per patient, a ``(27,)`` vector; ``plans``: per patient a TrajectorySet; ``anatomies``:
     per patient an :class:`~arcube.evaluation.anatomy.Anatomy` or None; ``mode``: four signs.
     """
-    opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
+    holding = any(r.name == "holding_torque" for r in reqs)  # MODEL.md 18.2 (needs a valid mass model)
+    opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
     worst: dict[str, dict[str, Any]] = {}
     reach = {"requirement": "reach", "kind": "min", "limit": 1.0, "value": 1.0, "unit": "fraction", "where": {}, "part": ""}
     guard_fail = {g: 0 for g in _GUARDS}
@@ -144,9 +148,9 @@ def requirement_figure(pts: Any, name: str) -> tuple[np.ndarray, Any]:
         return np.asarray(pts.clearance_mm, float), lambda i: PART_NAMES[part[i]] if part[i] >= 0 else ""
     if name == "self_clearance":
         return np.asarray(pts.self_clearance_mm, float), lambda i: ""
-    if name == "torque":
-        act = np.asarray(pts.torque_actuator)
-        return np.asarray(pts.torque_Nm, float), lambda i: ACTUATOR_NAMES[act[i]] if act[i] >= 0 else ""
+    if name in ("torque", "holding_torque"):
+        act = np.asarray(getattr(pts, f"{name}_actuator"))
+        return np.asarray(getattr(pts, f"{name}_Nm"), float), lambda i: ACTUATOR_NAMES[act[i]] if act[i] >= 0 else ""
     field = {"lateral_error": "lateral_error_mm", "axis_error": "axis_error_deg"}[name]
     return np.asarray(getattr(pts, field), float), lambda i: ""
 

@@ -25,8 +25,8 @@ from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
 from arcube.model.mechanism import format_mode, parse_mode
-from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_tip_metrics
-from arcube.options import GUARDED_OPTIONS, Options, Settings
+from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
+from arcube.options import GUARDED_OPTIONS, Masses, Options, Settings
 
 __all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "parse_bounds", "parse_free", "resolve_bounds"]
 
@@ -246,7 +246,7 @@ class RunSettings(Settings):
     """[MODEL.md 17.1] With a value s (mm), reach, guards and clearances also hold on each trajectory's
     approach line, from its standoff (s beyond where the axis leaves the anatomy) to its entry."""
     options: Options = Options()
-    """Clearance guards, body radii and loads (the guards of ``guards`` are added on top)."""
+    """Clearance guards, body radii, loads and masses (the guards of ``guards`` are added on top)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -278,6 +278,8 @@ class RunSettings(Settings):
                 raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
             if needs_clearance(self.objectives, self.limits):
                 raise InputError("the clearance objective or limit needs an anatomy (default or mesh files)", param="RunSettings.anatomy")
+        if needs_masses(self.objectives, self.limits):
+            self.options.check_masses()
         return self
 
     @property
@@ -308,9 +310,9 @@ class RunSettings(Settings):
         clearance = needs_clearance(self.run_objectives, self.limits)
         outputs = self.options.outputs.replace(
             anatomy_clearance=clearance and guards.clearance_mm is None, tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
-            clearance_min_exact=clearance,
+            clearance_min_exact=clearance, holding_torque=needs_holding_torque(self.run_objectives, self.limits),
         )  # fmt: skip
-        return Options(guards=guards, body=self.options.body, loads=self.options.loads, outputs=outputs)
+        return Options(guards=guards, body=self.options.body, loads=self.options.loads, masses=self.options.masses, outputs=outputs)
 
     # ------------------------------------------------------------------ config.toml's [settings] table
     def to_table(self) -> dict[str, Any]:
@@ -335,6 +337,10 @@ class RunSettings(Settings):
                 table[name] = getattr(g, name)
         if self.standoff is not None:  # written only when set: earlier tables stay as they were
             table["standoff"] = self.standoff
+        for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
+            value = getattr(self.options.masses, name) if name in Masses.model_fields else None
+            if value is not None and value != getattr(_MASSES, name):
+                table[key] = list(value) if isinstance(value, tuple) else value
         return table
 
     @classmethod
@@ -363,8 +369,11 @@ FLAT_OPTIONS: dict[str, tuple[str, str]] = {
     **{name: ("body", name) for name in ("link_radius", "actuator_radius", "motor_radius", "motor_length")},
     "encoder_deg": ("loads", "encoder_deg"), "thrust": ("loads", "thrust_N"), "lateral_force": ("loads", "lateral_force_N"),
     "actuator_stiffness": ("loads", "actuator_stiffness"),
+    "wall": ("masses", "wall_mm"), "density": ("masses", "density_kg_m3"), "m_delta": ("masses", "m_delta_kg"),
+    "m_motor": ("masses", "m_motor_kg"), "gravity": ("masses", "gravity"),
 }  # fmt: skip
 """The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields."""
+_MASSES = Masses()
 
 
 def _route_flat(data: dict[str, Any]) -> None:

@@ -82,7 +82,7 @@ def _proxy(q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker,
 class _Builder:
     def __init__(self, design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], limits: ProgramLimits,
                  body: Body, planner: Planner, log: Callable[[str], None], engine: str = "numpy") -> None:  # fmt: skip
-        self.ts, self.limits, self.planner, self.log = ts, limits, planner, log
+        self.ts, self.limits, self.planner, self.log, self.design = ts, limits, planner, log, design
         self.mode, self.mode_text = mode, format_mode(mode)
         self.lines = _lines(ts, anatomy, limits)
         self.anatomy_source = None if anatomy is None else str(anatomy.source)
@@ -291,5 +291,6 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
         "timing": "toppra (TOPP-RA, time-optimal on the checked grid; rows verified, retimed if a limit is exceeded)",
         "limits": lim.model_dump(), "planner": {"name": "OMPL RRTConnect + PathSimplifier", **b.planner.model_dump()},
         "anatomy": b.anatomy_source, "plan": b.ts.source,
+        "design": b.design.to_dict(), "body": b.checker.body.model_dump(),
     }  # fmt: skip
     return Program(t, seg, np.array(parts["traj"]), E, np.concatenate(parts["e"]), np.degrees(q), np.degrees(qd), summary)

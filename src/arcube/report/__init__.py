@@ -4,7 +4,10 @@
 * :mod:`arcube.report.figures`: matplotlib PNGs (the paper's Fig 4, optimizer convergence);
 * :mod:`arcube.report.html`: one self-contained HTML file (plotly, with plotly.js embedded);
 * :mod:`arcube.report.run_report`: the report of an optimization run folder;
-* :mod:`arcube.report.study`: the convergence figure of a design-study folder.
+* :mod:`arcube.report.study`: the convergence figure of a design-study folder;
+* :mod:`arcube.report.program_html`: a drilling program's section of a report, read from its files
+  (:mod:`~arcube.report.program_data`; playback :mod:`~arcube.report.program_scene`), and a program
+  folder's own report (``arcube report PROGRAM_DIR``).
 
 The layers below (model, io, evaluation, optimization) never import this one: a result does not
 know its renderer. :func:`write_report` draws an :class:`~arcube.evaluation.result.Evaluation`.
@@ -39,16 +42,21 @@ def check_report_path(path: str | os.PathLike[str], name: str = "path") -> Path:
     return out
 
 
-def write_report(evaluation: Evaluation, path: str | os.PathLike[str]) -> Path:
+def write_report(evaluation: Evaluation, path: str | os.PathLike[str], program: str | os.PathLike[str] | None = None) -> Path:
     """Write the self-contained HTML report of an evaluation (plots, 3D mechanism) and its PNGs; returns the path.
 
-    ``evaluation`` is what :func:`arcube.evaluate` returns. Raises :class:`InputError` if ``path`` does
-    not end in .html/.htm (the PNGs beside it are named from its stem).
+    ``evaluation`` is what :func:`arcube.evaluate` returns. ``program``: a program folder of the same
+    design (program.csv, program.json) whose section (timeline, limits, motors, playback) the report
+    adds; by default the ``program/`` beside a report written into an ``arcube design`` job's folder
+    (one with design.toml). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
+    PNGs beside it are named from its stem) or the program's files are unreadable.
     """
     out = check_report_path(path)
     from arcube.report.html import write_evaluation_report
 
-    return write_evaluation_report(evaluation, out)
+    if program is None and (out.parent / "design.toml").is_file() and (out.parent / "program" / "program.json").is_file():
+        program = out.parent / "program"
+    return write_evaluation_report(evaluation, out, program=program)
 
 
 def __getattr__(name: str) -> Any:

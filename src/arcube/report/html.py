@@ -11,19 +11,18 @@ is embedded once, ``include_plotlyjs=True``) holding:
   cranks, four-bars, z dyad, spherical links as arcs, drill) and the trajectories, with a
   slider and a play button that move it along the reachable task points (plotly frames).
 
-Beside the HTML it writes ``<stem>_dexterity.png`` and, for a run, ``<stem>_convergence.png``.
+With ``program`` (a program folder of the design) it adds the drilling program's section
+(:mod:`arcube.report.program_html`). Beside the HTML it writes ``<stem>_dexterity.png`` and, for a run, ``<stem>_convergence.png``.
 """
 
 from __future__ import annotations
 
-import html as _html
 import math
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from arcube.model.design import UNITS
 from arcube.io.files import atomic_write_text
@@ -34,6 +33,8 @@ from arcube.report.figures import (
     read_history, read_pareto,
 )  # fmt: skip
 from arcube.model.body import PART_NAMES, MechanismPoints, mechanism_points
+from arcube.report.mechanism3d import SCENE_TRACES, STYLE as _STYLE, mechanism_extent, mechanism_traces as _mechanism_traces, xyz as _xyz
+from arcube.report.page import CSS as _CSS, esc as _esc, fmt as _fmt, plotly_div
 from arcube.report.tip import anatomy_trace, tip_figure
 
 if TYPE_CHECKING:
@@ -47,56 +48,8 @@ TITLES = {
     "convergence": "Optimization convergence per generation",
     "scene": "AR-CUBE mechanism along the trajectories",
 }
-SCENE_TRACES = ("frame", "cranks", "four-bar x", "four-bar y", "z dyad", "z dyad (open)", "platform", "spherical x", "spherical y", "drill", "drill tip")
-"""Mechanism traces of the 3D scene, in order after the two static trajectory traces."""
 _N_STATIC = 2
-
-
-def _xyz(polylines: list[NDArray[np.float64]]) -> dict[str, list[float | None]]:
-    """x, y, z lists of polylines ``(n_i, 3)`` separated by None (plotly gaps); NaN -> None."""
-    out: dict[str, list[float | None]] = {"x": [], "y": [], "z": []}
-    for k, line in enumerate(polylines):
-        if k:
-            for c in out.values():
-                c.append(None)
-        for j, c in enumerate(out.values()):
-            # Full precision (no rounding): the tests check closure on the drawn data to 1e-9 mm.
-            c.extend(None if not math.isfinite(v) else float(v) for v in line[:, j])
-    return out
-
-
-def _mechanism_traces(mp: MechanismPoints, i: int) -> list[dict[str, Any]]:
-    """The data (coordinates only) of the :data:`SCENE_TRACES` at point ``i`` of 1-D ``mp``."""
-    O, P, D, Q, K, T = mp.O[i], mp.P[i], mp.D[i], mp.Q[i], mp.K[i], mp.T[i]
-    closes = bool(mp.z_closes[i])
-    arcs = [np.concatenate([mp.arc_alpha[i, u], mp.arc_beta[i, u, 1:]]) for u in range(2)]
-    empty = [np.full((1, 3), np.nan)]
-    return [
-        _xyz([np.stack([O, P[u]]) for u in range(3)]),
-        _xyz([np.stack([P[u], D[u]]) for u in range(3)]),
-        *(_xyz([np.stack([D[u], K[u], T[u], Q[u]])]) for u in range(2)),
-        _xyz([np.stack([D[2], mp.J_z[i], Q[2]])] if closes else empty),
-        _xyz(empty if closes else [np.stack([D[2], Q[2]])]),
-        _xyz([np.stack([mp.C[i], Q[u]]) for u in range(3)]),
-        *(_xyz([arcs[u], np.stack([mp.C[i], mp.B[i, u]])]) for u in range(2)),
-        _xyz([np.stack([mp.E[i], mp.drill_end[i]]), np.stack([mp.H[i], mp.H[i]])]),
-        _xyz([mp.E[i][None]]),
-    ]
-
-
-_STYLE: dict[str, dict[str, Any]] = {
-    "frame": {"mode": "lines+markers", "line": {"color": "black", "width": 8}, "marker": {"size": 4, "color": "black"}},
-    "cranks": {"mode": "lines+markers", "line": {"color": "#1f77b4", "width": 7}, "marker": {"size": 4, "color": "#1f77b4"}},
-    "four-bar x": {"mode": "lines+markers", "line": {"color": "#ff7f0e", "width": 5}, "marker": {"size": 3}},
-    "four-bar y": {"mode": "lines+markers", "line": {"color": "#2ca02c", "width": 5}, "marker": {"size": 3}},
-    "z dyad": {"mode": "lines+markers", "line": {"color": "#9467bd", "width": 5}, "marker": {"size": 3}},
-    "z dyad (open)": {"mode": "lines", "line": {"color": "#9467bd", "width": 3, "dash": "dash"}},
-    "platform": {"mode": "lines", "line": {"color": "#7f7f7f", "width": 3}},
-    "spherical x": {"mode": "lines", "line": {"color": "#b35806", "width": 6}},
-    "spherical y": {"mode": "lines", "line": {"color": "#1b7837", "width": 6}},
-    "drill": {"mode": "lines+markers", "line": {"color": "#d62728", "width": 9}, "marker": {"size": 4, "color": "#d62728"}},
-    "drill tip": {"mode": "markers", "marker": {"size": 5, "color": "black", "symbol": "diamond"}},
-}
+"""Static traces of the 3D scene (the trajectories and their entry points), before the animated :data:`SCENE_TRACES`."""
 
 
 def _frame_title(report: Evaluation, i: int, mp: MechanismPoints, series: Any) -> str:
@@ -145,7 +98,7 @@ def scene_figure(report: Evaluation) -> go.Figure:
     # Fixed axis ranges from everything ever drawn, so the view does not jump between frames.
     pts = [np.asarray(ts.entry), np.asarray(ts.target)]
     if len(shown):
-        pts += [a[shown].reshape(-1, 3) for a in (mp.P, mp.D, mp.Q, mp.K, mp.T, mp.arc_alpha, mp.arc_beta, mp.drill_end, mp.O, mp.J_z)]
+        pts.append(mechanism_extent(mp, shown))
     allp = np.concatenate(pts)
     lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
     pad = 0.05 * float(np.max(hi - lo)) + 1.0
@@ -222,18 +175,6 @@ def convergence_figure(history: History, best_known: float | None = None) -> go.
     return fig
 
 
-def _esc(v: Any) -> str:
-    return _html.escape(str(v))
-
-
-def _fmt(v: Any, digits: int = 4) -> str:
-    if v is None:
-        return "—"
-    if isinstance(v, float):
-        return f"{v:.{digits}f}" if math.isfinite(v) else ("∞" if v > 0 else "—")
-    return str(v)
-
-
 def design_table(report: Evaluation) -> str:
     """HTML table like the paper's Table 2 (rows m..beta, columns x, y, z; NA where none)."""
     vals = report.design.to_dict()
@@ -274,11 +215,6 @@ def summary_html(report: Evaluation) -> str:
     if diag:
         out += "<h3>Why points fail</h3><ul>" + "".join(f"<li>{_esc(line)}</li>" for line in diag) + "</ul>"
     return out
-
-
-_CSS = """body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;color:#222}
-table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding:2px 8px;text-align:right}
-th{background:#f3f3f3}h2{margin-top:1.4em;border-bottom:1px solid #ddd}.note{color:#555;font-size:90%}"""
 
 
 def pareto_figure(front: ParetoFront) -> go.Figure:
@@ -324,7 +260,7 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
 def write_evaluation_report(
     report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
     run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
-    limits: dict[str, float] | None = None, best_known: float | None = None,
+    limits: dict[str, float] | None = None, best_known: float | None = None, program: str | os.PathLike[str] | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
@@ -333,11 +269,16 @@ def write_evaluation_report(
     ``pareto_csv``: an NSGA-II run's ``pareto.csv`` (adds the front plot and PNG).
     ``limits``: requirement lines of the drill-tip plots, e.g. ``{"lateral_error": 0.2}``.
     ``best_known``: an eta_G drawn as a reference line on the convergence plots.
+    ``program``: a program folder of this design (program.csv, program.json; ``arcube design``'s
+    ``program/``): adds the program's section (:mod:`arcube.report.program_html`), read before any file is written.
     Returns the HTML path. Every file is written atomically.
     """
-    import plotly.io as pio
-
     out = Path(path)
+    prog = None
+    if program is not None:
+        from arcube.report.program_data import read_program
+
+        prog = read_program(program)
     stem = out.with_suffix("")
     dexterity_png(report, f"{stem}_dexterity.png")
     figs: list[tuple[str, go.Figure]] = [("dexterity", dexterity_figure(report))]
@@ -354,8 +295,7 @@ def write_evaluation_report(
     divs = {}
     for k, (key, fig) in enumerate(figs):
         # plotly.js goes inline once, with the first figure; the others reuse it.
-        divs[key] = pio.to_html(fig, full_html=False, include_plotlyjs=(k == 0), auto_play=False, div_id=DIV_IDS[key],
-                                config={"displaylogo": False, "responsive": True})  # fmt: skip
+        divs[key] = plotly_div(fig, DIV_IDS[key], include_js=k == 0)
     title = f"AR-CUBE report: {report.trajectories.source}"
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
              f"<h1>{_esc(title)}</h1>"]  # fmt: skip
@@ -373,6 +313,13 @@ def write_evaluation_report(
         "<h2>Mechanism</h2><p class='note'>Patient frame R_w (x right, y superior, z posterior). Spherical links are drawn as "
         "great-circle arcs on the sphere of radius r around the drill tip E; a dashed z dyad means (d_z, c_z) cannot span "
         "D_z–Q_z at that point (MODEL.md 6, not checked by the paper).</p>", divs["scene"],
+    ]  # fmt: skip
+    if prog is not None:
+        from arcube.report.program_html import program_section
+
+        parts.append(program_section(prog, report.design.to_vector(), None if report.anatomy is None else report.anatomy.meshes,
+                                     report.options.guards.c_z))  # fmt: skip
+    parts += [
         f"<p class='note'>Figures also saved as {_esc(Path(f'{stem}_dexterity.png').name)}"
         + (f" and {_esc(Path(f'{stem}_convergence.png').name)}" if "convergence" in divs else "") + ".</p></body></html>",
     ]  # fmt: skip

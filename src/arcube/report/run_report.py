@@ -16,7 +16,9 @@ What is read (everything defensively: the run format belongs to :mod:`arcube.opt
   the R trajectories and a second report ``report_L.html`` the L ones;
 * ``history.csv`` (optional): columns generation, best_eta_G, mean_eta_G, feasible_fraction
   (:func:`arcube.report.figures.read_history`); unreadable -> no convergence plot, and a note;
-* ``summary.json`` (optional): shown in the run table.
+* ``summary.json`` (optional): shown in the run table;
+* ``program/`` (optional): a drilling program of the first patient's design (program.csv,
+  program.json), shown in ``report.html`` (:mod:`arcube.report.program_html`).
 
 The design is re-evaluated here with the numpy reference engine (same numbers as the run's
 engine, no JIT warm-up).
@@ -155,6 +157,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
         info["note: setups"] = "two placements: this report covers the R trajectories; report_L.html the L ones"
     pareto = run / "pareto.csv"
     main = run / "report.html"
+    program = run / "program" if (run / "program" / "program.json").is_file() else None  # the first patient's (a design job's)
     for i in range(n_patients):
         ts = _trajectories(cfg, settings, run / "config.toml", i)
         stem = "report" if i == 0 else f"report_p{i + 1}"
@@ -172,7 +175,7 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
             write_evaluation_report(evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
                                     run / f"{stem}{suffix}.html", history_csv=history, run_info=patient_info,
                                     pareto_csv=pareto if pareto.exists() and i == 0 and not suffix else None, limits=limits,
-                                    best_known=best_known)  # fmt: skip
+                                    best_known=best_known, program=program if i == 0 and not suffix else None)  # fmt: skip
     return main
 
 

@@ -60,15 +60,6 @@ def tip_figure(report: Evaluation, limits: dict[str, float] | None = None) -> go
 
 def anatomy_trace(report: Evaluation) -> Any:
     """A translucent mesh of the evaluation's anatomy for the 3D scene (None without anatomy)."""
-    import plotly.graph_objects as go
+    from arcube.report.mechanism3d import mesh_trace
 
-    if report.anatomy is None:
-        return None
-    verts, faces, offset = [], [], 0
-    for m in report.anatomy.meshes:
-        verts.append(np.asarray(m.vertices, float))
-        faces.append(np.asarray(m.faces, np.int64) + offset)
-        offset += len(m.vertices)
-    V, F = np.concatenate(verts), np.concatenate(faces)
-    return go.Mesh3d(x=V[:, 0].tolist(), y=V[:, 1].tolist(), z=V[:, 2].tolist(), i=F[:, 0].tolist(), j=F[:, 1].tolist(),
-                     k=F[:, 2].tolist(), color="#e8d8b0", opacity=0.35, name="anatomy", hoverinfo="name", showlegend=True)  # fmt: skip
+    return None if report.anatomy is None else mesh_trace(report.anatomy.meshes)

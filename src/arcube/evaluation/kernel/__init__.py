@@ -2,7 +2,9 @@
 
 One fused pass per (design, point): TLS IK (Eq 1), RTS IK (MODEL.md 5.2), TMS IK (4.2), the
 seven condition numbers by the closed forms of 8.1, the local guards of 8.2, the IK domain
-excess of 12.2 and the guard grade of 16. A design's points then get the global
+excess of 12.2 and the guard grade of 16; with the options' outputs, the body clearances of 14.3
+(``_clearance``, ``_self``), the drill-tip metrics of 15 (``_performance``) and the holding torque of
+18.2 (``_masses``, only with ``Outputs.holding_torque``). A design's points then get the global
 ``single_assembly_mode`` guard and the summaries (w_G, eta_G, the violation of MODEL.md 16 and its
 parts violation_reach and guard_grade, dexterity statistics). Designs run in parallel (``prange``,
 Numba's default thread count); when there are fewer than two designs per thread, the points
@@ -44,6 +46,7 @@ from arcube.evaluation.kernel._cache import clear_cache
 from arcube.evaluation.kernel._clearance import block_gradients
 from arcube.evaluation.kernel._driver import _kernel
 from arcube.evaluation.kernel._layout import CHUNK, EXTRA, GEOMETRY, OPTIONS, SUMMARY, Layout
+from arcube.evaluation.bodies import N_CHORDS, MassModel, slerp_coefficients
 from arcube.evaluation.reference import Options, PointResults, TaskResults
 from arcube.evaluation.reference import evaluate_task as _evaluate_task_numpy
 from arcube.model import frames
@@ -53,7 +56,7 @@ from arcube.model.mechanism import DEFAULT_MODE
 
 __all__ = ["clear_cache", "evaluate_task_numba", "warm_up"]
 
-_INTEGER_EXTRAS: dict[str, type] = {"clearance_part": np.intp, "torque_actuator": np.int64}
+_INTEGER_EXTRAS: dict[str, type] = {"clearance_part": np.intp, "torque_actuator": np.int64, "holding_torque_actuator": np.int64}
 """PointResults fields held as floats in the extra rows, and their dtypes."""
 
 
@@ -79,12 +82,17 @@ def _geometry(params: np.ndarray) -> np.ndarray:
     """Per-design geometry rows ``(D, N_GEO)`` (``_layout.GEOMETRY``) of designs ``(D, 27)`` (mm, deg):
     the fields of :func:`arcube.model.design.unpack` (mm, rad), the trig of alpha and beta, the mounting
     rotation and whether it is I, computed with the same NumPy operations as the stage modules and
-    arcube.model.frames."""
+    arcube.model.frames; and the spherical links' chords (``kernel._masses``)."""
     g = unpack(params)
+    phi = np.concatenate([g.alpha, g.beta], axis=-1)  # (D, 4): alpha_x, alpha_y, beta_x, beta_y
+    with np.errstate(invalid="ignore", divide="ignore"):  # degenerate arcs (phi = 0): NaN, as in the reference
+        a, b = slerp_coefficients(phi)  # (D, 4, 13), as arcube.evaluation.bodies samples the arcs
     values = {
         "m": g.m, "f": g.f, "p": g.p, "d": g.d, "c": g.c, "t": g.t, "r": g.r, "o": g.o,
         "sin_alpha": np.sin(g.alpha), "cos_alpha": np.cos(g.alpha), "cos_beta": np.cos(g.beta), "sin_beta": np.sin(g.beta),
         "rot": frames.mount_rotation(g), "L": g.L, "flat": frames.is_unrotated(g),
+        "arc_chord": np.sin(phi / (2 * N_CHORDS)),
+        "arc_a": np.sum(0.5 * (a[..., :-1] + a[..., 1:]), axis=-1), "arc_b": np.sum(0.5 * (b[..., :-1] + b[..., 1:]), axis=-1),
     }  # fmt: skip
     return _rows(GEOMETRY, values, (params.shape[0],))
 
@@ -98,7 +106,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
     """The option vector ``(N_OPT,)`` (``_layout.OPTIONS``): every setting the compiled code reads, as
     the reference compares it (``reference._guard_checks`` and ``_judge``). A new setting is one entry
     here and one in ``_layout.OPTIONS``; the two must name the same blocks."""
-    guards, body, loads, outputs = options.guards, options.body, options.loads, options.outputs
+    guards, body, loads, masses, outputs = options.guards, options.body, options.loads, options.masses, options.outputs
     values: dict[str, Any] = {
         # Guards (MODEL.md 8.2, 14.3)
         "z_dyad": guards.z_dyad,
@@ -116,15 +124,30 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
         "thrust": float(loads.thrust_N),
         "lateral_force": float(loads.lateral_force_N),
         "stiffness": 1000.0 * np.asarray(loads.actuator_stiffness, dtype=float),
+        # Masses (MODEL.md 18.1): kg/mm, kg, m/s^2 (unchecked against the link radius unless the holding torque is on)
+        "link_mass": _link_mass(options),
+        "m_delta": masses.m_delta_kg,
+        "m_motor": masses.m_motor_kg,
+        "gravity": np.asarray(masses.gravity, dtype=float),
         # Outputs, and how to compute them
         "exact": exact,
         "do_clearance": options.wants_clearance and anatomy,
         "do_self_clearance": options.wants_self_clearance,
         "tip_metrics": outputs.tip_metrics,
         "clearance_min_exact": outputs.clearance_min_exact,
+        "holding_torque": outputs.tip_metrics and outputs.holding_torque,
     }
     values["clearance_on"] = values["clearance_on"] and anatomy  # the anatomy guard needs an anatomy
     return _rows(OPTIONS, values, ())
+
+
+def _link_mass(options: Options) -> float:
+    """lambda (kg/mm) of MODEL.md 18.1, from :class:`arcube.evaluation.bodies.MassModel` (which checks the wall
+    against the link radius) when the holding torque is on; the same formula, unchecked, otherwise."""
+    if options.outputs.tip_metrics and options.outputs.holding_torque:
+        return MassModel.of(options).lambda_kg_per_mm
+    ro, ri = options.body.link_radius * 1e-3, (options.body.link_radius - options.masses.wall_mm) * 1e-3
+    return options.masses.density_kg_m3 * math.pi * (ro * ro - ri * ri) * 1e-3
 
 
 _NO_GRID = (np.zeros(3), 1.0, np.zeros((2, 2, 2)))

@@ -266,3 +266,29 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
         if best <= enough:
             break
     return best, best_k
+
+
+@njit(cache=True, error_model="numpy")
+def _carry_bounds(lower, lines, prev, valid):
+    """Lower bounds of the primitives' clearances at this point from those of the previous body
+    ``prev``: a segment's points move by at most the larger move of its ends (the same parameter on
+    both), a sphere by its centre's; the arcs' bounds are dropped (they are always searched). Without
+    a previous body (``valid`` false) every bound is dropped. ``prev`` then takes this body.
+    ``lines`` (n, 2, 3): the segments and points (the first n entries of ``lower``; the arcs' follow)."""
+    n_lines = lines.shape[0]
+    for j in range(n_lines):
+        if valid:
+            m = 0.0
+            for end in range(2):
+                dx = lines[j, end, 0] - prev[j, end, 0]
+                dy = lines[j, end, 1] - prev[j, end, 1]
+                dz = lines[j, end, 2] - prev[j, end, 2]
+                m = max(m, math.sqrt(dx * dx + dy * dy + dz * dz))
+            lower[j] = lower[j] - m
+        else:
+            lower[j] = -math.inf
+        for end in range(2):
+            for q in range(3):
+                prev[j, end, q] = lines[j, end, q]
+    for j in range(n_lines, lower.shape[0]):
+        lower[j] = -math.inf

@@ -25,7 +25,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from arcube.evaluation.performance import PERFORMANCE_FIELDS
+from arcube.evaluation.performance import MAXIMUM_FIELDS
 from arcube.evaluation.reference import FAILURES, GRADE_SCALES, IK_FAILURES, PointResults, TaskResults
 from arcube.model.design import SLICES
 
@@ -103,6 +103,9 @@ GEOMETRY = Layout("G", (
     ("rot", 9),  # the mounting rotation R, row-major (MODEL.md 13.1)
     ("L", 1),  # tool offset, mm (MODEL.md 13.2)
     ("flat", 1),  # 1.0 where R = I exactly (the stages then see E - m unrotated, bit for bit)
+    # the spherical links as 12 chords each (MODEL.md 18.1), in the order alpha_x, alpha_y, beta_x, beta_y:
+    ("arc_chord", 4),  # sin(phi / 24): a chord is 2 r sin(phi / 24) long
+    ("arc_a", 4), ("arc_b", 4),  # sum over the chords of the slerp coefficients of their midpoints (kernel._masses)
 ))  # fmt: skip
 """One design's geometry row ``(N_GEO,)``: mm, rad and the trig of the spherical angles."""
 
@@ -121,8 +124,13 @@ OPTIONS = Layout("O", (
     ("encoder", 5),  # rad, per actuator
     ("thrust", 1), ("lateral_force", 1),  # N
     ("stiffness", 5),  # N·mm/rad, per actuator
+    # masses (MODEL.md 18.1)
+    ("link_mass", 1),  # kg/mm, lambda of a link's tube
+    ("m_delta", 1), ("m_motor", 1),  # kg
+    ("gravity", 3),  # m/s^2, patient frame
     # what to compute (1.0: yes)
     ("exact", 1), ("do_clearance", 1), ("do_self_clearance", 1), ("tip_metrics", 1), ("clearance_min_exact", 1),
+    ("holding_torque", 1),  # with tip_metrics: the holding torque of MODEL.md 18.2
 ))  # fmt: skip
 """The option vector ``(N_OPT,)``: the settings as numbers, thresholds as the reference compares them."""
 
@@ -145,7 +153,8 @@ for _row in (GEOMETRY, OPTIONS, SUMMARY, EXTRA):
 del _row
 N_GEO, N_OPT, N_SUMM, N_EXTRA = GEOMETRY.size, OPTIONS.size, SUMMARY.size, EXTRA.size
 
-METRIC_COLUMNS = np.array([EXTRA.offset[name] for name in PERFORMANCE_FIELDS], dtype=np.int64)
-"""Extra columns of the tip metrics of MODEL.md 15 that have a maximum (all but ``torque_actuator``)."""
-MAXIMA = np.array([(SUMMARY.offset[name.rsplit("_", 1)[0] + "_max"], EXTRA.offset[name]) for name in PERFORMANCE_FIELDS], dtype=np.int64)
-"""(summary column, extra column) of each maximum over the reachable points (MODEL.md 15.5), ``(6, 2)``."""
+METRIC_COLUMNS = np.array([EXTRA.offset[name] for name in MAXIMUM_FIELDS], dtype=np.int64)
+"""Extra columns of the tip metrics of MODEL.md 15 and the holding torque of 18.2 that have a maximum (all but
+the actuators)."""
+MAXIMA = np.array([(SUMMARY.offset[name.rsplit("_", 1)[0] + "_max"], EXTRA.offset[name]) for name in MAXIMUM_FIELDS], dtype=np.int64)
+"""(summary column, extra column) of each maximum over the reachable points (MODEL.md 15.5, 18.2), ``(7, 2)``."""

@@ -20,16 +20,17 @@ from numba import njit
 
 from arcube.evaluation.kernel._layout import G_L, METRIC_COLUMNS, NAN, O_ENCODER, O_LATERAL_FORCE, O_STIFFNESS, O_THRUST
 from arcube.evaluation.kernel._layout import X_AXIAL_ERROR_MM, X_AXIS_ERROR_DEG, X_DEFLECTION_MM, X_LATERAL_ERROR_MM
-from arcube.evaluation.kernel._layout import X_TIP_ERROR_MM, X_TORQUE_ACTUATOR, X_TORQUE_NM
+from arcube.evaluation.kernel._layout import X_HOLDING_TORQUE_ACTUATOR, X_HOLDING_TORQUE_NM, X_TIP_ERROR_MM, X_TORQUE_ACTUATOR, X_TORQUE_NM
 from arcube.evaluation.kernel._scalar import rot
 
 
 @njit(cache=True, error_model="numpy")
 def _no_metrics(row):
-    """The metrics of an unreachable point in an extra row: NaN, and actuator -1."""
+    """The metrics of an unreachable point in an extra row: NaN, and actuators -1."""
     for j in range(METRIC_COLUMNS.shape[0]):
         row[METRIC_COLUMNS[j]] = NAN
     row[X_TORQUE_ACTUATOR] = -1.0
+    row[X_HOLDING_TORQUE_ACTUATOR] = -1.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -75,8 +76,9 @@ def _box_maxima(J, eps, e0, e1, e2):
 def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
                  xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, J, row):  # fmt: skip
     """Write the metrics of one point to its extra row ``row`` (the ``X_*`` columns of the PointResults
-    fields tip_error_mm .. deflection_mm), with the loads of the option vector ``opt``: encoder (rad),
-    thrust, lateral force (N), stiffness (N·mm/rad); ``J``: (2, 3, 5) work buffer (J_E, J_e)."""
+    fields tip_error_mm .. deflection_mm; the holding torque's NaN and -1, which ``_masses`` overwrites
+    when it is on), with the loads of the option vector ``opt``: encoder (rad), thrust, lateral force (N),
+    stiffness (N·mm/rad); ``J``: (2, 3, 5) work buffer, filled with (J_E, J_e) in R_w."""
     # J_AP rows q = u_beta x e (mechanism axes)
     qx0 = xb1 * em2 - xb2 * em1
     qx1 = xb2 * em0 - xb0 * em2
@@ -161,4 +163,6 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
     row[X_TORQUE_NM] = torque
     row[X_TORQUE_ACTUATOR] = which if torque == torque else -1.0
     row[X_DEFLECTION_MM] = F_t * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + F_l * lam
+    row[X_HOLDING_TORQUE_NM] = NAN
+    row[X_HOLDING_TORQUE_ACTUATOR] = -1.0
 

@@ -19,11 +19,12 @@ from arcube.evaluation.kernel._layout import NAN as _NAN
 from arcube.evaluation.kernel._layout import O_C_Z, O_EXACT, O_KAPPA_MAX, O_KAPPA_MAX_ON, O_RHO_MAX, O_RHO_MAX_ON, O_SINGLE_ASSEMBLY_MODE
 from arcube.evaluation.kernel._layout import O_TRANSMISSION, O_TRANSMISSION_ON, O_Z_DYAD
 from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT, O_CLEARANCE_ON, O_DO_CLEARANCE, O_DO_SELF_CLEARANCE
-from arcube.evaluation.kernel._layout import O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
+from arcube.evaluation.kernel._layout import O_HOLDING_TORQUE, O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
 from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._body import _body_world
-from arcube.evaluation.kernel._clearance import _anatomy_clearance
+from arcube.evaluation.kernel._clearance import _anatomy_clearance, _carry_bounds
 from arcube.evaluation.kernel._self import _self_clearance, self_moves
+from arcube.evaluation.kernel._masses import _holding_torque
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
 from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
@@ -213,30 +214,6 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
 
 
 @njit(cache=True, error_model="numpy")
-def _carry_bounds(lower, lines, prev, valid):
-    """Lower bounds of the primitives' clearances at this point from those of the previous body
-    ``prev``: a segment's points move by at most the larger move of its ends (the same parameter on
-    both), a sphere by its centre's; the arcs' bounds are dropped (they are always searched). Without
-    a previous body (``valid`` false) every bound is dropped. ``prev`` then takes this body."""
-    for j in range(N_LINES):
-        if valid:
-            m = 0.0
-            for end in range(2):
-                dx = lines[j, end, 0] - prev[j, end, 0]
-                dy = lines[j, end, 1] - prev[j, end, 1]
-                dz = lines[j, end, 2] - prev[j, end, 2]
-                m = max(m, math.sqrt(dx * dx + dy * dy + dz * dz))
-            lower[j] = lower[j] - m
-        else:
-            lower[j] = -_INF
-        for end in range(2):
-            for q in range(3):
-                prev[j, end, q] = lines[j, end, q]
-    for j in range(N_LINES, lower.shape[0]):
-        lower[j] = -_INF
-
-
-@njit(cache=True, error_model="numpy")
 def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body,
                    failure, eta, excess, assembly, extra, detail):  # fmt: skip
     """Points k0..k1-1 of design i, in the reference's order.
@@ -249,7 +226,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
     ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0])
     and ``extra`` (P, N_EXTRA: the guard grade of MODEL.md 16 before the global guard, the clearances, the
-    tip metrics); with
+    tip metrics and the holding torque of 18.2); with
     ``full`` also row i of ``detail`` = (kappa (D, P, 7), rho (D, P, 3), delta (D, P, 2), sigma (D, P, 2)), rad.
     """
     g = geometry[i]
@@ -264,6 +241,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     work = np.empty((6, 96))
     jbuf = np.empty((2, 3, 5))
     do_perf = opt[O_TIP_METRICS] != 0.0
+    do_hold = do_perf and opt[O_HOLDING_TORQUE] != 0.0
     f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
     d0, d1 = g[G_D], g[G_D + 1]
@@ -372,6 +350,9 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             if fc == 0 and do_perf:
                 _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
                              xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, jbuf, extra[k])  # fmt: skip
+                if do_hold:  # MODEL.md 18.2
+                    _holding_torque(g, opt, Em0, Em1, Em2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1,
+                                    xb0, xb1, xb2, yb0, yb1, yb2, jas0, jas1, em0, em1, em2, jbuf, extra[k])  # fmt: skip
             else:
                 _no_metrics(extra[k])
         else:

@@ -1,0 +1,265 @@
+"""A drilling program (MODEL.md 17) as a MuJoCo model and a replay of its joint targets.
+
+:func:`export_program` reads a program (the folder that ``arcube program`` writes, or a
+:class:`~arcube.program.Program`) and returns
+
+* the MJCF of :mod:`arcube.export.mjcf` for the program's design, **assembled at the program's
+  first row** (its keyframe ``assembled`` is that state, ctrl included), with the masses of MODEL.md
+  18.1 (:mod:`arcube.export.inertia`);
+* the **replay**, a CSV with one row per row of ``program.csv`` (:data:`REPLAY_COLUMNS`):
+
+  - ``t_s``, ``segment``, ``trajectory``: as in ``program.csv`` (s; approach, drill, retract, transit);
+  - ``E_x_mm`` .. ``E_z_mm``, ``e_x`` .. ``e_z``: the program's drill tip E (mm) and axis e in the
+    patient frame, which is MuJoCo's world frame;
+  - ``ctrl_rho_x`` .. ``ctrl_delta_y``: the targets of the five position actuators, in the model's
+    actuator order (rad): the program's angles, deg -> rad;
+  - ``qvel_rho_x`` .. ``qvel_delta_y``: their rates (rad/s);
+  - ``qpos_rho_x`` .. ``qpos_tau_y``: every hinge (rad, :data:`~arcube.export.mjcf.JOINT_NAMES`,
+    MuJoCo's ``qpos`` order): the actuated ones as ``ctrl_*``, the passive ones from the IK,
+    continuous along the rows from the keyframe's.
+
+  A controller sets ``data.ctrl`` to the row's targets at ``t_s``; a viewer may set ``data.qpos`` to the
+  row's ``qpos_*`` (kinematic replay). ``examples/mujoco_replay.py`` adds the torque that the motion
+  needs (MuJoCo's inverse dynamics projected through the loops) as a feed-forward and interpolates
+  between rows.
+
+The program's angles are the IK's up to whole turns of delta (a program keeps delta continuous), so
+the model's actuated hinges take the program's first-row angles as their reference: a target never
+asks for a spurious turn. Before writing, the design is checked against the program: at every row its
+IK at (E, e), in the program's working mode, must give the program's five angles (mod 2 pi) within
+:data:`ANGLE_TOL_RAD`; else :class:`InputError` (another design's program). The z dyad must close with
+c_z at every row (as at every plan point in :func:`~arcube.export.mjcf.export_mjcf`).
+
+The design: the caller's, else the one the program folder records: a ``design`` object in
+``program.json`` (name -> value), a ``design.json`` in the folder, or, for the ``program/`` folder of
+an ``arcube design`` job (``design.toml`` beside it, or its ``summary.json`` lists the folder under
+``files.program``), the job's ``design.json``: the rules of ``arcube report`` for a program folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from arcube.errors import InputError
+from arcube.evaluation.bodies import MassModel
+from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
+from arcube.export.mjcf import check_z_dyad, checked_inputs, model_xml
+from arcube.io.files import atomic_write_text
+from arcube.model.body import BodyRadii
+from arcube.model.design import Design
+from arcube.model.mechanism import format_mode, inverse_kinematics
+from arcube.options import Options
+
+__all__ = ["ANGLE_TOL_RAD", "REPLAY_COLUMNS", "ProgramExport", "ProgramRows", "export_program", "read_program", "recorded_design", "replay_path",
+           "write_program_export"]
+
+REPLAY_COLUMNS: tuple[str, ...] = (
+    "t_s", "segment", "trajectory", "E_x_mm", "E_y_mm", "E_z_mm", "e_x", "e_y", "e_z",
+    *(f"ctrl_{n}" for n in ACTUATED), *(f"qvel_{n}" for n in ACTUATED), *(f"qpos_{n}" for n in JOINT_NAMES),
+)  # fmt: skip
+"""Columns of the replay CSV (module docstring): s, mm, unit vector, rad, rad/s, rad."""
+ANGLE_TOL_RAD = 1.0e-6
+"""Largest difference (rad, mod 2 pi) between the design's IK and a program row's angle: the rows are
+written with ``repr`` and reproduce their pose to rounding, so any real mismatch is far larger."""
+_PROGRAM_COLUMNS = ("t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", *ACTUATED, *(f"{n}_dot" for n in ACTUATED))
+
+
+@dataclass(frozen=True)
+class ProgramRows:
+    """The rows of a program (``program.csv``) and its summary (``program.json``); ``n`` rows.
+
+    ``t_s`` ``(n,)`` s; ``segment``, ``trajectory`` ``(n,)`` text; ``E`` ``(n, 3)`` mm and ``e`` ``(n, 3)``
+    in the patient frame; ``q_deg`` ``(n, 5)`` deg and ``q_dot_deg`` ``(n, 5)`` deg/s in :data:`ACTUATED`
+    order; ``folder`` where it was read (None for an in-memory program).
+    """
+
+    t_s: NDArray[np.float64]
+    segment: NDArray[np.str_]
+    trajectory: NDArray[np.str_]
+    E: NDArray[np.float64]
+    e: NDArray[np.float64]
+    q_deg: NDArray[np.float64]
+    q_dot_deg: NDArray[np.float64]
+    summary: dict[str, Any]
+    folder: Path | None = None
+
+
+@dataclass(frozen=True)
+class ProgramExport:
+    """What :func:`export_program` returns: the MJCF text, the replay CSV text, and the design used."""
+
+    xml: str
+    replay_csv: str
+    design: Design
+    rows: int
+
+
+def read_program(folder: str | os.PathLike[str]) -> ProgramRows:
+    """The program in ``folder`` (``program.csv`` and ``program.json``; columns beyond MODEL.md 17.3's, such
+    as ``tau_*_Nm``, are ignored). InputError naming ``program`` for a missing or unreadable file."""
+    path = Path(folder)
+    csv_path, json_path = path / "program.csv", path / "program.json"
+    for p in (csv_path, json_path):
+        if not p.is_file():
+            raise InputError.of("program", f"{path}: no {p.name} (give the folder that 'arcube program' wrote)")
+    try:
+        summary = json.loads(json_path.read_text(encoding="utf-8"))
+        with open(csv_path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError.of("program", f"{path}: cannot read ({exc})") from None
+    if not isinstance(summary, dict):
+        raise InputError.of("program", f"{json_path}: not a program summary (a JSON object)")
+    missing = [c for c in _PROGRAM_COLUMNS if not rows or c not in rows[0]]
+    if not rows or missing:
+        raise InputError.of("program", f"{csv_path}: " + ("no rows" if not rows else f"missing columns {', '.join(missing)}"))
+    numeric = [c for c in _PROGRAM_COLUMNS if c not in ("segment", "trajectory")]
+    try:
+        table = np.array([[float(r[c]) for c in numeric] for r in rows])
+    except (TypeError, ValueError):
+        raise InputError.of("program", f"{csv_path}: a cell of {', '.join(numeric)} is not a number") from None
+    if not np.all(np.isfinite(table)):
+        raise InputError.of("program", f"{csv_path}: a cell is empty or not finite")
+    return ProgramRows(
+        t_s=table[:, 0], segment=np.array([r["segment"] for r in rows]), trajectory=np.array([r["trajectory"] for r in rows]),
+        E=table[:, 1:4], e=table[:, 4:7], q_deg=table[:, 7:12], q_dot_deg=table[:, 12:17], summary=summary, folder=path,
+    )  # fmt: skip
+
+
+def _rows_of(program: Any) -> ProgramRows:
+    if isinstance(program, ProgramRows):
+        return program
+    if isinstance(program, (str, os.PathLike)):
+        return read_program(program)
+    if all(hasattr(program, a) for a in ("t_s", "segment", "trajectory", "E", "e", "q_deg", "q_dot_deg", "summary")):
+        folder = getattr(program, "path", None)
+        return ProgramRows(np.asarray(program.t_s, float), np.asarray(program.segment), np.asarray(program.trajectory),
+                           np.asarray(program.E, float), np.asarray(program.e, float), np.asarray(program.q_deg, float),
+                           np.asarray(program.q_dot_deg, float), dict(program.summary), None if folder is None else Path(folder))  # fmt: skip
+    raise InputError.of("program", f"must be a program folder or an arcube.program.Program, got {type(program).__name__}")
+
+
+def recorded_design(rows: ProgramRows) -> Design | None:
+    """The design a program records (module docstring), or None."""
+    recorded = rows.summary.get("design")
+    if isinstance(recorded, dict):
+        return Design.from_dict(recorded, source="program.json design")
+    if rows.folder is None:
+        return None
+    folder = rows.folder.resolve()
+    if (folder / "design.json").is_file():
+        return Design.from_json(folder / "design.json")
+    job = folder.parent
+    if not (job / "design.json").is_file():
+        return None
+    try:
+        files = json.loads((job / "summary.json").read_text(encoding="utf-8")).get("files", {})
+    except (OSError, ValueError, AttributeError):
+        files = {}
+    if (job / "design.toml").is_file() or (isinstance(files, dict) and files.get("program") == folder.name):
+        return Design.from_json(job / "design.json")
+    return None
+
+
+def _check_angles(params: NDArray[np.float64], rows: ProgramRows, signs: NDArray[np.float64]) -> None:
+    """InputError unless the design's IK at every row gives the row's five angles (mod 2 pi)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sol = inverse_kinematics(params, rows.E, rows.e, signs)
+    ik = np.concatenate([sol.rho, sol.delta], axis=-1)  # (n, 5) rad
+    diff = np.abs(np.remainder(ik - np.radians(rows.q_deg) + np.pi, 2.0 * np.pi) - np.pi)
+    bad = ~(diff <= ANGLE_TOL_RAD)  # NaN (no IK) counts as bad
+    if not bad.any():
+        return
+    i, j = np.argwhere(bad)[0]
+    at = f"row {i} (t = {rows.t_s[i]:.6g} s, {rows.segment[i]} {rows.trajectory[i]})"
+    if not np.isfinite(ik[i, j]):
+        problem = f"has no IK solution at {at} in mode {format_mode(signs)}"
+    else:
+        problem = f"gives {ACTUATED[j]} = {math.degrees(ik[i, j]):.6g} deg at {at} where the program has {rows.q_deg[i, j]:.6g} deg"
+    raise InputError.of("design", f"does not run this program: it {problem}; give the program's own design")
+
+
+def export_program(
+    program: Any, design: Design | Any = None, *, c_z: float | None = None, radii: BodyRadii = BodyRadii(), anatomy: Any = None,
+    masses: MassModel | Options | None = None,
+) -> ProgramExport:  # fmt: skip
+    """The MJCF of a program's design assembled at its first row, and the replay CSV (module docstring).
+
+    Parameters
+    ----------
+    program : a program folder (``program.csv``, ``program.json``), a :class:`~arcube.program.Program`
+        or :class:`ProgramRows`.
+    design : a :class:`Design`, preset name, design JSON path or vector; None: the one the program
+        records (:func:`recorded_design`), else InputError naming ``design``.
+    c_z, radii, anatomy, masses : as in :func:`~arcube.export.mjcf.export_mjcf`.
+
+    Raises :class:`InputError` for an unreadable program, no design, a design whose IK does not give
+    the program's angles, or a z dyad that cannot close with c_z at every row.
+    """
+    rows = _rows_of(program)
+    if len(rows.t_s) == 0:
+        raise InputError.of("program", "has no rows")
+    if design is None:
+        design = recorded_design(rows)
+        if design is None:
+            raise InputError.of("design", "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)")
+    d = Design.coerce(design)
+    mode = rows.summary.get("mode", "+,+,+,+")
+    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else "+,+,+,+", c_z, radii)
+    _check_angles(params, rows, signs)
+    check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
+    q0 = np.radians(rows.q_deg[0])
+    source = "the program" if rows.folder is None else f"the program {rows.folder}"
+    where = f"row 0 of {source} (t = {rows.t_s[0]:.6g} s, {rows.segment[0]} {rows.trajectory[0]})"
+    note = f"Replay: CSV beside this file (<name>.replay.csv), {len(rows.t_s)} rows: ctrl_* targets (rad) at t_s."
+    xml = model_xml(params, rows.E[0], rows.e[0], signs, cz, radii, anatomy, masses, where,
+                    actuated={n: float(q0[i]) for i, n in enumerate(ACTUATED)}, note=note)  # fmt: skip
+    qpos = joint_values(params, rows.E, rows.e, signs, c_z=cz)
+    passive = {n: np.unwrap(qpos[n]) for n in JOINT_NAMES if n not in ACTUATED}  # continuous along the rows
+    full = np.stack([passive[n] if n in passive else np.radians(rows.q_deg[:, ACTUATED.index(n)]) for n in JOINT_NAMES], axis=1)
+    return ProgramExport(xml, _replay_csv(rows, full), d, len(rows.t_s))
+
+
+def _num(v: float) -> str:
+    return repr(float(v) + 0.0)
+
+
+def _replay_csv(rows: ProgramRows, qpos: NDArray[np.float64]) -> str:
+    buf = io.StringIO()
+    buf.write(",".join(REPLAY_COLUMNS) + "\n")
+    q, qd = np.radians(rows.q_deg), np.radians(rows.q_dot_deg)
+    for i in range(len(rows.t_s)):
+        nums = (*rows.E[i], *rows.e[i], *q[i], *qd[i], *qpos[i])
+        buf.write(f"{_num(rows.t_s[i])},{rows.segment[i]},{rows.trajectory[i]},{','.join(_num(v) for v in nums)}\n")
+    return buf.getvalue()
+
+
+def replay_path(model_path: str | os.PathLike[str]) -> Path:
+    """Where the replay of a model file goes: ``robot.xml`` -> ``robot.replay.csv`` (same folder)."""
+    p = Path(model_path)
+    return p.with_name(p.stem + ".replay.csv")
+
+
+def write_program_export(export: ProgramExport, model_path: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """Write the model to ``model_path`` and the replay beside it (:func:`replay_path`), atomically: if the
+    replay cannot be written the model is removed again. Returns both paths; OSError as raised."""
+    xml_path, csv_path = Path(model_path), replay_path(model_path)
+    existed = xml_path.exists()
+    atomic_write_text(xml_path, export.xml)
+    try:
+        atomic_write_text(csv_path, export.replay_csv)
+    except BaseException:
+        if not existed:
+            xml_path.unlink(missing_ok=True)
+        raise
+    return xml_path, csv_path
