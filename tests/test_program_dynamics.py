@@ -238,3 +238,25 @@ def test_a_program_folder_reports_itself(run) -> None:
     html = (folder / "report.html").read_text()
     assert DIV_IDS["playback"] in html and "No playback" not in html
     assert f"{summary['motors']['rho_x']['torque_peak_Nm']:.3g}" in html
+
+
+def test_the_clearances_along_time_are_the_references_at_those_rows(run) -> None:
+    """program.json's clearance series (for the report's plot) is the NumPy reference's self clearance at the
+    CSV rows it names, and the report draws it with its limit."""
+    from arcube.evaluation.reference import evaluate_points
+    from arcube.options import Options, Outputs
+    from arcube.report.program_data import read_program
+    from arcube.report.program_html import timeline_figure
+
+    prog, _, cols, summary, _ = run
+    series = summary["clearances_along_time"]
+    rows = np.searchsorted(cols["t_s"], series["t_s"])
+    assert np.allclose(cols["t_s"][rows], series["t_s"], rtol=0, atol=1e-12) and rows[-1] == len(cols["t_s"]) - 1
+    E = np.stack([cols[f"E_{a}"] for a in "xyz"], axis=1)[rows]
+    e = np.stack([cols[f"e_{a}"] for a in "xyz"], axis=1)[rows]
+    ref = evaluate_points(_design().to_vector(), E, e, MODE, Options(outputs=Outputs(clearances=True, tip_metrics=False)))
+    assert np.allclose(series["self_clearance_mm"], ref.self_clearance_mm, rtol=0, atol=1e-9)
+    assert min(series["self_clearance_mm"]) >= summary["self_clearance_min_mm"] - 0.5  # 17.2's states are finer
+    fig = timeline_figure(read_program(prog.path))
+    (trace,) = [tr for tr in fig.data if tr.name == "self"]
+    assert list(trace.y) == pytest.approx(series["self_clearance_mm"], abs=1e-12)

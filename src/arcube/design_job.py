@@ -40,7 +40,7 @@ from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
-from arcube.optimization.requirements import Requirement, assess, design_options, write_requirements_csv
+from arcube.optimization.requirements import PROGRAM_FIGURES, Requirement, assess, design_options, program_rows, write_requirements_csv
 from arcube.optimization.settings import RunSettings
 from arcube.results import Run
 
@@ -82,7 +82,7 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
     from arcube.optimization.config import run_settings
 
     s = run_settings(settings, **fields)
-    maxima = {r.name: r.limit for r in reqs if r.kind == "max"}
+    maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
     options = design_options(reqs, s.options)
     return s.replace(free=["all", "mount", "L"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
                      standoff=20.0 if s.standoff is None else s.standoff)  # fmt: skip
@@ -158,8 +158,9 @@ def finish_design(out: Path) -> DesignResult:
                       points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
         met = bool(row["feasible"] and all(r["passed"] for r in rows))
         if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
-            rows = [*rows, _program_row(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs)]
-            met = rows[-1]["passed"]
+            built = _program_rows(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs)
+            rows = [*rows, *built]
+            met = all(r["passed"] for r in built)
         if chosen is None or (met and not chosen[-1]):
             chosen = (row, run, cfg, s, plans, anatomies, summary, rows, met)
         if met or not row["feasible"]:
@@ -170,9 +171,10 @@ def finish_design(out: Path) -> DesignResult:
     return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows)
 
 
-def _program_row(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement]) -> dict[str, Any]:
+def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
     """Build the drilling program of the chosen design (MODEL.md 17, patient 1) into ``out/program`` with
-    the design's clearances and standoff; its requirement row: met, or the blocked segment named."""
+    the design's clearances and standoff; its requirement rows: the program (met, or the blocked segment
+    named), then ``torque_peak`` / ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
     from arcube.program import program
 
     # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
@@ -184,9 +186,10 @@ def _program_row(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, 
         prog = program(design, plan, out / PROGRAM, anatomy=anatomy, mode=mode, standoff_mm=float(s.standoff or 0.0),
                        body=s.options.body, masses=s.options.masses, loads=s.options.loads, **limits)  # fmt: skip
     except InputError as exc:
-        return {**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}
+        return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
     summary = prog.summary
-    return {**row, "value": 1.0, "margin": 0.0, "passed": True, "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s"}
+    built = {**row, "value": 1.0, "margin": 0.0, "passed": True, "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s"}
+    return [built, *program_rows(reqs, summary.get("motors"))]
 
 
 def _write_outputs(out: Path, met: bool, seed: int, run: Run, cfg: dict[str, Any], s: RunSettings, plans: list[Any],

@@ -16,6 +16,7 @@ import typer
 from arcube.cli.common import AnatomyFrameOpt, AnatomyOpt, EncoderOpt, numbers, plan_specs
 from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, given_masses, mass_keywords
 from arcube.errors import InputError
+from arcube.optimization.requirements import PROGRAM_FIGURES
 
 Strs = Annotated[list[str] | None, typer.Option("--trajectories", help="Trajectory sets (CSV, .mrk.json, folder or 'reference'); several: one placement per patient.")]
 
@@ -49,7 +50,9 @@ def print_design(result: Any) -> None:
     typer.echo(f"design {head}: seed {s['seed']}, mode {s['mode']}, eta_G {_num(s.get('eta_G'))}; results in {result.path}")
     for r in result.missed:
         need = f">= {r['value']:.4g}" if r["kind"] == "max" else f"<= {r['value']:.4g}"
-        if not math.isfinite(r["value"]):
+        if not math.isfinite(r["value"]) and r["requirement"] in PROGRAM_FIGURES:
+            typer.echo(f"  missed: {r['requirement']} (not measured: no drilling program)")
+        elif not math.isfinite(r["value"]):
             typer.echo(f"  missed: {r['requirement']} (not measured: the design reaches none of the points where it holds)")
         elif r["requirement"] == "program":
             typer.echo(f"  missed: program: {r['part']}")
@@ -75,7 +78,7 @@ def register(app: typer.Typer) -> None:
         anatomy_frame: AnatomyFrameOpt = "LPS",
         seeds: Annotated[str, typer.Option("--seeds", help="Seeds, one optimization each: 1-3, 1,3,7.")] = "1-3",
         minima: Annotated[list[str] | None, typer.Option("--min", help="Change a lower limit: clearance=5, self_clearance=2 (mm).")] = None,
-        maxima: Annotated[list[str] | None, typer.Option("--max", help="Change an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m).")] = None,
+        maxima: Annotated[list[str] | None, typer.Option("--max", help="Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); on the program (none by default): torque_peak (N m), power_peak (W).")] = None,
         no_clearance: Annotated[bool, typer.Option("--no-clearance", help="Drop the clearance requirement.")] = False,
         no_self_clearance: Annotated[bool, typer.Option("--no-self-clearance", help="Drop the self-clearance requirement.")] = False,
         no_lateral_error: Annotated[bool, typer.Option("--no-lateral-error", help="Drop the lateral-error requirement.")] = False,

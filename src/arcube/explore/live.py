@@ -210,6 +210,8 @@ class LiveModel:
                  "passed": frac >= 1.0}]  # fmt: skip
         for r in self.requirements:
             kind, unit, where = REQUIREMENTS[r.name]
+            if where == "program":  # judged on the drilling program (arcube design, arcube program), not here
+                continue
             segments = (drill,) if where == "drill" else (drill, app)
             best, part = math.nan, ""
             for res in segments:

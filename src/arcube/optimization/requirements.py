@@ -7,6 +7,9 @@ A requirement is a limit on one figure over the points where it applies:
 * ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2), ``torque`` <= 20 N m (15.3) and
   ``holding_torque`` <= 20 N m (18.2: the robot's weight with the drilling loads, the masses of
   :class:`arcube.options.Masses`) where the drill works, from entry to target;
+* optional, on the drilling program of the chosen design (MODEL.md 18.3; a program cannot be built
+  inside the optimizer, so these are checked, not searched for): ``torque_peak`` (N m) and
+  ``power_peak`` (W), the largest over the actuators of ``program.json``'s motor figures;
 * and always: every point of every line reachable with the guards of MODEL.md 8.2 (rho_max 75 deg,
   transmission 20 deg, kappa_max 100, a single assembly mode) in one working mode.
 
@@ -33,14 +36,16 @@ from arcube.evaluation.task import build_task
 from arcube.model.body import PART_NAMES
 from arcube.options import GUARDED_OPTIONS, Options
 
-__all__ = ["DEFAULTS", "REQUIREMENTS", "Requirement", "assess", "requirement_figure", "requirements_from", "write_requirements_csv"]
+__all__ = ["DEFAULTS", "PROGRAM_FIGURES", "REQUIREMENTS", "Requirement", "assess", "judge", "program_rows", "requirement_figure", "requirements_from", "write_requirements_csv"]
 
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
     "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"),
     "lateral_error": ("max", "mm", "drill"), "axis_error": ("max", "deg", "drill"), "torque": ("max", "N·m", "drill"),
-    "holding_torque": ("max", "N·m", "drill"),
+    "holding_torque": ("max", "N·m", "drill"), "torque_peak": ("max", "N·m", "program"), "power_peak": ("max", "W", "program"),
 }  # fmt: skip
 """Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
+PROGRAM_FIGURES: dict[str, str] = {"torque_peak": "torque_peak_Nm", "power_peak": "power_peak_W"}
+"""The requirements on the drilling program: their figure in each actuator's ``motors`` entry of program.json."""
 DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "lateral_error": 0.5, "axis_error": 0.25, "torque": 20.0,
                                "holding_torque": 20.0}  # fmt: skip
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
@@ -115,7 +120,7 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
             for g in _GUARDS:
                 guard_fail[g] += int(np.sum(failure == FAILURES.index(g) + 1))
             for r in reqs:
-                if segment == "approach" and REQUIREMENTS[r.name][2] == "drill":
+                if (segment == "approach" and REQUIREMENTS[r.name][2] == "drill") or r.name in PROGRAM_FIGURES:
                     continue
                 values, part = requirement_figure(pts, r.name)
                 values = np.where(np.isfinite(values), values, np.nan)
@@ -130,14 +135,37 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
     for g in _GUARDS:
         rows.append({"requirement": g.split("/")[1], "kind": "max", "limit": 0.0, "value": float(guard_fail[g]),
                      "unit": "failing points", "where": {}, "part": ""})  # fmt: skip
-    for r in reqs:
+    for r in (r for r in reqs if r.name not in PROGRAM_FIGURES):  # the program's rows come with the program
         w = worst.get(r.name, {"value": math.nan, "where": {}, "part": ""})
         rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], **w})
+    return judge(rows)
+
+
+def judge(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Each row's margin (value - limit for ``min``, limit - value for ``max``) and pass/fail (NaN fails)."""
     for row in rows:
         v, lim = row["value"], row["limit"]
         row["margin"] = (v - lim) if row["kind"] == "min" else (lim - v)
         row["passed"] = bool(math.isfinite(v) and row["margin"] >= 0.0)
     return rows
+
+
+def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, float]] | None) -> list[dict[str, Any]]:
+    """The rows of the program requirements in ``reqs`` from a program's motor figures (None: no program,
+    every such requirement fails); ``part`` names the actuator that attains the value."""
+    rows = []
+    for r in reqs:
+        if r.name not in PROGRAM_FIGURES:
+            continue
+        key = PROGRAM_FIGURES[r.name]
+        value, part = math.nan, ""
+        for name, fig in (motors or {}).items():
+            v = fig.get(key)
+            if isinstance(v, (int, float)) and math.isfinite(v) and not v <= value:
+                value, part = float(v), name
+        rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], "value": value,
+                     "where": {}, "part": part})  # fmt: skip
+    return judge(rows)
 
 
 def requirement_figure(pts: Any, name: str) -> tuple[np.ndarray, Any]:

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from typing import Any
@@ -225,13 +226,32 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
             blocks += [("transit", label, rows) for rows in rows_list]
             checked += [(piece.checks, label, True) for piece in tr.pieces]
     prog = _program(b, seq, order_method, blocks, per_traj, transits, checked)
+    prog = dataclasses.replace(prog, summary={**prog.summary, "clearances_along_time": clearances_along_time(prog, b.checker)})
     return prog if masses is None else with_torques(prog, b.checker.params, b.mode, masses, loads or Loads())
+
+
+SERIES_ROWS = 2000
+"""At most this many rows (evenly spaced, the last included) carry the clearances along time."""
+
+
+def clearances_along_time(prog: Program, checker: Checker) -> dict[str, list[float | None]]:
+    """The body, tool and self clearances (mm) at up to :data:`SERIES_ROWS` rows of ``prog``, for the report's
+    plot over time (the tool's in transits only, NaN elsewhere; the body's NaN without anatomy). The
+    constraints themselves are checked on the finer states of 17.2; these rows only draw them."""
+    n = len(prog.t_s)
+    idx = np.unique(np.append(np.arange(0, n, max(1, math.ceil(n / SERIES_ROWS))), n - 1))
+    transit = prog.segment[idx] == "transit"
+    clear, tool, selfc = (np.full(len(idx), np.nan) for _ in range(3))
+    for mask, with_tool in ((transit, True), (~transit, False)):
+        if mask.any():
+            c = checker.poses(prog.E[idx[mask]], prog.e[idx[mask]], tool=with_tool)
+            clear[mask], tool[mask], selfc[mask] = c.clearance, c.tool_clearance, c.self_clearance
+    as_list = lambda a: [float(v) if math.isfinite(v) else None for v in a]  # noqa: E731
+    return {"t_s": as_list(prog.t_s[idx]), "clearance_mm": as_list(clear), "tool_clearance_mm": as_list(tool), "self_clearance_mm": as_list(selfc)}
 
 
 def with_torques(prog: Program, params: NDArray[np.float64], mode: NDArray[np.float64], masses: MassModel, loads: Loads) -> Program:
     """``prog`` with its actuator torques per row (18.2) and its motor figures (18.3) in the summary."""
-    import dataclasses
-
     tq = program_torques(params, prog.E, prog.e, mode, float(prog.summary["dt_s"]), prog.segment == "drill", masses,
                          loads.thrust_N, loads.lateral_force_N)  # fmt: skip
     summary = dict(prog.summary)

@@ -55,7 +55,10 @@ def timeline_figure(prog: ProgramFiles) -> go.Figure:
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
+    clear = prog.summary.get("clearances_along_time")
+    clear = clear if isinstance(clear, dict) and clear.get("t_s") else None
     panels = ["segments", "joint rate (deg/s)", "joint acceleration (deg/s²)"] + (["actuator torque (N·m)"] if prog.tau_Nm is not None else [])
+    panels += ["clearance (mm)"] if clear else []
     fig = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.04, row_heights=[0.35] + [1.0] * (len(panels) - 1),
                         subplot_titles=panels)  # fmt: skip
     spans = prog.spans()
@@ -78,6 +81,8 @@ def timeline_figure(prog: ProgramFiles) -> go.Figure:
             dash = {"color": "black", "width": 1, "dash": "dash"}
             fig.add_hline(y=float(lim[key]), line=dash, row=r, col=1, annotation_text=f"limit ±{float(lim[key]):g}", annotation_position="top left")
             fig.add_hline(y=-float(lim[key]), line=dash, row=r, col=1)
+    if clear:
+        _clearance_panel(fig, clear, lim, len(panels))
     s = prog.summary
     fig.update_layout(title={"text": f"Program: order {' '.join(str(k) for k in s.get('order', []))}; {fmt(s.get('total_s'), 1)} s in total, "
                                      f"{fmt(s.get('drilling_s'), 1)} s drilling", "font": {"size": 13}},
@@ -85,6 +90,28 @@ def timeline_figure(prog: ProgramFiles) -> go.Figure:
     fig.update_yaxes(showticklabels=False, row=1, col=1)
     fig.update_xaxes(title_text="time (s)", row=len(panels), col=1)
     return fig
+
+
+CLEARANCE_LINES = {"clearance_mm": ("body to anatomy", "#d62728", "clearance"), "tool_clearance_mm": ("tool to anatomy (transit)", "#7f7f7f", None),
+                   "self_clearance_mm": ("self", "#17becf", "self_clearance")}  # fmt: skip
+"""The clearance series of program.json: label, colour, and the limit's key in ``limits`` (the tool's is 0)."""
+
+
+def _clearance_panel(fig: go.Figure, clear: dict[str, Any], lim: dict[str, Any], row: int) -> None:
+    """The body, tool and self clearances along time (program.json's ``clearances_along_time``), each with
+    its limit as a dotted line of its colour."""
+    import plotly.graph_objects as go
+
+    t = np.asarray(clear["t_s"], dtype=float)
+    for key, (label, colour, limit_key) in CLEARANCE_LINES.items():
+        y = np.array([np.nan if v is None else float(v) for v in clear.get(key) or []], dtype=float)
+        if len(y) != len(t) or not np.isfinite(y).any():
+            continue
+        fig.add_trace(go.Scatter(name=label, mode="lines", line={"width": 1.2, "color": colour}, legendgroup="clearance",
+                                 x=t.tolist(), y=[float(v) if math.isfinite(v) else None for v in y]), row=row, col=1)  # fmt: skip
+        level = 0.0 if limit_key is None else lim.get(limit_key)
+        if isinstance(level, (int, float)):
+            fig.add_hline(y=float(level), line={"color": colour, "width": 1, "dash": "dot"}, row=row, col=1)
 
 
 def _operating_points(speed: np.ndarray, torque: np.ndarray) -> np.ndarray:
