@@ -13,7 +13,8 @@ __all__ = ["PASS", "FAIL", "figure_rows", "html_table", "markdown_table", "point
 
 PASS, FAIL, NA = "pass", "FAIL", "—"
 _LABELS = {"reach": "reach, whole lines", "clearance": "clearance to the anatomy", "self_clearance": "self clearance",
-           "lateral_error": "lateral error", "axis_error": "axis error", "torque": "actuator torque"}  # fmt: skip
+           "lateral_error": "lateral error", "axis_error": "axis error", "torque": "actuator torque",
+           "holding_torque": "holding torque (weight)"}  # fmt: skip
 
 
 def _num(v: Any, digits: int = 2, unit: str = "") -> str:
@@ -36,7 +37,7 @@ def figure_rows(fig: Figures) -> list[tuple[str, str, str, str]]:
         ("reach, drill points", f"{s['reach_pct']:.1f} % ({s['reachable']}/{s['n_points']})", "", ""),
         ("η_G", _num(eta, 4) if math.isfinite(eta) else "— (not every point reachable)", "", ""),
     ]
-    if "holding_torque_max_Nm" in s:
+    if "holding_torque_max_Nm" in s and not any(r["requirement"] == "holding_torque" for r in fig.requirements):
         rows.append(("holding torque", _num(s["holding_torque_max_Nm"], 2, "N·m"), "", ""))
     for r in fig.requirements:
         name, unit = r["requirement"], r["unit"]
