@@ -278,3 +278,11 @@ def test_the_api_and_the_cli_share_the_design_budget(monkeypatch, tmp_path: Path
     cli_default = next(p.default for p in command.params if p.name == "generations")
     assert seen["s"].generations == job.DESIGN_GENERATIONS == cli_default == 100
     assert seen["s"].population * seen["s"].generations == 40_000
+
+
+def test_program_requirements_need_a_program(tmp_path: Path) -> None:
+    """With one placement per side (setups 2) no program is built, so a requirement on it is refused before any
+    work instead of being left unjudged."""
+    with pytest.raises(InputError, match=r"^requirements.max torque_peak: judged on the drilling program"):
+        arcube.design("reference", tmp_path / "d", seeds=[1], anatomy="default", setups=2, maxima={"torque_peak": 5.0})
+    assert not (tmp_path / "d").exists()

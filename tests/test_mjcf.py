@@ -408,6 +408,19 @@ def test_cli_mass_flags_set_the_masses_and_gravity(tmp_path, design_file) -> Non
     np.testing.assert_allclose(model.opt.gravity, [0.0, -9810.0, 0.0], rtol=0, atol=1e-9)
 
 
+def test_cli_thin_links_export_without_masses_unless_asked(tmp_path, design_file) -> None:
+    """Links no thicker than the default 2 mm wall and no mass flag: the model is written without 18.1's masses and
+    a note says so (as arcube evaluate drops the holding torque); with --wall the wall is refused."""
+    xml = tmp_path / "robot.xml"
+    res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--link-radius", "1.5", cwd=tmp_path)
+    assert res.returncode == 0 and res.stderr.startswith("note: --link-radius 1.5 mm"), res.stderr
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    assert model.body_mass[model.body("drill").id] < 1e-3  # no 1.5 kg drill motor
+    res = _run("export", "--design", str(design_file), "--out", str(tmp_path / "r2.xml"), "--c-z", "162", "--link-radius", "1.5",
+               "--wall", "2", cwd=tmp_path)  # fmt: skip
+    assert res.returncode == 2 and "--wall must be < the link radius (1.5 mm)" in res.stderr and not (tmp_path / "r2.xml").exists()
+
+
 def test_example_script_drives_the_exported_model_along_a_joints_csv(tmp_path, design_file) -> None:
     xml, csv = tmp_path / "robot.xml", tmp_path / "joints.csv"
     res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--points", "10", "--at", "3:9", cwd=tmp_path)

@@ -260,3 +260,54 @@ def test_the_clearances_along_time_are_the_references_at_those_rows(run) -> None
     fig = timeline_figure(read_program(prog.path))
     (trace,) = [tr for tr in fig.data if tr.name == "self"]
     assert list(trace.y) == pytest.approx(series["self_clearance_mm"], abs=1e-12)
+
+
+@pytest.fixture(scope="module")
+def lateral(tmp_path_factory: pytest.TempPathFactory):
+    """One trajectory with the default loads: the lateral force's worst case enters the motor figures."""
+    out = tmp_path_factory.mktemp("dyn") / "lateral"
+    prog = program(_design(), _plan("5"), out, feed=2.0)
+    return prog, json.loads((out / "program.json").read_text())
+
+
+def test_motor_figures_add_the_lateral_force_on_drill_rows_only(lateral) -> None:
+    """MODEL.md 18.3 with F_l = 10 N: the sizing torque is |tau_i| + F_l |P_perp J_E,i| on drill rows (J_E of the
+    reference at the rows), |tau_i| elsewhere; the gravity column is the reference's dV/dq, the column without
+    masses MODEL.md 15.3's per-actuator torque (its own code) over the drill rows."""
+    prog, summary = lateral
+    p = _design().to_vector()
+    J_E, J_e = jacobians_of_solution(inverse_kinematics(p, prog.E, prog.e, MODE), p)
+    e = prog.e / np.linalg.norm(prog.e, axis=1, keepdims=True)
+    across = J_E - e[:, :, None] * np.einsum("ri,rij->rj", e, J_E)[:, None, :]
+    drill = prog.segment == "drill"
+    lat = np.where(drill[:, None], Loads().lateral_force_N * np.linalg.norm(across, axis=1) / 1000.0, 0.0)
+    size = np.abs(prog.tau_Nm) + lat
+    qd = np.radians(prog.q_dot_deg)
+    t = prog.t_s
+    gravity = gravity_torque_Nm(p, prog.E, prog.e, MODE, MassModel())
+    loads_only = tip_metrics(J_E[drill], J_e[drill], prog.e[drill], thrust_N=Loads().thrust_N,
+                             lateral_N=Loads().lateral_force_N).torque_per_actuator_Nm  # fmt: skip
+    assert np.max(lat) > 0.1 and np.all(lat[~drill] == 0.0)
+    for i, name in enumerate(("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")):
+        fig = summary["motors"][name]
+        assert fig["torque_peak_Nm"] == pytest.approx(np.max(size[:, i]), rel=1e-9)
+        rms = np.sqrt(np.sum(0.5 * (size[1:, i] ** 2 + size[:-1, i] ** 2) * np.diff(t)) / (t[-1] - t[0]))
+        assert fig["torque_rms_Nm"] == pytest.approx(rms, rel=1e-9)
+        assert fig["power_peak_W"] == pytest.approx(np.max(size[:, i] * np.abs(qd[:, i])), rel=1e-9)
+        pw = np.maximum(prog.tau_Nm[:, i] * qd[:, i] + lat[:, i] * np.abs(qd[:, i]), 0.0)
+        assert fig["energy_J"] == pytest.approx(np.sum(0.5 * (pw[1:] + pw[:-1]) * np.diff(t)), rel=1e-9)
+        assert fig["torque_peak_gravity_Nm"] == pytest.approx(np.max(np.abs(gravity[:, i])), rel=1e-9)
+        assert fig["torque_peak_loads_only_Nm"] == pytest.approx(np.max(loads_only[:, i]), rel=1e-9)
+
+
+def test_thin_links_without_mass_flags_give_a_program_without_torques(tmp_path: Path) -> None:
+    """Links no thicker than the default 2 mm wall: as arcube evaluate, no mass model rather than an error about a
+    wall the user never gave; asked for explicitly, the wall is refused naming it."""
+    from arcube.errors import InputError
+    from arcube.options import Body
+
+    prog = program(_design(), _plan("5"), tmp_path / "thin", feed=2.0, body=Body(link_radius=1.5))
+    assert prog.tau_Nm is None and "motors" not in prog.summary
+    with pytest.raises(InputError, match="wall"):
+        program(_design(), _plan("5"), tmp_path / "thin2", feed=2.0, body=Body(link_radius=1.5), masses=Masses())
+    assert not (tmp_path / "thin2").exists()

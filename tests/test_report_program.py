@@ -267,7 +267,7 @@ def test_the_limits_table_flags_what_is_beyond(folder: Path) -> None:
     html = program_section(read_program(folder))
     fails = re.findall(r"<tr class='fail'><td>([^<]*)</td>", html)
     assert fails == ["self clearance, smallest (mm)"]  # 1.5 mm < 2 mm; every other value is within its limit
-    assert "per-row clearance columns" in html
+    assert "clearances are at up to 2000 of the rows" in html  # the note says where the clearance plot comes from
     rows = {cells[0]: cells[1:] for cells in (re.findall(r"<td>([^<]*)</td>", r) for r in re.findall(r"<tr[^>]*>(.*?)</tr>", html)) if cells}
     assert rows["joint rate, largest (deg/s)"] == ["14.000", "delta_y", "30.000", "16.000"]  # the largest of 10..14, limit 30
     assert rows["body to anatomy, smallest (mm)"][::2] == ["7.500", "5.000"] and float(rows["body to anatomy, smallest (mm)"][3]) == 2.5

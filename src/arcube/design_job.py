@@ -101,6 +101,10 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
     runmod.check_new_folder(out)
     if settings.anatomy == () and any(r.name == "clearance" for r in reqs):
         raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
+    on_program = [r.name for r in reqs if r.name in PROGRAM_FIGURES]
+    if on_program and settings.setups != 1:
+        raise InputError.of("requirements.max", f"{', '.join(on_program)}: judged on the drilling program, which a job with one placement "
+                                                "per side (setups 2) does not build; design per side (side R, side L) instead")  # fmt: skip
     base = build_config(list(plans), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)

@@ -136,22 +136,28 @@ def _gravity(value: Any) -> tuple[float, float, float]:
         raise ValueError("must be three numbers (m/s^2, patient frame), e.g. 0,0,-9.81") from None
     if len(g) != 3 or not all(math.isfinite(v) for v in g):
         raise ValueError("must be three finite numbers (m/s^2, patient frame), e.g. 0,0,-9.81")
+    if math.hypot(*g) > MAX_GRAVITY:
+        raise ValueError(f"must be at most {MAX_GRAVITY:g} m/s^2 in magnitude (a centrifuge's, not a typo of mm/s^2)")
     return g  # type: ignore[return-value]
+
+
+MAX_GRAVITY = 1000.0
+"""m/s^2: the largest gravity :class:`Masses` takes (100 g), so that torques stay finite."""
 
 
 class Masses(Settings):
     """The mass model of MODEL.md 18.1: thin-walled aluminium tubes as links, the delta actuators
     riding on the cranks, the drill motor; gravity in the patient frame (prone: posterior up)."""
 
-    wall_mm: float = Field(default=2.0, gt=0, allow_inf_nan=False)
+    wall_mm: float = Field(default=2.0, gt=0, le=1000.0, allow_inf_nan=False)
     """Wall thickness w of every moving link's tube (outer radius: Body.link_radius), mm; checked to be
     < Body.link_radius where the mass model is used (:class:`arcube.evaluation.bodies.MassModel`),
     so that thin links without masses stay valid."""
-    density_kg_m3: float = Field(default=2700.0, gt=0, allow_inf_nan=False)
+    density_kg_m3: float = Field(default=2700.0, gt=0, le=1e5, allow_inf_nan=False)
     """Density of the links' material, kg/m^3 (aluminium)."""
-    m_delta_kg: float = Field(default=0.8, ge=0, allow_inf_nan=False)
+    m_delta_kg: float = Field(default=0.8, ge=0, le=1e4, allow_inf_nan=False)
     """Mass of each delta actuator at D_u (u = x, y), kg."""
-    m_motor_kg: float = Field(default=1.5, ge=0, allow_inf_nan=False)
+    m_motor_kg: float = Field(default=1.5, ge=0, le=1e4, allow_inf_nan=False)
     """Mass of the drill motor (a solid cylinder from H to H + L_m e, radius Body.motor_radius), kg."""
     gravity: Annotated[tuple[float, float, float], BeforeValidator(_gravity)] = (0.0, 0.0, -9.81)
     """Gravity, m/s^2, patient frame."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -60,7 +60,8 @@ def export(
     from arcube.export.mjcf import export_mjcf
     from arcube.io.files import atomic_write_text
     from arcube.model.design import Design
-    from arcube.options import Options
+    from arcube.evaluation.bodies import MassModel
+    from arcube.options import Masses, Options
 
     if fmt_name.strip().lower() not in FORMATS:
         raise InputError(f"--format {fmt_name!r}: unknown format (known: {', '.join(FORMATS)})")
@@ -72,7 +73,13 @@ def export(
     if c_z is not None and not (math.isfinite(c_z) and c_z > 0.0):
         raise InputError(f"--c-z must be a finite number of mm > 0, got {c_z}")
     body = radii(link_radius, actuator_radius, motor_radius, motor_length)
-    masses = Options(masses=masses_of(given_masses(wall, density, m_delta, m_motor, gravity), link_radius))  # MODEL.md 18.1
+    given = given_masses(wall, density, m_delta, m_motor, gravity)
+    if given or link_radius > Masses().wall_mm:
+        masses: Any = Options(masses=masses_of(given, link_radius))  # MODEL.md 18.1
+    else:  # links too thin for the default wall and no mass flag: a model without the masses (as arcube evaluate)
+        masses = MassModel(link_radius_mm=link_radius, wall_mm=link_radius / 2, density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
+        sys.stderr.write(f"note: --link-radius {link_radius:g} mm is not above the default {Masses().wall_mm:g} mm wall: "
+                         "exported without the masses of MODEL.md 18.1 (give --wall to have them)\n")
     if program is not None:
         _export_program(ctx, program, out, design, c_z, body, anatomy, anatomy_frame, masses)
         return

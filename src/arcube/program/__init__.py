@@ -64,8 +64,8 @@ def program(
         limits: a :class:`ProgramLimits`; keyword ``changes`` override its fields
             (``feed=1.0``, ``clearance=3``, ...).
         body: the body's radii (:class:`arcube.options.Body`).
-        masses: the mass model (:class:`arcube.options.Masses`, MODEL.md 18.1; None: its defaults,
-            False: no masses): the rows get the actuator torques of 18.2 (``tau_*_Nm`` columns) and
+        masses: the mass model (:class:`arcube.options.Masses`, MODEL.md 18.1; None: its defaults, or
+            none when the links are too thin for the default 2 mm wall; False: no masses): the rows get the actuator torques of 18.2 (``tau_*_Nm`` columns) and
             ``program.json`` the motor figures of 18.3 (``motors``).
         loads: the drilling thrust and lateral bound (:class:`arcube.options.Loads`, 15.3).
         engine: the continuous check's: ``numba`` (the compiled kernel's condition numbers and body
@@ -107,11 +107,13 @@ def program(
         plan = plan.replace(seed=seed)
     body = validated(Body, body.model_dump()) if body is not None else Body()
     mass_model = None
-    if masses is not False:
+    # the default mass model, unless the links are too thin for its wall and no mass model was asked for
+    # (as arcube evaluate does): then the program has no torques rather than an error about a wall never given
+    if masses is not False and not (masses is None and body.link_radius <= Masses().wall_mm):
         from arcube.evaluation.bodies import MassModel
 
         m = Masses() if masses is None or masses is True else validated(Masses, masses.model_dump())
-        mass_model = MassModel.of(Options(body=body, masses=m))
+        mass_model = MassModel.of(Options(body=body, masses=m).check_masses())
     loads = validated(Loads, loads.model_dump()) if loads is not None else Loads()
     d = Design.coerce(design)
     ts = trajectories if isinstance(trajectories, TrajectorySet) else load_trajectories(trajectories, transform=transform)

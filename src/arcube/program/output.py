@@ -87,7 +87,7 @@ class Program:
         csv_path = folder / CSV_NAME
         atomic_write_text(csv_path, self.to_csv())
         try:
-            atomic_write_text(folder / JSON_NAME, json.dumps(self.to_json(), indent=2) + "\n")
+            atomic_write_text(folder / JSON_NAME, json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
         except BaseException:
             csv_path.unlink(missing_ok=True)
             raise

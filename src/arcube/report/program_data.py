@@ -174,8 +174,8 @@ def read_program(folder: str | os.PathLike[str]) -> ProgramFiles:
 
 def find_design(folder: str | os.PathLike[str]) -> Path | None:
     """The design a program folder belongs to, when it says so by its place: ``folder/design.json``, or
-    ``design.json`` of the ``arcube design`` job the folder is the ``program/`` of; else None (then
-    the report reads the design program.json records, if it does)."""
+    ``design.json`` of the ``arcube design`` job the folder is the ``program/`` of; else None. The
+    report asks only when program.json records no design (it prefers the one that ran the program)."""
     root = Path(folder)
     if (root / "design.json").is_file():
         return root / "design.json"

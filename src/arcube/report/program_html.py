@@ -270,8 +270,8 @@ def program_section(prog: ProgramFiles, params: Any = None, anatomy_meshes: Any 
              "the robot runs these rows in its working mode.</p>", summary_table(prog)]  # fmt: skip
     parts += ["<h3>Timeline</h3>", plotly_div(timeline_figure(prog), DIV_IDS["timeline"], include_js)]
     parts += ["<h3>Limits along the program</h3>", limits_table(prog),
-              "<p class='note'>program.json records the smallest clearances over the whole program (and the segment where each "
-              "occurs), not a clearance per row: a clearance-over-time plot needs per-row clearance columns in program.csv. "
+              "<p class='note'>The smallest clearances are over every state the program was checked at (MODEL.md 17.2, "
+              "no part moving more than 0.5 mm between two); the timeline's clearances are at up to 2000 of the rows. "
               "Accelerations in the timeline are central differences of the CSV's rates; the table's are program.json's.</p>"]  # fmt: skip
     motors = motors_figure(prog)
     if motors is not None:
@@ -304,11 +304,11 @@ def write_program_report(folder: str | os.PathLike[str], design: Any = None, ana
     from arcube.report.program_scene import summary_anatomy
 
     prog = read_program(folder)
-    spec = design if design is not None else find_design(prog.folder)
     recorded = prog.summary.get("design")
-    if spec is None and isinstance(recorded, dict):  # program.json records its design (arcube >= this version)
+    if design is None and isinstance(recorded, dict):  # the design that ran the program (as arcube export --program)
         d: Design | None = Design.from_dict(recorded, source=f"{prog.folder / 'program.json'}: design")
-    else:
+    else:  # given, or for a program.json that records none: the design.json the folder belongs to
+        spec = design if design is not None else find_design(prog.folder)
         d = Design.coerce(spec) if spec is not None else None
     if anatomy is None:
         anat, note = summary_anatomy(prog.summary)
