@@ -35,16 +35,9 @@ from arcube.report.mechanism3d import SCENE_TRACES
 from arcube.report.program_data import envelope, read_program
 from arcube.report.program_html import DIV_IDS, motors_figure, program_section, timeline_figure
 from arcube.report.program_scene import N_STATIC, playback_figure
+from test_program import DESIGN as PROGRAM_DESIGN  # the design of tests/test_program.py
 
-PLACED = {
-    "m_x": -180.76484476919862, "m_y": -157.46908828300167, "m_z": 200.6853946773747, "f_x": 38.47157725834808,
-    "f_y": 37.58585578457374, "f_z": 70.96024445457583, "p_x": 176.01413818196406, "p_y": 167.62615240420683,
-    "p_z": 163.81424854234908, "d_x": 199.83721867879663, "d_y": 187.76627761622083, "d_z": 90.91341698557332,
-    "c_x": 167.91480388710127, "c_y": 176.66383953444745, "t_x": 101.49967571608708, "t_y": 94.1648183036713,
-    "r": 69.62303755883808, "o_x": -84.00550363847071, "o_y": 174.95584389467882, "alpha_x": 69.35973817628876,
-    "alpha_y": 75.66975313644457, "beta_x": 66.76323145703799, "beta_y": 69.57808592269254, "mount_rx": 132.26627118962273,
-    "mount_ry": -26.77890980359885, "mount_rz": -93.65404350391357, "L": 129.15885510671012,
-}  # fmt: skip
+PLACED = PROGRAM_DESIGN
 """A design that reaches the reference plan's right side from 25 mm outside the entries in mode +,+,+,+
 (the design of tests/test_program.py, found by ``arcube optimize --free all,mount,L``)."""
 JOINTS = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")

@@ -33,7 +33,7 @@ c_z at every row (as at every plan point in :func:`~arcube.export.mjcf.export_mj
 The design: the caller's, else the one the program folder records: a ``design`` object in
 ``program.json`` (name -> value), a ``design.json`` in the folder, or, for the ``program/`` folder of
 an ``arcube design`` job (``design.toml`` beside it, or its ``summary.json`` lists the folder under
-``files.program``), the job's ``design.json``: the rules of ``arcube report`` for a program folder.
+``files.program``), the job's ``design.json``; ``arcube report`` prefers the recorded design the same way.
 """
 
 from __future__ import annotations
@@ -59,8 +59,9 @@ from arcube.model.body import BodyRadii
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options
+from arcube.program.output import CSV_COLUMNS, Program
 
-__all__ = ["ANGLE_TOL_RAD", "REPLAY_COLUMNS", "ProgramExport", "ProgramRows", "export_program", "read_program", "recorded_design", "replay_path",
+__all__ = ["ANGLE_TOL_RAD", "REPLAY_COLUMNS", "ProgramExport", "export_program", "read_program", "recorded_design", "replay_path",
            "write_program_export"]
 
 REPLAY_COLUMNS: tuple[str, ...] = (
@@ -71,27 +72,6 @@ REPLAY_COLUMNS: tuple[str, ...] = (
 ANGLE_TOL_RAD = 1.0e-6
 """Largest difference (rad, mod 2 pi) between the design's IK and a program row's angle: the rows are
 written with ``repr`` and reproduce their pose to rounding, so any real mismatch is far larger."""
-_PROGRAM_COLUMNS = ("t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", *ACTUATED, *(f"{n}_dot" for n in ACTUATED))
-
-
-@dataclass(frozen=True)
-class ProgramRows:
-    """The rows of a program (``program.csv``) and its summary (``program.json``); ``n`` rows.
-
-    ``t_s`` ``(n,)`` s; ``segment``, ``trajectory`` ``(n,)`` text; ``E`` ``(n, 3)`` mm and ``e`` ``(n, 3)``
-    in the patient frame; ``q_deg`` ``(n, 5)`` deg and ``q_dot_deg`` ``(n, 5)`` deg/s in :data:`ACTUATED`
-    order; ``folder`` where it was read (None for an in-memory program).
-    """
-
-    t_s: NDArray[np.float64]
-    segment: NDArray[np.str_]
-    trajectory: NDArray[np.str_]
-    E: NDArray[np.float64]
-    e: NDArray[np.float64]
-    q_deg: NDArray[np.float64]
-    q_dot_deg: NDArray[np.float64]
-    summary: dict[str, Any]
-    folder: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -104,7 +84,7 @@ class ProgramExport:
     rows: int
 
 
-def read_program(folder: str | os.PathLike[str]) -> ProgramRows:
+def read_program(folder: str | os.PathLike[str]) -> Program:
     """The program in ``folder`` (``program.csv`` and ``program.json``; columns beyond MODEL.md 17.3's, such
     as ``tau_*_Nm``, are ignored). InputError naming ``program`` for a missing or unreadable file."""
     path = Path(folder)
@@ -120,43 +100,38 @@ def read_program(folder: str | os.PathLike[str]) -> ProgramRows:
         raise InputError.of("program", f"{path}: cannot read ({exc})") from None
     if not isinstance(summary, dict):
         raise InputError.of("program", f"{json_path}: not a program summary (a JSON object)")
-    missing = [c for c in _PROGRAM_COLUMNS if not rows or c not in rows[0]]
+    missing = [c for c in CSV_COLUMNS if not rows or c not in rows[0]]
     if not rows or missing:
         raise InputError.of("program", f"{csv_path}: " + ("no rows" if not rows else f"missing columns {', '.join(missing)}"))
-    numeric = [c for c in _PROGRAM_COLUMNS if c not in ("segment", "trajectory")]
+    numeric = [c for c in CSV_COLUMNS if c not in ("segment", "trajectory")]
     try:
         table = np.array([[float(r[c]) for c in numeric] for r in rows])
     except (TypeError, ValueError):
         raise InputError.of("program", f"{csv_path}: a cell of {', '.join(numeric)} is not a number") from None
     if not np.all(np.isfinite(table)):
         raise InputError.of("program", f"{csv_path}: a cell is empty or not finite")
-    return ProgramRows(
+    return Program(
         t_s=table[:, 0], segment=np.array([r["segment"] for r in rows]), trajectory=np.array([r["trajectory"] for r in rows]),
-        E=table[:, 1:4], e=table[:, 4:7], q_deg=table[:, 7:12], q_dot_deg=table[:, 12:17], summary=summary, folder=path,
+        E=table[:, 1:4], e=table[:, 4:7], q_deg=table[:, 7:12], q_dot_deg=table[:, 12:17], summary=summary, path=path,
     )  # fmt: skip
 
 
-def _rows_of(program: Any) -> ProgramRows:
-    if isinstance(program, ProgramRows):
+def _rows_of(program: Any) -> Program:
+    if isinstance(program, Program):
         return program
     if isinstance(program, (str, os.PathLike)):
         return read_program(program)
-    if all(hasattr(program, a) for a in ("t_s", "segment", "trajectory", "E", "e", "q_deg", "q_dot_deg", "summary")):
-        folder = getattr(program, "path", None)
-        return ProgramRows(np.asarray(program.t_s, float), np.asarray(program.segment), np.asarray(program.trajectory),
-                           np.asarray(program.E, float), np.asarray(program.e, float), np.asarray(program.q_deg, float),
-                           np.asarray(program.q_dot_deg, float), dict(program.summary), None if folder is None else Path(folder))  # fmt: skip
     raise InputError.of("program", f"must be a program folder or an arcube.program.Program, got {type(program).__name__}")
 
 
-def recorded_design(rows: ProgramRows) -> Design | None:
+def recorded_design(rows: Program) -> Design | None:
     """The design a program records (module docstring), or None."""
     recorded = rows.summary.get("design")
     if isinstance(recorded, dict):
         return Design.from_dict(recorded, source="program.json design")
-    if rows.folder is None:
+    if rows.path is None:
         return None
-    folder = rows.folder.resolve()
+    folder = rows.path.resolve()
     if (folder / "design.json").is_file():
         return Design.from_json(folder / "design.json")
     job = folder.parent
@@ -171,7 +146,7 @@ def recorded_design(rows: ProgramRows) -> Design | None:
     return None
 
 
-def _check_angles(params: NDArray[np.float64], rows: ProgramRows, signs: NDArray[np.float64]) -> None:
+def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.float64]) -> None:
     """InputError unless the design's IK at every row gives the row's five angles (mod 2 pi)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, rows.E, rows.e, signs)
@@ -197,8 +172,7 @@ def export_program(
 
     Parameters
     ----------
-    program : a program folder (``program.csv``, ``program.json``), a :class:`~arcube.program.Program`
-        or :class:`ProgramRows`.
+    program : a program folder (``program.csv``, ``program.json``) or a :class:`~arcube.program.Program`.
     design : a :class:`Design`, preset name, design JSON path or vector; None: the one the program
         records (:func:`recorded_design`), else InputError naming ``design``.
     c_z, radii, anatomy, masses : as in :func:`~arcube.export.mjcf.export_mjcf`.
@@ -219,7 +193,7 @@ def export_program(
     _check_angles(params, rows, signs)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
     q0 = np.radians(rows.q_deg[0])
-    source = "the program" if rows.folder is None else f"the program {rows.folder}"
+    source = "the program" if rows.path is None else f"the program {rows.path}"
     where = f"row 0 of {source} (t = {rows.t_s[0]:.6g} s, {rows.segment[0]} {rows.trajectory[0]})"
     note = f"Replay: CSV beside this file (<name>.replay.csv), {len(rows.t_s)} rows: ctrl_* targets (rad) at t_s."
     xml = model_xml(params, rows.E[0], rows.e[0], signs, cz, radii, anatomy, masses, where,
@@ -234,7 +208,7 @@ def _num(v: float) -> str:
     return repr(float(v) + 0.0)
 
 
-def _replay_csv(rows: ProgramRows, qpos: NDArray[np.float64]) -> str:
+def _replay_csv(rows: Program, qpos: NDArray[np.float64]) -> str:
     buf = io.StringIO()
     buf.write(",".join(REPLAY_COLUMNS) + "\n")
     q, qd = np.radians(rows.q_deg), np.radians(rows.q_dot_deg)
