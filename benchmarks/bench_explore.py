@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 import arcube
-from arcube.explore import explore
+from arcube.explorer import explore
 
 PLACED = arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
 PARAMS = ("m_x", "p_x", "d_y", "r", "alpha_x", "L")

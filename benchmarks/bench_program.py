@@ -6,7 +6,7 @@
   transit is blocked and OMPL RRTConnect plans around it: the whole program, and the planner alone;
 * ``torques``: what the actuator torques along the rows (MODEL.md 18.2) and the motor figures add
   to ``plan`` (the same program with ``masses=False``);
-* ``checks``: states per second of the continuous check (:class:`arcube.program.check.Checker`,
+* ``checks``: states per second of the continuous check (:class:`arcube.motion.check.Checker`,
   the NumPy reference and the compiled kernel's ``engine="numba"``) with the default anatomy of the reference patient: the fine check of 17.2
   (axes sampled every 0.25 mm) and the planner's (every 2 mm), one state per call (what OMPL's state
   validity checker asks) and 200 per call (an edge or a line).
@@ -28,8 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_program import _design, _plan, _standoffs, _wall  # noqa: E402  (the test's design and wall)
 
 from arcube.evaluation.anatomy import load_anatomy  # noqa: E402
-from arcube.program import ProgramLimits, program  # noqa: E402
-from arcube.program.check import Checker  # noqa: E402
+from arcube.motion import ProgramLimits, program  # noqa: E402
+from arcube.motion.check import Checker  # noqa: E402
 
 
 def best_time(fn, repeats: int) -> tuple[float, object]:

@@ -34,7 +34,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from arcube.evaluation.result import load_trajectory_set
+from arcube.io.load import load_plan
 from arcube.evaluation.task import build_task
 from arcube.model import frames, poses
 from arcube.model.body import mechanism_points
@@ -239,7 +239,7 @@ def data() -> Data:
     x2[INDEX["L"]] = 3.0
     X = np.stack([full_params(Design.from_vector(x).to_vector()) for x in (x0, x1, x2)])
     modes = ALL_MODES[[0, 6, 9]]
-    ts = load_trajectory_set("reference", 30, side="R")
+    ts = load_plan("reference", side="R")
     task = build_task(ts.entry, ts.target, 30, ids=ts.ids)
 
     sol = inverse_kinematics(X[:, None], task.E[None], task.e[None], modes[:, None])

@@ -15,7 +15,7 @@ import arcube
 from arcube import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.standoff import approach_lines, exit_depths, standoff_points
-from arcube.optimization.requirements import DEFAULTS, requirements_from
+from arcube.design_job.requirements import DEFAULTS, requirements_from
 
 
 # --------------------------------------------------------------------------- requirements
@@ -30,7 +30,7 @@ def test_requirements_defaults_changes_and_drops() -> None:
 
 def test_program_requirements_are_judged_on_the_program_not_searched() -> None:
     from arcube.design_job import design_settings
-    from arcube.optimization.requirements import program_rows
+    from arcube.design_job.requirements import program_rows
 
     reqs = requirements_from(maxima={"torque_peak": 9.0, "power_peak": 0.5})
     assert {"torque_peak", "power_peak"} <= {r.name for r in reqs} and "torque_peak" not in DEFAULTS
@@ -272,10 +272,13 @@ def test_the_api_and_the_cli_share_the_design_budget(monkeypatch, tmp_path: Path
     from arcube.cli import app
 
     seen = {}
-    monkeypatch.setattr(job, "start_design", lambda out, plans, s, *a, **k: seen.setdefault("s", s))
+    monkeypatch.setattr(job, "start_design", lambda out, plans, s, *a, **k: seen.setdefault(len(seen), s))
     arcube.design("reference", tmp_path / "d", side="R", anatomy="default")
-    command = typer.main.get_command(app).commands["design"]  # type: ignore[attr-defined]
-    cli_default = next(p.default for p in command.params if p.name == "generations")
+    from typer.testing import CliRunner
+
+    CliRunner().invoke(app, ["design", "--trajectories", "reference", "--out", str(tmp_path / "c"), "--side", "R", "--anatomy", "default"])
+    cli_default = seen[1].generations  # what the command line runs when --generations is not given
+    seen["s"] = seen[0]
     assert seen["s"].generations == job.DESIGN_GENERATIONS == cli_default == 100
     assert seen["s"].population * seen["s"].generations == 40_000
 

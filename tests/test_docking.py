@@ -107,7 +107,7 @@ def test_per_patient_study_re_evaluates_patient_by_patient(tmp_path: Path, secon
         etas.append(ev.summary["eta_G"])
     assert st.summary["best"] == pytest.approx(np.mean(etas), rel=1e-12)  # --aggregate mean over the patients
     assert summary["docking"] == "per-patient"
-    report = run.write_report()
+    report = arcube.write_report(run)
     assert report.name == "report.html" and (run.path / "report_p2.html").exists()
     assert second_patient.name in (run.path / "report_p2.html").read_text()
 
@@ -142,4 +142,4 @@ def test_per_patient_files_with_two_setups_and_a_missing_design_is_an_error(tmp_
     with pytest.raises(InputError, match="best_design_p2.json"):
         run.designs
     with pytest.raises(InputError, match="best_design_p2.json is missing"):
-        run.write_report()
+        arcube.write_report(run)

@@ -26,13 +26,13 @@ from conftest import CHROMIUM_SKIP, start_chromium
 from arcube.cli import main as cli_main
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import evaluate_task
-from arcube.explore import explore, live_model, scene, text
-from arcube.explore.live import LiveModel
+from arcube.explorer import explore, live_model, scene, text
+from arcube.explorer.live import LiveModel
 from arcube.io import load_trajectories, select
 from arcube.model.body import PART_NAMES, PRIMITIVE_PART, BodyRadii
 from arcube.model.design import Design
 from arcube.model.mechanism import parse_mode
-from arcube.optimization.requirements import assess, design_options, requirements_from
+from arcube.design_job.requirements import assess, design_options, requirements_from
 from arcube.options import Options
 
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
@@ -206,7 +206,7 @@ def test_save_and_polish(app):
     saved = Design.load(app.save_path.value)
     np.testing.assert_allclose(saved.to_vector(), app.model.x)
     rows = []
-    from arcube.explore.polish import polish
+    from arcube.explorer.polish import polish
 
     best, summary = polish(live_model(PLACED, "reference", side="R", points=4, guards=False), population=4, generations=2,
                            free="m_x,m_y,m_z", progress=rows.append)  # fmt: skip

@@ -21,7 +21,8 @@ from arcube.cli import main
 from arcube.evaluation.performance import ACTUATOR_NAMES
 from arcube.export.joints import CSV_COLUMNS, MASS_COLUMNS
 from arcube.model.design import Design
-from arcube.optimization.requirements import DEFAULTS, REQUIREMENTS, requirements_from
+from arcube.options import Masses
+from arcube.design_job.requirements import DEFAULTS, REQUIREMENTS, requirements_from
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
@@ -140,17 +141,19 @@ def test_program_passes_the_masses_and_loads(monkeypatch: pytest.MonkeyPatch, ca
 
     from arcube.errors import InputError
 
-    programmod = sys.modules["arcube.program"]  # the subpackage (arcube.program is the function)
+    apimod = sys.modules["arcube.api"]  # the command calls arcube.program, with the robot's Options
     seen: dict = {}
 
     def fake(*args, **kwargs):
+        seen.clear()
         seen.update(kwargs)
         raise InputError("stop here")
 
-    monkeypatch.setattr(programmod, "program", fake)
+    monkeypatch.setattr(apimod, "program", fake)
     argv = ["program", "--design", "paper", "--trajectories", "reference", "--out", str(tmp_path / "p")]
     _run([*argv, "--m-motor", "2", "--gravity=0,-9.81,0", "--thrust", "25", "--lateral-force", "5"], capsys)
-    assert seen["masses"].m_motor_kg == 2.0 and seen["masses"].gravity == (0.0, -9.81, 0.0) and seen["masses"].wall_mm == 2.0
-    assert (seen["loads"].thrust_N, seen["loads"].lateral_force_N) == (25.0, 5.0)
+    masses, loads = seen["options"].masses, seen["options"].loads
+    assert masses.m_motor_kg == 2.0 and masses.gravity == (0.0, -9.81, 0.0) and masses.wall_mm == 2.0
+    assert (loads.thrust_N, loads.lateral_force_N) == (25.0, 5.0)
     _run(argv, capsys)
-    assert seen["masses"] is None  # no mass flag: the program's own defaults
+    assert seen.get("masses") is None and seen["options"].masses == Masses()  # no mass flag: the program's own defaults

@@ -13,7 +13,7 @@ from conftest import PAPER
 from typer.testing import CliRunner
 
 from arcube.model.design import Design
-from arcube.cli.flags import flag_message
+from arcube.cli.projection import flag_message
 from arcube.errors import InputError
 from arcube.evaluation.reference import Options
 from arcube.export.joints import CSV_COLUMNS, joint_trajectory

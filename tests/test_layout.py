@@ -61,7 +61,14 @@ LONG_REASON = "Long module:"
 CLI_ALLOWED_PREFIXES = ("arcube.cli",)
 CLI_ALLOWED_MODULES = {"arcube.__main__"}
 
-LOWER_LAYERS = ("arcube.model", "arcube.io", "arcube.evaluation", "arcube.optimization", "arcube.errors", "arcube.options", "arcube.patients")
+LAYERS = (
+    "arcube.errors", "arcube.io", "arcube.model", "arcube.options", "arcube.patients", "arcube.evaluation", "arcube.coerce",
+    "arcube.optimization", "arcube.motion", "arcube.report", "arcube.export", "arcube.design_job", "arcube.api", "arcube.explorer",
+    "arcube.cli",
+)  # fmt: skip
+"""Every package (and top-level module) of src/arcube, bottom first: the pipeline io -> evaluation ->
+optimization -> program (motion) -> report / export -> the design job -> api -> the explorer and the CLI."""
+LOWER_LAYERS = LAYERS[: LAYERS.index("arcube.report")]
 """Packages (and modules) below the report: they compute and write data, and never draw or parse flags."""
 UPPER_LAYERS = ("arcube.report", "arcube.cli", "arcube.api")
 """What the lower layers must not import; nor the root ``arcube`` itself, whose ``__init__`` imports the API."""
@@ -88,17 +95,21 @@ def _is_type_checking(test: ast.expr) -> bool:
     )
 
 
-def iter_imports(tree: ast.AST) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
-    """Every import statement with ``lazy`` = it sits inside a function (runs at call time)."""
+def iter_imports(tree: ast.AST, typed: bool = False) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+    """Every import statement with ``lazy`` = it sits inside a function (runs at call time); with
+    ``typed``, only the imports under ``if TYPE_CHECKING:`` (which never run, but still tie two modules)."""
 
-    def walk(node: ast.AST, lazy: bool) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
+    def walk(node: ast.AST, lazy: bool, checking: bool = False) -> Iterator[tuple[ast.Import | ast.ImportFrom, bool]]:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.If) and _is_type_checking(child.test):
-                yield from ((n, lazy) for stmt in child.orelse for n, _ in walk(ast.Module([stmt], []), lazy))
+                yield from walk(ast.Module(child.body, []), lazy, True)
+                yield from ((n, lazy) for stmt in child.orelse for n, _ in walk(ast.Module([stmt], []), lazy, checking))
                 continue
             if isinstance(child, (ast.Import, ast.ImportFrom)):
-                yield child, lazy
-            yield from walk(child, lazy or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)))
+                if checking == typed:
+                    yield child, lazy
+                continue
+            yield from walk(child, lazy or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)), checking)
 
     yield from walk(tree, False)
 
@@ -116,14 +127,15 @@ def import_targets(module: str, is_package: bool, node: ast.Import | ast.ImportF
     return [f"{target}.{a.name}" if f"{target}.{a.name}" in modules else target for a in node.names]
 
 
-def import_graph(src: Path, package: str) -> tuple[dict[str, set[str]], dict[str, set[str]], dict[str, Path]]:
-    """(module-level edges, function-level edges, modules), restricted to ``package`` modules."""
+def import_graph(src: Path, package: str, typed: bool = False) -> tuple[dict[str, set[str]], dict[str, set[str]], dict[str, Path]]:
+    """(module-level edges, function-level edges, modules), restricted to ``package`` modules; with
+    ``typed``, the edges of the ``TYPE_CHECKING`` imports instead."""
     modules = find_modules(src, package)
     eager: dict[str, set[str]] = {m: set() for m in modules}
     lazy: dict[str, set[str]] = {m: set() for m in modules}
     for mod, path in modules.items():
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for node, is_lazy in iter_imports(tree):
+        for node, is_lazy in iter_imports(tree, typed):
             for target in import_targets(mod, path.name == "__init__.py", node, modules):
                 if target == package or target.startswith(package + "."):
                     (lazy if is_lazy else eager)[mod].add(target)
@@ -304,10 +316,25 @@ def test_every_arcube_import_names_an_existing_module(graph) -> None:
 
 
 def test_no_import_cycles_between_modules(graph) -> None:
-    """No dependency cycle, function-level imports included (``TYPE_CHECKING`` ones excluded)."""
+    """No dependency cycle, function-level and ``TYPE_CHECKING`` imports included: a module that only
+    names another's type for the checker still depends on it."""
     eager, lazy, _ = graph
-    found = cycles(merged(eager, lazy))
-    assert not found, "import cycles, deferred imports included (strongly connected components): " + "; ".join(" <-> ".join(c) for c in found)
+    typed_eager, typed_lazy, _ = import_graph(SRC, "arcube", typed=True)
+    found = cycles(merged(eager, lazy, typed_eager, typed_lazy))
+    assert not found, "import cycles, deferred and type-checking imports included (strongly connected components): " + "; ".join(" <-> ".join(c) for c in found)
+
+
+def test_every_package_has_its_layer(graph) -> None:
+    """The packages form one stack, :data:`LAYERS` from the bottom: a package imports only the layers
+    below its own (deferred and type-checking imports included); every package of src/arcube is placed."""
+    eager, lazy, modules = graph
+    typed_eager, typed_lazy, _ = import_graph(SRC, "arcube", typed=True)
+    packages = {top_package(m) for m in modules} - {"arcube", "arcube.__main__"}
+    assert sorted(packages - set(LAYERS)) == [], "packages missing from LAYERS"
+    rank = {p: i for i, p in enumerate(LAYERS)}
+    upward = sorted(f"{m} -> {t}" for g in (eager, lazy, typed_eager, typed_lazy) for m, ts in g.items() for t in ts
+                    if top_package(m) in rank and top_package(t) in rank and rank[top_package(t)] > rank[top_package(m)])  # fmt: skip
+    assert not upward, f"imports of a higher layer: {upward}"
 
 
 def test_top_level_packages_form_layers(graph) -> None:

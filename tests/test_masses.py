@@ -22,7 +22,7 @@ from conftest import ALL_MODES_ORACLE, PAPER, oracle_config, random_design, reac
 
 import arcube
 from arcube.errors import InputError
-from arcube.evaluation.bodies import BODY_NAMES, MassModel, bodies_of_solution, body_masses_kg
+from arcube.evaluation.mass_bodies import BODY_NAMES, MassModel, bodies_of_solution, body_masses_kg
 from arcube.evaluation.masses import (
     gravity_torque_Nm, holding_torque, moving_mass_kg, potential_energy_J,
 )  # fmt: skip

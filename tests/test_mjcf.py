@@ -31,10 +31,11 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from arcube.errors import InputError  # noqa: E402
-from arcube.evaluation.bodies import MassModel  # noqa: E402
+from arcube.options import Masses, Options
+from arcube.evaluation.mass_bodies import MassModel  # noqa: E402
 from arcube.evaluation.masses import gravity_torque_Nm, moving_mass_kg  # noqa: E402
 from arcube.evaluation.reference import evaluate_task  # noqa: E402
-from arcube.evaluation.result import load_trajectory_set  # noqa: E402
+from arcube.io.load import load_plan  # noqa: E402
 from arcube.evaluation.task import build_task  # noqa: E402
 from arcube.export.mjcf import ACTUATED, JOINT_NAMES, export_mjcf, joint_values  # noqa: E402
 from arcube.model import frames  # noqa: E402
@@ -50,7 +51,7 @@ C_Z_PAPER = 162.0  # inside [153.95, 170.23] mm, the c_z that closes the z dyad 
 
 
 def _plan():
-    ts = load_trajectory_set("reference", N)
+    ts = load_plan("reference")
     return ts, build_task(ts.entry, ts.target, N, ids=ts.ids)
 
 
@@ -244,7 +245,9 @@ def test_body_masses_and_moving_mass_are_the_mass_model(designs, which) -> None:
     design, c_z = designs[which]
     cz = design["d_z"] if c_z is None else c_z
     masses = MassModel(wall_mm=1.5, density_kg_m3=7800.0, m_delta_kg=0.6, m_motor_kg=2.0, gravity=(1.0, -2.0, -9.0))
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z, masses=masses))
+    options = Options(masses=Masses(wall_mm=masses.wall_mm, density_kg_m3=masses.density_kg_m3, m_delta_kg=masses.m_delta_kg,
+                                    m_motor_kg=masses.m_motor_kg, gravity=masses.gravity))  # fmt: skip
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z, options=options))
     got = {model.body(b).name: float(model.body_mass[b]) for b in range(2, model.nbody)}  # after world and the static base
     want = _closed_form_masses(design, cz, masses)
     assert set(got) - set(want) == {"knee_z"} and got["knee_z"] <= 1e-6  # MuJoCo's floor for a massless moving body
@@ -310,7 +313,7 @@ def test_mujoco_gravity_torques_through_the_loops_equal_ours(designs, which, gra
     design, c_z = designs[which]
     cz = design["d_z"] if c_z is None else c_z
     ts, task = _plan()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, c_z=c_z, masses=MassModel(gravity=gravity)))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, c_z=c_z, options=Options(masses=Masses(gravity=gravity))))
     model.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
     data = mujoco.MjData(model)
     sel = np.arange(0, len(task.E), 7)

@@ -42,7 +42,7 @@ from arcube.export.mjcf import ACTUATED, JOINT_NAMES  # noqa: E402
 from arcube.export.replay import export_program, read_program  # noqa: E402
 from arcube.io import load_trajectories, select  # noqa: E402
 from arcube.model.design import Design  # noqa: E402
-from arcube.program import program  # noqa: E402
+from arcube import program  # noqa: E402
 from test_program import DESIGN as PROGRAM_DESIGN  # noqa: E402  (the design of tests/test_program.py)
 
 ROOT = Path(__file__).resolve().parents[1]

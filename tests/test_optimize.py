@@ -40,8 +40,11 @@ SMALL = ["--algorithm", "ga", "--engine", "numpy", "--quiet"]
 
 
 def _app() -> typer.Typer:
+    from arcube.cli import resume
+
     app = typer.Typer()
     register(app)
+    resume.register(app)
     return app
 
 

@@ -46,8 +46,9 @@ from arcube.model.design import Design
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 from arcube.options import Guards, Options, Outputs
 from arcube.patients.anatomy import Box
-from arcube.program import Planner, program
-from arcube.program.order import shortest_order
+from arcube import program
+from arcube.motion import Planner
+from arcube.motion.order import shortest_order
 
 DESIGN = {
     "m_x": -180.76484476919862, "m_y": -157.46908828300167, "m_z": 200.6853946773747, "f_x": 38.47157725834808,
@@ -355,7 +356,7 @@ def test_a_failed_run_keeps_no_partial_program(tmp_path: Path, monkeypatch) -> N
     """If the second file cannot be written, the first is removed again."""
     import importlib
 
-    output = importlib.import_module("arcube.program.output")  # the module: ``arcube.program`` is the function
+    output = importlib.import_module("arcube.motion.output")  # the module: ``arcube.program`` is the function
 
     real = output.atomic_write_text
 
@@ -378,7 +379,7 @@ def test_the_timeline_figure_shows_every_segment_and_the_limits(right, tmp_path:
 
     from arcube.report.program import JOINTS, _spans, timeline_figure
 
-    assert JOINTS == importlib.import_module("arcube.program.output").JOINTS  # the figure labels q's columns as the CSV does
+    assert JOINTS == importlib.import_module("arcube.motion.output").JOINTS  # the figure labels q's columns as the CSV does
     prog, rows, summary, ts = right
     assert (prog.path / "program.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     spans = _spans(np.asarray(rows["segment"]), np.asarray(rows["trajectory"]))
@@ -399,8 +400,8 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
     less its tolerance, 0.1 mm), the reference's an upper bound (samples every 0.25 mm: at most 0.125 mm
     above), so the compiled one is below by 0 to 0.225 mm; every decision and reason is the same, except
     where the reference's clearance is within that gap above its limit (the compiled check is stricter)."""
-    from arcube.program.check import Checker
-    from arcube.program.limits import ProgramLimits
+    from arcube.motion.check import Checker
+    from arcube.motion.limits import ProgramLimits
 
     ts = _plan("1,3")
     S, ax = _standoffs(ts)

@@ -23,13 +23,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from arcube.evaluation.bodies import MassModel, bodies_of_solution
+from arcube.evaluation.mass_bodies import MassModel, bodies_of_solution
 from arcube.evaluation.masses import gravity_torque_Nm, potential_energy_J
 from arcube.evaluation.performance import jacobians_of_solution, tip_metrics
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
-from arcube.options import Loads, Masses
-from arcube.program import program
-from arcube.program.dynamics import program_torques
+from arcube.options import Loads, Masses, Options
+from arcube import program
+from arcube.motion.dynamics import program_torques
 
 from test_program import COLUMNS, TORQUES, _design, _plan
 
@@ -44,7 +44,7 @@ carry nearly all the power (a wrong inertia would hide in the balance's 1 %)."""
 
 def _run(out: Path, masses: Masses, **limits: float):
     ts = _plan("1,3")
-    prog = program(_design(), ts, out, feed=2.0, masses=masses, loads=Loads(lateral_force_N=0.0), **limits)
+    prog = program(_design(), ts, out, feed=2.0, options=Options(masses=masses, loads=Loads(lateral_force_N=0.0)), masses=True, **limits)
     with open(out / "program.csv", newline="") as fh:
         reader = csv.reader(fh)
         header = next(reader)
@@ -306,8 +306,8 @@ def test_thin_links_without_mass_flags_give_a_program_without_torques(tmp_path: 
     from arcube.errors import InputError
     from arcube.options import Body
 
-    prog = program(_design(), _plan("5"), tmp_path / "thin", feed=2.0, body=Body(link_radius=1.5))
+    prog = program(_design(), _plan("5"), tmp_path / "thin", feed=2.0, options=Options(body=Body(link_radius=1.5)))
     assert prog.tau_Nm is None and "motors" not in prog.summary
     with pytest.raises(InputError, match="wall"):
-        program(_design(), _plan("5"), tmp_path / "thin2", feed=2.0, body=Body(link_radius=1.5), masses=Masses())
+        program(_design(), _plan("5"), tmp_path / "thin2", feed=2.0, options=Options(body=Body(link_radius=1.5)), masses=True)
     assert not (tmp_path / "thin2").exists()

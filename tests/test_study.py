@@ -20,8 +20,9 @@ from pathlib import Path
 import pytest
 
 import arcube
-from arcube.cli.flags import flag_message
+from arcube.cli.projection import flag_message
 from arcube.errors import InputError
+from arcube.coerce import seeds as checked_seeds
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
 
@@ -54,13 +55,13 @@ def _same_study(a: Path, b: Path, seeds: list[int]) -> None:
 
 @pytest.mark.parametrize(("spec", "want"), [("1-5", [1, 2, 3, 4, 5]), ("7", [7]), ("3,1,2", [1, 2, 3]), ("1-3, 10", [1, 2, 3, 10])])
 def test_parse_seeds(spec: str, want: list[int]) -> None:
-    assert studymod.parse_seeds(spec) == want
+    assert checked_seeds(spec) == want
 
 
 @pytest.mark.parametrize("spec", ["", " ", "a", "1-", "-3", "3-1", "1,1", "1-3,2", "1.5", "0-5000"])
 def test_parse_seeds_refuses(spec: str) -> None:
     with pytest.raises(InputError, match="^seeds") as info:  # the library names its argument; the CLI, its flag
-        studymod.parse_seeds(spec)
+        checked_seeds(spec)
     assert flag_message(info.value).startswith("--seeds")
 
 
@@ -232,6 +233,6 @@ def test_best_known_line_on_the_convergence_plots(tmp_path: Path) -> None:
     lines = [t for t in convergence_figure(history, 1.25).data if t.name == "best known 1.25"]
     assert len(lines) == 1 and list(lines[0].y) == [1.25, 1.25] and list(lines[0].x) == [history.generation[0], history.generation[-1]]
     assert not [t for t in convergence_figure(history).data if str(t.name).startswith("best known")]
-    assert run.write_report(best_known=1.25).exists()
+    assert arcube.write_report(run, best_known=1.25).exists()
     res = _cli("report", str(run.path), "--best-known", "0")
     assert res.returncode == 2 and res.stderr == "error: --best-known must be a positive number (an eta_G), got 0.0\n"

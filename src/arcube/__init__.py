@@ -15,7 +15,7 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Run, Study, design, evaluate, optimize, program, resume, study
+from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, optimize, program, resume, study
 from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Options, Outputs
@@ -25,14 +25,12 @@ from arcube.io import TrajectorySet, load_trajectories, read_markups, select, wr
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.patients import generate_patient
 from arcube.report import write_report
-from arcube.explore import explore  # noqa: E402 (after api: polish imports arcube.api lazily)
+from arcube.explorer import explore  # noqa: E402 (after api: polish imports arcube.api lazily)
 from arcube.options import Masses
-
-from arcube.api import program  # noqa: E402,F811 (the function, not the subpackage that importing arcube.program binds)
 
 __all__ = [
     "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
-    "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "Run", "RunSettings", "Study", "TrajectorySet",
+    "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "RunSettings", "Study", "TrajectorySet",
     "__version__", "design", "evaluate", "explore", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study",
     "write_csv", "write_markups", "write_report",
 ]  # fmt: skip

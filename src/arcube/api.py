@@ -20,62 +20,43 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+
+from arcube.coerce import engine_name, mode_signs, points as checked_points, seeds as checked_seeds
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
-from arcube.evaluation.engine import resolve
-from arcube.evaluation.result import Evaluation, evaluate_design, load_trajectory_set
-from arcube.io.trajectories import TrajectorySet, select, validate_points
-from arcube.model.body import BodyRadii
+from arcube.evaluation.result import Evaluation, evaluate_design
+from arcube.io.load import load_plan
+from arcube.io.trajectories import TrajectorySet
 from arcube.model.design import Design
-from arcube.model.mechanism import format_mode, parse_mode
 from arcube.optimization.settings import RunSettings
-from arcube.options import GUARDED_OPTIONS, Options
+from arcube.options import Options, request_options
 
 from arcube.design_job import DesignResult
-from arcube.program import Planner, Program, ProgramLimits, program  # noqa: F401 (re-exported by arcube)
+from arcube.motion import Planner, Program, ProgramLimits  # noqa: F401 (re-exported by arcube)
 from arcube.report.study import write_study_convergence
-from arcube.results import OptimizeResult, Run, Study
+from arcube.optimization.run_results import OptimizeResult, Study
 
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
+    from arcube.export.joints import JointTrajectory
 
-__all__ = ["OptimizeResult", "Run", "Study", "design", "evaluate", "optimize", "resume", "study"]
+__all__ = ["OptimizeResult", "Study", "design", "evaluate", "joints", "optimize", "program", "resume", "study"]
 
 PathLike = str | os.PathLike[str]
-
-
-def _design(design: Design | PathLike | Sequence[float]) -> Design:
-    return Design.coerce(design)
-
-
-def _signs(mode: str | Sequence[float]) -> np.ndarray:
-    """A working mode as text (``"+,+,-,+"``) or four signs (``(1, 1, -1, 1)``) -> signs ``(4,)``."""
-    try:
-        return parse_mode(mode if isinstance(mode, str) else format_mode(mode) if len(list(mode)) == 4 else repr(mode))
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"mode: {exc}", param="mode") from None
-
-
-def _points(points: Any) -> int:
-    from arcube.evaluation.task import MAX_POINTS
-
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or not 2 <= points <= MAX_POINTS:
-        raise InputError.of("points", f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {points!r}")
-    return int(points)
 
 
 def evaluate(
     design: Design | PathLike = "paper",
     plan: TrajectorySet | PathLike = "reference",
     *,
+    options: Options | None = None,
     points: int = 30,
     mode: str | Sequence[float] = "+,+,+,+",
     guards: bool = False,
-    options: Options | None = None,
     side: str | None = None,
     levels: str | Sequence[str] | None = None,
     ids: str | Sequence[str] | None = None,
@@ -83,65 +64,93 @@ def evaluate(
     engine: str = "auto",
     anatomy: Anatomy | Sequence[PathLike] | PathLike | None = None,
     anatomy_frame: str = "LPS",
-    clearance: float | None = None,
-    self_clearance: float | None = None,
-    radii: BodyRadii | None = None,
-    encoder_deg: float | Sequence[float] | None = None,
-    thrust: float | None = None,
-    lateral_force: float | None = None,
-    actuator_stiffness: float | Sequence[float] | None = None,
+    **changes: Any,
 ) -> Evaluation:
-    """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers, dexterity.
+    """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers,
+    dexterity, clearances (14.3) and the drill-tip metrics (15).
 
     Args:
         design: a :class:`Design`, a preset name (``"paper"``) or a design JSON path.
         plan: a :class:`TrajectorySet` or what :func:`arcube.load_trajectories` reads
             (CSV, Slicer ``.mrk.json`` file or folder, ``"reference"``).
+        options: the :class:`arcube.Options` of the evaluation (guards, body, loads, masses); None:
+            the paper's model, with the guards of MODEL.md 8.2 when ``guards``.
         points: N samples per trajectory (>= 2), both ends included.
         mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``.
-        guards: turn on the guards of MODEL.md 8.2 (all but the z dyad); ignored when ``options`` is given.
-        options: explicit :class:`arcube.Options` (guards, body, loads); the keywords below change it.
         side, levels, ids: keep only some trajectories (``"R"``, ``"C3-C5"`` or ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``).
         transform: a JSON 4x4 rigid transform from the file's frame to the patient frame (file plans only).
         engine: ``auto`` (compiled kernel when available), ``numba`` or ``numpy`` (the reference).
         anatomy: an :class:`~arcube.evaluation.anatomy.Anatomy`, ``"default"`` (the plan's default
             anatomy, MODEL.md 14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
             patient), or None: then no clearance to the anatomy is computed.
-        clearance, self_clearance: the guards ``clearance >= MM`` (``collision/patient``) and
-            ``self_clearance >= MM`` (``collision/self``) of MODEL.md 14.3 (``Guards.clearance_mm``, ...).
-        radii: the body radii of MODEL.md 14.1 (default 8 / 25 / 20 mm, motor 120 mm long).
-        encoder_deg, thrust, lateral_force, actuator_stiffness: the parameters of the tip metrics of MODEL.md 15
-            (deg, N, N, N·m/rad; encoder and stiffness one value or five); None keeps ``options``'s
-            (defaults 0.01 deg, 30 N, 10 N, 1e4 N·m/rad).
+        **changes: settings of ``options`` by name or short name (``clearance=5``, ``thrust=25``,
+            ``link_radius=6``, ``encoder_deg=0.02``; see :data:`arcube.options.FLAT`).
 
     Returns:
         An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``).
     """
-    signs = _signs(mode)
-    try:
-        engine_name = resolve(engine)
-    except ValueError as exc:
-        raise InputError.of("engine", str(exc)) from None
-    n = _points(points)
-    d = _design(design)
-    levels_text = levels if levels is None or isinstance(levels, str) else ",".join(levels)
-    ids_text = ids if ids is None or isinstance(ids, str) else ",".join(str(i) for i in ids)
-    if isinstance(plan, TrajectorySet):
-        validate_points([f"{plan.source} trajectory {i}" for i in plan.ids], plan.ids, np.asarray(plan.entry), np.asarray(plan.target))
-        ts = select(plan, side=side, levels=levels_text, ids=ids_text) if (side or levels_text or ids_text) else plan
-    else:
-        ts = load_trajectory_set(os.fspath(plan), n, side, levels_text, ids_text, None if transform is None else Path(transform))
-    base = options if options is not None else (GUARDED_OPTIONS if guards else Options())
-    changes: dict[str, Any] = {"clearance_mm": clearance, "self_clearance_mm": self_clearance, "encoder_deg": encoder_deg,
-                               "thrust_N": thrust, "lateral_force_N": lateral_force, "actuator_stiffness": actuator_stiffness}  # fmt: skip
-    if radii is not None:
-        changes.update(link_radius=radii.link, actuator_radius=radii.actuator, motor_radius=radii.motor, motor_length=radii.motor_length)
-    opts = base.replace(**{k: v for k, v in changes.items() if v is not None})
-    opts = opts.replace(outputs=opts.outputs.replace(clearances=True))
+    engine_resolved = engine_name(engine)
+    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes)
+    opts = r.options.replace(outputs=r.options.outputs.replace(clearances=True))
+    return evaluate_design(r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy)
+
+
+class _Request(NamedTuple):
+    """One request's arguments, coerced and checked: what :func:`evaluate` and :func:`joints` compute with."""
+
+    design: Design
+    plan: TrajectorySet
+    points: int
+    signs: np.ndarray
+    options: Options
+    anatomy: Anatomy | None
+
+
+def _request(design: Any, plan: Any, options: Options | None, points: Any, mode: Any, guards: bool, side: Any, levels: Any, ids: Any,
+             transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any]) -> _Request:  # fmt: skip
+    signs = mode_signs(mode)
+    n = checked_points(points)
+    d = Design.coerce(design)
+    ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
+    opts = request_options(options, guards, **changes)
     anat = resolve_anatomy(anatomy, anatomy_frame, plan)
     if opts.guards.clearance_mm is not None and anat is None:
         raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
-    return evaluate_design(d, ts, n, signs, opts, engine_name, anatomy=anat)
+    return _Request(d, ts, n, signs, opts, anat)
+
+
+def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike = "reference", *, speed: float = 1.0,
+           options: Options | None = None, points: int = 30, mode: str | Sequence[float] = "+,+,+,+", guards: bool = False,
+           side: str | None = None, levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None,
+           transform: PathLike | None = None, anatomy: Any = None, anatomy_frame: str = "LPS", **changes: Any) -> JointTrajectory:  # fmt: skip
+    """Joint angles (deg) and rates (deg/s) for drilling each trajectory of a plan at ``speed`` mm/s
+    (``arcube joints``); the other arguments as :func:`evaluate` takes them. With
+    ``options.outputs.holding_torque`` also the holding torque of MODEL.md 18.2 per row.
+    ``.write_csv(path)`` writes the CSV."""
+    import math
+
+    from arcube.evaluation.task import build_task
+    from arcube.export.joints import joint_trajectory
+
+    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0.0):
+        raise InputError.of("speed", f"must be a finite positive number of mm/s, got {speed!r}")
+    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes)
+    task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
+    return joint_trajectory(r.design, task, float(speed), r.signs, r.options, None if r.anatomy is None else r.anatomy.distance)
+
+
+def program(design: Any, plan: Any, out: PathLike | None = None, **kwargs: Any) -> Program:
+    """The drilling program of ``design`` for a plan (MODEL.md 17): :func:`arcube.motion.program`, and
+    with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json``. Arguments:
+    those of :func:`arcube.motion.program` (``options``, ``anatomy``, ``mode``, ``order``, ``limits``,
+    ``masses``, ``feed=1.0``, ...)."""
+    from arcube.motion import program as build
+    from arcube.report.program import timeline_png
+
+    prog = build(design, plan, out, **kwargs)
+    if prog.path is not None:
+        timeline_png(prog, prog.path / "program.png")
+    return prog
 
 
 def _plans(plan: Any) -> list[Any]:
@@ -166,7 +175,7 @@ def optimize(
     workers: int = 1,
     dask: str | None = None,
     **fields: Any,
-) -> Any:
+) -> OptimizeResult:
     """Optimize the design (MODEL.md 12): minimize eta_G subject to every point reachable.
 
     Args:
@@ -175,80 +184,37 @@ def optimize(
         settings: a :class:`arcube.RunSettings` (algorithm, budget, seed, free parameters, bounds,
             objectives, limits, docking, options); None: the defaults.
         out: the run folder to create (must be absent or empty); None runs in memory and writes nothing.
-        progress: called with each generation's history row.
+        progress: called with each generation's history row and timing.
         workers, dask: evaluate each population over local processes or a dask.distributed scheduler.
         **fields: changes to ``settings`` by field name (``population=40``, ``free=["all", "L"]``);
-            the flat option names ``clearance``, ``thrust``, ``link_radius``, ... are accepted.
+            the options' short names ``clearance``, ``thrust``, ``link_radius``, ... are accepted.
 
     Returns:
-        The finished :class:`Run` (with ``out``) or an :class:`OptimizeResult` (in memory).
+        The finished run, an :class:`OptimizeResult`: in memory, or reading its folder (``.path``).
     """
     from arcube.optimization import run as runmod
+    from arcube.optimization.build import stl_roundtrip
     from arcube.optimization.config import build_config
 
     s = _settings(settings, fields, "run")
     specs = _plans(plan)
     cfg = build_config(specs, s, workers=workers, dask=dask)
     if out is None:
-        return _optimize_in_memory(cfg, specs, progress)
+        anatomies = tuple(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec) for spec in specs) if s.anatomy else ()
+        for p, anatomy in zip(cfg["patients"], anatomies):
+            p["anatomy_source"] = anatomy.source
+        return runmod.run_in_memory(cfg, tuple(stl_roundtrip(a) for a in anatomies), progress)
     run_dir = Path(out)
     runmod.check_new_folder(run_dir)
     runmod.start(run_dir, cfg, on_generation=progress)
-    return Run(run_dir)
-
-
-def _optimize_in_memory(cfg: dict[str, Any], specs: list[Any], progress: Callable[[dict[str, Any]], None] | None) -> OptimizeResult:
-    """Run ``cfg`` with nothing written: the same designs and summary as a run folder's."""
-    import time
-
-    from arcube.optimization.algorithms import stop_reason
-    from arcube.optimization.loop import HISTORY_COLUMNS, describe, run_algorithm
-    from arcube.optimization.build import build_model, stl_roundtrip
-    from arcube.optimization.executors import make_executor
-
-    s = RunSettings.from_table(cfg["settings"])
-    anatomies = tuple(stl_roundtrip(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec)) for spec in specs) if s.anatomy else ()
-    for p, spec in zip(cfg["patients"], specs):
-        if s.anatomy:
-            p["anatomy_source"] = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec).source
-    model = build_model(cfg, anatomies=anatomies)
-    ex = cfg["executor"]
-    executor = make_executor(model, int(ex.get("workers", 1)), ex.get("dask") or None)
-    rows: list[dict[str, Any]] = []
-    t0 = time.perf_counter()
-    eval_s = 0.0
-
-    def batch(X: np.ndarray) -> dict[str, np.ndarray]:
-        nonlocal eval_s
-        t = time.perf_counter()
-        try:
-            return executor(X)
-        finally:
-            eval_s += time.perf_counter() - t
-
-    def generation(loop: Any, row: dict[str, Any]) -> None:
-        rows.append({**row, "seconds": time.perf_counter() - t0})
-        if progress is not None:
-            progress({**rows[-1], "total": s.generations, "total_evaluations": s.population * s.generations, "eval_s": eval_s,
-                      "optimizer_s": loop.algorithm_s - eval_s, "session_s": time.perf_counter() - t0})  # fmt: skip
-
-    try:
-        loop = run_algorithm(model, s, batch, on_generation=generation)
-    finally:
-        executor.close()
-    info = {"generations": loop.generation, "evaluations": int(loop.algorithm.evaluator.n_eval), "wall_s": time.perf_counter() - t0,
-            "eval_s": eval_s, "stopped_by": stop_reason(loop.termination), "resumed": 0}  # fmt: skip
-    summary, designs, front = describe(cfg, model, loop.algorithm, info)
-    history = {c: np.array([float(r[c]) for r in rows]) for c in HISTORY_COLUMNS}
-    pareto = None if front is None else {k: np.array([r.get(k) for r in front]) for k in (front[0] if front else {})}
-    return OptimizeResult(summary, [Design.from_vector(d) for d in designs], history, pareto, cfg)
+    return OptimizeResult(run_dir)
 
 
 def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
-           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> Run | Study | DesignResult:  # fmt: skip
+           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> OptimizeResult | Study | DesignResult:  # fmt: skip
     """Continue an interrupted run from its checkpoint, or finish an interrupted study or design job
-    (the same result as an uninterrupted one); returns the :class:`Run`, the :class:`Study` or the
-    :class:`~arcube.design_job.DesignResult`."""
+    (the same result as an uninterrupted one); returns the :class:`OptimizeResult`, the :class:`Study`
+    or the :class:`~arcube.design_job.DesignResult`."""
     from arcube.design_job import STUDY, finish_design, is_design, read_design
     from arcube.optimization import run as runmod
     from arcube.optimization import study as studymod
@@ -267,7 +233,7 @@ def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None 
     cfg, raw = runmod.read_config(run_dir)
     runmod.load_checkpoint(run_dir, cfg, raw)  # refuse a corrupt or foreign checkpoint before anything else
     runmod.resume(run_dir, workers=workers if workers is not None else (1 if dask else None), dask=dask, on_generation=progress)
-    return Run(run_dir)
+    return OptimizeResult(run_dir)
 
 
 def study(
@@ -305,7 +271,7 @@ def study(
         raise InputError.of("out", "is required (the study folder)")
     if "seed" in fields or (settings is not None and getattr(settings, "seed", None) is not None):
         raise InputError("a study sets each run's seed from seeds=...; drop seed=", param="seed")
-    seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
+    seed_list = checked_seeds(seeds)
     s = _settings(settings, fields, "study")
     base = build_config(_plans(plan), s.replace(seed=seed_list[0]))
     studymod.start_study(Path(out), base, seed_list, workers=workers, dask=dask, best_known=best_known, on_seed=on_seed, on_generation=progress)
@@ -346,14 +312,13 @@ def design(
         A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).
     """
     from arcube.design_job import DESIGN_GENERATIONS, design_settings, start_design
-    from arcube.optimization import study as studymod
-    from arcube.optimization.requirements import requirements_from
+    from arcube.design_job.requirements import requirements_from
 
     if out is None:
         raise InputError.of("out", "is required (the design folder)")
     reqs = requirements_from(minima, maxima, drop)
     if settings is None and "generations" not in fields:
         fields = {**fields, "generations": DESIGN_GENERATIONS}  # the design job's budget, as the CLI's
-    seed_list = studymod.parse_seeds(seeds if isinstance(seeds, str) else ",".join(str(int(s)) for s in seeds))
+    seed_list = checked_seeds(seeds)
     s = design_settings(reqs, _settings(settings, fields, "design"))
     return start_design(Path(out), _plans(plan), s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)

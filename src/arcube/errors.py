@@ -10,7 +10,7 @@ class InputError(ValueError):
     the CLI prints it as ``error: <message>`` and exits with code 2. A library error about one
     parameter names it as the caller wrote it (``points``, ``Loads.thrust_N``) and carries that
     name in :attr:`param`; the CLI replaces it with its flag (``--points``, ``--thrust``), in one
-    place (:mod:`arcube.cli.flags`).
+    place (:mod:`arcube.cli.projection`).
     """
 
     def __init__(self, message: str, *, param: str | None = None) -> None:

@@ -23,26 +23,59 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
 from arcube.errors import InputError
 from arcube.model.body import BodyRadii
 
-__all__ = ["Body", "GUARDED_OPTIONS", "Guards", "Loads", "Masses", "Options", "Outputs", "Settings", "settings_error", "validated"]
+__all__ = ["Body", "FLAT", "GUARDED_OPTIONS", "Guards", "Loads", "Masses", "Options", "Outputs", "Settings", "request_options", "route_flat", "settings_error", "validated"]
 
 
 class Settings(BaseModel):
-    """Base of every settings group: frozen, unknown keys refused, defaults validated."""
+    """Base of every settings group: frozen, unknown keys refused, defaults validated; each field's
+    docstring is its description (the help of its command-line flag)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid", validate_default=True)
+    model_config = ConfigDict(frozen=True, extra="forbid", validate_default=True, use_attribute_docstrings=True)
+
+    SHORT: ClassVar[dict[str, str]] = {}
+    """Field -> its short name, where the field's name carries a unit the user does not write
+    (``thrust_N`` -> ``thrust``): the flat keyword of the Python API, the key of a run's config table,
+    and (with dashes) the command-line flag. A field not listed is its own short name."""
+
+    @classmethod
+    def short(cls, name: str) -> str:
+        """The short name of field ``name`` (see :attr:`SHORT`)."""
+        return cls.SHORT.get(name, name)
+
+    @classmethod
+    def flag(cls, name: str) -> str:
+        """The command-line flag of field ``name``: its short name with dashes (``thrust_N`` -> ``--thrust``).
+        The one naming rule: the CLI's options are generated with it, and a run's rerun line is written with it."""
+        return "--" + cls.short(name).replace("_", "-")
+
+    @classmethod
+    def field_of(cls, name: str) -> str | None:
+        """The field that ``name`` (a field's name or short name) means, None if none."""
+        if name in cls.model_fields:
+            return name
+        return next((f for f, s in cls.SHORT.items() if s == name), None)
 
     def __init__(self, /, **data: Any) -> None:
         try:
             super().__init__(**data)
         except ValidationError as exc:
             raise settings_error(exc, type(self)) from None
+
+    def merged(self, tree: dict[str, Any]) -> Any:
+        """A validated copy with the values of ``tree`` (nested dicts for nested groups: ``{"loads":
+        {"thrust_N": 25}}``) merged in, every other value kept."""
+
+        def merge(base: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+            return {**base, **{k: merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v for k, v in new.items()}}
+
+        return validated(type(self), merge(self.model_dump(), tree))
 
     def replace(self, **changes: Any) -> Any:
         """A validated copy with ``changes`` (InputError naming the field on a bad value)."""
@@ -78,6 +111,8 @@ PositiveMm = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 class Guards(Settings):
     """Reachability guards: MODEL.md 8.2 ([ADDITION]) and the clearances of 14.3. All off by default."""
 
+    SHORT: ClassVar[dict[str, str]] = {"clearance_mm": "clearance", "self_clearance_mm": "self_clearance"}
+
     z_dyad: bool = False
     """Check the z-leg dyad closure (MODEL.md 6)."""
     c_z: float | None = Field(default=None, gt=0, allow_inf_nan=False)
@@ -91,22 +126,26 @@ class Guards(Settings):
     single_assembly_mode: bool = False
     """sign H_x, sign H_y, sign det[x_b, y_b, e] equal at all task points (global)."""
     clearance_mm: Mm | None = None
-    """Clearance to the anatomy >= this (mm); failure ``collision/patient`` (MODEL.md 14.3)."""
+    """Guard: clearance to the anatomy >= this (mm); failure ``collision/patient`` (MODEL.md 14.3)."""
     self_clearance_mm: Mm | None = None
-    """Clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
+    """Guard: clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
+
+
+_RADII = BodyRadii()
+"""MODEL.md 14.1's default radii (mm), written once in the model layer."""
 
 
 class Body(Settings):
     """Radii of the robot's body (MODEL.md 14.1), mm."""
 
-    link_radius: PositiveMm = 8.0
-    """Radius of every link."""
-    actuator_radius: PositiveMm = 25.0
-    """Radius of the actuators at P_u and D_u."""
-    motor_radius: PositiveMm = 20.0
-    """Radius of the drill motor."""
-    motor_length: PositiveMm = 120.0
-    """Length L_m of the drill motor beyond the holder H."""
+    link_radius: PositiveMm = _RADII.link
+    """Radius of the links (MODEL.md 14.1), mm."""
+    actuator_radius: PositiveMm = _RADII.actuator
+    """Radius of the actuators at P_u and D_u, mm."""
+    motor_radius: PositiveMm = _RADII.motor
+    """Radius of the drill motor, mm."""
+    motor_length: PositiveMm = _RADII.motor_length
+    """Length L_m of the drill motor beyond the holder H, mm."""
 
     @property
     def radii(self) -> BodyRadii:
@@ -117,14 +156,16 @@ class Body(Settings):
 class Loads(Settings):
     """Encoder resolution, drilling loads and actuator stiffness of MODEL.md 15."""
 
+    SHORT: ClassVar[dict[str, str]] = {"thrust_N": "thrust", "lateral_force_N": "lateral_force"}
+
     encoder_deg: PerActuator = (0.01,) * 5
-    """Position error bound of each actuator (15.2), deg."""
+    """Position error bound of the actuators (MODEL.md 15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y)."""
     thrust_N: float = Field(default=30.0, ge=0, allow_inf_nan=False)
-    """Drilling thrust along e (15.3), N."""
+    """Drilling thrust along the drill axis (MODEL.md 15.3), N."""
     lateral_force_N: float = Field(default=10.0, ge=0, allow_inf_nan=False)
-    """Largest lateral (skiving) force across e (15.3), N."""
+    """Largest lateral (skiving) force across the drill axis (MODEL.md 15.3), N."""
     actuator_stiffness: PerActuator = (1e4,) * 5
-    """Torsional stiffness of each actuator (15.4), N·m/rad."""
+    """Torsional stiffness of the actuators (MODEL.md 15.4), N·m/rad: one value or five."""
 
 
 def _gravity(value: Any) -> tuple[float, float, float]:
@@ -149,18 +190,18 @@ class Masses(Settings):
     """The mass model of MODEL.md 18.1: thin-walled aluminium tubes as links, the delta actuators
     riding on the cranks, the drill motor; gravity in the patient frame (prone: posterior up)."""
 
+    SHORT: ClassVar[dict[str, str]] = {"wall_mm": "wall", "density_kg_m3": "density", "m_delta_kg": "m_delta", "m_motor_kg": "m_motor"}
+
     wall_mm: float = Field(default=2.0, gt=0, le=1000.0, allow_inf_nan=False)
-    """Wall thickness w of every moving link's tube (outer radius: Body.link_radius), mm; checked to be
-    < Body.link_radius where the mass model is used (:class:`arcube.evaluation.bodies.MassModel`),
-    so that thin links without masses stay valid."""
+    """Wall of the links' tubes (MODEL.md 18.1), mm; < the link radius where the mass model is used."""
     density_kg_m3: float = Field(default=2700.0, gt=0, le=1e5, allow_inf_nan=False)
     """Density of the links' material, kg/m^3 (aluminium)."""
     m_delta_kg: float = Field(default=0.8, ge=0, le=1e4, allow_inf_nan=False)
-    """Mass of each delta actuator at D_u (u = x, y), kg."""
+    """Mass of each delta actuator (riding at D_x, D_y), kg."""
     m_motor_kg: float = Field(default=1.5, ge=0, le=1e4, allow_inf_nan=False)
-    """Mass of the drill motor (a solid cylinder from H to H + L_m e, radius Body.motor_radius), kg."""
+    """Mass of the drill motor (a solid cylinder from H to H + L_m e), kg."""
     gravity: Annotated[tuple[float, float, float], BeforeValidator(_gravity)] = (0.0, 0.0, -9.81)
-    """Gravity, m/s^2, patient frame."""
+    """Gravity in the patient frame, m/s^2, three numbers (prone: posterior up)."""
 
 
 class Outputs(Settings):
@@ -185,9 +226,23 @@ _GROUPS: dict[str, type[Settings]] = {"guards": Guards, "body": Body, "loads": L
 _LEGACY = {"body": ("outputs", "clearances"), "want_clearance": ("outputs", "anatomy_clearance")}
 """Flat keywords of the former single ``Options`` whose names changed with the groups."""
 FLAT: dict[str, tuple[str, str]] = {
-    **{name: (group, name) for group, cls in _GROUPS.items() for name in cls.model_fields}, **_LEGACY,
+    **{name: (group, name) for group, cls in _GROUPS.items() for name in cls.model_fields},
+    **{cls.short(name): (group, name) for group, cls in _GROUPS.items() for name in cls.SHORT}, **_LEGACY,
 }  # fmt: skip
-"""Each flat keyword -> (group, field): ``Options(thrust_N=25)`` means ``Options(loads=Loads(thrust_N=25))``."""
+"""Each flat keyword -> (group, field): a field's name or short name (``Options(thrust_N=25)``,
+``Options(thrust=25)`` and ``arcube.optimize(..., thrust=25)`` mean ``Options(loads=Loads(thrust_N=25))``)."""
+
+
+def route_flat(data: dict[str, Any], options: Any = None) -> dict[str, Any]:
+    """The groups of :class:`Options` (as dicts) with the flat keywords of ``data`` routed into them,
+    on top of ``options`` (an :class:`Options`, a dict of groups, or None). ``data`` keeps the rest."""
+    base = options.model_dump() if isinstance(options, BaseModel) else dict(options or {})
+    out = {k: (v.model_dump() if isinstance(v, BaseModel) else dict(v)) if isinstance(v, (BaseModel, dict)) else v for k, v in base.items()}
+    for key in [k for k in data if k in FLAT and not (k == "body" and not isinstance(data[k], bool))]:
+        group, name = FLAT[key]
+        current = out.get(group, {})
+        out[group] = {**(current if isinstance(current, dict) else dict(current)), name: data.pop(key)}
+    return out
 
 
 class Options(Settings):
@@ -208,19 +263,9 @@ class Options(Settings):
     def _route_flat(cls, data: Any) -> Any:
         if not isinstance(data, dict):
             return data
-        out: dict[str, Any] = {}
-        flat: list[tuple[str, str, Any]] = []
-        for key, value in data.items():
-            if key in _GROUPS and not (key == "body" and isinstance(value, bool)):
-                out[key] = value.model_dump() if isinstance(value, BaseModel) else value
-            elif key in FLAT:
-                flat.append((*FLAT[key], value))
-            else:
-                out[key] = value  # refused by extra="forbid", with its own name
-        for group, name, value in flat:
-            current = out.get(group, {})
-            out[group] = {**(current if isinstance(current, dict) else dict(current)), name: value}
-        return out
+        rest = dict(data)
+        groups = {k: rest.pop(k) for k in list(rest) if k in _GROUPS and not (k == "body" and isinstance(rest[k], bool))}
+        return {**route_flat(rest, groups), **rest}  # what is left is refused by extra="forbid", with its own name
 
     @property
     def radii(self) -> BodyRadii:
@@ -245,6 +290,19 @@ class Options(Settings):
             raise InputError.of("Masses.wall_mm", f"must be < the link radius ({radius:g} mm), got {wall:g}")
         return self
 
+    def mass_model_on(self, asked: bool | None = None) -> bool:
+        """Whether the mass model of MODEL.md 18.1 applies, checked (:meth:`check_masses`) when it does.
+
+        ``asked``: True (required), False (no masses: no torques, a massless export), or None: the mass
+        model unless the masses are the defaults and the links are too thin for the default wall (then
+        none, rather than an error about a wall the caller never gave)."""
+        if asked is False:
+            return False
+        if asked is None and self.masses == Masses() and self.body.link_radius <= self.masses.wall_mm:
+            return False
+        self.check_masses()
+        return True
+
     @property
     def wants_clearance(self) -> bool:
         """Whether the evaluation computes the clearance to the anatomy (when there is one)."""
@@ -264,6 +322,19 @@ class Options(Settings):
 
 GUARDED_OPTIONS = Options(guards=Guards(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True))
 """The guards of MODEL.md 8.2 but z_dyad (``guards=True`` in the API)."""
+
+
+def request_options(options: Options | None = None, guards: bool = False, **changes: Any) -> Options:
+    """The options of one request (an evaluation, a program, an export, the explorer): ``options``
+    (else the paper's, with the guards of MODEL.md 8.2 when ``guards``), changed by flat keywords
+    (a field's name or short name: ``thrust=25``, ``link_radius=6``, ``clearance=5``)."""
+    if options is not None and not isinstance(options, Options):
+        raise InputError.of("options", f"must be an arcube.Options, got {type(options).__name__}")
+    base = options if options is not None else (GUARDED_OPTIONS if guards else Options())
+    unknown = [k for k in changes if k not in FLAT]
+    if unknown:
+        raise InputError.of(unknown[0], f"is not a setting (settings: {', '.join(sorted(FLAT))})")
+    return base.replace(**changes) if changes else base
 
 
 def _param(model: type[BaseModel], loc: tuple[Any, ...]) -> str:

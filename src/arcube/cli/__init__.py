@@ -13,8 +13,8 @@ import sys
 import typer
 
 from arcube import __version__
-from arcube.cli import demo, design, evaluate, explore, export, joints, optimize, patients, program, report, study
-from arcube.cli.flags import flag_message
+from arcube.cli import demo, design, evaluate, explore, export, joints, optimize, patients, program, report, resume, study
+from arcube.cli.projection import REGISTRY
 from arcube.errors import InputError
 
 __all__ = ["app", "main"]
@@ -42,11 +42,11 @@ def _root(
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, study, design, report, joints, patients, demo, export, explore, program):
+for _module in (evaluate, optimize, resume, study, design, report, joints, patients, demo, export, explore, program):
     _module.register(app)
 
 
-MULTI_VALUE_OPTIONS = frozenset({"--trajectories", "--anatomy"})
+MULTI_VALUE_OPTIONS = frozenset(f.name for flags in REGISTRY.values() for f in flags if f.spread)
 """Options that take several values after one flag (``--anatomy a.stl b.stl``)."""
 
 
@@ -69,7 +69,7 @@ def expand_multi_value(argv: list[str]) -> list[str]:
     return out
 
 
-PATH_OPTIONS = frozenset({"--out", "--report", "--html", "--design", "--trajectories", "--transform"})
+PATH_OPTIONS = frozenset(f.name for flags in REGISTRY.values() for f in flags if f.path)
 """Options naming a file or folder: an empty value would silently mean the current folder."""
 
 
@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> None:
         sys.stderr.write(f"error: {_one_line(exc.format_message())}\n")
         sys.exit(2)
     except InputError as exc:
-        sys.stderr.write(f"error: {_one_line(flag_message(exc))}\n")
+        sys.stderr.write(f"error: {_one_line(str(exc))}\n")
         sys.exit(2)
     except OSError as exc:
         # A file the user named cannot be read or written (permissions, missing folder, full disk).

@@ -1,67 +1,104 @@
-"""Options shared by several commands (one definition, one help text)."""
+"""The flags every command shares, each declared once: the plan and its selection, the design, the
+anatomy, the body, loads and masses of :class:`arcube.Options`, where results go; and the progress bars.
+
+A command takes the flags it needs from here (``dataclasses.replace`` changes a help text where one
+command means something narrower), adds its own, and :func:`arcube.cli.projection.command` builds it.
+"""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
-import typer
+from arcube.cli.projection import Flag, Given, model_flags, option
+from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options
 
-from arcube.errors import InputError
-from arcube.model.body import BodyRadii
+__all__ = [
+    "ANATOMY", "ANATOMY_FRAME", "DASK", "DESIGN", "ENGINE", "GUARDS", "IDS", "LEVELS", "MODE", "OPTION_FLAGS", "OUT", "PLAN",
+    "POINTS", "QUIET", "RichBar", "SEED", "SIDE", "TRAJECTORIES", "TRANSFORM", "WORKERS", "options_of", "request_flags",
+]  # fmt: skip
 
-DesignOpt = Annotated[str, typer.Option("--design", help="Design: a preset name (paper) or a design JSON file.")]
-TrajOpt = Annotated[str, typer.Option("--trajectories", help="Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'.")]
-PointsOpt = Annotated[int, typer.Option("--points", help="Points per trajectory (N >= 2), both ends included.")]
-ModeOpt = Annotated[str, typer.Option("--mode", help="Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,-")]
-GuardsOpt = Annotated[bool, typer.Option("--guards", help="Turn on the guards of MODEL.md 8.2 (all but z_dyad).")]
-SideOpt = Annotated[str | None, typer.Option("--side", help="Keep trajectories of one side: R or L.")]
-LevelsOpt = Annotated[str | None, typer.Option("--levels", help="Keep levels, e.g. C3-C5 or C3,C6.")]
-IdsOpt = Annotated[str | None, typer.Option("--ids", help="Keep trajectory ids, e.g. 1,3,5.")]
-TransformOpt = Annotated[Path | None, typer.Option("--transform", help="4x4 rigid transform (JSON) from the file's frame to the patient frame.")]
-EngineOpt = Annotated[str, typer.Option("--engine", help="Evaluation engine: auto (numba if available), numba or numpy.")]
-AnatomyOpt = Annotated[list[str] | None, typer.Option("--anatomy", help="Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or mesh files FILE [FILE ...] (STL, OBJ, PLY).")]
-AnatomyFrameOpt = Annotated[str, typer.Option("--anatomy-frame", help="Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient.")]
-ClearanceOpt = Annotated[float | None, typer.Option("--clearance", help="Guard: clearance to the anatomy >= MM (failure collision/patient).")]
-SelfClearanceOpt = Annotated[float | None, typer.Option("--self-clearance", help="Guard: clearance between the robot's own parts >= MM (failure collision/self).")]
-LinkRadiusOpt = Annotated[float, typer.Option("--link-radius", help="Radius of the links (MODEL.md 14.1), mm.")]
-ActuatorRadiusOpt = Annotated[float, typer.Option("--actuator-radius", help="Radius of the actuators at P_u and D_u, mm.")]
-MotorRadiusOpt = Annotated[float, typer.Option("--motor-radius", help="Radius of the drill motor, mm.")]
-MotorLengthOpt = Annotated[float, typer.Option("--motor-length", help="Length of the drill motor beyond the holder H, mm.")]
-EncoderOpt = Annotated[str, typer.Option("--encoder-deg", help="Position error bound of the actuators (MODEL.md 15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y).")]
-ThrustOpt = Annotated[float, typer.Option("--thrust", help="Drilling thrust along the drill axis (MODEL.md 15.3), N.")]
-LateralForceOpt = Annotated[float, typer.Option("--lateral-force", help="Largest lateral (skiving) force across the drill axis, N.")]
-StiffnessOpt = Annotated[str, typer.Option("--actuator-stiffness", help="Torsional stiffness of the actuators (MODEL.md 15.4), N·m/rad: one value or five.")]
+DESIGN = option("--design", "Design: a preset name (paper) or a design JSON file. [default: paper]", params=("design",), path=True)
+TRAJECTORIES = option("--trajectories", "Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'. [default: reference]",
+                      key="plan", params=("plan",), spread=True, path=True)  # fmt: skip
+POINTS = option("--points", "Points per trajectory (N >= 2), both ends included. [default: 30]", int, params=("points", "RunSettings.points"))
+MODE = option("--mode", "Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,- [default: +,+,+,+]",
+              params=("mode", "RunSettings.mode"))  # fmt: skip
+GUARDS = option("--guards", "Turn on the guards of MODEL.md 8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards"))
+SIDE = option("--side", "Keep trajectories of one side: R or L.", params=("side", "RunSettings.side"))
+LEVELS = option("--levels", "Keep levels, e.g. C3-C5 or C3,C6.", params=("levels", "RunSettings.levels"))
+IDS = option("--ids", "Keep trajectory ids, e.g. 1,3,5.", params=("ids", "RunSettings.ids"))
+TRANSFORM = option("--transform", "4x4 rigid transform (JSON) from the file's frame to the patient frame.", Path,
+                   params=("transform", "RunSettings.transform"))  # fmt: skip
+ENGINE = option("--engine", "Evaluation engine: auto (numba if available), numba or numpy. [default: auto]",
+                params=("engine", "RunSettings.engine"))  # fmt: skip
+ANATOMY = option("--anatomy", "Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or mesh files FILE [FILE ...] "
+                 "(STL, OBJ, PLY).", params=("anatomy", "RunSettings.anatomy"), spread=True)  # fmt: skip
+ANATOMY_FRAME = option("--anatomy-frame", "Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient. [default: LPS]",
+                       params=("anatomy_frame", "RunSettings.anatomy_frame"))  # fmt: skip
+OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
+SEED = option("--seed", "Random seed.", int, params=("seed",))
+WORKERS = option("--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",))
+DASK = option("--dask", "Address of a dask.distributed scheduler to send batches to.", params=("dask",))
+QUIET = option("--quiet", "No progress bar.", bool)
 
+PLAN: list[Flag] = [DESIGN, TRAJECTORIES, POINTS, MODE, GUARDS, SIDE, LEVELS, IDS, TRANSFORM, ENGINE, ANATOMY, ANATOMY_FRAME]
+"""The plan, its selection and what evaluates it: the request of ``evaluate``, ``joints``, ``export`` and ``explore``."""
 
-def plan_specs(trajectories: list[str] | None, more: list[str] | None, out: Path | None, folder: str) -> list[str]:
-    """The trajectory sets given after ``--trajectories`` (several values allowed), with ``--out`` required."""
-    if more and not trajectories:
-        raise InputError(f"unexpected argument {more[0]!r} (trajectory sets go after --trajectories)")
-    if out is None:
-        raise InputError(f"--out DIR is required (the {folder} folder)")
-    return [*(trajectories or []), *(more or [])]
-
-
-def numbers(text: str, flag: str) -> float | list[float]:
-    """One number or a comma-separated list of numbers (``--encoder-deg 0.01`` or ``0.01,0.01,0.02,0.01,0.01``)."""
-    try:
-        values = [float(v) for v in str(text).split(",")]
-    except ValueError:
-        raise InputError(f"{flag} {text!r}: expected one number or five comma-separated numbers") from None
-    return values[0] if len(values) == 1 else values
-
-
-def loads(encoder_deg: str, thrust: float, lateral_force: float, actuator_stiffness: str) -> dict[str, object]:
-    """The MODEL.md 15 parameters of the command line, as keyword arguments of :func:`arcube.evaluate`
-    and :func:`arcube.optimize`."""
-    return {"encoder_deg": numbers(encoder_deg, "--encoder-deg"), "thrust": thrust, "lateral_force": lateral_force,
-            "actuator_stiffness": numbers(actuator_stiffness, "--actuator-stiffness")}  # fmt: skip
+OPTION_FLAGS: dict[str, list[Flag]] = {
+    "clearances": model_flags(Guards, "options.guards", only=("clearance_mm", "self_clearance_mm")),
+    "guards": model_flags(Guards, "options.guards"),
+    "c_z": [replace(f, params=(*f.params, "c_z")) for f in model_flags(Guards, "options.guards", only=("c_z",),
+                                                                      helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; MODEL.md 6)."})],
+    "body": model_flags(Body, "options.body"),
+    "loads": model_flags(Loads, "options.loads"),
+    "masses": model_flags(Masses, "options.masses"),
+}
+"""The flags of :class:`arcube.Options`' groups, by group (``clearances``: the clearance guards of 14.3
+alone; ``guards``: every guard, 8.2's too)."""
 
 
-def radii(link: float, actuator: float, motor: float, motor_length: float) -> BodyRadii:
-    """The body radii of the flags (InputError on a bad value)."""
-    return BodyRadii(link, actuator, motor, motor_length)
+def request_flags(*groups: str) -> list[Flag]:
+    """The :data:`OPTION_FLAGS` of these groups, in order."""
+    return [f for g in groups for f in OPTION_FLAGS[g]]
+
+
+def options_of(given: Given, guarded: bool | None = None, base: Options | None = None) -> Options:
+    """The :class:`arcube.Options` of the flags given (``base``, else the paper's with the guards of
+    MODEL.md 8.2 when ``--guards``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
+    start = base if base is not None else (GUARDED_OPTIONS if (given.get("guards") if guarded is None else guarded) else Options())
+    tree = given.tree("options")
+    return start.merged(tree) if tree else start
+
+
+def masses_given(given: Given) -> bool:
+    """Whether any flag of the mass model (MODEL.md 18.1) was given."""
+    return bool(given.tree("options.masses"))
+
+
+def plan_request(given: Given) -> dict[str, Any]:
+    """The plan keywords of the API calls (``side``, ``levels``, ``ids``, ``transform``, ``anatomy``,
+    ``anatomy_frame``), from the flags given (absent ones keep the API's defaults)."""
+    keys = ("side", "levels", "ids", "transform", "anatomy", "anatomy_frame")
+    return {k: given.get(k) for k in keys if k in given}
+
+
+def one_plan(given: Given, default: str | None = "reference") -> Any:
+    """The one trajectory set of a command that takes one (``--trajectories``); InputError for several."""
+    from arcube.errors import InputError
+
+    plans = given.get("plan") or ([default] if default is not None else [])
+    if not plans:
+        raise InputError(f"{TRAJECTORIES.name} is required")
+    if len(plans) > 1:
+        raise InputError(f"{TRAJECTORIES.name}: one trajectory set here, got {len(plans)} ({' '.join(plans)})")
+    return plans[0]
+
+
+def with_help(flag: Flag, text: str, **changes: Any) -> Flag:
+    """``flag`` with another help text (one command means something narrower by it)."""
+    return replace(flag, help=text, **changes)
 
 
 class RichBar:

@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Annotated
 
 import typer
 
-from arcube.evaluation.engine import resolve
-from arcube.errors import InputError
+from arcube.cli.common import DESIGN, ENGINE, OUT, SEED, TRAJECTORIES, with_help
+from arcube.cli.projection import Given, command, option
+from arcube.coerce import engine_name
 
 REFERENCE = "reference"
 
@@ -65,10 +65,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     from arcube.optimization import run as runmod
 
     runmod.check_new_folder(out)
-    try:
-        engine = resolve(engine)
-    except ValueError as exc:
-        raise InputError(f"--engine: {exc}") from None
+    engine = engine_name(engine)
     started = time.perf_counter()
     typer.echo("1/4  The paper's design (Table 2) on the bundled reference patient (bilateral C3-C7 pedicle screws)")
     report_text.print_evaluation(evaluate("paper", REFERENCE, engine=engine))
@@ -88,24 +85,29 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     for path in reports:
         typer.echo(f"  {path}")
     typer.echo("Run folders hold config.toml, history.csv, best_design.json and summary.json; rerun a design with")
-    typer.echo(f"  arcube evaluate --design {out / 'all_free_bilateral' / 'best_design.json'} --trajectories reference")
+    typer.echo(f"  arcube evaluate {DESIGN.name} {out / 'all_free_bilateral' / 'best_design.json'} {TRAJECTORIES.name} reference")
     typer.echo("The paper's GA lands in a seed-dependent basin; arcube optimize's default (mscmaes, multi-start CMA-ES) goes")
     typer.echo("further at the same budget, and 'arcube study --seeds 1-5' shows the spread over seeds (README, 'Which optimizer').")
     return reports
 
 
+FLAGS = [
+    with_help(OUT, "Folder for the demo's run folders (new or empty); default ./arcube-demo[-N]."),
+    with_help(SEED, "Random seed of both optimizations. [default: 1]"), ENGINE,
+    option("--quick", "Tiny populations (a smoke run of the pipeline, seconds).", bool),
+]  # fmt: skip
+
+
+def demo(given: Given) -> None:
+    """Evaluate the paper's design, optimize it, and write run folders with HTML reports."""
+    out = given.get("out")
+    run_demo(out if out is not None else _fresh_folder(Path("arcube-demo")), seed=given.get("seed", 1), engine=given.get("engine", "auto"),
+             quick=bool(given.get("quick")))  # fmt: skip
+
+
 def register(app: typer.Typer) -> None:
     """Add the ``demo`` command to ``app``."""
-
-    @app.command()
-    def demo(
-        out: Annotated[Path | None, typer.Option("--out", help="Folder for the demo's run folders (new or empty); default ./arcube-demo[-N].")] = None,
-        seed: Annotated[int, typer.Option("--seed", help="Random seed of both optimizations.")] = 1,
-        engine: Annotated[str, typer.Option("--engine", help="Evaluation engine: auto, numba or numpy.")] = "auto",
-        quick: Annotated[bool, typer.Option("--quick", help="Tiny populations (a smoke run of the pipeline, seconds).")] = False,
-    ) -> None:
-        """Evaluate the paper's design, optimize it, and write run folders with HTML reports."""
-        run_demo(out if out is not None else _fresh_folder(Path("arcube-demo")), seed=seed, engine=engine, quick=quick)
+    command(app, "demo", FLAGS, demo, help=demo.__doc__ or "")
 
 
 def _fresh_folder(base: Path) -> Path:

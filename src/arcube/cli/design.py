@@ -8,29 +8,61 @@ bad input, 130 on Ctrl-C.
 from __future__ import annotations
 
 import math
-from pathlib import Path
-from typing import Annotated, Any
+from dataclasses import replace
+from typing import Any
 
 import typer
 
-from arcube.cli.common import AnatomyFrameOpt, AnatomyOpt, EncoderOpt, numbers, plan_specs
-from arcube.cli.flags import DensityOpt, GravityOpt, MDeltaOpt, MMotorOpt, WallOpt, given_masses, mass_keywords
+from arcube.cli.common import OUT, QUIET, request_flags, with_help
+from arcube.cli.optimize import PLANS, RUN_FLAGS
+from arcube.cli.projection import Flag, Given, command, option
+from arcube.cli.study import SEED_DASK, SEED_WORKERS, SEEDS
+from arcube.design_job.requirements import DEFAULTS, PROGRAM_FIGURES
 from arcube.errors import InputError
-from arcube.optimization.requirements import PROGRAM_FIGURES
 
-Strs = Annotated[list[str] | None, typer.Option("--trajectories", help="Trajectory sets (CSV, .mrk.json, folder or 'reference'); several: one placement per patient.")]
+__all__ = ["print_design", "register"]
+
+_RUN_FIELDS = ("anatomy", "anatomy_frame", "objectives", "standoff", "points", "side", "levels", "ids", "setups", "population",
+               "generations", "tolerance", "algorithm", "engine")  # fmt: skip
+"""The optimization settings a design job takes from the command line (the rest are the job's own)."""
+_HELPS = {
+    "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
+    "standoff": "The drill waits this far outside the anatomy (MODEL.md 17.1), mm. [default: 20]",
+    "side": "Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).",
+    "setups": "1, or 2: one robot docked once per side (R and L placements, shared links). [default: 1]",
+    "generations": "Generations (the budget is population x generations evaluations per seed). [default: 100]",
+    "tolerance": "ftol (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
+    "algorithm": "The optimizer. [default: mscmaes]",
+    "engine": "Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference). [default: auto]",
+}
+MINIMA = option("--min", "Change a lower limit: clearance=5, self_clearance=2 (mm).", key="minima", multiple=True, params=("requirements.min",))
+MAXIMA = option("--max", "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
+                "on the program (none by default): torque_peak (N m), power_peak (W).", key="maxima", multiple=True, params=("requirements.max",))  # fmt: skip
+DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}")
+                     for name in DEFAULTS]  # fmt: skip
+"""``--no-<requirement>`` for each default requirement."""
+_OBJECTIVE = {"objectives": "--objective"}
 
 
-def _pairs(items: list[str] | None, flag: str) -> dict[str, float]:
+def _run_flags() -> list[Flag]:
+    by_field = {f.key.removeprefix("run."): f for f in RUN_FLAGS}
+    out = []
+    for name in _RUN_FIELDS:
+        f = by_field[name]
+        out.append(replace(f, help=_HELPS.get(name, f.help), name=_OBJECTIVE.get(name, f.name)))
+    return out
+
+
+def _pairs(items: list[str] | None, flag: Flag) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items or []:
         name, sep, value = str(item).partition("=")
         if not sep or not name.strip():
-            raise InputError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} clearance=5")
+            raise InputError(f"{flag.name} {item!r}: expected NAME=VALUE, e.g. {flag.name} clearance=5")
         try:
             out[name.strip()] = float(value)
         except ValueError:
-            raise InputError(f"{flag} {item!r}: the value {value.strip()!r} is not a number") from None
+            raise InputError(f"{flag.name} {item!r}: the value {value.strip()!r} is not a number") from None
     return out
 
 
@@ -59,75 +91,45 @@ def print_design(result: Any) -> None:
         elif r["requirement"] in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode"):
             typer.echo(f"  missed: {r['requirement']} ({_num(r['value'])} {r['unit']}); a larger budget or more seeds may find a design")
         else:
+            flag = (MINIMA if r["kind"] == "min" else MAXIMA).name
+            drop = next((f.name for f in DROPS if f.key == f"drop.{r['requirement']}"), None)
             typer.echo(f"  missed: {r['requirement']} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need} "
-                       f"(--{r['kind']} {r['requirement']}=...) or --no-{r['requirement'].replace('_', '-')}")  # fmt: skip
+                       f"({flag} {r['requirement']}=...)" + (f" or {drop}" if drop else ""))  # fmt: skip
 
 
 def _num(v: Any) -> str:
     return f"{v:.4g}" if isinstance(v, (int, float)) and math.isfinite(v) else "-"
 
 
+def design(given: Given) -> None:
+    """Find a robot that meets every requirement for a plan and its anatomy (MODEL.md 16-17), checked by the NumPy reference."""
+    from arcube.api import design as design_api
+    from arcube.cli.study import SeedProgress
+    from arcube.coerce import seeds as checked_seeds
+    from arcube.design_job import DESIGN_GENERATIONS
+    from arcube.optimization.settings import RunSettings
+
+    run = given.tree("run")
+    run.setdefault("generations", DESIGN_GENERATIONS)
+    masses = given.tree("options")
+    settings = RunSettings(**run, options=masses) if masses else RunSettings(**run)
+    if given.tree("options.masses"):
+        settings.options.check_masses()
+    drop = [name for name in DEFAULTS if given.get(f"drop.{name}")]
+    seeds = given.get("seeds", "1-3")
+    with SeedProgress(len(checked_seeds(seeds)), enabled=not given.get("quiet")) as bar:
+        result = design_api(given.get("plan"), given.get("out"), seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
+                            maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar, settings=settings,
+                            **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
+    print_design(result)
+    if not result.met:
+        raise typer.Exit(3)
+
+
 def register(app: typer.Typer) -> None:
     """Add the ``design`` command to ``app``."""
-
-    @app.command()
-    def design(
-        trajectories: Strs = None,
-        out: Annotated[Path | None, typer.Option("--out", help="Design folder (created; must be new or empty).")] = None,
-        anatomy: AnatomyOpt = None,
-        anatomy_frame: AnatomyFrameOpt = "LPS",
-        seeds: Annotated[str, typer.Option("--seeds", help="Seeds, one optimization each: 1-3, 1,3,7.")] = "1-3",
-        minima: Annotated[list[str] | None, typer.Option("--min", help="Change a lower limit: clearance=5, self_clearance=2 (mm).")] = None,
-        maxima: Annotated[list[str] | None, typer.Option("--max", help="Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); on the program (none by default): torque_peak (N m), power_peak (W).")] = None,
-        no_clearance: Annotated[bool, typer.Option("--no-clearance", help="Drop the clearance requirement.")] = False,
-        no_self_clearance: Annotated[bool, typer.Option("--no-self-clearance", help="Drop the self-clearance requirement.")] = False,
-        no_lateral_error: Annotated[bool, typer.Option("--no-lateral-error", help="Drop the lateral-error requirement.")] = False,
-        no_axis_error: Annotated[bool, typer.Option("--no-axis-error", help="Drop the axis-error requirement.")] = False,
-        no_torque: Annotated[bool, typer.Option("--no-torque", help="Drop the torque requirement.")] = False,
-        no_holding_torque: Annotated[bool, typer.Option("--no-holding-torque", help="Drop the holding-torque requirement (MODEL.md 18.2: the robot's weight and the drilling loads).")] = False,
-        wall: WallOpt = None,
-        density: DensityOpt = None,
-        m_delta: MDeltaOpt = None,
-        m_motor: MMotorOpt = None,
-        gravity: GravityOpt = None,
-        encoder_deg: EncoderOpt = "0.01",
-        objective: Annotated[str, typer.Option("--objective", help="What to minimize among the designs that meet the requirements: eta_G, or another objective name.")] = "eta_G",
-        standoff: Annotated[float, typer.Option("--standoff", help="The drill waits this far outside the anatomy (MODEL.md 17.1), mm.")] = 20.0,
-        points: Annotated[int, typer.Option("--points", help="Points per trajectory.")] = 30,
-        side: Annotated[str | None, typer.Option("--side", help="Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).")] = None,
-        levels: Annotated[str | None, typer.Option("--levels", help="Keep levels, e.g. C3-C5.")] = None,
-        ids: Annotated[str | None, typer.Option("--ids", help="Keep trajectory ids, e.g. 1,3,5.")] = None,
-        setups: Annotated[int, typer.Option("--setups", help="1, or 2: one robot docked once per side (R and L placements, shared links).")] = 1,
-        population: Annotated[int, typer.Option("--population", help="Population size.")] = 400,
-        generations: Annotated[int, typer.Option("--generations", help="Generations (the budget is population x generations evaluations per seed).")] = 100,
-        tolerance: Annotated[float, typer.Option("--tolerance", help="ftol (see arcube optimize); 0 runs the whole budget.")] = 1e-5,
-        algorithm: Annotated[str, typer.Option("--algorithm", help="The optimizer (default mscmaes).")] = "mscmaes",
-        engine: Annotated[str, typer.Option("--engine", help="Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference).")] = "auto",
-        workers: Annotated[int, typer.Option("--workers", help="Seeds run at once, each in its own process.")] = 1,
-        dask: Annotated[str | None, typer.Option("--dask", help="Address of a dask.distributed scheduler: each seed is one task.")] = None,
-        quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
-        more_trajectories: Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE_TRAJECTORIES")] = None,
-    ) -> None:
-        """Find a robot that meets every requirement for a plan and its anatomy (MODEL.md 16-17), checked by the NumPy reference."""
-        from arcube.api import design as design_api
-        from arcube.cli.study import SeedProgress
-        from arcube.optimization.study import parse_seeds
-
-        from arcube.options import Body
-
-        specs = plan_specs(trajectories, more_trajectories, out, "design")
-        masses = mass_keywords(given_masses(wall, density, m_delta, m_motor, gravity), Body().link_radius)
-        drop = [n for n, off in (("clearance", no_clearance), ("self_clearance", no_self_clearance), ("lateral_error", no_lateral_error),
-                                 ("axis_error", no_axis_error), ("torque", no_torque), ("holding_torque", no_holding_torque)) if off]  # fmt: skip
-        n = len(parse_seeds(seeds))
-        with SeedProgress(n, enabled=not quiet) as bar:
-            result = design_api(
-                specs, out, seeds=seeds, minima=_pairs(minima, "--min"), maxima=_pairs(maxima, "--max"), drop=drop, workers=workers,
-                dask=dask, on_seed=bar, anatomy=anatomy, anatomy_frame=anatomy_frame, encoder_deg=numbers(encoder_deg, "--encoder-deg"),
-                objectives=[objective] if objective != "eta_G" else None, standoff=standoff, points=points, side=side, levels=levels,
-                ids=ids, setups=setups, population=population,
-                generations=generations, tolerance=tolerance, algorithm=algorithm, engine=engine, **masses,
-            )  # fmt: skip
-        print_design(result)
-        if not result.met:
-            raise typer.Exit(3)
+    out = with_help(OUT, "Design folder (created; must be new or empty).", required=True)
+    seeds = with_help(SEEDS, "Seeds, one optimization each: 1-3, 1,3,7. [default: 1-3]")
+    masses = [*request_flags("masses"), *[f for f in request_flags("loads") if f.key == "options.loads.encoder_deg"]]
+    flags = [PLANS, out, seeds, MINIMA, MAXIMA, *DROPS, *masses, *_run_flags(), SEED_WORKERS, SEED_DASK, QUIET]
+    command(app, "design", flags, design, help=design.__doc__ or "")

@@ -2,27 +2,29 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Annotated
-
 import typer
 
+from arcube.cli.common import OUT, SEED, with_help
+from arcube.cli.projection import Given, command, option
 from arcube.patients.cohort import write_patients
 
 __all__ = ["register"]
 
+FLAGS = [
+    with_help(OUT, "CSV path (K = 1) or folder (K > 1).", required=True),
+    option("--mean", "The mean patient (all parameters at their means).", bool, params=("mean",)),
+    with_help(SEED, "Random seed S; patient k uses S + k."),
+    option("--technique", "pedicle, roy-camille, magerl or an. [default: pedicle]", params=("technique",)),
+    option("--count", "Number of patients K. [default: 1]", int, params=("count",)),
+]  # fmt: skip
+
+
+def patients(given: Given) -> None:
+    """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check."""
+    for text in write_patients(bool(given.get("mean")), given.get("seed"), given.get("technique", "pedicle"), given.get("count", 1), given.get("out")):
+        typer.echo(text)
+
 
 def register(app: typer.Typer) -> None:
     """Add the ``patients`` command to ``app``."""
-
-    @app.command("patients")
-    def patients(
-        out: Annotated[Path, typer.Option("--out", help="CSV path (K = 1) or folder (K > 1).")],
-        mean: Annotated[bool, typer.Option("--mean", help="The mean patient (all parameters at their means).")] = False,
-        seed: Annotated[int | None, typer.Option("--seed", help="Random seed S; patient k uses S + k.")] = None,
-        technique: Annotated[str, typer.Option("--technique", help="pedicle, roy-camille, magerl or an.")] = "pedicle",
-        count: Annotated[int, typer.Option("--count", help="Number of patients K.")] = 1,
-    ) -> None:
-        """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check."""
-        for text in write_patients(mean, seed, technique, count, out):
-            typer.echo(text)
+    command(app, "patients", FLAGS, patients, help=patients.__doc__ or "")

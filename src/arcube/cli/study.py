@@ -1,29 +1,27 @@
 """The ``study`` command: one optimization per seed, then best / median / worst.
 
-It takes every option of ``arcube optimize`` (the same names, defaults and checks: its parameter
-list is copied from that command) except ``--seed``, plus ``--seeds``; ``--workers`` and ``--dask``
-spread the seeds, not the population. ``arcube resume STUDY_DIR`` finishes an interrupted study.
+It takes every option of ``arcube optimize`` (the same flags, generated from :class:`arcube.RunSettings`)
+except ``--seed``, plus ``--seeds``; ``--workers`` and ``--dask`` spread the seeds, not the population.
+``arcube resume STUDY_DIR`` finishes an interrupted study.
 """
 
 from __future__ import annotations
 
-import inspect
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 import typer
 
-from arcube.cli.common import RichBar, loads, plan_specs
+from arcube.cli.common import DASK, OUT, QUIET, WORKERS, RichBar, with_help
+from arcube.cli.projection import Given, command, option
 
-STUDY_ONLY = {
-    "seeds": Annotated[str, typer.Option("--seeds", help="Seeds, one run each: 1-5, 1,3,7 or 1-3,10.")],
-    "out": Annotated[Path | None, typer.Option("--out", help="Study folder (created; must be new or empty): seed_<S>/ run folders, study.csv, summary.json, convergence.png, best_design.json.")],
-    "workers": Annotated[int, typer.Option("--workers", help="Seeds run at once, each in its own process.")],
-    "dask": Annotated[str | None, typer.Option("--dask", help="Address of a dask.distributed scheduler: each seed is one task (its workers must see the study folder).")],
-    "best_known": Annotated[float | None, typer.Option("--best-known", help="An eta_G to draw as a line on the convergence figure.")],
-}
-DEFAULTS: dict[str, Any] = {"seeds": "1-5", "out": None, "workers": 1, "dask": None, "best_known": None}
+__all__ = ["SEEDS", "SeedProgress", "print_study", "register"]
+
+SEEDS = option("--seeds", "Seeds, one run each: 1-5, 1,3,7 or 1-3,10. [default: 1-5]", params=("seeds",))
+BEST_KNOWN = option("--best-known", "An eta_G to draw as a line on the convergence figure.", float, params=("best_known",))
+SEED_WORKERS = with_help(WORKERS, "Seeds run at once, each in its own process. [default: 1]")
+SEED_DASK = with_help(DASK, "Address of a dask.distributed scheduler: each seed is one task (its workers must see the study folder).")
 
 
 def print_study(study_dir: Path, summary: dict[str, Any]) -> None:
@@ -60,29 +58,26 @@ class SeedProgress(RichBar):
             self.progress.update(self.task, last=f"seed {seed}: eta_G {_num(summary.get('eta_G'))}")
 
 
+def study(given: Given) -> None:
+    """Run the same optimization once per seed (in parallel with --workers or --dask) and report best / median / worst."""
+    from arcube.api import study as study_api
+    from arcube.cli.optimize import run_settings
+    from arcube.coerce import seeds as checked_seeds
+
+    seeds = given.get("seeds", "1-5")
+    settings = run_settings(given)
+    n = len(checked_seeds(seeds))
+    with SeedProgress(n, enabled=not given.get("quiet")) as bar:
+        result = study_api(given.get("plan"), given.get("out"), seeds=seeds, on_seed=bar, settings=settings,
+                           **{k: given.get(k) for k in ("workers", "dask", "best_known") if k in given})  # fmt: skip
+    print_study(given.get("out"), result.summary)
+
+
 def register(app: typer.Typer) -> None:
-    """Add the ``study`` command to ``app`` (after ``optimize``, whose options it copies)."""
-    optimize = next(c.callback for c in app.registered_commands if c.callback is not None and c.callback.__name__ == "optimize")
-    shared = [p for name, p in inspect.signature(optimize, eval_str=True).parameters.items() if name not in ("seed", *STUDY_ONLY)]
+    """Add the ``study`` command to ``app``."""
+    from arcube.cli.optimize import PLANS, RUN_FLAGS
 
-    def study(**kwargs: Any) -> None:
-        """Run the same optimization once per seed (in parallel with --workers or --dask) and report best / median / worst."""
-        from arcube.api import study as study_api
-
-        out = kwargs.pop("out")
-        specs = plan_specs(kwargs.pop("trajectories"), kwargs.pop("more_trajectories"), out, "study")
-        seeds, quiet = kwargs.pop("seeds"), kwargs.pop("quiet")
-        load = loads(kwargs.pop("encoder_deg"), kwargs.pop("thrust"), kwargs.pop("lateral_force"), kwargs.pop("actuator_stiffness"))
-        settings = {**kwargs, **load}
-        from arcube.optimization.study import parse_seeds
-
-        n = len(parse_seeds(seeds))
-        with SeedProgress(n, enabled=not quiet) as bar:
-            result = study_api(specs, out, seeds=seeds, on_seed=bar, **settings)
-        print_study(out, result.summary)
-
-    own = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, annotation=ann, default=DEFAULTS[name]) for name, ann in STUDY_ONLY.items()]
-    params = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in shared if p.kind != inspect.Parameter.VAR_KEYWORD]
-    study.__signature__ = inspect.Signature(own + params)  # type: ignore[attr-defined]
-    study.__annotations__ = {}
-    app.command()(study)
+    out = with_help(OUT, "Study folder (created; must be new or empty): seed_<S>/ run folders, study.csv, summary.json, convergence.png, best_design.json.",
+                    required=True)  # fmt: skip
+    flags = [SEEDS, out, SEED_WORKERS, SEED_DASK, BEST_KNOWN, PLANS, *[f for f in RUN_FLAGS if f.key != "run.seed"], QUIET]
+    command(app, "study", flags, study, help=study.__doc__ or "")

@@ -47,6 +47,17 @@ class Anatomy:
         """The anatomy of ``meshes`` (patient frame)."""
         return cls(tuple(meshes), source)
 
+    def vertices_faces(self) -> tuple[Any, Any]:
+        """Every mesh as one: vertices ``(V, 3)`` mm and triangles ``(F, 3)`` (indices into them)."""
+        import numpy as np
+
+        vertices, faces, offset = [], [], 0
+        for mesh in self.meshes:
+            vertices.append(np.asarray(mesh.vertices, dtype=np.float64))
+            faces.append(np.asarray(mesh.faces, dtype=np.int64) + offset)
+            offset += len(mesh.vertices)
+        return np.concatenate(vertices), np.concatenate(faces)
+
     @property
     def distance(self) -> AnatomyDistance:
         """The signed distance grids (MODEL.md 14.3), built once."""

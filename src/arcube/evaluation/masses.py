@@ -14,9 +14,9 @@ Inputs broadcast over leading axes like the tip metrics: ``params`` ``(..., 27)`
 designs ``params[:, None, :]`` against the P points of a plan ``E[None, :, :]`` -> ``(D, P)``. The
 ``*_of_solution`` forms take an IK solution (and the forward Jacobians) already at hand. Settings:
 an :class:`arcube.options.Options` (``masses``, ``body``, ``loads``, ``guards.c_z``) or a plain
-:class:`arcube.evaluation.bodies.MassModel` (which may have zero density).
+:class:`arcube.evaluation.mass_bodies.MassModel` (which may have zero density).
 
-**What is counted** (MODEL.md 18.1, :mod:`arcube.evaluation.bodies`): the moving links of 14.1 as
+**What is counted** (MODEL.md 18.1, :mod:`arcube.evaluation.mass_bodies`): the moving links of 14.1 as
 thin-walled tubes (cranks, four-bar input, coupler and output links, the z dyad, the platform
 triangle, the four spherical links as 12 chords each), the two delta actuators as point masses at
 D_x, D_y, the drill motor (solid cylinder, H -> H + L_m e). Not counted: frame_u, the rho actuators
@@ -31,7 +31,7 @@ spherical link spans 1/12 of alpha_u or beta_u, which the IK fixes exactly), so
 J_b^T g, with J_b the Jacobian (mm/rad) of body b's centre of mass, the mean of its two end points'
 Jacobians. Those come from the forward Jacobian of 15.1 (J_E, J_e, omega perp e), the crank and input
 link rotations about their own joint axes, and the passive RTS/TMS angle rate sigma_dot_u =
--(u_beta . e_dot) / J_AS,u from differentiating Eq 4 (see :mod:`arcube.evaluation.bodies`). Every
+-(u_beta . e_dot) / J_AS,u from differentiating Eq 4 (see :mod:`arcube.evaluation.mass_bodies`). Every
 body of the closed chain is thus moved exactly as the forward kinematics moves it. N mm -> N m: /1000.
 
 **Ambiguities of MODEL.md 18 resolved here:**
@@ -59,7 +59,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from arcube.evaluation.bodies import MassModel, body_masses_kg, bodies_of_solution
+from arcube.evaluation.mass_bodies import MassModel, body_masses_kg, bodies_of_solution
 from arcube.evaluation.performance import check_force, jacobians_of_solution
 from arcube.model import frames
 from arcube.model.design import unpack

@@ -4,7 +4,7 @@
 in :class:`Evaluation`, which gives the per-trajectory table, the failure counts and their
 diagnosis, the JSON object of ``arcube evaluate --json`` (built by :mod:`arcube.evaluation.tables`)
 and a pandas DataFrame. The HTML report is drawn by :func:`arcube.report.write_report`.
-:func:`arcube.evaluate` (the public API) loads files and validates flags before calling it.
+:func:`arcube.evaluate` (the public API) loads files and coerces arguments before calling it.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -21,11 +20,10 @@ from arcube.evaluation import tables
 from arcube.evaluation.engine import evaluate_task
 from arcube.evaluation.reference import Options, PointResults, TaskResults
 from arcube.evaluation.tables import TrajectorySummary
-from arcube.evaluation.task import MAX_POINTS, Task, build_task
-from arcube.errors import InputError
-from arcube.io import TrajectorySet, load_trajectories, select
+from arcube.evaluation.task import Task, build_task
+from arcube.io import TrajectorySet
 from arcube.model.design import Design
-from arcube.model.mechanism import format_mode, parse_mode
+from arcube.model.mechanism import format_mode
 
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
@@ -105,34 +103,17 @@ class Evaluation:
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object of the issue's contract (values that do not exist are null)."""
-        return tables.to_json(self)
-
-
-def parse_mode_option(text: str) -> np.ndarray:
-    """A working mode's text (``"+,+,-,+"``) -> signs ``(4,)``; InputError naming ``mode``."""
-    try:
-        return parse_mode(text)
-    except ValueError as exc:
-        raise InputError(f"mode: {exc}", param="mode") from None
-
-
-def load_trajectory_set(
-    trajectories: str, points: int, side: str | None = None, levels: str | None = None,
-    ids: str | None = None, transform: Path | None = None,
-) -> TrajectorySet:  # fmt: skip
-    """Read and subset trajectories, checking ``points`` first (raises InputError)."""
-    if not 2 <= points <= MAX_POINTS:
-        raise InputError.of("points", f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {points}")
-    return select(load_trajectories(trajectories, transform=transform), side=side, levels=levels, ids=ids)
-
-
-def load_task(
-    trajectories: str, points: int, side: str | None = None, levels: str | None = None,
-    ids: str | None = None, transform: Path | None = None,
-) -> tuple[TrajectorySet, Task]:  # fmt: skip
-    """Read, subset and sample trajectories into a task (raises InputError)."""
-    ts = load_trajectory_set(trajectories, points, side, levels, ids, transform)
-    return ts, build_task(ts.entry, ts.target, points, ids=ts.ids)
+        pts = self.results.points
+        return {
+            "design": self.design.to_dict(),
+            "mode": self.mode,
+            "engine": self.engine,
+            "guards": self.options.flat(),
+            "anatomy": None if self.anatomy is None else self.anatomy.source,
+            "points": tables.point_rows(pts, self.task),
+            "summary": self.summary_json(),
+            "trajectories": [vars(row) for row in tables.per_trajectory(pts, self.task, self.trajectories)],
+        }
 
 
 def evaluate_design(

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -23,10 +23,7 @@ from arcube.model import frames
 from arcube.model.body import PART_NAMES
 from arcube.model.design import Design, unpack
 
-if TYPE_CHECKING:
-    from arcube.evaluation.result import Evaluation
-
-__all__ = ["TrajectorySummary", "diagnosis", "failure_counts", "per_trajectory", "point_rows", "summary", "to_json"]
+__all__ = ["TrajectorySummary", "diagnosis", "failure_counts", "per_trajectory", "point_rows", "summary"]
 
 
 @dataclass(frozen=True)
@@ -184,21 +181,6 @@ def point_rows(pts: PointResults, task: Task) -> list[dict[str, Any]]:
             }
         )
     return points
-
-
-def to_json(evaluation: Evaluation) -> dict[str, Any]:
-    """The JSON object of the issue's contract (values that do not exist are null)."""
-    ev = evaluation
-    return {
-        "design": ev.design.to_dict(),
-        "mode": ev.mode,
-        "engine": ev.engine,
-        "guards": ev.options.flat(),
-        "anatomy": None if ev.anatomy is None else ev.anatomy.source,
-        "points": point_rows(ev.results.points, ev.task),
-        "summary": ev.summary_json(),
-        "trajectories": [vars(row) for row in per_trajectory(ev.results.points, ev.task, ev.trajectories)],
-    }
 
 
 def _name_at(pts: PointResults, values: np.ndarray, index: np.ndarray, names: tuple[str, ...]) -> str | None:

@@ -10,13 +10,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from arcube.errors import InputError
+from arcube.coerce import mode_signs
 from arcube.model import frames
 from arcube.model.body import U_HAT, V_HAT, W_HAT, mechanism_points
 from arcube.model.design import Design, unpack
-from arcube.model.mechanism import inverse_kinematics, parse_mode
+from arcube.model.mechanism import inverse_kinematics
 
-__all__ = ["ACTUATED", "JOINT_NAMES", "axes_world", "design_vector", "joint_values", "mode_signs", "z_dyad_range"]
+__all__ = ["ACTUATED", "JOINT_NAMES", "axes_world", "design_vector", "joint_values", "z_dyad_range"]
 
 ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated hinges (and their position actuators), in the order of MODEL.md 7.4."""
@@ -42,17 +42,6 @@ def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
 def design_vector(design: Design | ArrayLike) -> NDArray[np.float64]:
     """The ``(27,)`` vector (mm, deg) of a :class:`Design` or a ``(27,)`` / ``(23,)`` vector."""
     return Design.coerce(design).to_vector()
-
-
-def mode_signs(mode: str | ArrayLike) -> NDArray[np.float64]:
-    """The ``(4,)`` working-mode signs of ``"+,+,+,+"`` or four numbers (InputError naming ``mode``)."""
-    if isinstance(mode, str):
-        try:
-            return parse_mode(mode)
-        except ValueError as exc:
-            problem = str(exc).removeprefix("working mode ")  # "must be four signs ..., got '...'"
-            raise InputError.of("mode", problem) from None
-    return np.asarray(mode, dtype=float)
 
 
 def axes_world(params: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:

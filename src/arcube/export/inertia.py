@@ -1,7 +1,7 @@
 """Masses and inertias of the exported MuJoCo bodies, from the mass model of MODEL.md 18.1.
 
 Each MuJoCo body of :mod:`arcube.export.mjcf` carries the sum of the 18.1 bodies
-(:data:`arcube.evaluation.bodies.BODY_NAMES`) rigidly attached to it:
+(:data:`arcube.evaluation.mass_bodies.BODY_NAMES`) rigidly attached to it:
 
 * ``crank_u`` (u = x, y, z), ``input_u``, ``coupler_u``, ``output_u`` (u = x, y), ``zdyad_d``,
   ``zdyad_c``: the 18.1 link of the same name;
@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.errors import InputError
-from arcube.evaluation.bodies import BODY_NAMES, MOTOR, MassModel, bodies_of_solution
+from arcube.evaluation.mass_bodies import BODY_NAMES, MOTOR, MassModel, bodies_of_solution
 from arcube.model.body import BodyRadii
 from arcube.model.mechanism import inverse_kinematics
 from arcube.options import Options

@@ -64,8 +64,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
-from arcube.evaluation.bodies import MassModel
-from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, design_vector, joint_values, mode_signs, z_dyad_range
+from arcube.evaluation.mass_bodies import MassModel
+from arcube.coerce import mode_signs
+from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, design_vector, joint_values, z_dyad_range
 from arcube.export.inertia import INERTIA_FLOOR_KG_MM2, MASS_FLOOR_KG, body_inertials, mass_model_for
 from arcube.export.plan_point import no_ik_reason, plan_points, resolve_point
 from arcube.export.xmltree import COLORS, XmlBody, mesh_items, num, vec
@@ -73,9 +74,9 @@ from arcube.io.inputs import short_repr
 from arcube.model.body import BodyRadii, mechanism_points
 from arcube.model.design import Design, unpack
 from arcube.model.mechanism import format_mode, inverse_kinematics
-from arcube.options import Options
+from arcube.options import Options, request_options
 
-__all__ = ["ACTUATED", "JOINT_NAMES", "KP", "KV", "check_z_dyad", "checked_inputs", "export_mjcf", "joint_values", "model_xml", "z_dyad_range"]
+__all__ = ["ACTUATED", "JOINT_NAMES", "KP", "KV", "check_z_dyad", "checked_inputs", "export_masses", "export_mjcf", "joint_values", "model_xml", "z_dyad_range"]
 
 PIN_MM = 100.0
 """Distance between the two points of a hinge closure along its axis (close_T_u, close_T_u_axis), mm: the
@@ -103,9 +104,10 @@ def export_mjcf(
     points: int = 30,
     mode: str | ArrayLike = "+,+,+,+",
     c_z: float | None = None,
-    radii: BodyRadii = BodyRadii(),
+    options: Options | None = None,
     anatomy: Any = None,
-    masses: MassModel | Options | None = None,
+    masses: bool | None = None,
+    **changes: Any,
 ) -> str:
     """The MJCF XML (a string) of ``design`` assembled at one point of ``plan``; see the module docstring.
 
@@ -120,17 +122,18 @@ def export_mjcf(
     c_z : second link of the z-leg dyad (mm); default d_z (MODEL.md 6). The dyad must close at every
         point of the plan where the IK has a solution, else :class:`InputError` names the c_z range
         that would (the intersection of [|L_z - d_z|, L_z + d_z]) or says that none can.
-    radii : body radii of MODEL.md 14.1 (links, actuators, drill motor radius and length).
+    options : the :class:`arcube.Options` of the robot: its body radii (MODEL.md 14.1) and its mass model
+        (18.1: every body's mass and inertia and the model's gravity, :mod:`arcube.export.inertia`);
+        ``**changes``: its settings by name (``link_radius=6``, ``wall=1.5``).
     anatomy : None, an :class:`~arcube.evaluation.anatomy.Anatomy` or trimesh meshes (patient frame, mm),
         written as static, non-colliding mesh geoms.
-    masses : the mass model of MODEL.md 18.1 (:class:`arcube.options.Options`, whose ``masses`` group is
-        read, or a :class:`~arcube.evaluation.bodies.MassModel`); None: ``Options()``. Its geometry is the
-        export's (``radii``, ``c_z``); it sets every body's mass and inertia and the model's gravity
-        (:mod:`arcube.export.inertia`).
+    masses : None: the mass model of ``options`` (a massless model when its links are too thin for the
+        default wall and no masses were given); False: a massless model; True: required.
 
     Raises :class:`InputError` for a bad ``at``, no IK solution at ``at``, or a z dyad that cannot close.
     """
-    params, signs, cz = checked_inputs(design, mode, c_z, radii)
+    opts = request_options(options, **changes)
+    params, signs, cz = checked_inputs(design, mode, c_z)
     pl = plan_points(plan, points)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, pl.E, pl.e, signs)
@@ -150,16 +153,23 @@ def export_mjcf(
             "pick another point (at), mode or design"
         )
     check_z_dyad(params, pl.E[ok], pl.e[ok], signs, cz, "solvable points of the plan")
-    return model_xml(params, pl.E[idx], pl.e[idx], signs, cz, radii, anatomy, masses, where)
+    return model_xml(params, pl.E[idx], pl.e[idx], signs, cz, opts.body.radii, anatomy, export_masses(opts, masses), where)
 
 
-def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike, c_z: float | None, radii: BodyRadii) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+def export_masses(options: Options, masses: bool | None) -> MassModel:
+    """The mass model of an export: ``options``' (MODEL.md 18.1) when it applies
+    (:meth:`arcube.Options.mass_model_on`), else a massless model (the links' geometry only)."""
+    if options.mass_model_on(masses):
+        return MassModel.of(options)
+    link = options.body.link_radius
+    return MassModel(link_radius_mm=link, wall_mm=link / 2, density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
+
+
+def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike, c_z: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm: d_z when None) of an export; InputError on bad input."""
     params = design_vector(design)
     Design.from_vector(params)  # validates (InputError)
     signs = mode_signs(mode)
-    if not isinstance(radii, BodyRadii):
-        raise InputError.of("radii", "must be an arcube.model.body.BodyRadii")
     if c_z is not None and not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
         raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
     return params, signs, float(unpack(params).d[2]) if c_z is None else float(c_z)
@@ -182,7 +192,7 @@ def check_z_dyad(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray
 
 
 def model_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
-              radii: BodyRadii, anatomy: Any, masses: MassModel | Options | None, where: str, *,
+              radii: BodyRadii, anatomy: Any, masses: MassModel, where: str, *,
               actuated: dict[str, float] | None = None, note: str = "") -> str:  # fmt: skip
     """The MJCF text assembled at the pose (E, e) ``(3,)``, R_w; inputs checked by the caller (:func:`export_mjcf`).
 

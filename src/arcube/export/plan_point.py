@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,15 +31,12 @@ class PlanPoints:
 
 def plan_points(plan: Any, points: int) -> PlanPoints:
     """The plan (a TrajectorySet, a path, None or "reference") sampled at ``points`` per trajectory."""
+    from arcube.coerce import points as checked_points
     from arcube.evaluation.task import build_task
-    from arcube.io import TrajectorySet
-    from arcube.evaluation.result import load_trajectory_set
+    from arcube.io.load import load_plan
 
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 2:
-        raise InputError.of("points", f"must be an integer of at least 2 (both ends of a trajectory), got {short_repr(points)}")
-    if plan is None:
-        plan = "reference"
-    ts = plan if isinstance(plan, TrajectorySet) else load_trajectory_set(os.fspath(plan), int(points))
+    points = checked_points(points)
+    ts = load_plan("reference" if plan is None else plan)
     if len(ts.ids) == 0:
         raise InputError("the plan has no trajectories")
     task = build_task(ts.entry, ts.target, int(points), ids=ts.ids)

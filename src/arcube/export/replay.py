@@ -1,7 +1,7 @@
 """A drilling program (MODEL.md 17) as a MuJoCo model and a replay of its joint targets.
 
 :func:`export_program` reads a program (the folder that ``arcube program`` writes, or a
-:class:`~arcube.program.Program`) and returns
+:class:`~arcube.motion.Program`) and returns
 
 * the MJCF of :mod:`arcube.export.mjcf` for the program's design, **assembled at the program's
   first row** (its keyframe ``assembled`` is that state, ctrl included), with the masses of MODEL.md
@@ -51,15 +51,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.errors import InputError
-from arcube.evaluation.bodies import MassModel
 from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
-from arcube.export.mjcf import check_z_dyad, checked_inputs, model_xml
+from arcube.export.mjcf import check_z_dyad, checked_inputs, export_masses, model_xml
 from arcube.io.files import atomic_write_text
-from arcube.model.body import BodyRadii
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode, inverse_kinematics
-from arcube.options import Options
-from arcube.program.output import CSV_COLUMNS, Program
+from arcube.options import Options, request_options
+from arcube.motion.output import CSV_COLUMNS, Program
 
 __all__ = ["ANGLE_TOL_RAD", "REPLAY_COLUMNS", "ProgramExport", "export_program", "read_program", "recorded_design", "replay_path",
            "write_program_export"]
@@ -121,7 +119,7 @@ def _rows_of(program: Any) -> Program:
         return program
     if isinstance(program, (str, os.PathLike)):
         return read_program(program)
-    raise InputError.of("program", f"must be a program folder or an arcube.program.Program, got {type(program).__name__}")
+    raise InputError.of("program", f"must be a program folder or an arcube.motion.Program, got {type(program).__name__}")
 
 
 def recorded_design(rows: Program) -> Design | None:
@@ -165,21 +163,22 @@ def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.
 
 
 def export_program(
-    program: Any, design: Design | Any = None, *, c_z: float | None = None, radii: BodyRadii = BodyRadii(), anatomy: Any = None,
-    masses: MassModel | Options | None = None,
+    program: Any, design: Design | Any = None, *, c_z: float | None = None, options: Options | None = None, anatomy: Any = None,
+    masses: bool | None = None, **changes: Any,
 ) -> ProgramExport:  # fmt: skip
     """The MJCF of a program's design assembled at its first row, and the replay CSV (module docstring).
 
     Parameters
     ----------
-    program : a program folder (``program.csv``, ``program.json``) or a :class:`~arcube.program.Program`.
+    program : a program folder (``program.csv``, ``program.json``) or a :class:`~arcube.motion.Program`.
     design : a :class:`Design`, preset name, design JSON path or vector; None: the one the program
         records (:func:`recorded_design`), else InputError naming ``design``.
-    c_z, radii, anatomy, masses : as in :func:`~arcube.export.mjcf.export_mjcf`.
+    c_z, options, anatomy, masses, changes : as in :func:`~arcube.export.mjcf.export_mjcf`.
 
     Raises :class:`InputError` for an unreadable program, no design, a design whose IK does not give
     the program's angles, or a z dyad that cannot close with c_z at every row.
     """
+    opts = request_options(options, **changes)
     rows = _rows_of(program)
     if len(rows.t_s) == 0:
         raise InputError.of("program", "has no rows")
@@ -189,14 +188,14 @@ def export_program(
             raise InputError.of("design", "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)")
     d = Design.coerce(design)
     mode = rows.summary.get("mode", "+,+,+,+")
-    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else "+,+,+,+", c_z, radii)
+    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else "+,+,+,+", c_z)
     _check_angles(params, rows, signs)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
     q0 = np.radians(rows.q_deg[0])
     source = "the program" if rows.path is None else f"the program {rows.path}"
     where = f"row 0 of {source} (t = {rows.t_s[0]:.6g} s, {rows.segment[0]} {rows.trajectory[0]})"
     note = f"Replay: CSV beside this file (<name>.replay.csv), {len(rows.t_s)} rows: ctrl_* targets (rad) at t_s."
-    xml = model_xml(params, rows.E[0], rows.e[0], signs, cz, radii, anatomy, masses, where,
+    xml = model_xml(params, rows.E[0], rows.e[0], signs, cz, opts.body.radii, anatomy, export_masses(opts, masses), where,
                     actuated={n: float(q0[i]) for i, n in enumerate(ACTUATED)}, note=note)  # fmt: skip
     qpos = joint_values(params, rows.E, rows.e, signs, c_z=cz)
     passive = {n: np.unwrap(qpos[n]) for n in JOINT_NAMES if n not in ACTUATED}  # continuous along the rows

@@ -2,7 +2,8 @@
 
 * :mod:`arcube.io.trajectories`: trajectory sets (CSV), subsets, rigid transforms;
 * :mod:`arcube.io.slicer`: 3D Slicer markups (``.mrk.json``);
-* :mod:`arcube.io.load`: :func:`load_trajectories`, one entry point for every format;
+* :mod:`arcube.io.load`: :func:`load_trajectories`, one entry point for every format, and
+  :func:`load_plan`, a plan as every command takes it (a set or a file, kept to a side, levels, ids);
 * :mod:`arcube.io.files`: atomic writes (temporary file, then rename; special files written in place);
 * :mod:`arcube.io.inputs`: the layer under every reader (regular files only, size, encoding, JSON
   nesting and number limits, the coordinate range).
@@ -11,7 +12,7 @@
 from __future__ import annotations
 
 from arcube.io.files import atomic_write_bytes, atomic_write_text
-from arcube.io.load import load_trajectories
+from arcube.io.load import load_plan, load_trajectories
 from arcube.io.slicer import read_markups, write_markups
 from arcube.io.trajectories import (
     CSV_COLUMNS, TrajectorySet, apply_transform, atomic_write, read_csv, read_transform, select, validate_points, write_csv,
@@ -19,6 +20,6 @@ from arcube.io.trajectories import (
 
 __all__ = [
     "CSV_COLUMNS", "TrajectorySet", "apply_transform", "atomic_write", "atomic_write_bytes", "atomic_write_text",
-    "load_trajectories", "read_csv", "read_markups", "read_transform", "select", "validate_points", "write_csv",
+    "load_plan", "load_trajectories", "read_csv", "read_markups", "read_transform", "select", "validate_points", "write_csv",
     "write_markups",
 ]  # fmt: skip

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.slicer import read_markups
@@ -12,7 +16,7 @@ from arcube.io.trajectories import (
     TrajectorySet, apply_transform, read_csv, read_reference, read_transform, validate_points,
 )  # fmt: skip
 
-__all__ = ["load_trajectories"]
+__all__ = ["load_plan", "load_trajectories"]
 
 
 def load_trajectories(spec: str | os.PathLike[str],
@@ -48,3 +52,18 @@ def load_trajectories(spec: str | os.PathLike[str],
         labels = [f"{ts.source} trajectory {short_repr(tid)} (after the transform {os.fspath(transform)})" for tid in ts.ids]
         validate_points(labels, ts.ids, ts.entry, ts.target)
     return ts
+
+
+def load_plan(plan: TrajectorySet | str | os.PathLike[str], *, side: str | None = None, levels: str | Sequence[str] | None = None,
+              ids: str | Sequence[Any] | None = None, transform: str | os.PathLike[str] | None = None) -> TrajectorySet:  # fmt: skip
+    """A plan as every command takes it: a :class:`TrajectorySet` (checked as a file's would be) or what
+    :func:`load_trajectories` reads, then kept to ``side``, ``levels`` and ``ids`` (``"C3-C5"`` or
+    ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``). ``transform`` applies to files only."""
+    from arcube.io.trajectories import select
+
+    if isinstance(plan, TrajectorySet):
+        validate_points([f"{plan.source} trajectory {i}" for i in plan.ids], plan.ids, np.asarray(plan.entry), np.asarray(plan.target))
+        ts = plan
+    else:
+        ts = load_trajectories(plan, transform=transform)
+    return select(ts, side=side, levels=levels, ids=ids) if (side is not None or levels is not None or ids is not None) else ts

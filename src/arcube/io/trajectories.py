@@ -294,18 +294,20 @@ def _expand_levels(spec: str) -> set[str]:
     return wanted
 
 
-def select(ts: TrajectorySet, side: str | None = None, levels: str | None = None,
-           ids: str | None = None) -> TrajectorySet:
+def select(ts: TrajectorySet, side: str | None = None, levels: str | Sequence[str] | None = None,
+           ids: str | Sequence[Any] | None = None) -> TrajectorySet:
     """Subset of ``ts`` matching every given filter (AND), in the set's own order.
 
     Args:
         side: ``"R"`` or ``"L"`` (case-insensitive).
-        levels: ``"C3-C5"``, ``"C3,C5"`` or mixtures such as ``"C3,C5-C7"``.
-        ids: comma-separated ids, e.g. ``"1,3,5"``; an id absent from the set is an error.
+        levels: ``"C3-C5"``, ``"C3,C5"`` or mixtures such as ``"C3,C5-C7"``; or a sequence of such items.
+        ids: comma-separated ids, e.g. ``"1,3,5"``, or a sequence of ids; an id absent from the set is an error.
 
     Raises:
         InputError: bad filter syntax, unknown id, or nothing left.
     """
+    levels = levels if levels is None or isinstance(levels, str) else ",".join(str(v) for v in levels)
+    ids = ids if ids is None or isinstance(ids, str) else ",".join(str(v) for v in ids)
     keep = np.ones(len(ts), dtype=bool)
     if side is not None:
         s = side.strip().upper()

@@ -8,15 +8,13 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
-from arcube.evaluation import engine as core_engine
+from arcube.coerce import engine_name, mode_signs
 from arcube.evaluation.task import build_task
 from arcube.model.design import PARAM_NAMES
-from arcube.model.mechanism import parse_mode
 from arcube.optimization.problem import DEFAULT_BOUNDS, FitnessModel, TaskData, VariableSpace
 from arcube.optimization.settings import RunSettings
-from arcube.options import Options
 
-__all__ = ["ANATOMY_FILES", "anatomy_file", "build_model", "check_engine", "load_run_anatomies", "run_objectives", "run_options", "stl_roundtrip"]
+__all__ = ["ANATOMY_FILES", "anatomy_file", "build_model", "check_engine", "load_run_anatomies", "stl_roundtrip"]
 
 
 ANATOMY_FILES = "anatomy.stl"
@@ -27,11 +25,6 @@ patient, ``anatomy_<i>.stl`` for patient i > 0."""
 def anatomy_file(i: int) -> str:
     """File name of patient i's anatomy in a run folder."""
     return ANATOMY_FILES if i == 0 else f"anatomy_{i}.stl"
-
-
-def run_options(s: dict[str, Any]) -> Options:
-    """The evaluation options of a run's ``[settings]`` table (guards, clearance guards, body, loads)."""
-    return RunSettings.from_table(s).evaluation_options()
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
@@ -64,12 +57,7 @@ def stl_roundtrip(anatomy: Any) -> Any:
     from arcube.evaluation.anatomy import Anatomy
     from arcube.io.meshes import _stl_bytes
 
-    vertices, faces, offset = [], [], 0
-    for m in anatomy.meshes:
-        vertices.append(np.asarray(m.vertices, dtype=np.float64))
-        faces.append(np.asarray(m.faces, dtype=np.int64) + offset)
-        offset += len(m.vertices)
-    data = _stl_bytes(np.concatenate(vertices), np.concatenate(faces), "arcube anatomy, mm, frame=patient")
+    data = _stl_bytes(*anatomy.vertices_faces(), "arcube anatomy, mm, frame=patient")
     loaded = trimesh.load(io.BytesIO(data), file_type="stl", force="mesh", process=False)
     mesh = trimesh.Trimesh(vertices=np.asarray(loaded.vertices, dtype=np.float64), faces=np.asarray(loaded.faces, dtype=np.int64), process=False)
     mesh.merge_vertices()
@@ -77,50 +65,43 @@ def stl_roundtrip(anatomy: Any) -> Any:
     return Anatomy.from_meshes([mesh], anatomy.source).distance
 
 
-def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None) -> FitnessModel:
+def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None,
+                settings: RunSettings | None = None) -> FitnessModel:  # fmt: skip
     """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
-    from the run folder (None: not loaded, for validating a config), or given as ``anatomies``."""
+    from the run folder (None: not loaded, for validating a config), or given as ``anatomies``;
+    ``settings``: the config's settings when already read (:meth:`RunSettings.from_config`)."""
     s = cfg["settings"]
-    rs = RunSettings.from_table(s)
-    mode = None if rs.mode == "free" else parse_mode(rs.mode)
+    rs = settings if settings is not None else RunSettings.from_config(cfg)
+    mode = None if rs.mode == "free" else mode_signs(rs.mode)
     # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
     bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
     base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
     # configs written before --docking existed shared one placement among patients
-    space = VariableSpace(base=base, free=tuple(s["free"]), bounds=bounds, setups=int(s["setups"]), mode=mode,
-                          patients=len(cfg["patients"]), docking=str(s.get("docking", "shared")))  # fmt: skip
+    space = VariableSpace(base=base, free=rs.free, bounds=bounds, setups=rs.setups, mode=mode, patients=len(cfg["patients"]),
+                          docking=rs.docking)  # fmt: skip
     tasks: list[TaskData] = []
     for i, pat in enumerate(cfg["patients"]):
         entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
         groups = [("", np.ones(len(sides), bool))] if space.setups == 1 else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
         for setup, (side, keep) in enumerate(groups):
-            task = build_task(entry[keep], target[keep], int(s["points"]))
+            task = build_task(entry[keep], target[keep], rs.points)
             label = f"{pat['source']}{' ' + side if side else ''}"
             tasks.append(TaskData(i, setup, label, task.E, task.e))
             if "standoff" in pat:  # MODEL.md 17.1: the line from each standoff S_j to its entry A_j
-                approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], int(s["points"]))
-                direction = np.repeat(task.e.reshape(-1, int(s["points"]), 3)[:, 0], int(s["points"]), axis=0)
+                approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], rs.points)
+                direction = np.repeat(task.e.reshape(-1, rs.points, 3)[:, 0], rs.points, axis=0)
                 tasks.append(TaskData(i, setup, f"{label} approach", approach.E, direction, role="approach"))
-    margin = s.get("margin")
     return FitnessModel(
         space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
         options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
-        margin_deg=None if margin is None else float(margin),
+        margin_deg=rs.margin,
         objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
     )  # fmt: skip
 
 
-def run_objectives(s: dict[str, Any]) -> tuple[str, ...]:
-    """A run's objectives, from its ``[settings]`` table (see :attr:`RunSettings.run_objectives`)."""
-    return RunSettings.from_table(s).run_objectives
-
-
 def check_engine(name: str) -> str:
     """The resolved engine ('numba' or 'numpy'); InputError if unknown or unavailable."""
-    try:
-        resolved = core_engine.resolve(name)
-    except ValueError as exc:
-        raise InputError.of("engine", str(exc)) from None
+    resolved = engine_name(name)
     if resolved == "numba":
         try:
             import arcube.evaluation.kernel  # noqa: F401, PLC0415

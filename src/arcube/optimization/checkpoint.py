@@ -28,8 +28,7 @@ import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes, atomic_write_text
-from arcube.optimization.algorithms import MULTI_OBJECTIVE
-from arcube.optimization.build import run_objectives
+from arcube.optimization.settings import RunSettings
 
 CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
 FORMAT_VERSION = 1
@@ -51,10 +50,11 @@ class EvalLog:
     live through the executor, logging what is new since the last checkpoint.
 
     ``eval_s`` is the time in the executor (the evaluation); ``call_s`` the whole time answering
-    (evaluation plus digests and logging), so the caller can tell the optimizer's own time apart."""
+    (evaluation plus digests and logging), so the caller can tell the optimizer's own time apart.
+    With ``keep=False`` (a run held in memory) nothing is logged: it only times the executor."""
 
-    def __init__(self, executor: BatchFunction, replay: list[tuple[bytes, Batch]]) -> None:
-        self.executor, self.replay, self.pending = executor, deque(replay), []
+    def __init__(self, executor: BatchFunction, replay: list[tuple[bytes, Batch]], *, keep: bool = True) -> None:
+        self.executor, self.replay, self.pending, self.keep = executor, deque(replay), [], keep
         self.calls, self.eval_s, self.call_s = 0, 0.0, 0.0
 
     def __call__(self, X: np.ndarray) -> Batch:
@@ -65,8 +65,13 @@ class EvalLog:
             self.call_s += time.perf_counter() - t_call
 
     def _answer(self, X: np.ndarray) -> Batch:
-        d = digest(X)
         self.calls += 1
+        if not self.keep:  # a run held in memory: no checkpoint to replay or write
+            t0 = time.perf_counter()
+            batch = self.executor(X)
+            self.eval_s += time.perf_counter() - t0
+            return batch
+        d = digest(X)
         if self.replay:
             want, batch = self.replay.popleft()
             if want != d or len(batch["VIOL"]) != len(X):
@@ -139,7 +144,7 @@ def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple
         if history_digest(data, int(state["generation"])) != state["history_sha256"]:
             raise InputError(f"{run_dir / 'history.csv'}: edited or corrupt (its first {state['generation']} rows do not match the checkpoint); refusing to resume")
     entries: list[tuple[bytes, Batch]] = []
-    n_obj = len(run_objectives(cfg["settings"]))
+    n_obj = len(RunSettings.from_table(cfg["settings"]).run_objectives)
     try:
         for ch in state["chunks"]:
             f = path.parent / str(ch["file"])

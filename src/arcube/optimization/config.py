@@ -15,11 +15,12 @@ from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.standoff import standoff_points
 from arcube.io import TrajectorySet, load_trajectories, select
-from arcube.model.design import PAPER_NAMES, Design
+from arcube.model.design import Design
 from arcube.optimization import run as runmod
 from arcube.optimization.algorithms import make_termination
-from arcube.optimization.settings import RunSettings, resolve_bounds
-from arcube.options import validated
+from arcube.optimization.build import check_engine
+from arcube.optimization.settings import RunSettings
+from arcube.options import Options, validated
 
 __all__ = ["build_config", "run_settings"]
 
@@ -74,7 +75,7 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
     make_termination(s.algorithm, s.generations, s.tolerance)
     if s.seed is None:
         s = s.replace(seed=secrets.randbelow(2**31))
-    engine_resolved = runmod.check_engine(s.engine)
+    engine_resolved = check_engine(s.engine)
     design = Design.load(s.design_from)
     patients = _load_patients(trajectories, s)
     if s.anatomy:  # read now, so that a bad file stops the run before its folder exists
@@ -83,45 +84,41 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
     table = {**s.to_table(), "engine_resolved": engine_resolved,
              "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in trajectories]}  # fmt: skip
     cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
-    cfg["rerun"] = _rerun_command(table, s.all_bounds, cfg)
+    cfg["rerun"] = _rerun_command(s, table["trajectories"])
     return cfg
 
 
-def _rerun_command(s: dict[str, Any], bounds: dict[str, tuple[float, float]], cfg: dict[str, Any]) -> str:
-    parts = ["arcube optimize --trajectories", *s["trajectories"], "--out DIR", f"--design-from {s['design_from']}",
-             f"--free {'all' if tuple(s['free']) == PAPER_NAMES else ','.join(s['free'])}", f"--algorithm {s['algorithm']}",
-             f"--population {s['population']} --generations {s['generations']} --tolerance {s['tolerance']!r}",
-             f"--points {s['points']} --mode={s['mode']} --setups {s['setups']} --seed {s['seed']} --engine {s['engine']}",
-             f"--aggregate {s['aggregate']} --compactness {s['compactness']} --checkpoint-every {s['checkpoint_every']}"]  # fmt: skip
-    for flag in ("side", "levels", "ids", "transform", "margin"):
-        if s.get(flag) is not None:
-            parts.append(f"--{flag} {s[flag]}")
-    if s["guards"]:
-        parts.append("--guards")
-    if s["eliminate_duplicates"]:
-        parts.append("--eliminate-duplicates")
-    if len(s["trajectories"]) > 1:
-        parts.append(f"--docking {s['docking']}")
-    if s.get("anatomy"):
-        parts.append(f"--anatomy {' '.join(s['anatomy'])} --anatomy-frame {s['anatomy_frame']}")
-    for flag in ("clearance", "self_clearance", "standoff"):
-        if s.get(flag) is not None:
-            parts.append(f"--{flag.replace('_', '-')} {s[flag]!r}")
-    for flag, default in (("link_radius", 8.0), ("actuator_radius", 25.0), ("motor_radius", 20.0), ("motor_length", 120.0)):
-        if s.get(flag, default) != default:
-            parts.append(f"--{flag.replace('_', '-')} {s[flag]!r}")
-    if s.get("objectives"):
-        parts.append(f"--objectives {','.join(s['objectives'])}")
-    parts.extend(f"--{kind} {name}={value!r}" for name, kind, value in s.get("limits", []))
-    for flag, default in (("encoder_deg", [0.01] * 5), ("thrust", 30.0), ("lateral_force", 10.0), ("actuator_stiffness", [1e4] * 5)):
-        value = s.get(flag, default)
-        if value != default:
-            parts.append(f"--{flag.replace('_', '-')} " + (",".join(repr(v) for v in value) if isinstance(value, list) else repr(value)))
-    for flag in ("wall", "density", "m_delta", "m_motor", "gravity"):  # MODEL.md 18.1: in the table only when not the defaults
-        if s.get(flag) is not None:
-            value = s[flag]
-            parts.append(f"--{flag.replace('_', '-')}=" + (",".join(repr(v) for v in value) if isinstance(value, list) else repr(value)))
-    changed = [f"{k}={lo!r}:{hi!r}" for k, (lo, hi) in bounds.items() if (lo, hi) != resolve_bounds()[k]]
-    if changed:
-        parts.append("--bounds " + ",".join(changed))
+def _text(value: Any) -> str:
+    if isinstance(value, (list, tuple)):
+        return ",".join(_text(v) for v in value)
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _rerun_command(s: RunSettings, trajectories: list[str]) -> str:
+    """The command line that reruns this run: every setting of ``s`` written out with its flag
+    (:meth:`arcube.options.Settings.flag`, the rule the CLI's options are generated with), so that the
+    line holds even when a default changes."""
+    parts = ["arcube optimize", RunSettings.flag("trajectories"), *trajectories, RunSettings.flag("out"), "DIR", RunSettings.flag("seed"), str(s.seed)]
+    for name in RunSettings.model_fields:
+        value = getattr(s, name)
+        if name in ("seed", "period", "options") or value is None or value == () or value == {} or value is False:
+            continue
+        flag = RunSettings.flag(name)
+        if value is True:
+            parts.append(flag)
+        elif name in ("maxima", "minima"):
+            parts += [f"{flag} {n}={v!r}" for n, v in value.items()]
+        elif name == "bounds":
+            parts.append(f"{flag} " + ",".join(f"{k}={lo!r}:{hi!r}" for k, (lo, hi) in value.items()))
+        elif name == "anatomy":
+            parts.append(f"{flag} {' '.join(value)}")
+        else:
+            parts.append(f"{flag}={_text(value)}" if name == "mode" else f"{flag} {_text(value)}")
+    default = Options()
+    for group in ("guards", "body", "loads", "masses"):
+        model, mine, base = type(getattr(default, group)), getattr(s.options, group), getattr(default, group)
+        for name in model.model_fields:
+            value = getattr(mine, name)
+            if value != getattr(base, name):
+                parts.append(model.flag(name) if value is True else f"{model.flag(name)} {_text(value)}")
     return " ".join(parts)

@@ -27,7 +27,7 @@ from arcube.optimization.objectives import MAXIMIZED
 from arcube.optimization.problem import ArcubeProblem, FitnessModel
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["HISTORY_COLUMNS", "Loop", "describe", "generation_stats", "pick_best", "run_algorithm"]
+__all__ = ["HISTORY_COLUMNS", "Loop", "Observer", "Progress", "describe", "generation_stats", "observed", "pick_best", "run_algorithm"]
 
 HISTORY_COLUMNS = ("generation", "evaluations", "best_eta_G", "mean_eta_G", "feasible_fraction", "best_violation", "seconds")
 GC_GEN0_THRESHOLD = 100_000
@@ -97,6 +97,46 @@ def run_algorithm(model: FitnessModel, s: RunSettings, batch: Callable[[np.ndarr
     finally:
         gc.set_threshold(*thresholds)
     return loop
+
+
+class Observer:
+    """Watches a run (:func:`observed`), in the spirit of pymoo's ``Callback``: :meth:`generation` is
+    called after every generation with its history row (``seconds`` included) and the session's timing."""
+
+    def generation(self, loop: Loop, row: dict[str, Any], timing: dict[str, float]) -> None:
+        """After each generation: ``row`` (:data:`HISTORY_COLUMNS`), ``timing`` (``session_s`` wall time
+        of this session, ``eval_s`` in the evaluations, ``optimizer_s`` in pymoo's own steps, ``total``
+        generations and ``total_evaluations`` of the budget)."""
+
+
+@dataclass
+class Progress(Observer):
+    """Passes each generation's row and timing, merged, to ``callback`` (a progress bar)."""
+
+    callback: Callable[[dict[str, Any]], None]
+
+    def generation(self, loop: Loop, row: dict[str, Any], timing: dict[str, float]) -> None:
+        self.callback({**row, **timing})
+
+
+def observed(model: FitnessModel, s: RunSettings, log: Any, observers: list[Observer], *, done_generation: int = 0,
+            prior_s: float = 0.0) -> Loop:  # fmt: skip
+    """Run ``model`` under ``s`` to its termination, answering batches through ``log`` (an
+    :class:`~arcube.optimization.checkpoint.EvalLog`: it times the evaluations and replays a
+    checkpoint), and tell every observer about every generation past ``done_generation``.
+    ``prior_s``: the wall time of earlier sessions (a resumed run), added to each row's ``seconds``."""
+    t0 = time.perf_counter()
+    budget = s.population * s.generations  # evaluations at most (the GA's own count at full length)
+
+    def generation(loop: Loop, row: dict[str, Any]) -> None:
+        now = time.perf_counter()
+        row = {**row, "seconds": prior_s + now - t0}
+        timing = {"total": s.generations, "total_evaluations": budget, "eval_s": log.eval_s,
+                  "optimizer_s": loop.algorithm_s - log.call_s, "session_s": now - t0}  # fmt: skip
+        for observer in observers:
+            observer.generation(loop, row, timing)
+
+    return run_algorithm(model, s, log, on_generation=generation, done_generation=done_generation)
 
 
 def pick_best(algorithm: Any) -> Any:

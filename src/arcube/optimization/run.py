@@ -19,15 +19,11 @@ from __future__ import annotations
 import csv
 import io
 import json
-import shutil
 import math
-import platform
 import sys
 import time
-import tomllib
 import uuid
 from collections.abc import Callable
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -37,83 +33,19 @@ from arcube.model.design import PARAM_NAMES, Design
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.optimization.algorithms import stop_reason
-from arcube.optimization.checkpoint import (  # noqa: F401  (LOG_KEYS, digest: still importable from here)
-    CHECKPOINT_FORMAT, FORMAT_VERSION, LOG_KEYS, Batch, EvalLog, _sha, digest, load_checkpoint, write_checkpoint,
-)  # fmt: skip
+from arcube.optimization.checkpoint import CHECKPOINT_FORMAT, FORMAT_VERSION, EvalLog, _sha, load_checkpoint, write_checkpoint
 from arcube.optimization.lock import LOCK_FILE, acquire, release
-from arcube.optimization.loop import HISTORY_COLUMNS, Loop, describe, run_algorithm
-from arcube.optimization.build import anatomy_file, build_model, check_engine
-from arcube.optimization.executors import make_executor  # noqa: F401 (still importable from here)
+from arcube.optimization.loop import HISTORY_COLUMNS, Loop, Observer, Progress, describe, observed
+from arcube.optimization.build import anatomy_file, build_model
+from arcube.optimization.folder import (  # noqa: F401  (the folder's files, used here and by callers of this module)
+    RUN_FORMAT, check_new_folder, is_finished, placement_file, read_config, remove_folder, to_toml, versions,
+)  # fmt: skip
+from arcube.optimization.executors import make_executor
 from arcube.optimization.problem import FitnessModel
+from arcube.optimization.run_results import OptimizeResult
 from arcube.optimization.settings import RunSettings
 
-RUN_FORMAT = "arcube-optimize-run"
-
-
-def versions() -> dict[str, str]:
-    out = {"python": platform.python_version()}
-    for pkg in ("arcube", "pymoo", "numpy", "scipy", "cma", "numba"):
-        try:
-            out[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            pass
-    return out
-
-
 # ----------------------------------------------------------------------------- config.toml
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        f = float(v)
-        return repr(f) if math.isfinite(f) else ("nan" if math.isnan(f) else ("inf" if f > 0 else "-inf"))
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def to_toml(cfg: dict[str, Any]) -> str:
-    """Tables of scalars/arrays and arrays of tables (enough for config.toml)."""
-    lines: list[str] = []
-    cfg = {k: v for k, v in cfg.items() if v is not None}
-    for key, val in cfg.items():
-        if not isinstance(val, (dict, list)) or (isinstance(val, list) and not (val and isinstance(val[0], dict))):
-            lines.append(f"{key} = {_toml_value(val)}")
-    for key, val in cfg.items():
-        tables = [val] if isinstance(val, dict) else (val if isinstance(val, list) and val and isinstance(val[0], dict) else [])
-        for tab in tables:
-            lines += ["", f"[[{key}]]" if isinstance(val, list) else f"[{key}]"]
-            lines += [f"{k} = {_toml_value(x)}" for k, x in tab.items() if x is not None]
-    return "\n".join(lines) + "\n"
-
-
-def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
-    path = run_dir / "config.toml"
-    if not run_dir.is_dir():
-        raise InputError(f"{run_dir}: no such run folder")
-    try:
-        raw = path.read_bytes()
-        cfg = tomllib.loads(raw.decode("utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: unreadable config ({exc})") from None
-    if cfg.get("format") != RUN_FORMAT or cfg.get("format_version") != FORMAT_VERSION:
-        raise InputError(f"{path}: not an arcube optimize config (format {cfg.get('format')!r} version {cfg.get('format_version')!r})")
-    try:
-        check_engine(cfg["settings"]["engine_resolved"])
-        build_model(cfg)
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
-        if isinstance(exc, InputError):
-            raise
-        raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
-    return cfg, raw
-
-
 # ----------------------------------------------------------------------------- history and outputs
 def _fmt(v: float) -> str:
     return repr(float(v)) if math.isfinite(v) else ""
@@ -155,11 +87,6 @@ def front_csv(rows: list[dict[str, Any]]) -> str:
     return buf.getvalue()
 
 
-def placement_file(patient: int, setup: int = 0) -> str:
-    """File name of one patient's complete design in a per-patient-docking run (patient 0-based)."""
-    return f"best_design_p{patient + 1}{'_L' if setup else ''}.json"
-
-
 def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray]) -> dict[str, str]:
     """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
     design (placed for the first patient) with a ``placements`` list: each patient's m and mounting."""
@@ -192,70 +119,108 @@ def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, **kwargs: Any) -
         release(lock)
 
 
+class _History(Observer):
+    """Appends each generation's row to history.csv (flushed: a killed run keeps its rows)."""
+
+    def __init__(self, path: Path) -> None:
+        self.file = path.open("a", encoding="utf-8", newline="")
+
+    def generation(self, loop: Loop, row: dict[str, Any], timing: dict[str, float]) -> None:
+        self.file.write(",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS) + "\n")
+        self.file.flush()
+
+
+class _Checkpoint(Observer):
+    """Writes a checkpoint every ``every`` generations (and remembers the last generation seen)."""
+
+    def __init__(self, run_dir: Path, state: dict[str, Any], log: EvalLog, every: int, prior_s: float, prior_eval: float) -> None:
+        self.run_dir, self.state, self.log, self.every = run_dir, state, log, every
+        self.prior_s, self.prior_eval, self.t0, self.generation_seen = prior_s, prior_eval, time.perf_counter(), 0
+
+    def elapsed(self) -> float:
+        """Wall time of the run over all its sessions, s."""
+        return self.prior_s + time.perf_counter() - self.t0
+
+    def write(self, generation: int, **fields: Any) -> None:
+        """A checkpoint at ``generation`` with the run's timing (and ``fields``) in its state."""
+        self.state.update(elapsed_s=self.elapsed(), eval_s=self.prior_eval + self.log.eval_s, **fields)
+        write_checkpoint(self.run_dir, self.state, self.log, generation)
+
+    def generation(self, loop: Loop, row: dict[str, Any], timing: dict[str, float]) -> None:
+        self.generation_seen = loop.generation
+        if loop.generation % self.every == 0:
+            self.write(loop.generation, evaluations=loop.algorithm.evaluator.n_eval)
+
+
 def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool = False, workers: int | None = None,
              dask: str | None = None, on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
     """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary.
 
-    ``on_generation`` gets each new generation's history row plus ``total``, this session's
-    ``session_s`` (wall), ``eval_s`` (evaluation) and ``optimizer_s`` (pymoo's own time: inside
-    the algorithm's step but not answering its batches); the rest of ``session_s`` is the run's
-    own bookkeeping (setup, history, checkpoints, outputs).
+    ``on_generation`` gets each new generation's history row and timing (:class:`~arcube.optimization.loop.Observer`).
     """
-    s = cfg["settings"]
-    settings = RunSettings.from_table(s)
+    settings = RunSettings.from_config(cfg)
     state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
     if state is None:
         state = {"format": CHECKPOINT_FORMAT, "format_version": FORMAT_VERSION, "run_id": cfg["run_id"], "config_sha256": _sha(cfg_raw),
                  "generation": 0, "elapsed_s": 0.0, "eval_s": 0.0, "sessions": 0, "chunks": [], "finished": False}  # fmt: skip
     done_gen, prior_s, prior_eval = int(state["generation"]), float(state["elapsed_s"]), float(state["eval_s"])
     state["sessions"] = int(state.get("sessions", 0)) + 1
-    t0 = time.perf_counter()
     reset_history(run_dir / "history.csv", done_gen)
-    model = build_model(cfg, run_dir)
+    model = build_model(cfg, run_dir, settings=settings)
     ex = cfg.get("executor", {})
     executor = make_executor(model, workers if workers is not None else int(ex.get("workers", 1)), dask if dask is not None else ex.get("dask") or None)
     log = EvalLog(executor, replay)
-    every = settings.checkpoint_every
-    budget = settings.population * settings.generations  # evaluations at most (the GA's own count at full length)
-    hist = (run_dir / "history.csv").open("a", encoding="utf-8", newline="")
-    loop: Loop | None = None
-
-    def elapsed() -> float:
-        return prior_s + time.perf_counter() - t0
-
-    def generation(current: Loop, row: dict[str, Any]) -> None:
-        nonlocal loop
-        loop = current
-        gen, n_eval = current.generation, current.algorithm.evaluator.n_eval
-        row = {**row, "seconds": elapsed()}
-        hist.write(",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS) + "\n")
-        hist.flush()
-        if gen % every == 0:
-            state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=n_eval)
-            write_checkpoint(run_dir, state, log, gen)
-        if on_generation is not None:
-            on_generation({**row, "total": settings.generations, "total_evaluations": budget, "eval_s": log.eval_s,
-                           "optimizer_s": current.algorithm_s - log.call_s, "session_s": time.perf_counter() - t0})  # fmt: skip
-
+    history = _History(run_dir / "history.csv")
+    checkpoint = _Checkpoint(run_dir, state, log, settings.checkpoint_every, prior_s, prior_eval)
+    observers: list[Observer] = [history, checkpoint, *([Progress(on_generation)] if on_generation is not None else [])]
     try:
-        loop = run_algorithm(model, settings, log, on_generation=generation, done_generation=done_gen)
+        loop = observed(model, settings, log, observers, done_generation=done_gen, prior_s=prior_s)
         if log.replay:
             raise InputError("checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)")
         gen, algo = loop.generation, loop.algorithm
-        info = {"generations": gen, "evaluations": int(algo.evaluator.n_eval), "wall_s": elapsed(), "eval_s": prior_eval + log.eval_s,
+        info = {"generations": gen, "evaluations": int(algo.evaluator.n_eval), "wall_s": checkpoint.elapsed(), "eval_s": prior_eval + log.eval_s,
                 "stopped_by": stop_reason(loop.termination), "resumed": state["sessions"] - 1}  # fmt: skip
         summary = write_outputs(run_dir, cfg, model, algo, info)
-        state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s, evaluations=algo.evaluator.n_eval, finished=True)
-        write_checkpoint(run_dir, state, log, gen)
+        checkpoint.write(gen, evaluations=algo.evaluator.n_eval, finished=True)
         return summary
     except KeyboardInterrupt:
-        if loop is not None and loop.generation > done_gen:
-            state.update(elapsed_s=elapsed(), eval_s=prior_eval + log.eval_s)
-            write_checkpoint(run_dir, state, log, loop.generation)
+        if checkpoint.generation_seen > done_gen:
+            checkpoint.write(checkpoint.generation_seen)
         raise
     finally:
-        hist.close()
+        history.file.close()
         executor.close()
+
+
+class _Rows(Observer):
+    """Keeps each generation's row in memory."""
+
+    def __init__(self) -> None:
+        self.rows: list[dict[str, Any]] = []
+
+    def generation(self, loop: Loop, row: dict[str, Any], timing: dict[str, float]) -> None:
+        self.rows.append(row)
+
+
+def run_in_memory(cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation: Callable[[dict[str, Any]], None] | None = None) -> OptimizeResult:
+    """Run ``cfg`` with nothing written (``anatomies``: each patient's distance grids, as the run
+    folder's ``anatomy.stl`` gives them): the same designs, summary and history as a run folder's."""
+    settings = RunSettings.from_config(cfg)
+    model = build_model(cfg, anatomies=anatomies, settings=settings)
+    ex = cfg["executor"]
+    executor = make_executor(model, int(ex.get("workers", 1)), ex.get("dask") or None)
+    log, rows = EvalLog(executor, [], keep=False), _Rows()
+    t0 = time.perf_counter()
+    try:
+        loop = observed(model, settings, log, [rows, *([Progress(on_generation)] if on_generation is not None else [])])
+    finally:
+        executor.close()
+    info = {"generations": loop.generation, "evaluations": int(loop.algorithm.evaluator.n_eval), "wall_s": time.perf_counter() - t0,
+            "eval_s": log.eval_s, "stopped_by": stop_reason(loop.termination), "resumed": 0}  # fmt: skip
+    summary, designs, front = describe(cfg, model, loop.algorithm, info)
+    history = {c: np.array([float(r[c]) for r in rows.rows]) for c in HISTORY_COLUMNS}
+    pareto = None if front is None else {k: np.array([r.get(k) for r in front]) for k in (front[0] if front else {})}
+    return OptimizeResult(summary=summary, designs=[Design.from_vector(d) for d in designs], history=history, pareto=pareto, config=cfg)
 
 
 def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, float]], design: Design, patients: list[dict[str, Any]],
@@ -267,13 +232,6 @@ def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, floa
         "bounds": {k: [float(lo), float(hi)] for k, (lo, hi) in bounds.items()},
         "design": design.to_dict(), "executor": executor, "patients": patients,
     }  # fmt: skip
-
-
-def check_new_folder(run_dir: Path) -> None:
-    """InputError unless ``run_dir`` is absent or an empty folder."""
-    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
-        hint = " (it holds a run: use 'arcube resume')" if (run_dir / "config.toml").exists() else ""
-        raise InputError.of("out", f"{run_dir}: exists and is not an empty folder{hint}")
 
 
 def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
@@ -323,26 +281,6 @@ def prepare(run_dir: Path, cfg: dict[str, Any]) -> bytes:
     text = to_toml(cfg)
     atomic_write_text(run_dir / "config.toml", text)
     return text.encode("utf-8")
-
-
-def remove_folder(path: Path, created: bool) -> None:
-    """Empty ``path``; remove it too when this session ``created`` it (what an early bad input leaves)."""
-    if path.is_dir():
-        for child in path.iterdir():
-            shutil.rmtree(child) if child.is_dir() else child.unlink()
-        if created:
-            path.rmdir()
-
-
-def is_finished(run_dir: Path) -> bool:
-    """True when the run folder holds a finished run (its checkpoint says so and summary.json exists)."""
-    state_path = run_dir / "checkpoint" / "state.json"
-    if state_path.exists() and (run_dir / "summary.json").exists():
-        try:
-            return json.loads(state_path.read_text(encoding="utf-8")).get("finished") is True
-        except (OSError, ValueError):
-            return False
-    return False
 
 
 def resume(run_dir: Path, **kwargs: Any) -> dict[str, Any] | None:

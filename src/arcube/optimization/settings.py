@@ -17,16 +17,16 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
 from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
-from arcube.model.mechanism import format_mode, parse_mode
+from arcube.coerce import mode_text
 from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
-from arcube.options import GUARDED_OPTIONS, Masses, Options, Settings
+from arcube.options import FLAT, GUARDED_OPTIONS, Masses, Options, Settings, route_flat
 
 __all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "parse_bounds", "parse_free", "resolve_bounds"]
 
@@ -85,6 +85,8 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
     out: dict[str, tuple[float, float]] = {}
     if not spec:
         return out
+    if isinstance(spec, (list, tuple)) and all(isinstance(s, str) for s in spec):
+        spec = ",".join(spec)  # the command line's repeated NAME=LO:HI items
     items: list[tuple[str, Any]]
     if isinstance(spec, str):
         items = []
@@ -159,7 +161,8 @@ def _limits(kind: str) -> Any:
 def _objectives(value: Any) -> tuple[str, ...]:
     if value is None:
         return ()
-    names = tuple(n.strip() for n in value.split(",")) if isinstance(value, str) else tuple(str(n).strip() for n in value)
+    text = value if isinstance(value, str) else ",".join(str(n) for n in value)
+    names = tuple(n.strip() for n in text.split(","))
     if names == ("",):
         return ()
     for n in names:
@@ -171,17 +174,9 @@ def _objectives(value: Any) -> tuple[str, ...]:
 
 
 def _mode(value: Any) -> str:
-    if isinstance(value, str):
-        text = value.strip().lower()
-        if text == "free":
-            return text
-    else:
-        text = format_mode(value) if len(list(value)) == 4 else repr(value)
-    try:
-        parse_mode(text)
-    except ValueError as exc:
-        raise InputError.of("RunSettings.mode", f"{exc}; or 'free'") from None
-    return text
+    if isinstance(value, str) and value.strip().lower() == "free":
+        return "free"
+    return mode_text(value, param="RunSettings.mode")
 
 
 def _text_list(value: Any) -> str | None:
@@ -201,50 +196,68 @@ def _anatomy(value: Any) -> tuple[str, ...]:
 class RunSettings(Settings):
     """Everything that decides an optimization run except the plans themselves."""
 
+    SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min"}
+
     algorithm: str = DEFAULT_ALGORITHM
-    """mscmaes (default), ga (the paper's), de, cmaes, nsga2, nsga3 (set by two or more objectives)."""
+    """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, or nsga2 / nsga3 (several objectives)."""
     population: int = Field(default=400, ge=1)
+    """Population size."""
     generations: int = Field(default=300, ge=1)
-    """Generations (the budget is population x generations evaluations for mscmaes)."""
+    """Maximum number of generations."""
     tolerance: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
-    """pymoo's ftol over ``period`` generations; 0 runs every generation."""
+    """ftol: stop when the best feasible eta_G moves less than this over 30 generations; 0 runs every generation."""
     period: int = Field(default=DEFAULT_PERIOD, ge=1)
+    """Generations over which the ftol criterion must hold (pymoo's period)."""
     points: int = Field(default=30, ge=2, le=MAX_POINTS)
-    """Points per trajectory, both ends included."""
+    """Points per trajectory."""
     mode: Annotated[str, BeforeValidator(_mode)] = "+,+,+,+"
-    """Working mode (signs of TMS x, TMS y, RTS x, RTS y) or ``"free"`` (optimized)."""
+    """Working mode '+,+,+,+' (signs TMS x, TMS y, RTS x, RTS y) or 'free' (optimized)."""
     setups: Literal[1, 2] = 1
-    """1, or 2: one placement per side."""
+    """1, or 2: shared links, one placement per side (R and L)."""
     guards: bool = False
-    """The guards of MODEL.md 8.2 but the z dyad (:data:`arcube.options.GUARDED_OPTIONS`)."""
+    """Turn on the guards of MODEL.md 8.2 (all but z_dyad)."""
     margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
-    """Orientation margin mu of MODEL.md 12.2, deg."""
+    """Orientation margin mu (deg) of the spherical stage's cone (MODEL.md 12.2)."""
     seed: int | None = Field(default=None, ge=0, lt=2**63)
-    """None draws one (recorded in the run)."""
+    """Random seed (drawn and recorded when omitted)."""
     engine: str = "auto"
+    """Evaluation engine: auto, numba or numpy."""
     aggregate: Literal["mean", "worst"] = "mean"
+    """Over several trajectory sets: mean or worst eta_G."""
     compactness: Literal["links", "bbox"] = "links"
+    """nsga2's second objective: links (sum of link lengths) or bbox (bounding-box volume)."""
     checkpoint_every: int = Field(default=10, ge=1)
+    """Write a checkpoint every K generations."""
     eliminate_duplicates: bool = False
+    """ga: drop offspring equal to a design already in the population (pymoo's default; Matlab's ga, the paper's, keeps them)."""
     design_from: str = "paper"
-    """The start design and the values of fixed parameters: a preset name or a design JSON."""
+    """Start design: 'paper' or a design JSON; fixed parameters keep its values."""
     free: Annotated[tuple[str, ...], BeforeValidator(parse_free)] = PAPER_NAMES
+    """Parameters to optimize, comma-separated names and groups: all (the paper's 23), mount (the three mounting angles), e.g. all,mount,L."""
     bounds: Annotated[dict[str, tuple[float, float]], BeforeValidator(parse_bounds)] = {}
-    """Overrides of :data:`DEFAULT_BOUNDS`."""
+    """Override bounds: NAME=LO:HI[,NAME=LO:HI...]."""
     side: Literal["R", "L"] | None = None
+    """Keep trajectories of one side: R or L."""
     levels: Annotated[str | None, BeforeValidator(_text_list)] = None
+    """Keep levels, e.g. C3-C5."""
     ids: Annotated[str | None, BeforeValidator(_text_list)] = None
+    """Keep trajectory ids, e.g. 1,3,5."""
     transform: str | None = None
+    """4x4 rigid transform (JSON) applied to every trajectory set."""
     anatomy: Annotated[tuple[str, ...], BeforeValidator(_anatomy)] = ()
-    """``("default",)``, mesh files, or () for none."""
+    """Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or mesh files FILE [FILE ...] (STL, OBJ, PLY)."""
     anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
+    """Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
+    """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3."""
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
+    """Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3."""
     minima: Annotated[dict[str, float], _limits("minima")] = {}
+    """Lower limit NAME=VALUE (repeatable), e.g. --min clearance=5."""
     docking: Literal["per-patient", "shared"] = "per-patient"
+    """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
     standoff: float | None = Field(default=None, ge=0, allow_inf_nan=False)
-    """[MODEL.md 17.1] With a value s (mm), reach, guards and clearances also hold on each trajectory's
-    approach line, from its standoff (s beyond where the axis leaves the anatomy) to its entry."""
+    """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1)."""
     options: Options = Options()
     """Clearance guards, body radii, loads and masses (the guards of ``guards`` are added on top)."""
 
@@ -363,33 +376,21 @@ _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_
 """Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
-FLAT_OPTIONS: dict[str, tuple[str, str]] = {
-    **{name: ("guards", name) for name in _TABLE_GUARDS},
-    "clearance": ("guards", "clearance_mm"), "self_clearance": ("guards", "self_clearance_mm"),
-    **{name: ("body", name) for name in ("link_radius", "actuator_radius", "motor_radius", "motor_length")},
-    "encoder_deg": ("loads", "encoder_deg"), "thrust": ("loads", "thrust_N"), "lateral_force": ("loads", "lateral_force_N"),
-    "actuator_stiffness": ("loads", "actuator_stiffness"),
-    "wall": ("masses", "wall_mm"), "density": ("masses", "density_kg_m3"), "m_delta": ("masses", "m_delta_kg"),
-    "m_motor": ("masses", "m_motor_kg"), "gravity": ("masses", "gravity"),
-}  # fmt: skip
-"""The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields."""
+FLAT_OPTIONS: dict[str, tuple[str, str]] = {key: FLAT[key] for key in (
+    *_TABLE_GUARDS, "clearance", "self_clearance", "link_radius", "actuator_radius", "motor_radius", "motor_length", "encoder_deg",
+    "thrust", "lateral_force", "actuator_stiffness", "wall", "density", "m_delta", "m_motor", "gravity")}  # fmt: skip
+"""The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names."""
 _MASSES = Masses()
 
 
 def _route_flat(data: dict[str, Any]) -> None:
-    """In place: flat option keys into ``options``, a table's ``limits`` into ``maxima``/``minima``."""
-    changes: dict[str, dict[str, Any]] = {}
-    for key, (group, name) in FLAT_OPTIONS.items():
-        value = data.pop(key, None)
-        if value is not None:
-            changes.setdefault(group, {})[name] = value
-    if changes:
-        base = data.get("options") or {}
-        base = base.model_dump() if isinstance(base, Options) else dict(base)
-        for group, values in changes.items():
-            current = base.get(group) or {}
-            base[group] = {**(current.model_dump() if isinstance(current, Settings) else dict(current)), **values}
-        data["options"] = base
+    """In place: flat option keys (the table's and the keywords' short names, :data:`FLAT_OPTIONS`) into
+    ``options``, a table's ``limits`` into ``maxima``/``minima``."""
+    flat = {key: data.pop(key) for key in FLAT_OPTIONS if data.get(key) is not None}
+    for key in FLAT_OPTIONS:
+        data.pop(key, None)  # None: the table's "not set"
+    if flat:
+        data["options"] = route_flat(flat, data.get("options"))
     if "limits" in data:
         limits = data.pop("limits") or []
         data.setdefault("maxima", {n: v for n, k, v in limits if k == "max"})

@@ -31,7 +31,6 @@ import re
 import statistics
 import sys
 import time
-import tomllib
 import uuid
 from collections.abc import Callable
 from pathlib import Path
@@ -40,49 +39,11 @@ from typing import Any
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.optimization import run as runmod
+from arcube.optimization.folder import STUDY_FORMAT, STUDY_VERSION, is_study, read_study, seed_dir  # noqa: F401  (the folder's files)
 from arcube.optimization.objectives import MAXIMIZED, summary_value
+from arcube.optimization.settings import RunSettings
 
-STUDY_FORMAT = "arcube-study"
-STUDY_VERSION = 1
-MAX_SEEDS = 1000
-"""The most seeds one study takes (a typo such as 1-100000 is refused instead of run)."""
-
-__all__ = ["MAX_SEEDS", "is_study", "parse_seeds", "read_study", "resume_study", "run_summary", "seed_dir", "start_study", "study_rows"]
-
-
-def parse_seeds(spec: str) -> list[int]:
-    """``"1-5"``, ``"1,3,7"`` or ``"1-3,10"`` -> ascending distinct seeds (InputError if malformed or empty)."""
-    text = str(spec).strip()
-    if not text:
-        raise InputError.of("seeds", "is empty: give seeds as 1-5, 1,3,7 or 1-3,10")
-    seeds: list[int] = []
-    for item in text.split(","):
-        lo_s, dash, hi_s = item.strip().partition("-")
-        try:
-            lo = int(lo_s)
-            hi = int(hi_s) if dash else lo
-        except ValueError:
-            raise InputError.of("seeds", f"{spec!r}: {item.strip()!r} is not a seed or a range A-B of non-negative integers") from None
-        if lo > hi:
-            raise InputError.of("seeds", f"{spec!r}: range {item.strip()!r} runs backwards")
-        if hi - lo + 1 + len(seeds) > MAX_SEEDS:
-            raise InputError.of("seeds", f"{spec!r}: more than {MAX_SEEDS} seeds")
-        seeds.extend(range(lo, hi + 1))
-    if len(set(seeds)) != len(seeds):
-        raise InputError.of("seeds", f"{spec!r}: a seed is named twice")
-    if not all(0 <= s < 2**63 for s in seeds):
-        raise InputError.of("seeds", f"{spec!r}: seeds must be integers in [0, 2^63)")
-    return sorted(seeds)
-
-
-def seed_dir(study_dir: Path, seed: int) -> Path:
-    """The run folder of one seed."""
-    return Path(study_dir) / f"seed_{seed}"
-
-
-def is_study(path: Path) -> bool:
-    """True when ``path`` holds a study (its ``study.toml``)."""
-    return (Path(path) / "study.toml").is_file()
+__all__ = ["is_study", "read_study", "resume_study", "run_summary", "seed_dir", "start_study", "study_rows"]
 
 
 def seed_config(base: dict[str, Any], seed: int) -> dict[str, Any]:
@@ -91,29 +52,9 @@ def seed_config(base: dict[str, Any], seed: int) -> dict[str, Any]:
     cfg["settings"]["seed"] = int(seed)
     cfg["run_id"] = uuid.uuid4().hex
     if "rerun" in cfg:
-        cfg["rerun"] = re.sub(r"--seed \d+", f"--seed {int(seed)}", cfg["rerun"])
+        flag = RunSettings.flag("seed")
+        cfg["rerun"] = re.sub(rf"{flag} \d+", f"{flag} {int(seed)}", cfg["rerun"])
     return cfg
-
-
-def read_study(study_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(study.toml, base config) of a study folder; InputError when it is not one."""
-    study_dir = Path(study_dir)
-    if not study_dir.is_dir():
-        raise InputError(f"{study_dir}: no such study or run folder")
-    path = study_dir / "study.toml"
-    try:
-        study = tomllib.loads(path.read_text(encoding="utf-8"))
-        base = tomllib.loads((study_dir / "base_config.toml").read_text(encoding="utf-8"))
-    except FileNotFoundError as exc:
-        raise InputError(f"{study_dir}: not a study (no {Path(exc.filename).name})") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: unreadable study ({exc})") from None
-    if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
-        raise InputError(f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})")
-    seeds = study.get("seeds")
-    if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
-        raise InputError(f"{path}: no seeds list")
-    return study, base
 
 
 def _prepare_seeds(study_dir: Path, base: dict[str, Any], seeds: list[int]) -> None:

@@ -26,6 +26,7 @@ from arcube.errors import InputError
 
 if TYPE_CHECKING:
     from arcube.evaluation.result import Evaluation
+    from arcube.optimization.run_results import OptimizeResult
 
 __all__ = ["REPORT_SUFFIXES", "check_report_path", "mechanism_points", "write_evaluation_report", "write_report", "write_run_report",
            "write_study_convergence"]  # fmt: skip
@@ -42,15 +43,32 @@ def check_report_path(path: str | os.PathLike[str], name: str = "path") -> Path:
     return out
 
 
-def write_report(evaluation: Evaluation, path: str | os.PathLike[str], program: str | os.PathLike[str] | None = None) -> Path:
-    """Write the self-contained HTML report of an evaluation (plots, 3D mechanism) and its PNGs; returns the path.
+def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLike[str] | None = None,
+                 program: str | os.PathLike[str] | None = None, **run: Any) -> Path:  # fmt: skip
+    """Write the self-contained HTML report of an evaluation (plots, 3D mechanism), or of an optimization
+    run held in a folder, and its PNGs; returns the path.
 
-    ``evaluation`` is what :func:`arcube.evaluate` returns. ``program``: a program folder of the same
+    ``evaluation`` is what :func:`arcube.evaluate` returns; or what :func:`arcube.optimize` returns with a
+    folder: its report is ``report.html`` in that folder (``path`` not given), with ``run``'s keywords
+    ``anatomy``, ``anatomy_frame`` and ``best_known`` (:func:`~arcube.report.run_report.write_run_report`).
+    ``program``: a program folder of the same
     design (program.csv, program.json) whose section (timeline, limits, motors, playback) the report
     adds; by default the ``program/`` beside a report written into an ``arcube design`` job's folder
     (one with design.toml). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
     PNGs beside it are named from its stem) or the program's files are unreadable.
     """
+    from arcube.optimization.run_results import OptimizeResult
+
+    if isinstance(evaluation, OptimizeResult):
+        if evaluation.path is None:
+            raise InputError.of("result", "is held in memory: only a run written to a folder (optimize with out=...) has a report")
+        if path is not None:
+            raise InputError.of("path", "is the run folder's report.html for a run; give none")
+        from arcube.report.run_report import write_run_report
+
+        return write_run_report(evaluation.path, **run)
+    if path is None:
+        raise InputError.of("path", "is required (an .html file) for an evaluation's report")
     out = check_report_path(path)
     from arcube.report.html import write_evaluation_report
 

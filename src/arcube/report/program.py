@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from arcube.evaluation.performance import ACTUATOR_NAMES as JOINTS  # q's order in a program (arcube.program.output.JOINTS)
+from arcube.evaluation.performance import ACTUATOR_NAMES as JOINTS  # q's order in a program (arcube.motion.output.JOINTS)
 from arcube.io.files import atomic_write_bytes
 from arcube.report.figures import _png_bytes
 
@@ -31,7 +31,7 @@ def _spans(segment: np.ndarray, trajectory: np.ndarray) -> list[tuple[int, int, 
 
 
 def timeline_figure(prog: Any) -> Any:
-    """A matplotlib Figure of ``prog`` (an :class:`arcube.program.Program`): the segments (top), the
+    """A matplotlib Figure of ``prog`` (an :class:`arcube.motion.Program`): the segments (top), the
     five joint rates (deg/s) and their accelerations (deg/s^2, central differences of the rates) with
     the limits of ``prog.summary["limits"]`` as dashed lines."""
     from matplotlib.figure import Figure

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.errors import InputError
-from arcube.evaluation.performance import ACTUATOR_NAMES as JOINTS  # q's order in a program (arcube.program.output.JOINTS)
+from arcube.evaluation.performance import ACTUATOR_NAMES as JOINTS  # q's order in a program (arcube.motion.output.JOINTS)
 
 __all__ = ["CSV_NAME", "JOINTS", "JSON_NAME", "TORQUE_COLUMNS", "ProgramFiles", "Span", "envelope", "find_design", "is_program_folder",
            "read_program"]  # fmt: skip

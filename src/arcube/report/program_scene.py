@@ -24,7 +24,7 @@ from arcube.report.mechanism3d import SCENE_TRACES, STYLE, mechanism_extent, mec
 from arcube.report.program_data import JOINTS, ProgramFiles
 
 if TYPE_CHECKING:
-    import plotly.graph_objects as go
+    pass
 
 __all__ = ["ANGLE_TOL_DEG", "FRAMES", "Playback", "playback_figure", "playback_rows", "summary_anatomy"]
 

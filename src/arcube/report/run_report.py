@@ -112,11 +112,13 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
     return {k: v for k, v in info.items() if v is not None}
 
 
-def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_known: float | None = None) -> Path:
+def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_known: float | None = None,
+                     anatomy_frame: str = "LPS") -> Path:  # fmt: skip
     """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
 
-    ``anatomy``: an :class:`~arcube.evaluation.anatomy.Anatomy` instead of the run's own, or ``"none"``;
-    or a list of those, one per patient.
+    ``anatomy``: None (the run's own, copied into its folder); an :class:`~arcube.evaluation.anatomy.Anatomy`
+    or ``"none"``, or a list of those, one per patient; or what :func:`arcube.evaluate` takes
+    (``"default"``, mesh files in ``anatomy_frame``), resolved for each patient's plan.
     ``best_known``: an eta_G drawn as a reference line on the convergence plot.
     Raises :class:`InputError` (one line) when the folder is not a readable run.
     """
@@ -155,6 +157,12 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
     two_sides = settings.get("setups") == 2 and (run / "best_design_L.json").exists()  # per-patient runs write it too
     if two_sides:
         info["note: setups"] = "two placements: this report covers the R trajectories; report_L.html the L ones"
+    if anatomy is not None and not (isinstance(anatomy, (list, tuple)) and anatomy and not isinstance(anatomy[0], (str, os.PathLike))):
+        if not (isinstance(anatomy, str) and anatomy == "none"):
+            from arcube.evaluation.anatomy import resolve_anatomy
+
+            plans = settings.get("trajectories") or ["reference"]
+            anatomy = [resolve_anatomy(anatomy, anatomy_frame, plan) or "none" for plan in plans]  # each patient's own
     pareto = run / "pareto.csv"
     main = run / "report.html"
     program = run / "program" if (run / "program" / "program.json").is_file() else None  # the first patient's (a design job's)
@@ -194,10 +202,10 @@ def _run_engine(settings: dict[str, Any]) -> str:
 def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[str, float]]:
     """The run's evaluation options (guards, clearance guards, body radii, loads; body on), its first
     patient's anatomy (the copy in the run folder) and its --max / --min limits by name."""
-    from arcube.optimization.build import run_options
+    from arcube.optimization.settings import RunSettings
 
     try:
-        options = run_options({**settings, "guards": settings.get("guards") is True})
+        options = RunSettings.from_table({**settings, "guards": settings.get("guards") is True}).evaluation_options()
         options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True))
     except (InputError, TypeError, ValueError):  # a hand-edited or older config: the guards alone
         options = GUARDED_OPTIONS if settings.get("guards") is True else Options()

@@ -46,7 +46,7 @@ from arcube.evaluation.kernel._cache import clear_cache
 from arcube.evaluation.kernel._clearance import block_gradients
 from arcube.evaluation.kernel._driver import _kernel
 from arcube.evaluation.kernel._layout import CHUNK, EXTRA, GEOMETRY, OPTIONS, SUMMARY, Layout
-from arcube.evaluation.bodies import N_CHORDS, MassModel, slerp_coefficients
+from arcube.evaluation.mass_bodies import N_CHORDS, MassModel, slerp_coefficients
 from arcube.evaluation.reference import Options, PointResults, TaskResults
 from arcube.evaluation.reference import evaluate_task as _evaluate_task_numpy
 from arcube.model import frames
@@ -86,7 +86,7 @@ def _geometry(params: np.ndarray) -> np.ndarray:
     g = unpack(params)
     phi = np.concatenate([g.alpha, g.beta], axis=-1)  # (D, 4): alpha_x, alpha_y, beta_x, beta_y
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate arcs (phi = 0): NaN, as in the reference
-        a, b = slerp_coefficients(phi)  # (D, 4, 13), as arcube.evaluation.bodies samples the arcs
+        a, b = slerp_coefficients(phi)  # (D, 4, 13), as arcube.evaluation.mass_bodies samples the arcs
     values = {
         "m": g.m, "f": g.f, "p": g.p, "d": g.d, "c": g.c, "t": g.t, "r": g.r, "o": g.o,
         "sin_alpha": np.sin(g.alpha), "cos_alpha": np.cos(g.alpha), "cos_beta": np.cos(g.beta), "sin_beta": np.sin(g.beta),
@@ -142,7 +142,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
 
 
 def _link_mass(options: Options) -> float:
-    """lambda (kg/mm) of MODEL.md 18.1, from :class:`arcube.evaluation.bodies.MassModel` (which checks the wall
+    """lambda (kg/mm) of MODEL.md 18.1, from :class:`arcube.evaluation.mass_bodies.MassModel` (which checks the wall
     against the link radius) when the holding torque is on; the same formula, unchecked, otherwise."""
     if options.outputs.tip_metrics and options.outputs.holding_torque:
         return MassModel.of(options).lambda_kg_per_mm

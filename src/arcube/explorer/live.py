@@ -3,12 +3,12 @@
 :class:`LiveModel` holds what the sliders set (the 27 parameters, the working mode, the body radii,
 the guards) and what they do not (the plan, its approach lines, the anatomy, the requirements).
 :meth:`LiveModel.evaluate` runs the kernel (:func:`arcube.evaluation.engine.evaluate_task`) on the
-whole plan twice, as ``arcube design`` judges a design (:func:`arcube.optimization.requirements.assess`
+whole plan twice, as ``arcube design`` judges a design (:func:`arcube.design_job.requirements.assess`
 with the NumPy reference): on the drill points (entry -> target) and on the approach lines (standoff
 -> entry, MODEL.md 17.1). It returns :class:`Figures`: the headline figures of the plan, the
-requirement rows with pass/fail against the limits of :func:`~arcube.optimization.requirements.requirements_from`,
+requirement rows with pass/fail against the limits of :func:`~arcube.design_job.requirements.requirements_from`,
 and per-point arrays along the *lines*: for each trajectory its approach points, then its drill points.
-:meth:`LiveModel.view` is the scene at one point of the lines (:mod:`arcube.explore.scene`).
+:meth:`LiveModel.view` is the scene at one point of the lines (:mod:`arcube.explorer.scene`).
 """
 
 from __future__ import annotations
@@ -29,12 +29,12 @@ from arcube.evaluation.performance import ACTUATOR_NAMES
 from arcube.evaluation.reference import FAILURES, TaskResults
 from arcube.evaluation.standoff import DEFAULT_STANDOFF_MM, approach_lines
 from arcube.evaluation.task import build_task
-from arcube.explore import scene
+from arcube.explorer import scene
 from arcube.io.trajectories import TrajectorySet
 from arcube.model.body import PART_NAMES, BodyRadii
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.model.mechanism import format_mode
-from arcube.optimization.requirements import REQUIREMENTS, Requirement, design_options, requirement_figure, requirements_from
+from arcube.design_job.requirements import REQUIREMENTS, Requirement, design_options, requirement_figure, requirements_from
 from arcube.options import GUARDED_OPTIONS, Options
 
 __all__ = ["Figures", "LiveModel", "View"]
@@ -204,7 +204,7 @@ class LiveModel:
         return Figures(summary, self._requirement_rows(drill, app), self._line_arrays(drill, app), drill, app, seconds)
 
     def _requirement_rows(self, drill: TaskResults, app: TaskResults) -> list[dict[str, Any]]:
-        """The rows of :func:`~arcube.optimization.requirements.assess` (reach and each requirement), from the kernel."""
+        """The rows of :func:`~arcube.design_job.requirements.assess` (reach and each requirement), from the kernel."""
         frac = min(float(drill.reachable_fraction), float(app.reachable_fraction))
         rows = [{"requirement": "reach", "kind": "min", "limit": 100.0, "unit": "%", "value": 100.0 * frac, "part": "",
                  "passed": frac >= 1.0}]  # fmt: skip

@@ -1,6 +1,6 @@
 """Motor sizing along a program (MODEL.md 18.3): per actuator the figures a motor supplier asks for.
 
-From the torques of :mod:`arcube.program.dynamics` (gravity, inertia, thrust; N m) and the rates
+From the torques of :mod:`arcube.motion.dynamics` (gravity, inertia, thrust; N m) and the rates
 (rad/s) at the rows of a program on a uniform time grid, per actuator i:
 
 * ``torque_peak_Nm``: max over the rows of |tau_i| + lateral_i, where lateral_i = F_l |P_perp J_E,i|
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from arcube.program.dynamics import ProgramTorques
+from arcube.motion.dynamics import ProgramTorques
 
 __all__ = ["MOTOR_FIELDS", "motor_figures", "motor_table_rows", "motor_table_text"]
 

@@ -9,7 +9,7 @@ trajectories; beyond, nearest neighbour from every start then 2-opt (not guarant
 Transit times are not known before a transit is planned. The caller starts from a proxy for every
 pair (the timed straight move in joint space, unchecked), replaces it with the real duration of
 every transit it plans (or inf if blocked), and solves again until the best order uses only
-transits whose time is real (:func:`arcube.program.assemble` does this).
+transits whose time is real (:func:`arcube.motion.assemble` does this).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from arcube.explore.live import LiveModel
+from arcube.explorer.live import LiveModel
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode
 from arcube.optimization.settings import DEFAULT_BOUNDS, parse_free

@@ -1,9 +1,9 @@
 """The live explorer: a viser server (its web client is bundled in the wheel: no CDN, works offline).
 
-Every control changes :class:`~arcube.explore.live.LiveModel` and asks one worker thread to refresh;
+Every control changes :class:`~arcube.explorer.live.LiveModel` and asks one worker thread to refresh;
 the worker coalesces requests (a slider dragged fast re-evaluates only for its latest value), runs
 the kernel on the whole plan (skipped when only the point along the plan moved), builds the scene
-at the point shown (:mod:`arcube.explore.scene`) and sends it in one batch. :attr:`ExplorerApp.timings`
+at the point shown (:mod:`arcube.explorer.scene`) and sends it in one batch. :attr:`ExplorerApp.timings`
 holds the last refresh's milliseconds; :meth:`ExplorerApp.wait_idle` waits for the worker.
 
 The viewer works in metres (three.js' near and far planes suit them); the library's mm are scaled by
@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
-from arcube.explore import text
-from arcube.explore.live import Figures, LiveModel, View
-from arcube.explore.scene import cylinder_frames
+from arcube.explorer import text
+from arcube.explorer.live import Figures, LiveModel, View
+from arcube.explorer.scene import cylinder_frames
 from arcube.model.body import BodyRadii
 from arcube.model.design import PARAM_NAMES, UNITS, Design
 from arcube.model.mechanism import ALL_MODES, format_mode, parse_mode
@@ -103,12 +103,8 @@ class ExplorerApp:
         sc.set_up_direction("+z")
         sc.configure_default_lights(cast_shadow=False)  # shadow passes double the cost of a frame (software WebGL)
         if m.anatomy is not None:
-            verts, faces, off = [], [], 0
-            for mesh in m.anatomy.meshes:
-                verts.append(np.asarray(mesh.vertices, float))
-                faces.append(np.asarray(mesh.faces, np.int64) + off)
-                off += len(mesh.vertices)
-            sc.add_mesh_simple("/anatomy", np.concatenate(verts) * SCALE, np.concatenate(faces), color=(232, 214, 170), opacity=0.5,
+            verts, faces = m.anatomy.vertices_faces()
+            sc.add_mesh_simple("/anatomy", verts * SCALE, faces, color=(232, 214, 170), opacity=0.5,
                                side="double", cast_shadow=False, receive_shadow=False)  # fmt: skip
         drill = np.stack([m.plan.entry, m.plan.target], axis=1) * SCALE
         sc.add_line_segments("/plan/drill", drill, (0, 170, 200), thickness=3.0, thickness_units="screen")
@@ -276,7 +272,7 @@ class ExplorerApp:
 
     # ------------------------------------------------------------------ polish
     def start_polish(self, client: Any = None) -> threading.Thread | None:
-        """Run :func:`arcube.explore.polish.polish` in the background with the panel's settings."""
+        """Run :func:`arcube.explorer.polish.polish` in the background with the panel's settings."""
         if self.polish_thread is not None and self.polish_thread.is_alive():
             return None
         self.polish_thread = threading.Thread(target=self._polish, args=(client,), name="arcube-explore-polish", daemon=True)
@@ -284,7 +280,7 @@ class ExplorerApp:
         return self.polish_thread
 
     def _polish(self, client: Any) -> None:
-        from arcube.explore.polish import polish
+        from arcube.explorer.polish import polish
 
         self.polish_button.disabled = True
         self.progress.value, self.progress.visible = 0.0, True

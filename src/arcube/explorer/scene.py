@@ -1,7 +1,7 @@
 """The explorer's scene at one pose: the robot's body as solids, their colours, and the closest pairs.
 
-Pure NumPy (no viser, no plotly), so the live app (:mod:`arcube.explore.app`) and the static export
-(:mod:`arcube.explore.static`) draw the same thing:
+Pure NumPy (no viser, no plotly), so the live app (:mod:`arcube.explorer.app`) and the static export
+(:mod:`arcube.explorer.static`) draw the same thing:
 
 * :func:`body_solids`: the parts of MODEL.md 14.1 (:func:`arcube.model.body.body_parts`) as solids
   with their radii: each segment a cylinder with a sphere at both ends (a capsule), each actuator a

@@ -62,7 +62,7 @@ from arcube.model import frames
 from arcube.model.body import U_HAT, V_HAT, Z_ELBOW_SIGN, mechanism_points
 from arcube.model.design import unpack
 from arcube.model.mechanism import IKSolution
-from arcube.options import Options
+from arcube.options import Body, Masses, Options
 
 N_CHORDS = 12
 """Chords per spherical link (MODEL.md 18.1)."""
@@ -77,6 +77,10 @@ N_BODIES = len(BODY_NAMES)
 MOTOR = N_BODIES - 1
 
 
+_BODY, _MASSES = Body(), Masses()
+"""The defaults of MODEL.md 14.1 and 18.1, as the settings declare them."""
+
+
 @dataclass(frozen=True)
 class MassModel:
     """The plain-value mass model (MODEL.md 18.1) the functions take; :meth:`of` reads it from Options.
@@ -85,14 +89,14 @@ class MassModel:
     and for isolating one kind of body). Gravity is in m/s^2 in the patient frame R_w.
     """
 
-    link_radius_mm: float = 8.0
-    wall_mm: float = 2.0
-    density_kg_m3: float = 2700.0
-    m_delta_kg: float = 0.8
-    m_motor_kg: float = 1.5
-    motor_radius_mm: float = 20.0
-    motor_length_mm: float = 120.0
-    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    link_radius_mm: float = _BODY.link_radius
+    wall_mm: float = _MASSES.wall_mm
+    density_kg_m3: float = _MASSES.density_kg_m3
+    m_delta_kg: float = _MASSES.m_delta_kg
+    m_motor_kg: float = _MASSES.m_motor_kg
+    motor_radius_mm: float = _BODY.motor_radius
+    motor_length_mm: float = _BODY.motor_length
+    gravity: tuple[float, float, float] = _MASSES.gravity
     c_z_mm: float | None = None  # second z-dyad link; None: c_z = d_z (MODEL.md 6)
     z_elbow: float = Z_ELBOW_SIGN
 

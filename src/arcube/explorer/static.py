@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.explore import text
-from arcube.explore.live import Figures, LiveModel, View
-from arcube.explore.scene import CLASSES, COLOURS, cylinder_frames
+from arcube.explorer import text
+from arcube.explorer.live import Figures, LiveModel, View
+from arcube.explorer.scene import CLASSES, COLOURS, cylinder_frames
 from arcube.io.files import atomic_write_text
 
 __all__ = ["DIV_SCENE", "DIV_POINTS", "scene_figure", "write_static"]
@@ -72,12 +72,7 @@ def scene_figure(model: LiveModel, view: View) -> Any:
 
     fig = go.Figure()
     if model.anatomy is not None:
-        verts, faces, off = [], [], 0
-        for m in model.anatomy.meshes:
-            verts.append(np.asarray(m.vertices, float))
-            faces.append(np.asarray(m.faces, np.int64) + off)
-            off += len(m.vertices)
-        V, F = np.concatenate(verts), np.concatenate(faces)
+        V, F = model.anatomy.vertices_faces()
         fig.add_trace(go.Mesh3d(x=V[:, 0], y=V[:, 1], z=V[:, 2], i=F[:, 0], j=F[:, 1], k=F[:, 2], color="#e8d6aa", opacity=0.45,
                                 name="anatomy", hoverinfo="name", showlegend=True))  # fmt: skip
     plan = model.plan

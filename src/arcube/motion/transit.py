@@ -1,12 +1,12 @@
 """Transits S_j -> S_k in joint space (MODEL.md 17.1): the straight move, else a sampling planner.
 
 1. The straight move q(s) = q_j + s (q_k - q_j) / |q_k - q_j| is checked at 17.2's resolution
-   (:func:`arcube.program.segments.joint_piece`). If it passes, it is the transit.
+   (:func:`arcube.motion.segments.joint_piece`). If it passes, it is the transit.
 2. Else OMPL (``ompl`` 2.x) plans (:func:`plan_path`): RRTConnect, then OMPL's path
    simplification (``PathSimplifier``: vertex reduction by shortcuts, close vertices collapsed; its
    B-spline smoothing is left to step 3, in joint space). Its state validity checker and
    its motion validator (a Python subclass that checks a whole edge in one batch) are the planner's
-   checker of :mod:`arcube.program.check` (coarser states, limits raised to match). The random
+   checker of :mod:`arcube.motion.check` (coarser states, limits raised to match). The random
    seed is set before every call, so a transit's path depends on the seed and its two ends only.
 3. The planner's waypoints become a C2 spline (one rest-to-rest piece); if the spline fails the
    fine check, the polyline through them (one piece per leg, stopping at each waypoint), whose every
@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.model.poses import angles_from_e, e_from_angles
-from arcube.program.check import Checker, StateChecks, refine
-from arcube.program.limits import Planner
-from arcube.program.segments import Piece, joint_piece, polyline_fn, spline_fn
+from arcube.motion.check import Checker, StateChecks, refine
+from arcube.motion.limits import Planner
+from arcube.motion.segments import Piece, joint_piece, polyline_fn, spline_fn
 
 __all__ = ["Transit", "plan_path", "transit"]
 

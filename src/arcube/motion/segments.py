@@ -29,8 +29,8 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 from arcube.model import frames
 from arcube.model.design import unpack
 from arcube.model.mechanism import inverse_kinematics, joint_rates, velocity_model
-from arcube.program.check import Checker, StateChecks, refine
-from arcube.program.timing import PathFn, TimeLaw
+from arcube.motion.check import Checker, StateChecks, refine
+from arcube.motion.timing import PathFn, TimeLaw
 
 __all__ = ["Line", "Piece", "joint_piece", "line_piece", "polyline_fn", "spline_fn"]
 

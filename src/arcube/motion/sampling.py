@@ -20,10 +20,10 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.program.limits import ProgramLimits
-from arcube.program.output import JOINTS
-from arcube.program.segments import Piece
-from arcube.program.timing import TimingError, time_optimal
+from arcube.motion.limits import ProgramLimits
+from arcube.motion.output import JOINTS
+from arcube.motion.segments import Piece
+from arcube.motion.timing import TimingError, time_optimal
 
 __all__ = ["LINE_SPEED_TOL", "cruise_problem", "sample_piece"]
 

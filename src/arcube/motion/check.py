@@ -31,7 +31,7 @@ upper bound; the compiled check is the stricter, by at most both. Calls of fewer
 the reference (the kernel's per-call set-up costs more than it saves there).
 
 :func:`refine` samples a path so that no point of the body or the tool moves more than
-:data:`~arcube.program.limits.RESOLUTION_MM` between two consecutive checked states (MODEL.md 17.2).
+:data:`~arcube.motion.limits.RESOLUTION_MM` between two consecutive checked states (MODEL.md 17.2).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.body import BodyParts, body_parts, great_circle, mechanism_points
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 from arcube.options import Body, Options, Outputs
-from arcube.program.limits import RESOLUTION_MM, ProgramLimits
+from arcube.motion.limits import RESOLUTION_MM, ProgramLimits
 
 __all__ = ["Checker", "PLANNING_RESOLUTION_MM", "StateChecks", "displacement", "refine"]
 

@@ -1,6 +1,6 @@
-"""What an optimization or a study leaves: a run folder (:class:`Run`), a study folder
-(:class:`Study`), or a run held in memory (:class:`OptimizeResult`). Each gives the summary, the
-best design(s), the history and the front."""
+"""What an optimization or a study leaves: a run (:class:`OptimizeResult`, in memory or in its
+folder) and a study folder (:class:`Study`). Each gives the summary, the best design(s), the
+history and the front; drawing them is the report's (:func:`arcube.write_report`)."""
 
 from __future__ import annotations
 
@@ -14,44 +14,41 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
-from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.model.design import Design
+from arcube.optimization.folder import placement_file, read_config, read_study, seed_dir
 
-__all__ = ["OptimizeResult", "Run", "Study"]
+__all__ = ["OptimizeResult", "Study"]
 
 PathLike = str | os.PathLike[str]
 
 
-@dataclass(frozen=True)
 class OptimizeResult:
-    """An optimization run held in memory (what :func:`optimize` returns without ``out``): the same
-    summary, designs, history and front a run folder's files hold."""
+    """An optimization run: what :func:`arcube.optimize` returns, with or without a run folder.
 
-    summary: dict[str, Any]
-    """What ``summary.json`` holds (``files`` empty)."""
-    designs: list[Design]
-    """The best design of each slot (one per setup, and per patient with per-patient docking)."""
-    history: dict[str, np.ndarray]
-    """One row per generation, as columns (``history.csv``'s)."""
-    pareto: dict[str, np.ndarray] | None
-    """The feasible front (multi-objective runs, ``pareto.csv``'s columns), else None."""
-    config: dict[str, Any]
-    """What ``config.toml`` would hold."""
+    In memory (no ``out``) it holds the summary, designs, history and front; written to a folder it
+    reads them from the folder's files when asked (``summary.json``, ``best_design*.json``,
+    ``history.csv``, ``pareto.csv``, ``config.toml``), so that a folder opened with :meth:`load` and a
+    run just finished look the same. :attr:`path` is the folder, or None in memory.
+    """
 
-    @property
-    def best_design(self) -> Design:
-        """The best design found (the first slot's: patient 1, right side)."""
-        return self.designs[0]
+    def __init__(self, path: PathLike | None = None, *, summary: dict[str, Any] | None = None, designs: list[Design] | None = None,
+                 history: dict[str, np.ndarray] | None = None, pareto: dict[str, np.ndarray] | None = None,
+                 config: dict[str, Any] | None = None) -> None:  # fmt: skip
+        if path is None and (summary is None or designs is None or history is None or config is None):
+            raise InputError.of("path", "is required for a run that is not held in memory")
+        self.path = None if path is None else Path(path)
+        self._held = None if path is not None else (summary, designs, history, pareto, config)
 
+    def __repr__(self) -> str:
+        return f"OptimizeResult({'in memory' if self.path is None else str(self.path)!s})"
 
-@dataclass(frozen=True)
-class Run:
-    """An optimization run folder (``config.toml``, ``history.csv``, ``best_design.json``, ``summary.json``)."""
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, OptimizeResult) and other.path == self.path and (self.path is not None or other is self)
 
-    path: Path
+    __hash__ = None  # type: ignore[assignment]
 
     @classmethod
-    def load(cls, path: PathLike) -> Run:
+    def load(cls, path: PathLike) -> OptimizeResult:
         """Open an existing run folder (InputError if it is not one)."""
         p = Path(path)
         if not (p / "config.toml").exists():
@@ -61,55 +58,54 @@ class Run:
     @property
     def summary(self) -> dict[str, Any]:
         """``summary.json``: feasible, eta_G, dexterity, generations, wall time, per-task details."""
+        if self._held is not None:
+            return self._held[0]
         try:
             return json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise InputError(f"{self.path}: the run has not finished (no summary.json)") from None
 
     @property
-    def best_design(self) -> Design:
-        """The best design found (right-side placement when the run had two setups)."""
-        return Design.from_json(self.path / "best_design.json")
-
-    @property
     def designs(self) -> list[Design]:
-        """One complete design per patient (its own placement with per-patient docking, else the shared
-        design for every patient); with two setups, the right-side ones."""
-        from arcube.optimization import run as runmod
-
-        cfg = runmod.read_config(self.path)[0]
+        """The best design of each slot: one complete design per patient (its own placement with
+        per-patient docking, else the shared design for every patient); with two setups in memory,
+        the left side's follow each patient's right side."""
+        if self._held is not None:
+            return self._held[1]
+        cfg = read_config(self.path)[0]
         n = len(cfg["patients"])
         if cfg["settings"].get("docking", "shared") == "per-patient" and n > 1:
-            return [Design.from_json(self.path / runmod.placement_file(p)) for p in range(n)]  # each must exist
+            return [Design.from_json(self.path / placement_file(p)) for p in range(n)]  # each must exist
         return [Design.from_json(self.path / "best_design.json") for _ in range(n)]
 
     @property
+    def best_design(self) -> Design:
+        """The best design found (the first slot's: patient 1, right side)."""
+        if self._held is not None:
+            return self._held[1][0]
+        return Design.from_json(self.path / "best_design.json")
+
+    @property
     def history(self) -> dict[str, np.ndarray]:
-        """``history.csv`` as columns: generation, evaluations, best_eta_G, ... (NaN where empty)."""
+        """One row per generation as columns (``history.csv``'s: generation, evaluations, best_eta_G, ...; NaN where empty)."""
+        if self._held is not None:
+            return self._held[2]
         return _read_columns(self.path / "history.csv")
 
     @property
     def pareto(self) -> dict[str, np.ndarray] | None:
-        """``pareto.csv`` as columns (multi-objective runs), else None."""
+        """The feasible front of a multi-objective run (``pareto.csv``'s columns), else None."""
+        if self._held is not None:
+            return self._held[3]
         path = self.path / "pareto.csv"
         return _read_columns(path) if path.exists() else None
 
-    def write_report(self, anatomy: Any = None, anatomy_frame: str = "LPS", best_known: float | None = None) -> Path:
-        """Write ``report.html`` (and PNGs; ``report_p<K>.html`` for each further patient) into the run folder; returns its path.
-
-        ``anatomy``: None (the run's own, copied into its folder), ``"none"``, ``"default"`` or mesh
-        files in ``anatomy_frame``, as :func:`evaluate` takes it. ``best_known``: an eta_G drawn as
-        a reference line on the convergence plot.
-        """
-        from arcube.report.run_report import write_run_report
-
-        override = None
-        if anatomy is not None:
-            from arcube.optimization import run as runmod
-
-            plans = runmod.read_config(self.path)[0]["settings"].get("trajectories") or ["reference"]
-            override = [resolve_anatomy(anatomy, anatomy_frame, plan) or "none" for plan in plans]  # each patient's own
-        return write_run_report(self.path, anatomy=override, best_known=best_known)
+    @property
+    def config(self) -> dict[str, Any]:
+        """What ``config.toml`` holds (would hold, in memory)."""
+        if self._held is not None:
+            return self._held[4]
+        return read_config(self.path)[0]
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
@@ -142,9 +138,7 @@ class Study:
     @classmethod
     def load(cls, path: PathLike) -> Study:
         """Open an existing study folder (InputError if it is not one)."""
-        from arcube.optimization import study as studymod
-
-        studymod.read_study(Path(path))
+        read_study(Path(path))
         return cls(Path(path))
 
     @property
@@ -168,9 +162,7 @@ class Study:
         return Design.from_json(self.path / "best_design.json")
 
     @property
-    def runs(self) -> dict[int, Run]:
-        """Each seed's :class:`Run`."""
-        from arcube.optimization import study as studymod
-
-        seeds = studymod.read_study(self.path)[0]["seeds"]
-        return {int(s): Run(studymod.seed_dir(self.path, int(s))) for s in seeds}
+    def runs(self) -> dict[int, OptimizeResult]:
+        """Each seed's run (:class:`OptimizeResult`)."""
+        seeds = read_study(self.path)[0]["seeds"]
+        return {int(s): OptimizeResult(seed_dir(self.path, int(s))) for s in seeds}

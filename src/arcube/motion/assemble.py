@@ -3,11 +3,11 @@
 1. Every trajectory's line S_j -> A_j -> B_j is checked at 17.2's resolution (the tool exempt); a
    failing state is an error naming the segment (approach or drill) and the constraint.
 2. The assembly mode is that of the first trajectory's standoff; every state must keep it.
-3. Order: ``given``, or the shortest (:mod:`arcube.program.order`) over transit times, starting from
+3. Order: ``given``, or the shortest (:mod:`arcube.motion.order`) over transit times, starting from
    a proxy for every pair (the timed straight joint move, unchecked) and replacing it by the real
    duration of each transit the current best order uses, until that order's transits are all real.
-4. Transits (:mod:`arcube.program.transit`) and line pieces are timed and sampled
-   (:mod:`arcube.program.sampling`); the rows go one after another on one grid of step dt.
+4. Transits (:mod:`arcube.motion.transit`) and line pieces are timed and sampled
+   (:mod:`arcube.motion.sampling`); the rows go one after another on one grid of step dt.
 """
 
 from __future__ import annotations
@@ -25,19 +25,19 @@ from arcube.evaluation.standoff import standoff_points
 from arcube.io.trajectories import TrajectorySet
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode
-from arcube.evaluation.bodies import MassModel
+from arcube.evaluation.mass_bodies import MassModel
 from arcube.evaluation.masses import moving_mass_kg
 from arcube.options import Body, Loads
-from arcube.program.check import Checker, StateChecks
-from arcube.program.dynamics import program_torques
-from arcube.program.limits import RESOLUTION_MM, Planner, ProgramLimits
-from arcube.program.motors import motor_figures
-from arcube.program.order import EXACT_MAX, path_cost, shortest_order
-from arcube.program.output import JOINTS, Program
-from arcube.program.sampling import cruise_problem, sample_piece
-from arcube.program.segments import Line, Piece, line_piece, polyline_fn
-from arcube.program.timing import TimingError, time_optimal
-from arcube.program.transit import Transit, transit
+from arcube.motion.check import Checker, StateChecks
+from arcube.motion.dynamics import program_torques
+from arcube.motion.limits import RESOLUTION_MM, Planner, ProgramLimits
+from arcube.motion.motors import motor_figures
+from arcube.motion.order import EXACT_MAX, path_cost, shortest_order
+from arcube.motion.output import JOINTS, Program
+from arcube.motion.sampling import cruise_problem, sample_piece
+from arcube.motion.segments import Line, Piece, line_piece, polyline_fn
+from arcube.motion.timing import TimingError, time_optimal
+from arcube.motion.transit import Transit, transit
 
 __all__ = ["build_program"]
 
@@ -201,7 +201,7 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
 
     With ``masses`` (MODEL.md 18.1) the rows get the actuator torques of 18.2 and the summary the motor
     figures of 18.3 (``loads``: the drilling thrust and lateral bound of 15.3, default :class:`Loads`).
-    ``engine``: ``numpy`` or ``numba``, the continuous check's (:class:`~arcube.program.check.Checker`).
+    ``engine``: ``numpy`` or ``numba``, the continuous check's (:class:`~arcube.motion.check.Checker`).
     """
     b = _Builder(design, ts, anatomy, mode, limits, body, planner, log or (lambda _: None), engine)
     b.check_lines()

@@ -40,9 +40,9 @@ from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
-from arcube.optimization.requirements import PROGRAM_FIGURES, Requirement, assess, design_options, program_rows, write_requirements_csv
+from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, assess, design_options, program_rows, write_requirements_csv
 from arcube.optimization.settings import RunSettings
-from arcube.results import Run
+from arcube.optimization.run_results import OptimizeResult
 
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
 
@@ -152,7 +152,7 @@ def finish_design(out: Path) -> DesignResult:
     order = sorted(study["rows"], key=lambda r: (not r["feasible"], r.get(f"objective_{study['objective']}") or math.inf, r["violation"], r["seed"]))
     chosen = None
     for row in order:
-        run = Run(studymod.seed_dir(out / STUDY, int(row["seed"])))
+        run = OptimizeResult(studymod.seed_dir(out / STUDY, int(row["seed"])))
         cfg = runmod.read_config(run.path)[0]
         s = RunSettings.from_config(cfg)
         plans, anatomies = _patients(cfg)
@@ -179,7 +179,8 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
     """Build the drilling program of the chosen design (MODEL.md 17, patient 1) into ``out/program`` with
     the design's clearances and standoff; its requirement rows: the program (met, or the blocked segment
     named), then ``torque_peak`` / ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
-    from arcube.program import program
+    from arcube.motion import program
+    from arcube.report.program import timeline_png
 
     # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
     limits = {"clearance": 0.0, "self_clearance": 0.0, **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance")}}
@@ -187,8 +188,9 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
     started = time.perf_counter()
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
     try:
-        prog = program(design, plan, out / PROGRAM, anatomy=anatomy, mode=mode, standoff_mm=float(s.standoff or 0.0),
-                       body=s.options.body, masses=s.options.masses, loads=s.options.loads, **limits)  # fmt: skip
+        prog = program(design, plan, out / PROGRAM, options=s.options, anatomy=anatomy, mode=mode, standoff_mm=float(s.standoff or 0.0),
+                       masses=True, **limits)  # fmt: skip
+        timeline_png(prog, out / PROGRAM / "program.png")
     except InputError as exc:
         return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
     summary = prog.summary
@@ -196,7 +198,7 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
     return [built, *program_rows(reqs, summary.get("motors"))]
 
 
-def _write_outputs(out: Path, met: bool, seed: int, run: Run, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
+def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
                    anatomies: list[Any], summary: dict[str, Any], rows: list[dict[str, Any]]) -> DesignResult:  # fmt: skip
     from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf

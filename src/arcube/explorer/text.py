@@ -7,7 +7,7 @@ import html
 import math
 from typing import Any
 
-from arcube.explore.live import Figures, View
+from arcube.explorer.live import Figures, View
 
 __all__ = ["PASS", "FAIL", "figure_rows", "html_table", "markdown_table", "point_line"]
 

@@ -2,7 +2,7 @@
 
     tau = dV/dq + M(q) q_ddot + c(q, q_dot) - J_E^T f
 
-**How the inertia term is computed.** Every moving body of 18.1 (:mod:`arcube.evaluation.bodies`) is
+**How the inertia term is computed.** Every moving body of 18.1 (:mod:`arcube.evaluation.mass_bodies`) is
 a uniform rod between end points a, b, whose kinetic energy m (|v_a|^2 + v_a.v_b + |v_b|^2) / 6 is
 exactly that of three point masses: m/6 at a, m/6 at b and 2m/3 at the midpoint (Simpson's rule;
 a point mass has a = b). For point masses x_k(q) Lagrange's equations read
@@ -20,7 +20,7 @@ The program starts and ends at rest, so the rows before the first and after the 
 neighbours (x(-dt) = x(dt)): the second difference there is 2 (x_1 - x_0) / dt^2.
 
 The force f = F_t e (the thrust, ``Loads.thrust_N``) acts on drill rows only; the lateral force
-has no direction along a program and is added by the sizing figures (:mod:`arcube.program.motors`)
+has no direction along a program and is added by the sizing figures (:mod:`arcube.motion.motors`)
 as each actuator's worst case F_l |P_perp J_E,i| (``lateral_Nm``).
 """
 
@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from arcube.evaluation.bodies import MassModel, bodies_of_solution
+from arcube.evaluation.mass_bodies import MassModel, bodies_of_solution
 from arcube.evaluation.performance import jacobians_of_solution
 from arcube.model import frames
 from arcube.model.design import unpack

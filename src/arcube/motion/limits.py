@@ -9,6 +9,7 @@ naming the field (``ProgramLimits.feed must be > 0, got -1.0``), which the CLI m
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 from pydantic import Field
 
@@ -28,30 +29,32 @@ _Pos = dict(gt=0, allow_inf_nan=False)
 class ProgramLimits(Settings):
     """Speeds and limits of MODEL.md 17 (mm, s, deg)."""
 
+    SHORT: ClassVar[dict[str, str]] = {"standoff_mm": "standoff", "max_joint_speed_deg": "max_joint_speed", "max_joint_accel_deg": "max_joint_accel"}
+
     standoff_mm: float = Field(default=20.0, ge=0, allow_inf_nan=False)
-    """s: the tip waits this far outside the anatomy along its own axis (17.1)."""
+    """The tip waits this far outside the anatomy along its axis (MODEL.md 17.1), mm."""
     approach_speed: float = Field(default=10.0, **_Pos)
-    """v_a, mm/s: standoff -> entry."""
+    """Standoff -> entry, mm/s."""
     feed: float = Field(default=1.5, **_Pos)
-    """v_f, mm/s: entry -> target (drilling)."""
+    """Drilling feed, entry -> target, mm/s."""
     retract_speed: float = Field(default=10.0, **_Pos)
-    """v_r, mm/s: target -> standoff."""
+    """Target -> standoff, mm/s."""
     max_joint_speed_deg: float = Field(default=30.0, **_Pos)
-    """|q_dot_i| <= this, deg/s, for each of the five actuators."""
+    """Largest actuator rate, deg/s."""
     max_joint_accel_deg: float = Field(default=120.0, **_Pos)
-    """|q_ddot_i| <= this, deg/s^2."""
+    """Largest actuator acceleration, deg/s^2."""
     max_tip_speed: float = Field(default=50.0, **_Pos)
-    """v_max, mm/s: the tip's speed in transit."""
+    """Largest tip speed in transit, mm/s."""
     tool_radius: float = Field(default=1.5, ge=0, allow_inf_nan=False)
-    """rho_t, mm: the tool E -> H clears the anatomy by >= 0 in transit."""
+    """Radius of the tool E -> H, which clears the anatomy in transit, mm."""
     dt: float = Field(default=0.01, gt=0, le=1.0, allow_inf_nan=False)
-    """Time step of the program's rows, s."""
+    """Time step of the rows, s."""
     clearance: float = Field(default=5.0, ge=0, allow_inf_nan=False)
-    """c_min, mm: body to anatomy (with an anatomy)."""
+    """Body to anatomy everywhere, mm (with an anatomy)."""
     self_clearance: float = Field(default=2.0, allow_inf_nan=False)
-    """c_self, mm: between the body's own parts (negative: an overlap the caller accepts, e.g. a skeleton design)."""
+    """Between the body's own parts everywhere, mm (negative: an overlap the caller accepts, e.g. a skeleton design)."""
     kappa_max: float = Field(default=100.0, ge=1, allow_inf_nan=False)
-    """eta_L <= this everywhere."""
+    """Largest eta_L everywhere."""
 
     @property
     def qd_max(self) -> float:
@@ -67,7 +70,9 @@ class ProgramLimits(Settings):
 class Planner(Settings):
     """The sampling planner of the transits (OMPL RRTConnect): a seed and a time budget per transit."""
 
+    SHORT: ClassVar[dict[str, str]] = {"time_s": "plan_time"}
+
     seed: int = Field(default=1, ge=0, le=2**31 - 1)
-    """OMPL's random seed: the same seed gives the same program."""
+    """Random seed of the transit planner (OMPL): the same seed gives the same program."""
     time_s: float = Field(default=10.0, gt=0, le=3600, allow_inf_nan=False)
-    """Wall-clock budget of one planner call (a blocked transit), s."""
+    """Time budget of one blocked transit's planner, s."""

@@ -1,0 +1,107 @@
+"""An interactive design explorer in the browser (issue 22): :func:`explore`.
+
+A top layer like :mod:`arcube.report`: it may use the evaluation, the optimization and the report,
+and nothing below imports it. viser (the live app) and plotly (the static export) load only when used.
+
+* :mod:`~arcube.explorer.scene`: the body as solids, their colours, the closest pairs (NumPy);
+* :mod:`~arcube.explorer.live`: the design on the plan, figures from the compiled kernel;
+* :mod:`~arcube.explorer.app`: the viser server, its controls and the refresh worker;
+* :mod:`~arcube.explorer.static`: the standalone HTML scene (``--html``);
+* :mod:`~arcube.explorer.polish`: a short optimization from the current design.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from arcube.explorer.app import ExplorerApp
+    from arcube.explorer.live import LiveModel
+    from arcube.options import Options
+
+__all__ = ["explore", "live_model"]
+
+
+def live_model(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
+               anatomy_frame: str = "LPS", mode: str | Sequence[float] = "+,+,+,+", points: int = 30, side: str | None = None,
+               levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True,
+               **changes: Any) -> LiveModel:  # fmt: skip
+    """The explorer's :class:`~arcube.explorer.live.LiveModel` from what :func:`explore` takes (InputError on bad input)."""
+    from arcube.coerce import mode_signs, points as checked_points
+    from arcube.evaluation.anatomy import resolve_anatomy
+    from arcube.explorer.live import LiveModel
+    from arcube.io.load import load_plan
+    from arcube.model.design import Design
+    from arcube.options import request_options
+
+    n = checked_points(points)
+    signs = mode_signs(mode)
+    opts = request_options(options, **changes)
+    d = Design.coerce(design)
+    ts = load_plan(plan, side=side, levels=levels, ids=ids)
+    anat = resolve_anatomy(anatomy, anatomy_frame, plan)
+    return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards))
+
+
+def explore(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
+            anatomy_frame: str = "LPS", mode: str | Sequence[float] = "+,+,+,+", points: int = 30, side: str | None = None,
+            levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True, port: int = 8080,
+            host: str = "127.0.0.1", html: str | os.PathLike[str] | None = None, point: int | None = None,
+            save_path: str | os.PathLike[str] = "design_explored.json", block: bool = True, **changes: Any) -> ExplorerApp | Path:  # fmt: skip
+    """Explore a design on a drilling plan in the browser: sliders, the robot's solids coloured by
+    clearance, live figures against the requirements of ``arcube design``, save and polish.
+
+    Args:
+        design: a :class:`~arcube.Design`, a preset name or a design JSON path.
+        plan: a :class:`~arcube.TrajectorySet` or what :func:`arcube.load_trajectories` reads; ``side``,
+            ``levels``, ``ids`` keep some of its trajectories.
+        anatomy: ``"default"``, mesh files (in ``anatomy_frame``), an Anatomy, or None.
+        options: the :class:`arcube.Options` whose body radii the robot starts with (``**changes``: its
+            settings by name, e.g. ``link_radius=6``).
+        mode, points, guards: the starting working mode, points per trajectory and whether the guards
+            of ``arcube design`` apply.
+        port, host: where the app listens (InputError naming ``port`` when it is taken).
+        html: write the standalone static scene (at ``point`` of the lines) there instead of serving;
+            returns its path.
+        save_path: the panel's default file for "Save design JSON".
+        block: serve until Ctrl-C (then stop); False returns the running :class:`~arcube.explorer.app.ExplorerApp`
+            (call ``.stop()``).
+    """
+    from arcube.explorer.app import check_port
+
+    if html is None:
+        check_port(host, port)  # before the slow part: a taken port fails at once
+    model = live_model(design, plan, options=options, anatomy=anatomy, anatomy_frame=anatomy_frame, mode=mode, points=points,
+                       side=side, levels=levels, ids=ids, guards=guards, **changes)  # fmt: skip
+    if point is not None and (isinstance(point, bool) or not isinstance(point, int) or not 0 <= point < len(model)):
+        from arcube.errors import InputError
+
+        raise InputError.of("point", f"must be an integer in [0, {len(model) - 1}] (the points of the lines: per trajectory "
+                                     f"{model.points} approach points, then {model.points} drill points), got {point!r}")  # fmt: skip
+    anat = "none" if model.anatomy is None else model.anatomy.source
+    title = f"{model.plan.source}: {len(model.plan.ids)} trajectories × {model.points} points · anatomy: {anat}"
+    if html is not None:
+        from arcube.explorer.static import write_static
+
+        return write_static(model, html, point, title)
+    from arcube.explorer.app import ExplorerApp
+
+    spec = [anatomy] if isinstance(anatomy, (str, os.PathLike)) else list(anatomy) if isinstance(anatomy, (list, tuple)) else None
+    spec = None if spec is None else [os.fspath(s) for s in spec]
+    app = ExplorerApp(model, host=host, port=port, save_path=save_path, anatomy_spec=spec, anatomy_frame=anatomy_frame, title=title)
+    if point is not None:
+        app.point.value = int(point)
+    if not block:
+        return app
+    try:
+        while True:
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        app.stop()
+    return app

@@ -1,0 +1,119 @@
+"""The drilling program (MODEL.md 17): from a plan of poses to a timed, collision-free joint trajectory.
+
+:func:`program` is the one call: a design, a plan (and its anatomy) in; the rows q(t) of every
+approach, drill, retract and transit out, checked everywhere along the way (17.2) and timed under
+the joint and tip limits, as a :class:`~arcube.motion.output.Program` (written as ``program.csv``
+and ``program.json`` when ``out`` is given). Modules:
+
+* :mod:`~arcube.motion.limits`: the settings (:class:`ProgramLimits`, :class:`Planner`);
+* :mod:`~arcube.motion.check`: the continuous check of 17.2 (NumPy reference);
+* :mod:`~arcube.motion.segments`: lines and joint paths, as rest-to-rest pieces;
+* :mod:`~arcube.motion.transit`: the straight move, else OMPL's RRTConnect;
+* :mod:`~arcube.motion.timing`, :mod:`~arcube.motion.sampling`: toppra, then rows on a dt grid;
+* :mod:`~arcube.motion.order`: the shortest order (dynamic programming over subsets);
+* :mod:`~arcube.motion.assemble`, :mod:`~arcube.motion.output`: the whole, and its files.
+
+```python
+from arcube.motion import program
+prog = program("design.json", "reference", "out/program", side="R", anatomy="default", feed=1.0)
+prog.summary["total_s"], prog.order          # program.csv and program.json are in out/program
+```
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from arcube.errors import InputError
+from arcube.io.trajectories import TrajectorySet
+from arcube.options import Options
+from arcube.motion.limits import ORDERS, Planner, ProgramLimits
+from arcube.motion.output import CSV_COLUMNS, JOINTS, Program
+
+__all__ = ["CSV_COLUMNS", "JOINTS", "ORDERS", "Planner", "Program", "ProgramLimits", "program"]
+
+
+def _limits(limits: ProgramLimits | None, changes: dict[str, Any]) -> ProgramLimits:
+    base = limits if limits is not None else ProgramLimits()
+    if not isinstance(base, ProgramLimits):
+        raise InputError.of("limits", f"must be a ProgramLimits, got {type(base).__name__}")
+    return base.replace(**changes) if changes else base
+
+
+def program(
+    design: Any, plan: Any, out: str | os.PathLike[str] | None = None, *, options: Options | None = None, anatomy: Any = None,
+    anatomy_frame: str = "LPS", mode: Any = "+,+,+,+", order: str = "shortest", side: str | None = None,
+    levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, transform: Any = None,
+    limits: ProgramLimits | None = None, planner: Planner | None = None, seed: int | None = None,
+    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", **changes: Any,
+) -> Program:  # fmt: skip
+    """The drilling program of ``design`` for a plan (MODEL.md 17).
+
+    Args:
+        design: a :class:`~arcube.Design`, a preset name or a design JSON path.
+        plan: a :class:`~arcube.io.TrajectorySet`, or what ``--trajectories`` takes (CSV,
+            Slicer markups, ``"reference"``), subset by ``side``, ``levels``, ``ids`` (and ``transform``).
+        out: a folder for ``program.csv`` and ``program.json`` (created); None writes nothing.
+        options: the :class:`arcube.Options` of the robot: its body (radii), loads (the drilling thrust
+            and lateral bound of 15.3) and masses (18.1); None: the defaults.
+        anatomy: None, ``"default"``, mesh paths or an :class:`~arcube.evaluation.anatomy.Anatomy`
+            (MODEL.md 14.2): the standoffs, body clearance and tool clearance use it.
+        mode: the working mode, ``"+,+,+,+"`` or four signs.
+        order: ``"shortest"`` (least total time) or ``"given"`` (the plan's order).
+        limits: a :class:`ProgramLimits`; keyword ``changes`` override its fields by name or short
+            name (``feed=1.0``, ``clearance=3``, ``standoff=15``), and then ``options``' (``thrust=25``).
+        masses: None: the mass model of ``options`` (none when its links are too thin for the default
+            2 mm wall and no masses were given); False: no masses; True: required. With masses the rows
+            get the actuator torques of 18.2 (``tau_*_Nm`` columns) and ``program.json`` the motor
+            figures of 18.3 (``motors``).
+        engine: the continuous check's: ``numba`` (the compiled kernel's condition numbers and body
+            clearances), ``numpy`` (the reference) or ``auto`` (numba when it imports).
+        planner, seed: the transit planner's settings (``seed`` overrides ``planner.seed``).
+        log: called with one line per transit planned (progress).
+
+    Returns:
+        The :class:`Program` (its ``path`` is ``out`` when written).
+
+    Raises:
+        InputError: bad input (naming the parameter: ``ProgramLimits.feed``, ``order``, ``mode``,
+            ``out``, ...), or no program: one line naming the segment and the constraint (``transit 3 -> 5
+            blocked: collision/patient at E = (...)``). Nothing is written then.
+    """
+    from arcube.coerce import engine_name, mode_signs
+    from arcube.evaluation.anatomy import resolve_anatomy
+    from arcube.evaluation.mass_bodies import MassModel
+    from arcube.io.load import load_plan
+    from arcube.model.design import Design
+    from arcube.motion.assemble import build_program
+    from arcube.motion.output import prepare_folder, remove_folder
+    from arcube.options import request_options
+
+    limit_changes = {ProgramLimits.field_of(k): changes.pop(k) for k in list(changes) if ProgramLimits.field_of(k)}
+    lim = _limits(limits, limit_changes)
+    opts = request_options(options, **changes)
+    engine = engine_name(engine)
+    if order not in ORDERS:
+        raise InputError.of("order", f"must be one of {', '.join(ORDERS)}, got {order!r}")
+    signs = mode_signs(mode)
+    plan_settings = planner if planner is not None else Planner()
+    if seed is not None:
+        plan_settings = plan_settings.replace(seed=seed)
+    mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
+    d = Design.coerce(design)
+    ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
+    anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan)
+    folder, created = prepare_folder(out) if out is not None else (None, False)
+    try:
+        prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)
+        if folder is None:
+            return prog
+        prog.write(folder)
+    except BaseException:
+        if created and folder is not None:
+            remove_folder(folder)
+        raise
+    return dataclasses.replace(prog, path=Path(folder))

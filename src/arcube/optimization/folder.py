@@ -1,0 +1,165 @@
+"""The files of run and study folders: config.toml (written and read back), the file names, and the
+folder's life (new or empty, finished, removed). Shared by the run loop, the study, the results and
+the design job, so that each file name and format is written once.
+
+Run folder: ``config.toml``, ``history.csv``, ``checkpoint/``, ``best_design.json`` (``best_design_L.json``,
+``best_design_p<K>.json``), ``summary.json``, ``pareto.csv`` (see :mod:`arcube.optimization.run`).
+Study folder: ``study.toml``, ``base_config.toml``, ``seed_<S>/`` (see :mod:`arcube.optimization.study`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import shutil
+import tomllib
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from arcube.errors import InputError
+from arcube.optimization.build import build_model, check_engine
+from arcube.optimization.checkpoint import FORMAT_VERSION
+
+__all__ = [
+    "RUN_FORMAT", "STUDY_FORMAT", "STUDY_VERSION", "check_new_folder", "is_finished", "is_study", "placement_file", "read_config",
+    "read_study", "remove_folder", "seed_dir", "to_toml", "versions",
+]  # fmt: skip
+
+
+RUN_FORMAT = "arcube-optimize-run"
+
+
+def versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for pkg in ("arcube", "pymoo", "numpy", "scipy", "cma", "numba"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        f = float(v)
+        return repr(f) if math.isfinite(f) else ("nan" if math.isnan(f) else ("inf" if f > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def to_toml(cfg: dict[str, Any]) -> str:
+    """Tables of scalars/arrays and arrays of tables (enough for config.toml)."""
+    lines: list[str] = []
+    cfg = {k: v for k, v in cfg.items() if v is not None}
+    for key, val in cfg.items():
+        if not isinstance(val, (dict, list)) or (isinstance(val, list) and not (val and isinstance(val[0], dict))):
+            lines.append(f"{key} = {_toml_value(val)}")
+    for key, val in cfg.items():
+        tables = [val] if isinstance(val, dict) else (val if isinstance(val, list) and val and isinstance(val[0], dict) else [])
+        for tab in tables:
+            lines += ["", f"[[{key}]]" if isinstance(val, list) else f"[{key}]"]
+            lines += [f"{k} = {_toml_value(x)}" for k, x in tab.items() if x is not None]
+    return "\n".join(lines) + "\n"
+
+
+def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
+    path = run_dir / "config.toml"
+    if not run_dir.is_dir():
+        raise InputError(f"{run_dir}: no such run folder")
+    try:
+        raw = path.read_bytes()
+        cfg = tomllib.loads(raw.decode("utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: unreadable config ({exc})") from None
+    if cfg.get("format") != RUN_FORMAT or cfg.get("format_version") != FORMAT_VERSION:
+        raise InputError(f"{path}: not an arcube optimize config (format {cfg.get('format')!r} version {cfg.get('format_version')!r})")
+    try:
+        check_engine(cfg["settings"]["engine_resolved"])
+        build_model(cfg)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
+    return cfg, raw
+
+
+def placement_file(patient: int, setup: int = 0) -> str:
+    """File name of one patient's complete design in a per-patient-docking run (patient 0-based)."""
+    return f"best_design_p{patient + 1}{'_L' if setup else ''}.json"
+
+
+def check_new_folder(run_dir: Path) -> None:
+    """InputError unless ``run_dir`` is absent or an empty folder."""
+    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+        hint = " (it holds a run: use 'arcube resume')" if (run_dir / "config.toml").exists() else ""
+        raise InputError.of("out", f"{run_dir}: exists and is not an empty folder{hint}")
+
+
+def remove_folder(path: Path, created: bool) -> None:
+    """Empty ``path``; remove it too when this session ``created`` it (what an early bad input leaves)."""
+    if path.is_dir():
+        for child in path.iterdir():
+            shutil.rmtree(child) if child.is_dir() else child.unlink()
+        if created:
+            path.rmdir()
+
+
+def is_finished(run_dir: Path) -> bool:
+    """True when the run folder holds a finished run (its checkpoint says so and summary.json exists)."""
+    state_path = run_dir / "checkpoint" / "state.json"
+    if state_path.exists() and (run_dir / "summary.json").exists():
+        try:
+            return json.loads(state_path.read_text(encoding="utf-8")).get("finished") is True
+        except (OSError, ValueError):
+            return False
+    return False
+
+
+STUDY_FORMAT = "arcube-study"
+
+
+STUDY_VERSION = 1
+
+
+def seed_dir(study_dir: Path, seed: int) -> Path:
+    """The run folder of one seed."""
+    return Path(study_dir) / f"seed_{seed}"
+
+
+def is_study(path: Path) -> bool:
+    """True when ``path`` holds a study (its ``study.toml``)."""
+    return (Path(path) / "study.toml").is_file()
+
+
+def read_study(study_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(study.toml, base config) of a study folder; InputError when it is not one."""
+    study_dir = Path(study_dir)
+    if not study_dir.is_dir():
+        raise InputError(f"{study_dir}: no such study or run folder")
+    path = study_dir / "study.toml"
+    try:
+        study = tomllib.loads(path.read_text(encoding="utf-8"))
+        base = tomllib.loads((study_dir / "base_config.toml").read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise InputError(f"{study_dir}: not a study (no {Path(exc.filename).name})") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: unreadable study ({exc})") from None
+    if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
+        raise InputError(f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})")
+    seeds = study.get("seeds")
+    if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
+        raise InputError(f"{path}: no seeds list")
+    return study, base
