@@ -29,7 +29,9 @@ CHUNK_ROBOT_POINTS = 100_000
 PERCENTILES: tuple[float, ...] = (50.0, 95.0, 99.0)
 
 _ROBOT_IDX = np.flatnonzero(PER_ROBOT)
-_POINT_IDX = np.flatnonzero(~PER_ROBOT)
+POSE_INDEX: np.ndarray = np.flatnonzero(~PER_ROBOT)
+"""Indices into SOURCE_NAMES of the sources drawn afresh at every pose (encoders, backlashes): the last axis of
+:func:`pose_draws`."""
 
 
 def standard_draws(rng: np.random.Generator, shape: tuple[int, ...], distribution: str) -> NDArray[np.float64]:
@@ -49,11 +51,18 @@ def robot_draws(rng: np.random.Generator, T: ArrayLike, n_robots: int, distribut
 
 
 def pose_draws(rng: np.random.Generator, T: ArrayLike, n_robots: int, n_points: int, distribution: str) -> NDArray[np.float64]:
-    """The per-pose deviations ``(N, P, n)`` (deg) of the encoders and backlashes; 0 in the other columns."""
-    T_ = np.asarray(T, dtype=float)
-    out = np.zeros((n_robots, n_points, N_SOURCES))
-    out[..., _POINT_IDX] = standard_draws(rng, (n_robots, n_points, _POINT_IDX.size), distribution) * T_[_POINT_IDX]
-    return out
+    """The per-pose deviations ``(N, P, m)`` (deg) of the m sources of :data:`POSE_INDEX` (encoders, backlashes)."""
+    return standard_draws(rng, (n_robots, n_points, POSE_INDEX.size), distribution) * np.asarray(T, dtype=float)[POSE_INDEX]
+
+
+def pose_joint_errors(draws: ArrayLike) -> NDArray[np.float64]:
+    """Joint errors ``(..., 5)`` rad from per-pose deviations ``(..., m)`` (deg, :func:`pose_draws`): each joint's
+    encoder error plus its backlash."""
+    d = np.asarray(draws, dtype=float)
+    dq = np.zeros(d.shape[:-1] + (5,))
+    for k, j in enumerate(JOINT_COLUMN[POSE_INDEX]):
+        dq[..., j] += d[..., k]
+    return np.deg2rad(dq)
 
 
 def split(delta: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -94,10 +103,10 @@ def exact_errors(
     fk = forward_kinematics(x + np.asarray(dp, dtype=float)[:, None, :], q[..., :3], q[..., 3:], np.asarray(assembly, dtype=float)[None])
     E_a, e_a = np.asarray(E, dtype=float), np.asarray(e, dtype=float)
     dE = fk.E - E_a
-    along = np.einsum("npi,pi->np", dE, e_a)
+    along = np.sum(dE * e_a, axis=-1)
     lateral = np.linalg.norm(dE - along[..., None] * e_a, axis=-1)
     cross = np.linalg.norm(np.cross(fk.e, e_a), axis=-1)
-    axis = np.rad2deg(np.arctan2(cross, np.einsum("npi,pi->np", fk.e, e_a)))
+    axis = np.rad2deg(np.arctan2(cross, np.sum(fk.e * e_a, axis=-1)))
     bad = ~fk.valid | ~np.isfinite(lateral) | ~np.isfinite(axis)
     inf = np.inf
     return Errors(np.where(bad, inf, lateral), np.where(bad, inf, np.abs(along)), np.where(bad, inf, axis))
@@ -120,7 +129,7 @@ def monte_carlo(
     step = max(1, CHUNK_ROBOT_POINTS // max(P, 1))
     for lo in range(0, n_robots, step):
         hi = min(n_robots, lo + step)
-        _, dq_pose = split(pose_draws(rng, T, hi - lo, P, distribution))
+        dq_pose = pose_joint_errors(pose_draws(rng, T, hi - lo, P, distribution))
         err = exact_errors(params, E, e, q_cmd, assembly, dp[lo:hi], dq0[lo:hi, None, :] + dq_pose)
         for o, a in zip(out, err):
             o[lo:hi] = a
