@@ -21,13 +21,14 @@ from pathlib import Path
 import numpy as np
 
 import arcube
-from arcube.accuracy import ToleranceSettings, budget, write
+from arcube.accuracy import ToleranceSettings, budget
 from arcube.accuracy._kernel import first_order_numba
 from arcube.accuracy.first_order import first_order
 from arcube.accuracy.monte_carlo import monte_carlo
 from arcube.accuracy.sources import sigmas
 from arcube.evaluation.task import build_task
 from arcube.model.mechanism import inverse_kinematics, parse_mode
+from arcube.report.accuracy import write_budget
 
 DEMO_DESIGN = {
     "m_x": -62.352288342217264, "m_y": 114.45330801197736, "m_z": 211.97545042570994, "f_x": 134.25358753200973,
@@ -89,7 +90,7 @@ def main() -> None:
     print(f"budget() (first order + Monte Carlo + percentiles): {t_all:.2f} s")
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        write(result, Path(tmp) / "budget")
+        write_budget(result, Path(tmp) / "budget")
         print(f"write() (JSON, two CSVs, three PNGs): {time.perf_counter() - t0:.2f} s")
     s = result.summary
     print(f"demo design, class m: p95 {s['lateral_error_p95_mm']:.2f} mm, worst case {s['lateral_error_wc_mm']:.2f} mm, "

@@ -7,12 +7,14 @@
 * :mod:`~arcube.accuracy._kernel`: 20.3 compiled (Numba), and per-point functions for an evaluation kernel;
 * :mod:`~arcube.accuracy.monte_carlo`: 20.2 and 20.4, built robots with the exact FK;
 * :mod:`~arcube.accuracy.budget`: :func:`budget` -> :class:`ToleranceResult`;
-* :mod:`~arcube.accuracy.output`: :func:`write`, the output folder (JSON, CSVs, pictures), all or nothing.
+* :mod:`~arcube.accuracy.output`: :func:`write`, the output folder (JSON, CSVs, and the pictures it is given),
+  all or nothing; :func:`arcube.report.accuracy.write_budget` writes it with every picture.
 
 ```python
-from arcube.accuracy import ToleranceSettings, budget, write
+from arcube.accuracy import ToleranceSettings, budget
+from arcube.report.accuracy import write_budget
 result = budget(design, task.E, task.e, "+,+,+,-", ToleranceSettings(tolerance_class="f"), task_ids, task.k)
-result.summary["lateral_error_p95_mm"]; write(result, "budget")
+result.summary["lateral_error_p95_mm"]; write_budget(result, "budget")
 ```
 """
 

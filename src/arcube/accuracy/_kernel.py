@@ -30,8 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.accuracy.first_order import FirstOrder
 from arcube.accuracy.sources import IS_ANGLE, JOINT_COLUMN, PARAM_COLUMN
-from arcube.model.design import PARAM_NAMES, full_params, unpack
 from arcube.model import frames
+from arcube.model.design import PARAM_NAMES, full_params, unpack
 from arcube.model.sensitivity import mount_axes
 
 # The geometry row: m(3) f(3) p(3) d_x d_y c(2) t(2) r o(2) alpha(2) beta(2) (rad) R(9, row-major) omega(9: rows rx, ry, rz) L
@@ -99,7 +99,7 @@ def point_jacobians(geo, Cm0, Cm1, Cm2, em0, em1, em2, sr0, cr0, sr1, cr1, sr2, 
     e_m in the mechanism frame, sin/cos of rho (3), delta (2) and sigma (2). ``col``, ``scale`` from
     :func:`source_map`; ``ctx`` ``(18,)`` and ``cols`` ``(2, 3, 32)`` are work buffers. Returns False where the
     derivatives do not exist (H_u = 0 or det[x_b, y_b, e] = 0: a singularity), G then NaN."""
-    f, p, d, c, t = geo[_F:_F + 3], geo[_P:_P + 3], geo[_D:_D + 2], geo[_C:_C + 2], geo[_T:_T + 2]
+    p, d, c, t = geo[_P:_P + 3], geo[_D:_D + 2], geo[_C:_C + 2], geo[_T:_T + 2]
     # TMS coupler terms (MODEL.md 7.2): a_v = D, a_w = E
     av0 = Cm1 - d[0] * sd0 + t[0] * ss0
     aw0 = Cm2 + d[0] * cd0 - t[0] * cs0 - p[0] * cr0

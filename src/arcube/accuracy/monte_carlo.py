@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from arcube.accuracy.sources import IS_ANGLE, JOINT_COLUMN, N_SOURCES, PARAM_COLUMN, PER_ROBOT
+from arcube.accuracy.sources import JOINT_COLUMN, N_SOURCES, PARAM_COLUMN, PER_ROBOT
 from arcube.model.design import N_PARAMS
 from arcube.model.mechanism import forward_kinematics
 

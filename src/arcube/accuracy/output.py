@@ -2,9 +2,11 @@
 
 ``DIR/tolerance.json`` (settings, design, mode, the summaries of MODEL.md 20.3-20.4, the Monte Carlo's
 percentiles, the sources ranked), ``tolerance_points.csv`` (one row per plan point, plan order),
-``sensitivity.csv`` (one row per error source, by decreasing share), and the pictures of
-:mod:`arcube.report.accuracy`. Everything is written into a temporary folder beside DIR, then renamed to
-DIR: a reader, or a failure, never sees half a budget. DIR must be new or empty.
+``sensitivity.csv`` (one row per error source, by decreasing share), and the pictures a caller hands in
+(``figures``: :data:`arcube.report.accuracy.FIGURES`, which :func:`arcube.report.accuracy.write_budget`
+passes; this layer computes and writes data, and never draws). Everything is written into a temporary
+folder beside DIR, then renamed to DIR: a reader, or a failure, never sees half a budget. DIR must be
+new or empty.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import math
 import os
 import shutil
 import tempfile
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -55,21 +58,24 @@ def sensitivity_csv(result: ToleranceResult) -> str:
     return _csv(SENSITIVITY_COLUMNS, rows)
 
 
-def contents(result: ToleranceResult) -> dict[str, bytes]:
-    """Every file of the folder: name -> bytes."""
-    from arcube.report.accuracy import FIGURES
+Figures = Mapping[str, Callable[[ToleranceResult], bytes]]
+"""File name -> a function drawing that picture (PNG bytes) of a budget."""
 
+
+def contents(result: ToleranceResult, figures: Figures | None = None) -> dict[str, bytes]:
+    """Every file of the folder: name -> bytes (the pictures drawn by ``figures``)."""
     files = {
         "tolerance.json": (json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n").encode(),
         "tolerance_points.csv": points_csv(result).encode(),
         "sensitivity.csv": sensitivity_csv(result).encode(),
     }
-    files.update({name: draw(result) for name, draw in FIGURES.items()})
+    files.update({name: draw(result) for name, draw in (figures or {}).items()})
     return files
 
 
-def write(result: ToleranceResult, out_dir: str | os.PathLike[str]) -> Path:
-    """Write the budget's folder ``out_dir`` (new or empty) all or nothing; returns its path.
+def write(result: ToleranceResult, out_dir: str | os.PathLike[str], figures: Figures | None = None) -> Path:
+    """Write the budget's folder ``out_dir`` (new or empty) all or nothing, with the pictures ``figures`` draws
+    (none by default; :func:`arcube.report.accuracy.write_budget` gives them all); returns its path.
 
     Raises:
         InputError: ``out_dir`` is a file or a folder that is not empty (named ``out``).
@@ -81,7 +87,7 @@ def write(result: ToleranceResult, out_dir: str | os.PathLike[str]) -> Path:
             raise InputError.of("out", f"{out}: is not a folder (give a new or empty folder)")
         if any(out.iterdir()):
             raise InputError.of("out", f"{out}: the folder is not empty (give a new or empty folder)")
-    files = contents(result)  # drawn before anything touches the disk
+    files = contents(result, figures)  # drawn before anything touches the disk
     made = [a for a in reversed(out.parents) if not a.exists()]
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))

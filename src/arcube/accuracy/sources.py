@@ -46,7 +46,7 @@ UNITS: tuple[str, ...] = tuple("mm" if n in PARAM_SOURCES and n not in _DEG_NAME
 """Unit of each source's tolerance (and of its deviation)."""
 IS_ANGLE: NDArray[np.bool_] = np.array([u == "deg" for u in UNITS])
 
-PARAM_COLUMN: NDArray[np.intp] = np.array([INDEX[n] if n in INDEX else -1 for n in SOURCE_NAMES])
+PARAM_COLUMN: NDArray[np.intp] = np.array([INDEX.get(n, -1) for n in SOURCE_NAMES])
 """Index into the 27 design parameters of each source (-1 for the joints' sources)."""
 JOINT_COLUMN: NDArray[np.intp] = np.array([JOINTS.index(n.split("_", 1)[1]) if n not in INDEX else -1 for n in SOURCE_NAMES])
 """Index into the 5 joints of each joint source (-1 for the parameters)."""

@@ -2,7 +2,8 @@
 
 * :func:`sources_png`: the error sources ranked by their share of the lateral variance;
 * :func:`histogram_png`: each built robot's largest lateral error over the plan, with the 95th percentile marked;
-* :func:`trajectories_png`: the lateral error along each trajectory: Monte Carlo p50 and p95, first-order worst case.
+* :func:`trajectories_png`: the lateral error along each trajectory: Monte Carlo p50 and p95, first-order worst case;
+* :func:`write_budget`: the whole output folder of ``arcube tolerance`` (data and pictures), all or nothing.
 
 Drawn on bare :class:`matplotlib.figure.Figure` objects (no pyplot, no global backend state).
 """
@@ -10,12 +11,13 @@ Drawn on bare :class:`matplotlib.figure.Figure` objects (no pyplot, no global ba
 from __future__ import annotations
 
 import io
-from typing import TYPE_CHECKING
+import os
+from pathlib import Path
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from arcube.accuracy.budget import ToleranceResult
+from arcube.accuracy.budget import ToleranceResult
+from arcube.accuracy.output import write
 
 MAX_BARS = 20
 """Sources drawn by :func:`sources_png`; the rest are summed into one bar."""
@@ -119,3 +121,8 @@ def trajectories_png(result: ToleranceResult) -> bytes:
 
 FIGURES = {"sources.png": sources_png, "lateral_histogram.png": histogram_png, "trajectories.png": trajectories_png}
 """File name -> drawing function of the budget's pictures."""
+
+
+def write_budget(result: ToleranceResult, out_dir: str | os.PathLike[str]) -> Path:
+    """The budget's folder (:func:`arcube.accuracy.output.write`) with every picture of :data:`FIGURES`; returns its path."""
+    return write(result, out_dir, FIGURES)
