@@ -72,10 +72,6 @@ def mount_axes(g: Geometry) -> NDArray[np.float64]:
     return np.stack([w_rx, w_ry, w_rz], axis=-2)
 
 
-def _pair(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.stack(np.broadcast_arrays(a, b), axis=-1)
-
-
 def _derivatives(
     g: Geometry, C_m: NDArray[np.float64], e_m: NDArray[np.float64], rho: NDArray[np.float64],
     delta: NDArray[np.float64], sigma: NDArray[np.float64], valid: NDArray[np.bool_],
