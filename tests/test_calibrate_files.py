@@ -12,8 +12,18 @@ import numpy as np
 import pytest
 
 from arcube.calibrate import IdentifySettings, PoseSettings, SimulateSettings
-from arcube.calibrate.design_file import Q0_KEYS, design_digest, load_design, read_calibrated, write_calibrated
-from arcube.calibrate.measurements import Measurements, read_measurements, write_measurements
+from arcube.calibrate.design_file import (
+    Q0_KEYS,
+    design_digest,
+    load_design,
+    read_calibrated,
+    write_calibrated,
+)
+from arcube.calibrate.measurements import (
+    Measurements,
+    read_measurements,
+    write_measurements,
+)
 from arcube.errors import InputError
 from arcube.model.design import PAPER_TABLE2, Design
 

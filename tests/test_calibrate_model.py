@@ -182,7 +182,7 @@ def test_full_covariance_rms_equals_the_diagonal_budget_and_the_exact_monte_carl
     G_E, G_e, valid = source_jacobians(x, task.E, task.e, mode)
     assert valid.all()
     sig = np.random.default_rng(2).uniform(0.01, 0.2, N_SOURCES)
-    lat, _, axis = first_order_rms(G_E, G_e, task.e, np.diag(sig**2))
+    lat, _, _ = first_order_rms(G_E, G_e, task.e, np.diag(sig**2))
     ref = budget_from_jacobians(G_E, G_e, task.e, 3.0 * sig, sig)  # the 20.3 RMS with a diagonal covariance
     np.testing.assert_allclose(lat, ref.lateral_rms_mm, rtol=1e-12)
 

@@ -26,7 +26,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.accuracy.first_order import source_jacobians
-from arcube.accuracy.monte_carlo import CHUNK_ROBOT_POINTS, PERCENTILES, exact_errors, percentiles, pose_draws, pose_joint_errors, split
+from arcube.accuracy.monte_carlo import (
+    CHUNK_ROBOT_POINTS,
+    PERCENTILES,
+    exact_errors,
+    percentiles,
+    pose_draws,
+    pose_joint_errors,
+    split,
+)
 from arcube.accuracy.sources import N_SOURCES, SOURCE_NAMES
 from arcube.evaluation.performance import spin_free_basis
 from arcube.evaluation.task import build_task

@@ -33,7 +33,13 @@ from arcube.calibrate.budget import calibrated_budget
 from arcube.calibrate.design_file import load_design, signs_of
 from arcube.calibrate.identifiability import identifiability, observability
 from arcube.calibrate.measurements import Measurements, read_measurements
-from arcube.calibrate.model import DOF_PER_MEASUREMENT, N_UNKNOWNS, Problem, make_problem, model_pose
+from arcube.calibrate.model import (
+    DOF_PER_MEASUREMENT,
+    N_UNKNOWNS,
+    Problem,
+    make_problem,
+    model_pose,
+)
 from arcube.calibrate.result import Calibration, Residuals, pose_errors
 from arcube.calibrate.settings import IdentifySettings
 from arcube.errors import InputError
@@ -89,7 +95,7 @@ class _Cached:
 def _holdout(n: int, fraction: float, seed: int) -> NDArray[np.bool_]:
     """``(n,)`` True for the fitted rows: round(fraction n) rows, chosen by ``default_rng(seed)``, are held out."""
     fitted = np.ones(n, bool)
-    fitted[np.random.default_rng(seed).permutation(n)[: int(round(fraction * n))]] = False
+    fitted[np.random.default_rng(seed).permutation(n)[: round(fraction * n)]] = False
     return fitted
 
 
@@ -149,7 +155,7 @@ def identify(
     if sol.status <= 0 or not np.all(pose1.valid[fitted]):
         raise InputError(f"{meas.source}: the identification did not converge ({sol.message}); check the measurements "
                          "(units, rows of another robot) and the design")  # fmt: skip
-    x_id, q0_id = full.state(z)
+    x_id, _ = full.state(z)
     try:
         Design.from_vector(x_id)
     except InputError as exc:

@@ -103,8 +103,7 @@ def _header(cells: list[str], name: str) -> dict[str, int]:
 
 def parse_measurements(text: str, name: str) -> Measurements:
     """Parse the CSV ``text`` of a measurement (or poses) file; ``name`` labels every message."""
-    if text.startswith("\ufeff"):
-        text = text[1:]
+    text = text.removeprefix("\ufeff")
     if not text.strip():
         raise InputError(f"{name}: empty file")
     reader = csv.reader(io.StringIO(text, newline=""))
@@ -184,6 +183,13 @@ def write_measurements(path: str | os.PathLike[str], m: Measurements) -> None:
 
 
 __all__ = [
-    "JOINT_COLUMNS", "Measurements", "NUMBER_COLUMNS", "OPTIONAL_COLUMNS", "POSE_COLUMNS", "measurements_csv",
-    "parse_measurements", "read_measurements", "write_measurements",
+    "JOINT_COLUMNS",
+    "NUMBER_COLUMNS",
+    "OPTIONAL_COLUMNS",
+    "POSE_COLUMNS",
+    "Measurements",
+    "measurements_csv",
+    "parse_measurements",
+    "read_measurements",
+    "write_measurements",
 ]  # fmt: skip

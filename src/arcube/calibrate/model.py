@@ -23,7 +23,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from arcube.accuracy.sources import IS_ANGLE, PARAM_COLUMN, SOURCE_NAMES, UNITS, tolerances
+from arcube.accuracy.sources import (
+    IS_ANGLE,
+    PARAM_COLUMN,
+    SOURCE_NAMES,
+    UNITS,
+    tolerances,
+)
 from arcube.errors import InputError
 from arcube.model.mechanism import forward_kinematics
 from arcube.model.sensitivity import fk_derivatives

@@ -27,10 +27,26 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from arcube.calibrate.design_file import StartDesign, design_digest, load_design, signs_of
-from arcube.calibrate.identifiability import Identifiability, identifiability, observability
+from arcube.calibrate.design_file import (
+    StartDesign,
+    design_digest,
+    load_design,
+    signs_of,
+)
+from arcube.calibrate.identifiability import (
+    Identifiability,
+    identifiability,
+    observability,
+)
 from arcube.calibrate.measurements import Measurements, write_measurements
-from arcube.calibrate.model import N_UNKNOWNS, UNKNOWNS, Problem, model_pose, scales, unknown_values
+from arcube.calibrate.model import (
+    N_UNKNOWNS,
+    UNKNOWNS,
+    Problem,
+    model_pose,
+    scales,
+    unknown_values,
+)
 from arcube.calibrate.settings import MAX_CANDIDATES, PoseSettings
 from arcube.errors import InputError
 from arcube.evaluation.performance import spin_free_basis

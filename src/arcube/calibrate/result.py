@@ -19,7 +19,13 @@ from arcube.calibrate.budget import CalibratedBudget
 from arcube.calibrate.design_file import StartDesign, calibrated_dict
 from arcube.calibrate.identifiability import Identifiability
 from arcube.calibrate.measurements import Measurements
-from arcube.calibrate.model import KINDS, N_UNKNOWNS, UNKNOWN_UNITS, UNKNOWNS, with_unknowns
+from arcube.calibrate.model import (
+    KINDS,
+    N_UNKNOWNS,
+    UNKNOWN_UNITS,
+    UNKNOWNS,
+    with_unknowns,
+)
 from arcube.calibrate.settings import IdentifySettings
 from arcube.model.mechanism import format_mode
 

@@ -91,4 +91,4 @@ class SimulateSettings(Settings):
     """Distribution of the robot's deviations: uniform on [-T, T], or normal with sigma = T/3."""
 
 
-__all__ = ["IdentifySettings", "MAX_CANDIDATES", "MAX_COUNT", "PoseSettings", "SimulateSettings"]
+__all__ = ["MAX_CANDIDATES", "MAX_COUNT", "IdentifySettings", "PoseSettings", "SimulateSettings"]

@@ -24,7 +24,11 @@ from numpy.typing import ArrayLike, NDArray
 from arcube.accuracy.monte_carlo import robot_draws, split
 from arcube.accuracy.settings import ToleranceSettings
 from arcube.calibrate.design_file import StartDesign, design_digest, load_design
-from arcube.calibrate.measurements import Measurements, read_measurements, write_measurements
+from arcube.calibrate.measurements import (
+    Measurements,
+    read_measurements,
+    write_measurements,
+)
 from arcube.calibrate.model import robot_assembly, unknown_values
 from arcube.calibrate.settings import SimulateSettings
 from arcube.errors import InputError

@@ -120,20 +120,24 @@ def page_html(result: Calibration) -> str:
     resid_rows.append(["tracker noise level", "", "", res["noise"]["E_rms_mm"], "", res["noise"]["e_rms_deg"]])
     unknowns = [[u["name"], u["kind"], u["unit"], u["nominal"], u["identified"], u["deviation"], u["sigma"], "yes" if u["identifiable"] else "no",
                  ", ".join(f"{c['name']} ({c['coefficient']:+.3g})" for c in u["confounded_with"])] for u in data["unknowns"]]  # fmt: skip
+    overview = [
+        ["working mode", format_mode(result.mode)],
+        ["measurements (fitted / held out)", f"{int(result.fitted.sum())} / {int((~result.fitted).sum())}"],
+        ["identifiable unknowns", f"{data['identifiable_count']} of 31"], ["O1 (Borm and Menq)", result.o1],
+        ["condition number", result.condition_number], ["σ̂ (1: residuals at the noise level)", result.sigma_hat],
+        ["solver", result.solver["message"]],
+    ]  # fmt: skip
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title><style>{CSS}</style></head><body>",
         f"<h1>{esc(title)}</h1>",
-        _table([["working mode", format_mode(result.mode)], ["measurements (fitted / held out)", f"{int(result.fitted.sum())} / {int((~result.fitted).sum())}"],
-                ["identifiable unknowns", f"{data['identifiable_count']} of 31"], ["O1 (Borm and Menq)", result.o1],
-                ["condition number", result.condition_number], ["σ̂ (1: residuals at the noise level)", result.sigma_hat],
-                ["solver", result.solver["message"]]], ["", ""]),  # fmt: skip
-        "<h2>Residuals</h2><p class='note'>RMS over the rows of the tip residual (mm, 3-D) and the axis residual (deg), "
-        "with the nominal model (before) and the identified one (after). At the tracker's noise level they are √3 σ_E and √2 σ_e.</p>",
+        _table(overview, ["", ""]),
+        ("<h2>Residuals</h2><p class='note'>RMS over the rows of the tip residual (mm, 3-D) and the axis residual (deg), "
+         "with the nominal model (before) and the identified one (after). At the tracker's noise level they are √3 σ_E and √2 σ_e.</p>"),
         _table(resid_rows, ["rows", "count", "tip before (mm)", "tip after (mm)", "axis before (deg)", "axis after (deg)"]),
         divs["residuals"],
-        "<h2>Identified deviations</h2><p class='note'>Identified minus nominal value of each unknown, in units of its typical "
-        "size (ISO 2768-1 class m tolerance; docking 10 mm, 5°; zero offsets 0.1°), with ±σ bars. An unknown that cannot be told "
-        "apart from others is kept nominal; a deviation of it looks like the listed ones times their coefficients.</p>",
+        ("<h2>Identified deviations</h2><p class='note'>Identified minus nominal value of each unknown, in units of its typical "
+         "size (ISO 2768-1 class m tolerance; docking 10 mm, 5°; zero offsets 0.1°), with ±σ bars. An unknown that cannot be told "
+         "apart from others is kept nominal; a deviation of it looks like the listed ones times their coefficients.</p>"),
         divs["deviations"],
         _table(unknowns, ["unknown", "kind", "unit", "nominal", "identified", "deviation", "σ", "identifiable", "confounded with"]),
     ]  # fmt: skip
@@ -141,10 +145,10 @@ def page_html(result: Calibration) -> str:
         s = result.budget.summary
         where = "the plan's points" if result.budget.where == "plan" else "the measured poses"
         parts += [
-            f"<h2>Accuracy of the calibrated robot</h2><p class='note'>On {esc(where)}: the parameters' and zero offsets' errors are "
-            "the identification's (normal, its covariance); encoders and lost motion as MODEL.md 20.1. First-order RMS (maximum over "
-            f"the points) and the Monte Carlo's 95th percentile over {result.budget.robot_lateral_max_mm.size} robots of each robot's "
-            "largest error.</p>",
+            (f"<h2>Accuracy of the calibrated robot</h2><p class='note'>On {esc(where)}: the parameters' and zero offsets' errors are "
+             "the identification's (normal, its covariance); encoders and lost motion as MODEL.md 20.1. First-order RMS (maximum over "
+             f"the points) and the Monte Carlo's 95th percentile over {result.budget.robot_lateral_max_mm.size} robots of each robot's "
+             "largest error.</p>"),
             _table([[k, v] for k, v in s.items()], ["figure", "value"]), divs["budget"],
         ]  # fmt: skip
     else:
