@@ -12,7 +12,9 @@ LPS or RAS and goes to the patient frame through ``PATIENT_FROM_LPS`` / ``PATIEN
 mask, cropped to its bounding box and padded by one empty voxel on every side (so that the surface
 closes even where the segment touches the edge of the grid), is contoured at 0.5 by marching cubes
 (scikit-image, Lewiner: topologically consistent cases): each vertex lies halfway between a voxel
-centre inside the segment and one outside, so within half a voxel edge of the segmented boundary.
+centre inside the segment and one outside (within half a voxel edge of the segmented boundary), or,
+in the cells that Lewiner's method resolves with an interior point, at the centre of a cell whose
+corners lie on both sides: every vertex is within half a voxel diagonal of the boundary.
 The vertices go through the full affine; when det(P D) < 0 (a mirrored grid) the faces are
 reversed, so every surface faces outward in the patient frame and the mirror image is never taken
 for the anatomy. Enclosed holes in a mask (background voxels not face-connected to the outside of
