@@ -143,3 +143,16 @@ def test_bad_segments_write_nothing(tmp_path: Path, layout) -> None:
             write_segmentation(segments, tmp_path / name, 2.0)
         assert str(tmp_path / name) in str(err.value)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_settings_name_their_field() -> None:
+    from arcube.io.segmentation_settings import PatientAnatomyFormat, SegmentSelection
+
+    assert SegmentSelection(segments="C3, 4").segments == ("C3", "4") and SegmentSelection().segments is None
+    assert SegmentSelection(segments=["skin", 7]).segments == ("skin", "7")
+    with pytest.raises(InputError, match=r"^SegmentSelection\.segments must be names or label values"):
+        SegmentSelection(segments="C3,,C4")
+    with pytest.raises(InputError, match=r"^PatientAnatomyFormat\.anatomy_format must be one of stl, seg\.nrrd, nii\.gz"):
+        PatientAnatomyFormat(anatomy_format="obj")
+    with pytest.raises(InputError, match=r"^PatientAnatomyFormat\.anatomy_spacing_mm must be > 0"):
+        PatientAnatomyFormat(anatomy_spacing_mm=0)
