@@ -186,7 +186,8 @@ def resolve_anatomy(anatomy: Any, frame: str = "LPS", plan: Any = None, *,
     """An :class:`Anatomy` from what ``--anatomy`` accepts (None, 'none', 'default', mesh or segmentation paths)."""
     if anatomy is None or isinstance(anatomy, Anatomy):
         if segments is not None:
-            raise InputError.of("segments", "applies to anatomy files, not to an Anatomy already loaded")
+            raise InputError.of("segments", "needs an anatomy (a segmentation file, or 'default')" if anatomy is None
+                                else "applies to anatomy files, not to an Anatomy already loaded")
         return anatomy
     items = [os.fspath(anatomy)] if isinstance(anatomy, (str, os.PathLike)) else [os.fspath(a) for a in anatomy]
     plan_spec = plan.source if hasattr(plan, "source") and not isinstance(plan, (str, os.PathLike)) else (None if plan is None else os.fspath(plan))
