@@ -7,13 +7,14 @@ from pathlib import Path
 from arcube.errors import InputError
 from arcube.io.inputs import short_repr
 from arcube.io.trajectories import read_csv
-from arcube.patients.anatomy import write_anatomy
+from arcube.patients.segmentation import anatomy_suffix, write_anatomy_as
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
 
 __all__ = ["write_patients"]
 
 
-def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path) -> list[str]:
+def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path, *,
+                   anatomy_format: str = "stl", anatomy_spacing_mm: float = 0.5) -> list[str]:
     """Generate, write and check the patients; return one check text per patient.
 
     Args:
@@ -27,7 +28,16 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
             Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
             anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
             (binary STL, patient frame, one closed shell per box).
+        anatomy_format: ``stl`` (default), ``seg.nrrd`` (3D Slicer segmentation, LPS) or ``nii.gz``
+            (NIfTI label map, RAS): the anatomy file is then ``<stem>.anatomy.seg.nrrd`` or
+            ``<stem>.anatomy.nii.gz``, one segment per vertebra and one for soft tissue
+            (:mod:`arcube.patients.segmentation`).
+        anatomy_spacing_mm: voxel size of a label-map anatomy, mm (> 0).
     """
+    suffix = anatomy_suffix(anatomy_format)
+    if anatomy_format != "stl" and (isinstance(anatomy_spacing_mm, bool) or not isinstance(anatomy_spacing_mm, (int, float))
+                                    or not 0 < anatomy_spacing_mm < float("inf")):
+        raise InputError.of("anatomy_spacing_mm", f"{anatomy_spacing_mm!r}: expected a positive number of mm")
     if mean and seed is not None:
         raise InputError.of("mean", "excludes a seed: the mean patient has no random draws (give one or the other)")
     if not mean and seed is None:
@@ -52,11 +62,14 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
     texts = []
     for k, path in enumerate(paths):
         ts, params = generate_patient(None if mean else seed + k, technique)
+        anatomy_path = path.with_suffix(suffix)
+        # the anatomy first: a label map can fail (spacing too coarse or too fine) before the CSV exists
+        layout = write_anatomy_as(params, anatomy_path, anatomy_format, anatomy_spacing_mm)
         json_path = write_patient(ts, params, path)
-        anatomy_path = path.with_suffix(".anatomy.stl")
-        layout = write_anatomy(params, anatomy_path)
+        frame = {"stl": "patient frame", "seg.nrrd": f"LPS label map, {anatomy_spacing_mm:g} mm voxels",
+                 "nii.gz": f"RAS label map, {anatomy_spacing_mm:g} mm voxels"}[anatomy_format]
         # The check re-reads the written file, so it sees the 3-decimal points a user gets.
         check = format_check(check_patient(read_csv(path), params))
-        texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, patient frame)\n"
+        texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame})\n"
                      f"# {layout.summary()}\n{check}")
     return texts
