@@ -27,7 +27,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 import arcube  # noqa: E402
 from arcube.evaluation.anatomy import load_anatomy  # noqa: E402
-from arcube.evaluation.result import parse_mode_option  # noqa: E402
+from arcube.coerce import mode_signs  # noqa: E402
 from arcube.model.body import mechanism_points  # noqa: E402
 from arcube.patients import draw_parameters  # noqa: E402
 from arcube.patients.segmentation import write_anatomy_as  # noqa: E402
@@ -48,7 +48,7 @@ def main(out: Path) -> None:
     per = ev.task.n_points
     middle = len(ev.task.ids) // 2
     row = middle * per + int(np.flatnonzero(reach[middle * per:(middle + 1) * per])[0])
-    mp = mechanism_points(design.to_vector(), ev.task.E[row:row + 1], ev.task.e[row:row + 1], parse_mode_option(ev.mode))
+    mp = mechanism_points(design.to_vector(), ev.task.E[row:row + 1], ev.task.e[row:row + 1], mode_signs(ev.mode))
 
     fig = plt.figure(figsize=(9, 7), dpi=120)
     ax = fig.add_subplot(projection="3d")

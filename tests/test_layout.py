@@ -63,8 +63,8 @@ CLI_ALLOWED_MODULES = {"arcube.__main__"}
 
 LAYERS = (
     "arcube.errors", "arcube.io", "arcube.model", "arcube.options", "arcube.patients", "arcube.evaluation", "arcube.coerce",
-    "arcube.optimization", "arcube.motion", "arcube.report", "arcube.export", "arcube.design_job", "arcube.api", "arcube.explorer",
-    "arcube.cli",
+    "arcube.accuracy", "arcube.optimization", "arcube.motion", "arcube.report", "arcube.calibrate", "arcube.export",
+    "arcube.design_job", "arcube.api", "arcube.explorer", "arcube.cli",
 )  # fmt: skip
 """Every package (and top-level module) of src/arcube, bottom first: the pipeline io -> evaluation ->
 optimization -> program (motion) -> report / export -> the design job -> api -> the explorer and the CLI."""

@@ -146,7 +146,7 @@ def test_bad_segments_write_nothing(tmp_path: Path, layout) -> None:
 
 
 def test_settings_name_their_field() -> None:
-    from arcube.io.segmentation_settings import PatientAnatomyFormat, SegmentSelection
+    from arcube.patients.settings import PatientAnatomyFormat, SegmentSelection
 
     assert SegmentSelection(segments="C3, 4").segments == ("C3", "4") and SegmentSelection().segments is None
     assert SegmentSelection(segments=["skin", 7]).segments == ("skin", "7")

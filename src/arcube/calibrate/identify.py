@@ -115,7 +115,7 @@ def identify(
         trajectories: a :class:`~arcube.io.trajectories.TrajectorySet` (already selected, e.g. one side):
             the calibrated robot's accuracy budget is computed on its points; None: on the measured poses.
         out: if given, the output folder (new or empty) written all or nothing: design.json,
-            calibration.json, residuals.csv, calibration.html (:func:`arcube.report.calibration.write_calibration`).
+            calibration.json, residuals.csv, calibration.html (:func:`arcube.calibrate.output.write_calibration`).
 
     Raises:
         InputError: a bad file or row (named), too few measurements, or a fit that fails.
@@ -180,7 +180,7 @@ def identify(
         budget=budget,
     )  # fmt: skip
     if out is not None:
-        from arcube.report.calibration import write_calibration
+        from arcube.calibrate.output import write_calibration
 
         write_calibration(result, out)
     return result

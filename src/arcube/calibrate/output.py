@@ -3,8 +3,8 @@
 ``DIR/design.json`` (the calibrated design: :mod:`arcube.calibrate.design_file`), ``calibration.json``
 (:meth:`arcube.calibrate.result.Calibration.to_json`), ``residuals.csv`` (one row per measurement: its
 file row, pose id, fitted or held out, tip and axis residuals before and after), and the pages a caller
-hands in (``pages``: :func:`arcube.report.calibration.write_calibration` passes the HTML report; this
-layer computes and writes data, and never draws). Everything goes into a temporary folder beside DIR,
+hands in (``pages``: :func:`write_calibration` passes the HTML page that
+:func:`arcube.report.calibration.page_bytes` draws). Everything goes into a temporary folder beside DIR,
 then is renamed to DIR: a reader, or a failure, never sees half a calibration. DIR must be new or empty.
 """
 
@@ -90,3 +90,10 @@ def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) ->
 def write(result: Calibration, out_dir: str | os.PathLike[str], pages: Pages | None = None) -> Path:
     """Write the calibration's folder (module doc) with the pages ``pages`` renders; returns its path."""
     return write_folder(contents(result, pages), out_dir)
+
+
+def write_calibration(result: Calibration, out_dir: str | os.PathLike[str]) -> Path:
+    """The calibration's folder (design.json, calibration.json, residuals.csv, calibration.html), all or nothing."""
+    from arcube.report.calibration import PAGE, page_bytes
+
+    return write(result, out_dir, {PAGE: page_bytes})

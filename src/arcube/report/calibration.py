@@ -7,7 +7,9 @@
 * the calibrated robot's accuracy budget along its points: first-order RMS and Monte Carlo p95 of the
   lateral error (div ``fig-budget``).
 
-:func:`write_calibration` writes the whole output folder (:func:`arcube.calibrate.output.write`) with this page.
+:func:`page_bytes` renders it; :func:`arcube.calibrate.output.write_calibration` writes the whole output
+folder with it. This module takes the calibration as it is (:class:`arcube.calibrate.result.Calibration`),
+without importing the calibration package, which sits above the report.
 """
 
 from __future__ import annotations
@@ -18,8 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from arcube.calibrate.output import write
-from arcube.calibrate.result import Calibration
 from arcube.model.mechanism import format_mode
 from arcube.report.page import CSS, esc, fmt, plotly_div
 
@@ -27,7 +27,7 @@ PAGE = "calibration.html"
 DIV_IDS = {"residuals": "fig-residuals", "deviations": "fig-deviations", "budget": "fig-budget"}
 
 
-def residuals_figure(result: Calibration) -> Any:
+def residuals_figure(result: Any) -> Any:
     """Tip (mm) and axis (deg) residual of every measurement, before and after, fitted and held out."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
@@ -54,7 +54,7 @@ def residuals_figure(result: Calibration) -> Any:
     return fig
 
 
-def deviations_figure(result: Calibration) -> Any:
+def deviations_figure(result: Any) -> Any:
     """Identified deviation / typical size, with +-sigma bars; the non-identifiable unknowns at 0, marked x."""
     import plotly.graph_objects as go
 
@@ -81,7 +81,7 @@ def deviations_figure(result: Calibration) -> Any:
     return fig
 
 
-def budget_figure(result: Calibration) -> Any:
+def budget_figure(result: Any) -> Any:
     """Lateral error of the calibrated robot along its points: first-order RMS and Monte Carlo p50, p95."""
     import plotly.graph_objects as go
 
@@ -105,7 +105,7 @@ def _table(rows: list[list[Any]], head: list[str]) -> str:
     return f"<table><tr>{th}</tr>{body}</table>"
 
 
-def page_html(result: Calibration) -> str:
+def page_html(result: Any) -> str:
     """The whole page's HTML text."""
     data = result.to_json()
     res = data["residuals"]
@@ -157,10 +157,5 @@ def page_html(result: Calibration) -> str:
     return "\n".join(parts)
 
 
-def page_bytes(result: Calibration) -> bytes:
+def page_bytes(result: Any) -> bytes:
     return page_html(result).encode("utf-8")
-
-
-def write_calibration(result: Calibration, out_dir: str | os.PathLike[str]) -> Path:
-    """The calibration's folder (design.json, calibration.json, residuals.csv, calibration.html), all or nothing."""
-    return write(result, out_dir, {PAGE: page_bytes})
