@@ -15,14 +15,14 @@ from typer.testing import CliRunner
 from arcube.cli import app
 
 CLI_MD = Path(__file__).with_name("cli.md")
-BLOCK = re.compile(r"```text\n(Usage: arcube (?:\[OPTIONS\] COMMAND|(\w+)).*?)```", re.DOTALL)
+BLOCK = re.compile(r"```text\n(Usage: arcube (?:\[OPTIONS\] COMMAND|(\w+(?: \w+)?)).*?)```", re.DOTALL)
 
 
 def live_help(command: str) -> str:
-    """The ``--help`` text of ``arcube COMMAND`` ('' for the root), 80 columns, no colour."""
+    """The ``--help`` text of ``arcube COMMAND`` ('' for the root; ``"calibrate poses"`` for a subcommand), 80 columns, no colour."""
     env = {"COLUMNS": "80", "TERM": "dumb", "NO_COLOR": "1"}
     os.environ.update(env)
-    result = CliRunner().invoke(app, [command, "--help"] if command else ["--help"], env=env)
+    result = CliRunner().invoke(app, [*command.split(), "--help"] if command else ["--help"], env=env)
     return result.output.rstrip() + "\n"
 
 

@@ -49,7 +49,8 @@ def test_unpack_converts_angles_to_radians() -> None:
     ("change", "message"),
     [
         ({"drop": "r"}, "missing parameter(s) r"),
-        ({"add": ("c_z", 50.0)}, "unknown parameter 'c_z'"),
+        ({"add": ("c_w", 50.0)}, "unknown parameter 'c_w'"),  # c_z is a design's own since MODEL.md 19.1
+        ({"add": ("c_z", -50.0)}, "c_z (the z dyad's second link) must be a positive length"),
         ({"set": ("p_x", -3.0)}, "length p_x must be positive"),
         ({"set": ("t_y", 0.0)}, "length t_y must be positive"),
         ({"set": ("f_y", "abc")}, "parameter f_y is not a number"),

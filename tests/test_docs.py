@@ -221,7 +221,7 @@ def _help_blocks() -> dict[str, str]:
     """The pasted ``arcube COMMAND --help`` outputs of cli.md, by command ('' for the root)."""
     out: dict[str, str] = {}
     for b in fenced_blocks(DOCS / "cli.md"):
-        m = re.match(r"Usage: arcube (?:\[OPTIONS\] COMMAND|(\w+))", b.code)
+        m = re.match(r"Usage: arcube (?:\[OPTIONS\] COMMAND|(\w+(?: \w+)?))", b.code)
         if b.info == "text" and m:
             out[m.group(1) or ""] = b.code
     return out

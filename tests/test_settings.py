@@ -117,9 +117,11 @@ def test_a_table_written_before_docking_loads_and_duplicates_reads_as_those_runs
 
 # --------------------------------------------------------------------------- the flag table
 def _cli_flags() -> set[str]:
-    command = typer.main.get_command(app)
     flags: set[str] = set()
-    for sub in command.commands.values():  # type: ignore[attr-defined]
+    todo = list(typer.main.get_command(app).commands.values())  # type: ignore[attr-defined]
+    while todo:  # commands, and the subcommands of a group (arcube calibrate poses)
+        sub = todo.pop()
+        todo.extend(getattr(sub, "commands", {}).values())
         for param in sub.params:
             flags.update(o for o in param.opts if o.startswith("--"))
     return flags

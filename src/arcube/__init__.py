@@ -15,7 +15,9 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, optimize, program, resume, study
+from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, joints, optimize, program, resume, study, tolerance
+from arcube.accuracy import ToleranceResult, ToleranceSettings
+from arcube import calibrate
 from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Options, Outputs
@@ -30,7 +32,7 @@ from arcube.options import Masses
 
 __all__ = [
     "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
-    "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "RunSettings", "Study", "TrajectorySet",
-    "__version__", "design", "evaluate", "explore", "export_mjcf", "generate_patient", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study",
+    "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "RunSettings", "ToleranceResult", "ToleranceSettings", "Study", "TrajectorySet",
+    "__version__", "calibrate", "design", "evaluate", "explore", "export_mjcf", "generate_patient", "joints", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study", "tolerance",
     "write_csv", "write_markups", "write_report",
 ]  # fmt: skip

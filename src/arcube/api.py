@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 
-from arcube.coerce import engine_name, mode_signs, points as checked_points, seeds as checked_seeds
+from arcube.coerce import design_mode, engine_name, points as checked_points, seeds as checked_seeds
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.result import Evaluation, evaluate_design
@@ -41,10 +41,11 @@ from arcube.report.study import write_study_convergence
 from arcube.optimization.run_results import OptimizeResult, Study
 
 if TYPE_CHECKING:
+    from arcube.accuracy import ToleranceResult, ToleranceSettings
     from arcube.evaluation.anatomy import Anatomy
     from arcube.export.joints import JointTrajectory
 
-__all__ = ["OptimizeResult", "Study", "design", "evaluate", "joints", "optimize", "program", "resume", "study"]
+__all__ = ["OptimizeResult", "Study", "design", "evaluate", "joints", "optimize", "program", "resume", "study", "tolerance"]
 
 PathLike = str | os.PathLike[str]
 
@@ -55,7 +56,7 @@ def evaluate(
     *,
     options: Options | None = None,
     points: int = 30,
-    mode: str | Sequence[float] = "+,+,+,+",
+    mode: str | Sequence[float] | None = None,
     guards: bool = False,
     side: str | None = None,
     levels: str | Sequence[str] | None = None,
@@ -64,6 +65,7 @@ def evaluate(
     engine: str = "auto",
     anatomy: Anatomy | Sequence[PathLike] | PathLike | None = None,
     anatomy_frame: str = "LPS",
+    segments: str | Sequence[str | int] | None = None,
     **changes: Any,
 ) -> Evaluation:
     """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers,
@@ -76,13 +78,15 @@ def evaluate(
         options: the :class:`arcube.Options` of the evaluation (guards, body, loads, masses); None:
             the paper's model, with the guards of MODEL.md 8.2 when ``guards``.
         points: N samples per trajectory (>= 2), both ends included.
-        mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``.
+        mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``;
+            None: the design's own (:attr:`Design.mode`), else ``+,+,+,+``.
         side, levels, ids: keep only some trajectories (``"R"``, ``"C3-C5"`` or ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``).
         transform: a JSON 4x4 rigid transform from the file's frame to the patient frame (file plans only).
         engine: ``auto`` (compiled kernel when available), ``numba`` or ``numpy`` (the reference).
         anatomy: an :class:`~arcube.evaluation.anatomy.Anatomy`, ``"default"`` (the plan's default
             anatomy, MODEL.md 14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
-            patient), or None: then no clearance to the anatomy is computed.
+            patient), or None: then no clearance to the anatomy is computed; or a segmentation
+            (``.seg.nrrd``, ``.nii``, ``.nii.gz``), of which ``segments`` keeps some (names or label values).
         **changes: settings of ``options`` by name or short name (``clearance=5``, ``thrust=25``,
             ``link_radius=6``, ``encoder_deg=0.02``; see :data:`arcube.options.FLAT`).
 
@@ -90,7 +94,7 @@ def evaluate(
         An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``).
     """
     engine_resolved = engine_name(engine)
-    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes)
+    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes, segments)
     opts = r.options.replace(outputs=r.options.outputs.replace(clearances=True))
     return evaluate_design(r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy)
 
@@ -107,22 +111,25 @@ class _Request(NamedTuple):
 
 
 def _request(design: Any, plan: Any, options: Options | None, points: Any, mode: Any, guards: bool, side: Any, levels: Any, ids: Any,
-             transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any]) -> _Request:  # fmt: skip
-    signs = mode_signs(mode)
-    n = checked_points(points)
+             transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any], segments: Any = None) -> _Request:  # fmt: skip
     d = Design.coerce(design)
+    signs = design_mode(d, mode)
+    n = checked_points(points)
     ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
     opts = request_options(options, guards, **changes)
-    anat = resolve_anatomy(anatomy, anatomy_frame, plan)
+    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (MODEL.md 19.1)
+        opts = opts.replace(c_z=d.c_z)
+    anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
     if opts.guards.clearance_mm is not None and anat is None:
         raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
     return _Request(d, ts, n, signs, opts, anat)
 
 
 def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike = "reference", *, speed: float = 1.0,
-           options: Options | None = None, points: int = 30, mode: str | Sequence[float] = "+,+,+,+", guards: bool = False,
+           options: Options | None = None, points: int = 30, mode: str | Sequence[float] | None = None, guards: bool = False,
            side: str | None = None, levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None,
-           transform: PathLike | None = None, anatomy: Any = None, anatomy_frame: str = "LPS", **changes: Any) -> JointTrajectory:  # fmt: skip
+           transform: PathLike | None = None, anatomy: Any = None, anatomy_frame: str = "LPS", segments: Any = None,
+           **changes: Any) -> JointTrajectory:  # fmt: skip
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory of a plan at ``speed`` mm/s
     (``arcube joints``); the other arguments as :func:`evaluate` takes them. With
     ``options.outputs.holding_torque`` also the holding torque of MODEL.md 18.2 per row.
@@ -134,9 +141,44 @@ def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike =
 
     if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0.0):
         raise InputError.of("speed", f"must be a finite positive number of mm/s, got {speed!r}")
-    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes)
+    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes, segments)
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
     return joint_trajectory(r.design, task, float(speed), r.signs, r.options, None if r.anatomy is None else r.anatomy.distance)
+
+
+def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike = "reference", out: PathLike | None = None, *,
+              settings: ToleranceSettings | None = None, points: int = 30, mode: str | Sequence[float] | None = None,
+              side: str | None = None, levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None,
+              transform: PathLike | None = None, engine: str = "auto", **fields: Any) -> ToleranceResult:  # fmt: skip
+    """The accuracy budget of a robot built to tolerances (MODEL.md 20; ``arcube tolerance``): the first-order
+    worst case and RMS of the lateral, axial and axis errors at every point of the plan, each error
+    source's share, and the Monte Carlo over built robots (p95 of each robot's largest lateral error).
+
+    Args:
+        design, plan, points, mode, side, levels, ids, transform: as :func:`evaluate` takes them (``mode``
+            None: the design's own).
+        out: a folder to create (new or empty) with ``tolerance.json``, ``tolerance_points.csv``,
+            ``sensitivity.csv`` and the pictures; None writes nothing.
+        settings, fields: an :class:`arcube.ToleranceSettings` and changes to it by field name
+            (``tolerance_class="f"``, ``tol={"r": 0.02}``, ``samples=300``).
+        engine: the first order's: ``numba`` (compiled), ``numpy`` (the reference) or ``auto``.
+    """
+    from arcube.accuracy import ToleranceSettings as Tolerances
+    from arcube.accuracy.budget import budget
+    from arcube.evaluation.task import build_task
+    from arcube.options import validated
+
+    if settings is not None and not isinstance(settings, Tolerances):
+        raise InputError.of("settings", f"must be an arcube.ToleranceSettings, got {type(settings).__name__}")
+    s = validated(Tolerances, {**(settings.model_dump() if settings is not None else {}), **fields}) if fields or settings is None else settings
+    r = _request(design, plan, None, points, mode, False, side, levels, ids, transform, None, "LPS", {})
+    task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
+    result = budget(r.design, task.E, task.e, r.signs, s, [task.ids[i] for i in task.trajectory], task.k, engine=engine_name(engine))
+    if out is not None:
+        from arcube.report.accuracy import write_budget
+
+        write_budget(result, out)
+    return result
 
 
 def program(design: Any, plan: Any, out: PathLike | None = None, **kwargs: Any) -> Program:
@@ -200,7 +242,7 @@ def optimize(
     specs = _plans(plan)
     cfg = build_config(specs, s, workers=workers, dask=dask)
     if out is None:
-        anatomies = tuple(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec) for spec in specs) if s.anatomy else ()
+        anatomies = tuple(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) for spec in specs) if s.anatomy else ()
         for p, anatomy in zip(cfg["patients"], anatomies):
             p["anatomy_source"] = anatomy.source
         return runmod.run_in_memory(cfg, tuple(stl_roundtrip(a) for a in anatomies), progress)

@@ -22,7 +22,7 @@ from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.mechanism import format_mode, parse_mode
 
-__all__ = ["MAX_POINTS", "MAX_SEEDS", "engine_name", "mode_signs", "mode_text", "points", "seeds"]
+__all__ = ["MAX_POINTS", "MAX_SEEDS", "design_mode", "engine_name", "mode_signs", "mode_text", "points", "seeds"]
 
 MAX_SEEDS = 1000
 """The most seeds one study or design job takes (a typo such as 1-100000 is refused instead of run)."""
@@ -45,6 +45,14 @@ def mode_signs(mode: Any, *, param: str = "mode") -> NDArray[np.float64]:
         return parse_mode(text)
     except ValueError as exc:
         raise InputError(f"{param}: {exc}", param=param) from None
+
+
+def design_mode(design: Any, mode: Any = None, *, param: str = "mode") -> NDArray[np.float64]:
+    """The working mode a request runs in: ``mode`` when given, else the one the design records
+    (:attr:`arcube.Design.mode`), else ``+,+,+,+`` (the paper's); as :func:`mode_signs`."""
+    if mode is None:
+        mode = getattr(design, "mode", None) or "+,+,+,+"
+    return mode_signs(mode, param=param)
 
 
 def mode_text(mode: Any, *, param: str = "mode") -> str:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BeforeValidator, Field
 
@@ -61,6 +61,8 @@ Tolerance = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
 class ToleranceSettings(Settings):
     """The error sources' tolerances (MODEL.md 20.1), how they are distributed, and the Monte Carlo (20.4)."""
+
+    SHORT: ClassVar[dict[str, str]] = {"tolerance_class": "class"}
 
     tolerance_class: Literal["f", "m", "c", "v"] = "m"
     """ISO 2768-1 class of the lengths and angles: f (fine), m (medium), c (coarse), v (very coarse)."""

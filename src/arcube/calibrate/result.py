@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.calibrate.budget import CalibratedBudget
 from arcube.calibrate.design_file import StartDesign, calibrated_dict
+from arcube.model.design import Design
 from arcube.calibrate.identifiability import Identifiability
 from arcube.calibrate.measurements import Measurements
 from arcube.calibrate.model import (
@@ -91,6 +92,11 @@ class Calibration:
     def sigma(self) -> NDArray[np.float64]:
         """``(31,)`` standard deviation of each identified value (mm, deg); NaN where not identifiable."""
         return np.where(self.identifiability.identifiable, np.sqrt(np.maximum(np.diag(self.covariance), 0.0)), np.nan)
+
+    def calibrated_design(self) -> Design:
+        """The calibrated design as every command reads it: the identified parameters with the zero
+        offsets (``q0_deg``), the mode and the input's c_z (what ``design.json`` holds)."""
+        return Design.from_dict(self.design_json())
 
     def design_json(self) -> dict[str, Any]:
         """The object of design.json (27 parameters, q0_* deg, mode, c_z when the input had one)."""

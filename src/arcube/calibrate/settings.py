@@ -9,7 +9,7 @@ A bad value raises :class:`~arcube.errors.InputError` naming the field
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field
 
@@ -72,6 +72,8 @@ class IdentifySettings(Settings):
 
 class SimulateSettings(Settings):
     """A simulated robot built to a tolerance class and measured with tracker noise."""
+
+    SHORT: ClassVar[dict[str, str]] = {"tolerance_class": "class"}
 
     tolerance_class: Literal["f", "m", "c", "v"] = "m"
     """ISO 2768-1 class the robot is built to: f (fine), m (medium), c (coarse), v (very coarse)."""

@@ -13,7 +13,7 @@ import sys
 import typer
 
 from arcube import __version__
-from arcube.cli import demo, design, evaluate, explore, export, joints, optimize, patients, program, report, resume, study
+from arcube.cli import calibrate, demo, design, evaluate, explore, export, joints, optimize, patients, program, report, resume, study, tolerance
 from arcube.cli.projection import REGISTRY
 from arcube.errors import InputError
 
@@ -42,7 +42,7 @@ def _root(
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, resume, study, design, report, joints, patients, demo, export, explore, program):
+for _module in (evaluate, optimize, resume, study, design, report, joints, patients, demo, export, explore, program, tolerance, calibrate):
     _module.register(app)
 
 

@@ -13,6 +13,7 @@ from typing import Any
 
 from arcube.cli.projection import Flag, Given, model_flags, option
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options
+from arcube.patients.settings import SegmentSelection
 
 __all__ = [
     "ANATOMY", "ANATOMY_FRAME", "DASK", "DESIGN", "ENGINE", "GUARDS", "IDS", "LEVELS", "MODE", "OPTION_FLAGS", "OUT", "PLAN",
@@ -23,7 +24,7 @@ DESIGN = option("--design", "Design: a preset name (paper) or a design JSON file
 TRAJECTORIES = option("--trajectories", "Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'. [default: reference]",
                       key="plan", params=("plan",), spread=True, path=True)  # fmt: skip
 POINTS = option("--points", "Points per trajectory (N >= 2), both ends included. [default: 30]", int, params=("points", "RunSettings.points"))
-MODE = option("--mode", "Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,- [default: +,+,+,+]",
+MODE = option("--mode", "Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,- [default: the design file's mode, else +,+,+,+]",
               params=("mode", "RunSettings.mode"))  # fmt: skip
 GUARDS = option("--guards", "Turn on the guards of MODEL.md 8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards"))
 SIDE = option("--side", "Keep trajectories of one side: R or L.", params=("side", "RunSettings.side"))
@@ -33,17 +34,19 @@ TRANSFORM = option("--transform", "4x4 rigid transform (JSON) from the file's fr
                    params=("transform", "RunSettings.transform"))  # fmt: skip
 ENGINE = option("--engine", "Evaluation engine: auto (numba if available), numba or numpy. [default: auto]",
                 params=("engine", "RunSettings.engine"))  # fmt: skip
-ANATOMY = option("--anatomy", "Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or mesh files FILE [FILE ...] "
-                 "(STL, OBJ, PLY).", params=("anatomy", "RunSettings.anatomy"), spread=True)  # fmt: skip
+ANATOMY = option("--anatomy", "Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: "
+                 "meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz).", params=("anatomy", "RunSettings.anatomy"), spread=True)  # fmt: skip
 ANATOMY_FRAME = option("--anatomy-frame", "Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient. [default: LPS]",
                        params=("anatomy_frame", "RunSettings.anatomy_frame"))  # fmt: skip
+SEGMENTS = replace(model_flags(SegmentSelection, only=("segments",))[0], params=("segments", "SegmentSelection.segments", "RunSettings.segments"))
+"""``--segments``: which segments of segmentation anatomy files to keep (names or label values)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
 SEED = option("--seed", "Random seed.", int, params=("seed",))
 WORKERS = option("--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",))
 DASK = option("--dask", "Address of a dask.distributed scheduler to send batches to.", params=("dask",))
 QUIET = option("--quiet", "No progress bar.", bool)
 
-PLAN: list[Flag] = [DESIGN, TRAJECTORIES, POINTS, MODE, GUARDS, SIDE, LEVELS, IDS, TRANSFORM, ENGINE, ANATOMY, ANATOMY_FRAME]
+PLAN: list[Flag] = [DESIGN, TRAJECTORIES, POINTS, MODE, GUARDS, SIDE, LEVELS, IDS, TRANSFORM, ENGINE, ANATOMY, ANATOMY_FRAME, SEGMENTS]
 """The plan, its selection and what evaluates it: the request of ``evaluate``, ``joints``, ``export`` and ``explore``."""
 
 OPTION_FLAGS: dict[str, list[Flag]] = {
@@ -80,7 +83,7 @@ def masses_given(given: Given) -> bool:
 def plan_request(given: Given) -> dict[str, Any]:
     """The plan keywords of the API calls (``side``, ``levels``, ``ids``, ``transform``, ``anatomy``,
     ``anatomy_frame``), from the flags given (absent ones keep the API's defaults)."""
-    keys = ("side", "levels", "ids", "transform", "anatomy", "anatomy_frame")
+    keys = ("side", "levels", "ids", "transform", "anatomy", "anatomy_frame", "segments")
     return {k: given.get(k) for k in keys if k in given}
 
 

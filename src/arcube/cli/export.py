@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
-    ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, OUT, POINTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
+    ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, OUT, POINTS, SEGMENTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
 )  # fmt: skip
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
@@ -25,7 +25,7 @@ PROGRAM = option("--program", "Program folder (arcube program): assemble at its 
                  "(robot.xml -> robot.replay.csv); design: --design, else the folder's.", Path, params=("program",))  # fmt: skip
 PLAN_FLAGS = [TRAJECTORIES, AT, POINTS, MODE, SIDE, LEVELS, IDS]
 """Flags that pick the task point; a program fixes its own (its first row, its working mode)."""
-FLAGS = [MODEL_OUT, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, *request_flags("body", "masses"), PROGRAM]
+FLAGS = [MODEL_OUT, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, SEGMENTS, *request_flags("body", "masses"), PROGRAM]
 
 
 def export(given: Given) -> None:
@@ -54,7 +54,7 @@ def export(given: Given) -> None:
         _export_program(given, out, options, c_z, asked)
         return
     plan = one_plan(given)
-    anat = resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), plan) if given.get("anatomy") else None
+    anat = resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), plan, segments=given.get("segments")) if given.get("anatomy") else None
     kw = {k: given.get(k) for k in ("at", "points", "mode") if k in given}
     from arcube.io.load import load_plan
 
@@ -76,7 +76,8 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
     if clash:
         raise InputError(f"{', '.join(clash)}: not with {PROGRAM.name} (the model is assembled at the program's first row, in its working mode)")
     rows = read_program(given.get("program"))
-    anat = resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), rows.summary.get("plan")) if given.get("anatomy") else None
+    anat = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), rows.summary.get("plan"), segments=given.get("segments"))
+            if given.get("anatomy") else None)  # fmt: skip
     result = export_program(rows, given.get("design"), c_z=c_z, options=options, anatomy=anat, masses=masses)  # type: ignore[arg-type]
     try:
         xml_path, csv_path = write_program_export(result, out)

@@ -5,8 +5,9 @@ from __future__ import annotations
 import typer
 
 from arcube.cli.common import OUT, SEED, with_help
-from arcube.cli.projection import Given, command, option
+from arcube.cli.projection import Given, command, model_flags, option
 from arcube.patients.cohort import write_patients
+from arcube.patients.settings import PatientAnatomyFormat
 
 __all__ = ["register"]
 
@@ -16,12 +17,15 @@ FLAGS = [
     with_help(SEED, "Random seed S; patient k uses S + k."),
     option("--technique", "pedicle, roy-camille, magerl or an. [default: pedicle]", params=("technique",)),
     option("--count", "Number of patients K. [default: 1]", int, params=("count",)),
+    *model_flags(PatientAnatomyFormat, "format"),
 ]  # fmt: skip
 
 
 def patients(given: Given) -> None:
     """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check."""
-    for text in write_patients(bool(given.get("mean")), given.get("seed"), given.get("technique", "pedicle"), given.get("count", 1), given.get("out")):
+    fmt = PatientAnatomyFormat().merged(given.tree("format"))
+    for text in write_patients(bool(given.get("mean")), given.get("seed"), given.get("technique", "pedicle"), given.get("count", 1), given.get("out"),
+                               anatomy_format=fmt.anatomy_format, anatomy_spacing_mm=fmt.anatomy_spacing_mm):  # fmt: skip
         typer.echo(text)
 
 

@@ -16,6 +16,7 @@ flags. :data:`REGISTRY` holds every command's flags, for the multi-value and pat
 from __future__ import annotations
 
 import inspect
+import keyword
 import types
 import typing
 from collections.abc import Callable, Iterable
@@ -59,8 +60,10 @@ class Flag:
 
     @property
     def dest(self) -> str:
-        """The Python identifier of the generated parameter (from the flag: ``--m-delta`` -> ``m_delta``)."""
-        return self.name.lstrip("-").replace("-", "_")
+        """The Python identifier of the generated parameter (from the flag: ``--m-delta`` -> ``m_delta``,
+        ``--class`` -> ``class_``: a keyword gets a trailing underscore)."""
+        name = self.name.lstrip("-").replace("-", "_")
+        return name + "_" if keyword.iskeyword(name) else name
 
 
 REGISTRY: dict[str, list[Flag]] = {}
@@ -242,14 +245,15 @@ def _parameter(f: Flag) -> inspect.Parameter:
 
 
 def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given], None], *, help: str,
-            arguments: Iterable[inspect.Parameter] = ()) -> None:  # fmt: skip
+            arguments: Iterable[inspect.Parameter] = (), registry_name: str | None = None) -> None:  # fmt: skip
     """Register command ``name`` on ``app``: its options are ``flags``, then ``arguments`` (Typer
     parameters of its own, e.g. a positional folder, passed in :attr:`Given.values` by name);
-    ``run`` gets what the user gave. Errors naming a setting are printed with its flag."""
+    ``run`` gets what the user gave. Errors naming a setting are printed with its flag. ``registry_name``:
+    the command's name in :data:`REGISTRY` (a subcommand's full name, ``calibrate poses``)."""
     dests = [f.dest for f in flags]
     if len(set(dests)) != len(dests) or len({f.name for f in flags}) != len(flags):
         raise ValueError(f"arcube {name}: two flags with one name")
-    REGISTRY[name] = flags
+    REGISTRY[registry_name or name] = flags
     extra = list(arguments)
     spread = next((f for f in flags if f.spread), None)
     if spread is not None:  # several values after one flag: arcube.cli.main splits them; in-process callers (tests) do not

@@ -139,7 +139,7 @@ def _patients(cfg: dict[str, Any]) -> tuple[list[Any], list[Any]]:
     for spec, pat in zip(cfg["settings"]["trajectories"], cfg["patients"]):
         ts = load_trajectories(spec, s.transform)
         plans.append(select(ts, ids=",".join(pat["ids"])))
-        anatomies.append(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec) if s.anatomy else None)
+        anatomies.append(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None)
     return plans, anatomies
 
 

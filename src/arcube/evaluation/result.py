@@ -105,11 +105,12 @@ class Evaluation:
         """The JSON object of the issue's contract (values that do not exist are null)."""
         pts = self.results.points
         return {
-            "design": self.design.to_dict(),
+            "design": self.design.to_file_dict(),
             "mode": self.mode,
             "engine": self.engine,
             "guards": self.options.flat(),
             "anatomy": None if self.anatomy is None else self.anatomy.source,
+            "anatomy_segments": None if self.anatomy is None or self.anatomy.segments is None else [s.to_dict() for s in self.anatomy.segments],
             "points": tables.point_rows(pts, self.task),
             "summary": self.summary_json(),
             "trajectories": [vars(row) for row in tables.per_trajectory(pts, self.task, self.trajectories)],

@@ -27,11 +27,11 @@ __all__ = ["explore", "live_model"]
 
 
 def live_model(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
-               anatomy_frame: str = "LPS", mode: str | Sequence[float] = "+,+,+,+", points: int = 30, side: str | None = None,
+               anatomy_frame: str = "LPS", mode: str | Sequence[float] | None = None, points: int = 30, side: str | None = None,
                levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True,
-               **changes: Any) -> LiveModel:  # fmt: skip
+               segments: Any = None, **changes: Any) -> LiveModel:  # fmt: skip
     """The explorer's :class:`~arcube.explorer.live.LiveModel` from what :func:`explore` takes (InputError on bad input)."""
-    from arcube.coerce import mode_signs, points as checked_points
+    from arcube.coerce import design_mode, points as checked_points
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.explorer.live import LiveModel
     from arcube.io.load import load_plan
@@ -39,19 +39,20 @@ def live_model(design: Any = "paper", plan: Any = "reference", *, options: Optio
     from arcube.options import request_options
 
     n = checked_points(points)
-    signs = mode_signs(mode)
-    opts = request_options(options, **changes)
     d = Design.coerce(design)
+    signs = design_mode(d, mode)
+    opts = request_options(options, **changes)
     ts = load_plan(plan, side=side, levels=levels, ids=ids)
-    anat = resolve_anatomy(anatomy, anatomy_frame, plan)
+    anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
     return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards))
 
 
 def explore(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
-            anatomy_frame: str = "LPS", mode: str | Sequence[float] = "+,+,+,+", points: int = 30, side: str | None = None,
+            anatomy_frame: str = "LPS", mode: str | Sequence[float] | None = None, points: int = 30, side: str | None = None,
             levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True, port: int = 8080,
             host: str = "127.0.0.1", html: str | os.PathLike[str] | None = None, point: int | None = None,
-            save_path: str | os.PathLike[str] = "design_explored.json", block: bool = True, **changes: Any) -> ExplorerApp | Path:  # fmt: skip
+            save_path: str | os.PathLike[str] = "design_explored.json", block: bool = True, segments: Any = None,
+            **changes: Any) -> ExplorerApp | Path:  # fmt: skip
     """Explore a design on a drilling plan in the browser: sliders, the robot's solids coloured by
     clearance, live figures against the requirements of ``arcube design``, save and polish.
 
@@ -76,7 +77,7 @@ def explore(design: Any = "paper", plan: Any = "reference", *, options: Options 
     if html is None:
         check_port(host, port)  # before the slow part: a taken port fails at once
     model = live_model(design, plan, options=options, anatomy=anatomy, anatomy_frame=anatomy_frame, mode=mode, points=points,
-                       side=side, levels=levels, ids=ids, guards=guards, **changes)  # fmt: skip
+                       side=side, levels=levels, ids=ids, guards=guards, segments=segments, **changes)  # fmt: skip
     if point is not None and (isinstance(point, bool) or not isinstance(point, int) or not 0 <= point < len(model)):
         from arcube.errors import InputError
 

@@ -129,6 +129,8 @@ def joint_trajectory(
     if not (math.isfinite(speed_mm_s) and speed_mm_s > 0.0):
         raise ValueError(f"speed must be a finite positive number of mm/s, got {speed_mm_s}")
     params = design.to_vector() if isinstance(design, Design) else np.asarray(design, dtype=float)
+    # MODEL.md 21.4: a calibrated design's controller commands the actuated angles less its zero offsets
+    q0_deg = np.concatenate([design.q0, np.zeros(2)]) if isinstance(design, Design) else np.zeros(7)
     signs = np.asarray(mode, dtype=float)
     reachable = np.asarray(evaluate_task(params, task.E, task.e, signs, options, anatomy).points.reachable, dtype=bool)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -157,7 +159,7 @@ def joint_trajectory(
         k=task.k,
         t_s=s / speed_mm_s,
         E=task.E,
-        q_deg=np.where(keep, np.rad2deg(q), np.nan),
+        q_deg=np.where(keep, np.rad2deg(q) - q0_deg, np.nan),
         q_dot_dps=np.where(keep, np.rad2deg(rates), np.nan),
         reachable=reachable,
         speed_mm_s=float(speed_mm_s),

@@ -65,7 +65,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
 from arcube.evaluation.mass_bodies import MassModel
-from arcube.coerce import mode_signs
+from arcube.coerce import design_mode
 from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, design_vector, joint_values, z_dyad_range
 from arcube.export.inertia import INERTIA_FLOOR_KG_MM2, MASS_FLOOR_KG, body_inertials, mass_model_for
 from arcube.export.plan_point import no_ik_reason, plan_points, resolve_point
@@ -102,7 +102,7 @@ def export_mjcf(
     *,
     at: str | tuple[Any, int] | None = None,
     points: int = 30,
-    mode: str | ArrayLike = "+,+,+,+",
+    mode: str | ArrayLike | None = None,
     c_z: float | None = None,
     options: Options | None = None,
     anatomy: Any = None,
@@ -118,8 +118,8 @@ def export_mjcf(
         None / ``"reference"`` (the bundled reference patient); sampled at ``points`` per trajectory.
     at : ``"ID:K"``, trajectory id and sample index k; default the first point of the plan that the
         design reaches (trajectory order, then k).
-    mode : working mode, ``"+,+,+,+"`` or four signs (MODEL.md 4.3, 5.3).
-    c_z : second link of the z-leg dyad (mm); default d_z (MODEL.md 6). The dyad must close at every
+    mode : working mode, ``"+,+,+,+"`` or four signs (MODEL.md 4.3, 5.3); None: the design's own, else ``+,+,+,+``.
+    c_z : second link of the z-leg dyad (mm); default the design's (:attr:`Design.c_z`), else d_z (MODEL.md 6). The dyad must close at every
         point of the plan where the IK has a solution, else :class:`InputError` names the c_z range
         that would (the intersection of [|L_z - d_z|, L_z + d_z]) or says that none can.
     options : the :class:`arcube.Options` of the robot: its body radii (MODEL.md 14.1) and its mass model
@@ -165,11 +165,13 @@ def export_masses(options: Options, masses: bool | None) -> MassModel:
     return MassModel(link_radius_mm=link, wall_mm=link / 2, density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
 
 
-def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike, c_z: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm: d_z when None) of an export; InputError on bad input."""
-    params = design_vector(design)
-    Design.from_vector(params)  # validates (InputError)
-    signs = mode_signs(mode)
+def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
+    ``mode`` None: the design's own; ``c_z`` None: the design's, else d_z."""
+    d = design if isinstance(design, Design) else Design.from_vector(design_vector(design))  # validates (InputError)
+    params = d.to_vector()
+    signs = design_mode(d, mode)
+    c_z = d.c_z if c_z is None else c_z
     if c_z is not None and not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
         raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
     return params, signs, float(unpack(params).d[2]) if c_z is None else float(c_z)

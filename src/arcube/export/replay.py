@@ -144,11 +144,12 @@ def recorded_design(rows: Program) -> Design | None:
     return None
 
 
-def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.float64]) -> None:
-    """InputError unless the design's IK at every row gives the row's five angles (mod 2 pi)."""
+def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.float64], q0_deg: NDArray[np.float64]) -> None:
+    """InputError unless the design's IK at every row, less a calibrated design's zero offsets ``q0_deg``
+    ``(5,)`` (MODEL.md 21.4: what the controller commands), gives the row's five angles (mod 2 pi)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, rows.E, rows.e, signs)
-    ik = np.concatenate([sol.rho, sol.delta], axis=-1)  # (n, 5) rad
+    ik = np.concatenate([sol.rho, sol.delta], axis=-1) - np.radians(q0_deg)  # (n, 5) rad
     diff = np.abs(np.remainder(ik - np.radians(rows.q_deg) + np.pi, 2.0 * np.pi) - np.pi)
     bad = ~(diff <= ANGLE_TOL_RAD)  # NaN (no IK) counts as bad
     if not bad.any():
@@ -189,9 +190,10 @@ def export_program(
     d = Design.coerce(design)
     mode = rows.summary.get("mode", "+,+,+,+")
     params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else "+,+,+,+", c_z)
-    _check_angles(params, rows, signs)
+    _check_angles(params, rows, signs, d.q0)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
-    q0 = np.radians(rows.q_deg[0])
+    real_deg = rows.q_deg + d.q0  # the joints' real angles: the commanded ones plus a calibrated design's zero offsets
+    q0 = np.radians(real_deg[0])
     source = "the program" if rows.path is None else f"the program {rows.path}"
     where = f"row 0 of {source} (t = {rows.t_s[0]:.6g} s, {rows.segment[0]} {rows.trajectory[0]})"
     note = f"Replay: CSV beside this file (<name>.replay.csv), {len(rows.t_s)} rows: ctrl_* targets (rad) at t_s."
@@ -199,18 +201,19 @@ def export_program(
                     actuated={n: float(q0[i]) for i, n in enumerate(ACTUATED)}, note=note)  # fmt: skip
     qpos = joint_values(params, rows.E, rows.e, signs, c_z=cz)
     passive = {n: np.unwrap(qpos[n]) for n in JOINT_NAMES if n not in ACTUATED}  # continuous along the rows
-    full = np.stack([passive[n] if n in passive else np.radians(rows.q_deg[:, ACTUATED.index(n)]) for n in JOINT_NAMES], axis=1)
-    return ProgramExport(xml, _replay_csv(rows, full), d, len(rows.t_s))
+    full = np.stack([passive[n] if n in passive else np.radians(real_deg[:, ACTUATED.index(n)]) for n in JOINT_NAMES], axis=1)
+    return ProgramExport(xml, _replay_csv(rows, full, real_deg), d, len(rows.t_s))
 
 
 def _num(v: float) -> str:
     return repr(float(v) + 0.0)
 
 
-def _replay_csv(rows: Program, qpos: NDArray[np.float64]) -> str:
+def _replay_csv(rows: Program, qpos: NDArray[np.float64], real_deg: NDArray[np.float64]) -> str:
+    """The replay's text: per row, the targets (the joints' real angles ``real_deg`` ``(n, 5)``), rates and every hinge."""
     buf = io.StringIO()
     buf.write(",".join(REPLAY_COLUMNS) + "\n")
-    q, qd = np.radians(rows.q_deg), np.radians(rows.q_dot_deg)
+    q, qd = np.radians(real_deg), np.radians(rows.q_dot_deg)
     for i in range(len(rows.t_s)):
         nums = (*rows.E[i], *rows.e[i], *q[i], *qd[i], *qpos[i])
         buf.write(f"{_num(rows.t_s[i])},{rows.segment[i]},{rows.trajectory[i]},{','.join(_num(v) for v in nums)}\n")

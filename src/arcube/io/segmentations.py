@@ -135,8 +135,8 @@ def parse_segments(segments: str | int | Iterable[str | int] | None) -> tuple[st
     if isinstance(segments, (str, int)) and not isinstance(segments, bool):
         items = [s.strip() for s in str(segments).split(",")]
     else:
-        try:
-            items = [str(s).strip() for s in segments]  # type: ignore[union-attr]
+        try:  # each item may itself be a comma-separated list (a repeated command-line flag)
+            items = [part.strip() for s in segments for part in str(s).split(",")]  # type: ignore[union-attr]
         except TypeError:
             raise InputError.of("segments", f"{short_repr(segments)}: expected names or label values") from None
     if not items or any(not s for s in items):

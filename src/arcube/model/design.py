@@ -13,6 +13,7 @@ Two layers, as in spatialmath:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -27,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.io.inputs import load_json, short_repr
+from arcube.model.modes import format_mode, parse_mode
 
 PARAM_NAMES: tuple[str, ...] = (
     "m_x", "m_y", "m_z",
@@ -166,11 +168,72 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
     return out
 
 
+ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
+"""The five actuated joints, in the order of joint vectors."""
+Q0_KEYS: tuple[str, ...] = tuple(f"q0_{j}" for j in ACTUATED)
+"""The keys of a calibrated design's joint zero offsets in a design file (deg, MODEL.md 21.4)."""
+EXTRA_KEYS: tuple[str, ...] = ("c_z", "mode", "zdyad_elbow", *Q0_KEYS)
+"""What a design file may carry beside the 27 parameters (see :class:`Design`)."""
+_LISTS = ("placements", "dockings")
+"""Lists a run or design job writes beside a design (each patient's or docking's placement): not part of it."""
+
+
+def _extra_number(value: Any, key: str, source: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{source}: {key} is not a number ({short_repr(value)})")
+    try:
+        v = float(value)
+    except OverflowError:
+        raise InputError(f"{source}: {key} is out of range ({short_repr(value)})") from None
+    if not math.isfinite(v):
+        raise InputError(f"{source}: {key} is not finite ({short_repr(value)})")
+    return v
+
+
+def check_extras(c_z: Any, mode: Any, q0_deg: Any, zdyad_elbow: Any, source: str = "design") -> tuple[Any, ...]:
+    """(c_z, mode, q0_deg, zdyad_elbow) of a design, checked and normalised (InputError naming ``source``)."""
+    if c_z is not None:
+        c_z = _extra_number(c_z, "c_z", source)
+        if c_z <= 0.0:
+            raise InputError(f"{source}: c_z (the z dyad's second link) must be a positive length, got {c_z:g} mm")
+    if mode is not None:
+        if not isinstance(mode, str):
+            raise InputError(f"{source}: mode must be text such as \"+,+,+,-\", got {short_repr(mode)}")
+        try:
+            mode = format_mode(parse_mode(mode))
+        except ValueError as exc:
+            raise InputError(f"{source}: {exc}") from None
+    if q0_deg is not None:
+        q0 = tuple(_extra_number(v, k, source) for k, v in zip(Q0_KEYS, q0_deg))
+        if len(q0) != len(Q0_KEYS) or len(tuple(q0_deg)) != len(Q0_KEYS):
+            raise InputError(f"{source}: a calibrated design needs five zero offsets ({', '.join(Q0_KEYS)})")
+        if any(abs(v) > 180.0 for v in q0):
+            raise InputError(f"{source}: a zero offset must lie within +-180 deg, got {list(q0)}")
+        q0_deg = q0
+    if zdyad_elbow is None or isinstance(zdyad_elbow, bool) or zdyad_elbow not in (1, -1, 1.0, -1.0):
+        raise InputError(f"{source}: zdyad_elbow must be +1 or -1 (the side of the z dyad's elbow, MODEL.md 19.1), got {short_repr(zdyad_elbow)}")
+    return c_z, mode, q0_deg, float(zdyad_elbow)
+
+
 @dataclass(frozen=True)
 class Design:
-    """One validated design: 27 values in mm and degrees, in :data:`PARAM_NAMES` order."""
+    """One validated design: 27 values in mm and degrees, in :data:`PARAM_NAMES` order, and what a
+    design file records beside them:
+
+    * ``c_z``: the z dyad's second link (mm, MODEL.md 19.1); None: c_z = d_z (MODEL.md 6), as every
+      file written before c_z became a parameter;
+    * ``mode``: the working mode the design was made for (``"+,+,-,+"``); commands use it when no mode
+      is given; None: not recorded (``+,+,+,+`` then, the paper's);
+    * ``q0_deg``: a calibrated design's joint zero offsets (deg, MODEL.md 21.4), which the controller's
+      joint angles subtract; None: not calibrated (all 0);
+    * ``zdyad_elbow``: the side of the z dyad's elbow, +1 (MODEL.md 14.1's) or -1 (19.1).
+    """
 
     values: tuple[float, ...]
+    c_z: float | None = None
+    mode: str | None = None
+    q0_deg: tuple[float, ...] | None = None
+    zdyad_elbow: float = 1.0
 
     def __post_init__(self) -> None:
         if len(self.values) == N_PAPER:
@@ -178,12 +241,24 @@ class Design:
         if len(self.values) != N_PARAMS:
             raise InputError(f"design: expected {N_PARAMS} values (or the paper's {N_PAPER}), got {len(self.values)}")
         validate_values(dict(zip(PARAM_NAMES, self.values)))
+        c_z, mode, q0, elbow = check_extras(self.c_z, self.mode, self.q0_deg, self.zdyad_elbow)
+        for name, value in (("c_z", c_z), ("mode", mode), ("q0_deg", q0), ("zdyad_elbow", elbow)):
+            object.__setattr__(self, name, value)
 
     @classmethod
     def from_dict(cls, values: Mapping[str, Any], source: str = "design") -> Design:
-        """Build from a flat name -> value mapping (validated)."""
-        checked = validate_values(values, source)
-        return cls(tuple(checked[n] for n in PARAM_NAMES))
+        """Build from a flat name -> value mapping (validated): the 27 parameters, and the keys of
+        :data:`EXTRA_KEYS` when present (lists of placements or dockings beside them are skipped)."""
+        if not isinstance(values, Mapping):
+            raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
+        params = {k: v for k, v in values.items() if k not in EXTRA_KEYS and k not in _LISTS}
+        checked = validate_values(params, source)
+        present = [k for k in Q0_KEYS if k in values]
+        if present and len(present) != len(Q0_KEYS):
+            raise InputError(f"{source}: a calibrated design needs all five zero offsets; missing {', '.join(k for k in Q0_KEYS if k not in values)}")
+        q0 = [values[k] for k in Q0_KEYS] if present else None
+        extras = check_extras(values.get("c_z"), values.get("mode"), q0, values.get("zdyad_elbow", 1.0), source)
+        return cls(tuple(checked[n] for n in PARAM_NAMES), *extras)
 
     @classmethod
     def from_vector(cls, vector: ArrayLike) -> Design:
@@ -215,15 +290,14 @@ class Design:
 
     @classmethod
     def from_json(cls, path: str | os.PathLike[str]) -> Design:
-        """Read a flat JSON object keyed by the parameter names (a ``placements`` list beside them, as a
-        per-patient-docking run writes it, is not part of the design and is skipped)."""
+        """Read a flat JSON object keyed by the parameter names and :data:`EXTRA_KEYS` (a ``placements``
+        or ``dockings`` list beside them, as runs and design jobs write them, is not part of the design)."""
         p = Path(path)
         # a regular file of at most 64 MiB, UTF-8 or UTF-16/32 with a BOM, JSON nested <= 64 levels
         data = load_json(p)
         if not isinstance(data, dict):
             raise InputError(f"{p}: a design file must hold one JSON object keyed by parameter names")
-        # a per-patient-docking run's best_design.json lists each patient's placement beside the design
-        return cls.from_dict({k: v for k, v in data.items() if k != "placements"}, source=str(p))
+        return cls.from_dict(data, source=str(p))
 
     @classmethod
     def paper(cls) -> Design:
@@ -238,25 +312,56 @@ class Design:
         return cls.from_json(spec)
 
     def to_dict(self) -> dict[str, float]:
-        """Flat name -> value mapping (mm, deg), in code order."""
+        """The 27 parameters: flat name -> value mapping (mm, deg), in code order."""
         return dict(zip(PARAM_NAMES, self.values))
+
+    def to_file_dict(self) -> dict[str, Any]:
+        """What a design file holds: the 27 parameters, then ``c_z``, ``mode``, ``zdyad_elbow`` (when not
+        +1) and ``q0_*`` where the design has them."""
+        out: dict[str, Any] = dict(self.to_dict())
+        if self.c_z is not None:
+            out["c_z"] = self.c_z
+        if self.mode is not None:
+            out["mode"] = self.mode
+        if self.zdyad_elbow != 1.0:
+            out["zdyad_elbow"] = int(self.zdyad_elbow)
+        if self.q0_deg is not None:
+            out.update(zip(Q0_KEYS, self.q0_deg))
+        return out
+
+    @property
+    def c_z_mm(self) -> float:
+        """The z dyad's second link in mm: ``c_z``, else d_z (MODEL.md 6)."""
+        return float(self["d_z"]) if self.c_z is None else float(self.c_z)
+
+    @property
+    def q0(self) -> NDArray[np.float64]:
+        """The joint zero offsets ``(5,)`` in deg (0 for a design that is not calibrated)."""
+        return np.zeros(len(ACTUATED)) if self.q0_deg is None else np.array(self.q0_deg, dtype=float)
+
+    def with_extras(self, **extras: Any) -> Design:
+        """A copy with ``c_z``, ``mode``, ``q0_deg`` or ``zdyad_elbow`` changed (checked)."""
+        unknown = set(extras) - {"c_z", "mode", "q0_deg", "zdyad_elbow"}
+        if unknown:
+            raise InputError(f"design: unknown field {sorted(unknown)[0]!r} (c_z, mode, q0_deg, zdyad_elbow)")
+        return dataclasses.replace(self, **extras)
 
     def to_vector(self) -> NDArray[np.float64]:
         """The 27 values as a float array (mm, deg), for optimizers and batch evaluation."""
         return np.array(self.values, dtype=float)
 
     def to_json(self, path: str | os.PathLike[str]) -> None:
-        """Write the flat JSON object atomically (temporary file, then rename)."""
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=2) + "\n")
+        """Write the flat JSON object (:meth:`to_file_dict`) atomically (temporary file, then rename)."""
+        atomic_write_text(path, json.dumps(self.to_file_dict(), indent=2) + "\n")
 
     def replace(self, **changes: float) -> Design:
-        """A copy with some parameters changed."""
+        """A copy with some parameters changed (``c_z``, ``mode``, ``q0_deg``, ``zdyad_elbow`` kept)."""
         d = self.to_dict()
         for k, v in changes.items():
             if k not in INDEX:
                 raise InputError(f"design: unknown parameter {k!r}")
             d[k] = v
-        return Design.from_dict(d)
+        return dataclasses.replace(Design.from_dict(d), c_z=self.c_z, mode=self.mode, q0_deg=self.q0_deg, zdyad_elbow=self.zdyad_elbow)
 
     def __getitem__(self, name: str) -> float:
         return self.values[INDEX[name]]

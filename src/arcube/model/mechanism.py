@@ -11,36 +11,16 @@ The stages work in mechanism coordinates at the centre C = E + L e of the spheri
 
 from __future__ import annotations
 
-import itertools
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.model.design import Geometry, unpack
+from arcube.model.modes import ALL_MODES, DEFAULT_MODE, format_mode, parse_mode  # noqa: F401 (the working modes, used from here)
 from arcube.model import frames
 from arcube.model.poses import leg_coords
 from arcube.model.stages import rts, tls, tms
-
-DEFAULT_MODE: NDArray[np.float64] = np.ones(4)
-"""Working mode (+,+,+,+): the upper sign of Eq 3 everywhere (MODEL.md 4.3, 5.3)."""
-
-ALL_MODES: NDArray[np.float64] = np.array(list(itertools.product((1.0, -1.0), repeat=4)))
-"""The 16 working modes, ``(16, 4)``, starting with (+,+,+,+)."""
-
-
-def format_mode(mode: ArrayLike) -> str:
-    """(1, 1, -1, 1) -> '+,+,-,+'."""
-    return ",".join("+" if s > 0 else "-" for s in np.asarray(mode, dtype=float).reshape(-1))
-
-
-def parse_mode(text: str) -> NDArray[np.float64]:
-    """'+,+,-,+' -> array (1, 1, -1, 1): signs of TMS x, TMS y, RTS x, RTS y. Raises ValueError."""
-    parts = [s.strip() for s in text.split(",")]
-    if len(parts) != 4 or any(s not in {"+", "-", "+1", "-1", "1"} for s in parts):
-        raise ValueError(f"working mode must be four signs 'TMS x,TMS y,RTS x,RTS y' like '+,+,-,+', got {text!r}")
-    return np.array([-1.0 if s.startswith("-") else 1.0 for s in parts])
-
 
 class IKSolution(NamedTuple):
     """Everything the inverse kinematics computes at a pose; every field broadcast to ``(...)``.

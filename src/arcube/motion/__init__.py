@@ -46,10 +46,10 @@ def _limits(limits: ProgramLimits | None, changes: dict[str, Any]) -> ProgramLim
 
 def program(
     design: Any, plan: Any, out: str | os.PathLike[str] | None = None, *, options: Options | None = None, anatomy: Any = None,
-    anatomy_frame: str = "LPS", mode: Any = "+,+,+,+", order: str = "shortest", side: str | None = None,
+    anatomy_frame: str = "LPS", mode: Any = None, order: str = "shortest", side: str | None = None,
     levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, transform: Any = None,
     limits: ProgramLimits | None = None, planner: Planner | None = None, seed: int | None = None,
-    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", **changes: Any,
+    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None, **changes: Any,
 ) -> Program:  # fmt: skip
     """The drilling program of ``design`` for a plan (MODEL.md 17).
 
@@ -62,7 +62,7 @@ def program(
             and lateral bound of 15.3) and masses (18.1); None: the defaults.
         anatomy: None, ``"default"``, mesh paths or an :class:`~arcube.evaluation.anatomy.Anatomy`
             (MODEL.md 14.2): the standoffs, body clearance and tool clearance use it.
-        mode: the working mode, ``"+,+,+,+"`` or four signs.
+        mode: the working mode, ``"+,+,+,+"`` or four signs; None: the design's own, else ``+,+,+,+``.
         order: ``"shortest"`` (least total time) or ``"given"`` (the plan's order).
         limits: a :class:`ProgramLimits`; keyword ``changes`` override its fields by name or short
             name (``feed=1.0``, ``clearance=3``, ``standoff=15``), and then ``options``' (``thrust=25``).
@@ -83,7 +83,7 @@ def program(
             ``out``, ...), or no program: one line naming the segment and the constraint (``transit 3 -> 5
             blocked: collision/patient at E = (...)``). Nothing is written then.
     """
-    from arcube.coerce import engine_name, mode_signs
+    from arcube.coerce import design_mode, engine_name
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.evaluation.mass_bodies import MassModel
     from arcube.io.load import load_plan
@@ -98,14 +98,14 @@ def program(
     engine = engine_name(engine)
     if order not in ORDERS:
         raise InputError.of("order", f"must be one of {', '.join(ORDERS)}, got {order!r}")
-    signs = mode_signs(mode)
+    d = Design.coerce(design)
+    signs = design_mode(d, mode)
     plan_settings = planner if planner is not None else Planner()
     if seed is not None:
         plan_settings = plan_settings.replace(seed=seed)
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
-    d = Design.coerce(design)
     ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
-    anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan)
+    anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
     folder, created = prepare_folder(out) if out is not None else (None, False)
     try:
         prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)

@@ -311,6 +311,10 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
         "timing": "toppra (TOPP-RA, time-optimal on the checked grid; rows verified, retimed if a limit is exceeded)",
         "limits": lim.model_dump(), "planner": {"name": "OMPL RRTConnect + PathSimplifier", **b.planner.model_dump()},
         "anatomy": b.anatomy_source, "plan": b.ts.source,
-        "design": b.design.to_dict(), "body": b.checker.body.model_dump(),
+        "design": b.design.to_file_dict(), "body": b.checker.body.model_dump(),
     }  # fmt: skip
-    return Program(t, seg, np.array(parts["traj"]), E, np.concatenate(parts["e"]), np.degrees(q), np.degrees(qd), summary)
+    q_deg = np.degrees(q)
+    if b.design.q0_deg is not None:  # MODEL.md 21.4: a calibrated design commands IK - q0 (the encoders then read it)
+        q_deg = q_deg - b.design.q0
+        summary["q0_deg"] = dict(zip(JOINTS, b.design.q0.tolist()))
+    return Program(t, seg, np.array(parts["traj"]), E, np.concatenate(parts["e"]), q_deg, np.degrees(qd), summary)

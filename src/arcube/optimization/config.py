@@ -42,7 +42,7 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
             "entry": [[float(v) for v in row] for row in ts.entry], "target": [[float(v) for v in row] for row in ts.target],
         }  # fmt: skip
         if s.standoff is not None:  # MODEL.md 17.1: computed once, with the anatomy as given, and kept in config.toml
-            anatomy = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec) if s.anatomy else None
+            anatomy = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None
             S, _ = standoff_points(ts.entry, ts.target, anatomy, s.standoff)
             patient["standoff"] = [[float(v) for v in row] for row in S]
         patients.append(patient)
@@ -80,7 +80,7 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
     patients = _load_patients(trajectories, s)
     if s.anatomy:  # read now, so that a bad file stops the run before its folder exists
         for spec in trajectories:
-            resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec)
+            resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments)
     table = {**s.to_table(), "engine_resolved": engine_resolved,
              "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in trajectories]}  # fmt: skip
     cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})

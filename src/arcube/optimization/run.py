@@ -242,7 +242,7 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
     from arcube.evaluation.anatomy import resolve_anatomy
 
     for i, spec in enumerate(s["trajectories"]):
-        anatomy = resolve_anatomy(s["anatomy"], s.get("anatomy_frame", "LPS"), spec)
+        anatomy = resolve_anatomy(s["anatomy"], s.get("anatomy_frame", "LPS"), spec, segments=s.get("segments"))
         anatomy.write_stl(run_dir / anatomy_file(i))
         cfg["patients"][i]["anatomy_source"] = anatomy.source
 

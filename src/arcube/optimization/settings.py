@@ -26,6 +26,7 @@ from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
 from arcube.coerce import mode_text
 from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
+from arcube.patients.settings import Segments
 from arcube.options import FLAT, GUARDED_OPTIONS, Masses, Options, Settings, route_flat
 
 __all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "parse_bounds", "parse_free", "resolve_bounds"]
@@ -245,9 +246,11 @@ class RunSettings(Settings):
     transform: str | None = None
     """4x4 rigid transform (JSON) applied to every trajectory set."""
     anatomy: Annotated[tuple[str, ...], BeforeValidator(_anatomy)] = ()
-    """Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or mesh files FILE [FILE ...] (STL, OBJ, PLY)."""
+    """Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz)."""
     anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
     """Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient."""
+    segments: Segments = None
+    """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
     """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3."""
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
@@ -350,6 +353,8 @@ class RunSettings(Settings):
                 table[name] = getattr(g, name)
         if self.standoff is not None:  # written only when set: earlier tables stay as they were
             table["standoff"] = self.standoff
+        if self.segments is not None:
+            table["segments"] = list(self.segments)
         for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
             value = getattr(self.options.masses, name) if name in Masses.model_fields else None
             if value is not None and value != getattr(_MASSES, name):

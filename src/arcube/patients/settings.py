@@ -17,7 +17,7 @@ from arcube.errors import InputError
 from arcube.io.segmentations import parse_segments
 from arcube.options import Settings
 
-__all__ = ["PatientAnatomyFormat", "SegmentSelection"]
+__all__ = ["PatientAnatomyFormat", "SegmentSelection", "Segments"]
 
 
 def _segments(value: Any) -> tuple[str, ...] | None:
@@ -27,10 +27,14 @@ def _segments(value: Any) -> tuple[str, ...] | None:
         raise ValueError("must be names or label values separated by commas, none empty") from None
 
 
+Segments = Annotated[tuple[str, ...] | None, BeforeValidator(_segments)]
+"""Segment names or label values (``"C3,C4"``, ``["C3", 4]``), or None: every segment with a voxel."""
+
+
 class SegmentSelection(Settings):
     """Which segments of segmentation anatomy files (``.seg.nrrd``, ``.nrrd``, ``.nii``, ``.nii.gz``) to keep."""
 
-    segments: Annotated[tuple[str, ...] | None, BeforeValidator(_segments)] = None
+    segments: Segments = None
     """Segments of segmentation files to keep: names or label values, comma-separated (C3,C4,skin or 3,4); default every segment with a voxel."""
 
 

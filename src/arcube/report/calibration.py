@@ -14,8 +14,6 @@ without importing the calibration package, which sits above the report.
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np

@@ -1,0 +1,95 @@
+"""``arcube calibrate poses | simulate | identify``: the built robot's real dimensions from tracker
+measurements (MODEL.md 21), one subcommand per step: choose the poses to measure, rehearse with a
+simulated robot, identify the real dimensions and zero offsets."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from arcube.calibrate.settings import IdentifySettings, PoseSettings, SimulateSettings
+from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, OUT, SEGMENTS, SIDE, TRAJECTORIES, one_plan, with_help
+from arcube.cli.projection import Given, command, model_flags, option
+
+__all__ = ["register"]
+
+_DESIGN = with_help(DESIGN, "The nominal design: a design JSON (plain or calibrated) or a preset.", required=True)
+MEASUREMENTS = option("--measurements", "Measurement CSV: rho_x, rho_y, rho_z, delta_x, delta_y (deg, as the encoders read them), "
+                      "E_x, E_y, E_z (mm) and e_x, e_y, e_z (patient frame), one row per measured pose.", Path, params=("measurements",),
+                      required=True)  # fmt: skip
+POSES = option("--poses", "Poses CSV (arcube calibrate poses), the joint angles to drive the simulated robot to.", Path, params=("poses",),
+               required=True)  # fmt: skip
+POSE_FLAGS = [_DESIGN, with_help(TRAJECTORIES, "The plan whose points and approach lines the poses are chosen around.", required=True),
+              SIDE, LEVELS, IDS, MODE, ANATOMY, ANATOMY_FRAME, SEGMENTS, *model_flags(PoseSettings, "poses"),
+              with_help(OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", required=True)]  # fmt: skip
+SIMULATE_FLAGS = [_DESIGN, POSES, *model_flags(SimulateSettings, "simulate"),
+                  with_help(OUT, "Measurement CSV to write (the simulated tracker's readings).", required=True)]  # fmt: skip
+IDENTIFY_FLAGS = [_DESIGN, MEASUREMENTS, MODE, *model_flags(IdentifySettings, "identify"),
+                  with_help(TRAJECTORIES, "Optional plan: the calibrated robot's accuracy budget on its points (default: the measured poses)."),
+                  SIDE, with_help(OUT, "Folder for design.json, calibration.json, residuals.csv and calibration.html (created; new or empty).",
+                                  required=True)]  # fmt: skip
+
+
+def _plan(given: Given) -> object | None:
+    from arcube.io.load import load_plan
+
+    if "plan" not in given:
+        return None
+    return load_plan(one_plan(given), side=given.get("side"), levels=given.get("levels"), ids=given.get("ids"))
+
+
+def poses(given: Given) -> None:
+    """Choose the poses to measure (MODEL.md 21.3): greedy D-optimal among the plan's points, its approach lines
+    and random poses around them; prints O1 and the condition number against a random choice of the same count."""
+    from arcube.calibrate import poses as poses_api
+    from arcube.evaluation.anatomy import resolve_anatomy
+
+    plan = _plan(given)
+    anatomy = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments"))
+               if given.get("anatomy") else None)  # fmt: skip
+    sel = poses_api(given.get("design"), plan, given.get("mode"), PoseSettings().merged(given.tree("poses")), anatomy=anatomy,
+                    out=given.get("out"))  # fmt: skip
+    s = sel.summary()
+    typer.echo(f"{s['poses']} poses chosen of {s['candidates']} candidates (mode {s['mode']}): O1 {s['O1']:.3g}, condition number "
+               f"{s['condition_number']:.4g}; {s['poses']} random poses: O1 {s['O1_random']:.3g}, condition number "
+               f"{s['condition_number_random']:.4g}")  # fmt: skip
+    for name, others in s["not_identifiable"].items():
+        typer.echo(f"  not identifiable: {name} (confounded with {', '.join(others) or 'nothing measured'})")
+    typer.echo(f"poses in {given.get('out')}")
+
+
+def simulate(given: Given) -> None:
+    """Build a robot to a tolerance class and measure it at the poses with tracker noise (a rehearsal of a calibration)."""
+    from arcube.calibrate import simulate as simulate_api
+
+    sim = simulate_api(given.get("design"), given.get("poses"), SimulateSettings().merged(given.tree("simulate")), out=given.get("out"))
+    typer.echo(f"{len(sim.measurements)} measurements of a robot built to ISO 2768-{sim.settings.tolerance_class} (seed {sim.settings.seed}) "
+               f"in {given.get('out')}")  # fmt: skip
+
+
+def identify(given: Given) -> None:
+    """Identify the robot's real dimensions, docking and joint zero offsets from the measurements (MODEL.md 21.2):
+    design.json (the calibrated design), calibration.json, residuals and the report page."""
+    from arcube.calibrate import identify as identify_api
+
+    cal = identify_api(given.get("design"), given.get("measurements"), given.get("mode"), IdentifySettings().merged(given.tree("identify")),
+                       trajectories=_plan(given), out=given.get("out"))  # fmt: skip
+    rms = cal.residual_rms()
+    fit, held = rms["fitted"], rms["held_out"]
+    typer.echo(f"fitted {fit['rows']} measurements: tip residual RMS {fit['E_rms_mm_before']:.3g} -> {fit['E_rms_mm']:.3g} mm, axis "
+               f"{fit['e_rms_deg_before']:.3g} -> {fit['e_rms_deg']:.3g} deg (the tracker's noise: {rms['noise']['E_rms_mm']:.3g} mm, "
+               f"{rms['noise']['e_rms_deg']:.3g} deg)")  # fmt: skip
+    if held["rows"]:
+        typer.echo(f"held out {held['rows']}: tip {held['E_rms_mm']:.3g} mm, axis {held['e_rms_deg']:.3g} deg")
+    typer.echo(f"calibrated design in {Path(given.get('out')) / 'design.json'}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``calibrate`` command group to ``app``."""
+    group = typer.Typer(name="calibrate", help=__doc__.split("\n\n")[0].replace("\n", " "), no_args_is_help=True, add_completion=False,
+                        rich_markup_mode=None)  # fmt: skip
+    command(group, "poses", POSE_FLAGS, poses, help=poses.__doc__ or "", registry_name="calibrate poses")
+    command(group, "simulate", SIMULATE_FLAGS, simulate, help=simulate.__doc__ or "", registry_name="calibrate simulate")
+    command(group, "identify", IDENTIFY_FLAGS, identify, help=identify.__doc__ or "", registry_name="calibrate identify")
+    app.add_typer(group)
