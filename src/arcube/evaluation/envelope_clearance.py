@@ -5,7 +5,10 @@ the primitives of :func:`arcube.model.body.body_parts`) to the envelope
 (:class:`arcube.evaluation.envelope.Envelope`): per primitive, the signed distance from its axis
 (segment, point or great-circle arc) to a region, minus the primitive's radius; the minimum over the
 primitives and regions, the part that attains it (index into ``PART_NAMES``) and the region (index into
-``Envelope.names``). Ties go to the first region, then to the first primitive. How each pair is computed:
+``Envelope.names``). Ties go to the first region, then to the first primitive, a tie being a value within
+:data:`TIE_MM` of the least: parts that meet at a joint (an output link, the platform and a spherical link
+at Q_u) reach the same point by different arithmetic, and rounding must not decide which one is named.
+How each pair is computed:
 
 * **segment or point to a rounded box**: exact. Along a segment p(t) = a + t (b - a), t in [0, 1], the
   box's signed distance f(t) is piecewise: between the breakpoints where a coordinate of p - c crosses
@@ -42,12 +45,14 @@ from arcube.model.body import N_ARCS, PRIMITIVE_PART, BodyParts, body_parts, mec
 from arcube.model.mechanism import DEFAULT_MODE
 
 __all__ = [
-    "ENVELOPE_ARC_CHORDS", "EnvelopeClearance", "arc_chord_points", "arc_lowest_z", "arc_sag_bound", "envelope_clearance",
+    "ENVELOPE_ARC_CHORDS", "EnvelopeClearance", "TIE_MM", "arc_chord_points", "arc_lowest_z", "arc_sag_bound", "envelope_clearance",
     "pose_envelope_clearance", "segment_box_min",
 ]  # fmt: skip
 
 ENVELOPE_ARC_CHORDS = 24
 """Chords per spherical arc against a rounded box (the error bound in the module doc)."""
+TIE_MM = 1e-9
+"""Values within this of the least are ties (module doc): the first region, then the first primitive, is named."""
 
 
 class EnvelopeClearance(NamedTuple):
@@ -157,45 +162,32 @@ def _lines(parts: BodyParts) -> NDArray[np.float64]:
     return np.concatenate([parts.segments, np.stack([parts.spheres, parts.spheres], axis=-2)], axis=-3)
 
 
-def _least(values: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-    """(least value, index into PART_NAMES of the first primitive attaining it) over the last axis (27); NaN, -1
-    where a value is not finite."""
-    defined = np.all(np.isfinite(values), axis=-1)
-    best = np.argmin(np.where(defined[..., None], values, np.inf), axis=-1)
-    value = np.take_along_axis(values, best[..., None], axis=-1)[..., 0]
-    return np.where(defined, value, np.nan), np.where(defined, PRIMITIVE_PART[best], -1)
-
-
 def envelope_clearance(parts: BodyParts, envelope: Envelope) -> EnvelopeClearance:
     """The body's clearance to ``envelope`` (module doc): ``(...)`` mm, part and region, for body parts ``(...)``."""
     from arcube.evaluation.clearance import anatomy_clearance
 
     lines = _lines(parts)
-    values, owners = [], []
+    per_region: list[Any] = []  # per region: (..., 27) values per primitive, or (value, part) for a skin mesh
     if envelope.n_boxes:
         chords = arc_chord_points(parts)  # (..., 4, n + 1, 3)
         for box in envelope.boxes:
             c, h, rho = box[:3], box[3:6], box[6]
             on_lines = segment_box_min(lines[..., 0, :], lines[..., 1, :], c, h)
             on_arcs = np.min(segment_box_min(chords[..., :-1, :], chords[..., 1:, :], c, h), axis=-1)
-            v, part = _least(np.concatenate([on_lines, on_arcs], axis=-1) - rho - parts.radius)
-            values.append(v)
-            owners.append(part)
+            per_region.append(np.concatenate([on_lines, on_arcs], axis=-1) - rho - parts.radius)
     if envelope.skin:
-        v, part = anatomy_clearance(parts, envelope.skin_distance)  # type: ignore[arg-type]
-        values.append(v)
-        owners.append(part)
+        per_region.append(anatomy_clearance(parts, envelope.skin_distance))  # type: ignore[arg-type]
     if envelope.table_z is not None:
         low = np.concatenate([np.minimum(lines[..., 0, 2], lines[..., 1, 2]), arc_lowest_z(parts)], axis=-1)
-        v, part = _least(low - envelope.table_z - parts.radius)
-        values.append(v)
-        owners.append(part)
-    V, P = np.stack(values, axis=-1), np.stack(owners, axis=-1)
-    defined = np.all(np.isfinite(V), axis=-1)
-    region = np.argmin(np.where(defined[..., None], V, np.inf), axis=-1)
-    value = np.take_along_axis(V, region[..., None], axis=-1)[..., 0]
-    part = np.take_along_axis(P, region[..., None], axis=-1)[..., 0]
-    return EnvelopeClearance(np.where(defined, value, np.nan), np.where(defined, part, -1), np.where(defined, region, -1))
+        per_region.append(low - envelope.table_z - parts.radius)
+    mins = np.stack([r[0] if isinstance(r, tuple) else np.min(r, axis=-1) for r in per_region], axis=-1)  # NaN propagates
+    least = np.min(mins, axis=-1)
+    defined = np.isfinite(least) & np.all(np.isfinite(mins), axis=-1)
+    tie = np.where(defined, least + TIE_MM, -np.inf)
+    region = np.argmax(mins <= tie[..., None], axis=-1)  # the first region within TIE_MM of the least
+    owners = [r[1] if isinstance(r, tuple) else PRIMITIVE_PART[np.argmax(r <= tie[..., None], axis=-1)] for r in per_region]
+    part = np.take_along_axis(np.stack(owners, axis=-1), region[..., None], axis=-1)[..., 0]
+    return EnvelopeClearance(np.where(defined, least, np.nan), np.where(defined, part, -1), np.where(defined, region, -1))
 
 
 def pose_envelope_clearance(

@@ -13,8 +13,8 @@ The search is pruned, never approximated: the table comes first (exact, a handfu
 a segment is minimised against a box only when the box's distance at its midpoint, less its half
 length, could beat the least value so far (a signed distance is 1-Lipschitz); an arc only when the ball
 around its chord's midpoint that holds it could, then each of its chords likewise. A pair is skipped
-only when its bound exceeds the least value by ``_SKIP_MM``, so exact ties are always computed and go
-to the first region, then the first primitive, as in the reference. A skin mesh is searched as the
+only when its bound exceeds the least value by ``_SKIP_MM`` (> TIE_MM), so every value within TIE_MM of the
+least is computed, and the first region, then the first primitive, among them is named, as in the reference. A skin mesh is searched as the
 anatomy is (``_clearance._anatomy_clearance``), capped at the least value so far.
 """
 
@@ -24,7 +24,7 @@ import math
 
 from numba import njit
 
-from arcube.evaluation.envelope_clearance import ENVELOPE_ARC_CHORDS
+from arcube.evaluation.envelope_clearance import ENVELOPE_ARC_CHORDS, TIE_MM
 from arcube.evaluation.kernel._clearance import _anatomy_clearance
 
 _SKIP_MM = 1e-6
@@ -271,39 +271,37 @@ def _finite_body(lines, arcs, arc_c, arc_r):
 
 
 @njit(cache=True, error_model="numpy")
-def _envelope_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, envelope, order, work, lower, chords, done, val, kk):
+def _envelope_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, envelope, order, work, lower, chords, done, pv):
     """(clearance mm, primitive index, region index) of the body to the envelope; (NaN, -1, -1) for a body
     that is not finite.
 
     ``lines`` (n_lines, 2, 3), ``arcs`` (4, 2, 3), ``arc_c`` (3,), ``arc_r``: the body (``_body._body_world``);
     ``radius`` (27,) the primitives' radii; ``envelope`` = (boxes (B, 7), table_z (NaN: none), has_skin,
-    then the 8 items of the skin's grids as ``_clearance._lookup`` takes them); ``order``, ``work``, ``lower``: the anatomy search's (for the skin);
-    buffers ``chords`` (4, N_CHORDS + 1, 3), ``done`` (4,) bool, ``val`` (>= regions,), ``kk`` (>= regions,) int.
+    then the 8 items of the skin's grids as ``_clearance._lookup`` takes them); ``order``, ``work``, ``lower``:
+    the anatomy search's (for the skin); buffers ``chords`` (4, N_CHORDS + 1, 3), ``done`` (4,) bool and ``pv``
+    (>= regions, 27): each region's value per primitive (+inf where pruned). The region named is the first whose
+    least is within TIE_MM of the least over all, the primitive the first of that region within it (the reference's rule).
     """
     boxes, table_z, has_skin = envelope[0], envelope[1], envelope[2]
     if not _finite_body(lines, arcs, arc_c, arc_r):
         return _NAN, -1, -1
     n_box = boxes.shape[0]
     n_arcs = arcs.shape[0]
+    n_prims = n_lines + n_arcs
     has_table = table_z == table_z
     n_reg = n_box + (1 if has_skin else 0) + (1 if has_table else 0)
     for r in range(n_reg):
-        val[r] = _INF
-        kk[r] = -1
+        for k in range(n_prims):
+            pv[r, k] = _INF
     best = _INF
     if has_table:  # exact and cheap: first, so that its value prunes the boxes
         tr = n_reg - 1
         for k in range(n_lines):
-            v = min(lines[k, 0, 2], lines[k, 1, 2]) - table_z - radius[k]
-            if v < val[tr]:
-                val[tr] = v
-                kk[tr] = k
+            pv[tr, k] = min(lines[k, 0, 2], lines[k, 1, 2]) - table_z - radius[k]
+            best = min(best, pv[tr, k])
         for j in range(n_arcs):
-            v = _arc_lowest_z(arcs[j, 0], arcs[j, 1], arc_c[2], arc_r) - table_z - radius[n_lines + j]
-            if v < val[tr]:
-                val[tr] = v
-                kk[tr] = n_lines + j
-        best = val[tr]
+            pv[tr, n_lines + j] = _arc_lowest_z(arcs[j, 0], arcs[j, 1], arc_c[2], arc_r) - table_z - radius[n_lines + j]
+            best = min(best, pv[tr, n_lines + j])
     for j in range(n_arcs):
         done[j] = False
     for bi in range(n_box):
@@ -317,11 +315,8 @@ def _envelope_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, envelope, or
             if _bound(p, q, c0, c1, c2, h0, h1, h2) - off >= best + _SKIP_MM:
                 continue
             v = _seg_value(p, q, c0, c1, c2, h0, h1, h2) - off
-            if v < val[bi]:
-                val[bi] = v
-                kk[bi] = k
-            if v < best:
-                best = v
+            pv[bi, k] = v
+            best = min(best, v)
         for j in range(n_arcs):
             off = rho + radius[n_lines + j]
             if _arc_ball(arcs, arc_c, arc_r, j, c0, c1, c2, h0, h1, h2) - off >= best + _SKIP_MM:
@@ -335,25 +330,22 @@ def _envelope_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, envelope, or
                 if _bound(p, q, c0, c1, c2, h0, h1, h2) - off >= best + _SKIP_MM:
                     continue
                 v = _seg_value(p, q, c0, c1, c2, h0, h1, h2) - off
-                if v < val[bi]:
-                    val[bi] = v
-                    kk[bi] = n_lines + j
-                if v < best:
-                    best = v
+                if v < pv[bi, n_lines + j]:
+                    pv[bi, n_lines + j] = v
+                best = min(best, v)
     if has_skin:
         for k in range(lower.shape[0]):
             lower[k] = -_INF
         skin_grids = (envelope[3], envelope[4], envelope[5], envelope[6], envelope[7], envelope[8], envelope[9], envelope[10])
         v, k = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, skin_grids, order, work, best, lower, -_INF)
         if k >= 0:
-            val[n_box] = v
-            kk[n_box] = k
-    region = -1
-    out = _INF
-    for r in range(n_reg):
-        if val[r] < out:
-            out = val[r]
-            region = r
-    if region < 0:
+            pv[n_box, k] = v
+            best = min(best, v)
+    if not best < _INF:
         return _NAN, -1, -1
-    return out, kk[region], region
+    tie = best + TIE_MM
+    for r in range(n_reg):
+        for k in range(n_prims):
+            if pv[r, k] <= tie:
+                return best, k, r
+    return _NAN, -1, -1

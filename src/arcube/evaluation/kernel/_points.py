@@ -241,8 +241,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     do_env = opt[O_DO_ENVELOPE] != 0.0
     env_chords = np.empty((4, _ENV_CHORDS + 1, 3))
     env_done = np.zeros(4, np.bool_)
-    env_val = np.empty(envelope[0].shape[0] + 2)
-    env_kk = np.empty(envelope[0].shape[0] + 2, np.int64)
+    env_pv = np.empty((envelope[0].shape[0] + 2, N_PRIMS))
     env_lower = np.empty(N_PRIMS)
     env_work = np.empty((6, 96))
     lines = np.empty((N_LINES, 2, 3))
@@ -351,7 +350,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                     gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
                 if do_env:  # MODEL.md 19.5
                     env, env_k, env_r = _envelope_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, envelope, order, env_work,
-                                                            env_lower, env_chords, env_done, env_val, env_kk)  # fmt: skip
+                                                            env_lower, env_chords, env_done, env_pv)  # fmt: skip
                     if env_k >= 0:
                         env_part = float(PRIM_PART[env_k])
                         env_region = float(env_r)
