@@ -31,7 +31,7 @@ from arcube.evaluation.envelope_clearance import (  # noqa: E402
     ENVELOPE_ARC_CHORDS, _box_sd, arc_chord_points, arc_lowest_z, arc_sag_bound, envelope_clearance, pose_envelope_clearance,
     segment_box_min,
 )  # fmt: skip
-from arcube.evaluation.kernel._envelope import _arc_lowest_z, _seg_box  # noqa: E402
+from arcube.evaluation.kernel._envelope_exact import _arc_lowest_z, _seg_box  # noqa: E402
 from arcube.evaluation.reference import FAILURES, GUARDED_OPTIONS, IK_FAILURES, Options, evaluate_points, evaluate_task  # noqa: E402
 from arcube.evaluation.task import build_task  # noqa: E402
 from arcube.io import load_trajectories, select  # noqa: E402
@@ -151,7 +151,7 @@ def test_arcs_lowest_point_and_chords() -> None:
             z = pts[:, 2].min()
             r = parts.arc_radius[i]
             assert low[i, j] <= z + 1e-12 and low[i, j] >= z - r * (theta[i, j] / (len(phi) - 1)) ** 2, (i, j)
-            assert _arc_lowest_z(a[i, j], b[i, j], parts.arc_centre[i, 2], r) == pytest.approx(low[i, j], abs=1e-12)
+            assert _arc_lowest_z(*a[i, j], *b[i, j], parts.arc_centre[i, 2], r) == pytest.approx(low[i, j], abs=1e-12)
             # chord vertices on the arc, ends exact; every arc point within the sag of the polyline
             V = chords[i, j]
             np.testing.assert_allclose(np.linalg.norm(V - parts.arc_centre[i], axis=-1), r, rtol=1e-12)
@@ -240,6 +240,22 @@ def test_kernel_equals_reference_field_by_field(task, near, envelopes) -> None:
     got = kernel.evaluate_task_numba(near[3], task.E, task.e, modes[3], Options(envelope_clearance_mm=10.0), exact=True,
                                      envelope=envelopes["default"])  # fmt: skip
     assert_matches(got, ref, _point_rtol(near[3], task.E, task.e, modes[3], ref))
+
+
+def test_the_kernels_carried_bounds_along_dense_paths(task, near, envelopes) -> None:
+    """The kernel carries each pair's bound from point to point (its value less how far the primitive moved): along
+    dense paths that sweep the body towards and away from the boxes, and jump between them, it still equals the
+    reference at every point."""
+    rng = np.random.default_rng(8)
+    t = np.linspace(0.0, 1.0, 150)[:, None]
+    E = np.concatenate([task.E[0] + t * (80.0 * task.e[0] + (0.0, -60.0, 0.0)), task.E[20] + t * (0.0, 90.0, 40.0),
+                        task.E[rng.integers(0, len(task), 30)]])  # fmt: skip
+    e = np.concatenate([np.repeat(task.e[[0]], 150, axis=0), np.repeat(task.e[[20]], 150, axis=0), task.e[rng.integers(0, len(task), 30)]])
+    X, env = near[:8], envelopes["high table"]
+    ref = evaluate_task(X, E, e, MODE, Options(envelope_clearance=True), envelope=env)
+    got = kernel.evaluate_task_numba(X, E, e, MODE, Options(envelope_clearance=True), envelope=env)
+    assert_matches(got, ref, _point_rtol(X, E, e, MODE, ref))
+    assert np.sum(np.isfinite(ref.points.envelope_clearance_mm)) > 1000 and len(set(ref.points.envelope_region.ravel().tolist())) >= 3
 
 
 def test_a_skin_mesh_envelope_in_both_engines(task, near) -> None:

@@ -54,8 +54,8 @@ if TYPE_CHECKING:  # trimesh and the grids load only when a mesh is used
     from arcube.evaluation.sdf import AnatomyDistance
 
 __all__ = [
-    "BOX_TABLE", "ENVELOPE_SPECS", "Envelope", "Landmarks", "TABLE_BELOW_SKIN_MM", "default_envelope", "landmarks",
-    "resolve_envelope", "rounded_box_distance", "write_envelope_mesh",
+    "BOX_TABLE", "ENVELOPE_SPECS", "Envelope", "Landmarks", "TABLE_BELOW_SKIN_MM", "default_envelope", "envelope_from_boxes",
+    "envelope_meshes", "landmarks", "resolve_envelope", "rounded_box_distance", "write_envelope_mesh",
 ]  # fmt: skip
 
 SKIN_WITHOUT_ANATOMY_MM = 50.0

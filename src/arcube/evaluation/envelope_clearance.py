@@ -45,7 +45,7 @@ from arcube.model.body import N_ARCS, PRIMITIVE_PART, BodyParts, body_parts, mec
 from arcube.model.mechanism import DEFAULT_MODE
 
 __all__ = [
-    "ENVELOPE_ARC_CHORDS", "EnvelopeClearance", "TIE_MM", "arc_chord_points", "arc_lowest_z", "arc_sag_bound", "envelope_clearance",
+    "ENVELOPE_ARC_CHORDS", "TIE_MM", "EnvelopeClearance", "arc_chord_points", "arc_lowest_z", "arc_sag_bound", "envelope_clearance",
     "pose_envelope_clearance", "segment_box_min",
 ]  # fmt: skip
 

@@ -1,21 +1,20 @@
 """The body's clearance to the envelope of the whole patient (MODEL.md 19.5) at one point, compiled.
 
 The same quantity as :func:`arcube.evaluation.envelope_clearance.envelope_clearance` (its doc gives the
-definition, the tie rule and the arcs' chords), by a different exact minimisation along a segment
-(:func:`_seg_box`): the segment is clipped to the box's slabs; where it meets the box, the least of the
-largest of three linear functions over the clipped part is at an end of it, where a coordinate of
-p - c is 0, or where two of the functions cross; where it misses the box, the squared distance g(t) is
-convex and C^1 with a piecewise linear derivative, so the root of g' lies between the two breakpoints
-(where |p_i - c_i| = a_i) at which g' changes sign and is found by linear interpolation. Both are exact
-in real arithmetic; the two engines agree to rounding.
+definition, the tie rule and the arcs' chords), each pair minimised exactly by ``_envelope_exact``.
 
-The search is pruned, never approximated: the table comes first (exact, a handful of comparisons), and
-a segment is minimised against a box only when the box's distance at its midpoint, less its half
-length, could beat the least value so far (a signed distance is 1-Lipschitz); an arc only when the ball
-around its chord's midpoint that holds it could, then each of its chords likewise. A pair is skipped
-only when its bound exceeds the least value by ``_SKIP_MM`` (> TIE_MM), so every value within TIE_MM of the
-least is computed, and the first region, then the first primitive, among them is named, as in the reference. A skin mesh is searched as the
-anatomy is (``_clearance._anatomy_clearance``), capped at the least value so far.
+The search is pruned, never approximated. Each (box, primitive) pair keeps a lower bound from point to point:
+its value at the previous point less how far the primitive moved since (a signed distance is 1-Lipschitz;
+``_carry``). At a point the table comes first (exact, a handful of comparisons), then the pair that bound at
+the previous point (a good first least), then every other pair, skipped when its carried bound (with none
+carried: a geometric bound, ``_bound`` for a line, the ball about its chord that holds an arc) cannot come
+within reach of the least so far; else a line is minimised exactly and an arc's chord polyline searched
+piece by piece (balls about the pieces' chords) and chord by chord. A pair is skipped only when its bound exceeds the least
+value so far by ``_SKIP_MM`` (> TIE_MM), so every value within TIE_MM of the least is computed, and the first
+region, then the first primitive, among them is named, as in the reference. A skin mesh is searched as the
+anatomy is (``_clearance._anatomy_clearance``), capped at the least value so far. The pairs are searched in one
+loop whose helpers take scalars only: an array passed to a compiled call costs reference counts (atomic, shared by
+the threads), about 40 ns per pair when the pair's check was a helper, more than the check.
 """
 
 from __future__ import annotations
@@ -26,326 +25,287 @@ from numba import njit
 
 from arcube.evaluation.envelope_clearance import ENVELOPE_ARC_CHORDS, TIE_MM
 from arcube.evaluation.kernel._clearance import _anatomy_clearance
+from arcube.evaluation.kernel._envelope_exact import _arc_lowest_z, _bound, _piece_ball, _seg_box
+from arcube.model.body import N_ARCS, N_SEGMENTS, N_SPHERES
 
 _SKIP_MM = 1e-6
 """A pair is skipped when its lower bound exceeds the least value so far by more than this (rounding)."""
 N_CHORDS = ENVELOPE_ARC_CHORDS
+N_LINES = N_SEGMENTS + N_SPHERES
+N_PRIMS = N_LINES + N_ARCS
+_GROUP = 4
+"""Chords per piece of an arc bounded as one (N_CHORDS is a multiple of it)."""
+assert N_CHORDS % _GROUP == 0
 _INF = math.inf
 _NAN = math.nan
 
 
-@njit(cache=True, error_model="numpy")
-def _box_sd(x, y, z, c0, c1, c2, h0, h1, h2):
-    """Signed distance of (x, y, z) to the box |X - c| <= h, in the reference's order of operations."""
-    q0 = abs(x - c0) - h0
-    q1 = abs(y - c1) - h1
-    q2 = abs(z - c2) - h2
-    o0 = max(q0, 0.0)
-    o1 = max(q1, 0.0)
-    o2 = max(q2, 0.0)
-    return math.sqrt(o0 * o0 + o1 * o1 + o2 * o2) + min(max(q0, max(q1, q2)), 0.0)
+@njit(cache=True, error_model="numpy", inline="always")
+def _layout(n_box):
+    """Offsets into the state vector of one design's envelope search (``_envelope_regions``): rows of N_PRIMS values
+    per region row (n_box boxes, a skin, a table): carried lower bounds, then this point's values; the previous body
+    (lines, arcs' a, b and n, their centre); the previous binding (row, primitive); the chord vertices and their flags."""
+    rows = n_box + 2
+    lower = 0
+    values = lower + rows * N_PRIMS
+    prev_lines = values + rows * N_PRIMS
+    prev_arcs = prev_lines + N_LINES * 6
+    prev_centre = prev_arcs + N_ARCS * 9
+    prev_bind = prev_centre + 3
+    chords = prev_bind + 2
+    done = chords + N_ARCS * (N_CHORDS + 1) * 3
+    return lower, values, prev_lines, prev_arcs, prev_centre, prev_bind, chords, done, done + N_ARCS
 
 
 @njit(cache=True, error_model="numpy")
-def _at(a, b, d, t):
-    """a + t d from the nearer end (t = 0, 1 give a, b exactly), one coordinate."""
-    return a + t * d if t <= 0.5 else b - (1.0 - t) * d
+def state_size(n_box):
+    """Length of the state vector of ``_envelope_regions`` for an envelope of ``n_box`` rounded boxes."""
+    return _layout(n_box)[-1]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _arc_normal(a0, a1, a2, b0, b1, b2):
+    """(unit in-plane normal n of the arc a -> b (0 for a zero arc), |b - (a.b) a|, a.b)."""
+    dot = a0 * b0 + a1 * b1 + a2 * b2
+    n0 = b0 - dot * a0
+    n1 = b1 - dot * a1
+    n2 = b2 - dot * a2
+    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if nn > 1e-12:
+        return n0 / nn, n1 / nn, n2 / nn, nn, dot
+    return 0.0, 0.0, 0.0, nn, dot
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _chords(arcs, arc_c, arc_r, j, st, at):
+    """Arc j's chord polyline vertices (N_CHORDS + 1, 3) into st[at:], as the reference's arc_chord_points: the ends
+    exactly C + r a and C + r b, between them C + r (a cos(k theta / N) + n sin(k theta / N)), the cosines and sines
+    by the angle-addition recurrence (one libm call per arc; a few ulps from the reference's direct values)."""
+    a0, a1, a2 = arcs[j, 0, 0], arcs[j, 0, 1], arcs[j, 0, 2]
+    b0, b1, b2 = arcs[j, 1, 0], arcs[j, 1, 1], arcs[j, 1, 2]
+    n0, n1, n2, nn, dot = _arc_normal(a0, a1, a2, b0, b1, b2)
+    theta = math.atan2(nn, dot) if nn > 1e-12 else 0.0
+    step = theta / N_CHORDS
+    cd = math.cos(step)
+    sd = math.sin(step)
+    cs = 1.0
+    sn = 0.0
+    for k in range(N_CHORDS + 1):
+        if k == 0:
+            w0, w1, w2 = a0, a1, a2
+        elif k == N_CHORDS:
+            w0, w1, w2 = b0, b1, b2
+        else:
+            cs, sn = cs * cd - sn * sd, sn * cd + cs * sd
+            w0 = a0 * cs + n0 * sn
+            w1 = a1 * cs + n1 * sn
+            w2 = a2 * cs + n2 * sn
+        st[at + 3 * k] = arc_c[0] + arc_r * w0
+        st[at + 3 * k + 1] = arc_c[1] + arc_r * w1
+        st[at + 3 * k + 2] = arc_c[2] + arc_r * w2
+
+
+_ARC_MOVE = math.sqrt((1.0 + 0.5 * math.pi) ** 2 + (0.5 * math.pi) ** 2 + 1.0)
+"""(1 + pi/2) |da| + pi/2 |db| + |dn| <= _ARC_MOVE sqrt(|da|^2 + |db|^2 + |dn|^2) (Cauchy-Schwarz): one root per arc."""
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _carry(lines, arc_c, arc_r, arcs, st, n_box, carry):
+    """Lower bounds of this point's values from the previous point's, less how far the primitives moved (a signed
+    distance is 1-Lipschitz): a segment's points move at most as far as its farther-moving end; a vertex of an arc's
+    chord polyline, C + r (a cos phi + n sin phi) with phi = k theta / N, at most
+    |dC| + r (|da| + |dn| + |dtheta|), |dtheta| <= pi/2 (|da| + |db|), over the four arcs at most the largest of these
+    (one bound for the arcs: square roots are what this costs). Without a previous body
+    (``carry`` false) every bound is -inf. Then the body is kept as the previous one. False when the body is not
+    finite (nothing kept)."""
+    lo, _, prev_lines, prev_arcs, prev_centre, _, _, done, _ = _layout(n_box)
+    rows = n_box + 2
+    fin = arc_r + (arc_c[0] + arc_c[1] + arc_c[2])
+    values = _layout(n_box)[1]  # the line movements wait in this point's value row 0 until they are used
+    for k in range(N_LINES):
+        m2 = 0.0
+        for end in range(2):
+            at = prev_lines + 6 * k + 3 * end
+            x0, x1, x2 = lines[k, end, 0], lines[k, end, 1], lines[k, end, 2]
+            fin += (x0 + x1) + x2
+            d0 = x0 - st[at]
+            d1 = x1 - st[at + 1]
+            d2 = x2 - st[at + 2]
+            m2 = max(m2, d0 * d0 + d1 * d1 + d2 * d2)
+            st[at], st[at + 1], st[at + 2] = x0, x1, x2
+        st[values + k] = m2
+    a2max = 0.0
+    for j in range(N_ARCS):
+        at = prev_arcs + 9 * j
+        a0, a1, a2 = arcs[j, 0, 0], arcs[j, 0, 1], arcs[j, 0, 2]
+        b0, b1, b2 = arcs[j, 1, 0], arcs[j, 1, 1], arcs[j, 1, 2]
+        fin += ((a0 + a1) + a2) + ((b0 + b1) + b2)
+        n0, n1, n2, _, _ = _arc_normal(a0, a1, a2, b0, b1, b2)
+        q = (a0 - st[at]) ** 2 + (a1 - st[at + 1]) ** 2 + (a2 - st[at + 2]) ** 2
+        q += (b0 - st[at + 3]) ** 2 + (b1 - st[at + 4]) ** 2 + (b2 - st[at + 5]) ** 2
+        q += (n0 - st[at + 6]) ** 2 + (n1 - st[at + 7]) ** 2 + (n2 - st[at + 8]) ** 2
+        a2max = max(a2max, q)
+        st[at], st[at + 1], st[at + 2], st[at + 3], st[at + 4], st[at + 5] = a0, a1, a2, b0, b1, b2
+        st[at + 6], st[at + 7], st[at + 8] = n0, n1, n2
+        st[done + j] = 0.0
+    if not math.isfinite(fin):
+        return False
+    d0 = arc_c[0] - st[prev_centre]
+    d1 = arc_c[1] - st[prev_centre + 1]
+    d2 = arc_c[2] - st[prev_centre + 2]
+    st[prev_centre], st[prev_centre + 1], st[prev_centre + 2] = arc_c[0], arc_c[1], arc_c[2]
+    if not carry:
+        for i in range(lo, lo + rows * N_PRIMS):
+            st[i] = -_INF
+        return True
+    for k in range(N_LINES):
+        st[values + k] = math.sqrt(st[values + k])
+    m_arc = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) + arc_r * _ARC_MOVE * math.sqrt(a2max)
+    for r in range(rows):
+        at = lo + r * N_PRIMS
+        for k in range(N_LINES):
+            st[at + k] -= st[values + k]
+        for j in range(N_ARCS):
+            st[at + N_LINES + j] -= m_arc
+    return True
 
 
 @njit(cache=True, error_model="numpy")
-def _sd_at(a0, a1, a2, b0, b1, b2, t, c0, c1, c2, h0, h1, h2):
-    d0 = b0 - a0
-    d1 = b1 - a1
-    d2 = b2 - a2
-    return _box_sd(_at(a0, b0, d0, t), _at(a1, b1, d1, t), _at(a2, b2, d2, t), c0, c1, c2, h0, h1, h2)
+def _envelope_regions(lines, arc_c, arc_r, arcs, radius, boxes, table_z, has_skin, carry, st):
+    """This point's values of the body against the envelope's boxes and table into the state ``st`` (``_layout``);
+    returns the least, or NaN when the body is not finite (then nothing is carried to the next point).
 
+    ``lines`` (N_LINES, 2, 3), ``arcs`` (N_ARCS, 2, 3), ``arc_c`` (3,), ``arc_r``: the body (``_body._body_world``);
+    ``radius`` (N_PRIMS,) the primitives' radii, mm; ``boxes`` (B, 7); ``table_z`` (NaN: none); ``has_skin``: a skin
+    region comes after the boxes (``_envelope_skin``); ``carry``: the previous call was this design's previous body.
 
-@njit(cache=True, error_model="numpy")
-def _slab(u, d, h, t0, t1):
-    """Clip [t0, t1] to |u + t d| <= h; returns (t0, t1) (empty when t0 > t1)."""
-    if d == 0.0:
-        if abs(u) > h:
-            return 1.0, 0.0
-        return t0, t1
-    ta = (-h - u) / d
-    tb = (h - u) / d
-    return max(t0, min(ta, tb)), min(t1, max(ta, tb))
-
-
-@njit(cache=True, error_model="numpy")
-def _gp(t, u0, u1, u2, d0, d1, d2, h0, h1, h2):
-    """Half the derivative of the squared distance to the box along the segment, at t."""
-    s = 0.0
-    w = u0 + t * d0
-    q = abs(w) - h0
-    if q > 0.0:
-        s += (q if w > 0.0 else -q) * d0
-    w = u1 + t * d1
-    q = abs(w) - h1
-    if q > 0.0:
-        s += (q if w > 0.0 else -q) * d1
-    w = u2 + t * d2
-    q = abs(w) - h2
-    if q > 0.0:
-        s += (q if w > 0.0 else -q) * d2
-    return s
-
-
-@njit(cache=True, error_model="numpy")
-def _bracket(tb, u0, u1, u2, d0, d1, d2, h0, h1, h2, lo, glo, hi, ghi):
-    """Narrow the bracket (lo, glo) .. (hi, ghi) of g' = 0 by the breakpoint tb; returns it (lo = hi at a root)."""
-    if not (lo < tb < hi):
-        return lo, glo, hi, ghi
-    g = _gp(tb, u0, u1, u2, d0, d1, d2, h0, h1, h2)
-    if g < 0.0:
-        return tb, g, hi, ghi
-    if g > 0.0:
-        return lo, glo, tb, g
-    return tb, 0.0, tb, 0.0
-
-
-@njit(cache=True, error_model="numpy")
-def _cand(best, a0, a1, a2, b0, b1, b2, t, t0, t1, c0, c1, c2, h0, h1, h2):
-    """min(best, box distance at t) for t in [t0, t1] (else best)."""
-    if t0 <= t <= t1:
-        v = _sd_at(a0, a1, a2, b0, b1, b2, t, c0, c1, c2, h0, h1, h2)
-        if v < best:
-            return v
+    The table first (exact; an arc's lowest point only when its carried bound does not rule it out), then the pair
+    (box, primitive) that bound at the previous point (a good first least), then every box against every primitive:
+    skipped when its carried bound cannot come within _SKIP_MM of the least, or, with no bound carried, its geometric
+    bound (a line: ``_bound``; an arc: the ball about its chord that holds it); else a line is minimised exactly and
+    an arc's chord polyline is searched in pieces of _GROUP chords (balls about the pieces' chords), then chord by
+    chord. Each pair then carries its value (an arc: the least of its chords and of the bounds of the pieces and
+    chords skipped) to the next point. One loop, no helper taking arrays: each array passed costs reference counts."""
+    n_box = boxes.shape[0]
+    lo, vals, _, _, _, prev_bind, chords, done, _ = _layout(n_box)
+    if not _carry(lines, arc_c, arc_r, arcs, st, n_box, carry):
+        return _NAN
+    for i in range(vals, vals + (n_box + 2) * N_PRIMS):  # (after _carry: it uses row 0 for the lines' movements)
+        st[i] = _INF
+    best = _INF
+    if not math.isnan(table_z):
+        tr = n_box + (1 if has_skin else 0)
+        for k in range(N_LINES):
+            v = min(lines[k, 0, 2], lines[k, 1, 2]) - table_z - radius[k]
+            st[vals + tr * N_PRIMS + k] = v
+            best = min(best, v)
+        for j in range(N_ARCS):  # the lowest point of an arc costs roots: its carried bound first
+            at = tr * N_PRIMS + N_LINES + j
+            if st[lo + at] >= best + _SKIP_MM:
+                continue
+            low = _arc_lowest_z(arcs[j, 0, 0], arcs[j, 0, 1], arcs[j, 0, 2], arcs[j, 1, 0], arcs[j, 1, 1], arcs[j, 1, 2], arc_c[2], arc_r)
+            v = low - table_z - radius[N_LINES + j]
+            st[vals + at] = v
+            st[lo + at] = v
+            best = min(best, v)
+    first = int(st[prev_bind] * N_PRIMS + st[prev_bind + 1]) if carry and st[prev_bind] < n_box else -1
+    for idx in range(-1, n_box * N_PRIMS):
+        if idx < 0:
+            if first < 0:
+                continue
+            pair = first
+        elif idx == first:
+            continue
+        else:
+            pair = idx
+        bi = pair // N_PRIMS
+        k = pair - bi * N_PRIMS
+        lower = st[lo + pair]
+        if lower >= best + _SKIP_MM:
+            continue
+        c0, c1, c2 = boxes[bi, 0], boxes[bi, 1], boxes[bi, 2]
+        h0, h1, h2 = boxes[bi, 3], boxes[bi, 4], boxes[bi, 5]
+        off = boxes[bi, 6] + radius[k]
+        if k < N_LINES:
+            p0, p1, p2 = lines[k, 0, 0], lines[k, 0, 1], lines[k, 0, 2]
+            q0, q1, q2 = lines[k, 1, 0], lines[k, 1, 1], lines[k, 1, 2]
+            if lower == -_INF:
+                b = _bound(p0, p1, p2, q0, q1, q2, c0, c1, c2, h0, h1, h2) - off
+                if b >= best + _SKIP_MM:
+                    st[lo + pair] = b
+                    continue
+            v = _seg_box(p0, p1, p2, q0, q1, q2, c0, c1, c2, h0, h1, h2) - off
+            st[vals + pair] = v
+            st[lo + pair] = v
+            best = min(best, v)
+            continue
+        j = k - N_LINES
+        r = arc_r
+        if lower == -_INF:
+            b = _piece_ball(arc_c[0] + r * arcs[j, 0, 0], arc_c[1] + r * arcs[j, 0, 1], arc_c[2] + r * arcs[j, 0, 2],
+                            arc_c[0] + r * arcs[j, 1, 0], arc_c[1] + r * arcs[j, 1, 1], arc_c[2] + r * arcs[j, 1, 2], r,
+                            c0, c1, c2, h0, h1, h2) - off  # fmt: skip
+            if b >= best + _SKIP_MM:
+                st[lo + pair] = b
+                continue
+        ch = chords + j * (N_CHORDS + 1) * 3
+        if st[done + j] == 0.0:
+            _chords(arcs, arc_c, arc_r, j, st, ch)
+            st[done + j] = 1.0
+        least = _INF  # of the chords minimised
+        floor = _INF  # of the bounds of the pieces and chords skipped
+        for g in range(0, N_CHORDS, _GROUP):
+            u = ch + 3 * g
+            w = ch + 3 * (g + _GROUP)
+            gb = _piece_ball(st[u], st[u + 1], st[u + 2], st[w], st[w + 1], st[w + 2], r, c0, c1, c2, h0, h1, h2) - off
+            if gb >= best + _SKIP_MM:
+                floor = min(floor, gb)
+                continue
+            for m in range(g, g + _GROUP):
+                u = ch + 3 * m
+                p0, p1, p2, q0, q1, q2 = st[u], st[u + 1], st[u + 2], st[u + 3], st[u + 4], st[u + 5]
+                cb = _bound(p0, p1, p2, q0, q1, q2, c0, c1, c2, h0, h1, h2) - off
+                if cb >= best + _SKIP_MM:
+                    floor = min(floor, cb)
+                    continue
+                v = _seg_box(p0, p1, p2, q0, q1, q2, c0, c1, c2, h0, h1, h2) - off
+                least = min(least, v)
+                best = min(best, v)
+        st[vals + pair] = least
+        st[lo + pair] = min(least, floor)
     return best
 
 
 @njit(cache=True, error_model="numpy")
-def _seg_box(a0, a1, a2, b0, b1, b2, c0, c1, c2, h0, h1, h2):
-    """Exact least signed distance to the box |X - c| <= h along the segment a -> b (module doc), mm."""
-    d0 = b0 - a0
-    d1 = b1 - a1
-    d2 = b2 - a2
-    u0 = a0 - c0
-    u1 = a1 - c1
-    u2 = a2 - c2
-    t0, t1 = _slab(u0, d0, h0, 0.0, 1.0)
-    t0, t1 = _slab(u1, d1, h1, t0, t1)
-    t0, t1 = _slab(u2, d2, h2, t0, t1)
-    if t0 <= t1:  # the segment meets the box: least of max_i (|u_i + t d_i| - h_i) over [t0, t1]
-        best = _sd_at(a0, a1, a2, b0, b1, b2, t0, c0, c1, c2, h0, h1, h2)
-        best = _cand(best, a0, a1, a2, b0, b1, b2, t1, t0, t1, c0, c1, c2, h0, h1, h2)
-        if d0 != 0.0:
-            best = _cand(best, a0, a1, a2, b0, b1, b2, -u0 / d0, t0, t1, c0, c1, c2, h0, h1, h2)
-        if d1 != 0.0:
-            best = _cand(best, a0, a1, a2, b0, b1, b2, -u1 / d1, t0, t1, c0, c1, c2, h0, h1, h2)
-        if d2 != 0.0:
-            best = _cand(best, a0, a1, a2, b0, b1, b2, -u2 / d2, t0, t1, c0, c1, c2, h0, h1, h2)
-        for pair in range(3):
-            if pair == 0:
-                ui, di, hi_, uj, dj, hj = u0, d0, h0, u1, d1, h1
-            elif pair == 1:
-                ui, di, hi_, uj, dj, hj = u0, d0, h0, u2, d2, h2
-            else:
-                ui, di, hi_, uj, dj, hj = u1, d1, h1, u2, d2, h2
-            for si in (-1.0, 1.0):
-                for sj in (-1.0, 1.0):
-                    den = si * di - sj * dj
-                    if den != 0.0:
-                        t = ((sj * uj - hj) - (si * ui - hi_)) / den
-                        best = _cand(best, a0, a1, a2, b0, b1, b2, t, t0, t1, c0, c1, c2, h0, h1, h2)
-        return best
-    # outside all along: the root of g' (continuous, nondecreasing, linear between breakpoints)
-    glo = _gp(0.0, u0, u1, u2, d0, d1, d2, h0, h1, h2)
-    if glo >= 0.0:
-        return _box_sd(a0, a1, a2, c0, c1, c2, h0, h1, h2)
-    ghi = _gp(1.0, u0, u1, u2, d0, d1, d2, h0, h1, h2)
-    if ghi <= 0.0:
-        return _box_sd(b0, b1, b2, c0, c1, c2, h0, h1, h2)
-    lo = 0.0
-    hi = 1.0
-    for axis in range(3):
-        if axis == 0:
-            u, d, h = u0, d0, h0
-        elif axis == 1:
-            u, d, h = u1, d1, h1
-        else:
-            u, d, h = u2, d2, h2
-        if d != 0.0:
-            lo, glo, hi, ghi = _bracket((h - u) / d, u0, u1, u2, d0, d1, d2, h0, h1, h2, lo, glo, hi, ghi)
-            lo, glo, hi, ghi = _bracket((-h - u) / d, u0, u1, u2, d0, d1, d2, h0, h1, h2, lo, glo, hi, ghi)
-    t = lo if hi == lo else lo - glo * (hi - lo) / (ghi - glo)
-    return _sd_at(a0, a1, a2, b0, b1, b2, min(max(t, 0.0), 1.0), c0, c1, c2, h0, h1, h2)
+def _envelope_skin(lines, arc_c, arc_r, arcs, radius, envelope, order, work, lower, st, best):
+    """The skin region (a mesh, searched on its grids as the anatomy, ``_clearance._anatomy_clearance``) capped at the
+    least so far ``best``: its value goes into the state's skin row; returns the new least."""
+    n_box = envelope[0].shape[0]
+    _, vals, _, _, _, _, _, _, _ = _layout(n_box)
+    for k in range(lower.shape[0]):
+        lower[k] = -_INF
+    grids = (envelope[3], envelope[4], envelope[5], envelope[6], envelope[7], envelope[8], envelope[9], envelope[10])
+    v, k = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, best, lower, -_INF)
+    if k >= 0:
+        st[vals + n_box * N_PRIMS + k] = v
+        return min(best, v)
+    return best
 
 
 @njit(cache=True, error_model="numpy")
-def _arc_lowest_z(a, b, cz, r):
-    """The least z of the great-circle arc C + r (a -> b) (C_z = ``cz``): its ends, or where z is stationary."""
-    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    n0 = b[0] - dot * a[0]
-    n1 = b[1] - dot * a[1]
-    n2 = b[2] - dot * a[2]
-    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    ends = min(cz + r * a[2], cz + r * b[2])
-    if not nn > 1e-12:
-        return ends
-    nz = n2 / nn
-    R = math.sqrt(a[2] * a[2] + nz * nz)
-    # the stationary minimum phi* (cos, sin) = (-a_z, -n_z) / R lies on the arc [0, theta], theta <= pi,
-    # iff sin phi* >= 0 and cos phi* >= cos theta = dot
-    if R > 0.0 and -nz >= 0.0 and -a[2] / R >= dot:
-        return min(cz - r * R, ends)
-    return ends
-
-
-@njit(cache=True, error_model="numpy")
-def _chords(arcs, arc_c, arc_r, j, out):
-    """The vertices (N_CHORDS + 1, 3) of arc j's chord polyline into ``out``, as the reference's arc_chord_points."""
-    a = arcs[j, 0]
-    b = arcs[j, 1]
-    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    n0 = b[0] - dot * a[0]
-    n1 = b[1] - dot * a[1]
-    n2 = b[2] - dot * a[2]
-    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    if nn > 1e-12:
-        theta = math.atan2(nn, dot)
-        n0 /= nn
-        n1 /= nn
-        n2 /= nn
-    else:
-        theta = 0.0
-        n0 = n1 = n2 = 0.0
-    for k in range(N_CHORDS + 1):
-        if k == 0:
-            w0, w1, w2 = a[0], a[1], a[2]
-        elif k == N_CHORDS:
-            w0, w1, w2 = b[0], b[1], b[2]
-        else:
-            phi = theta * (k / N_CHORDS)
-            cs = math.cos(phi)
-            sn = math.sin(phi)
-            w0 = a[0] * cs + n0 * sn
-            w1 = a[1] * cs + n1 * sn
-            w2 = a[2] * cs + n2 * sn
-        out[j, k, 0] = arc_c[0] + arc_r * w0
-        out[j, k, 1] = arc_c[1] + arc_r * w1
-        out[j, k, 2] = arc_c[2] + arc_r * w2
-
-
-@njit(cache=True, error_model="numpy")
-def _bound(p, q, c0, c1, c2, h0, h1, h2):
-    """A lower bound of the box distance along p -> q: at the midpoint, less half the length."""
-    m0 = 0.5 * (p[0] + q[0])
-    m1 = 0.5 * (p[1] + q[1])
-    m2 = 0.5 * (p[2] + q[2])
-    e0 = q[0] - p[0]
-    e1 = q[1] - p[1]
-    e2 = q[2] - p[2]
-    return _box_sd(m0, m1, m2, c0, c1, c2, h0, h1, h2) - 0.5 * math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-
-
-@njit(cache=True, error_model="numpy")
-def _seg_value(p, q, c0, c1, c2, h0, h1, h2):
-    return _seg_box(p[0], p[1], p[2], q[0], q[1], q[2], c0, c1, c2, h0, h1, h2)
-
-
-@njit(cache=True, error_model="numpy")
-def _arc_ball(arcs, arc_c, arc_r, j, c0, c1, c2, h0, h1, h2):
-    """A lower bound of the box distance along arc j: at its chord's midpoint, less the radius
-    sqrt(half chord^2 + sag^2) of the ball about it that holds the arc (an arc of at most pi)."""
-    a = arcs[j, 0]
-    b = arcs[j, 1]
-    m0 = arc_c[0] + arc_r * 0.5 * (a[0] + b[0])
-    m1 = arc_c[1] + arc_r * 0.5 * (a[1] + b[1])
-    m2 = arc_c[2] + arc_r * 0.5 * (a[2] + b[2])
-    half = 0.5 * arc_r * math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
-    sag = arc_r - math.sqrt(max(arc_r * arc_r - half * half, 0.0))
-    return _box_sd(m0, m1, m2, c0, c1, c2, h0, h1, h2) - math.sqrt(half * half + sag * sag)
-
-
-@njit(cache=True, error_model="numpy")
-def _finite_body(lines, arcs, arc_c, arc_r):
-    s = arc_r + arc_c[0] + arc_c[1] + arc_c[2]
-    for k in range(lines.shape[0]):
-        for end in range(2):
-            s += lines[k, end, 0] + lines[k, end, 1] + lines[k, end, 2]
-    for j in range(arcs.shape[0]):
-        for end in range(2):
-            s += arcs[j, end, 0] + arcs[j, end, 1] + arcs[j, end, 2]
-    return math.isfinite(s)
-
-
-@njit(cache=True, error_model="numpy")
-def _envelope_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, envelope, order, work, lower, chords, done, pv):
-    """(clearance mm, primitive index, region index) of the body to the envelope; (NaN, -1, -1) for a body
-    that is not finite.
-
-    ``lines`` (n_lines, 2, 3), ``arcs`` (4, 2, 3), ``arc_c`` (3,), ``arc_r``: the body (``_body._body_world``);
-    ``radius`` (27,) the primitives' radii; ``envelope`` = (boxes (B, 7), table_z (NaN: none), has_skin,
-    then the 8 items of the skin's grids as ``_clearance._lookup`` takes them); ``order``, ``work``, ``lower``:
-    the anatomy search's (for the skin); buffers ``chords`` (4, N_CHORDS + 1, 3), ``done`` (4,) bool and ``pv``
-    (>= regions, 27): each region's value per primitive (+inf where pruned). The region named is the first whose
-    least is within TIE_MM of the least over all, the primitive the first of that region within it (the reference's rule).
-    """
-    boxes, table_z, has_skin = envelope[0], envelope[1], envelope[2]
-    if not _finite_body(lines, arcs, arc_c, arc_r):
-        return _NAN, -1, -1
-    n_box = boxes.shape[0]
-    n_arcs = arcs.shape[0]
-    n_prims = n_lines + n_arcs
-    has_table = table_z == table_z
-    n_reg = n_box + (1 if has_skin else 0) + (1 if has_table else 0)
-    for r in range(n_reg):
-        for k in range(n_prims):
-            pv[r, k] = _INF
-    best = _INF
-    if has_table:  # exact and cheap: first, so that its value prunes the boxes
-        tr = n_reg - 1
-        for k in range(n_lines):
-            pv[tr, k] = min(lines[k, 0, 2], lines[k, 1, 2]) - table_z - radius[k]
-            best = min(best, pv[tr, k])
-        for j in range(n_arcs):
-            pv[tr, n_lines + j] = _arc_lowest_z(arcs[j, 0], arcs[j, 1], arc_c[2], arc_r) - table_z - radius[n_lines + j]
-            best = min(best, pv[tr, n_lines + j])
-    for j in range(n_arcs):
-        done[j] = False
-    for bi in range(n_box):
-        c0, c1, c2 = boxes[bi, 0], boxes[bi, 1], boxes[bi, 2]
-        h0, h1, h2 = boxes[bi, 3], boxes[bi, 4], boxes[bi, 5]
-        rho = boxes[bi, 6]
-        for k in range(n_lines):
-            p = lines[k, 0]
-            q = lines[k, 1]
-            off = rho + radius[k]
-            if _bound(p, q, c0, c1, c2, h0, h1, h2) - off >= best + _SKIP_MM:
-                continue
-            v = _seg_value(p, q, c0, c1, c2, h0, h1, h2) - off
-            pv[bi, k] = v
-            best = min(best, v)
-        for j in range(n_arcs):
-            off = rho + radius[n_lines + j]
-            if _arc_ball(arcs, arc_c, arc_r, j, c0, c1, c2, h0, h1, h2) - off >= best + _SKIP_MM:
-                continue
-            if not done[j]:
-                _chords(arcs, arc_c, arc_r, j, chords)
-                done[j] = True
-            for m in range(N_CHORDS):
-                p = chords[j, m]
-                q = chords[j, m + 1]
-                if _bound(p, q, c0, c1, c2, h0, h1, h2) - off >= best + _SKIP_MM:
-                    continue
-                v = _seg_value(p, q, c0, c1, c2, h0, h1, h2) - off
-                if v < pv[bi, n_lines + j]:
-                    pv[bi, n_lines + j] = v
-                best = min(best, v)
-    if has_skin:
-        for k in range(lower.shape[0]):
-            lower[k] = -_INF
-        skin_grids = (envelope[3], envelope[4], envelope[5], envelope[6], envelope[7], envelope[8], envelope[9], envelope[10])
-        v, k = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, skin_grids, order, work, best, lower, -_INF)
-        if k >= 0:
-            pv[n_box, k] = v
-            best = min(best, v)
+def _envelope_pick(st, n_box, n_regions, best):
+    """(clearance, primitive, region): the least ``best`` and the first region row, then the first primitive in it,
+    whose value is within TIE_MM of it (the reference's rule); (NaN, -1, -1) when there is none. Remembers the pair
+    for the next point (``_envelope_regions`` minimises it first)."""
+    _, vals, _, _, _, prev_bind, _, _, _ = _layout(n_box)
+    st[prev_bind] = n_box + 2.0  # none
     if not best < _INF:
         return _NAN, -1, -1
     tie = best + TIE_MM
-    for r in range(n_reg):
-        for k in range(n_prims):
-            if pv[r, k] <= tie:
+    for r in range(n_regions):
+        for k in range(N_PRIMS):
+            if st[vals + r * N_PRIMS + k] <= tie:
+                st[prev_bind] = r
+                st[prev_bind + 1] = k
                 return best, k, r
     return _NAN, -1, -1

@@ -22,8 +22,7 @@ from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT,
 from arcube.evaluation.kernel._layout import O_HOLDING_TORQUE, O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
 from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._layout import O_DO_ENVELOPE, O_ENVELOPE, O_ENVELOPE_ON, X_ENVELOPE_CLEARANCE_MM, X_ENVELOPE_PART, X_ENVELOPE_REGION
-from arcube.evaluation.kernel._envelope import N_CHORDS as _ENV_CHORDS
-from arcube.evaluation.kernel._envelope import _envelope_clearance
+from arcube.evaluation.kernel._envelope import _envelope_pick, _envelope_regions, _envelope_skin, state_size
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _carry_bounds
 from arcube.evaluation.kernel._self import _self_clearance, self_moves
@@ -239,11 +238,12 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     do_clr = opt[O_DO_CLEARANCE] != 0.0
     do_self = opt[O_DO_SELF_CLEARANCE] != 0.0
     do_env = opt[O_DO_ENVELOPE] != 0.0
-    env_chords = np.empty((4, _ENV_CHORDS + 1, 3))
-    env_done = np.zeros(4, np.bool_)
-    env_pv = np.empty((envelope[0].shape[0] + 2, N_PRIMS))
+    env_boxes, env_table, env_skin = envelope[0], envelope[1], envelope[2]
+    env_regions = env_boxes.shape[0] + (1 if env_skin else 0) + (0 if math.isnan(env_table) else 1)
+    env_state = np.empty(state_size(env_boxes.shape[0]))
     env_lower = np.empty(N_PRIMS)
     env_work = np.empty((6, 96))
+    have_prev_env = False
     lines = np.empty((N_LINES, 2, 3))
     arcs = np.empty((4, 2, 3))
     arc_c = np.empty(3)
@@ -349,8 +349,11 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                         fc = CODE_SELF
                     gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
                 if do_env:  # MODEL.md 19.5
-                    env, env_k, env_r = _envelope_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, envelope, order, env_work,
-                                                            env_lower, env_chords, env_done, env_pv)  # fmt: skip
+                    least = _envelope_regions(lines, arc_c, arc_r, arcs, radius, env_boxes, env_table, env_skin, have_prev_env, env_state)
+                    have_prev_env = not math.isnan(least)  # a finite body: the next point carries its bounds
+                    if env_skin and have_prev_env:
+                        least = _envelope_skin(lines, arc_c, arc_r, arcs, radius, envelope, order, env_work, env_lower, env_state, least)
+                    env, env_k, env_r = _envelope_pick(env_state, env_boxes.shape[0], env_regions, least)
                     if env_k >= 0:
                         env_part = float(PRIM_PART[env_k])
                         env_region = float(env_r)
@@ -388,6 +391,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             extra[k, X_ENVELOPE_PART] = -1.0
             extra[k, X_ENVELOPE_REGION] = -1.0
             _no_metrics(extra[k])
+            have_prev_env = False
             have_prev = False
             have_prev_self = False
             if full:
