@@ -257,3 +257,21 @@ def test_bad_input_is_one_line_naming_it(tmp_path) -> None:
     env = resolve_envelope("default", PLAN, None)
     assert resolve_envelope(env) is env
     assert isinstance(envelope_from_boxes([[0, 0, 0, 1, 1, 1, 1]], ["b"], 0.0), Envelope)
+
+
+def test_the_evaluation_path_keeps_the_whole_plan_for_the_envelope() -> None:
+    from arcube.evaluation.reference import Options, evaluate_task
+    from arcube.evaluation.result import evaluate_design, load_plan
+    from arcube.evaluation.task import build_task
+    from arcube.model.design import Design
+
+    full, right = load_plan("reference", 6, side="R")
+    assert len(full) == 10 and len(right) == 5 and right == select(full, side="R")
+    env = resolve_envelope("default", full, None)
+    assert abs(env.landmarks.x0) < 1e-9  # the midline, not the right side's mean
+    design = Design.preset("paper").replace(m_x=88.23, m_y=79.40, m_z=56.89)
+    ev = evaluate_design(design, right, 6, np.ones(4), Options(envelope_clearance=True), envelope=env)
+    task = build_task(right.entry, right.target, 6)
+    want = evaluate_task(design.to_vector(), task.E, task.e, np.ones(4), Options(envelope_clearance=True), envelope=env)
+    np.testing.assert_array_equal(ev.points.envelope_clearance_mm, want.points.envelope_clearance_mm)
+    assert ev.envelope is env and np.all(np.isfinite(ev.points.envelope_clearance_mm))

@@ -29,6 +29,7 @@ from arcube.model.mechanism import format_mode, parse_mode
 
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
+    from arcube.evaluation.envelope import Envelope
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,8 @@ class Evaluation:
     results: TaskResults
     engine: str
     anatomy: Anatomy | None = None
+    envelope: Envelope | None = None
+    """The envelope of the whole patient (MODEL.md 19.5) the clearance was measured to, placed on the whole plan."""
 
     def per_trajectory(self) -> list[TrajectorySummary]:
         """Summaries per trajectory, in file order."""
@@ -121,9 +124,19 @@ def load_trajectory_set(
     ids: str | None = None, transform: Path | None = None,
 ) -> TrajectorySet:  # fmt: skip
     """Read and subset trajectories, checking ``points`` first (raises InputError)."""
+    return load_plan(trajectories, points, side, levels, ids, transform)[1]
+
+
+def load_plan(
+    trajectories: str, points: int, side: str | None = None, levels: str | None = None,
+    ids: str | None = None, transform: Path | None = None,
+) -> tuple[TrajectorySet, TrajectorySet]:  # fmt: skip
+    """(the plan as loaded, its subset): :func:`load_trajectory_set` keeping the whole plan too, for what is placed
+    on all of it whatever side is evaluated (the landmarks of the envelope, MODEL.md 19.5; raises InputError)."""
     if not 2 <= points <= MAX_POINTS:
         raise InputError.of("points", f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {points}")
-    return select(load_trajectories(trajectories, transform=transform), side=side, levels=levels, ids=ids)
+    full = load_trajectories(trajectories, transform=transform)
+    return full, select(full, side=side, levels=levels, ids=ids)
 
 
 def load_task(
@@ -137,13 +150,15 @@ def load_task(
 
 def evaluate_design(
     design: Design, ts: TrajectorySet, points: int, signs: np.ndarray, options: Options, engine: str = "numpy",
-    anatomy: Anatomy | None = None,
+    anatomy: Anatomy | None = None, envelope: Envelope | None = None,
 ) -> Evaluation:
-    """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call."""
+    """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call. ``envelope``: the envelope of
+    the whole patient (MODEL.md 19.5), resolved on the whole plan (:func:`load_plan`), not on ``ts`` alone."""
     task = build_task(ts.entry, ts.target, points, ids=ts.ids)
     distance = None if anatomy is None else anatomy.distance
-    results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True, anatomy=distance)
+    results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True, anatomy=distance,
+                            envelope=envelope)  # fmt: skip
     return Evaluation(
         design=design, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine=engine,
-        anatomy=anatomy,
+        anatomy=anatomy, envelope=envelope,
     )  # fmt: skip
