@@ -275,3 +275,15 @@ def test_the_evaluation_path_keeps_the_whole_plan_for_the_envelope() -> None:
     want = evaluate_task(design.to_vector(), task.E, task.e, np.ones(4), Options(envelope_clearance=True), envelope=env)
     np.testing.assert_array_equal(ev.points.envelope_clearance_mm, want.points.envelope_clearance_mm)
     assert ev.envelope is env and np.all(np.isfinite(ev.points.envelope_clearance_mm))
+
+
+def test_the_settings_name_their_fields() -> None:
+    from arcube.evaluation.envelope import EnvelopeSettings
+
+    with pytest.raises(InputError) as exc:
+        EnvelopeSettings(table_z=float("nan"))
+    _one_line(exc, "EnvelopeSettings.table_z", "finite")
+    s = EnvelopeSettings(envelope="default", table_z=-150.0)
+    assert s.envelope == ("default",) and s.resolve(PLAN).table_z == -150.0
+    assert EnvelopeSettings(envelope="none").resolve(PLAN) is None
+    assert EnvelopeSettings(envelope="a.stl,b.stl").envelope == ("a.stl", "b.stl")

@@ -41,12 +41,14 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from pydantic import BeforeValidator, Field
 
 from arcube.errors import InputError
+from arcube.options import Settings
 
 if TYPE_CHECKING:  # trimesh and the grids load only when a mesh is used
     import trimesh
@@ -54,7 +56,7 @@ if TYPE_CHECKING:  # trimesh and the grids load only when a mesh is used
     from arcube.evaluation.sdf import AnatomyDistance
 
 __all__ = [
-    "BOX_TABLE", "ENVELOPE_SPECS", "Envelope", "Landmarks", "TABLE_BELOW_SKIN_MM", "default_envelope", "envelope_from_boxes",
+    "BOX_TABLE", "ENVELOPE_SPECS", "Envelope", "EnvelopeSettings", "Landmarks", "TABLE_BELOW_SKIN_MM", "default_envelope", "envelope_from_boxes",
     "envelope_meshes", "landmarks", "resolve_envelope", "rounded_box_distance", "write_envelope_mesh",
 ]  # fmt: skip
 
@@ -283,6 +285,33 @@ def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: 
         table = marks.z_s - TABLE_BELOW_SKIN_MM
     source = ", ".join(items) + f" ({anatomy_frame}); table z = {table:.1f} mm"
     return Envelope(np.zeros((0, 7)), ("skin", "table"), table, meshes, source, marks)
+
+
+def _spec(value: Any) -> tuple[str, ...]:
+    """``"default"``, ``"none"``, a path or several (a list, or comma-separated text) -> a tuple of words and paths."""
+    if value is None:
+        return ("none",)
+    if isinstance(value, (str, os.PathLike)):
+        items = [t.strip() for t in os.fspath(value).split(",")]
+    else:
+        items = [os.fspath(v).strip() for v in value]
+    if not items or any(not t for t in items):
+        raise ValueError("must be default, none, or mesh files")
+    return tuple(items)
+
+
+class EnvelopeSettings(Settings):
+    """The envelope of the whole patient and the table (MODEL.md 19.5), as the flags will set them."""
+
+    envelope: Annotated[tuple[str, ...], BeforeValidator(_spec)] = ("default",)
+    """``default`` (a coarse body placed on the plan's landmarks), ``none``, or skin mesh files (closed surfaces with
+    the patient inside, read in the anatomy's frame)."""
+    table_z: float | None = Field(default=None, allow_inf_nan=False)
+    """The operating table's top, mm, patient frame (z <= table_z is forbidden); None: 240 mm below the skin z_s."""
+
+    def resolve(self, plan: Any = None, anatomy: Any = None, anatomy_frame: str = "LPS") -> Envelope | None:
+        """:func:`resolve_envelope` of these settings (``plan``: the trajectories as loaded, before any selection)."""
+        return resolve_envelope(list(self.envelope), plan, anatomy, self.table_z, anatomy_frame)
 
 
 # ----------------------------------------------------------------------------- drawing
