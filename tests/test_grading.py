@@ -346,7 +346,9 @@ def test_single_assembly_mode_counts_one_at_each_point_outside_the_majority(engi
 
 
 def test_the_grade_scales_are_model_16s() -> None:
-    assert GRADE_SCALES == {"z_dyad": 1.0, "rho_max": np.deg2rad(10.0), "transmission": np.sin(np.deg2rad(20.0)), "clearance": 10.0}
+    # MODEL.md 19.5 adds the envelope clearance's guard with scale 10 mm
+    assert GRADE_SCALES == {"z_dyad": 1.0, "rho_max": np.deg2rad(10.0), "transmission": np.sin(np.deg2rad(20.0)), "clearance": 10.0,
+                            "envelope": 10.0}  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- the kernel's new fields

@@ -121,6 +121,11 @@ CLEARANCE = Tol(abs=0.15)
 minimum along the body, the reference samples every 0.25 mm (within 0.125); as tests/test_clearance.py."""
 SELF_CLEARANCE = Tol(rel=0.0, abs=1e-9)
 """Self clearance, mm: the same closest-point formulas and chord polylines in both (tests/test_clearance.py)."""
+ENVELOPE = Tol(rel=0.0, abs=1e-9)
+"""Clearance to the envelope of the whole patient (MODEL.md 19.5), mm: both engines minimise exactly along every
+segment (by different methods), the arcs as the same chord polylines; they agree to rounding (tests/test_envelope.py
+runs them with the default envelope, where these fields are not NaN). With a skin mesh it is searched as the anatomy
+(CLEARANCE's tolerance; tests/test_envelope.py)."""
 
 GRADE = Tol(floor=1.0)
 """The guard grade of MODEL.md 16 (a sum of terms min(s/S, 1), unitless): as the graded excess; its terms
@@ -131,6 +136,7 @@ POINT_TOL: dict[str, Tol] = {
     "kappa": Tol(), "eta_L": Tol(), "dexterity_pct": Tol(), "excess": Tol(floor=1.0), "guard_grade": GRADE,
     "rho": Tol(floor=1.0), "delta": Tol(floor=1.0), "sigma": Tol(floor=1.0),
     "clearance_mm": CLEARANCE, "clearance_part": EXACT, "self_clearance_mm": SELF_CLEARANCE,
+    "envelope_clearance_mm": ENVELOPE, "envelope_part": EXACT, "envelope_region": EXACT,
     "tip_error_mm": TIP, "lateral_error_mm": TIP, "axial_error_mm": TIP, "axis_error_deg": TIP,
     "torque_Nm": TIP, "torque_actuator": ACTUATOR, "deflection_mm": TIP,
     "holding_torque_Nm": TIP, "holding_torque_actuator": HOLDING_ACTUATOR,
@@ -140,7 +146,7 @@ SUMMARY_TOL: dict[str, Tol] = {
     "w_G": EXACT, "reachable_fraction": EXACT,
     "eta_G": Tol(), "violation": Tol(floor=1.0), "violation_reach": Tol(floor=1.0), "guard_grade": GRADE,
     "dexterity_min": Tol(), "dexterity_mean": Tol(), "dexterity_max": Tol(),
-    "clearance_min": CLEARANCE, "self_clearance_min": SELF_CLEARANCE,
+    "clearance_min": CLEARANCE, "self_clearance_min": SELF_CLEARANCE, "envelope_clearance_min": ENVELOPE,
     "tip_error_max": TIP, "lateral_error_max": TIP, "axial_error_max": TIP, "axis_error_max": TIP,
     "torque_max": TIP, "deflection_max": TIP, "holding_torque_max": TIP,
 }  # fmt: skip

@@ -139,19 +139,20 @@ def test_excess_cap_is_the_reference_one() -> None:
 
 SAMPLES = {
     Guards: {"z_dyad": True, "c_z": 150.0, "rho_max_deg": 50.0, "min_transmission_deg": 30.0, "kappa_max": 5.0,
-             "single_assembly_mode": True, "clearance_mm": 3.0, "self_clearance_mm": 2.0},
+             "single_assembly_mode": True, "clearance_mm": 3.0, "self_clearance_mm": 2.0, "envelope_clearance_mm": 10.0},
     Body: {"link_radius": 3.0, "actuator_radius": 9.0, "motor_radius": 7.0, "motor_length": 80.0},
     Loads: {"encoder_deg": 0.02, "thrust_N": 12.0, "lateral_force_N": 3.0, "actuator_stiffness": 2e3},
     Masses: {"wall_mm": 3.0, "density_kg_m3": 7800.0, "m_delta_kg": 0.5, "m_motor_kg": 2.0, "gravity": (0.0, -9.81, 0.0)},
-    Outputs: {"clearances": True, "anatomy_clearance": True, "clearance_min_exact": False, "tip_metrics": False, "holding_torque": True},
+    Outputs: {"clearances": True, "anatomy_clearance": True, "clearance_min_exact": False, "tip_metrics": False, "holding_torque": True,
+              "envelope_clearance": True},
 }  # fmt: skip
 """A value other than the default for every setting (a new setting needs one here)."""
 GROUP = {Guards: "guards", Body: "body", Loads: "loads", Masses: "masses", Outputs: "outputs"}
 
 
 def _seen(options: Options) -> tuple[np.ndarray, ...]:
-    """What the compiled code gets of ``options``: the option vector (with an anatomy) and the body radii."""
-    return kernel._option_vector(options, anatomy=True), kernel._body_context(options, None)[1][0]
+    """What the compiled code gets of ``options``: the option vector (with an anatomy and an envelope) and the body radii."""
+    return kernel._option_vector(options, anatomy=True, envelope=True), kernel._body_context(options, None)[1][0]
 
 
 @pytest.mark.parametrize("group", list(SAMPLES), ids=lambda g: g.__name__)

@@ -3,7 +3,7 @@
 :class:`Options` is made of four groups, each a frozen pydantic model whose ``Field`` constraints
 are the only checks of its values:
 
-* :class:`Guards`: the guards of MODEL.md 8.2 and 14.3 (all off by default);
+* :class:`Guards`: the guards of MODEL.md 8.2, 14.3 and 19.5 (all off by default);
 * :class:`Body`: the radii of the robot's body (MODEL.md 14.1);
 * :class:`Loads`: the encoder resolution, drilling loads and actuator stiffness (MODEL.md 15);
 * :class:`Masses`: the links' tubes, the actuators' and drill motor's masses, gravity (MODEL.md 18.1);
@@ -109,9 +109,10 @@ PositiveMm = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
 class Guards(Settings):
-    """Reachability guards: MODEL.md 8.2 ([ADDITION]) and the clearances of 14.3. All off by default."""
+    """Reachability guards: MODEL.md 8.2 ([ADDITION]), the clearances of 14.3 and the envelope of 19.5. All off by default."""
 
-    SHORT: ClassVar[dict[str, str]] = {"clearance_mm": "clearance", "self_clearance_mm": "self_clearance"}
+    SHORT: ClassVar[dict[str, str]] = {"clearance_mm": "clearance", "self_clearance_mm": "self_clearance",
+                                       "envelope_clearance_mm": "envelope_clearance"}
 
     z_dyad: bool = False
     """Check the z-leg dyad closure (MODEL.md 6)."""
@@ -129,6 +130,9 @@ class Guards(Settings):
     """Guard: clearance to the anatomy >= this (mm); failure ``collision/patient`` (MODEL.md 14.3)."""
     self_clearance_mm: Mm | None = None
     """Guard: clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
+    envelope_clearance_mm: Mm | None = None
+    """Guard: clearance to the envelope of the whole patient and the table >= this (mm); failure ``collision/envelope``
+    (MODEL.md 19.5; 10 mm is the design requirement's default)."""
 
 
 _RADII = BodyRadii()
@@ -208,9 +212,13 @@ class Outputs(Settings):
     """What an evaluation computes beyond what its guards need (requests to the engine, not model)."""
 
     clearances: bool = False
-    """Both body clearances at every point (MODEL.md 14.3), even with no clearance guard on."""
+    """Every body clearance at every point, even with no clearance guard on: to the anatomy and between the
+    robot's parts (MODEL.md 14.3), and to the envelope of the whole patient when there is one (19.5)."""
     anatomy_clearance: bool = False
     """The clearance to the anatomy (when there is one) even without its guard (an optimizer objective)."""
+    envelope_clearance: bool = False
+    """The clearance to the envelope of the whole patient (when there is one, MODEL.md 19.5) even without its
+    guard (an optimizer objective or limit)."""
     clearance_min_exact: bool = True
     """With a clearance guard, whether summary-only kernel runs find the exact smallest clearance
     (False: they only decide the guard and its shortfall, and report the limit as the smallest
@@ -315,9 +323,15 @@ class Options(Settings):
         return self.outputs.clearances or self.guards.self_clearance_mm is not None
 
     @property
+    def wants_envelope_clearance(self) -> bool:
+        """Whether the evaluation computes the clearance to the envelope (when there is one, MODEL.md 19.5)."""
+        o = self.outputs
+        return o.clearances or o.envelope_clearance or self.guards.envelope_clearance_mm is not None
+
+    @property
     def wants_body(self) -> bool:
         """Whether the evaluation computes the body at all."""
-        return self.wants_clearance or self.wants_self_clearance
+        return self.wants_clearance or self.wants_self_clearance or self.wants_envelope_clearance
 
 
 GUARDED_OPTIONS = Options(guards=Guards(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True))

@@ -1,4 +1,4 @@
-"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2, 16).
+"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2, 16, 19.5).
 
 :func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
 against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per point and
@@ -10,11 +10,15 @@ kinematics alone) counts the points where sections 3-5 have no solution or eta_L
 domain excess; V_fit = G / (1 + G) / (2 P) < 1 / (2 P), G = (1/P) sum over the points that solve the
 IK of each active guard's min(s / S, 1) (:data:`GRADE_SCALES`). So a design that misses a point
 always ranks below one that solves the IK everywhere, and among those V grows with every shortfall.
+
+The anatomy (``anatomy``: its signed distance, MODEL.md 14.2) and the envelope of the whole patient
+(``envelope``: an :class:`arcube.evaluation.envelope.Envelope`, 19.5) are data, passed beside the options;
+without them (None) their clearances are NaN and their guards off, and every result is as before.
 """
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,11 +27,15 @@ from arcube.model.design import unpack
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
 from arcube.evaluation.clearance import Distance, anatomy_clearance, self_clearance
+from arcube.evaluation.envelope_clearance import envelope_clearance
 from arcube.evaluation.masses import holding_torque_of_solution
 from arcube.evaluation.performance import MAXIMUM_FIELDS, jacobians_of_solution, tip_metrics
 from arcube.model import frames
 from arcube.model.body import body_parts, mechanism_points
 from arcube.options import GUARDED_OPTIONS, Options
+
+if TYPE_CHECKING:
+    from arcube.evaluation.envelope import Envelope
 
 __all__ = [
     "FAILURES", "GRADE_SCALES", "GUARDED_OPTIONS", "IK_FAILURES", "Options", "PointResults", "TaskResults", "evaluate_points",
@@ -40,12 +48,12 @@ FAILURES: tuple[str, ...] = (
     "TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y",
     *(f"singular/{name}" for name in JACOBIAN_NAMES),
     "guard/z_dyad", "guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode",
-    "collision/patient", "collision/self",
+    "collision/patient", "collision/self", "collision/envelope",
 )  # fmt: skip
 """Failure reasons; a point reports the first that applies, checked in this order except that the
-collision guards (MODEL.md 14.3) come after the other local guards and before the global
+collision guards (MODEL.md 14.3, 19.5) come after the other local guards and before the global
 ``guard/single_assembly_mode``. Code 0 in :attr:`PointResults.failure` means reachable; code
-k >= 1 means ``FAILURES[k - 1]``."""
+k >= 1 means ``FAILURES[k - 1]``. ``collision/envelope`` came last, so every earlier code kept its number."""
 
 _CODE = {name: i + 1 for i, name in enumerate(FAILURES)}
 IK_FAILURES = _CODE["guard/z_dyad"] - 1
@@ -56,6 +64,7 @@ GRADE_SCALES: dict[str, float] = {
     "rho_max": float(np.deg2rad(10.0)),  # rad, of the summed |rho_u| excess
     "transmission": float(np.sin(np.deg2rad(20.0))),  # each of the seven sines its own term
     "clearance": 10.0,  # mm, anatomy and self clearance (14.3)
+    "envelope": 10.0,  # mm, clearance to the envelope of the whole patient (19.5)
 }
 """The scales S of MODEL.md 16 by which a guard's shortfall s is graded, min(s / S, 1); ``kappa_max``'s
 scale is kappa_max itself, ``single_assembly_mode`` counts 1 at each point outside the majority mode."""
@@ -85,6 +94,9 @@ class PointResults(NamedTuple):
     clearance_mm: NDArray[np.float64]  # body to anatomy, signed (MODEL.md 14.3); NaN when not computed or no IK
     clearance_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the closest part, -1 if none
     self_clearance_mm: NDArray[np.float64]  # between the body's own parts; NaN when not computed or no IK
+    envelope_clearance_mm: NDArray[np.float64]  # body to the envelope of the whole patient, signed (MODEL.md 19.5); NaN when not computed or no IK
+    envelope_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the part closest to the envelope, -1 if none
+    envelope_region: NDArray[np.intp]  # index into the envelope's names (neck, head, torso, table...) of the region it binds on, -1 if none
     tip_error_mm: NDArray[np.float64]  # MODEL.md 15.2-15.4 from here on; NaN where unreachable
     lateral_error_mm: NDArray[np.float64]
     axial_error_mm: NDArray[np.float64]
@@ -111,6 +123,7 @@ class TaskResults(NamedTuple):
     dexterity_max: NDArray[np.float64]
     clearance_min: NDArray[np.float64]  # min clearance_mm over reachable points (NaN if none)
     self_clearance_min: NDArray[np.float64]  # min self_clearance_mm over reachable points (NaN if none)
+    envelope_clearance_min: NDArray[np.float64]  # min envelope_clearance_mm over reachable points (NaN if none or not computed)
     tip_error_max: NDArray[np.float64]  # MODEL.md 15.5: maxima over the reachable points (NaN if none)
     lateral_error_max: NDArray[np.float64]
     axial_error_max: NDArray[np.float64]
@@ -184,7 +197,7 @@ def _guard_checks(
 
 def evaluate_points(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
-    anatomy: Distance | None = None,
+    anatomy: Distance | None = None, envelope: Envelope | None = None,
 ) -> PointResults:  # fmt: skip
     """Local evaluation (no global guard): every argument broadcasts, results ``(...)``.
 
@@ -193,27 +206,33 @@ def evaluate_points(
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, E, e, mode)
-        return _judge(sol, params, options, anatomy)
+        return _judge(sol, params, options, anatomy, envelope)
 
 
 def _body_clearances(
     sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None, shape: tuple[int, ...],
-) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:  # fmt: skip
-    """(clearance, part, self clearance) ``shape`` each: NaN / -1 where not asked for or without IK."""
-    nan = np.full(shape, np.nan)
+    envelope: Envelope | None = None,
+) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+    """(clearance, part, self clearance, envelope clearance, envelope part, envelope region) ``shape`` each:
+    NaN / -1 where not asked for or without IK."""
+    nan, none = np.full(shape, np.nan), np.full(shape, -1, dtype=np.intp)
     if not options.wants_body:
-        return nan, np.full(shape, -1, dtype=np.intp), nan
+        return nan, none, nan, nan, none, none
     radii = options.radii
     mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.guards.c_z, motor_length=radii.motor_length, sol=sol)
     parts = body_parts(mp, radii)
     selfc = np.broadcast_to(self_clearance(parts), shape) if options.wants_self_clearance else nan
+    env: tuple[NDArray[Any], ...] = (nan, none, none)
+    if envelope is not None and options.wants_envelope_clearance:
+        env = tuple(np.broadcast_to(v, shape) for v in envelope_clearance(parts, envelope))
     if anatomy is None or not options.wants_clearance:
-        return nan, np.full(shape, -1, dtype=np.intp), selfc
+        return nan, none, selfc, *env
     clear, part = anatomy_clearance(parts, anatomy)
-    return np.broadcast_to(clear, shape), np.broadcast_to(part, shape), selfc
+    return np.broadcast_to(clear, shape), np.broadcast_to(part, shape), selfc, *env
 
 
-def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None = None) -> PointResults:
+def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None = None,
+           envelope: Envelope | None = None) -> PointResults:  # fmt: skip
     kappa = condition_numbers(sol, params)
     shape = kappa.shape[:-1]
     tls_bad = np.abs(sol.tls_arg) > 1.0
@@ -230,7 +249,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     ]
     excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)  # 0 where the stages solve the point
     solved = stages_ok & ~np.any(singular, axis=-1)  # the IK solves the point (MODEL.md 16)
-    clear, part, selfc = _body_clearances(sol, params, options, anatomy, shape)
+    clear, part, selfc, env, env_part, env_region = _body_clearances(sol, params, options, anatomy, shape, envelope)
     guards = _guard_checks(sol, params, eta_raw, options)
     scale = GRADE_SCALES["clearance"]
     if options.guards.clearance_mm is not None and anatomy is not None:
@@ -239,6 +258,9 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     if options.guards.self_clearance_mm is not None:
         short = np.maximum(options.guards.self_clearance_mm - selfc, 0.0)
         guards.append(("collision/self", short > 0.0, np.nan_to_num(_grade(short, scale), nan=0.0)))
+    if options.guards.envelope_clearance_mm is not None and envelope is not None:
+        short = np.maximum(options.guards.envelope_clearance_mm - env, 0.0)  # mm, MODEL.md 19.5
+        guards.append(("collision/envelope", short > 0.0, np.nan_to_num(_grade(short, GRADE_SCALES["envelope"]), nan=0.0)))
     grade: NDArray[np.float64] | float = 0.0
     for name, failed, term in guards:
         checks.append((name, failed & stages_ok))
@@ -263,6 +285,9 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         clearance_mm=np.where(stages_ok, clear, np.nan),
         clearance_part=np.where(stages_ok, part, -1),
         self_clearance_mm=np.where(stages_ok, selfc, np.nan),
+        envelope_clearance_mm=np.where(stages_ok, env, np.nan),
+        envelope_part=np.where(stages_ok, env_part, -1),
+        envelope_region=np.where(stages_ok, env_region, -1),
         **{name: np.broadcast_to(perf[name] if perf else np.nan, shape) for name in MAXIMUM_FIELDS},
         torque_actuator=np.broadcast_to(perf["torque_actuator"] if perf else -1, shape),
         holding_torque_actuator=np.broadcast_to(perf["holding_torque_actuator"] if perf else -1, shape),
@@ -322,7 +347,7 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
 
 def evaluate_task(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
-    anatomy: Distance | None = None,
+    anatomy: Distance | None = None, envelope: Envelope | None = None,
 ) -> TaskResults:  # fmt: skip
     """Evaluate designs ``(..., 27)`` (or ``(..., 23)``) on the P points of a task (``E``, ``e`` each ``(P, 3)``).
 
@@ -330,13 +355,14 @@ def evaluate_task(
     Per-point fields have shape ``(..., P)``; summaries ``(...)``. Dexterity statistics run
     over all P points, counting 0 at unreachable points. ``violation`` is MODEL.md 16's V_reach + V_fit
     for this task alone (no --max/--min limits: the optimizer adds them, with several tasks, from
-    ``violation_reach`` and ``guard_grade``).
+    ``violation_reach`` and ``guard_grade``). ``anatomy``: the anatomy's signed distance (MODEL.md 14.3);
+    ``envelope``: the envelope of the whole patient (19.5), whose landmarks come from the whole plan.
     """
     p = np.asarray(params, dtype=float)[..., None, :]
     m = np.asarray(mode, dtype=float)[..., None, :]
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(p, E, e, m)
-        pts = _judge(sol, p, options, anatomy)
+        pts = _judge(sol, p, options, anatomy, envelope)
         if options.guards.single_assembly_mode:
             pts = _single_assembly_mode(sol, pts)
         n = pts.reachable.shape[-1]
@@ -359,6 +385,7 @@ def evaluate_task(
         dexterity_max=np.max(pts.dexterity_pct, axis=-1),
         clearance_min=_min_reachable(pts.clearance_mm, pts.reachable),
         self_clearance_min=_min_reachable(pts.self_clearance_mm, pts.reachable),
+        envelope_clearance_min=_min_reachable(pts.envelope_clearance_mm, pts.reachable),
         **{name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable) for name in MAXIMUM_FIELDS},
     )
 

@@ -27,6 +27,7 @@ from arcube.model.mechanism import format_mode
 
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
+    from arcube.evaluation.envelope import Envelope
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,8 @@ class Evaluation:
     results: TaskResults
     engine: str
     anatomy: Anatomy | None = None
+    envelope: Envelope | None = None
+    """The envelope of the whole patient (MODEL.md 19.5) the clearance was measured to, placed on the whole plan."""
 
     def per_trajectory(self) -> list[TrajectorySummary]:
         """Summaries per trajectory, in file order."""
@@ -119,13 +122,15 @@ class Evaluation:
 
 def evaluate_design(
     design: Design, ts: TrajectorySet, points: int, signs: np.ndarray, options: Options, engine: str = "numpy",
-    anatomy: Anatomy | None = None,
+    anatomy: Anatomy | None = None, envelope: Envelope | None = None,
 ) -> Evaluation:
-    """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call."""
+    """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call. ``envelope``: the envelope of
+    the whole patient (MODEL.md 19.5), resolved on the whole plan (before any side or level is kept), not on ``ts`` alone."""
     task = build_task(ts.entry, ts.target, points, ids=ts.ids)
     distance = None if anatomy is None else anatomy.distance
-    results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True, anatomy=distance)
+    results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True, anatomy=distance,
+                            envelope=envelope)  # fmt: skip
     return Evaluation(
         design=design, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine=engine,
-        anatomy=anatomy,
+        anatomy=anatomy, envelope=envelope,
     )  # fmt: skip

@@ -1,5 +1,5 @@
 """A drilling program (MODEL.md 17.3) as the report reads it back from its files, ``program.csv`` and
-``program.json``, so that a report never recomputes the program (and never imports :mod:`arcube.program`).
+``program.json``, so that a report never recomputes the program (and never imports :mod:`arcube.motion`).
 
 ``program.csv``: columns ``t_s, segment, trajectory, E_x, E_y, E_z, e_x, e_y, e_z`` (s; patient frame,
 mm), the five actuator angles ``rho_x ... delta_y`` (deg) and rates ``rho_x_dot ... delta_y_dot``

@@ -3,8 +3,8 @@
 One fused pass per (design, point): TLS IK (Eq 1), RTS IK (MODEL.md 5.2), TMS IK (4.2), the
 seven condition numbers by the closed forms of 8.1, the local guards of 8.2, the IK domain
 excess of 12.2 and the guard grade of 16; with the options' outputs, the body clearances of 14.3
-(``_clearance``, ``_self``), the drill-tip metrics of 15 (``_performance``) and the holding torque of
-18.2 (``_masses``, only with ``Outputs.holding_torque``). A design's points then get the global
+(``_clearance``, ``_self``) and 19.5 (``_envelope``), the drill-tip metrics of 15 (``_performance``)
+and the holding torque of 18.2 (``_masses``, only with ``Outputs.holding_torque``). A design's points then get the global
 ``single_assembly_mode`` guard and the summaries (w_G, eta_G, the violation of MODEL.md 16 and its
 parts violation_reach and guard_grade, dexterity statistics). Designs run in parallel (``prange``,
 Numba's default thread count); when there are fewer than two designs per thread, the points
@@ -56,7 +56,10 @@ from arcube.model.mechanism import DEFAULT_MODE
 
 __all__ = ["clear_cache", "evaluate_task_numba", "warm_up"]
 
-_INTEGER_EXTRAS: dict[str, type] = {"clearance_part": np.intp, "torque_actuator": np.int64, "holding_torque_actuator": np.int64}
+_INTEGER_EXTRAS: dict[str, type] = {
+    "clearance_part": np.intp, "envelope_part": np.intp, "envelope_region": np.intp, "torque_actuator": np.int64,
+    "holding_torque_actuator": np.int64,
+}  # fmt: skip
 """PointResults fields held as floats in the extra rows, and their dtypes."""
 
 
@@ -102,7 +105,7 @@ def _optional(name: str, value: float | None, convert: Any) -> dict[str, Any]:
     return {f"{name}_on": value is not None, name: 0.0 if value is None else convert(value)}
 
 
-def _option_vector(options: Options, exact: bool = False, anatomy: bool = False) -> np.ndarray:
+def _option_vector(options: Options, exact: bool = False, anatomy: bool = False, envelope: bool = False) -> np.ndarray:
     """The option vector ``(N_OPT,)`` (``_layout.OPTIONS``): every setting the compiled code reads, as
     the reference compares it (``reference._guard_checks`` and ``_judge``). A new setting is one entry
     here and one in ``_layout.OPTIONS``; the two must name the same blocks."""
@@ -117,6 +120,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
         "single_assembly_mode": guards.single_assembly_mode,
         **_optional("clearance", guards.clearance_mm, float),
         **_optional("self_clearance", guards.self_clearance_mm, float),
+        **_optional("envelope", guards.envelope_clearance_mm, float),
         # Body (MODEL.md 14.1)
         "motor_length": body.motor_length,
         # Loads (MODEL.md 15): rad, N, N·mm/rad
@@ -136,8 +140,10 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False)
         "tip_metrics": outputs.tip_metrics,
         "clearance_min_exact": outputs.clearance_min_exact,
         "holding_torque": outputs.tip_metrics and outputs.holding_torque,
+        "do_envelope": options.wants_envelope_clearance and envelope,
     }
     values["clearance_on"] = values["clearance_on"] and anatomy  # the anatomy guard needs an anatomy
+    values["envelope_on"] = values["envelope_on"] and envelope  # and the envelope guard an envelope
     return _rows(OPTIONS, values, ())
 
 
@@ -162,26 +168,40 @@ _BLOCKS: dict[int, tuple[Any, np.ndarray, np.ndarray]] = {}
 """Block gradient bounds per anatomy (keyed by id, checked by identity): computed once per anatomy."""
 
 
+def _grids(distance: Any) -> tuple[Any, ...]:
+    """The grids of an :class:`arcube.evaluation.sdf.AnatomyDistance` as the compiled lookup reads them (fine
+    origin, spacing, values, coarse origin, spacing, values, fine and coarse block gradients); placeholders for None."""
+    if distance is None:
+        return (*_NO_GRID, *_NO_GRID, _NO_BLOCKS, _NO_BLOCKS)
+    f, c = distance.fine, distance.coarse
+    blocks = _BLOCKS.get(id(distance))
+    if blocks is None or blocks[0] is not distance:
+        blocks = (distance, block_gradients(f.values, f.spacing), block_gradients(c.values, c.spacing))
+        _BLOCKS[id(distance)] = blocks
+    return (_owned(f.origin), float(f.spacing), _owned(f.values), _owned(c.origin), float(c.spacing), _owned(c.values),
+            blocks[1], blocks[2])  # fmt: skip
+
+
 def _body_context(options: Options, anatomy: Any) -> tuple[tuple[Any, ...], tuple[np.ndarray, ...]]:
-    """(grids, body) of the compiled body clearances: ``grids`` = the anatomy's (fine origin, spacing, values,
-    coarse origin, spacing, values, fine and coarse block gradients), placeholders without an anatomy;
-    ``body`` = (primitive radii (27,) mm, search order (27,), self-clearance pairs (n, 2))."""
-    if anatomy is None:
-        grids = (*_NO_GRID, *_NO_GRID, _NO_BLOCKS, _NO_BLOCKS)
-    else:
-        f, c = anatomy.fine, anatomy.coarse
-        blocks = _BLOCKS.get(id(anatomy))
-        if blocks is None or blocks[0] is not anatomy:
-            blocks = (anatomy, block_gradients(f.values, f.spacing), block_gradients(c.values, c.spacing))
-            _BLOCKS[id(anatomy)] = blocks
-        grids = (_owned(f.origin), float(f.spacing), _owned(f.values), _owned(c.origin), float(c.spacing), _owned(c.values),
-                 blocks[1], blocks[2])  # fmt: skip
-    return grids, (primitive_radii(options.radii), _ORDER, SELF_PAIRS.astype(np.int64))
+    """(grids, body) of the compiled body clearances: ``grids`` = the anatomy's (:func:`_grids`), placeholders
+    without an anatomy; ``body`` = (primitive radii (27,) mm, search order (27,), self-clearance pairs (n, 2))."""
+    return _grids(anatomy), (primitive_radii(options.radii), _ORDER, SELF_PAIRS.astype(np.int64))
+
+
+def _envelope_context(envelope: Any) -> tuple[Any, ...]:
+    """The envelope of MODEL.md 19.5 as the compiled code reads it (``_envelope._envelope_clearance``): (boxes (B, 7)
+    mm, table z (NaN: none), whether there is a skin mesh, then the skin's grids (:func:`_grids`), flat: a tuple
+    inside a tuple does not pass Numba's parallel loops); an empty one for None."""
+    if envelope is None:
+        return (np.zeros((0, 7)), math.nan, False, *_grids(None))
+    table = math.nan if envelope.table_z is None else float(envelope.table_z)
+    return (_owned(envelope.boxes), table, bool(envelope.skin), *_grids(envelope.skin_distance))
 
 
 def evaluate_task_numba(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE,
     options: Options = Options(), want_points: bool = True, *, exact: bool = False, anatomy: Any = None,
+    envelope: Any = None,
 ) -> TaskResults:  # fmt: skip
     """Same results as :func:`arcube.evaluation.reference.evaluate_task`, compiled (see the module doc).
 
@@ -191,7 +211,8 @@ def evaluate_task_numba(
     With ``want_points=False`` the result's ``points`` is None (only the summaries are computed,
     with no designs x points arrays); the summaries are identical either way.
     ``exact=True`` evaluates every trigonometric function as the reference does (slower).
-    ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of MODEL.md 14.3.
+    ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of MODEL.md 14.3;
+    ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5.
     E or e not 2-D, no points or no designs: handed to the NumPy reference.
     """
     p = np.asarray(params, dtype=float)
@@ -204,13 +225,13 @@ def evaluate_task_numba(
     if m.ndim < 1 or m.shape[-1] != 4:
         raise ValueError(f"mode must have last axis 4, got shape {m.shape}")
     if E_a.ndim != 2 or e_a.ndim != 2 or E_a.shape[-1] != 3 or e_a.shape[-1] != 3:
-        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy)
+        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy, envelope)
     E_b, e_b = np.broadcast_arrays(E_a, e_a)
     batch = np.broadcast_shapes(p.shape[:-1], m.shape[:-1])
     n_des = math.prod(batch)
     n_pts = E_b.shape[0]
     if n_pts == 0 or n_des == 0:
-        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy)
+        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy, envelope)
 
     pf = _owned(np.broadcast_to(p, batch + (N_PARAMS,)).reshape(n_des, N_PARAMS))
     mf = _owned(np.broadcast_to(m, batch + (4,)).reshape(n_des, 4))
@@ -223,8 +244,9 @@ def evaluate_task_numba(
     # the fast path's angle-sum identities hold for signs only; other values (meaningless,
     # but accepted by the reference) take the reference's formulas
     exact = exact or not bool(np.all(np.abs(mf) == 1.0))
-    opt = _option_vector(options, exact, anatomy is not None)
+    opt = _option_vector(options, exact, anatomy is not None, envelope is not None)
     grids, body = _body_context(options, anatomy)
+    env = _envelope_context(envelope if options.wants_envelope_clearance else None)
 
     split = n_des < 2 * get_num_threads() and n_pts >= 2 * CHUNK
     full = bool(want_points)
@@ -239,7 +261,7 @@ def evaluate_task_numba(
     detail = (np.empty(dp + (7,)), np.empty(dp + (3,)), np.empty(dp + (2,)), np.empty(dp + (2,)))  # kappa, rho, delta, sigma
     summary = np.empty((n_des, SUMMARY.size))
     _cache.ensure_fresh()
-    _kernel(geometry, mf, Ec, ec, same_e, opt, full, split, CHUNK, grids, body,
+    _kernel(geometry, mf, Ec, ec, same_e, opt, full, split, CHUNK, grids, body, env,
             failure, eta, excess, dexterity, assembly, extra, detail, summary)  # fmt: skip
 
     out_shape = batch + (n_pts,)

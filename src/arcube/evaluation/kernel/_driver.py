@@ -12,7 +12,7 @@ from arcube.evaluation.kernel._summary import _finalize
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
+def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body, envelope,
             failure, eta, excess, dexterity, assembly, extra, detail, summary):  # fmt: skip
     """All designs x all points: ``_design_points`` then ``_finalize`` per design (their docs give the
     arguments). Per-point outputs are (D, P) arrays (``extra`` (D, P, N_EXTRA)), ``summary`` (D, N_SUMM).
@@ -28,13 +28,13 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             i = tile // n_chunk
             k0 = (tile % n_chunk) * chunk
             k1 = min(n_pts, k0 + chunk)
-            _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body,
+            _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
         for i in prange(n_des):
             _finalize(single_assembly_mode, failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
     elif full:
         for i in prange(n_des):
-            _design_points(i, 0, n_pts, geometry, modes, E, e, same_e, opt, full, grids, body,
+            _design_points(i, 0, n_pts, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
             _finalize(single_assembly_mode, failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
     else:
@@ -45,6 +45,6 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             assembly_i = np.empty(n_pts, np.int8)
             dexterity_i = np.empty(n_pts)
             extra_i = np.empty((n_pts, _N_EXTRA))
-            _design_points(i, 0, n_pts, geometry, modes, E, e, same_e, opt, full, grids, body,
+            _design_points(i, 0, n_pts, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure_i, eta_i, excess_i, assembly_i, extra_i, detail)  # fmt: skip
             _finalize(single_assembly_mode, failure_i, eta_i, excess_i, assembly_i, dexterity_i, extra_i, summary[i])

@@ -42,6 +42,7 @@ GRADE_Z_DYAD = GRADE_SCALES["z_dyad"]
 GRADE_RHO = GRADE_SCALES["rho_max"]  # rad
 GRADE_SINE = GRADE_SCALES["transmission"]
 GRADE_CLEARANCE = GRADE_SCALES["clearance"]  # mm
+GRADE_ENVELOPE = GRADE_SCALES["envelope"]  # mm
 """The scales S of MODEL.md 16's guard terms min(s / S, 1), the reference's ``GRADE_SCALES``."""
 CODE_IK_LAST = IK_FAILURES
 """Failure codes 1 .. CODE_IK_LAST: the inverse kinematics fails (a stage, or eta_L = inf; MODEL.md 16)."""
@@ -54,6 +55,7 @@ CODE_KAPPA = FAILURES.index("guard/kappa_max") + 1
 CODE_SAM = FAILURES.index("guard/single_assembly_mode") + 1
 CODE_PATIENT = FAILURES.index("collision/patient") + 1
 CODE_SELF = FAILURES.index("collision/self") + 1
+CODE_ENVELOPE = FAILURES.index("collision/envelope") + 1
 assert FAILURES[:7] == ("TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y")
 assert CODE_IK_LAST == CODE_SINGULAR + 6 == CODE_Z_DYAD - 1
 
@@ -118,6 +120,7 @@ OPTIONS = Layout("O", (
     ("single_assembly_mode", 1),
     ("clearance_on", 1), ("clearance", 1),  # mm
     ("self_clearance_on", 1), ("self_clearance", 1),  # mm
+    ("envelope_on", 1), ("envelope", 1),  # mm, the clearance to the envelope of the whole patient (MODEL.md 19.5)
     # body (MODEL.md 14.1)
     ("motor_length", 1),  # mm
     # loads (MODEL.md 15)
@@ -131,6 +134,7 @@ OPTIONS = Layout("O", (
     # what to compute (1.0: yes)
     ("exact", 1), ("do_clearance", 1), ("do_self_clearance", 1), ("tip_metrics", 1), ("clearance_min_exact", 1),
     ("holding_torque", 1),  # with tip_metrics: the holding torque of MODEL.md 18.2
+    ("do_envelope", 1),  # the clearance to the envelope (MODEL.md 19.5), given one
 ))  # fmt: skip
 """The option vector ``(N_OPT,)``: the settings as numbers, thresholds as the reference compares them."""
 

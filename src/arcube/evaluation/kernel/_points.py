@@ -11,8 +11,8 @@ from numba import njit
 
 from arcube.evaluation.clearance import ARC_CHORDS
 from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
-from arcube.evaluation.kernel._layout import GRADE_CLEARANCE, GRADE_RHO, GRADE_SINE, GRADE_Z_DYAD
-from arcube.evaluation.kernel._layout import CODE_KAPPA, CODE_PATIENT, CODE_RHO, CODE_SELF, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
+from arcube.evaluation.kernel._layout import GRADE_CLEARANCE, GRADE_ENVELOPE, GRADE_RHO, GRADE_SINE, GRADE_Z_DYAD
+from arcube.evaluation.kernel._layout import CODE_ENVELOPE, CODE_KAPPA, CODE_PATIENT, CODE_RHO, CODE_SELF, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
 from arcube.evaluation.kernel._layout import G_C, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
@@ -21,6 +21,8 @@ from arcube.evaluation.kernel._layout import O_TRANSMISSION, O_TRANSMISSION_ON, 
 from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT, O_CLEARANCE_ON, O_DO_CLEARANCE, O_DO_SELF_CLEARANCE
 from arcube.evaluation.kernel._layout import O_HOLDING_TORQUE, O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
 from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
+from arcube.evaluation.kernel._layout import O_DO_ENVELOPE, O_ENVELOPE, O_ENVELOPE_ON, X_ENVELOPE_CLEARANCE_MM, X_ENVELOPE_PART, X_ENVELOPE_REGION
+from arcube.evaluation.kernel._envelope import _envelope_pick, _envelope_regions, _envelope_skin, state_size
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _carry_bounds
 from arcube.evaluation.kernel._self import _self_clearance, self_moves
@@ -214,7 +216,7 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
 
 
 @njit(cache=True, error_model="numpy")
-def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body,
+def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                    failure, eta, excess, assembly, extra, detail):  # fmt: skip
     """Points k0..k1-1 of design i, in the reference's order.
 
@@ -222,7 +224,8 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     ``e`` (P, 3) unit, ``same_e`` (P,) true where e[k] equals e[k - 1] bitwise; the option vector ``opt``;
     ``grids``: the anatomy's fine and coarse grids (origin (3,) mm, spacing mm, values (nx, ny, nz) mm, for
     each), then their block gradient bounds (kernel._clearance); ``body``: the primitives' radii (27,) mm,
-    their search order and the self-clearance pairs (MODEL.md 14.1-14.3).
+    their search order and the self-clearance pairs (MODEL.md 14.1-14.3); ``envelope``: the envelope of the whole
+    patient (MODEL.md 19.5) as ``_envelope._envelope_clearance`` takes it.
     Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
     ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0])
     and ``extra`` (P, N_EXTRA: the guard grade of MODEL.md 16 before the global guard, the clearances, the
@@ -234,6 +237,13 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     kappa_o, rho_o, delta_o, sigma_o = detail
     do_clr = opt[O_DO_CLEARANCE] != 0.0
     do_self = opt[O_DO_SELF_CLEARANCE] != 0.0
+    do_env = opt[O_DO_ENVELOPE] != 0.0
+    env_boxes, env_table, env_skin = envelope[0], envelope[1], envelope[2]
+    env_regions = env_boxes.shape[0] + (1 if env_skin else 0) + (0 if math.isnan(env_table) else 1)
+    env_state = np.empty(state_size(env_boxes.shape[0]))
+    env_lower = np.empty(N_PRIMS)
+    env_work = np.empty((6, 96))
+    have_prev_env = False
     lines = np.empty((N_LINES, 2, 3))
     arcs = np.empty((4, 2, 3))
     arc_c = np.empty(3)
@@ -308,9 +318,9 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             eta_raw, fc = _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_o[i, k] if full else kappa_o[0, 0])
             solved = fc == 0  # the IK solves the point: its guards are graded (MODEL.md 16)
             fc, gr = _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
-            clr = selfc = _NAN
-            part = -1.0
-            if do_clr or do_self:
+            clr = selfc = env = _NAN
+            part = env_part = env_region = -1.0
+            if do_clr or do_self or do_env:
                 arc_r = _body_world(g, opt[O_C_Z], opt[O_MOTOR_LENGTH], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
                                     cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
                 if do_self:
@@ -338,12 +348,29 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                     if short > 0.0 and fc == 0:
                         fc = CODE_SELF
                     gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
+                if do_env:  # MODEL.md 19.5
+                    least = _envelope_regions(lines, arc_c, arc_r, arcs, radius, env_boxes, env_table, env_skin, have_prev_env, env_state)
+                    have_prev_env = not math.isnan(least)  # a finite body: the next point carries its bounds
+                    if env_skin and have_prev_env:
+                        least = _envelope_skin(lines, arc_c, arc_r, arcs, radius, envelope, order, env_work, env_lower, env_state, least)
+                    env, env_k, env_r = _envelope_pick(env_state, env_boxes.shape[0], env_regions, least)
+                    if env_k >= 0:
+                        env_part = float(PRIM_PART[env_k])
+                        env_region = float(env_r)
+                    if opt[O_ENVELOPE_ON] != 0.0:
+                        short = _pos(opt[O_ENVELOPE] - env)
+                        if short > 0.0 and fc == 0:
+                            fc = CODE_ENVELOPE
+                        gr = gr + _nan_to_num(_term(short, GRADE_ENVELOPE))
                 if fc == 0 and clr < run_min:
                     run_min = clr  # the summary's minimum is over the points that pass every guard
             extra[k, X_GUARD_GRADE] = gr if solved else 0.0
             extra[k, X_CLEARANCE_MM] = clr
             extra[k, X_CLEARANCE_PART] = part
             extra[k, X_SELF_CLEARANCE_MM] = selfc
+            extra[k, X_ENVELOPE_CLEARANCE_MM] = env
+            extra[k, X_ENVELOPE_PART] = env_part
+            extra[k, X_ENVELOPE_REGION] = env_region
             if not (do_clr or do_self):
                 have_prev = False
                 have_prev_self = False
@@ -360,7 +387,11 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             extra[k, X_CLEARANCE_MM] = _NAN
             extra[k, X_CLEARANCE_PART] = -1.0
             extra[k, X_SELF_CLEARANCE_MM] = _NAN
+            extra[k, X_ENVELOPE_CLEARANCE_MM] = _NAN
+            extra[k, X_ENVELOPE_PART] = -1.0
+            extra[k, X_ENVELOPE_REGION] = -1.0
             _no_metrics(extra[k])
+            have_prev_env = False
             have_prev = False
             have_prev_self = False
             if full:

@@ -11,6 +11,7 @@ from arcube.evaluation.kernel._layout import CODE_SAM as _CODE_SAM
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import MAXIMA, NAN as _NAN
 from arcube.evaluation.kernel._layout import S_CLEARANCE_MIN, S_DEXTERITY_MAX, S_DEXTERITY_MEAN, S_DEXTERITY_MIN, S_ETA_G
+from arcube.evaluation.kernel._layout import S_ENVELOPE_CLEARANCE_MIN, X_ENVELOPE_CLEARANCE_MM
 from arcube.evaluation.kernel._layout import S_GUARD_GRADE, S_N_BAD, S_REACHABLE_FRACTION, S_SELF_CLEARANCE_MIN, S_VIOLATION
 from arcube.evaluation.kernel._layout import S_VIOLATION_REACH, X_CLEARANCE_MM, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._performance import _no_metrics
@@ -71,6 +72,7 @@ def _finalize(single_assembly_mode, failure, eta, excess, assembly, dexterity, e
     summary[S_DEXTERITY_MAX] = dmax
     cmin = _INF
     smin = _INF
+    emin = _INF
     graded = False
     for k in range(n):
         if extra[k, X_GUARD_GRADE] != 0.0:
@@ -80,6 +82,8 @@ def _finalize(single_assembly_mode, failure, eta, excess, assembly, dexterity, e
                 cmin = extra[k, X_CLEARANCE_MM]
             if extra[k, X_SELF_CLEARANCE_MM] < smin:
                 smin = extra[k, X_SELF_CLEARANCE_MM]
+            if extra[k, X_ENVELOPE_CLEARANCE_MM] < emin:
+                emin = extra[k, X_ENVELOPE_CLEARANCE_MM]
         else:
             _no_metrics(extra[k])
     # MODEL.md 16: V = V_reach + G / (1 + G) / (2n), G = (guard grades summed over the points) / n; the sum is
@@ -92,6 +96,7 @@ def _finalize(single_assembly_mode, failure, eta, excess, assembly, dexterity, e
     summary[S_VIOLATION] = reach + G / (1.0 + G) / (2.0 * n)
     summary[S_CLEARANCE_MIN] = cmin if cmin < _INF else _NAN
     summary[S_SELF_CLEARANCE_MIN] = smin if smin < _INF else _NAN
+    summary[S_ENVELOPE_CLEARANCE_MIN] = emin if emin < _INF else _NAN
     # the maxima of MODEL.md 15.5 over the reachable points
     for j in range(MAXIMA.shape[0]):
         col = MAXIMA[j, 1]
