@@ -200,6 +200,18 @@ class Envelope:
         """Signed distance ``(...)`` mm to the envelope (the least over its regions; negative inside)."""
         return np.min(self.region_distances(points), axis=-1)
 
+    def to_record(self) -> dict[str, Any]:
+        """The envelope as a run's config records it (boxes, region names, table, source; a skin mesh is
+        copied beside the config, :meth:`from_record` reads it back)."""
+        return {"boxes": self.boxes.tolist(), "names": list(self.names), "table_z": self.table_z, "source": self.source,
+                "skin": bool(self.skin)}  # fmt: skip
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any], skin: Sequence[Any] = ()) -> Envelope:
+        """The envelope of :meth:`to_record` (``skin``: its skin meshes, patient frame)."""
+        return cls(np.asarray(record["boxes"], dtype=float).reshape(-1, 7), tuple(record["names"]), record.get("table_z"),
+                   tuple(skin), str(record.get("source", "")))  # fmt: skip
+
     def describe(self) -> dict[str, Any]:
         """What the envelope is, for a report or a JSON: source, regions, boxes, table and landmarks."""
         return {
@@ -287,7 +299,7 @@ def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: 
     return Envelope(np.zeros((0, 7)), ("skin", "table"), table, meshes, source, marks)
 
 
-def _spec(value: Any) -> tuple[str, ...]:
+def envelope_spec(value: Any) -> tuple[str, ...]:
     """``"default"``, ``"none"``, a path or several (a list, or comma-separated text) -> a tuple of words and paths."""
     if value is None:
         return ("none",)
@@ -303,7 +315,7 @@ def _spec(value: Any) -> tuple[str, ...]:
 class EnvelopeSettings(Settings):
     """The envelope of the whole patient and the table (MODEL.md 19.5), as the flags will set them."""
 
-    envelope: Annotated[tuple[str, ...], BeforeValidator(_spec)] = ("default",)
+    envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("default",)
     """``default`` (a coarse body placed on the plan's landmarks), ``none``, or skin mesh files (closed surfaces with
     the patient inside, read in the anatomy's frame)."""
     table_z: float | None = Field(default=None, allow_inf_nan=False)

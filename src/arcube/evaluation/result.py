@@ -79,7 +79,12 @@ class Evaluation:
             from arcube.evaluation.masses import moving_mass_kg
 
             mass = float(moving_mass_kg(self.design.to_vector(), self.options))
-        return tables.summary(self.results, len(self.task), mass)
+        return tables.summary(self.results, len(self.task), mass, self.regions)
+
+    @property
+    def regions(self) -> tuple[str, ...]:
+        """The envelope's region names (``neck``, ``head``, ``torso``, ``table``, ``skin``), () without one."""
+        return () if self.envelope is None else tuple(self.envelope.names)
 
     def summary_json(self) -> dict[str, Any]:
         """A fresh copy of :attr:`summary` (the ``summary`` of :meth:`to_json`), safe to modify."""
@@ -92,7 +97,7 @@ class Evaluation:
         except ImportError:
             raise ImportError("Evaluation.to_dataframe needs pandas: pip install pandas") from None
         rows = []
-        for point in tables.point_rows(self.results.points, self.task):
+        for point in tables.point_rows(self.results.points, self.task, self.regions):
             row: dict[str, Any] = {}
             for key, value in point.items():
                 if isinstance(value, list):
@@ -114,7 +119,8 @@ class Evaluation:
             "guards": self.options.flat(),
             "anatomy": None if self.anatomy is None else self.anatomy.source,
             "anatomy_segments": None if self.anatomy is None or self.anatomy.segments is None else [s.to_dict() for s in self.anatomy.segments],
-            "points": tables.point_rows(pts, self.task),
+            "envelope": None if self.envelope is None else self.envelope.describe(),
+            "points": tables.point_rows(pts, self.task, self.regions),
             "summary": self.summary_json(),
             "trajectories": [vars(row) for row in tables.per_trajectory(pts, self.task, self.trajectories)],
         }

@@ -116,10 +116,11 @@ def diagnosis(design: Design, task: Task) -> list[str]:
     return lines
 
 
-def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = None) -> dict[str, Any]:
+def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = None, regions: tuple[str, ...] = ()) -> dict[str, Any]:
     """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity,
     failures, the smallest clearances, the largest tip errors, torque and deflection, and the largest
-    holding torque of MODEL.md 18.2 with the design's moving mass (None where not computed)."""
+    holding torque of MODEL.md 18.2 with the design's moving mass (None where not computed); ``regions``: the
+    envelope's region names (MODEL.md 19.5), for the part of the envelope its smallest clearance binds at."""
     r = results
     pts = r.points
     eta_G = float(r.eta_G)
@@ -134,6 +135,10 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
         "clearance_min_mm": _num(r.clearance_min),
         "clearance_min_part": _name_at(pts, pts.clearance_mm, pts.clearance_part, PART_NAMES),  # the closest part
         "self_clearance_min_mm": _num(r.self_clearance_min),
+        # MODEL.md 19.5: with an envelope (else None); the body part and the envelope's region where it binds
+        "envelope_clearance_min_mm": _num(r.envelope_clearance_min),
+        "envelope_clearance_min_part": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_part, PART_NAMES),
+        "envelope_clearance_min_region": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_region, regions) if regions else None,
         "tip_error_max_mm": _num(r.tip_error_max),
         "lateral_error_max_mm": _num(r.lateral_error_max),
         "axial_error_max_mm": _num(r.axial_error_max),
@@ -149,8 +154,8 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
     }
 
 
-def point_rows(pts: PointResults, task: Task) -> list[dict[str, Any]]:
-    """One JSON object per task point (values that do not exist are None)."""
+def point_rows(pts: PointResults, task: Task, regions: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """One JSON object per task point (values that do not exist are None); ``regions``: the envelope's region names."""
     psi, theta = task.psi_theta
     rho, delta, sigma = (np.rad2deg(a) for a in (pts.rho, pts.delta, pts.sigma))
     points = []
@@ -175,6 +180,9 @@ def point_rows(pts: PointResults, task: Task) -> list[dict[str, Any]]:
                 "clearance_mm": _num(pts.clearance_mm[i]),
                 "clearance_part": PART_NAMES[int(pts.clearance_part[i])] if pts.clearance_part[i] >= 0 else None,
                 "self_clearance_mm": _num(pts.self_clearance_mm[i]),
+                "envelope_clearance_mm": _num(pts.envelope_clearance_mm[i]),
+                "envelope_part": PART_NAMES[int(pts.envelope_part[i])] if pts.envelope_part[i] >= 0 else None,
+                "envelope_region": regions[int(pts.envelope_region[i])] if pts.envelope_region[i] >= 0 and regions else None,
                 **{name: _num(getattr(pts, name)[i]) for name in MAXIMUM_FIELDS},
                 "torque_actuator": ACTUATOR_NAMES[int(pts.torque_actuator[i])] if pts.torque_actuator[i] >= 0 else None,
                 "holding_torque_actuator": ACTUATOR_NAMES[int(pts.holding_torque_actuator[i])] if pts.holding_torque_actuator[i] >= 0 else None,

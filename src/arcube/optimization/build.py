@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from pathlib import Path
+
 import numpy as np
 
 from arcube.errors import InputError
@@ -25,6 +27,40 @@ patient, ``anatomy_<i>.stl`` for patient i > 0."""
 def anatomy_file(i: int) -> str:
     """File name of patient i's anatomy in a run folder."""
     return ANATOMY_FILES if i == 0 else f"anatomy_{i}.stl"
+
+
+def envelope_file(i: int) -> str:
+    """File name of patient i's skin-mesh envelope (MODEL.md 19.5) in a run folder."""
+    return f"envelope_{i}.stl"
+
+
+def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ...] | None = None) -> tuple[Any, ...]:
+    """Per patient, the envelope of the whole patient (MODEL.md 19.5) its config records (() without one);
+    a skin mesh is read from the run folder, or given as ``skins`` (one mesh list per patient)."""
+    import json
+
+    from arcube.evaluation.envelope import Envelope
+
+    if not any("envelope" in p for p in cfg["patients"]):
+        return ()
+    out = []
+    for i, p in enumerate(cfg["patients"]):
+        record = json.loads(p["envelope"])
+        skin: Any = ()
+        if record.get("skin"):
+            if skins is not None:
+                skin = skins[i]
+            elif run_dir is not None:
+                from arcube.io.meshes import read_meshes
+
+                path = Path(run_dir) / envelope_file(i)
+                if not path.exists():
+                    raise InputError(f"{run_dir}: the run's envelope file {path.name} is missing")
+                skin = read_meshes([path], "patient")
+            else:
+                return ()  # validating a config: the skin is read with the run
+        out.append(Envelope.from_record(record, skin))
+    return tuple(out)
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
@@ -66,7 +102,7 @@ def stl_roundtrip(anatomy: Any) -> Any:
 
 
 def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None,
-                settings: RunSettings | None = None) -> FitnessModel:  # fmt: skip
+                settings: RunSettings | None = None, skins: tuple[Any, ...] | None = None) -> FitnessModel:  # fmt: skip
     """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
     from the run folder (None: not loaded, for validating a config), or given as ``anatomies``;
     ``settings``: the config's settings when already read (:meth:`RunSettings.from_config`)."""
@@ -94,6 +130,7 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
     return FitnessModel(
         space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
         options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
+        envelopes=run_envelopes(cfg, run_dir, skins),
         margin_deg=rs.margin,
         objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
     )  # fmt: skip

@@ -8,11 +8,13 @@ can be read, and returns the config dict that :mod:`arcube.optimization.run` wri
 
 from __future__ import annotations
 
+import json
 import secrets
 from typing import Any
 
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
+from arcube.evaluation.envelope import resolve_envelope
 from arcube.evaluation.standoff import standoff_points
 from arcube.io import TrajectorySet, load_trajectories, select
 from arcube.model.design import Design
@@ -28,7 +30,7 @@ __all__ = ["build_config", "run_settings"]
 def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
     patients = []
     for spec in specs:
-        ts = spec if isinstance(spec, TrajectorySet) else load_trajectories(spec, s.transform)
+        full = ts = spec if isinstance(spec, TrajectorySet) else load_trajectories(spec, s.transform)
         if s.side is not None or s.levels is not None or s.ids is not None:
             ts = select(ts, side=s.side, levels=s.levels, ids=s.ids)
         if not len(ts.ids):
@@ -41,10 +43,13 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
             "source": ts.source if isinstance(spec, TrajectorySet) else str(spec), "ids": list(ts.ids), "levels": list(ts.levels), "sides": list(ts.sides),
             "entry": [[float(v) for v in row] for row in ts.entry], "target": [[float(v) for v in row] for row in ts.target],
         }  # fmt: skip
+        anatomy = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None
         if s.standoff is not None:  # MODEL.md 17.1: computed once, with the anatomy as given, and kept in config.toml
-            anatomy = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None
             S, _ = standoff_points(ts.entry, ts.target, anatomy, s.standoff)
             patient["standoff"] = [[float(v) for v in row] for row in S]
+        if s.envelope != ("none",):  # MODEL.md 19.5: placed once on the whole plan (both sides), kept in config.toml
+            envelope = resolve_envelope(list(s.envelope), full, anatomy, s.table_z, s.anatomy_frame)
+            patient["envelope"] = json.dumps(envelope.to_record())
         patients.append(patient)
     return patients
 

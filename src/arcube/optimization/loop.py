@@ -191,7 +191,7 @@ def describe(cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dic
         "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
         "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
         "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k == "moving_mass_kg"},
+        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in ("moving_mass_kg", "envelope_clearance_min_mm")},
         "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
         "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
         "points": model.n_points, "files": {}, "resumed": info["resumed"], "docking": s.get("docking", "shared"),

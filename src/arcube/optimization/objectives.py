@@ -29,10 +29,11 @@ OBJECTIVES: dict[str, str] = {
     "links": "sum of the 14 link lengths, mm",
     "bbox": "largest bounding-box volume of the body over a task, litres",
     "clearance": "smallest clearance to the anatomy, mm (maximized; needs --anatomy)",
+    "envelope_clearance": "smallest clearance to the envelope of the whole patient and the table, mm (maximized; MODEL.md 19.5)",
 }
 """Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure."""
 
-MAXIMIZED = frozenset({"clearance"})
+MAXIMIZED = frozenset({"clearance", "envelope_clearance"})
 _SUMMARY = {"tip_error": "tip_error_max", "lateral_error": "lateral_error_max", "axial_error": "axial_error_max",
             "axis_error": "axis_error_max", "torque": "torque_max", "deflection": "deflection_max",
             "holding_torque": "holding_torque_max"}  # fmt: skip
@@ -41,6 +42,7 @@ SUMMARY_KEYS: dict[str, str] = {
     "eta_G": "eta_G", "tip_error": "tip_error_max_mm", "lateral_error": "lateral_error_max_mm", "axial_error": "axial_error_max_mm",
     "axis_error": "axis_error_max_deg", "torque": "torque_max_Nm", "deflection": "deflection_max_mm", "links": "links_sum_mm",
     "bbox": "bbox_volume_L", "clearance": "clearance_min_mm", "holding_torque": "holding_torque_max_Nm", "mass": "moving_mass_kg",
+    "envelope_clearance": "envelope_clearance_min_mm",
 }  # fmt: skip
 """The field of a run's summary.json (and of arcube.evaluate's summary) that holds each objective's value."""
 
@@ -54,6 +56,11 @@ def summary_value(summary: dict[str, Any], name: str) -> float | None:
 def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the clearance to the anatomy must be computed for these objectives and limits."""
     return "clearance" in objectives or any(n == "clearance" for n, _, _ in limits)
+
+
+def needs_envelope_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether the clearance to the envelope (MODEL.md 19.5) must be computed for these objectives and limits."""
+    return "envelope_clearance" in objectives or any(n == "envelope_clearance" for n, _, _ in limits)
 
 
 def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
@@ -87,8 +94,8 @@ def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: n
             out[name] = links
         elif name == "bbox":
             out[name] = vol
-        elif name == "clearance":
-            vals = np.stack([np.asarray(r.clearance_min, float) for r in (clearance_results or results)])
+        elif name in ("clearance", "envelope_clearance"):
+            vals = np.stack([np.asarray(getattr(r, f"{name}_min"), float) for r in (clearance_results or results)])
             out[name] = np.where(np.isnan(vals).any(axis=0), np.nan, vals.min(axis=0))
         else:
             vals = np.stack([np.asarray(getattr(r, _SUMMARY[name]), float) for r in results])

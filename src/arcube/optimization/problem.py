@@ -199,6 +199,7 @@ class FitnessModel:
     objectives: tuple[str, ...] = ("eta_G",)  # names of arcube.optimization.objectives.OBJECTIVES
     limits: tuple[tuple[str, str, float], ...] = ()  # (name, "max" | "min", value): --max / --min
     anatomies: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.sdf.AnatomyDistance, or None
+    envelopes: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.envelope.Envelope (MODEL.md 19.5), or None
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
@@ -233,7 +234,8 @@ class FitnessModel:
         return [
             core_engine.evaluate_task(params[self.space.slot(t.patient, t.setup)], t.E, t.e, modes,
                                       self.options if t.role == "plan" else self._approach_options,  # type: ignore[attr-defined]
-                                      engine=self.engine, want_points=want_points, anatomy=self.anatomies[t.patient] if self.anatomies else None)
+                                      engine=self.engine, want_points=want_points, anatomy=self.anatomies[t.patient] if self.anatomies else None,
+                                      envelope=self.envelopes[t.patient] if self.envelopes else None)  # fmt: skip
             for t in self.tasks
         ]
 
@@ -326,6 +328,7 @@ class FitnessModel:
                 "bbox_min_mm": [float(v) for v in lo[0]], "bbox_max_mm": [float(v) for v in hi[0]],
                 "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
                 "clearance_min_mm": _num(r.clearance_min[0]), "self_clearance_min_mm": _num(r.self_clearance_min[0]),
+                **({"envelope_clearance_min_mm": _num(r.envelope_clearance_min[0])} if self.envelopes else {}),
                 **{f"{name}_max": _num(getattr(r, name + "_max")[0]) for name in metrics},
             })  # fmt: skip
         return {
@@ -339,6 +342,7 @@ class FitnessModel:
             "links_sum_mm": float(links[0]),
             "clearance_min_mm": _min_num([tk["clearance_min_mm"] for tk in tasks]),
             "self_clearance_min_mm": _min_num([tk["self_clearance_min_mm"] for tk in tasks]),
+            **({"envelope_clearance_min_mm": _min_num([tk["envelope_clearance_min_mm"] for tk in tasks])} if self.envelopes else {}),
             "bbox_volume_L": float(vol[0]),
             **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in metrics.items()},
             **({"moving_mass_kg": float(self.moving_mass(params)[0])} if masses else {}),

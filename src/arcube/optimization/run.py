@@ -36,7 +36,7 @@ from arcube.optimization.algorithms import stop_reason
 from arcube.optimization.checkpoint import CHECKPOINT_FORMAT, FORMAT_VERSION, EvalLog, _sha, load_checkpoint, write_checkpoint
 from arcube.optimization.lock import LOCK_FILE, acquire, release
 from arcube.optimization.loop import HISTORY_COLUMNS, Loop, Observer, Progress, describe, observed
-from arcube.optimization.build import anatomy_file, build_model
+from arcube.optimization.build import anatomy_file, build_model, envelope_file
 from arcube.optimization.folder import (  # noqa: F401  (the folder's files, used here and by callers of this module)
     RUN_FORMAT, check_new_folder, is_finished, placement_file, read_config, remove_folder, to_toml, versions,
 )  # fmt: skip
@@ -206,7 +206,12 @@ def run_in_memory(cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation
     """Run ``cfg`` with nothing written (``anatomies``: each patient's distance grids, as the run
     folder's ``anatomy.stl`` gives them): the same designs, summary and history as a run folder's."""
     settings = RunSettings.from_config(cfg)
-    model = build_model(cfg, anatomies=anatomies, settings=settings)
+    skins = None
+    if any(json.loads(p["envelope"]).get("skin") for p in cfg["patients"] if "envelope" in p):
+        from arcube.io.meshes import read_meshes
+
+        skins = tuple(tuple(read_meshes(list(settings.envelope), settings.anatomy_frame)) for _ in cfg["patients"])
+    model = build_model(cfg, anatomies=anatomies, settings=settings, skins=skins)
     ex = cfg["executor"]
     executor = make_executor(model, int(ex.get("workers", 1)), ex.get("dask") or None)
     log, rows = EvalLog(executor, [], keep=False), _Rows()
@@ -247,6 +252,18 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
         cfg["patients"][i]["anatomy_source"] = anatomy.source
 
 
+def write_envelopes(run_dir: Path, cfg: dict[str, Any]) -> None:
+    """Copy a skin-mesh envelope (MODEL.md 19.5) into the run folder (patient frame), beside its record in config.toml."""
+    s = cfg["settings"]
+    if not any(json.loads(p["envelope"]).get("skin") for p in cfg["patients"] if "envelope" in p):
+        return
+    from arcube.io.meshes import read_meshes, write_stl
+
+    meshes = read_meshes(list(s["envelope"]), s.get("anatomy_frame", "LPS"))
+    for i in range(len(cfg["patients"])):
+        write_stl(meshes, run_dir / envelope_file(i))
+
+
 def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
     """Create the run folder (anatomy files, config.toml, empty history.csv) and run.
 
@@ -278,6 +295,7 @@ def prepare(run_dir: Path, cfg: dict[str, Any]) -> bytes:
     :func:`resume` runs such a folder from its first generation (it has no checkpoint)."""
     run_dir.mkdir(parents=True, exist_ok=True)
     write_anatomy(run_dir, cfg)
+    write_envelopes(run_dir, cfg)
     text = to_toml(cfg)
     atomic_write_text(run_dir / "config.toml", text)
     return text.encode("utf-8")

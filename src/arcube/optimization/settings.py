@@ -25,7 +25,8 @@ from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
 from arcube.coerce import mode_text
-from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
+from arcube.evaluation.envelope import envelope_spec
+from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_envelope_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
 from arcube.patients.settings import Segments
 from arcube.options import FLAT, GUARDED_OPTIONS, Masses, Options, Settings, route_flat
 
@@ -250,6 +251,10 @@ class RunSettings(Settings):
     anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
     """Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient."""
     segments: Segments = None
+    envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("none",)
+    """The envelope of the whole patient and the table (MODEL.md 19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files (closed, the patient inside, in the anatomy's frame)."""
+    table_z: float | None = Field(default=None, allow_inf_nan=False)
+    """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (MODEL.md 19.5)."""
     """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
     """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3."""
@@ -296,6 +301,8 @@ class RunSettings(Settings):
                 raise InputError("the clearance objective or limit needs an anatomy (default or mesh files)", param="RunSettings.anatomy")
         if needs_masses(self.objectives, self.limits):
             self.options.check_masses()
+        if self.envelope == ("none",) and (self.options.guards.envelope_clearance_mm is not None or needs_envelope_clearance(self.objectives, self.limits)):
+            raise InputError.of("RunSettings.envelope", "is none, but the clearance to the envelope is required (MODEL.md 19.5): give envelope default or a skin mesh")
         return self
 
     @property
@@ -327,6 +334,7 @@ class RunSettings(Settings):
         outputs = self.options.outputs.replace(
             anatomy_clearance=clearance and guards.clearance_mm is None, tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
             clearance_min_exact=clearance, holding_torque=needs_holding_torque(self.run_objectives, self.limits),
+            envelope_clearance=needs_envelope_clearance(self.run_objectives, self.limits),
         )  # fmt: skip
         return Options(guards=guards, body=self.options.body, loads=self.options.loads, masses=self.options.masses, outputs=outputs)
 
@@ -355,6 +363,10 @@ class RunSettings(Settings):
             table["standoff"] = self.standoff
         if self.segments is not None:
             table["segments"] = list(self.segments)
+        if self.envelope != ("none",):  # MODEL.md 19.5: written only when on, as runs before the envelope read it
+            table["envelope"] = list(self.envelope)
+        if self.table_z is not None:
+            table["table_z"] = self.table_z
         for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
             value = getattr(self.options.masses, name) if name in Masses.model_fields else None
             if value is not None and value != getattr(_MASSES, name):
