@@ -48,6 +48,7 @@ from arcube import program
 from arcube.motion import Planner
 from arcube.motion.order import shortest_order
 
+from compare import STATE_RTOL, STATE_TOL, assert_fields_match
 from designs import PROGRAM_COLUMNS, PROGRAM_DESIGN, PROGRAM_TORQUES, program_design, right_plan
 
 _design, _plan = program_design, right_plan  # the names benchmarks/bench_program.py imports from here
@@ -380,7 +381,9 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
     clearance: the compiled check's is a lower bound of the exact minimum over the axes (the kernel's search
     less its tolerance, 0.1 mm), the reference's an upper bound (samples every 0.25 mm: at most 0.125 mm
     above), so the compiled one is below by 0 to 0.225 mm; every decision and reason is the same, except
-    where the reference's clearance is within that gap above its limit (the compiled check is stricter)."""
+    where the reference's clearance is within that gap above its limit (the compiled check is stricter).
+    Every field of the result, each with its tolerance in tests/compare.py (:data:`compare.STATE_TOL`; a field
+    without one fails): the pose, joints, assembly signs, tool clearance and resolution points the same bits."""
     from arcube.motion.check import Checker
     from arcube.motion.limits import ProgramLimits
 
@@ -402,6 +405,7 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
     limit = ProgramLimits().clearance
     for states in (lines, joint):
         ref, fast = states["numpy"], states["numba"]
+        assert_fields_match(fast, ref, STATE_TOL, STATE_RTOL, "StateChecks")  # every field, as compare.STATE_TOL says
         near = (ref.clearance >= limit) & (ref.clearance < limit + 0.225)
         same = ~near
         assert np.array_equal(ref.ok[same], fast.ok[same]) and list(ref.reason[same]) == list(fast.reason[same])
