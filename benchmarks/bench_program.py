@@ -25,7 +25,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from test_program import _design, _plan, _standoffs, _wall  # noqa: E402  (the test's design and wall)
+from designs import program_design as _design, right_plan as _plan  # noqa: E402  (the tests' design and plan)
+from test_program import _standoffs, _wall  # noqa: E402  (the test's standoffs and wall)
 
 from arcube.evaluation.anatomy import load_anatomy  # noqa: E402
 from arcube.motion import ProgramLimits, program  # noqa: E402

@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 import pytest
-from test_program import DESIGN
-from test_sensitivity import CASES, _case
+from designs import PROGRAM_DESIGN as DESIGN
+from designs import SENSITIVITY_CASES as CASES, sensitivity_case as _case
 
 from arcube.accuracy import SOURCE_NAMES, ToleranceSettings, budget, write
 from arcube.report.accuracy import write_budget

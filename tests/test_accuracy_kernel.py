@@ -7,7 +7,7 @@ import itertools
 
 import numpy as np
 import pytest
-from test_sensitivity import CASES, _case
+from designs import SENSITIVITY_CASES as CASES, sensitivity_case as _case
 
 from arcube.accuracy import ToleranceSettings, budget
 from arcube.accuracy._kernel import _zonogon, first_order_numba, geometry_rows, lateral_errors, source_map

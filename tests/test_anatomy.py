@@ -25,7 +25,7 @@ from arcube.patients.anatomy import (
 )
 from arcube.patients.virtual import build_patient, draw_parameters
 
-REFERENCE_CSV = Path(__file__).parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
+from designs import REFERENCE_CSV
 
 
 # ------------------------------------------------------------ independent helpers

@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from test_calibrate_model import DEMO, DEMO_MODE, plan_right
+from designs import DEMO, DEMO_MODE, plan_right
 
 from arcube.calibrate import (
     IdentifySettings,

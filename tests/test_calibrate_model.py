@@ -6,8 +6,6 @@ first order against the diagonal one of arcube.accuracy and against a Monte Carl
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,24 +18,11 @@ from arcube.calibrate.budget import correlated_draws, first_order_rms
 from arcube.calibrate.identifiability import identifiability, observability
 from arcube.calibrate.model import UNKNOWNS, make_problem, model_pose, unknown_values
 from arcube.calibrate.poses import greedy_d_optimal, tip_and_tilt_rows
-from arcube.evaluation.task import build_task
-from arcube.io import load_trajectories, select
 from arcube.model.design import Design
+from designs import DEMO, DEMO_MODE, plan_right
 from arcube.model.mechanism import inverse_kinematics, parse_mode
 
-_spec = importlib.util.spec_from_file_location("bench_tolerance", Path(__file__).resolve().parents[1] / "benchmarks" / "bench_tolerance.py")
-_bench = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench)
-DEMO = Design.from_dict(_bench.DEMO_DESIGN)
-"""The demo's design (benchmarks/bench_tolerance.py), working mode +,+,+,-."""
-DEMO_MODE = _bench.DEMO_MODE
 U = {n: i for i, n in enumerate(UNKNOWNS)}
-
-
-def plan_right(points: int = 5):
-    """The reference plan's right side: (TrajectorySet, Task)."""
-    ts = select(load_trajectories("reference"), side="R")
-    return ts, build_task(ts.entry, ts.target, points, ids=ts.ids)
 
 
 def reading_rows(design: Design, mode: str, points: int = 5, poses=None):

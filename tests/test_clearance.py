@@ -10,29 +10,25 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_mounting import _reaching_design, _task  # noqa: E402
+from arcube.evaluation.kernel import evaluate_task_numba
+from arcube.evaluation.reference import FAILURES, Options, evaluate_task
+from arcube.evaluation.sdf import AnatomyDistance
+from arcube.model.body import PART_NAMES, PRIMITIVES, SELF_PAIRS, BodyRadii, body_parts, mechanism_points
+from arcube.model.mechanism import ALL_MODES
 
-from arcube.evaluation.kernel import evaluate_task_numba  # noqa: E402
-from arcube.evaluation.reference import FAILURES, Options, evaluate_task  # noqa: E402
-from arcube.evaluation.sdf import AnatomyDistance  # noqa: E402
-from arcube.model.body import PART_NAMES, PRIMITIVES, SELF_PAIRS, BodyRadii, body_parts, mechanism_points  # noqa: E402
-from arcube.model.mechanism import ALL_MODES  # noqa: E402
+from designs import reaching_design, reference_task
 
 RADII = BodyRadii()
 
 
 @pytest.fixture(scope="module")
 def setup():
-    task = _task()
-    x = _reaching_design((-135.0, -144.74, -67.63), 120.0, n=400)
+    task = reference_task()
+    x = reaching_design((-135.0, -144.74, -67.63), 120.0, n=400)
     mp = mechanism_points(x, task.E, task.e, ALL_MODES[0], motor_length=RADII.motor_length)
     ok = np.asarray(mp.reachable)
     return task, x, mp, ok
@@ -196,7 +192,7 @@ def test_collision_guards_fail_exactly_below_threshold_and_add_the_shortfall(set
 
 def test_batch_of_designs_equals_loop(setup) -> None:
     task, x, mp, ok = setup
-    X = np.stack([x, x * np.r_[np.ones(23), 1.0, 1.0, 1.0, 0.9], _reaching_design((0.0, 0.0, 0.0), 0.0, n=200)])
+    X = np.stack([x, x * np.r_[np.ones(23), 1.0, 1.0, 1.0, 0.9], reaching_design((0.0, 0.0, 0.0), 0.0, n=200)])
     centre = mp.C[ok].mean(axis=0) - 45.0 * task.e[ok].mean(axis=0)
     sdf = AnatomyDistance.from_boxes([(centre, np.array([45.0, 60.0, 25.0]), np.eye(3))])
     opts = Options(body=True)

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,30 +11,20 @@ import pytest
 
 from arcube.model.design import PARAM_NAMES, Design
 
-DATA = Path(__file__).resolve().parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
+from designs import REFERENCE_CSV
+from harness import arcube
+
 JACOBIANS = {"J_LV", "J_AV", "J_sigma", "J_AS", "J_AP", "J_rho", "J_delta"}
 HEADER = "trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"
 
 
-def arcube(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "arcube", *args], capture_output=True, text=True, cwd=cwd, timeout=300)
-
-
-@pytest.fixture(scope="module")
-def right_side_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Table 2's links placed where they reach the right side (found by the paper-check search)."""
-    path = tmp_path_factory.mktemp("design") / "right.json"
-    Design.preset("paper").replace(m_x=88.23, m_y=79.40, m_z=56.89).to_json(path)
-    return path
-
-
 def test_json_contract_on_reachable_side(right_side_design: Path) -> None:
-    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(DATA), "--side", "R", "--points", "7", "--json")
+    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(REFERENCE_CSV), "--side", "R", "--points", "7", "--json")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     assert set(doc["design"]) == set(PARAM_NAMES) and doc["mode"] == "+,+,+,+"
     assert len(doc["points"]) == 5 * 7
-    rows = [r for r in csv.DictReader(DATA.open()) if r["side"] == "R"]
+    rows = [r for r in csv.DictReader(REFERENCE_CSV.open()) if r["side"] == "R"]
     for p in doc["points"]:
         row = rows[[r["trajectory"] for r in rows].index(p["trajectory"])]
         entry = np.array([float(row[f"entry_{a}"]) for a in "xyz"])
@@ -110,8 +98,8 @@ def _bad_design(tmp_path: Path, **changes: object) -> Path:
     ],
 )
 def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str) -> None:
-    good = DATA.read_text().splitlines()
-    traj = str(DATA)
+    good = REFERENCE_CSV.read_text().splitlines()
+    traj = str(REFERENCE_CSV)
     extra: list[str] = []
     design = "paper"
     if case == "missing_file":
@@ -155,11 +143,11 @@ def test_slicer_markups_evaluate_like_the_csv(tmp_path: Path, right_side_design:
     from arcube.io import load_trajectories
 
     mrk = tmp_path / "plan.mrk.json"
-    write_markups(load_trajectories(DATA), mrk)
+    write_markups(load_trajectories(REFERENCE_CSV), mrk)
     stored = json.loads(mrk.read_text())
     assert {m["coordinateSystem"] for m in stored["markups"]} <= {"LPS", "RAS"}
     docs = []
-    for traj in (str(DATA), str(mrk)):
+    for traj in (str(REFERENCE_CSV), str(mrk)):
         out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", traj, "--points", "5", "--json")
         assert out.returncode == 0, out.stderr
         docs.append(json.loads(out.stdout))

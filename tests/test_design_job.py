@@ -266,7 +266,6 @@ def test_the_program_decides(met_design: Path) -> None:
 
 def test_the_api_and_the_cli_share_the_design_budget(monkeypatch, tmp_path: Path) -> None:
     """arcube.design without a budget runs what arcube design runs (40,000 evaluations per seed)."""
-    import typer
 
     import arcube.design_job as job
     from arcube.cli import app

@@ -13,16 +13,13 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
 from scipy.optimize import minimize_scalar
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_kernel import _point_rtol, assert_matches  # noqa: E402
+from compare import assert_matches, point_rtol as _point_rtol
 
 from arcube.evaluation import kernel  # noqa: E402
 from arcube.evaluation.anatomy import resolve_anatomy  # noqa: E402

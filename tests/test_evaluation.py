@@ -1,35 +1,23 @@
 """Evaluation (MODEL.md 8.2, 8.3, 12.2) and tasks (MODEL.md 1.4).
 
 Oracles: per-design / per-point loops, numpy SVD of the Jacobians, the 3-D construction of
-conftest for the guard quantities, and hand-built failing points.
+tests/naive.py for the guard quantities, and hand-built failing points.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import X_HAT, Y_HAT, get, leg_pair, leg_triple, oracle_config, oracle_modes, reachable_poses, transmission_sines
 
 from arcube.evaluation import reference as ev
 from arcube.evaluation.reference import GUARDED_OPTIONS, Options, evaluate_points, evaluate_task, failure_name
-from arcube.evaluation.indices import JACOBIAN_NAMES
-from arcube.model.mechanism import inverse_kinematics, jacobians
+from arcube.model.mechanism import inverse_kinematics
 from arcube.evaluation.task import build_task
 
+from designs import reachable_poses
+from naive import X_HAT, Y_HAT, get, leg_pair, leg_triple, oracle_config, oracle_modes, svd_eta, transmission_sines
+
 LOCAL_GUARDS = Options(z_dyad=True, rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0)
-
-
-def _svd_eta(x, E, e, mode):
-    """eta_L = max of the seven kappas, from numpy.linalg.cond of jacobians() (inf if singular)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sol = inverse_kinematics(x, E, e, mode)
-        J = jacobians(sol, x)
-        ks = []
-        for name in JACOBIAN_NAMES:
-            M = np.nan_to_num(J[name], nan=0.0)
-            s = np.linalg.svd(M, compute_uv=False)
-            ks.append(np.where(s[..., -1] > 0, s[..., 0] / np.where(s[..., -1] > 0, s[..., -1], 1.0), np.inf))
-    return np.max(np.stack(ks, axis=-1), axis=-1), sol
 
 
 def _mixed_task(designs, rng):
@@ -115,7 +103,7 @@ def test_evaluate_task_design_broadcasting_and_single_mode(designs, rng):
 def test_eta_L_dexterity_and_eta_G_definitions(pose_bank):
     for x, mode, E, e in pose_bank[::3]:
         res = evaluate_task(x, E, e, mode)
-        eta, sol = _svd_eta(x, E, e, mode)
+        eta, sol = svd_eta(x, E, e, mode)
         assert np.all(res.points.reachable) and bool(res.w_G)
         np.testing.assert_allclose(res.points.eta_L, eta, rtol=1e-9)
         np.testing.assert_allclose(res.points.dexterity_pct, 100.0 / eta, rtol=1e-9)
@@ -152,7 +140,7 @@ def test_unreachable_points_never_leak_nan_or_inf(paper_design, designs, rng):
     res = evaluate_task(D, E, e)
     with np.errstate(invalid="ignore"):
         sol = inverse_kinematics(D[:, None, :], E, e)
-    eta, _ = _svd_eta(D[:, None, :], E, e, np.ones(4))
+    eta, _ = svd_eta(D[:, None, :], E, e, np.ones(4))
     np.testing.assert_array_equal(res.points.reachable, sol.reachable & np.isfinite(eta))
 
 
@@ -349,7 +337,7 @@ def test_guard_min_transmission(designs, rng):
 def test_guard_kappa_max(designs, rng):
     x = designs[3]
     E, e = _guard_points(x, rng)
-    eta, _ = _svd_eta(x, E, e, np.ones(4))
+    eta, _ = svd_eta(x, E, e, np.ones(4))
     lim = _split(eta)
     _check_guard(x, E, e, Options(kappa_max=lim), eta <= lim, "guard/kappa_max")
 

@@ -22,7 +22,6 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from conftest import CHROMIUM_SKIP, start_chromium
 from arcube.cli import main as cli_main
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import evaluate_task
@@ -34,6 +33,8 @@ from arcube.model.design import Design
 from arcube.model.mechanism import parse_mode
 from arcube.design_job.requirements import assess, design_options, requirements_from
 from arcube.options import Options
+
+from harness import CHROMIUM_SKIP, start_chromium
 
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
 """A design that reaches the reference plan's right side."""

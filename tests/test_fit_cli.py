@@ -5,26 +5,23 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import pytest
 import trimesh
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_cli_evaluate import DATA, arcube  # noqa: E402
+from arcube.model.body import PART_NAMES
+from arcube.model.design import Design
 
-from arcube.model.body import PART_NAMES  # noqa: E402
-from arcube.model.design import Design  # noqa: E402
-
-RIGHT = {"m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
+from designs import REFERENCE_CSV, RIGHT_SIDE_M
+from harness import arcube
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     d = tmp_path_factory.mktemp("fit")
     design = d / "design27.json"
-    Design.preset("paper").replace(**RIGHT).to_json(design)
+    Design.preset("paper").replace(**RIGHT_SIDE_M).to_json(design)
     assert len(json.loads(design.read_text())) == 27  # a 27-key design (MODEL.md 13)
     box = trimesh.creation.box(extents=(40.0, 40.0, 40.0))
     box.apply_translation((0.0, 0.0, -60.0))  # in front of the spine (patient frame), well away from the tips
@@ -39,7 +36,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def test_json_contract_with_a_mesh_in_the_patient_frame(files) -> None:
-    out = arcube("evaluate", "--design", str(files["design"]), "--trajectories", str(DATA), "--side", "R", "--points", "4",
+    out = arcube("evaluate", "--design", str(files["design"]), "--trajectories", str(REFERENCE_CSV), "--side", "R", "--points", "4",
                  "--anatomy", str(files["mesh"]), "--anatomy-frame", "patient", "--json")  # fmt: skip
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
@@ -71,7 +68,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(files, tmp_path: Path, 
     subst = {"MESH": str(files["mesh"]), "GARBAGE": str(files["garbage"]), "BADKEY": str(files["bad_key"])}
     args = [subst.get(a, a) for a in extra]
     report = tmp_path / "r.html"
-    base = ["evaluate", "--trajectories", str(DATA), "--points", "3", "--report", str(report)]
+    base = ["evaluate", "--trajectories", str(REFERENCE_CSV), "--points", "3", "--report", str(report)]
     if "--design" not in args:
         base += ["--design", str(files["design"])]
     out = arcube(*base, *args, cwd=tmp_path)

@@ -9,34 +9,30 @@ test on the NumPy reference and the Numba kernel (and the FitnessModel that comb
 2. V_fit < 1/(2n): any design with an IK failure ranks below every design without one;
 3. among designs that solve the IK everywhere, V grows with any guard's shortfall at any point.
 
-Then a task graded by hand from its per-point shortfalls (the oracles of conftest: Eq 1, the 3-D
+Then a task graded by hand from its per-point shortfalls (the oracles of tests/naive.py: Eq 1, the 3-D
 construction's transmission sines and z-dyad span, numpy SVDs), the single-assembly-mode term, and the
 kernel's new fields against the reference's.
 """
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from conftest import get, leg_triple, oracle_config, oracle_modes, reachable_poses, transmission_sines
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_evaluation import _svd_eta  # noqa: E402
-from test_kernel import _point_rtol, assert_matches  # noqa: E402
+from arcube.evaluation import kernel
+from arcube.evaluation.engine import evaluate_task
+from arcube.evaluation.reference import GRADE_SCALES, GUARDED_OPTIONS, IK_FAILURES, Options
+from arcube.evaluation.reference import evaluate_task as evaluate_reference
+from arcube.evaluation.sdf import AnatomyDistance
+from arcube.evaluation.task import build_task
+from arcube.io import load_trajectories, select
+from arcube.model.design import PAPER_NAMES, Design
+from arcube.model.mechanism import ALL_MODES
+from arcube.optimization.problem import FitnessModel, TaskData, VariableSpace
 
-from arcube.evaluation import kernel  # noqa: E402
-from arcube.evaluation.engine import evaluate_task  # noqa: E402
-from arcube.evaluation.reference import GRADE_SCALES, GUARDED_OPTIONS, IK_FAILURES, Options  # noqa: E402
-from arcube.evaluation.reference import evaluate_task as evaluate_reference  # noqa: E402
-from arcube.evaluation.sdf import AnatomyDistance  # noqa: E402
-from arcube.evaluation.task import build_task  # noqa: E402
-from arcube.io import load_trajectories, select  # noqa: E402
-from arcube.model.design import PAPER_NAMES, Design  # noqa: E402
-from arcube.model.mechanism import ALL_MODES  # noqa: E402
-from arcube.optimization.problem import FitnessModel, TaskData, VariableSpace  # noqa: E402
+from compare import assert_matches, point_rtol
+from designs import reachable_poses
+from naive import get, leg_triple, oracle_config, oracle_modes, svd_eta, transmission_sines
 
 ENGINES = ("numpy", "numba")
 ONES = np.ones(4)
@@ -157,7 +153,7 @@ def test_any_ik_failure_ranks_below_every_design_that_solves_the_ik(engine, name
     assert np.all(V[~ik] < 1.0 / (2 * n)) and np.all(V[ik] >= 1.0 / n)
     assert V[ik].min() > V[~ik].max()
     assert np.all(V - res.violation_reach < 1.0 / (2 * n)) and np.all(V >= res.violation_reach)
-    # random designs (conftest) on the poses one of them reaches: the others miss some
+    # random designs (designs.random_design) on the poses one of them reaches: the others miss some
     rng = np.random.default_rng(3)
     Er, er = reachable_poses(rng, designs[0], ONES, 30)
     D = np.concatenate([np.stack(designs), designs[0] * (1.0 + 0.002 * rng.standard_normal((12, 23)))])
@@ -277,7 +273,7 @@ def test_violation_grows_with_one_points_shortfall(engine, right) -> None:
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_tiny_task_graded_by_hand(engine, designs) -> None:
-    """Four reachable points graded guard by guard from the conftest oracles, and a fifth outside all
+    """Four reachable points graded guard by guard from the naive oracles, and a fifth outside all
     three TLS ranges by 0.05, 0.2 and 0.1: V = (1/5 + 0.35) + G / (1 + G) / 10, G = (sum of the grades) / 5."""
     x = designs[1]
     rng = np.random.default_rng(12)
@@ -288,7 +284,7 @@ def test_a_tiny_task_graded_by_hand(engine, designs) -> None:
     e = np.concatenate([e4, e4[:1]])
     # the per-point quantities, independently of the code under test
     rho = -np.arcsin((E4 - m + f + r) / p)  # Eq 1
-    eta, sol = _svd_eta(x, E4, e4, ONES)
+    eta, sol = svd_eta(x, E4, e4, ONES)
     cfg = oracle_config(x, E4, e4, sol.rho, sol.delta, sol.sigma)
     sines = np.abs(transmission_sines(cfg))
     span = np.linalg.norm((cfg.Q[:, 2] - cfg.D[:, 2])[:, :2], axis=-1)  # the z dyad's D_z -> Q_z
@@ -328,11 +324,11 @@ def test_single_assembly_mode_counts_one_at_each_point_outside_the_majority(engi
     first; the majority is taken over the points that pass the local guards (as the guard decides)."""
     x = designs[0]
     E, e = reachable_poses(np.random.default_rng(21), x, ONES, 80, min_sine=1e-3)
-    sol = _svd_eta(x, E, e, ONES)[1]
+    sol = svd_eta(x, E, e, ONES)[1]
     _, asm = oracle_modes(oracle_config(x, E, e, sol.rho, sol.delta, sol.sigma))
     codes = np.array([4 * (a[0] > 0) + 2 * (a[1] > 0) + (a[2] > 0) for a in asm])
     assert len(np.unique(codes)) >= 2
-    for kappa_max in (None, float(np.median(_svd_eta(x, E, e, ONES)[0]))):
+    for kappa_max in (None, float(np.median(svd_eta(x, E, e, ONES)[0]))):
         local = Options(kappa_max=kappa_max)
         alone = evaluate_task(x, E, e, ONES, local, engine=engine)
         passing = alone.points.reachable
@@ -364,7 +360,7 @@ def test_kernel_grades_as_the_reference(name, right) -> None:
     options = OPTIONS[name]
     for params, mode in ((X, modes), (X[0], ALL_MODES[0])):
         ref = evaluate_reference(params, E, e, mode, options)
-        rtol = _point_rtol(params, E, e, mode, ref)
+        rtol = point_rtol(params, E, e, mode, ref)
         assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options), ref, rtol)
         assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options, want_points=False), ref, rtol, want_points=False)
         assert np.any(ref.guard_grade > 0.0)

@@ -3,7 +3,7 @@
 mass, density, wall or gravity on every command that takes them.
 
 Oracles: the per-point JSON against its own summary and the independent hand-computed moving mass of
-tests/test_masses.py; no gravity -> the holding torque is MODEL.md 15.3's torque; the compiled
+tests/naive.py; no gravity -> the holding torque is MODEL.md 15.3's torque; the compiled
 engine against the NumPy reference.
 """
 
@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_masses import _mass_by_hand
 
 from arcube.cli import main
 from arcube.evaluation.performance import ACTUATOR_NAMES
@@ -23,6 +22,8 @@ from arcube.export.joints import CSV_COLUMNS, MASS_COLUMNS
 from arcube.model.design import Design
 from arcube.options import Masses
 from arcube.design_job.requirements import DEFAULTS, REQUIREMENTS, requirements_from
+
+from naive import mass_by_hand
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
@@ -57,7 +58,7 @@ def test_evaluate_reports_the_holding_torque_per_point_and_its_maximum(right: Pa
     assert {p["holding_torque_actuator"] for p in pts} <= set(ACTUATOR_NAMES)
     assert s["holding_torque_max_Nm"] == max(hold)
     assert s["holding_torque_max_actuator"] == pts[int(np.argmax(hold))]["holding_torque_actuator"]
-    assert s["moving_mass_kg"] == pytest.approx(_mass_by_hand(Design.load(right).to_vector()), rel=1e-12)
+    assert s["moving_mass_kg"] == pytest.approx(mass_by_hand(Design.load(right).to_vector()), rel=1e-12)
     assert max(hold) > s["torque_max_Nm"] + 0.1  # the weight matters
     # the compiled kernel (default) against the NumPy reference
     ref = _evaluate(right, capsys, "--engine", "numpy")

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import vec
 
 from arcube.evaluation import indices
 from arcube.model.mechanism import inverse_kinematics, jacobians
+
+from naive import vec
 
 
 def _svd_kappa(M):

@@ -9,7 +9,6 @@ import io
 import numpy as np
 import pytest
 import typer
-from conftest import PAPER
 from typer.testing import CliRunner
 
 from arcube.model.design import Design
@@ -22,6 +21,8 @@ from arcube.cli import joints as joints_cli
 from arcube.cli import report as report_cli
 from arcube.evaluation.task import build_task
 from arcube.io import load_trajectories, select
+
+from designs import PAPER
 
 PLACED = Design.from_dict({**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89})
 SPEED = 2.5  # mm/s

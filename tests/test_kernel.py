@@ -1,7 +1,8 @@
 """The compiled kernel (arcube.evaluation.kernel) against the NumPy reference (arcube.evaluation.evaluate_task).
 
 Agreement asserted, field by field for every field of TaskResults and PointResults (a field without
-a tolerance in :data:`POINT_TOL` / :data:`SUMMARY_TOL` fails): the same shapes and dtypes; failure
+a tolerance in :data:`compare.POINT_TOL` / :data:`compare.SUMMARY_TOL` fails; the comparison is
+tests/compare.py's, shared with the other kernel tests): the same shapes and dtypes; failure
 codes, reachability, w_G, reachable_fraction, parts and actuators identical; NaN and +-inf at the
 same places; finite values to 1e-10 relative (angles, the excess, the guard grade and the violations
 of MODEL.md 16: 1e-10 of max(|value|, 1); the drill-tip metrics, a closed form against a 5x5 solve: 10x that; the
@@ -17,7 +18,6 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
 from importlib import resources
 
 import numpy as np
@@ -30,8 +30,9 @@ from arcube.evaluation.reference import FAILURES, GUARDED_OPTIONS, Options, Poin
 from arcube.model.mechanism import ALL_MODES, inverse_kinematics
 from arcube.evaluation.task import build_task
 
-RTOL = 1e-10
-M_RIGHT = np.array([88.2, 79.4, 56.9])
+from compare import POINT_TOL, SUMMARY_TOL, assert_matches, check, point_rtol, tolerances
+from designs import near_paper_designs
+
 CODE = {name: i + 1 for i, name in enumerate(FAILURES)}
 
 
@@ -55,163 +56,9 @@ def points() -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([task.E, E]), np.concatenate([task.e, e])
 
 
-def _designs(n: int, seed: int, spread: float) -> np.ndarray:
-    """Around Table 2 with m on the right side; spread 0.03: mostly reachable, 0.15: all stages fail."""
-    rng = np.random.default_rng(seed)
-    x0 = Design.preset("paper").to_vector()[:23]  # the paper's 23 parameters
-    x0[0:3] = M_RIGHT
-    X = x0 * (1.0 + spread * rng.standard_normal((n, 23)))
-    X[:, 0:3] = M_RIGHT + (2.0 if spread < 0.1 else 25.0) * rng.standard_normal((n, 3))
-    if spread >= 0.1:
-        X[:, 17:19] = rng.uniform(-270.0, 270.0, (n, 2))
-        X[:, 19:23] = rng.uniform(40.0, 90.0, (n, 4))
-    else:  # wider spherical links on half of them: the left side becomes reachable too
-        X[::2, 19:23] = rng.uniform(70.0, 80.0, (len(X[::2]), 4))
-    return X
-
-
 @pytest.fixture(scope="module")
 def designs() -> np.ndarray:
-    return np.concatenate([_designs(24, 1, 0.03), _designs(24, 2, 0.15)])
-
-
-# ------------------------------------------------------------------------------ comparison
-
-
-def _point_rtol(params: np.ndarray, E: np.ndarray, e: np.ndarray, mode: np.ndarray, ref) -> np.ndarray:
-    """Per-point tolerance (see the module doc), shape (..., P)."""
-    p = np.asarray(params, dtype=float)[..., None, :]
-    m = np.asarray(mode, dtype=float)[..., None, :]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sol = inverse_kinematics(p, E, e, m)
-        arg = np.where(np.abs(sol.tms_arg) <= 1.0, sol.tms_arg, 0.0)
-        margin = np.min(1.0 - arg * arg, axis=-1)
-        kap = np.where(np.isfinite(ref.points.kappa), ref.points.kappa, 0.0).max(axis=-1)
-        return np.maximum.reduce([np.full_like(kap, RTOL), 1e-13 * kap, 1e-13 / np.maximum(margin, 1e-300)])
-
-
-@dataclass(frozen=True)
-class Tol:
-    """How a kernel field must equal the reference's. Always: the same shape and dtype. ``exact``: the
-    same values. Otherwise floats with NaN and +-inf at the same places and, where finite,
-    |kernel - reference| <= rel * rtol * max(|reference|, floor) + abs, rtol being the point's
-    tolerance of the module doc (per-design fields: the largest over the design's points)."""
-
-    exact: bool = False
-    rel: float = 1.0
-    floor: float = 0.0
-    abs: float = 0.0
-    where: tuple[str, float] | None = None
-    """(field, value): ``exact`` only at the points where that field of the reference exceeds the value."""
-
-
-EXACT = Tol(exact=True)
-TIP = Tol(rel=10.0, floor=1e-3)
-"""The drill-tip metrics of MODEL.md 15: a closed form in the kernel, a 5x5 solve in the reference, equal to
-1e-9 relative (tests/test_performance_pipeline.py), growing with the conditioning like the other fields.
-A metric that is 0 in exact arithmetic (joint errors that cancel along a world axis) comes out as
-rounding noise, ~1e-15 of the design's other values and different in each engine: hence the floor,
-1e-9 of max(|value|, 1e-3) in the metric's unit (mm, deg, N·m)."""
-ACTUATOR = Tol(exact=True, where=("torque_Nm", 1e-6))
-"""The actuator of the largest torque, where that torque (N·m) is not 0 up to rounding (-1 at the same points)."""
-HOLDING_ACTUATOR = Tol(exact=True, where=("holding_torque_Nm", 1e-6))
-"""The same for the holding torque of MODEL.md 18.2 (tests/test_kernel_masses.py turns it on)."""
-CLEARANCE = Tol(abs=0.15)
-"""Clearance to the anatomy, mm: the kernel's branch and bound stops within TOL_MM = 0.1 of the field's
-minimum along the body, the reference samples every 0.25 mm (within 0.125); as tests/test_clearance.py."""
-SELF_CLEARANCE = Tol(rel=0.0, abs=1e-9)
-"""Self clearance, mm: the same closest-point formulas and chord polylines in both (tests/test_clearance.py)."""
-ENVELOPE = Tol(rel=0.0, abs=1e-9)
-"""Clearance to the envelope of the whole patient (MODEL.md 19.5), mm: both engines minimise exactly along every
-segment (by different methods), the arcs as the same chord polylines; they agree to rounding (tests/test_envelope.py
-runs them with the default envelope, where these fields are not NaN). With a skin mesh it is searched as the anatomy
-(CLEARANCE's tolerance; tests/test_envelope.py)."""
-
-GRADE = Tol(floor=1.0)
-"""The guard grade of MODEL.md 16 (a sum of terms min(s/S, 1), unitless): as the graded excess; its terms
-come from the same shortfalls the failure codes (compared exactly) are decided by."""
-
-POINT_TOL: dict[str, Tol] = {
-    "reachable": EXACT, "failure": EXACT,
-    "kappa": Tol(), "eta_L": Tol(), "dexterity_pct": Tol(), "excess": Tol(floor=1.0), "guard_grade": GRADE,
-    "rho": Tol(floor=1.0), "delta": Tol(floor=1.0), "sigma": Tol(floor=1.0),
-    "clearance_mm": CLEARANCE, "clearance_part": EXACT, "self_clearance_mm": SELF_CLEARANCE,
-    "envelope_clearance_mm": ENVELOPE, "envelope_part": EXACT, "envelope_region": EXACT,
-    "tip_error_mm": TIP, "lateral_error_mm": TIP, "axial_error_mm": TIP, "axis_error_deg": TIP,
-    "torque_Nm": TIP, "torque_actuator": ACTUATOR, "deflection_mm": TIP,
-    "holding_torque_Nm": TIP, "holding_torque_actuator": HOLDING_ACTUATOR,
-}  # fmt: skip
-"""Every PointResults field: how the kernel's must equal the reference's (a field missing here fails)."""
-SUMMARY_TOL: dict[str, Tol] = {
-    "w_G": EXACT, "reachable_fraction": EXACT,
-    "eta_G": Tol(), "violation": Tol(floor=1.0), "violation_reach": Tol(floor=1.0), "guard_grade": GRADE,
-    "dexterity_min": Tol(), "dexterity_mean": Tol(), "dexterity_max": Tol(),
-    "clearance_min": CLEARANCE, "self_clearance_min": SELF_CLEARANCE, "envelope_clearance_min": ENVELOPE,
-    "tip_error_max": TIP, "lateral_error_max": TIP, "axial_error_max": TIP, "axis_error_max": TIP,
-    "torque_max": TIP, "deflection_max": TIP, "holding_torque_max": TIP,
-}  # fmt: skip
-"""Every TaskResults summary field (all but ``points``), as :data:`POINT_TOL`."""
-
-
-def _same_float(name: str, a, b, rtol, scale_floor: float = 0.0, atol: float = 0.0) -> None:
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    assert a.shape == b.shape, f"{name}: shape {a.shape} != {b.shape}"
-    assert np.array_equal(np.isnan(a), np.isnan(b)), f"{name}: NaN at different places"
-    assert np.array_equal(np.isposinf(a), np.isposinf(b)), f"{name}: +inf at different places"
-    assert np.array_equal(np.isneginf(a), np.isneginf(b)), f"{name}: -inf at different places"
-    fin = np.isfinite(b)
-    tol = np.broadcast_to(rtol, b.shape) * np.maximum(np.abs(b), scale_floor) + atol
-    err = np.abs(np.where(fin, a, 0.0) - np.where(fin, b, 0.0))
-    bad = err > np.where(fin, tol, 0.0)
-    assert not bad.any(), f"{name}: {bad.sum()} values off, worst rel {np.max(err / np.maximum(tol, 1e-300) * RTOL):.3g}"
-
-
-def _same(name: str, got_all, ref_all, tol: Tol, rtol: np.ndarray) -> None:
-    """Field ``name`` of two results under its :class:`Tol`; ``rtol`` gets trailing axes to the field's
-    (kappa's 7, rho's 3, ...)."""
-    got, ref = np.asarray(getattr(got_all, name)), np.asarray(getattr(ref_all, name))
-    assert got.dtype == ref.dtype, f"{name}: dtype {got.dtype} != {ref.dtype}"
-    if tol.exact:
-        assert got.shape == ref.shape, f"{name}: shape {got.shape} != {ref.shape}"
-        if tol.where is not None:
-            field, value = tol.where
-            above = np.abs(np.asarray(getattr(ref_all, field))) > value  # NaN (not computed): not above
-            np.testing.assert_array_equal(got < 0, ref < 0, err_msg=f"{name}: none (-1) at different places")
-            got, ref = got[above], ref[above]
-        np.testing.assert_array_equal(got, ref, err_msg=name)
-        return
-    rt = np.reshape(rtol, np.shape(rtol) + (1,) * (ref.ndim - np.ndim(rtol)))
-    _same_float(name, got, ref, tol.rel * rt, scale_floor=tol.floor, atol=tol.abs)
-
-
-def _tolerances(table: dict[str, Tol], fields: tuple[str, ...], kind: str) -> dict[str, Tol]:
-    """``table`` after checking that it names exactly ``fields`` (a new result field cannot go unchecked)."""
-    missing, stale = set(fields) - set(table), set(table) - set(fields)
-    assert not missing, f"{kind} fields without a tolerance in tests/test_kernel.py: {sorted(missing)}"
-    assert not stale, f"tolerances for fields {kind} no longer has: {sorted(stale)}"
-    return table
-
-
-def assert_matches(got, ref, rtol_pt: np.ndarray, *, want_points: bool = True) -> None:
-    """``got`` (kernel) equals ``ref`` (NumPy) in every field, each as POINT_TOL / SUMMARY_TOL say."""
-    rt_des = rtol_pt.max(axis=-1)
-    for name, tol in _tolerances(SUMMARY_TOL, ref._fields[1:], "TaskResults").items():
-        _same(name, got, ref, tol, rt_des)
-    if not want_points:
-        assert got.points is None
-        return
-    for name, tol in _tolerances(POINT_TOL, ref.points._fields, "PointResults").items():
-        _same(name, got.points, ref.points, tol, rtol_pt)
-
-
-def check(params, E, e, mode=ALL_MODES[0], options=Options(), **kw):
-    """Run both engines, assert agreement (with and without points); return the reference result."""
-    ref = evaluate_task(params, E, e, mode, options)
-    rtol_pt = _point_rtol(params, E, e, mode, ref)
-    assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options, **kw), ref, rtol_pt)
-    assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options, want_points=False, **kw), ref, rtol_pt, want_points=False)  # fmt: skip
-    return ref
+    return np.concatenate([near_paper_designs(24, 1, 0.03), near_paper_designs(24, 2, 0.15)])
 
 
 # ------------------------------------------------------------------------------ tests
@@ -221,9 +68,9 @@ def test_comparator_has_a_tolerance_for_every_field() -> None:
     """A result field without a tolerance, or a tolerance for a field that is gone, fails the comparison."""
     assert set(POINT_TOL) == set(PointResults._fields) and set(SUMMARY_TOL) == set(TaskResults._fields[1:])
     with pytest.raises(AssertionError, match="without a tolerance"):
-        _tolerances(POINT_TOL, (*PointResults._fields, "new_field"), "PointResults")
+        tolerances(POINT_TOL, (*PointResults._fields, "new_field"), "PointResults")
     with pytest.raises(AssertionError, match="no longer has"):
-        _tolerances(SUMMARY_TOL, TaskResults._fields[2:], "TaskResults")
+        tolerances(SUMMARY_TOL, TaskResults._fields[2:], "TaskResults")
 
 
 def test_warm_up_compiles() -> None:
@@ -280,7 +127,7 @@ def test_designs_that_reach_the_whole_task(options, points) -> None:
     """Finite eta_G: the right-side trajectories, which designs close to Table 2 reach."""
     E, e = points[0][:300], points[1][:300]  # the reference patient
     right = E[:, 0] > 0.0  # the side-R trajectories (1, 3, 5, 7, 9) lie at x > 0
-    X = _designs(40, 4, 0.01)
+    X = near_paper_designs(40, 4, 0.01)
     modes = ALL_MODES[np.random.default_rng(6).integers(0, 16, len(X))]
     ref = check(X, E[right], e[right], ALL_MODES[0], options)
     assert np.any(ref.w_G) and np.all(np.isfinite(ref.eta_G[ref.w_G]))
@@ -292,7 +139,7 @@ def test_exact_path(designs, points) -> None:
     E, e = points
     modes = ALL_MODES[np.random.default_rng(9).integers(0, 16, len(designs))]
     ref = check(designs, E, e, modes, GUARDED_OPTIONS, exact=True)
-    rtol_pt = _point_rtol(designs, E, e, modes, ref)
+    rtol_pt = point_rtol(designs, E, e, modes, ref)
     fast = kernel.evaluate_task_numba(designs, E, e, modes, GUARDED_OPTIONS)
     exact = kernel.evaluate_task_numba(designs, E, e, modes, GUARDED_OPTIONS, exact=True)
     assert_matches(fast, exact, rtol_pt)
@@ -390,7 +237,7 @@ def test_exact_boundaries_and_axis_directions() -> None:
 def test_degenerate_designs_follow_ieee_like_numpy(points) -> None:
     """Zero links (an invalid design, but a valid array) give inf/NaN as in NumPy, never an exception."""
     E, e = points
-    X = np.repeat(_designs(1, 8, 0.01), 5, axis=0)
+    X = np.repeat(near_paper_designs(1, 8, 0.01), 5, axis=0)
     X[0, 14] = 0.0  # t_x = 0: H_x = 0, transmission sine 0/0
     X[1, 8] = 0.0  # p_z = 0: TLS argument +-inf
     X[2, 9] = 0.0  # d_x = 0: TMS A = B = 0

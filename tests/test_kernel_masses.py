@@ -2,7 +2,7 @@
 the NumPy reference (:mod:`arcube.evaluation.masses`, 65 bodies' Jacobians, itself checked against
 central differences of an independent potential energy in tests/test_masses.py).
 
-* every field of the results, per point and per design, through tests/test_kernel.py's comparator
+* every field of the results, per point and per design, through tests/compare.py's comparison
   (the holding torque to 1e-9 relative, its actuator exactly), on random designs with mounting
   rotations, tool offsets, all working modes, several gravity directions and mass settings, the z dyad
   open and closed; on designs near Table 2 over the reference patient, with and without the guards;
@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_kernel import M_RIGHT, _designs, check
-from test_masses import CASES, _case
 
 from arcube.evaluation import kernel
 from arcube.evaluation.reference import GUARDED_OPTIONS, evaluate_task
@@ -25,6 +23,9 @@ from arcube.io import load_trajectories
 from arcube.model.body import mechanism_points
 from arcube.model.mechanism import ALL_MODES, inverse_kinematics
 from arcube.options import Loads, Masses, Options, Outputs
+
+from compare import check
+from designs import M_RIGHT, MASS_CASES, near_paper_designs, placed_case
 
 HOLD = Outputs(holding_torque=True)
 GRAVITIES = [(0.0, 0.0, -9.81), (3.0, -5.0, 7.0), (0.0, 9.81, 0.0)]
@@ -36,12 +37,12 @@ def _opts(c_z=None, gravity=(0.0, 0.0, -9.81), base: Options = Options(), **mass
 
 def _cases_points(seed, mount, L, mode_index, n=30):
     """A test_masses case with more poses, plus the same poses seen by a second, perturbed design."""
-    x, E, e, mode = _case(seed, mount, L, mode_index, n=n)
+    x, E, e, mode = placed_case(seed, mount, L, mode_index, n=n)
     X = np.stack([x, x * np.r_[1.0 + 0.02 * np.sin(np.arange(23.0)), np.ones(4)]])
     return X, E, e, mode
 
 
-@pytest.mark.parametrize(("seed", "mount", "L", "mode_index", "c_z"), CASES)
+@pytest.mark.parametrize(("seed", "mount", "L", "mode_index", "c_z"), MASS_CASES)
 def test_kernel_equals_reference_on_random_designs(seed, mount, L, mode_index, c_z) -> None:
     X, E, e, mode = _cases_points(seed, mount, L, mode_index)
     for gravity, masses in zip(GRAVITIES, ({}, {"wall_mm": 1.0, "m_motor_kg": 2.5}, {"density_kg_m3": 7800.0, "m_delta_kg": 0.0})):
@@ -53,7 +54,7 @@ def test_kernel_equals_reference_on_random_designs(seed, mount, L, mode_index, c
 
 def test_the_kernel_cases_cover_the_z_dyad_open_and_closed() -> None:
     states = set()
-    for seed, mount, L, mode_index, c_z in CASES:
+    for seed, mount, L, mode_index, c_z in MASS_CASES:
         X, E, e, mode = _cases_points(seed, mount, L, mode_index)
         sol = inverse_kinematics(X[0], E, e, mode)
         states |= set(mechanism_points(X[0], sol.E_m, sol.e, c_z=c_z, sol=sol).z_closes.tolist())
@@ -72,7 +73,7 @@ def patient() -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize("base", [Options(), GUARDED_OPTIONS, Options(z_dyad=True, c_z=150.0)], ids=["plain", "guarded", "z_dyad"])
 def test_kernel_equals_reference_near_table_2(base, patient) -> None:
     E, e = patient
-    X = _designs(8, 4, 0.01)
+    X = near_paper_designs(8, 4, 0.01)
     modes = ALL_MODES[np.random.default_rng(6).integers(0, 16, len(X))]
     ref = check(X, E, e, modes, _opts(base.guards.c_z, base=base))
     assert np.any(ref.points.reachable) and np.all(np.isfinite(ref.holding_torque_max[ref.reachable_fraction > 0]))
@@ -82,7 +83,7 @@ def test_kernel_equals_reference_near_table_2(base, patient) -> None:
 
 def test_batch_equals_loop(patient) -> None:
     E, e = patient
-    X = _designs(5, 9, 0.01)
+    X = near_paper_designs(5, 9, 0.01)
     X[:, 0:3] = M_RIGHT
     opts = _opts(250.0, (1.0, -2.0, -9.0))
     batch = kernel.evaluate_task_numba(X, E, e, ALL_MODES[0], opts)
@@ -100,7 +101,7 @@ def test_batch_equals_loop(patient) -> None:
 def test_without_gravity_the_holding_torque_is_the_drill_torque(patient) -> None:
     """MODEL.md 18.2 with g = 0 is 15.3's torque, which the kernel computes by another closed form."""
     E, e = patient
-    X = _designs(6, 4, 0.01)
+    X = near_paper_designs(6, 4, 0.01)
     got = kernel.evaluate_task_numba(X, E, e, ALL_MODES[0], _opts(gravity=(0.0, 0.0, 0.0)))
     p = got.points
     assert np.isfinite(p.torque_Nm).sum() > 20
@@ -111,7 +112,7 @@ def test_without_gravity_the_holding_torque_is_the_drill_torque(patient) -> None
 
 def test_off_by_default_and_nothing_else_moves(patient) -> None:
     E, e = patient
-    X = _designs(4, 4, 0.01)
+    X = near_paper_designs(4, 4, 0.01)
     off = kernel.evaluate_task_numba(X, E, e, ALL_MODES[0], Options())
     on = kernel.evaluate_task_numba(X, E, e, ALL_MODES[0], _opts())
     assert np.all(np.isnan(off.points.holding_torque_Nm)) and np.all(off.points.holding_torque_actuator == -1)

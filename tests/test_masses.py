@@ -2,7 +2,7 @@
 
 * dV/dq (the code: analytic, through the forward Jacobian of 15.1) against central differences of
   an INDEPENDENT potential energy: q -> the forward kinematics (MODEL.md 5.5, 13) in the design's
-  assembly mode -> the mechanism's points rebuilt here by hand (conftest.oracle_config; the z-dyad
+  assembly mode -> the mechanism's points rebuilt here by hand (naive.oracle_config; the z-dyad
   elbow by the law of cosines; the spherical links' 13 points by Rodrigues rotations about the
   arcs' normals, not by slerp) -> the 18.1 mass model restated from MODEL.md -> V = -sum m g . c;
   for random and paper designs, several working modes, with a mounting rotation and a tool offset,
@@ -18,7 +18,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import ALL_MODES_ORACLE, PAPER, oracle_config, random_design, reachable_poses, rotate, vec
 
 import arcube
 from arcube.errors import InputError
@@ -31,27 +30,10 @@ from arcube.evaluation.task import build_task
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 from arcube.options import Guards, Loads, Masses, Options
 
-# MODEL.md 18.1 defaults and 14.1 radii, restated.
-RHO_L, WALL, DENSITY, M_DELTA, M_MOTOR, L_MOTOR = 8.0, 2.0, 2700.0, 0.8, 1.5, 120.0
-LAMBDA = DENSITY * math.pi * ((RHO_L / 1000) ** 2 - ((RHO_L - WALL) / 1000) ** 2) / 1000  # kg/mm
+from designs import MASS_CASES, PAPER, placed_case
+from naive import DENSITY, L_MOTOR, LAMBDA, M_DELTA, M_MOTOR, mass_by_hand, oracle_config, rotate, rotation, vec
+
 G_DOWN = np.array([0.0, 0.0, -9.81])
-
-
-def _rot(mount_deg) -> np.ndarray:
-    """R = R_z(rz) R_y(ry) R_x(rx) (MODEL.md 13.1) from elementary rotations."""
-    rx, ry, rz = np.radians(mount_deg)
-    Rx = np.array([[1, 0, 0], [0, np.cos(rx), -np.sin(rx)], [0, np.sin(rx), np.cos(rx)]])
-    Ry = np.array([[np.cos(ry), 0, np.sin(ry)], [0, 1, 0], [-np.sin(ry), 0, np.cos(ry)]])
-    Rz = np.array([[np.cos(rz), -np.sin(rz), 0], [np.sin(rz), np.cos(rz), 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
-
-
-def _place(x23, mount, L, E_p, e_p):
-    """The 27-parameter design and the task in R_w that it sees exactly as x23 sees (E_p, e_p)."""
-    R = _rot(mount)
-    m = x23[:3]
-    e_w = e_p @ R.T
-    return np.concatenate([x23, mount, [L]]), m + (E_p - m) @ R.T - L * e_w, e_w
 
 
 def _arc(v1, v2, phi, n=12):
@@ -63,7 +45,7 @@ def _arc(v1, v2, phi, n=12):
 
 def _oracle_V(x, E, e, rho, delta, sigma, c_z=None, g=G_DOWN):
     """V (J) of the 18.1 mass model at the pose (E, e) in R_w with joints (rho, delta, sigma), by hand."""
-    x23, R, L = x[:23], _rot(x[23:26]), x[26]
+    x23, R, L = x[:23], rotation(x[23:26]), x[26]
     m = x23[:3]
     C_w = E + L * e
     C_m = (C_w - m) @ R  # R^T (C - m), rows
@@ -100,18 +82,9 @@ def _oracle_V(x, E, e, rho, delta, sigma, c_z=None, g=G_DOWN):
         J = Dz + along * u1 + np.sqrt(d[2] ** 2 - along**2) * np.cross(eye[2], u1)
     S += np.where(closes, LAMBDA * d[2] * (Dz + J) / 2 + LAMBDA * cz * (J + Qz) / 2, LAMBDA * (d[2] + cz) * (Dz + Qz) / 2)
     S += M_MOTOR * (C_m + (r + L_MOTOR / 2) * e_m)
-    M = _mass_by_hand(x23, cz)
+    M = mass_by_hand(x23, cz)
     S_w = M * m + S @ R.T
     return -(S_w @ g) / 1000, closes[..., 0]
-
-
-def _mass_by_hand(x23, c_z=None):
-    f, p, d = x23[3:6], x23[6:9], x23[9:12]
-    c, t, r = x23[12:14], x23[14:16], x23[16]
-    al, be = np.radians(x23[19:21]), np.radians(x23[21:23])
-    cz = d[2] if c_z is None else c_z
-    length = p.sum() + d.sum() + cz + c.sum() + t.sum() + 3 * math.sqrt(2) * r + 24 * r * np.sum(np.sin(al / 24) + np.sin(be / 24))
-    return LAMBDA * length + 2 * M_DELTA + M_MOTOR
 
 
 def _fd_gravity(x, E, e, mode, c_z=None, g=G_DOWN, h=1e-6):
@@ -131,29 +104,12 @@ def _fd_gravity(x, E, e, mode, c_z=None, g=G_DOWN, h=1e-6):
     return np.stack(out, axis=-1)
 
 
-CASES = [
-    # (design seed or None for the paper, mount (deg), L (mm), mode index, c_z)
-    (None, (0.0, 0.0, 0.0), 0.0, 0, None),
-    (None, (20.0, -35.0, 170.0), 60.0, 0, None),
-    (11, (-135.0, -144.74, -67.63), 140.0, 5, None),
-    (22, (0.0, 0.0, 0.0), 90.0, 10, None),
-    (33, (30.0, 10.0, -50.0), 0.0, 15, 200.0),
-    (44, (10.0, 80.0, 5.0), 150.0, 3, 250.0),
-]
 MAX_ERR: list[float] = []
 
 
-def _case(seed, mount, L, mode_index, n=8):
-    x23 = vec(PAPER) if seed is None else random_design(np.random.default_rng(seed))
-    mode = ALL_MODES_ORACLE[mode_index]
-    E_p, e_p = reachable_poses(np.random.default_rng(7), x23, mode, n, min_sine=0.2)
-    x, E, e = _place(x23, np.array(mount), L, E_p, e_p)
-    return x, E, e, mode
-
-
-@pytest.mark.parametrize(("seed", "mount", "L", "mode_index", "c_z"), CASES)
+@pytest.mark.parametrize(("seed", "mount", "L", "mode_index", "c_z"), MASS_CASES)
 def test_gravity_torque_matches_central_differences_of_V_through_the_fk(seed, mount, L, mode_index, c_z):
-    x, E, e, mode = _case(seed, mount, L, mode_index)
+    x, E, e, mode = placed_case(seed, mount, L, mode_index)
     opts = Options(guards=Guards(c_z=c_z))
     tau = gravity_torque_Nm(x, E, e, mode, opts)
     assert tau.shape == (len(E), 5)
@@ -171,8 +127,8 @@ def test_gravity_torque_matches_central_differences_of_V_through_the_fk(seed, mo
 def test_z_dyad_both_open_and_closed_are_covered():
     """The cases above exercise the dyad's elbow (closed) and the fallback D_z -> Q_z (open)."""
     states = set()
-    for seed, mount, L, mode_index, c_z in CASES:
-        x, E, e, mode = _case(seed, mount, L, mode_index)
+    for seed, mount, L, mode_index, c_z in MASS_CASES:
+        x, E, e, mode = placed_case(seed, mount, L, mode_index)
         sol = inverse_kinematics(x, E, e, mode)
         states |= set(_oracle_V(x, E, e, sol.rho, sol.delta, sol.sigma, c_z)[1].tolist())
     assert states == {True, False}
@@ -189,12 +145,12 @@ def test_link_masses_by_hand():
     assert masses[BODY_NAMES.index("spherical_beta_y/7")] == pytest.approx(LAMBDA * chord, rel=1e-13)
     assert masses[BODY_NAMES.index("drill_motor")] == M_MOTOR and masses[BODY_NAMES.index("actuator_D_y")] == M_DELTA
     # the whole moving mass of Table 2, by hand
-    assert float(moving_mass_kg(x)) == pytest.approx(_mass_by_hand(x), rel=1e-13)
+    assert float(moving_mass_kg(x)) == pytest.approx(mass_by_hand(x), rel=1e-13)
     assert float(moving_mass_kg(x)) == pytest.approx(3.4887, abs=1e-4)
     # the settings reach the model: a thinner wall, a heavier motor, c_z
     opts = Options(masses=Masses(wall_mm=1.0, m_motor_kg=2.0), guards=Guards(c_z=90.0))
     lam1 = DENSITY * math.pi * (0.008**2 - 0.007**2) / 1000
-    want = (_mass_by_hand(x, 90.0) - 2 * M_DELTA - M_MOTOR) / LAMBDA * lam1 + 2 * M_DELTA + 2.0
+    want = (mass_by_hand(x, 90.0) - 2 * M_DELTA - M_MOTOR) / LAMBDA * lam1 + 2 * M_DELTA + 2.0
     assert float(moving_mass_kg(x, opts)) == pytest.approx(want, rel=1e-13)
     # per design, broadcast
     xs = np.stack([x, x * np.r_[np.ones(6), 1.1 * np.ones(17)]])
@@ -203,7 +159,7 @@ def test_link_masses_by_hand():
 
 def test_bodies_have_the_design_lengths_at_poses():
     """Each rod's end points are as far apart as the length its mass counts; chords lie on the sphere."""
-    x, E, e, mode = _case(44, (10.0, 80.0, 5.0), 150.0, 3)
+    x, E, e, mode = placed_case(44, (10.0, 80.0, 5.0), 150.0, 3)
     model = MassModel(c_z_mm=250.0)
     sol = inverse_kinematics(x, E, e, mode)
     b = bodies_of_solution(sol, x, model)
@@ -235,7 +191,7 @@ def test_batch_equals_loop():
 
 
 def test_gravity_sign_and_linearity():
-    x, E, e, mode = _case(11, (-135.0, -144.74, -67.63), 140.0, 5)
+    x, E, e, mode = placed_case(11, (-135.0, -144.74, -67.63), 140.0, 5)
     down = gravity_torque_Nm(x, E, e, mode, Options(masses=Masses(gravity=(0.0, 0.0, -9.81))))
     up = gravity_torque_Nm(x, E, e, mode, Options(masses=Masses(gravity=(0.0, 0.0, 9.81))))
     np.testing.assert_allclose(up, -down, rtol=1e-12, atol=1e-12)
@@ -246,7 +202,7 @@ def test_gravity_sign_and_linearity():
 
 
 def test_zero_masses_give_zero_torque_and_the_15_3_torque():
-    x, E, e, mode = _case(None, (20.0, -35.0, 170.0), 60.0, 0)
+    x, E, e, mode = placed_case(None, (20.0, -35.0, 170.0), 60.0, 0)
     massless = MassModel(density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
     assert float(moving_mass_kg(x, massless)) == 0.0
     assert np.all(gravity_torque_Nm(x, E, e, mode, massless) == 0.0)

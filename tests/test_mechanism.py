@@ -10,20 +10,11 @@ import math
 
 import numpy as np
 import pytest
-from conftest import (
-    ALL_MODES_ORACLE,
-    Z_HAT,
-    leg_pair,
-    oracle_config,
-    oracle_modes,
-    rotate,
-    transmission_sines,
-    vec,
-    wrap,
-)
 
 from arcube.model import mechanism, poses
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics, jacobians, joint_rates, velocity_model
+
+from naive import ALL_MODES_ORACLE, Z_HAT, leg_pair, oracle_config, oracle_modes, rotate, transmission_sines, vec, wrap
 
 # =============================================================================================
 # Working modes
@@ -197,7 +188,7 @@ def test_J_LV_is_dE_drho_of_forward_kinematics(pose_bank):
 
 def test_tms_jacobians_match_half_partials_of_the_3d_coupler_equation(pose_bank):
     """J_AV = 1/2 dPhi/dE (world columns x, y, z), J_rho = -1/2 dPhi/drho (2x3), J_delta =
-    -1/2 dPhi/d delta, J_sigma = 1/2 dPhi/d sigma, with Phi = |T - K|^2 - c^2 from conftest's 3-D
+    -1/2 dPhi/d delta, J_sigma = 1/2 dPhi/d sigma, with Phi = |T - K|^2 - c^2 from naive's 3-D
     construction (independent of arcube.model.stages.tms)."""
     for x, mode, E, e in _bank_subset(pose_bank):
         sol = inverse_kinematics(x, E, e, mode)

@@ -43,12 +43,13 @@ from arcube.export.replay import export_program, read_program  # noqa: E402
 from arcube.io import load_trajectories, select  # noqa: E402
 from arcube.model.design import Design  # noqa: E402
 from arcube import program  # noqa: E402
-from test_program import DESIGN as PROGRAM_DESIGN  # noqa: E402  (the design of tests/test_program.py)
+
+from designs import PROGRAM_DESIGN  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "mujoco_replay.py"
 DESIGN = PROGRAM_DESIGN
-"""tests/test_program.py's design (a setup, not an oracle)."""
+"""designs.PROGRAM_DESIGN, the design of tests/test_program.py (a setup, not an oracle)."""
 C_Z = "400"
 
 

@@ -9,69 +9,20 @@
 
 from __future__ import annotations
 
-import csv
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from arcube.evaluation.kernel import evaluate_task_numba
 from arcube.evaluation.reference import GUARDED_OPTIONS, Options, evaluate_task
-from arcube.evaluation.task import build_task
 from arcube.model.mechanism import ALL_MODES, forward_kinematics, inverse_kinematics
 
-DATA = Path(__file__).resolve().parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
-
-
-def _rx(a: float) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def _ry(a: float) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def _rz(a: float) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def _task():
-    rows = list(csv.DictReader(DATA.open()))
-    entry = np.array([[float(r[f"entry_{c}"]) for c in "xyz"] for r in rows])
-    target = np.array([[float(r[f"target_{c}"]) for c in "xyz"] for r in rows])
-    return build_task(entry, target, 12)
-
-
-def _rotation(mount) -> np.ndarray:
-    rx, ry, rz = np.radians(mount)
-    return _rz(rz) @ _ry(ry) @ _rx(rx)
-
-
-def _reaching_design(mount, L: float, seed: int = 0, n: int = 600, mode: int = 0) -> np.ndarray:
-    """Of n random designs (links within MODEL.md 12.1 bounds, the TLS box centred on the task's mean
-    C in R_m), the one that reaches the most points in mode +,+,+,+; a setup, not an oracle."""
-    task = _task()
-    rng = np.random.default_rng(seed)
-    X = np.zeros((n, 27))
-    X[:, 3:16] = rng.uniform(30, 200, (n, 13))
-    X[:, 16] = rng.uniform(50, 80, n)
-    X[:, 17:19] = rng.uniform(-180, 180, (n, 2))
-    X[:, 19:23] = rng.uniform(50, 90, (n, 4))
-    X[:, 23:26] = mount
-    X[:, 26] = L
-    C = (task.E + L * task.e).mean(axis=0)
-    X[:, :3] = C - (-X[:, 3:6] - X[:, 16:17]) @ _rotation(mount).T
-    count = evaluate_task(X, task.E, task.e, ALL_MODES[mode]).points.reachable.sum(axis=1)
-    return X[int(np.argmax(count))]
+from designs import reaching_design, reference_task
+from naive import rotation
 
 
 def _by_hand(x: np.ndarray, E: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The paper's model on the task moved by hand: returns (design with the four at 0, E', e')."""
-    rx, ry, rz = np.radians(x[23:26])
-    R = _rz(rz) @ _ry(ry) @ _rx(rx)
+    R = rotation(x[23:26])
     m, L = x[0:3], x[26]
     C = E + L * e
     E2 = m + (C - m) @ R  # row-wise R^T (C - m), placed back at m: R_m coincides with R_w there
@@ -84,8 +35,8 @@ def _by_hand(x: np.ndarray, E: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, n
 @pytest.mark.parametrize(("mount", "L"), [((0.0, 0.0, 0.0), 120.0), ((-135.0, -144.74, -67.63), 0.0),
                                           ((-135.0, -144.74, -67.63), 140.0), ((20.0, -35.0, 170.0), 60.0)])
 def test_rotated_design_equals_paper_model_on_task_transformed_by_hand(mount, L) -> None:
-    task = _task()
-    x = _reaching_design(mount, L)
+    task = reference_task()
+    x = reaching_design(mount, L)
     paper, E2, e2 = _by_hand(x, task.E, task.e)
     for mode in (ALL_MODES[0], ALL_MODES[9]):
         for options in (Options(), GUARDED_OPTIONS):
@@ -101,8 +52,8 @@ def test_rotated_design_equals_paper_model_on_task_transformed_by_hand(mount, L)
 
 
 def test_all_zero_additions_equal_the_23_parameter_model_bit_for_bit() -> None:
-    task = _task()
-    x27 = _reaching_design((0.0, 0.0, 0.0), 0.0)
+    task = reference_task()
+    x27 = reaching_design((0.0, 0.0, 0.0), 0.0)
     for fn in (evaluate_task, evaluate_task_numba):
         a = fn(x27, task.E, task.e, ALL_MODES[3], GUARDED_OPTIONS)
         b = fn(x27[:23], task.E, task.e, ALL_MODES[3], GUARDED_OPTIONS)
@@ -112,8 +63,8 @@ def test_all_zero_additions_equal_the_23_parameter_model_bit_for_bit() -> None:
 
 @pytest.mark.parametrize("mode", [0, 5, 10, 15])
 def test_ik_then_fk_returns_the_drill_tip_and_axis_with_rotation_and_offset(mode) -> None:
-    task = _task()
-    x = _reaching_design((-135.0, -144.74, -67.63), 140.0, mode=mode)
+    task = reference_task()
+    x = reaching_design((-135.0, -144.74, -67.63), 140.0, mode=mode)
     sol = inverse_kinematics(x, task.E, task.e, ALL_MODES[mode])
     ok = sol.reachable
     assert ok.sum() > 20
@@ -124,10 +75,10 @@ def test_ik_then_fk_returns_the_drill_tip_and_axis_with_rotation_and_offset(mode
 
 
 def test_kernel_equals_reference_with_rotation_and_offset() -> None:
-    task = _task()
+    task = reference_task()
     rng = np.random.default_rng(11)
-    X = np.stack([_reaching_design(tuple(rng.uniform(-180, 180, 3)), float(rng.uniform(0, 200)), seed=k, n=150, mode=6) for k in range(6)])
-    X = np.concatenate([X, _reaching_design((0.0, 0.0, 0.0), 90.0, n=150, mode=6)[None]])  # unrotated, with an offset
+    X = np.stack([reaching_design(tuple(rng.uniform(-180, 180, 3)), float(rng.uniform(0, 200)), seed=k, n=150, mode=6) for k in range(6)])
+    X = np.concatenate([X, reaching_design((0.0, 0.0, 0.0), 90.0, n=150, mode=6)[None]])  # unrotated, with an offset
     assert evaluate_task(X, task.E, task.e, ALL_MODES[6]).points.reachable.any(axis=1).sum() >= 5
     for options in (Options(), GUARDED_OPTIONS):
         ref = evaluate_task(X, task.E, task.e, ALL_MODES[6], options)

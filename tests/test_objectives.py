@@ -6,27 +6,24 @@ Pareto file against re-evaluating its rows, and bad flags.
 from __future__ import annotations
 
 import csv
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_cli_evaluate import arcube  # noqa: E402
+import arcube as ac
+from arcube.model.design import PARAM_NAMES, Design
+from arcube.optimization.config import build_config
+from arcube.optimization.build import build_model
 
-import arcube as ac  # noqa: E402
-from arcube.model.design import PARAM_NAMES, Design  # noqa: E402
-from arcube.optimization.config import build_config  # noqa: E402
-from arcube.optimization.build import build_model  # noqa: E402
-
-RIGHT = {"m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
+from designs import RIGHT_SIDE_M
+from harness import arcube
 
 
 @pytest.fixture(scope="module")
 def start(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("design") / "right.json"
-    Design.preset("paper").replace(**RIGHT).to_json(path)
+    Design.preset("paper").replace(**RIGHT_SIDE_M).to_json(path)
     return path
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,12 +13,13 @@ from arcube.evaluation.reference import evaluate_task
 from arcube.model.mechanism import inverse_kinematics
 from arcube.evaluation.task import build_task
 
-DATA = Path(__file__).resolve().parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
+from designs import REFERENCE_CSV
+
 PAPER_PCT = (20.26, 40.25, 66.48)
 
 
 def _reference(side: str):
-    rows = [r for r in csv.DictReader(DATA.open()) if r["side"] == side]
+    rows = [r for r in csv.DictReader(REFERENCE_CSV.open()) if r["side"] == side]
     entry = np.array([[float(r[f"entry_{a}"]) for a in "xyz"] for r in rows])
     target = np.array([[float(r[f"target_{a}"]) for a in "xyz"] for r in rows])
     return build_task(entry, target, 30)

@@ -19,31 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ALL_MODES_ORACLE, PAPER, random_design, reachable_poses, vec
 
 from arcube.errors import InputError
 from arcube.evaluation.performance import ACTUATOR_NAMES, TipMetrics, forward_jacobian, tip_metrics
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 
-
-def _rot(mount_deg) -> np.ndarray:
-    """R = R_z(rz) R_y(ry) R_x(rx) from elementary rotations (MODEL.md 13.1)."""
-    rx, ry, rz = np.radians(mount_deg)
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
-
-
-def _place(x23, mount, L, E_p, e_p):
-    """The 27-parameter design (links of x23, rotation ``mount`` deg, offset L mm) and the task in R_w
-    that it sees exactly as x23 (unrotated, L = 0) sees (E_p, e_p)."""
-    R = _rot(mount)
-    m = x23[:3]
-    e_w = e_p @ R.T
-    E_w = m + (E_p - m) @ R.T - L * e_w
-    return np.concatenate([x23, mount, [L]]), E_w, e_w
+from designs import placed_case
+from naive import ALL_MODES_ORACLE, rotation
 
 
 CASES = [
@@ -57,11 +39,8 @@ CASES = [
 
 
 def _case(seed, mount, L, mode_index, n=6, rng_seed=5):
-    x23 = vec(PAPER) if seed is None else random_design(np.random.default_rng(seed))
-    mode = ALL_MODES_ORACLE[mode_index]
-    E_p, e_p = reachable_poses(np.random.default_rng(rng_seed), x23, mode, n, min_sine=0.2)
-    x, E, e = _place(x23, np.array(mount), L, E_p, e_p)
-    return x, E, e, mode
+    """A placed case of :data:`CASES` (designs.placed_case), with n poses from the random stream ``rng_seed``."""
+    return placed_case(seed, mount, L, mode_index, n, rng_seed)
 
 
 def _fd(x, E, e, mode, h=1e-5):
@@ -260,7 +239,7 @@ def test_invariant_to_the_spin_free_basis_and_to_the_frame():
             np.testing.assert_allclose(K_e, J_e, rtol=1e-9, atol=1e-9 * np.abs(J_e).max())
     # the metrics are norms: rotating the Jacobians and e together changes nothing
     m = tip_metrics(J_E, J_e, e)
-    Q = _rot((37.0, -71.0, 123.0))
+    Q = rotation((37.0, -71.0, 123.0))
     r = tip_metrics(Q @ J_E, Q @ J_e, e @ Q.T)
     for name in TipMetrics._fields:
         np.testing.assert_allclose(getattr(r, name), getattr(m, name), rtol=1e-9, atol=1e-15, err_msg=name)

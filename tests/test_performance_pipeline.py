@@ -9,22 +9,19 @@ as the reference's generic 5x5 solve, with and without a mounting rotation and a
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_cli_evaluate import DATA, arcube  # noqa: E402
-from test_mounting import _reaching_design, _task  # noqa: E402
+from arcube.evaluation.kernel import evaluate_task_numba
+from arcube.evaluation.performance import ACTUATOR_NAMES, PERFORMANCE_FIELDS
+from arcube.evaluation.reference import Options, evaluate_task
+from arcube.options import Loads
+from arcube.model.mechanism import ALL_MODES
 
-from arcube.evaluation.kernel import evaluate_task_numba  # noqa: E402
-from arcube.evaluation.performance import ACTUATOR_NAMES, PERFORMANCE_FIELDS  # noqa: E402
-from arcube.evaluation.reference import Options, evaluate_task  # noqa: E402
-from arcube.options import Loads  # noqa: E402
-from arcube.model.design import Design  # noqa: E402
-from arcube.model.mechanism import ALL_MODES  # noqa: E402
+from designs import REFERENCE_CSV, reaching_design, reference_task
+from harness import arcube
 
 SUMMARY = {"tip_error_max_mm", "lateral_error_max_mm", "axial_error_max_mm", "axis_error_max_deg", "torque_max_Nm", "deflection_max_mm"}
 POINT = {"tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "torque_actuator", "deflection_mm"}
@@ -32,8 +29,8 @@ POINT = {"tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg",
 
 @pytest.mark.parametrize("mount, L", [((0.0, 0.0, 0.0), 0.0), ((-135.0, -144.74, -67.63), 120.0)])
 def test_kernel_equals_reference(mount, L) -> None:
-    task = _task()
-    x = _reaching_design(mount, L, n=300)
+    task = reference_task()
+    x = reaching_design(mount, L, n=300)
     X = np.stack([x, x * np.r_[np.ones(23), 1.0, 1.0, 1.0, 0.95]])
     opts = Options(loads=Loads(encoder_deg=[0.01, 0.02, 0.01, 0.005, 0.01], thrust_N=25.0, lateral_force_N=12.0,
                                actuator_stiffness=[1e4, 2e4, 1e4, 5e3, 5e3]))  # fmt: skip
@@ -58,8 +55,8 @@ def test_kernel_equals_reference(mount, L) -> None:
 
 def test_loads_scale_as_the_model_says() -> None:
     """Accuracy is linear in the encoder bound, torque linear in the forces, deflection inverse in k."""
-    task = _task()
-    x = _reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
+    task = reference_task()
+    x = reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
     base = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options())
     other = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0],
                                 Options(loads=Loads(encoder_deg=0.03, thrust_N=60.0, lateral_force_N=20.0, actuator_stiffness=2e4)))  # fmt: skip
@@ -68,15 +65,8 @@ def test_loads_scale_as_the_model_says() -> None:
         np.testing.assert_allclose(getattr(other.points, name)[r], factor * getattr(base.points, name)[r], rtol=1e-12, err_msg=name)
 
 
-@pytest.fixture(scope="module")
-def right_side_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("design") / "right.json"
-    Design.preset("paper").replace(m_x=88.23, m_y=79.40, m_z=56.89).to_json(path)
-    return path
-
-
 def test_json_carries_the_metrics_with_their_names(right_side_design: Path) -> None:
-    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(DATA), "--points", "5", "--json",
+    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(REFERENCE_CSV), "--points", "5", "--json",
                  "--thrust", "40", "--encoder-deg", "0.02")  # fmt: skip
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
@@ -111,8 +101,8 @@ def test_bad_loads_are_one_line_exit_2(args, flag) -> None:
 def test_metrics_off_leave_everything_else_unchanged(engine) -> None:
     """``Options(tip_metrics=False)`` (what an optimizer that does not need them runs) gives NaN metrics
     and the very same reachability, eta and violation."""
-    task = _task()
-    x = _reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
+    task = reference_task()
+    x = reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
     fn = evaluate_task if engine == "numpy" else evaluate_task_numba
     on = fn(x, task.E, task.e, ALL_MODES[0], Options())
     off = fn(x, task.E, task.e, ALL_MODES[0], Options(tip_metrics=False))

@@ -41,8 +41,6 @@ from arcube.errors import InputError
 from arcube.evaluation.anatomy import Anatomy
 from arcube.evaluation.reference import evaluate_points
 from arcube.evaluation.sdf import box_signed_distance
-from arcube.io import load_trajectories, select
-from arcube.model.design import Design
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 from arcube.options import Guards, Options, Outputs
 from arcube.patients.anatomy import Box
@@ -50,29 +48,12 @@ from arcube import program
 from arcube.motion import Planner
 from arcube.motion.order import shortest_order
 
-DESIGN = {
-    "m_x": -180.76484476919862, "m_y": -157.46908828300167, "m_z": 200.6853946773747, "f_x": 38.47157725834808,
-    "f_y": 37.58585578457374, "f_z": 70.96024445457583, "p_x": 176.01413818196406, "p_y": 167.62615240420683,
-    "p_z": 163.81424854234908, "d_x": 199.83721867879663, "d_y": 187.76627761622083, "d_z": 90.91341698557332,
-    "c_x": 167.91480388710127, "c_y": 176.66383953444745, "t_x": 101.49967571608708, "t_y": 94.1648183036713,
-    "r": 69.62303755883808, "o_x": -84.00550363847071, "o_y": 174.95584389467882, "alpha_x": 69.35973817628876,
-    "alpha_y": 75.66975313644457, "beta_x": 66.76323145703799, "beta_y": 69.57808592269254, "mount_rx": 132.26627118962273,
-    "mount_ry": -26.77890980359885, "mount_rz": -93.65404350391357, "L": 129.15885510671012,
-}  # fmt: skip
-COLUMNS = ["t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", "rho_x", "rho_y", "rho_z", "delta_x",
-           "delta_y", "rho_x_dot", "rho_y_dot", "rho_z_dot", "delta_x_dot", "delta_y_dot"]  # fmt: skip
-TORQUES = ["tau_rho_x_Nm", "tau_rho_y_Nm", "tau_rho_z_Nm", "tau_delta_x_Nm", "tau_delta_y_Nm"]
+from compare import STATE_RTOL, STATE_TOL, assert_fields_match
+from designs import PROGRAM_COLUMNS, PROGRAM_DESIGN, PROGRAM_TORQUES, program_design, right_plan
+
 TOL = 1e-6
 ROW_CLEARANCE_TOL = 0.5  # mm, MODEL.md 17.2's resolution (module docstring)
 MODE = np.ones(4)
-
-
-def _design() -> Design:
-    return Design.from_dict(DESIGN)
-
-
-def _plan(ids: str):
-    return select(load_trajectories("reference"), side="R", ids=ids)
 
 
 def read_rows(folder: Path) -> dict[str, np.ndarray]:
@@ -81,14 +62,14 @@ def read_rows(folder: Path) -> dict[str, np.ndarray]:
         reader = csv.reader(fh)
         header = next(reader)
         data = list(reader)
-    assert header in (COLUMNS, COLUMNS + TORQUES)  # the torques of MODEL.md 18.2 follow when masses are on
+    assert header in (PROGRAM_COLUMNS, PROGRAM_COLUMNS + PROGRAM_TORQUES)  # the torques of MODEL.md 18.2 follow when masses are on
     cols = list(zip(*data))
     out = {name: np.array(cols[i]) for i, name in enumerate(header) if name in ("segment", "trajectory")}
     out.update({name: np.array(cols[i], dtype=float) for i, name in enumerate(header) if name not in out})
     out["E"] = np.stack([out["E_x"], out["E_y"], out["E_z"]], axis=1)
     out["e"] = np.stack([out["e_x"], out["e_y"], out["e_z"]], axis=1)
-    out["q"] = np.stack([out[n] for n in COLUMNS[9:14]], axis=1)
-    out["qd"] = np.stack([out[n] for n in COLUMNS[14:19]], axis=1)
+    out["q"] = np.stack([out[n] for n in PROGRAM_COLUMNS[9:14]], axis=1)
+    out["qd"] = np.stack([out[n] for n in PROGRAM_COLUMNS[14:19]], axis=1)
     return out
 
 
@@ -107,12 +88,12 @@ def _tool_clearance(E: np.ndarray, e: np.ndarray, box: Box, tool_length: float, 
 
 def _assembly_of(E: np.ndarray, e: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
-        return inverse_kinematics(_design().to_vector(), E, e, MODE).assembly
+        return inverse_kinematics(program_design().to_vector(), E, e, MODE).assembly
 
 
 def check_rows(rows: dict[str, np.ndarray], summary: dict, ts, dt: float, anatomy: Anatomy | None = None) -> None:
     """Every oracle of the module docstring on one program."""
-    p = _design().to_vector()
+    p = program_design().to_vector()
     E, e, q, seg, traj = rows["E"], rows["e"], np.radians(rows["q"]), rows["segment"], rows["trajectory"]
     assert np.allclose(rows["t_s"], np.arange(len(E)) * dt, atol=1e-9, rtol=0)
     # FK of each row's angles reproduces its pose, in the first row's assembly mode
@@ -166,8 +147,8 @@ def check_rows(rows: dict[str, np.ndarray], summary: dict, ts, dt: float, anatom
 @pytest.fixture(scope="module")
 def right(tmp_path_factory: pytest.TempPathFactory):
     out = tmp_path_factory.mktemp("program") / "right"
-    ts = _plan("1,3,5")
-    prog = program(_design(), ts, out, dt=0.02)
+    ts = right_plan("1,3,5")
+    prog = program(program_design(), ts, out, dt=0.02)
     return prog, read_rows(out), json.loads((out / "program.json").read_text()), ts
 
 
@@ -193,12 +174,12 @@ def test_program_summary(right) -> None:
 
 def test_shortest_order_beats_the_given_one() -> None:
     """On a plan listed out of order (C7, C3, C5), the shortest order takes no longer than the given one."""
-    ts = _plan("1,5,9")
+    ts = right_plan("1,5,9")
     scrambled = type(ts)(("9", "1", "5"), tuple(ts.levels[i] for i in (2, 0, 1)), tuple(ts.sides[i] for i in (2, 0, 1)),
                          ts.entry[[2, 0, 1]], ts.target[[2, 0, 1]], "scrambled")  # fmt: skip
     kw = dict(dt=0.05, standoff_mm=5.0)
-    best = program(_design(), scrambled, None, order="shortest", **kw)
-    given = program(_design(), scrambled, None, order="given", **kw)
+    best = program(program_design(), scrambled, None, order="shortest", **kw)
+    given = program(program_design(), scrambled, None, order="given", **kw)
     assert given.order == ["9", "1", "5"]
     assert best.order in (["1", "5", "9"], ["9", "5", "1"])
     assert best.summary["transit_s"] < given.summary["transit_s"]
@@ -224,23 +205,23 @@ def _standoffs(ts, s=20.0):
 
 
 def test_a_wall_between_two_standoffs_makes_the_planner_go_around(tmp_path: Path) -> None:
-    ts = _plan("1,3")
+    ts = right_plan("1,3")
     S, _ = _standoffs(ts)
     anatomy, box = _wall((S[0] + S[1]) / 2, (6.0, 1.5, 6.0))
     out = tmp_path / "wall"
-    prog = program(_design(), ts, out, anatomy=anatomy, order="given", dt=0.05, seed=1)
+    prog = program(program_design(), ts, out, anatomy=anatomy, order="given", dt=0.05, seed=1)
     summary = json.loads((out / "program.json").read_text())
     rows = read_rows(out)
     (tr,) = summary["transits"]
     assert tr["method"].startswith("planned") and tr["straight_blocked_by"] == "collision/tool"
     check_rows(rows, summary, ts, 0.05, anatomy)
-    tool_length = DESIGN["L"] + DESIGN["r"]
+    tool_length = PROGRAM_DESIGN["L"] + PROGRAM_DESIGN["r"]
     # the straight move in joint space between the transit's ends is blocked by the wall (exact distance)
     idx = np.flatnonzero(rows["segment"] == "transit")
     q0, q1 = np.radians(rows["q"][idx[0]]), np.radians(rows["q"][idx[-1] + 1])
     s = np.linspace(0.0, 1.0, 201)[:, None]
     qs = q0 + s * (q1 - q0)
-    fk = forward_kinematics(_design().to_vector(), qs[:, :3], qs[:, 3:], _assembly_of(rows["E"][:1], rows["e"][:1])[0])
+    fk = forward_kinematics(program_design().to_vector(), qs[:, :3], qs[:, 3:], _assembly_of(rows["E"][:1], rows["e"][:1])[0])
     assert _tool_clearance(fk.E, fk.e, box, tool_length).min() < -0.5
     # the program's transit goes around: its tool clears the wall at every row
     assert _tool_clearance(rows["E"][idx], rows["e"][idx], box, tool_length).min() >= -ROW_CLEARANCE_TOL
@@ -259,10 +240,10 @@ def _impassable_wall(ts) -> tuple[Anatomy, Box]:
 
 
 def test_an_impassable_wall_names_the_transit_and_the_constraint(tmp_path: Path, capsys) -> None:
-    ts = _plan("1,3")
+    ts = right_plan("1,3")
     anatomy, _ = _impassable_wall(ts)
     with pytest.raises(InputError) as info:
-        program(_design(), ts, tmp_path / "lib", anatomy=anatomy, order="given", planner=Planner(time_s=1.0))
+        program(program_design(), ts, tmp_path / "lib", anatomy=anatomy, order="given", planner=Planner(time_s=1.0))
     message = str(info.value)
     assert "\n" not in message and message.startswith("transit 1 -> 3 blocked: collision/tool at E = (")
     assert not (tmp_path / "lib").exists()
@@ -296,7 +277,7 @@ _DESIGN_FILE: list[str] = []
 def _design_file(tmp_path_factory: pytest.TempPathFactory) -> None:
     if not _DESIGN_FILE:
         path = tmp_path_factory.mktemp("design") / "design.json"
-        _design().to_json(path)
+        program_design().to_json(path)
         _DESIGN_FILE.append(str(path))
 
 
@@ -308,7 +289,7 @@ def test_cli_writes_the_program(tmp_path: Path, capsys) -> None:
     rows = read_rows(out)
     summary = json.loads((out / "program.json").read_text())
     assert summary["limits"]["feed"] == 2.0 and set(rows["segment"]) == {"approach", "drill", "retract"}
-    check_rows(rows, summary, _plan("5"), 0.05)
+    check_rows(rows, summary, right_plan("5"), 0.05)
     # the motor table printed: one line per actuator, its peak torque as program.json has it
     for joint in ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y"):
         (line,) = [ln for ln in text.out.splitlines() if ln.startswith(joint + " ")]
@@ -368,7 +349,7 @@ def test_a_failed_run_keeps_no_partial_program(tmp_path: Path, monkeypatch) -> N
     monkeypatch.setattr(output, "atomic_write_text", failing)
     out = tmp_path / "prog"
     with pytest.raises(OSError):
-        program(_design(), _plan("5"), out, dt=0.05)
+        program(program_design(), right_plan("5"), out, dt=0.05)
     assert not out.exists() or not any(out.iterdir())
 
 
@@ -399,18 +380,20 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
     clearance: the compiled check's is a lower bound of the exact minimum over the axes (the kernel's search
     less its tolerance, 0.1 mm), the reference's an upper bound (samples every 0.25 mm: at most 0.125 mm
     above), so the compiled one is below by 0 to 0.225 mm; every decision and reason is the same, except
-    where the reference's clearance is within that gap above its limit (the compiled check is stricter)."""
+    where the reference's clearance is within that gap above its limit (the compiled check is stricter).
+    Every field of the result, each with its tolerance in tests/compare.py (:data:`compare.STATE_TOL`; a field
+    without one fails): the pose, joints, assembly signs, tool clearance and resolution points the same bits."""
     from arcube.motion.check import Checker
     from arcube.motion.limits import ProgramLimits
 
-    ts = _plan("1,3")
+    ts = right_plan("1,3")
     S, ax = _standoffs(ts)
     anatomy, _ = _wall((S[0] + S[1]) / 2, (6.0, 1.5, 6.0))
     A, B = np.asarray(ts.entry), np.asarray(ts.target)
     s = np.linspace(-90.0, 40.0, 300)
     E = np.concatenate([A[j] + s[:, None] * ax[j] for j in range(2)])
     e = np.repeat(ax, len(s), axis=0)
-    checkers = {eng: Checker(_design().to_vector(), MODE, ProgramLimits(), distance=anatomy.distance, engine=eng)
+    checkers = {eng: Checker(program_design().to_vector(), MODE, ProgramLimits(), distance=anatomy.distance, engine=eng)
                 for eng in ("numpy", "numba")}  # fmt: skip
     lines = {eng: c.poses(E, e, tool=True) for eng, c in checkers.items()}
     for c in checkers.values():
@@ -421,6 +404,7 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
     limit = ProgramLimits().clearance
     for states in (lines, joint):
         ref, fast = states["numpy"], states["numba"]
+        assert_fields_match(fast, ref, STATE_TOL, STATE_RTOL, "StateChecks")  # every field, as compare.STATE_TOL says
         near = (ref.clearance >= limit) & (ref.clearance < limit + 0.225)
         same = ~near
         assert np.array_equal(ref.ok[same], fast.ok[same]) and list(ref.reason[same]) == list(fast.reason[same])

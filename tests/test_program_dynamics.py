@@ -31,7 +31,7 @@ from arcube.options import Loads, Masses, Options
 from arcube import program
 from arcube.motion.dynamics import program_torques
 
-from test_program import COLUMNS, TORQUES, _design, _plan
+from designs import PROGRAM_COLUMNS, PROGRAM_TORQUES, program_design, right_plan
 
 MODE = np.ones(4)
 
@@ -43,8 +43,8 @@ carry nearly all the power (a wrong inertia would hide in the balance's 1 %)."""
 
 
 def _run(out: Path, masses: Masses, **limits: float):
-    ts = _plan("1,3")
-    prog = program(_design(), ts, out, feed=2.0, options=Options(masses=masses, loads=Loads(lateral_force_N=0.0)), masses=True, **limits)
+    ts = right_plan("1,3")
+    prog = program(program_design(), ts, out, feed=2.0, options=Options(masses=masses, loads=Loads(lateral_force_N=0.0)), masses=True, **limits)
     with open(out / "program.csv", newline="") as fh:
         reader = csv.reader(fh)
         header = next(reader)
@@ -84,8 +84,8 @@ def _kinetic_energy_J(params, E, e, q_dot, model: MassModel) -> np.ndarray:
 
 def test_the_csv_carries_the_torques(run) -> None:
     prog, header, cols, _, _ = run
-    assert header == COLUMNS + TORQUES
-    tau = np.stack([cols[c] for c in TORQUES], axis=1)
+    assert header == PROGRAM_COLUMNS + PROGRAM_TORQUES
+    tau = np.stack([cols[c] for c in PROGRAM_TORQUES], axis=1)
     assert np.array_equal(tau, prog.tau_Nm)  # written with repr: read back exactly
     assert np.all(np.isfinite(tau))
 
@@ -94,12 +94,12 @@ def test_the_csv_carries_the_torques(run) -> None:
 def test_power_balance_along_the_program(which: str, request: pytest.FixtureRequest) -> None:
     prog, _, cols, summary, ts = request.getfixturevalue(which)
     model = MassModel(gravity=tuple(summary["masses"]["gravity"]))
-    p = _design().to_vector()
+    p = program_design().to_vector()
     t = cols["t_s"]
     E = np.stack([cols[f"E_{a}"] for a in "xyz"], axis=1)
     e = np.stack([cols[f"e_{a}"] for a in "xyz"], axis=1)
-    q_dot = np.radians(np.stack([cols[c] for c in COLUMNS[14:19]], axis=1))
-    tau = np.stack([cols[c] for c in TORQUES], axis=1)
+    q_dot = np.radians(np.stack([cols[c] for c in PROGRAM_COLUMNS[14:19]], axis=1))
+    tau = np.stack([cols[c] for c in PROGRAM_TORQUES], axis=1)
     power = np.sum(tau * q_dot, axis=1)
     T = _kinetic_energy_J(p, E, e, q_dot, model)
     V = potential_energy_J(p, E, e, MODE, model)
@@ -127,7 +127,7 @@ def test_power_balance_along_the_program(which: str, request: pytest.FixtureRequ
 
 def test_without_masses_only_the_thrust_loads_the_motors(run) -> None:
     prog = run[0]
-    p = _design().to_vector()
+    p = program_design().to_vector()
     none = MassModel(density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
     drill = prog.segment == "drill"
     tq = program_torques(p, prog.E, prog.e, MODE, 0.01, drill, none, thrust_N=30.0, lateral_N=0.0)
@@ -139,8 +139,8 @@ def test_without_masses_only_the_thrust_loads_the_motors(run) -> None:
 
 
 def test_a_pose_held_still_needs_the_gravity_torque() -> None:
-    p = _design().to_vector()
-    ts = _plan("5")
+    p = program_design().to_vector()
+    ts = right_plan("5")
     A, B = np.asarray(ts.entry[0]), np.asarray(ts.target[0])
     e = (A - B) / np.linalg.norm(A - B)
     E = np.repeat(A[None], 7, axis=0)
@@ -154,7 +154,7 @@ def test_motor_figures_from_the_csv(run) -> None:
     _, _, cols, summary, _ = run
     t = cols["t_s"]
     for i, name in enumerate(("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")):
-        tau, qd = cols[TORQUES[i]], np.radians(cols[f"{name}_dot"])
+        tau, qd = cols[PROGRAM_TORQUES[i]], np.radians(cols[f"{name}_dot"])
         fig = summary["motors"][name]
         assert fig["torque_peak_Nm"] == pytest.approx(np.max(np.abs(tau)), rel=1e-12)
         rms = np.sqrt(np.sum(0.5 * (tau[1:] ** 2 + tau[:-1] ** 2) * np.diff(t)) / (t[-1] - t[0]))
@@ -167,9 +167,9 @@ def test_motor_figures_from_the_csv(run) -> None:
 
 
 def test_masses_off_keeps_the_plain_program(tmp_path: Path) -> None:
-    prog = program(_design(), _plan("5"), tmp_path / "p", feed=2.0, masses=False)
+    prog = program(program_design(), right_plan("5"), tmp_path / "p", feed=2.0, masses=False)
     assert prog.tau_Nm is None and "motors" not in prog.summary
-    assert (tmp_path / "p" / "program.csv").read_text().splitlines()[0] == ",".join(COLUMNS)
+    assert (tmp_path / "p" / "program.csv").read_text().splitlines()[0] == ",".join(PROGRAM_COLUMNS)
 
 
 def _mass_matrix(params, q: np.ndarray, assembly: np.ndarray, model: MassModel) -> np.ndarray:
@@ -188,8 +188,8 @@ def _mass_matrix(params, q: np.ndarray, assembly: np.ndarray, model: MassModel) 
 def test_torques_follow_lagranges_equations_on_a_smooth_motion() -> None:
     """tau = d/dt (M q_dot) - dT/dq + dV/dq on q(t) = q0 + a sin(w t): M and V differentiated numerically
     through the forward kinematics (the torques' code takes point accelerations instead)."""
-    p = _design().to_vector()
-    ts = _plan("5")
+    p = program_design().to_vector()
+    ts = right_plan("5")
     A, B = np.asarray(ts.entry[0]), np.asarray(ts.target[0])
     sol0 = inverse_kinematics(p, A, (A - B) / np.linalg.norm(A - B), MODE)
     q0 = np.concatenate([sol0.rho, sol0.delta])
@@ -229,7 +229,7 @@ def test_a_program_folder_reports_itself(run) -> None:
     from arcube.report.program_html import DIV_IDS
 
     prog, _, _, summary, _ = run
-    assert summary["design"] == pytest.approx(_design().to_dict(), rel=0, abs=0)
+    assert summary["design"] == pytest.approx(program_design().to_dict(), rel=0, abs=0)
     folder = prog.path
     try:
         main(["report", str(folder)])
@@ -254,7 +254,7 @@ def test_the_clearances_along_time_are_the_references_at_those_rows(run) -> None
     assert np.allclose(cols["t_s"][rows], series["t_s"], rtol=0, atol=1e-12) and rows[-1] == len(cols["t_s"]) - 1
     E = np.stack([cols[f"E_{a}"] for a in "xyz"], axis=1)[rows]
     e = np.stack([cols[f"e_{a}"] for a in "xyz"], axis=1)[rows]
-    ref = evaluate_points(_design().to_vector(), E, e, MODE, Options(outputs=Outputs(clearances=True, tip_metrics=False)))
+    ref = evaluate_points(program_design().to_vector(), E, e, MODE, Options(outputs=Outputs(clearances=True, tip_metrics=False)))
     assert np.allclose(series["self_clearance_mm"], ref.self_clearance_mm, rtol=0, atol=1e-9)
     assert min(series["self_clearance_mm"]) >= summary["self_clearance_min_mm"] - 0.5  # 17.2's states are finer
     fig = timeline_figure(read_program(prog.path))
@@ -266,7 +266,7 @@ def test_the_clearances_along_time_are_the_references_at_those_rows(run) -> None
 def lateral(tmp_path_factory: pytest.TempPathFactory):
     """One trajectory with the default loads: the lateral force's worst case enters the motor figures."""
     out = tmp_path_factory.mktemp("dyn") / "lateral"
-    prog = program(_design(), _plan("5"), out, feed=2.0)
+    prog = program(program_design(), right_plan("5"), out, feed=2.0)
     return prog, json.loads((out / "program.json").read_text())
 
 
@@ -275,7 +275,7 @@ def test_motor_figures_add_the_lateral_force_on_drill_rows_only(lateral) -> None
     reference at the rows), |tau_i| elsewhere; the gravity column is the reference's dV/dq, the column without
     masses MODEL.md 15.3's per-actuator torque (its own code) over the drill rows."""
     prog, summary = lateral
-    p = _design().to_vector()
+    p = program_design().to_vector()
     J_E, J_e = jacobians_of_solution(inverse_kinematics(p, prog.E, prog.e, MODE), p)
     e = prog.e / np.linalg.norm(prog.e, axis=1, keepdims=True)
     across = J_E - e[:, :, None] * np.einsum("ri,rij->rj", e, J_E)[:, None, :]
@@ -306,8 +306,8 @@ def test_thin_links_without_mass_flags_give_a_program_without_torques(tmp_path: 
     from arcube.errors import InputError
     from arcube.options import Body
 
-    prog = program(_design(), _plan("5"), tmp_path / "thin", feed=2.0, options=Options(body=Body(link_radius=1.5)))
+    prog = program(program_design(), right_plan("5"), tmp_path / "thin", feed=2.0, options=Options(body=Body(link_radius=1.5)))
     assert prog.tau_Nm is None and "motors" not in prog.summary
     with pytest.raises(InputError, match="wall"):
-        program(_design(), _plan("5"), tmp_path / "thin2", feed=2.0, options=Options(body=Body(link_radius=1.5)), masses=True)
+        program(program_design(), right_plan("5"), tmp_path / "thin2", feed=2.0, options=Options(body=Body(link_radius=1.5)), masses=True)
     assert not (tmp_path / "thin2").exists()

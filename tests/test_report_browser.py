@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import CHROMIUM_SKIP, PAPER, start_chromium
 
 from arcube.model.design import Design
 from arcube.api import evaluate
@@ -24,7 +23,11 @@ from arcube.report.html import DIV_IDS, TITLES
 from arcube.report.run_report import write_run_report
 from arcube.io import load_trajectories, select
 
-PLACED = {**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
+from designs import PAPER, RIGHT_SIDE_M, synthetic_program
+from harness import CHROMIUM_SKIP, start_chromium
+from naive import read_program_csv
+
+PLACED = {**PAPER, **RIGHT_SIDE_M}
 
 pytestmark = CHROMIUM_SKIP
 
@@ -191,12 +194,10 @@ def test_evaluation_report_draws_the_anatomy_and_the_clearance(driver, tmp_path)
 def test_program_report_in_browser(driver, tmp_path):
     """A program folder's report (arcube report DIR): the timeline, the motors and the playback render,
     and the playback's slider moves the robot to the row its step names."""
-    from test_report_program import make_program, read_csv
-
     from arcube.report.program_html import DIV_IDS as PROGRAM_DIVS
     from arcube.report.program_html import write_program_report
 
-    folder = make_program(tmp_path / "program")
+    folder = synthetic_program(tmp_path / "program")
     html = write_program_report(folder)
     _self_contained(html.read_text())
     _open(driver, html)
@@ -208,7 +209,7 @@ def test_program_report_in_browser(driver, tmp_path):
     after = _mechanism(driver, div)
     assert after["title"] != before["title"]
     row = int(names[-1][1:])
-    col = read_csv(folder)
+    col = read_program_csv(folder)
     tip = next(d for d in after["data"] if d[0] == "drill tip")
     assert [v[0] for v in tip[1:]] == pytest.approx([col["E_x"][row], col["E_y"][row], col["E_z"][row]], abs=1e-9)
     assert _errors(driver) == []

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import NAMES, PAPER, TRIADS, get, leg_triple, vec
 
 from arcube.model.design import Design
 from arcube.api import evaluate
 from arcube.model.body import mechanism_points
 from arcube.report.html import SCENE_TRACES, scene_figure
+
+from designs import PAPER
+from naive import NAMES, TRIADS, get, leg_triple, vec
 
 TOL = 1e-9
 PLACED = {**PAPER, "m_x": 88.23, "m_y": 79.40, "m_z": 56.89}

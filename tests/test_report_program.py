@@ -1,6 +1,6 @@
 """The drilling program in the HTML report (issue 20 item 5, issue 21 item 3), checked against the files.
 
-The program folder is synthetic, written here as text: two trajectories of the reference plan's right
+The program folder is synthetic, written as text by :func:`designs.synthetic_program`: two trajectories of the reference plan's right
 side (approach S -> A, drill A -> B, retract B -> S, a transit between the standoffs), the joint
 angles from the IK of a placed paper design at each row, the rates as the test's own differences,
 and the five torque columns as the test's own functions of time, with a ``motors`` summary. Every
@@ -18,8 +18,6 @@ claim of the report is re-derived from that text:
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import re
 from pathlib import Path
@@ -30,92 +28,22 @@ import pytest
 from arcube.cli import main
 from arcube.io import load_trajectories, select
 from arcube.model.design import Design
-from arcube.model.mechanism import inverse_kinematics
 from arcube.report.mechanism3d import SCENE_TRACES
 from arcube.report.program_data import envelope, read_program
 from arcube.report.program_html import DIV_IDS, motors_figure, program_section, timeline_figure
 from arcube.report.program_scene import N_STATIC, playback_figure
-from test_program import DESIGN as PROGRAM_DESIGN  # the design of tests/test_program.py
+
+from designs import JOINTS, PROGRAM_DESIGN, SYNTHETIC_MOTORS, synthetic_program
+from naive import read_program_csv
 
 PLACED = PROGRAM_DESIGN
 """A design that reaches the reference plan's right side from 25 mm outside the entries in mode +,+,+,+
-(the design of tests/test_program.py, found by ``arcube optimize --free all,mount,L``)."""
-JOINTS = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
-DT = 0.05
-LIMITS = {"max_joint_speed_deg": 30.0, "max_joint_accel_deg": 120.0, "max_tip_speed": 50.0, "clearance": 5.0, "self_clearance": 2.0,
-          "kappa_max": 100.0, "tool_radius": 1.5, "dt": DT}  # fmt: skip
-MOTORS = {j: {"torque_peak_Nm": 3.5 + k, "torque_rms_Nm": 1.25 + k, "speed_peak_deg_s": 20.0 + k, "power_peak_W": 0.75 + k, "energy_J": 9.5 + k,
-              "torque_peak_gravity_Nm": 0.5 + k, "torque_peak_loads_only_Nm": 2.25 + k} for k, j in enumerate(JOINTS)}  # fmt: skip
-
-
-def _line(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
-
-
-def make_program(folder: Path, torques: bool = True, motors: bool = True) -> Path:
-    """Write a synthetic program folder (program.csv, program.json, design.json) and return it."""
-    ts = select(load_trajectories("reference"), side="R")
-    params = Design.from_dict(PLACED).to_vector()
-    blocks = []  # (segment, trajectory, E (n, 3), e (n, 3))
-    standoffs = []
-    for j in (0, 1):
-        A, B = np.asarray(ts.entry[j], float), np.asarray(ts.target[j], float)
-        e = (A - B) / np.linalg.norm(A - B)
-        S = A + 20.0 * e
-        standoffs.append((S, e))
-        tid = str(ts.ids[j])
-        for seg, a, b, n in (("approach", S, A, 9), ("drill", A, B, 21), ("retract", B, S, 7)):
-            blocks.append((seg, tid, _line(a, b, n), np.repeat(e[None], n, axis=0)))
-        if j == 0:
-            (S0, e0), S1 = standoffs[0], ts.entry[1] + 20.0 * (ts.entry[1] - ts.target[1]) / np.linalg.norm(ts.entry[1] - ts.target[1])
-            e1 = (ts.entry[1] - ts.target[1]) / np.linalg.norm(ts.entry[1] - ts.target[1])
-            axes = _line(e0, e1, 12)
-            blocks.append(("transit", f"{ts.ids[0]}->{ts.ids[1]}", _line(S0, S1, 12), axes / np.linalg.norm(axes, axis=1, keepdims=True)))
-    seg = [b[0] for b in blocks for _ in range(len(b[2]))]
-    traj = [b[1] for b in blocks for _ in range(len(b[2]))]
-    E = np.concatenate([b[2] for b in blocks])
-    e = np.concatenate([b[3] for b in blocks])
-    sol = inverse_kinematics(params, E, e, np.ones(4))
-    q = np.degrees(np.concatenate([sol.rho, sol.delta], axis=1))
-    assert np.isfinite(q).all(), "the synthetic program must be reachable"
-    t = np.arange(len(E)) * DT
-    qd = np.gradient(q, t, axis=0)
-    header = ["t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", *JOINTS, *(f"{j}_dot" for j in JOINTS)]
-    cols = [E, e, q, qd]
-    if torques:
-        header += [f"tau_{j}_Nm" for j in JOINTS]
-        cols.append(np.stack([(k + 1) * np.sin(0.7 * t + k) - 0.3 * k for k in range(5)], axis=1))
-    folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "program.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for i in range(len(t)):
-            w.writerow([repr(float(t[i])), seg[i], traj[i], *(repr(float(v)) for c in cols for v in c[i])])
-    summary = {
-        "order": [str(ts.ids[0]), str(ts.ids[1])], "total_s": float(t[-1]), "drilling_s": 2.0, "rows": len(t), "dt_s": DT, "mode": "+,+,+,+",
-        "clearance_min_mm": 7.5, "clearance_min_at": str(ts.ids[0]), "tool_clearance_min_mm": 3.25, "tool_clearance_min_at": traj[40],
-        "self_clearance_min_mm": 1.5, "self_clearance_min_at": str(ts.ids[1]), "eta_L_max": 4.5, "eta_L_max_at": str(ts.ids[1]),
-        "joint_speed_max_deg_s": {j: 10.0 + k for k, j in enumerate(JOINTS)}, "joint_accel_max_deg_s2": {j: 50.0 for j in JOINTS},
-        "tip_speed_max_transit_mm_s": 20.0, "limits": LIMITS, "anatomy": None, "plan": "reference",
-        "trajectories": [{"trajectory": str(ts.ids[0]), "level": "C3", "side": "R", "start_s": 0.0}], "transits": [],
-    }  # fmt: skip
-    if motors:
-        summary["motors"] = MOTORS
-    (folder / "program.json").write_text(json.dumps(summary, indent=1))
-    Design.from_dict(PLACED).to_json(folder / "design.json")
-    return folder
-
-
-def read_csv(folder: Path) -> dict[str, np.ndarray]:
-    """program.csv as the test reads it: text columns as str arrays, the others as float."""
-    with open(folder / "program.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    return {k: np.array([r[k] for r in rows]) if k in ("segment", "trajectory") else np.array([float(r[k]) for r in rows]) for k in rows[0]}
+(designs.PROGRAM_DESIGN, the design of tests/test_program.py, found by ``arcube optimize --free all,mount,L``)."""
 
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
-    return make_program(tmp_path_factory.mktemp("program"))
+    return synthetic_program(tmp_path_factory.mktemp("program"))
 
 
 def _runs(col: dict[str, np.ndarray]) -> list[tuple[int, int, str, str]]:
@@ -130,7 +58,7 @@ def _runs(col: dict[str, np.ndarray]) -> list[tuple[int, int, str, str]]:
 
 
 def test_the_timeline_bars_are_the_csv_segments(folder: Path) -> None:
-    col = read_csv(folder)
+    col = read_program_csv(folder)
     fig = timeline_figure(read_program(folder))
     bars = []
     for tr in fig.data:
@@ -149,7 +77,7 @@ def test_the_timeline_bars_are_the_csv_segments(folder: Path) -> None:
 
 
 def test_rates_and_accelerations_against_the_limits(folder: Path) -> None:
-    col = read_csv(folder)
+    col = read_program_csv(folder)
     t = col["t_s"]
     fig = timeline_figure(read_program(folder))
     by_axis = {}
@@ -184,7 +112,7 @@ def test_the_envelope_keeps_every_peak() -> None:
 
 
 def test_the_playback_poses_the_robot_at_the_csv_rows(folder: Path) -> None:
-    col = read_csv(folder)
+    col = read_program_csv(folder)
     prog = read_program(folder)
     play = playback_figure(prog, Design.from_dict(PLACED).to_vector(), n_frames=40)
     fig = play.figure
@@ -215,7 +143,7 @@ def test_the_playback_names_a_design_that_does_not_run_the_program(folder: Path)
 
 
 def test_the_motor_plot_marks_the_peak_and_rms_of_the_csv(folder: Path) -> None:
-    col = read_csv(folder)
+    col = read_program_csv(folder)
     fig = motors_figure(read_program(folder))
     t = col["t_s"]
     for k, j in enumerate(JOINTS):
@@ -229,7 +157,7 @@ def test_the_motor_plot_marks_the_peak_and_rms_of_the_csv(folder: Path) -> None:
         axis = "y" if k == 0 else f"y{k + 1}"
         lines = sorted(s.y0 for s in fig.layout.shapes if s.yref == axis)
         rms = math.sqrt(sum((a**2 + b**2) / 2 * (t1 - t0) for a, b, t0, t1 in zip(tau[:-1], tau[1:], t[:-1], t[1:])) / (t[-1] - t[0]))
-        assert lines == pytest.approx(sorted([rms, MOTORS[j]["torque_peak_Nm"]]), rel=1e-12)
+        assert lines == pytest.approx(sorted([rms, SYNTHETIC_MOTORS[j]["torque_peak_Nm"]]), rel=1e-12)
 
 
 def test_the_motor_table_shows_program_json(folder: Path) -> None:
@@ -245,12 +173,12 @@ def test_the_motor_table_shows_program_json(folder: Path) -> None:
         row = dict(zip(head, cells[k * len(head):(k + 1) * len(head)]))
         assert row["actuator"] == j
         for key, title in names.items():
-            assert float(row[title]) == pytest.approx(MOTORS[j][key], abs=5e-4)
-        assert float(row["peak speed (rpm)"]) == pytest.approx(MOTORS[j]["speed_peak_deg_s"] / 6.0, abs=5e-4)  # 1 rpm = 6 deg/s
+            assert float(row[title]) == pytest.approx(SYNTHETIC_MOTORS[j][key], abs=5e-4)
+        assert float(row["peak speed (rpm)"]) == pytest.approx(SYNTHETIC_MOTORS[j]["speed_peak_deg_s"] / 6.0, abs=5e-4)  # 1 rpm = 6 deg/s
 
 
 def test_without_torques_there_is_no_motor_view(tmp_path: Path) -> None:
-    prog = read_program(make_program(tmp_path / "p", torques=False, motors=False))
+    prog = read_program(synthetic_program(tmp_path / "p", torques=False, motors=False))
     assert prog.tau_Nm is None and motors_figure(prog) is None
     html = program_section(prog)
     assert DIV_IDS["motors"] not in html and "Motor" not in html and DIV_IDS["timeline"] in html
@@ -275,7 +203,7 @@ def _cli(args: list[str]) -> int:
 
 
 def test_arcube_report_on_a_program_folder(tmp_path: Path, capsys) -> None:
-    folder = make_program(tmp_path / "p")
+    folder = synthetic_program(tmp_path / "p")
     assert _cli(["report", str(folder)]) == 0
     out = capsys.readouterr()
     assert out.out.strip() == str(folder / "report.html") and out.err == ""
@@ -285,7 +213,7 @@ def test_arcube_report_on_a_program_folder(tmp_path: Path, capsys) -> None:
 
 
 def test_arcube_report_without_a_design_has_no_playback(tmp_path: Path, capsys) -> None:
-    folder = make_program(tmp_path / "p")
+    folder = synthetic_program(tmp_path / "p")
     (folder / "design.json").unlink()
     assert _cli(["report", str(folder)]) == 0
     html = (folder / "report.html").read_text()
@@ -306,7 +234,7 @@ def test_arcube_report_without_a_design_has_no_playback(tmp_path: Path, capsys) 
     ],
 )
 def test_a_broken_program_csv_exits_2_naming_it(tmp_path: Path, capsys, breakage, message: str) -> None:
-    folder = make_program(tmp_path / "p")
+    folder = synthetic_program(tmp_path / "p")
     path = folder / "program.csv"
     path.write_text(breakage(path.read_text()))
     assert _cli(["report", str(folder)]) == 2
@@ -316,7 +244,7 @@ def test_a_broken_program_csv_exits_2_naming_it(tmp_path: Path, capsys, breakage
 
 
 def test_a_missing_program_json_exits_2(tmp_path: Path, capsys) -> None:
-    folder = make_program(tmp_path / "p")
+    folder = synthetic_program(tmp_path / "p")
     (folder / "program.json").unlink()
     assert _cli(["report", str(folder)]) == 2
     err = capsys.readouterr().err
@@ -329,7 +257,7 @@ def test_a_design_report_shows_its_program(tmp_path: Path) -> None:
     from arcube.report import write_report
 
     job = tmp_path / "job"
-    make_program(job / "program")
+    synthetic_program(job / "program")
     (job / "design.toml").write_text('format = "arcube-design"\n')
     ev = evaluate(Design.from_dict(PLACED), select(load_trajectories("reference"), side="R", ids="1,3"), points=4, engine="numpy")
     html = write_report(ev, job / "report.html").read_text()

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_cli_evaluate import arcube  # noqa: E402
+from harness import arcube
 
 
 @pytest.mark.parametrize("existing", [False, True])

@@ -6,32 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ALL_MODES_ORACLE, PAPER, random_design, reachable_poses, vec
-from test_performance import _place
+from designs import SENSITIVITY_CASES as CASES, sensitivity_case as _case
 
 from arcube.evaluation.performance import forward_jacobian
 from arcube.model.design import ANGLE_NAMES, PARAM_NAMES
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 from arcube.model.sensitivity import fk_derivatives, pose_derivatives
 
-CASES = [
-    # (design seed or None for the paper, mount (deg), L (mm), mode index)
-    (None, (0.0, 0.0, 0.0), 0.0, 0),
-    (None, (20.0, -35.0, 170.0), 60.0, 3),
-    (11, (-135.0, -144.74, -67.63), 140.0, 5),
-    (22, (113.4, -119.8, -77.3), 199.7, 10),
-    (33, (30.0, 10.0, -50.0), 25.0, 15),
-    (44, (-90.0, 45.0, 0.0), 90.0, 6),
-]
 H = 1e-5  # central-difference step: mm for lengths, rad for angles (converted to the design's degrees)
-
-
-def _case(seed, mount, L, mode_index, n=8, rng_seed=7):
-    x23 = vec(PAPER) if seed is None else random_design(np.random.default_rng(seed))
-    mode = ALL_MODES_ORACLE[mode_index]
-    E_p, e_p = reachable_poses(np.random.default_rng(rng_seed), x23, mode, n, min_sine=0.15)
-    x, E, e = _place(x23, np.array(mount, dtype=float), L, E_p, e_p)
-    return x, E, e, mode
 
 
 def _central(x, rho, delta, asm, j=None, k=None):

@@ -1,6 +1,6 @@
 """Stage-level tests (MODEL.md sections 1, 3, 4, 5, 6, 7.1-7.3) with independent oracles.
 
-Oracles: inverse-then-forward round trips, the 3-D geometry of conftest.oracle_config, central
+Oracles: inverse-then-forward round trips, the 3-D geometry of naive.oracle_config, central
 finite differences of the constraint equations, and hand-computed special configurations.
 """
 
@@ -10,10 +10,12 @@ import math
 
 import numpy as np
 import pytest
-from conftest import PAPER, X_HAT, Y_HAT, Z_HAT, e_of, get, leg_pair, leg_triple, rotate, vec, wrap
 
 from arcube.model import poses
 from arcube.model.stages import rts, solve_harmonic, tls, tms, wrap_angle, zleg
+
+from designs import PAPER
+from naive import X_HAT, Y_HAT, Z_HAT, e_of, get, leg_pair, leg_triple, rotate, vec, wrap
 
 # =============================================================================================
 # Frames and poses (MODEL.md 1.2, 1.3)

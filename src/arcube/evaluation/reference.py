@@ -1,5 +1,8 @@
 """Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2, 16, 19.5).
 
+Long module: the one reference evaluation (MODEL.md 8, 12, 14-16, 19.5) reads top to bottom as the compiled
+kernel's oracle, with its result types, which are the kernel's contract.
+
 :func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
 against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per point and
 ``(...)`` per design. No Python loop over designs or points. The settings it reads are

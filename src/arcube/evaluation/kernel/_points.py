@@ -1,6 +1,9 @@
 """The per-point pass of one design: TLS, RTS and TMS inverse kinematics, the seven condition
 numbers, the local guards, the IK domain excess (MODEL.md 3-8, 12.2) and each point's guard grade
-(MODEL.md 16), in the reference's order."""
+(MODEL.md 16), in the reference's order.
+
+Long module: one scalarized pass per point (IK, guards, clearances, the envelope of 19.5, the tip metrics' hand-off)
+that Numba compiles as one unit; splitting it would pass dozens of scalars between functions."""
 
 from __future__ import annotations
 

@@ -1,0 +1,123 @@
+"""The base of every settings model, and the one place a pydantic error becomes a one-line
+:class:`~arcube.errors.InputError` naming the field as a Python caller writes it
+(``Loads.thrust_N must be >= 0, got -1.0``); the CLI maps that name to its flag.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from arcube.errors import InputError
+
+__all__ = ["Settings", "settings_error", "validated"]
+
+
+class Settings(BaseModel):
+    """Base of every settings group: frozen, unknown keys refused, defaults validated; each field's
+    docstring is its description (the help of its command-line flag)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", validate_default=True, use_attribute_docstrings=True)
+
+    SHORT: ClassVar[dict[str, str]] = {}
+    """Field -> its short name, where the field's name carries a unit the user does not write
+    (``thrust_N`` -> ``thrust``): the flat keyword of the Python API, the key of a run's config table,
+    and (with dashes) the command-line flag. A field not listed is its own short name."""
+
+    @classmethod
+    def short(cls, name: str) -> str:
+        """The short name of field ``name`` (see :attr:`SHORT`)."""
+        return cls.SHORT.get(name, name)
+
+    @classmethod
+    def flag(cls, name: str) -> str:
+        """The command-line flag of field ``name``: its short name with dashes (``thrust_N`` -> ``--thrust``).
+        The one naming rule: the CLI's options are generated with it, and a run's rerun line is written with it."""
+        return "--" + cls.short(name).replace("_", "-")
+
+    @classmethod
+    def field_of(cls, name: str) -> str | None:
+        """The field that ``name`` (a field's name or short name) means, None if none."""
+        if name in cls.model_fields:
+            return name
+        return next((f for f, s in cls.SHORT.items() if s == name), None)
+
+    def __init__(self, /, **data: Any) -> None:
+        try:
+            super().__init__(**data)
+        except ValidationError as exc:
+            raise settings_error(exc, type(self)) from None
+
+    def merged(self, tree: dict[str, Any]) -> Any:
+        """A validated copy with the values of ``tree`` (nested dicts for nested groups: ``{"loads":
+        {"thrust_N": 25}}``) merged in, every other value kept."""
+
+        def merge(base: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+            return {**base, **{k: merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v for k, v in new.items()}}
+
+        return validated(type(self), merge(self.model_dump(), tree))
+
+    def replace(self, **changes: Any) -> Any:
+        """A validated copy with ``changes`` (InputError naming the field on a bad value)."""
+        data = self.model_dump()
+        for key, value in changes.items():
+            data[key] = value.model_dump() if isinstance(value, BaseModel) else value
+        return validated(type(self), data)
+
+
+def _param(model: type[BaseModel], loc: tuple[Any, ...]) -> str:
+    """``Loads.thrust_N`` for the location ``("loads", "thrust_N")`` in ``Options``: the innermost
+    model's name and the field, as a caller writes them."""
+    cls: Any = model
+    for i, item in enumerate(loc):
+        field = cls.model_fields.get(item) if isinstance(item, str) and isinstance(cls, type) and issubclass(cls, BaseModel) else None
+        if field is None:
+            break
+        sub = field.annotation
+        if isinstance(sub, type) and issubclass(sub, BaseModel) and i + 1 < len(loc):
+            cls = sub
+            continue
+        return f"{cls.__name__}.{item}"
+    return f"{cls.__name__}.{'.'.join(str(x) for x in loc)}" if loc else cls.__name__
+
+
+_PHRASES = {
+    "greater_than_equal": "must be >= {ge}", "greater_than": "must be > {gt}", "less_than_equal": "must be <= {le}",
+    "less_than": "must be < {lt}", "finite_number": "must be a finite number", "extra_forbidden": "is not a setting",
+    "bool_parsing": "must be true or false", "bool_type": "must be true or false", "float_parsing": "must be a number",
+    "float_type": "must be a number", "int_parsing": "must be an integer", "int_type": "must be an integer",
+    "int_from_float": "must be an integer", "missing": "is required",
+}  # fmt: skip
+
+
+def settings_error(exc: ValidationError, model: type[BaseModel]) -> InputError:
+    """The first problem of a pydantic ``ValidationError`` as one line naming the field."""
+    err = exc.errors(include_url=False)[0]
+    inner = (err.get("ctx") or {}).get("error")
+    if isinstance(inner, InputError):  # a nested group's own __init__ already named its field
+        return inner
+    loc = tuple(x for x in err["loc"] if not (isinstance(x, str) and x.startswith("function-")))
+    # A per-actuator tuple reports (field, index): name the field, not the slot.
+    while loc and isinstance(loc[-1], int):
+        loc = loc[:-1]
+    param = _param(model, loc)
+    phrase = _PHRASES.get(err["type"])
+    if err["type"] == "literal_error":
+        text = "must be one of " + str((err.get("ctx") or {}).get("expected", "")).replace("'", "").replace(" or ", ", ")
+    elif phrase is not None:
+        text = phrase.format(**{k: (f"{v:g}" if isinstance(v, (int, float)) else v) for k, v in (err.get("ctx") or {}).items()})
+    else:
+        text = str(err["msg"]).removeprefix("Value error, ")
+        text = text if text.startswith(("must", "is ")) else f"is invalid: {text}"
+    if err["type"] != "extra_forbidden" and "input" in err:
+        text += f", got {err['input']!r}"
+    return InputError(f"{param} {text}", param=param)
+
+
+def validated(model: type[Any], data: Any = None, /, **fields: Any) -> Any:
+    """``model(**data, **fields)`` validated; a bad value -> :class:`InputError` naming the field."""
+    try:
+        return model.model_validate({**(data or {}), **fields})
+    except ValidationError as exc:  # model_validate does not pass through Settings.__init__
+        raise settings_error(exc, model) from None

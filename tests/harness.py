@@ -1,0 +1,45 @@
+"""How the tests drive the program from outside: the command line in a subprocess (:func:`arcube`) and a
+headless Chromium for the browser tests (:data:`CHROMIUM_SKIP`, :func:`start_chromium`)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+
+def arcube(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """``python -m arcube ARGS`` in a subprocess (this interpreter), its output captured as text; 300 s at most."""
+    return subprocess.run([sys.executable, "-m", "arcube", *args], capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+# ----------------------------------------------------------------------------- headless Chromium (browser tests)
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+CHROMIUM_SKIP = pytest.mark.skipif(
+    not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()) and os.environ.get("CI") != "true",
+    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
+)
+"""Skip a browser test when Chromium is missing, except on CI (CI=true), where that is a failure."""
+
+
+def start_chromium(profile: Path, *args: str):  # noqa: ANN201 - a selenium driver
+    """A headless Chromium driver with a fresh profile in ``profile``, the browser log kept, and ``args``
+    added to the common ones; skips without selenium unless on CI."""
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        if os.environ.get("CI") == "true":
+            raise
+        pytest.skip("selenium not installed (pip install -e '.[test]')")
+    assert os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER), f"{CHROMIUM} or {CHROMEDRIVER} is missing (CI=true: install chromium and chromium-driver)"
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run", *args, f"--user-data-dir={profile}"):  # fmt: skip
+        opts.add_argument(arg)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
