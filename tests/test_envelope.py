@@ -20,9 +20,9 @@ from scipy.spatial import cKDTree
 
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
+from arcube.evaluation.envelope_drawing import envelope_meshes, write_envelope_mesh
 from arcube.evaluation.envelope import (
-    BOX_TABLE, Envelope, Landmarks, default_envelope, envelope_from_boxes, envelope_meshes, landmarks, resolve_envelope,
-    rounded_box_distance, write_envelope_mesh,
+    BOX_TABLE, Envelope, Landmarks, default_envelope, envelope_from_boxes, landmarks, resolve_envelope, rounded_box_distance,
 )  # fmt: skip
 from arcube.io import load_trajectories, select
 from arcube.io.meshes import read_meshes, split_shells, write_stl
@@ -260,21 +260,24 @@ def test_bad_input_is_one_line_naming_it(tmp_path) -> None:
 
 
 def test_the_evaluation_path_keeps_the_whole_plan_for_the_envelope() -> None:
+    import arcube
     from arcube.evaluation.reference import Options, evaluate_task
-    from arcube.evaluation.result import evaluate_design, load_plan
     from arcube.evaluation.task import build_task
+    from arcube.io import load_trajectories
     from arcube.model.design import Design
 
-    full, right = load_plan("reference", 6, side="R")
-    assert len(full) == 10 and len(right) == 5 and right == select(full, side="R")
-    env = resolve_envelope("default", full, None)
-    assert abs(env.landmarks.x0) < 1e-9  # the midline, not the right side's mean
+    full = load_trajectories("reference")
+    right = select(full, side="R")
+    assert len(full) == 10 and len(right) == 5
     design = Design.preset("paper").replace(m_x=88.23, m_y=79.40, m_z=56.89)
-    ev = evaluate_design(design, right, 6, np.ones(4), Options(envelope_clearance=True), envelope=env)
+    ev = arcube.evaluate(design, "reference", side="R", points=6, envelope="default", engine="numpy")
+    env = ev.envelope
+    assert abs(env.landmarks.x0) < 1e-9  # the midline of the whole plan, not the right side's mean
+    assert env.landmarks == resolve_envelope("default", full, None).landmarks
     task = build_task(right.entry, right.target, 6)
     want = evaluate_task(design.to_vector(), task.E, task.e, np.ones(4), Options(envelope_clearance=True), envelope=env)
     np.testing.assert_array_equal(ev.points.envelope_clearance_mm, want.points.envelope_clearance_mm)
-    assert ev.envelope is env and np.all(np.isfinite(ev.points.envelope_clearance_mm))
+    assert np.all(np.isfinite(ev.points.envelope_clearance_mm))
 
 
 def test_the_settings_name_their_fields() -> None:

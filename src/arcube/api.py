@@ -29,8 +29,9 @@ from arcube.coerce import design_mode, engine_name, points as checked_points, se
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.result import Evaluation, evaluate_design
+from arcube.evaluation.envelope import resolve_envelope
 from arcube.io.load import load_plan
-from arcube.io.trajectories import TrajectorySet
+from arcube.io.trajectories import TrajectorySet, select
 from arcube.model.design import Design
 from arcube.optimization.settings import RunSettings
 from arcube.options import Options, request_options
@@ -42,6 +43,7 @@ from arcube.optimization.run_results import OptimizeResult, Study
 
 if TYPE_CHECKING:
     from arcube.accuracy import ToleranceResult, ToleranceSettings
+    from arcube.evaluation.envelope import Envelope
     from arcube.evaluation.anatomy import Anatomy
     from arcube.export.joints import JointTrajectory
 
@@ -66,6 +68,8 @@ def evaluate(
     anatomy: Anatomy | Sequence[PathLike] | PathLike | None = None,
     anatomy_frame: str = "LPS",
     segments: str | Sequence[str | int] | None = None,
+    envelope: Any = None,
+    table_z: float | None = None,
     **changes: Any,
 ) -> Evaluation:
     """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers,
@@ -87,6 +91,9 @@ def evaluate(
             anatomy, MODEL.md 14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
             patient), or None: then no clearance to the anatomy is computed; or a segmentation
             (``.seg.nrrd``, ``.nii``, ``.nii.gz``), of which ``segments`` keeps some (names or label values).
+        envelope, table_z: the envelope of the whole patient and the table (MODEL.md 19.5): ``"default"`` (a
+            coarse body on the plan's landmarks), skin mesh files, or None / ``"none"``; with one, the clearance to
+            it at every point (and its guard, ``envelope_clearance=MM``).
         **changes: settings of ``options`` by name or short name (``clearance=5``, ``thrust=25``,
             ``link_radius=6``, ``encoder_deg=0.02``; see :data:`arcube.options.FLAT`).
 
@@ -94,9 +101,10 @@ def evaluate(
         An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``).
     """
     engine_resolved = engine_name(engine)
-    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes, segments)
+    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes, segments,
+                 envelope, table_z)  # fmt: skip
     opts = r.options.replace(outputs=r.options.outputs.replace(clearances=True))
-    return evaluate_design(r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy)
+    return evaluate_design(r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy, envelope=r.envelope)
 
 
 class _Request(NamedTuple):
@@ -108,21 +116,27 @@ class _Request(NamedTuple):
     signs: np.ndarray
     options: Options
     anatomy: Anatomy | None
+    envelope: Envelope | None
 
 
 def _request(design: Any, plan: Any, options: Options | None, points: Any, mode: Any, guards: bool, side: Any, levels: Any, ids: Any,
-             transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any], segments: Any = None) -> _Request:  # fmt: skip
+             transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any], segments: Any = None, envelope: Any = None,
+             table_z: Any = None) -> _Request:  # fmt: skip
     d = Design.coerce(design)
     signs = design_mode(d, mode)
     n = checked_points(points)
-    ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
+    full = load_plan(plan, transform=transform)
+    ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
     opts = request_options(options, guards, **changes)
     if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (MODEL.md 19.1)
         opts = opts.replace(c_z=d.c_z)
     anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
     if opts.guards.clearance_mm is not None and anat is None:
         raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
-    return _Request(d, ts, n, signs, opts, anat)
+    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # MODEL.md 19.5: placed on the whole plan
+    if opts.guards.envelope_clearance_mm is not None and env is None:
+        raise InputError.of("Guards.envelope_clearance_mm", "needs an envelope (envelope default or a skin mesh)")
+    return _Request(d, ts, n, signs, opts, anat, env)
 
 
 def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike = "reference", *, speed: float = 1.0,

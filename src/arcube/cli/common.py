@@ -13,10 +13,11 @@ from typing import Any
 
 from arcube.cli.projection import Flag, Given, model_flags, option
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options
+from arcube.evaluation.envelope import EnvelopeSettings
 from arcube.patients.settings import SegmentSelection
 
 __all__ = [
-    "ANATOMY", "ANATOMY_FRAME", "DASK", "DESIGN", "ENGINE", "GUARDS", "IDS", "LEVELS", "MODE", "OPTION_FLAGS", "OUT", "PLAN",
+    "ANATOMY", "ANATOMY_FRAME", "DASK", "DESIGN", "ENGINE", "ENVELOPE", "GUARDS", "IDS", "LEVELS", "MODE", "OPTION_FLAGS", "OUT", "PLAN",
     "POINTS", "QUIET", "RichBar", "SEED", "SIDE", "TRAJECTORIES", "TRANSFORM", "WORKERS", "options_of", "request_flags",
 ]  # fmt: skip
 
@@ -40,6 +41,9 @@ ANATOMY_FRAME = option("--anatomy-frame", "Frame of the anatomy files: LPS (3D S
                        params=("anatomy_frame", "RunSettings.anatomy_frame"))  # fmt: skip
 SEGMENTS = replace(model_flags(SegmentSelection, only=("segments",))[0], params=("segments", "SegmentSelection.segments", "RunSettings.segments"))
 """``--segments``: which segments of segmentation anatomy files to keep (names or label values)."""
+ENVELOPE = [replace(f, spread=f.multiple, params=(*f.params, f.key), help=f.help.replace("[default: default]", "[default: none]"))
+            for f in model_flags(EnvelopeSettings)]  # fmt: skip
+"""``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (MODEL.md 19.5)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
 SEED = option("--seed", "Random seed.", int, params=("seed",))
 WORKERS = option("--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",))
@@ -50,7 +54,7 @@ PLAN: list[Flag] = [DESIGN, TRAJECTORIES, POINTS, MODE, GUARDS, SIDE, LEVELS, ID
 """The plan, its selection and what evaluates it: the request of ``evaluate``, ``joints``, ``export`` and ``explore``."""
 
 OPTION_FLAGS: dict[str, list[Flag]] = {
-    "clearances": model_flags(Guards, "options.guards", only=("clearance_mm", "self_clearance_mm")),
+    "clearances": model_flags(Guards, "options.guards", only=("clearance_mm", "self_clearance_mm", "envelope_clearance_mm")),
     "guards": model_flags(Guards, "options.guards"),
     "c_z": [replace(f, params=(*f.params, "c_z")) for f in model_flags(Guards, "options.guards", only=("c_z",),
                                                                       helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; MODEL.md 6)."})],
@@ -83,7 +87,7 @@ def masses_given(given: Given) -> bool:
 def plan_request(given: Given) -> dict[str, Any]:
     """The plan keywords of the API calls (``side``, ``levels``, ``ids``, ``transform``, ``anatomy``,
     ``anatomy_frame``), from the flags given (absent ones keep the API's defaults)."""
-    keys = ("side", "levels", "ids", "transform", "anatomy", "anatomy_frame", "segments")
+    keys = ("side", "levels", "ids", "transform", "anatomy", "anatomy_frame", "segments", "envelope", "table_z")
     return {k: given.get(k) for k in keys if k in given}
 
 

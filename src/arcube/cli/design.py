@@ -22,12 +22,13 @@ from arcube.errors import InputError
 
 __all__ = ["print_design", "register"]
 
-_RUN_FIELDS = ("anatomy", "anatomy_frame", "objectives", "standoff", "points", "side", "levels", "ids", "setups", "population",
+_RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "objectives", "standoff", "points", "side", "levels", "ids", "setups", "population",
                "generations", "tolerance", "algorithm", "engine")  # fmt: skip
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
     "standoff": "The drill waits this far outside the anatomy (MODEL.md 17.1), mm. [default: 20]",
+    "envelope": "The envelope of the whole patient and the table (MODEL.md 19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files. [default: default]",
     "side": "Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).",
     "setups": "1, or 2: one robot docked once per side (R and L placements, shared links). [default: 1]",
     "generations": "Generations (the budget is population x generations evaluations per seed). [default: 100]",

@@ -8,14 +8,14 @@ from pathlib import Path
 
 import typer
 
-from arcube.cli.common import PLAN, masses_given, one_plan, options_of, plan_request, request_flags
+from arcube.cli.common import ENVELOPE, PLAN, masses_given, one_plan, options_of, plan_request, request_flags
 from arcube.cli.projection import Given, command, option
 
 __all__ = ["register"]
 
 JSON = option("--json", "Print one JSON object (per-point results and summary).", bool, key="as_json")
 REPORT = option("--report", "Also write a self-contained HTML report (plots, 3D mechanism) here.", Path, params=("report",))
-FLAGS = [*PLAN, JSON, REPORT, *request_flags("clearances", "body", "loads", "masses")]
+FLAGS = [*PLAN, *ENVELOPE, JSON, REPORT, *request_flags("clearances", "body", "loads", "masses")]
 
 
 def evaluate(given: Given) -> None:

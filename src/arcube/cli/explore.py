@@ -8,13 +8,13 @@ from pathlib import Path
 
 import typer
 
-from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, POINTS, SEGMENTS, SIDE, TRAJECTORIES, one_plan, options_of, plan_request, request_flags
+from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, IDS, LEVELS, MODE, POINTS, SEGMENTS, SIDE, TRAJECTORIES, with_help, one_plan, options_of, plan_request, request_flags
 from arcube.cli.projection import Given, command, option
 
 __all__ = ["register"]
 
 FLAGS = [
-    DESIGN, TRAJECTORIES, ANATOMY, ANATOMY_FRAME, SEGMENTS,
+    DESIGN, TRAJECTORIES, ANATOMY, ANATOMY_FRAME, SEGMENTS, *[with_help(f, f.help.replace("[default: none]", "[default: default, as arcube design]")) for f in ENVELOPE],
     option("--port", "Port of the local web app. [default: 8080]", int, params=("port",)),
     option("--host", "Address to listen on (0.0.0.0: every interface). [default: 127.0.0.1]", params=("host",)),
     option("--html", "Write a standalone static scene (HTML, opens offline) here instead of serving.", Path, params=("html",)),

@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
-    ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, OUT, POINTS, SEGMENTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
+    ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, IDS, LEVELS, MODE, OUT, POINTS, SEGMENTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
 )  # fmt: skip
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
@@ -25,7 +25,7 @@ PROGRAM = option("--program", "Program folder (arcube program): assemble at its 
                  "(robot.xml -> robot.replay.csv); design: --design, else the folder's.", Path, params=("program",))  # fmt: skip
 PLAN_FLAGS = [TRAJECTORIES, AT, POINTS, MODE, SIDE, LEVELS, IDS]
 """Flags that pick the task point; a program fixes its own (its first row, its working mode)."""
-FLAGS = [MODEL_OUT, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, SEGMENTS, *request_flags("body", "masses"), PROGRAM]
+FLAGS = [MODEL_OUT, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, SEGMENTS, *ENVELOPE, *request_flags("body", "masses"), PROGRAM]
 
 
 def export(given: Given) -> None:
@@ -58,8 +58,12 @@ def export(given: Given) -> None:
     kw = {k: given.get(k) for k in ("at", "points", "mode") if k in given}
     from arcube.io.load import load_plan
 
-    ts = load_plan(plan, side=given.get("side"), levels=given.get("levels"), ids=given.get("ids"))
-    text = export_mjcf(given.get("design", "paper"), ts, c_z=c_z, options=options, anatomy=anat, masses=asked, **kw)
+    full = load_plan(plan)
+    ts = load_plan(full, side=given.get("side"), levels=given.get("levels"), ids=given.get("ids"))
+    from arcube.evaluation.envelope import resolve_envelope
+
+    env = resolve_envelope(given.get("envelope"), full, anat, given.get("table_z"), given.get("anatomy_frame", "LPS"))  # drawn (MODEL.md 19.5)
+    text = export_mjcf(given.get("design", "paper"), ts, c_z=c_z, options=options, anatomy=anat, masses=asked, envelope=env, **kw)
     try:
         atomic_write_text(out, text)
     except OSError as exc:

@@ -22,7 +22,7 @@ __all__ = ["PLANS", "RUN_FLAGS", "Progress", "print_summary", "register", "run_s
 PLANS = with_help(TRAJECTORIES, "Trajectory sets (CSV, .mrk.json, folder or 'reference'); several make a robust problem over patients.",
                   required=True)  # fmt: skip
 RUN_FLAGS: list[Flag] = [
-    replace(f, spread=True) if f.dest == "anatomy" else f for f in model_flags(RunSettings, "run", skip=("period", "options"))
+    replace(f, spread=True) if f.dest in ("anatomy", "envelope") else f for f in model_flags(RunSettings, "run", skip=("period", "options"))
 ] + [replace(f, key="run." + f.key) for f in request_flags("guards", "body", "loads", "masses")]
 """The flags of :class:`arcube.RunSettings` (its options groups included), keyed under ``run``."""
 

@@ -23,9 +23,11 @@ FLAGS = [
 
 def patients(given: Given) -> None:
     """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check."""
+    from arcube.evaluation.envelope_drawing import write_plan_envelope
+
     fmt = PatientAnatomyFormat().merged(given.tree("format"))
     for text in write_patients(bool(given.get("mean")), given.get("seed"), given.get("technique", "pedicle"), given.get("count", 1), given.get("out"),
-                               anatomy_format=fmt.anatomy_format, anatomy_spacing_mm=fmt.anatomy_spacing_mm):  # fmt: skip
+                               anatomy_format=fmt.anatomy_format, anatomy_spacing_mm=fmt.anatomy_spacing_mm, beside=write_plan_envelope):  # fmt: skip
         typer.echo(text)
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import typer
 
 from arcube.cli.common import (
-    ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, OUT, QUIET, SEGMENTS, SIDE, TRAJECTORIES, TRANSFORM, one_plan, options_of, plan_request,
+    ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, IDS, LEVELS, MODE, OUT, QUIET, SEGMENTS, SIDE, TRAJECTORIES, TRANSFORM, one_plan, options_of, plan_request,
     masses_given, request_flags, with_help,
 )  # fmt: skip
 from arcube.cli.projection import Given, command, model_flags, option
@@ -22,7 +22,7 @@ FOLDER = with_help(OUT, "Folder for program.csv and program.json (created).", re
 ORDER = option("--order", "Trajectory order: shortest (least total time) or given (the plan's). [default: shortest]", params=("order",))
 FLAGS = [
     FOLDER, with_help(DESIGN, DESIGN.help.split(" [")[0], required=True), with_help(TRAJECTORIES, TRAJECTORIES.help.split(" [")[0], required=True),
-    ANATOMY, ANATOMY_FRAME, SEGMENTS, MODE, ORDER, SIDE, LEVELS, IDS, TRANSFORM,
+    ANATOMY, ANATOMY_FRAME, SEGMENTS, *ENVELOPE, MODE, ORDER, SIDE, LEVELS, IDS, TRANSFORM,
     *model_flags(ProgramLimits, "limits"), *model_flags(Planner, "planner"),
     *request_flags("body"), *[f for f in request_flags("loads") if f.key in ("options.loads.thrust_N", "options.loads.lateral_force_N")],
     *request_flags("masses"), with_help(QUIET, "No progress lines (one per transit) on stderr."),

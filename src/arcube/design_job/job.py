@@ -78,14 +78,19 @@ class DesignResult:
 def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = None, **fields: Any) -> RunSettings:
     """The optimization a design job runs: ``settings`` (budget, engine, anatomy, objective ...) with
     every parameter and the working mode free, the guards of 8.2, the clearance guards and the limits
-    of ``reqs``, and the standoff lines of MODEL.md 17.1 (20 mm unless set)."""
+    of ``reqs``, the standoff lines of MODEL.md 17.1 (20 mm unless set) and the envelope of the whole
+    patient (MODEL.md 19.5: ``default`` unless set)."""
     from arcube.optimization.config import run_settings
 
     s = run_settings(settings, **fields)
     maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
     options = design_options(reqs, s.options)
+    envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
+    if envelope == ("none",) and any(r.name == "envelope_clearance" for r in reqs):
+        raise InputError.of("RunSettings.envelope", "is none, but the envelope_clearance requirement needs one (envelope default or a skin "
+                                                    "mesh); or drop the requirement")  # fmt: skip
     return s.replace(free=["all", "mount", "L"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
-                     standoff=20.0 if s.standoff is None else s.standoff)  # fmt: skip
+                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope)  # fmt: skip
 
 
 def is_design(path: Path) -> bool:
@@ -132,15 +137,18 @@ def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
     return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
 
 
-def _patients(cfg: dict[str, Any]) -> tuple[list[Any], list[Any]]:
-    """Per patient of a run config: its plan (as the run selected it) and its anatomy (or None)."""
+def _patients(cfg: dict[str, Any], run_dir: Path) -> tuple[list[Any], list[Any], tuple[Any, ...]]:
+    """Per patient of a run config: its plan (as the run selected it), its anatomy (or None), and the
+    envelopes of the whole patient the run recorded (MODEL.md 19.5; () without)."""
+    from arcube.optimization.build import run_envelopes
+
     s = RunSettings.from_config(cfg)
     plans, anatomies = [], []
     for spec, pat in zip(cfg["settings"]["trajectories"], cfg["patients"]):
         ts = load_trajectories(spec, s.transform)
         plans.append(select(ts, ids=",".join(pat["ids"])))
         anatomies.append(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None)
-    return plans, anatomies
+    return plans, anatomies, run_envelopes(cfg, run_dir)
 
 
 def finish_design(out: Path) -> DesignResult:
@@ -155,27 +163,28 @@ def finish_design(out: Path) -> DesignResult:
         run = OptimizeResult(studymod.seed_dir(out / STUDY, int(row["seed"])))
         cfg = runmod.read_config(run.path)[0]
         s = RunSettings.from_config(cfg)
-        plans, anatomies = _patients(cfg)
+        plans, anatomies, envelopes = _patients(cfg, run.path)
         summary = run.summary
         designs = [d.to_vector() for d in run.designs]
-        rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(),
+        rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(), envelopes=envelopes,
                       points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
         met = bool(row["feasible"] and all(r["passed"] for r in rows))
         if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
-            built = _program_rows(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs)
+            built = _program_rows(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs, envelopes[0] if envelopes else None)
             rows = [*rows, *built]
             met = all(r["passed"] for r in built)
         if chosen is None or (met and not chosen[-1]):
-            chosen = (row, run, cfg, s, plans, anatomies, summary, rows, met)
+            chosen = (row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met)
         if met or not row["feasible"]:
             break  # met; or the infeasible seeds after the first cannot do better than the best one
         # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
     assert chosen is not None
-    row, run, cfg, s, plans, anatomies, summary, rows, met = chosen
-    return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows)
+    row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met = chosen
+    return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows, envelopes)
 
 
-def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
+def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement],
+                  envelope: Any = None) -> list[dict[str, Any]]:  # fmt: skip
     """Build the drilling program of the chosen design (MODEL.md 17, patient 1) into ``out/program`` with
     the design's clearances and standoff; its requirement rows: the program (met, or the blocked segment
     named), then ``torque_peak`` / ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
@@ -183,12 +192,13 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
     from arcube.report.program import timeline_png
 
     # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
-    limits = {"clearance": 0.0, "self_clearance": 0.0, **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance")}}
+    limits = {"clearance": 0.0, "self_clearance": 0.0, "envelope_clearance": 0.0,
+              **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")}}  # fmt: skip
     shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
     started = time.perf_counter()
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
     try:
-        prog = program(design, plan, out / PROGRAM, options=s.options, anatomy=anatomy, mode=mode, standoff_mm=float(s.standoff or 0.0),
+        prog = program(design, plan, out / PROGRAM, options=s.options, anatomy=anatomy, envelope=envelope, mode=mode, standoff_mm=float(s.standoff or 0.0),
                        masses=True, **limits)  # fmt: skip
         timeline_png(prog, out / PROGRAM / "program.png")
     except InputError as exc:
@@ -199,18 +209,19 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
 
 
 def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
-                   anatomies: list[Any], summary: dict[str, Any], rows: list[dict[str, Any]]) -> DesignResult:  # fmt: skip
+                   anatomies: list[Any], summary: dict[str, Any], rows: list[dict[str, Any]], envelopes: tuple[Any, ...] = ()) -> DesignResult:  # fmt: skip
     from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
 
     designs = run.designs
-    designs[0].to_json(out / "design.json")
+    designs[0].with_extras(mode=summary["mode"]).to_json(out / "design.json")  # a design file records its working mode
     for k, d in enumerate(designs[1:], start=2):
         d.to_json(out / f"design_p{k}.json")
     options = s.evaluation_options()
     options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
-    ev = evaluate_design(designs[0], plans[0], s.points, parse_mode(summary["mode"]), options, "numpy", anatomy=anatomies[0])
+    ev = evaluate_design(designs[0], plans[0], s.points, parse_mode(summary["mode"]), options, "numpy", anatomy=anatomies[0],
+                         envelope=envelopes[0] if envelopes else None)  # fmt: skip
     write_report(ev, out / "report.html")
     mujoco = "design.xml"
     try:

@@ -2,8 +2,9 @@
 
 A requirement is a limit on one figure over the points where it applies:
 
-* ``clearance`` >= 5 mm and ``self_clearance`` >= 2 mm (MODEL.md 14.3) over each trajectory's whole
-  line, from its standoff to its target (MODEL.md 17.1): the robot must pull the drill out;
+* ``clearance`` >= 5 mm and ``self_clearance`` >= 2 mm (MODEL.md 14.3), and ``envelope_clearance`` >= 10 mm
+  (the envelope of the whole patient and the table, MODEL.md 19.5) over each trajectory's whole line, from
+  its standoff to its target (MODEL.md 17.1): the robot must pull the drill out;
 * ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2), ``torque`` <= 20 N m (15.3) and
   ``holding_torque`` <= 20 N m (18.2: the robot's weight with the drilling loads, the masses of
   :class:`arcube.options.Masses`) where the drill works, from entry to target;
@@ -39,15 +40,15 @@ from arcube.options import GUARDED_OPTIONS, Options
 __all__ = ["DEFAULTS", "PROGRAM_FIGURES", "REQUIREMENTS", "Requirement", "assess", "judge", "program_rows", "requirement_figure", "requirements_from", "write_requirements_csv"]
 
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
-    "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"),
+    "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"), "envelope_clearance": ("min", "mm", "whole line"),
     "lateral_error": ("max", "mm", "drill"), "axis_error": ("max", "deg", "drill"), "torque": ("max", "N·m", "drill"),
     "holding_torque": ("max", "N·m", "drill"), "torque_peak": ("max", "N·m", "program"), "power_peak": ("max", "W", "program"),
 }  # fmt: skip
 """Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
 PROGRAM_FIGURES: dict[str, str] = {"torque_peak": "torque_peak_Nm", "power_peak": "power_peak_W"}
 """The requirements on the drilling program: their figure in each actuator's ``motors`` entry of program.json."""
-DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "lateral_error": 0.5, "axis_error": 0.25, "torque": 20.0,
-                               "holding_torque": 20.0}  # fmt: skip
+DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "envelope_clearance": 10.0, "lateral_error": 0.5, "axis_error": 0.25,
+                               "torque": 20.0, "holding_torque": 20.0}  # fmt: skip
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
 _GUARDS = ("guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode")
 
@@ -85,7 +86,8 @@ def requirements_from(minima: Mapping[str, float] | None = None, maxima: Mapping
 def design_options(reqs: Sequence[Requirement], base: Options = GUARDED_OPTIONS) -> Options:
     """The evaluation options of a design problem: the guards of 8.2 and the two clearance guards."""
     limit = {r.name: r.limit for r in reqs}
-    return base.replace(clearance_mm=limit.get("clearance"), self_clearance_mm=limit.get("self_clearance"))
+    return base.replace(clearance_mm=limit.get("clearance"), self_clearance_mm=limit.get("self_clearance"),
+                        envelope_clearance_mm=limit.get("envelope_clearance"))  # fmt: skip
 
 
 def _where(patient: int, ids: Sequence[str], segment: str, n_points: int, index: int) -> dict[str, Any]:
@@ -93,11 +95,12 @@ def _where(patient: int, ids: Sequence[str], segment: str, n_points: int, index:
 
 
 def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: Sequence[Any], reqs: Sequence[Requirement], *,
-           options: Options, points: int, standoff_mm: float, engine: str = "numpy") -> list[dict[str, Any]]:  # fmt: skip
+           options: Options, points: int, standoff_mm: float, engine: str = "numpy", envelopes: Sequence[Any] = ()) -> list[dict[str, Any]]:  # fmt: skip
     """One row per requirement (and per guard of 8.2, and reach): the worst over every patient.
 
     ``designs``: per patient, a ``(27,)`` vector; ``plans``: per patient a TrajectorySet; ``anatomies``:
-    per patient an :class:`~arcube.evaluation.anatomy.Anatomy` or None; ``mode``: four signs.
+    per patient an :class:`~arcube.evaluation.anatomy.Anatomy` or None; ``mode``: four signs; ``envelopes``:
+    per patient the envelope of MODEL.md 19.5 (an :class:`~arcube.evaluation.envelope.Envelope`), or ().
     """
     holding = any(r.name == "holding_torque" for r in reqs)  # MODEL.md 18.2 (needs a valid mass model)
     opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
@@ -106,10 +109,11 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
     guard_fail = {g: 0 for g in _GUARDS}
     for p, (x, plan, anat) in enumerate(zip(designs, plans, anatomies)):
         dist = None if anat is None else anat.distance
+        env = envelopes[p] if envelopes else None
         drill = build_task(plan.entry, plan.target, points)
         E_a, e_a = approach_lines(plan.entry, plan.target, anat, points, standoff_mm)
         for segment, E, e in (("drill", drill.E, drill.e), ("approach", E_a, e_a)):
-            res = evaluate_task(np.asarray(x, float), E, e, mode, opts, engine=engine, anatomy=dist)
+            res = evaluate_task(np.asarray(x, float), E, e, mode, opts, engine=engine, anatomy=dist, envelope=env)
             pts = res.points
             ok = np.asarray(pts.reachable)
             failure = np.asarray(pts.failure)
@@ -122,7 +126,7 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
             for r in reqs:
                 if (segment == "approach" and REQUIREMENTS[r.name][2] == "drill") or r.name in PROGRAM_FIGURES:
                     continue
-                values, part = requirement_figure(pts, r.name)
+                values, part = requirement_figure(pts, r.name, () if env is None else tuple(env.names))
                 values = np.where(np.isfinite(values), values, np.nan)
                 if np.all(np.isnan(values)):
                     continue
@@ -168,9 +172,18 @@ def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, 
     return judge(rows)
 
 
-def requirement_figure(pts: Any, name: str) -> tuple[np.ndarray, Any]:
+def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tuple[np.ndarray, Any]:
     """(values per point, index -> part or actuator name) of a requirement's figure, from a result's
-    ``points`` (:class:`arcube.evaluation.reference.PointResults`)."""
+    ``points`` (:class:`arcube.evaluation.reference.PointResults`); ``regions``: the envelope's region names,
+    for ``envelope_clearance``'s part (``drill_motor vs head``)."""
+    if name == "envelope_clearance":
+        part, region = np.asarray(pts.envelope_part), np.asarray(pts.envelope_region)
+
+        def where(i: int) -> str:
+            body = PART_NAMES[part[i]] if part[i] >= 0 else ""
+            return f"{body} vs {regions[region[i]]}" if body and regions and region[i] >= 0 else body
+
+        return np.asarray(pts.envelope_clearance_mm, float), where
     if name == "clearance":
         part = np.asarray(pts.clearance_part)
         return np.asarray(pts.clearance_mm, float), lambda i: PART_NAMES[part[i]] if part[i] >= 0 else ""

@@ -29,12 +29,14 @@ __all__ = ["explore", "live_model"]
 def live_model(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
                anatomy_frame: str = "LPS", mode: str | Sequence[float] | None = None, points: int = 30, side: str | None = None,
                levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True,
-               segments: Any = None, **changes: Any) -> LiveModel:  # fmt: skip
+               segments: Any = None, envelope: Any = "default", table_z: float | None = None, **changes: Any) -> LiveModel:  # fmt: skip
     """The explorer's :class:`~arcube.explorer.live.LiveModel` from what :func:`explore` takes (InputError on bad input)."""
     from arcube.coerce import design_mode, points as checked_points
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.explorer.live import LiveModel
+    from arcube.evaluation.envelope import resolve_envelope
     from arcube.io.load import load_plan
+    from arcube.io.trajectories import select
     from arcube.model.design import Design
     from arcube.options import request_options
 
@@ -42,9 +44,11 @@ def live_model(design: Any = "paper", plan: Any = "reference", *, options: Optio
     d = Design.coerce(design)
     signs = design_mode(d, mode)
     opts = request_options(options, **changes)
-    ts = load_plan(plan, side=side, levels=levels, ids=ids)
+    full = load_plan(plan)
+    ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
     anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
-    return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards))
+    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # MODEL.md 19.5, as arcube design checks it
+    return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards), envelope=env)
 
 
 def explore(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
@@ -52,7 +56,7 @@ def explore(design: Any = "paper", plan: Any = "reference", *, options: Options 
             levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True, port: int = 8080,
             host: str = "127.0.0.1", html: str | os.PathLike[str] | None = None, point: int | None = None,
             save_path: str | os.PathLike[str] = "design_explored.json", block: bool = True, segments: Any = None,
-            **changes: Any) -> ExplorerApp | Path:  # fmt: skip
+            envelope: Any = "default", table_z: float | None = None, **changes: Any) -> ExplorerApp | Path:  # fmt: skip
     """Explore a design on a drilling plan in the browser: sliders, the robot's solids coloured by
     clearance, live figures against the requirements of ``arcube design``, save and polish.
 
@@ -77,7 +81,8 @@ def explore(design: Any = "paper", plan: Any = "reference", *, options: Options 
     if html is None:
         check_port(host, port)  # before the slow part: a taken port fails at once
     model = live_model(design, plan, options=options, anatomy=anatomy, anatomy_frame=anatomy_frame, mode=mode, points=points,
-                       side=side, levels=levels, ids=ids, guards=guards, segments=segments, **changes)  # fmt: skip
+                       side=side, levels=levels, ids=ids, guards=guards, segments=segments, envelope=envelope, table_z=table_z,
+                       **changes)  # fmt: skip
     if point is not None and (isinstance(point, bool) or not isinstance(point, int) or not 0 <= point < len(model)):
         from arcube.errors import InputError
 

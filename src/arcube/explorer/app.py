@@ -106,6 +106,12 @@ class ExplorerApp:
             verts, faces = m.anatomy.vertices_faces()
             sc.add_mesh_simple("/anatomy", verts * SCALE, faces, color=(232, 214, 170), opacity=0.5,
                                side="double", cast_shadow=False, receive_shadow=False)  # fmt: skip
+        if m.envelope is not None:  # MODEL.md 19.5: faint, so that the robot stays readable inside it
+            from arcube.evaluation.envelope_drawing import envelope_meshes
+
+            for name, mesh in envelope_meshes(m.envelope):
+                sc.add_mesh_simple(f"/envelope/{name}", np.asarray(mesh.vertices) * SCALE, np.asarray(mesh.faces), color=(143, 168, 200),
+                                   opacity=0.12, side="double", cast_shadow=False, receive_shadow=False)  # fmt: skip
         drill = np.stack([m.plan.entry, m.plan.target], axis=1) * SCALE
         sc.add_line_segments("/plan/drill", drill, (0, 170, 200), thickness=3.0, thickness_units="screen")
         standoff = m.E_app.reshape(len(m.plan.ids), m.points, 3)[:, 0]

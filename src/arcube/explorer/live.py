@@ -125,6 +125,8 @@ class LiveModel:
     requirements: Sequence[Requirement] = field(default_factory=requirements_from)
     standoff_mm: float = DEFAULT_STANDOFF_MM
     engine: str = "auto"
+    envelope: Any = None
+    """The envelope of the whole patient and the table (MODEL.md 19.5), placed on the whole plan, or None."""
 
     def __post_init__(self) -> None:
         self.x = self.design.to_vector().astype(float)
@@ -167,6 +169,8 @@ class LiveModel:
             base = design_options(self.requirements, GUARDED_OPTIONS)
             if self.anatomy is None:
                 base = base.replace(clearance_mm=None)
+            if self.envelope is None:
+                base = base.replace(envelope_clearance_mm=None)
         else:
             base = Options()
         base = base.replace(link_radius=r.link, actuator_radius=r.actuator, motor_radius=r.motor, motor_length=r.motor_length)
@@ -179,8 +183,10 @@ class LiveModel:
         t0 = time.perf_counter()
         opts = self.options()
         with _one_thread():
-            drill = evaluate_task(self.x, self.task.E, self.task.e, self.mode, opts, engine=self.engine, want_points=True, anatomy=self.distance)
-            app = evaluate_task(self.x, self.E_app, self.e_app, self.mode, opts, engine=self.engine, want_points=True, anatomy=self.distance)
+            drill = evaluate_task(self.x, self.task.E, self.task.e, self.mode, opts, engine=self.engine, want_points=True, anatomy=self.distance,
+                                  envelope=self.envelope)  # fmt: skip
+            app = evaluate_task(self.x, self.E_app, self.e_app, self.mode, opts, engine=self.engine, want_points=True, anatomy=self.distance,
+                                envelope=self.envelope)  # fmt: skip
         seconds = time.perf_counter() - t0
         p = drill.points
         clear, ci = _min_at(np.asarray(p.clearance_mm, float))
@@ -215,11 +221,11 @@ class LiveModel:
             segments = (drill,) if where == "drill" else (drill, app)
             best, part = math.nan, ""
             for res in segments:
-                values, names = requirement_figure(res.points, r.name)
+                values, names = requirement_figure(res.points, r.name, () if self.envelope is None else tuple(self.envelope.names))
                 v, i = _min_at(values) if kind == "min" else _max_at(values)
                 if math.isfinite(v) and (not math.isfinite(best) or (v < best if kind == "min" else v > best)):
                     best, part = v, names(i)
-            judged = math.isfinite(best) or not (r.name == "clearance" and self.anatomy is None)
+            judged = math.isfinite(best) or not ((r.name == "clearance" and self.anatomy is None) or (r.name == "envelope_clearance" and self.envelope is None))
             passed = None if not judged else bool(math.isfinite(best) and (best >= r.limit if kind == "min" else best <= r.limit))
             rows.append({"requirement": r.name, "kind": kind, "limit": r.limit, "unit": unit, "value": best, "part": part, "passed": passed})
         return rows

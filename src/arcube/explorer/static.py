@@ -75,6 +75,10 @@ def scene_figure(model: LiveModel, view: View) -> Any:
         V, F = model.anatomy.vertices_faces()
         fig.add_trace(go.Mesh3d(x=V[:, 0], y=V[:, 1], z=V[:, 2], i=F[:, 0], j=F[:, 1], k=F[:, 2], color="#e8d6aa", opacity=0.45,
                                 name="anatomy", hoverinfo="name", showlegend=True))  # fmt: skip
+    if model.envelope is not None:
+        from arcube.report.mechanism3d import envelope_trace
+
+        fig.add_trace(envelope_trace(model.envelope))
     plan = model.plan
     fig.add_trace(go.Scatter3d(mode="lines", name="drill lines", line={"color": "#00aac8", "width": 5}, hoverinfo="name",
                                **_lines(np.stack([plan.entry, plan.target], 1))))  # fmt: skip

@@ -107,6 +107,7 @@ def export_mjcf(
     options: Options | None = None,
     anatomy: Any = None,
     masses: bool | None = None,
+    envelope: Any = None,
     **changes: Any,
 ) -> str:
     """The MJCF XML (a string) of ``design`` assembled at one point of ``plan``; see the module docstring.
@@ -129,6 +130,8 @@ def export_mjcf(
         written as static, non-colliding mesh geoms.
     masses : None: the mass model of ``options`` (a massless model when its links are too thin for the
         default wall and no masses were given); False: a massless model; True: required.
+    envelope : the envelope of the whole patient and the table (MODEL.md 19.5) to draw: an Envelope, or
+        ``"default"`` / mesh files placed on ``plan`` (give the whole plan: its landmarks are the patient's).
 
     Raises :class:`InputError` for a bad ``at``, no IK solution at ``at``, or a z dyad that cannot close.
     """
@@ -153,7 +156,12 @@ def export_mjcf(
             "pick another point (at), mode or design"
         )
     check_z_dyad(params, pl.E[ok], pl.e[ok], signs, cz, "solvable points of the plan")
-    return model_xml(params, pl.E[idx], pl.e[idx], signs, cz, opts.body.radii, anatomy, export_masses(opts, masses), where)
+    if envelope is not None and not hasattr(envelope, "boxes"):
+        from arcube.evaluation.envelope import resolve_envelope
+        from arcube.io.load import load_plan
+
+        envelope = resolve_envelope(envelope, load_plan("reference" if plan is None else plan), anatomy if hasattr(anatomy, "distance") else None)
+    return model_xml(params, pl.E[idx], pl.e[idx], signs, cz, opts.body.radii, anatomy, export_masses(opts, masses), where, envelope=envelope)
 
 
 def export_masses(options: Options, masses: bool | None) -> MassModel:
@@ -195,18 +203,40 @@ def check_z_dyad(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray
 
 def model_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
               radii: BodyRadii, anatomy: Any, masses: MassModel, where: str, *,
-              actuated: dict[str, float] | None = None, note: str = "") -> str:  # fmt: skip
+              actuated: dict[str, float] | None = None, note: str = "", envelope: Any = None) -> str:  # fmt: skip
     """The MJCF text assembled at the pose (E, e) ``(3,)``, R_w; inputs checked by the caller (:func:`export_mjcf`).
 
     ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
-    2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment.
+    2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment; ``envelope``:
+    the envelope of the whole patient (MODEL.md 19.5), drawn (:func:`envelope_geoms`).
     """
     model = mass_model_for(masses, radii, c_z)
-    return _build_xml(params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note)
+    return _build_xml(params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note, envelope)
+
+
+def envelope_geoms(root: ET.Element, envelope: Any) -> None:
+    """Draw the envelope of MODEL.md 19.5 in the model's world (``root``), faint and not colliding (group 3): each
+    rounded box as the box of its half extents plus its radius (the rounded box's bounding box: a drawing,
+    not the distance the design is checked with), the table as a slab under its plane, a skin mesh as meshes."""
+    world, asset = root.find("worldbody"), root.find("asset")
+    rgba = COLORS["envelope"]
+    for name, box in zip(envelope.names, envelope.boxes):
+        half = box[3:6] + box[6]
+        ET.SubElement(world, "geom", {"name": f"envelope_{name}", "type": "box", "pos": vec(box[:3]), "size": vec(half), "rgba": rgba,
+                                      "group": "3", "contype": "0", "conaffinity": "0", "mass": "0"})  # fmt: skip
+    for i, m in enumerate(envelope.skin):
+        ET.SubElement(asset, "mesh", {"name": f"envelope_skin_{i}", "vertex": " ".join(num(x) for x in np.asarray(m.vertices, float).reshape(-1)),
+                                      "face": " ".join(str(int(x)) for x in np.asarray(m.faces, np.int64).reshape(-1))})  # fmt: skip
+        ET.SubElement(world, "geom", {"name": f"envelope_skin_{i}", "type": "mesh", "mesh": f"envelope_skin_{i}", "rgba": rgba, "group": "3",
+                                      "contype": "0", "conaffinity": "0", "mass": "0"})  # fmt: skip
+    if envelope.table_z is not None:
+        ET.SubElement(world, "geom", {"name": "envelope_table", "type": "box", "pos": vec(np.array([0.0, 0.0, envelope.table_z - 10.0])),
+                                      "size": "1500 1500 10", "rgba": rgba, "group": "3", "contype": "0", "conaffinity": "0", "mass": "0"})  # fmt: skip
 
 
 def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
-               radii: BodyRadii, meshes: list[Any], where: str, masses: MassModel, actuated: dict[str, float], note: str) -> str:  # fmt: skip
+               radii: BodyRadii, meshes: list[Any], where: str, masses: MassModel, actuated: dict[str, float], note: str,
+               envelope: Any = None) -> str:  # fmt: skip
     mp = mechanism_points(params, E, e, signs, c_z=c_z, motor_length=radii.motor_length, arc_samples=9)
     q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()} | actuated
     inertials = body_inertials(params, E, e, signs, masses)
@@ -344,6 +374,8 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
     ET.SubElement(keys, "key", {"name": "assembled", "qpos": " ".join(num(q[n]) for n in JOINT_NAMES),
                                 "ctrl": " ".join(num(q[n]) for n in ACTUATED)})  # fmt: skip
 
+    if envelope is not None:
+        envelope_geoms(root, envelope)
     ET.indent(root, space="  ")
     d = Design.from_vector(params).to_dict()
     header = (

@@ -21,6 +21,7 @@ COLORS = {
     "tms": "0.90 0.55 0.15 1", "zdyad": "0.60 0.40 0.80 1", "platform": "0.80 0.80 0.30 1",
     "rts": "0.25 0.70 0.40 1", "tool": "0.85 0.85 0.90 1", "motor": "0.20 0.20 0.25 1",
     "anatomy": "0.95 0.85 0.75 0.35",
+    "envelope": "0.56 0.66 0.78 0.12",
 }  # fmt: skip
 """Colours (rgba) of the geoms by part."""
 

@@ -49,7 +49,8 @@ def program(
     anatomy_frame: str = "LPS", mode: Any = None, order: str = "shortest", side: str | None = None,
     levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, transform: Any = None,
     limits: ProgramLimits | None = None, planner: Planner | None = None, seed: int | None = None,
-    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None, **changes: Any,
+    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None,
+    envelope: Any = None, table_z: float | None = None, **changes: Any,
 ) -> Program:  # fmt: skip
     """The drilling program of ``design`` for a plan (MODEL.md 17).
 
@@ -72,6 +73,9 @@ def program(
             figures of 18.3 (``motors``).
         engine: the continuous check's: ``numba`` (the compiled kernel's condition numbers and body
             clearances), ``numpy`` (the reference) or ``auto`` (numba when it imports).
+        envelope, table_z: the envelope of the whole patient and the table (MODEL.md 19.5: ``"default"``, ``"none"``
+            or None, skin mesh files, or an Envelope), placed on the whole plan (before any selection); the body
+            then clears it by ``envelope_clearance`` (ProgramLimits, 10 mm) everywhere.
         planner, seed: the transit planner's settings (``seed`` overrides ``planner.seed``).
         log: called with one line per transit planned (progress).
 
@@ -86,7 +90,9 @@ def program(
     from arcube.coerce import design_mode, engine_name
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.evaluation.mass_bodies import MassModel
+    from arcube.evaluation.envelope import resolve_envelope
     from arcube.io.load import load_plan
+    from arcube.io.trajectories import select
     from arcube.model.design import Design
     from arcube.motion.assemble import build_program
     from arcube.motion.output import prepare_folder, remove_folder
@@ -104,11 +110,13 @@ def program(
     if seed is not None:
         plan_settings = plan_settings.replace(seed=seed)
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
-    ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
+    full = load_plan(plan, transform=transform)
+    ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
     anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
+    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)
     folder, created = prepare_folder(out) if out is not None else (None, False)
     try:
-        prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)
+        prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env)
         if folder is None:
             return prog
         prog.write(folder)

@@ -82,13 +82,14 @@ def _proxy(q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker,
 
 class _Builder:
     def __init__(self, design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], limits: ProgramLimits,
-                 body: Body, planner: Planner, log: Callable[[str], None], engine: str = "numpy") -> None:  # fmt: skip
+                 body: Body, planner: Planner, log: Callable[[str], None], engine: str = "numpy", envelope: Any = None) -> None:  # fmt: skip
         self.ts, self.limits, self.planner, self.log, self.design = ts, limits, planner, log, design
         self.mode, self.mode_text = mode, format_mode(mode)
         self.lines = _lines(ts, anatomy, limits)
         self.anatomy_source = None if anatomy is None else str(anatomy.source)
         distance = None if anatomy is None else anatomy.distance
-        self.checker = Checker(design.to_vector(), mode, limits, body, distance, engine=engine)
+        self.checker = Checker(design.to_vector(), mode, limits, body, distance, engine=engine, envelope=envelope)
+        self.envelope_source = None if envelope is None else envelope.source
         self.transits: dict[tuple[int, int], tuple[Transit, list[dict[str, Any]], float]] = {}
 
     def check_lines(self) -> None:
@@ -196,14 +197,16 @@ def _extreme(values: list[tuple[NDArray[np.float64], str]], smallest: bool) -> t
 
 def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], order: str, limits: ProgramLimits,
                   body: Body, planner: Planner, log: Callable[[str], None] | None = None, masses: MassModel | None = None,
-                  loads: Loads | None = None, engine: str = "numpy") -> Program:  # fmt: skip
+                  loads: Loads | None = None, engine: str = "numpy", envelope: Any = None) -> Program:  # fmt: skip
     """The program of ``design`` for the plan ``ts`` (MODEL.md 17); InputError naming the segment if none exists.
 
     With ``masses`` (MODEL.md 18.1) the rows get the actuator torques of 18.2 and the summary the motor
     figures of 18.3 (``loads``: the drilling thrust and lateral bound of 15.3, default :class:`Loads`).
     ``engine``: ``numpy`` or ``numba``, the continuous check's (:class:`~arcube.motion.check.Checker`).
+    ``envelope``: the envelope of the whole patient (MODEL.md 19.5) the body clears by ``limits.envelope_clearance``
+    everywhere, or None.
     """
-    b = _Builder(design, ts, anatomy, mode, limits, body, planner, log or (lambda _: None), engine)
+    b = _Builder(design, ts, anatomy, mode, limits, body, planner, log or (lambda _: None), engine, envelope)
     b.check_lines()
     seq, order_method = b.choose_order(order)
     blocks: list[tuple[str, str, dict[str, Any]]] = []  # (segment, trajectory label, rows)
@@ -296,6 +299,7 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
     clear = _extreme([(c.clearance, lab) for c, lab, _ in checked], True)
     tool = _extreme([(c.tool_clearance, lab) for c, lab, is_tr in checked if is_tr], True)
     selfc = _extreme([(c.self_clearance, lab) for c, lab, _ in checked], True)
+    envc = _extreme([(c.envelope_clearance, lab) for c, lab, _ in checked], True)
     eta = _extreme([(c.eta, lab) for c, lab, _ in checked], False)
     summary: dict[str, Any] = {
         "order": [b.lines[j].tid for j in seq], "order_method": order_method, "total_s": total,
@@ -304,6 +308,8 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
         "trajectories": per_traj, "transits": transits,
         "clearance_min_mm": clear[0], "clearance_min_at": clear[1], "tool_clearance_min_mm": tool[0], "tool_clearance_min_at": tool[1],
         "self_clearance_min_mm": selfc[0], "self_clearance_min_at": selfc[1], "eta_L_max": eta[0], "eta_L_max_at": eta[1],
+        **({"envelope_clearance_min_mm": envc[0], "envelope_clearance_min_at": envc[1], "envelope": b.envelope_source}
+           if b.envelope_source is not None else {}),
         "joint_speed_max_deg_s": {j: float(np.degrees(np.max(np.abs(qd[:, i])))) for i, j in enumerate(JOINTS)},
         "joint_accel_max_deg_s2": {j: float(np.degrees(np.max(accel[:, i], initial=0.0))) for i, j in enumerate(JOINTS)},
         "tip_speed_max_transit_mm_s": float(np.max(tip[in_transit[:-1] & in_transit[1:]], initial=0.0)),

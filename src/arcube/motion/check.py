@@ -37,12 +37,13 @@ the reference (the kernel's per-call set-up costs more than it saves there).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.evaluation.clearance import SAMPLE_STEP_MM, Distance, anatomy_clearance, self_clearance
+from arcube.evaluation.envelope_clearance import envelope_clearance
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.body import BodyParts, body_parts, great_circle, mechanism_points
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
@@ -76,6 +77,7 @@ class StateChecks(NamedTuple):
     clearance: NDArray[np.float64]  # (n,) body to anatomy, mm (NaN without anatomy)
     tool_clearance: NDArray[np.float64]  # (n,) tool to anatomy, mm (NaN without anatomy or off the transits)
     self_clearance: NDArray[np.float64]  # (n,) mm
+    envelope_clearance: NDArray[np.float64]  # (n,) body to the envelope of MODEL.md 19.5, mm (NaN without an envelope)
     points: NDArray[np.float64]  # (n, K, 3) body and tool points, for the resolution of 17.2
 
     def take(self, index: ArrayLike) -> StateChecks:
@@ -96,6 +98,7 @@ class StateChecks(NamedTuple):
             "collision/patient": f"clearance {self.clearance[i]:.3g} mm < {limits.clearance:g}",
             "collision/self": f"self clearance {self.self_clearance[i]:.3g} mm < {limits.self_clearance:g}",
             "collision/tool": f"tool clearance {self.tool_clearance[i]:.3g} mm < 0",
+            "collision/envelope": f"envelope clearance {self.envelope_clearance[i]:.3g} mm < {limits.envelope_clearance:g}",
         }.get(reason)
         return f"{reason} at {where}" + (f" ({detail})" if detail else "")
 
@@ -114,13 +117,13 @@ class Checker:
 
     def __init__(self, params: ArrayLike, mode: ArrayLike, limits: ProgramLimits, body: Body = Body(),
                  distance: Distance | None = None, assembly: ArrayLike | None = None, *,
-                 step: float = SAMPLE_STEP_MM, margin: float = 0.0, engine: str = "numpy") -> None:  # fmt: skip
+                 step: float = SAMPLE_STEP_MM, margin: float = 0.0, engine: str = "numpy", envelope: Any = None) -> None:  # fmt: skip
         if engine not in ("numpy", "numba"):
             raise ValueError(f"engine must be numpy or numba, got {engine!r}")
         self.engine = engine
         self.params = np.asarray(params, dtype=float)
         self.mode = np.asarray(mode, dtype=float)
-        self.limits, self.body, self.distance = limits, body, distance
+        self.limits, self.body, self.distance, self.envelope = limits, body, distance, envelope
         self.assembly = None if assembly is None else np.asarray(assembly, dtype=float)
         self.step, self.margin = float(step), float(margin)
         self.resolution = RESOLUTION_MM  # no body or tool point moves more than this between two checked states
@@ -138,10 +141,12 @@ class Checker:
             slack = [ends.self_clearance - lim.self_clearance]
             if self.distance is not None:
                 slack += [ends.clearance - lim.clearance, ends.tool_clearance]
+            if self.envelope is not None:
+                slack += [ends.envelope_clearance - lim.envelope_clearance]
             least = float(np.nanmin(np.concatenate(slack)))
             res = float(np.clip(0.9 * least, RESOLUTION_MM, PLANNING_RESOLUTION_MM))
         out = Checker(self.params, self.mode, self.limits, self.body, self.distance, self.assembly, step=res, margin=res,
-                      engine=self.engine)  # fmt: skip
+                      engine=self.engine, envelope=self.envelope)  # fmt: skip
         out.resolution = res
         return out
 
@@ -154,9 +159,9 @@ class Checker:
         with np.errstate(invalid="ignore", divide="ignore"):
             sol = inverse_kinematics(self.params, E, e, self.mode)
             mp = mechanism_points(self.params, E, e, c_z=None, motor_length=self.body.motor_length, sol=sol)
-            clear = tool_clear = np.full(n, np.nan)
+            clear = tool_clear = env = np.full(n, np.nan)
             if self.engine == "numba" and n >= _KERNEL_MIN_STATES:
-                kappa, clear_k, selfc = self._compiled(E, e)
+                kappa, clear_k, selfc, env = self._compiled(E, e)
                 clear = clear if self.distance is None else clear_k
             else:
                 kappa = condition_numbers(sol, self.params)
@@ -164,6 +169,8 @@ class Checker:
                 selfc = self_clearance(parts)
                 if self.distance is not None:
                     clear = self._body_clearance(parts)
+                if self.envelope is not None:
+                    env = envelope_clearance(parts, self.envelope).clearance
             eta = np.max(np.where(np.isnan(kappa), np.inf, kappa), axis=-1)
             if self.distance is not None:
                 if tool:
@@ -182,6 +189,8 @@ class Checker:
             ("guard/kappa_max", ~(eta <= lim.kappa_max)),
             ("collision/self", ~(selfc >= lim.self_clearance + m)),
         ]
+        if self.envelope is not None:  # MODEL.md 19.5, checked after the body's own clearances
+            checks.append(("collision/envelope", ~(env >= lim.envelope_clearance + m)))
         if self.distance is not None:
             checks.insert(-1, ("collision/patient", ~(clear >= lim.clearance + m)))
             if tool:
@@ -192,21 +201,24 @@ class Checker:
             [mp.P, mp.D, mp.Q, mp.K, mp.T, mp.J_z[:, None], mp.B, mp.H[:, None], mp.arc_alpha.reshape(n, -1, 3),
              mp.arc_beta.reshape(n, -1, 3), mp.E[:, None], mp.drill_end[:, None]], axis=1,
         )  # fmt: skip
-        return StateChecks(reason == "", reason, mp.E, mp.e, q, asm, eta, clear, tool_clear, selfc, points)
+        return StateChecks(reason == "", reason, mp.E, mp.e, q, asm, eta, clear, tool_clear, selfc, env, points)
 
     def _compiled(self, E: NDArray[np.float64], e: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        """(kappa ``(n, 7)``, clearance ``(n,)``, self clearance ``(n,)``) of poses from the compiled kernel."""
+        """(kappa ``(n, 7)``, clearance ``(n,)``, self clearance ``(n,)``, envelope clearance ``(n,)``) of poses
+        from the compiled kernel."""
         from arcube.evaluation.kernel import evaluate_task_numba
         from arcube.evaluation.kernel._clearance import TOL_MM
 
         outputs = Outputs(clearances=True, anatomy_clearance=self.distance is not None, tip_metrics=False)
         ok = np.all(np.isfinite(E), axis=-1) & np.all(np.isfinite(e), axis=-1)
-        kappa, clear, selfc = np.full((len(E), 7), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan)
+        kappa, clear, selfc, env = np.full((len(E), 7), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan)
         if ok.any():
             pts = evaluate_task_numba(self.params, E[ok], e[ok], self.mode, Options(body=self.body, outputs=outputs),
-                                      anatomy=self.distance).points  # fmt: skip
+                                      anatomy=self.distance, envelope=self.envelope).points  # fmt: skip
             kappa[ok], clear[ok], selfc[ok] = pts.kappa, pts.clearance_mm - TOL_MM, pts.self_clearance_mm
-        return kappa, clear, selfc
+            if self.envelope is not None:  # a skin mesh is searched as the anatomy is: its tolerance below, as the clearance's
+                env[ok] = pts.envelope_clearance_mm - (TOL_MM if self.envelope.skin else 0.0)
+        return kappa, clear, selfc, env
 
     def _body_clearance(self, parts: BodyParts) -> NDArray[np.float64]:
         """The body's clearance to the anatomy: the reference's :func:`anatomy_clearance` at the default

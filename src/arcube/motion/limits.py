@@ -55,6 +55,8 @@ class ProgramLimits(Settings):
     """Between the body's own parts everywhere, mm (negative: an overlap the caller accepts, e.g. a skeleton design)."""
     kappa_max: float = Field(default=100.0, ge=1, allow_inf_nan=False)
     """Largest eta_L everywhere."""
+    envelope_clearance: float = Field(default=10.0, allow_inf_nan=False)
+    """Body to the envelope of the whole patient and the table everywhere, mm (with an envelope; MODEL.md 19.5)."""
 
     @property
     def qd_max(self) -> float:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from arcube.errors import InputError
@@ -14,7 +15,8 @@ __all__ = ["write_patients"]
 
 
 def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path, *,
-                   anatomy_format: str = "stl", anatomy_spacing_mm: float = 0.5) -> list[str]:
+                   anatomy_format: str = "stl", anatomy_spacing_mm: float = 0.5,
+                   beside: Callable[[Path], str] | None = None) -> list[str]:  # fmt: skip
     """Generate, write and check the patients; return one check text per patient.
 
     Args:
@@ -70,6 +72,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
                  "nii.gz": f"RAS label map, {anatomy_spacing_mm:g} mm voxels"}[anatomy_format]
         # The check re-reads the written file, so it sees the 3-decimal points a user gets.
         check = format_check(check_patient(read_csv(path), params))
-        texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame})\n"
+        more = "" if beside is None else beside(path)  # what a higher layer writes beside the plan (its envelope)
+        texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame}{more})\n"
                      f"# {layout.summary()}\n{check}")
     return texts

@@ -35,6 +35,7 @@ from arcube.report.figures import (
 from arcube.model.body import PART_NAMES, MechanismPoints, mechanism_points
 from arcube.report.mechanism3d import SCENE_TRACES, STYLE as _STYLE, mechanism_extent, mechanism_traces as _mechanism_traces, xyz as _xyz
 from arcube.report.page import CSS as _CSS, esc as _esc, fmt as _fmt, plotly_div
+from arcube.report.mechanism3d import envelope_trace
 from arcube.report.tip import anatomy_trace, tip_figure
 
 if TYPE_CHECKING:
@@ -95,6 +96,9 @@ def scene_figure(report: Evaluation) -> go.Figure:
     anatomy = anatomy_trace(report)
     if anatomy is not None:  # after the animated traces: frames address those by index
         fig.add_trace(anatomy)
+    envelope = envelope_trace(report.envelope)
+    if envelope is not None:
+        fig.add_trace(envelope)
     # Fixed axis ranges from everything ever drawn, so the view does not jump between frames.
     pts = [np.asarray(ts.entry), np.asarray(ts.target)]
     if len(shown):

@@ -77,7 +77,21 @@ def mechanism_extent(mp: MechanismPoints, rows: NDArray[np.intp]) -> NDArray[np.
     return np.concatenate([a[rows].reshape(-1, 3) for a in parts])
 
 
-def mesh_trace(meshes: Sequence[Any], name: str = "anatomy") -> Any:
+ENVELOPE_COLOR = "#8fa8c8"
+"""The envelope of the whole patient and the table (MODEL.md 19.5), drawn faint and blue-grey behind the anatomy."""
+
+
+def envelope_trace(envelope: Any) -> Any:
+    """A faint plotly ``Mesh3d`` of the envelope's regions (rounded boxes, skin, table), one trace; None without one."""
+    if envelope is None:
+        return None
+    from arcube.evaluation.envelope_drawing import envelope_meshes
+
+    return mesh_trace([m for _, m in envelope_meshes(envelope)], name="envelope (" + ", ".join(envelope.names) + ")",
+                      color=ENVELOPE_COLOR, opacity=0.12)  # fmt: skip
+
+
+def mesh_trace(meshes: Sequence[Any], name: str = "anatomy", color: str = "#e8d8b0", opacity: float = 0.35) -> Any:
     """A translucent plotly ``Mesh3d`` of triangle meshes (objects with ``vertices`` ``(V, 3)`` mm and
     ``faces`` ``(F, 3)``, e.g. an :class:`~arcube.evaluation.anatomy.Anatomy`'s), as one trace."""
     import plotly.graph_objects as go
@@ -89,4 +103,4 @@ def mesh_trace(meshes: Sequence[Any], name: str = "anatomy") -> Any:
         offset += len(m.vertices)
     V, F = np.concatenate(verts), np.concatenate(faces)
     return go.Mesh3d(x=V[:, 0].tolist(), y=V[:, 1].tolist(), z=V[:, 2].tolist(), i=F[:, 0].tolist(), j=F[:, 1].tolist(),
-                     k=F[:, 2].tolist(), color="#e8d8b0", opacity=0.35, name=name, hoverinfo="name", showlegend=True)  # fmt: skip
+                     k=F[:, 2].tolist(), color=color, opacity=opacity, name=name, hoverinfo="name", showlegend=True)  # fmt: skip
