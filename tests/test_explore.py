@@ -25,6 +25,7 @@ import pytest
 from arcube.cli import main as cli_main
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import evaluate_task
+from arcube.evaluation.envelope import resolve_envelope
 from arcube.explorer import explore, live_model, scene, text
 from arcube.explorer.live import LiveModel
 from arcube.io import load_trajectories, select
@@ -65,6 +66,12 @@ def plan():
 @pytest.fixture(scope="module")
 def anatomy():
     return resolve_anatomy("default", plan="reference")
+
+
+@pytest.fixture(scope="module")
+def envelope(anatomy):
+    """The default envelope (MODEL.md 19.5), placed on the whole reference plan, as arcube design and the explorer place it."""
+    return resolve_envelope("default", plan=load_trajectories("reference"), anatomy=anatomy)
 
 
 @pytest.fixture(scope="module")
@@ -156,16 +163,17 @@ def test_closest_pairs_agree_with_the_kernel(plan, anatomy):
 
 
 @pytest.mark.parametrize("design, mode", [(PLACED, MODE), (MET, parse_mode("+,+,+,-"))], ids=["placed", "met"])
-def test_live_requirements_are_those_of_arcube_design(plan, anatomy, design, mode):
-    """The kernel's requirement rows match assess() (the NumPy reference) on the same design."""
+def test_live_requirements_are_those_of_arcube_design(plan, anatomy, envelope, design, mode):
+    """The kernel's requirement rows match assess() (the NumPy reference) on the same design, the envelope's row too."""
     reqs = requirements_from()
-    model = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs)
+    model = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs, envelope=envelope)
     fig = model.evaluate()
     rows = {r["requirement"]: r for r in assess([design.to_vector()], mode, [plan], [anatomy], reqs, options=design_options(reqs),
-                                                points=6, standoff_mm=20.0)}  # fmt: skip
-    if design is MET:
-        assert all(np.isfinite(r["value"]) and r["passed"] for r in fig.requirements) and {r["requirement"] for r in fig.requirements} >= set(rows) - {
-            "rho_max", "transmission", "kappa_max", "single_assembly_mode"}  # fmt: skip
+                                                points=6, standoff_mm=20.0, envelopes=[envelope])}  # fmt: skip
+    assert "envelope_clearance" in {r["requirement"] for r in fig.requirements}
+    if design is MET:  # met every requirement before the envelope existed (MODEL.md 19.5): the envelope is judged, not assumed
+        assert all(np.isfinite(r["value"]) and (r["passed"] or r["requirement"] == "envelope_clearance") for r in fig.requirements)
+        assert {r["requirement"] for r in fig.requirements} >= set(rows) - {"rho_max", "transmission", "kappa_max", "single_assembly_mode"}
     for r in fig.requirements:
         ref = rows[r["requirement"]]
         want = 100.0 * ref["value"] if r["requirement"] == "reach" else ref["value"]

@@ -90,6 +90,18 @@ def test_table_round_trip() -> None:
     assert (table["clearance"], table["thrust"], table["link_radius"], table["limits"]) == (4.0, 22.0, 7.0, [["torque", "max", 12.0], ["clearance", "min", 3.0]])
 
 
+@pytest.mark.parametrize("field", list(arcube.options.Guards.model_fields))
+def test_every_guard_set_alone_survives_the_table(field: str) -> None:
+    """A run's config.toml must hold every guard it ran with: a resume, the design job's reference check and
+    the report all rebuild the run from the table (the envelope guard was once lost this way)."""
+    info = arcube.options.Guards.model_fields[field]
+    value = True if info.annotation is bool else 7.0 if field != "kappa_max" else 80.0
+    s = RunSettings(anatomy="default", envelope="default", options={"guards": {field: value}})
+    assert getattr(s.options.guards, field) == value
+    back = RunSettings.from_table(s.to_table())
+    assert getattr(back.options.guards, field) == value and back == s
+
+
 def test_masses_round_trip_through_the_table_and_are_written_only_when_set() -> None:
     """MODEL.md 18.1's settings: flat keys (wall, density, m_delta, m_motor, gravity) in config.toml only when
     not the defaults, so that every earlier table is written as it was."""

@@ -267,10 +267,11 @@ def optimize(
 
 
 def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
-           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> OptimizeResult | Study | DesignResult:  # fmt: skip
+           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+           on_stage: Callable[[str], None] | None = None) -> OptimizeResult | Study | DesignResult:  # fmt: skip
     """Continue an interrupted run from its checkpoint, or finish an interrupted study or design job
     (the same result as an uninterrupted one); returns the :class:`OptimizeResult`, the :class:`Study`
-    or the :class:`~arcube.design_job.DesignResult`."""
+    or the :class:`~arcube.design_job.DesignResult` (a design job tells ``on_stage`` its stages after the search)."""
     from arcube.design_job import STUDY, finish_design, is_design, read_design
     from arcube.optimization import run as runmod
     from arcube.optimization import study as studymod
@@ -281,7 +282,7 @@ def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None 
         if not (run_dir / STUDY / "summary.json").exists():
             studymod.resume_study(run_dir / STUDY, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
             write_study_convergence(run_dir / STUDY)
-        return finish_design(run_dir)
+        return finish_design(run_dir, on_stage)
     if studymod.is_study(run_dir):
         studymod.resume_study(run_dir, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
         write_study_convergence(run_dir)
@@ -348,6 +349,7 @@ def design(
     dask: str | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
     on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    on_stage: Callable[[str], None] | None = None,
     **fields: Any,
 ) -> DesignResult:
     """Find a robot that meets every requirement (``arcube design``; MODEL.md 16-17).
@@ -363,6 +365,8 @@ def design(
         settings, fields: the optimization's budget, engine, anatomy, objectives, standoff (as
             :func:`optimize` takes them); the free parameters, working mode, guards and limits are
             the design job's.
+        progress, on_seed, on_stage: told each generation's history row, each finished seed's summary
+            and each stage after the search (``"building the drilling program ..."``).
 
     Returns:
         A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).
@@ -377,4 +381,5 @@ def design(
         fields = {**fields, "generations": DESIGN_GENERATIONS}  # the design job's budget, as the CLI's
     seed_list = checked_seeds(seeds)
     s = design_settings(reqs, _settings(settings, fields, "design"))
-    return start_design(Path(out), _plans(plan), s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
+    return start_design(Path(out), _plans(plan), s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
+                        on_stage=on_stage)  # fmt: skip

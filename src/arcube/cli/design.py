@@ -23,7 +23,7 @@ from arcube.errors import InputError
 __all__ = ["print_design", "register"]
 
 _RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "objectives", "standoff", "points", "side", "levels", "ids", "setups", "population",
-               "generations", "tolerance", "algorithm", "engine")  # fmt: skip
+               "generations", "tolerance", "algorithm", "engine", "tolerance_class", "tol")  # fmt: skip
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
@@ -35,9 +35,12 @@ _HELPS = {
     "tolerance": "ftol (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
     "algorithm": "The optimizer. [default: mscmaes]",
     "engine": "Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference). [default: auto]",
+    "tolerance_class": "ISO 2768-1 class (f, m, c, v) of the robot as built: the accuracy budget reported (accuracy/) and the "
+                       "lateral_error_wc / lateral_error_rms requirements (MODEL.md 20). [default: m]",
 }
 MINIMA = option("--min", "Change a lower limit: clearance=5, self_clearance=2 (mm).", key="minima", multiple=True, params=("requirements.min",))
 MAXIMA = option("--max", "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
+                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm); "
                 "on the program (none by default): torque_peak (N m), power_peak (W).", key="maxima", multiple=True, params=("requirements.max",))  # fmt: skip
 DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}")
                      for name in DEFAULTS]  # fmt: skip
@@ -69,18 +72,26 @@ def _pairs(items: list[str] | None, flag: Flag) -> dict[str, float]:
 
 def print_design(result: Any) -> None:
     """The requirements table and the verdict."""
+    from arcube.report.design_job import requirement_where
+
     typer.echo(f"{'requirement':<22} {'limit':>9} {'value':>10} {'margin':>10}  {'':4}  where")
     for r in result.rows:
-        w = r.get("where") or {}
-        where = f"patient {w['patient']}, trajectory {w['trajectory']} ({w['segment']}, point {w['point']})" if w else ""
-        part = f", {r['part']}" if r.get("part") and r["requirement"] != "program" else ""
-        part = f"{r['part']}" if r["requirement"] == "program" and r["passed"] else part
         sign = ">=" if r["kind"] == "min" else "<="
         typer.echo(f"{r['requirement']:<22} {sign}{r['limit']:>7.4g} {_num(r['value']):>10} {_num(r['margin']):>10}  "
-                   f"{'ok' if r['passed'] else 'FAIL':4}  {where}{part}")  # fmt: skip
+                   f"{'ok' if r['passed'] else 'FAIL':4}  {requirement_where(r)}")  # fmt: skip
     s = result.summary
     head = "meets every requirement" if result.met else "does NOT meet every requirement"
-    typer.echo(f"design {head}: seed {s['seed']}, mode {s['mode']}, eta_G {_num(s.get('eta_G'))}; results in {result.path}")
+    met = len(result.rows) - len(result.missed)
+    typer.echo(f"design {head} ({met} of {len(result.rows)} requirements met): seed {s['seed']}, mode {s['mode']}, "
+               f"eta_G {_num(s.get('eta_G'))}; results in {result.path}")  # fmt: skip
+    acc = s.get("accuracy") or {}
+    if "lateral_error_p95_mm" in acc:
+        top = ", ".join(f"{t['source']} {t['share']:.0%}" for t in acc.get("tighten_first", []))
+        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
+                   f"{acc['robots']} robots, worst case {_num(acc['lateral_error_wc_mm'])} mm (a perfect robot: "
+                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {result.path / 'accuracy'}")  # fmt: skip
+    elif acc:
+        typer.echo(f"  accuracy as built: not computed ({acc.get('not_computed')})")
     for r in result.missed:
         need = f">= {r['value']:.4g}" if r["kind"] == "max" else f"<= {r['value']:.4g}"
         if not math.isfinite(r["value"]) and r["requirement"] in PROGRAM_FIGURES:
@@ -92,10 +103,23 @@ def print_design(result: Any) -> None:
         elif r["requirement"] in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode"):
             typer.echo(f"  missed: {r['requirement']} ({_num(r['value'])} {r['unit']}); a larger budget or more seeds may find a design")
         else:
-            flag = (MINIMA if r["kind"] == "min" else MAXIMA).name
-            drop = next((f.name for f in DROPS if f.key == f"drop.{r['requirement']}"), None)
-            typer.echo(f"  missed: {r['requirement']} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need} "
-                       f"({flag} {r['requirement']}=...)" + (f" or {drop}" if drop else ""))  # fmt: skip
+            typer.echo(f"  missed: {r['requirement']} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}"
+                       + _relax(r))  # fmt: skip
+
+
+def _relax(row: dict[str, Any]) -> str:
+    """What to add to the command to accept the best design found: the limit it meets (a value the flag
+    accepts: a maximum > 0, a minimum >= 0), and/or the flag that drops the requirement."""
+    name, value = row["requirement"], float(row["value"])
+    flag = (MINIMA if row["kind"] == "min" else MAXIMA).name
+    drop = next((f.name for f in DROPS if f.key == f"drop.{name}"), None)
+    # rounded away from the limit so that the printed value is met by the design (4 significant digits)
+    digits = 3 - math.floor(math.log10(abs(value))) if value != 0.0 else 0
+    scale = 10.0**digits
+    shown = math.ceil(value * scale) / scale if row["kind"] == "max" else math.floor(value * scale) / scale
+    options = [f"{flag} {name}={shown:g}"] if (shown > 0.0 if row["kind"] == "max" else shown >= 0.0) else []
+    options += [drop] if drop else []
+    return f" ({' or '.join(options)})" if options else ""
 
 
 def _num(v: Any) -> str:
@@ -105,7 +129,7 @@ def _num(v: Any) -> str:
 def design(given: Given) -> None:
     """Find a robot that meets every requirement for a plan and its anatomy (MODEL.md 16-17), checked by the NumPy reference."""
     from arcube.api import design as design_api
-    from arcube.cli.study import SeedProgress
+    from arcube.cli.design_progress import DesignProgress
     from arcube.coerce import seeds as checked_seeds
     from arcube.design_job import DESIGN_GENERATIONS
     from arcube.optimization.settings import RunSettings
@@ -118,10 +142,10 @@ def design(given: Given) -> None:
         settings.options.check_masses()
     drop = [name for name in DEFAULTS if given.get(f"drop.{name}")]
     seeds = given.get("seeds", "1-3")
-    with SeedProgress(len(checked_seeds(seeds)), enabled=not given.get("quiet")) as bar:
+    with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
         result = design_api(given.get("plan"), given.get("out"), seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
-                            maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar, settings=settings,
-                            **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
+                            maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar.seed, progress=bar.generation,
+                            on_stage=bar.stage, settings=settings, **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
     print_design(result)
     if not result.met:
         raise typer.Exit(3)

@@ -8,6 +8,8 @@ One folder holds the job::
     summary.json       meets_requirements, mode (+,+,-,+), seed, every summary figure, the requirements
     requirements.csv   each requirement: limit, value, margin, pass/fail, where it is tightest
     report.html        the design on the plan with the anatomy (plotly)
+    accuracy/          the accuracy budget of the chosen design as built (MODEL.md 20, class m unless --class):
+                       arcube tolerance's folder (tolerance.json, CSVs, pictures)
     program/           the drilling program of a design that meets everything (MODEL.md 17): program.csv,
                        program.json; a design whose program is blocked does not meet the requirements
     design.xml         the MuJoCo model (when the z dyad closes with some c_z)
@@ -52,6 +54,7 @@ DESIGN_GENERATIONS = 100
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
 STUDY = "study"
 PROGRAM = "program"
+ACCURACY = "accuracy"
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,9 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
     from arcube.optimization.config import run_settings
 
     s = run_settings(settings, **fields)
+    if not s.anatomy and any(r.name == "clearance" for r in reqs):  # before the guard below would blame its own field
+        raise InputError.of("RunSettings.anatomy", "is needed by the clearance requirement (anatomy default, mesh files or a "
+                                                   "segmentation); or drop the clearance requirement")  # fmt: skip
     maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
     options = design_options(reqs, s.options)
     envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
@@ -100,8 +106,9 @@ def is_design(path: Path) -> bool:
 
 def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
                  workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-                 on_generation: Callable[[dict[str, Any]], None] | None = None) -> DesignResult:  # fmt: skip
-    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs."""
+                 on_generation: Callable[[dict[str, Any]], None] | None = None, on_stage: Callable[[str], None] | None = None) -> DesignResult:  # fmt: skip
+    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs
+    (``on_stage`` is told each stage after the search, :func:`finish_design`)."""
     out = Path(out)
     runmod.check_new_folder(out)
     if settings.anatomy == () and any(r.name == "clearance" for r in reqs):
@@ -122,7 +129,7 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
         if not (out / STUDY).exists():
             runmod.remove_folder(out, created)
         raise
-    return finish_design(out)
+    return finish_design(out, on_stage)
 
 
 def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
@@ -151,9 +158,11 @@ def _patients(cfg: dict[str, Any], run_dir: Path) -> tuple[list[Any], list[Any],
     return plans, anatomies, run_envelopes(cfg, run_dir)
 
 
-def finish_design(out: Path) -> DesignResult:
-    """Choose the design, re-evaluate it with the NumPy reference and write the outputs."""
+def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> DesignResult:
+    """Choose the design, re-evaluate it with the NumPy reference and write the outputs; ``on_stage`` is
+    told each stage ("checking seed 2 with the NumPy reference", "building the drilling program", ...)."""
     out = Path(out)
+    say = on_stage or (lambda text: None)
     _, reqs = read_design(out)
     study = json.loads((out / STUDY / "summary.json").read_text(encoding="utf-8"))
     # feasible seeds by objective, then the others by violation (the study's own ranking)
@@ -166,10 +175,12 @@ def finish_design(out: Path) -> DesignResult:
         plans, anatomies, envelopes = _patients(cfg, run.path)
         summary = run.summary
         designs = [d.to_vector() for d in run.designs]
+        say(f"checking seed {row['seed']}'s design with the NumPy reference")
         rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(), envelopes=envelopes,
-                      points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
+                      points=s.points, standoff_mm=float(s.standoff or 0.0), accuracy=s.accuracy_settings())  # fmt: skip
         met = bool(row["feasible"] and all(r["passed"] for r in rows))
         if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
+            say(f"building the drilling program of seed {row['seed']}'s design")
             built = _program_rows(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs, envelopes[0] if envelopes else None)
             rows = [*rows, *built]
             met = all(r["passed"] for r in built)
@@ -180,6 +191,7 @@ def finish_design(out: Path) -> DesignResult:
         # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
     assert chosen is not None
     row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met = chosen
+    say("writing the report, the accuracy budget (MODEL.md 20) and the MuJoCo model")
     return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows, envelopes)
 
 
@@ -222,7 +234,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: di
     options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
     ev = evaluate_design(designs[0], plans[0], s.points, parse_mode(summary["mode"]), options, "numpy", anatomy=anatomies[0],
                          envelope=envelopes[0] if envelopes else None)  # fmt: skip
-    write_report(ev, out / "report.html")
+    accuracy = _accuracy_budget(out, designs[0], plans[0], summary, s)
     mujoco = "design.xml"
     try:
         xml = export_mjcf(designs[0], plans[0], points=s.points, mode=summary["mode"], c_z=_closing_c_z(designs[0], plans[0], s, summary),
@@ -235,12 +247,46 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: di
         "missed": [r["requirement"] for r in rows if not r["passed"]],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
+        "accuracy": accuracy,
         "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "mujoco": mujoco, "study": STUDY,
+                  **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
                   **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
+    from arcube.report.design_job import design_preface
+
+    write_report(ev, out / "report.html", preface=design_preface(result, rows, designs[0], c_z=_design_c_z(out), folder=out))
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(_finite(result), indent=2, allow_nan=False) + "\n")
     return DesignResult(out, met, result, rows)
+
+
+def _accuracy_budget(out: Path, design: Design, plan: Any, summary: dict[str, Any], s: RunSettings) -> dict[str, Any]:
+    """The accuracy budget of the chosen design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
+    on patient 1's plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
+    beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
+    from arcube.accuracy import budget
+    from arcube.evaluation.task import build_task
+    from arcube.report.accuracy import write_budget
+
+    shutil.rmtree(out / ACCURACY, ignore_errors=True)  # ours: a resumed job writes it again
+    settings = s.accuracy_settings()
+    task = build_task(plan.entry, plan.target, s.points, tuple(plan.ids))
+    try:
+        result = budget(design, task.E, task.e, summary["mode"], settings, [task.ids[i] for i in task.trajectory], task.k)
+    except InputError as exc:
+        return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
+    write_budget(result, out / ACCURACY)
+    return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
+            "perfect_robot_lateral_error_mm": summary.get("lateral_error_max_mm"),
+            "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
+
+
+def _design_c_z(out: Path) -> float | None:
+    """The c_z design.json records (the z dyad's second link, MODEL.md 19), or None."""
+    try:
+        return Design.from_json(out / "design.json").c_z
+    except (InputError, OSError):
+        return None
 
 
 def _finite(value: Any) -> Any:

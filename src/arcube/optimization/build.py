@@ -133,6 +133,7 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
         envelopes=run_envelopes(cfg, run_dir, skins),
         margin_deg=rs.margin,
         objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
+        accuracy=rs.accuracy_settings(),
     )  # fmt: skip
 
 

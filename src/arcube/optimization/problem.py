@@ -38,7 +38,9 @@ from arcube.evaluation.reference import fit_violation
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PARAM_NAMES, SLICES
 from arcube.errors import InputError
 from arcube.options import Options
-from arcube.optimization.objectives import limit_shortfall, metric_values, needs_masses, objective_columns
+from arcube.accuracy.robust import ROBUST_NAMES
+from arcube.accuracy.settings import ToleranceSettings
+from arcube.optimization.objectives import SUMMARY_KEYS, limit_shortfall, metric_values, needs_masses, objective_columns
 from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
     DEFAULT_BOUNDS, FREE_GROUPS, RunSettings, parse_bounds, parse_free, resolve_bounds,
@@ -200,6 +202,7 @@ class FitnessModel:
     limits: tuple[tuple[str, str, float], ...] = ()  # (name, "max" | "min", value): --max / --min
     anatomies: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.sdf.AnatomyDistance, or None
     envelopes: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.envelope.Envelope (MODEL.md 19.5), or None
+    accuracy: Any = None  # the ToleranceSettings of lateral_error_wc / lateral_error_rms (MODEL.md 20.3); None: class m
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
@@ -280,11 +283,26 @@ class FitnessModel:
         """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)``."""
         params, modes = self.space.decode(X)
         results = self._run_tasks(params, modes, want_points=False)
-        eta, viol, values = self._judge(results, params)
+        eta, viol, values = self._judge(results, params, modes)
         cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
         return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta}
 
-    def _judge(self, results: list[Any], params: list[Array]) -> tuple[Array, Array, dict[str, Array]]:
+    def robust_values(self, params: list[Array], modes: Array, want: Array) -> dict[str, Array]:
+        """lateral_error_wc and lateral_error_rms (mm, MODEL.md 20.3) ``(n,)``: the largest over the plan's tasks,
+        computed only where ``want`` (the designs that reach every point; NaN elsewhere)."""
+        from arcube.accuracy.robust import robust_errors
+
+        engine = "numba" if self.engine == "numba" else "numpy"
+        n = params[0].shape[0]
+        wc, rms = np.full(n, -np.inf), np.full(n, -np.inf)
+        for t in self.tasks:
+            if t.role != "plan":
+                continue
+            w, r = robust_errors(params[self.space.slot(t.patient, t.setup)], modes, t.E, t.e, self.accuracy, engine, want)
+            wc, rms = np.maximum(wc, w), np.maximum(rms, r)  # a NaN stays NaN
+        return {"lateral_error_wc": np.where(np.isfinite(wc), wc, np.nan), "lateral_error_rms": np.where(np.isfinite(rms), rms, np.nan)}
+
+    def _judge(self, results: list[Any], params: list[Array], modes: Array) -> tuple[Array, Array, dict[str, Array]]:
         """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is MODEL.md 16's:
         margin shortfall + sum of the tasks' V_reach + G / (1 + G) / (2n), n = the points of all tasks (approach
         lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible."""
@@ -295,7 +313,9 @@ class FitnessModel:
             links, vol = self.compactness_values(params)
         plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
         mass = self.moving_mass(params) if "mass" in names else None
-        values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass)
+        # the first order costs ~25 us a point: only for the designs that reach every point of every task
+        robust = self.robust_values(params, modes, reach == 0.0) if names & {"lateral_error_wc", "lateral_error_rms"} else None
+        values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass, robust=robust)
         n_all = sum(t.n_points for t in self.tasks)
         defined = dict(values)
         if "eta_G" in values:  # +inf (a task not w_G): no eta_G to bound; the reach and the guards grade that design
@@ -316,7 +336,7 @@ class FitnessModel:
         described = replace(self, options=self.options.replace(outputs=outputs))
         metrics = {**_METRICS, **_MASS_METRICS} if masses else _METRICS
         results = described._run_tasks(params, modes, want_points=True)
-        eta, viol, _ = self._judge(results, params)
+        eta, viol, values = self._judge(results, params, modes)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"])
         links, vol = self.compactness_values(params)
         tasks = []
@@ -346,6 +366,8 @@ class FitnessModel:
             "bbox_volume_L": float(vol[0]),
             **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in metrics.items()},
             **({"moving_mass_kg": float(self.moving_mass(params)[0])} if masses else {}),
+            **{SUMMARY_KEYS[name]: _num(values[name][0]) for name in ROBUST_NAMES if name in values},
+            **({"tolerance_class": (self.accuracy or ToleranceSettings()).tolerance_class} if set(ROBUST_NAMES) & set(values) else {}),
             "tasks": tasks,
         }
 

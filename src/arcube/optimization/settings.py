@@ -21,6 +21,7 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
+from arcube.accuracy.settings import ToleranceSettings, parse_tol
 from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import PAPER_NAMES
@@ -121,7 +122,7 @@ def _anatomy(value: Any) -> tuple[str, ...]:
 class RunSettings(Settings):
     """Everything that decides an optimization run except the plans themselves."""
 
-    SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min"}
+    SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min", "tolerance_class": "class"}
 
     algorithm: str = DEFAULT_ALGORITHM
     """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, or nsga2 / nsga3 (several objectives)."""
@@ -180,11 +181,15 @@ class RunSettings(Settings):
     """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (MODEL.md 19.5)."""
     """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
-    """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3."""
+    """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance and envelope_clearance (maximized), lateral_error_wc and lateral_error_rms (as built to --class / --tol). Two or three: nsga2; more: nsga3."""
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
-    """Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3."""
+    """Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3 --max lateral_error_rms=0.5."""
     minima: Annotated[dict[str, float], _limits("minima")] = {}
     """Lower limit NAME=VALUE (repeatable), e.g. --min clearance=5."""
+    tolerance_class: Literal["f", "m", "c", "v"] = "m"
+    """ISO 2768-1 class of the lengths and angles under which lateral_error_wc and lateral_error_rms are computed (MODEL.md 20.1): f, m, c or v."""
+    tol: Annotated[dict[str, float], BeforeValidator(lambda v: parse_tol(v, "RunSettings.tol"))] = {}
+    """Tolerances set by hand for lateral_error_wc and lateral_error_rms, NAME=T (mm or deg): a source (r=0.02) or a group (lengths=0.05, angles=0.01, q0=0.05)."""
     docking: Literal["per-patient", "shared"] = "per-patient"
     """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
     standoff: float | None = Field(default=None, ge=0, allow_inf_nan=False)
@@ -240,6 +245,10 @@ class RunSettings(Settings):
             return self.objectives
         return ("eta_G", self.compactness) if self.algorithm in MULTI_OBJECTIVE_ALGORITHMS else ("eta_G",)
 
+    def accuracy_settings(self) -> ToleranceSettings:
+        """The tolerances of the robust objectives and limits (``lateral_error_wc``, ``lateral_error_rms``)."""
+        return ToleranceSettings(tolerance_class=self.tolerance_class, tol=self.tol)
+
     @property
     def all_bounds(self) -> dict[str, tuple[float, float]]:
         """Every parameter's bounds: the defaults with the overrides."""
@@ -290,6 +299,12 @@ class RunSettings(Settings):
             table["envelope"] = list(self.envelope)
         if self.table_z is not None:
             table["table_z"] = self.table_z
+        if self.tolerance_class != "m" or self.tol:  # MODEL.md 20: written only when not the defaults
+            table["tolerance_class"] = self.tolerance_class
+        if self.tol:
+            table["tol"] = dict(self.tol)
+        if g.envelope_clearance_mm is not None:
+            table["envelope_clearance"] = g.envelope_clearance_mm
         for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
             value = getattr(self.options.masses, name) if name in Masses.model_fields else None
             if value is not None and value != getattr(_MASSES, name):
@@ -317,7 +332,7 @@ _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
 FLAT_OPTIONS: dict[str, tuple[str, str]] = {key: FLAT[key] for key in (
-    *_TABLE_GUARDS, "clearance", "self_clearance", "link_radius", "actuator_radius", "motor_radius", "motor_length", "encoder_deg",
+    *_TABLE_GUARDS, "clearance", "self_clearance", "envelope_clearance", "link_radius", "actuator_radius", "motor_radius", "motor_length", "encoder_deg",
     "thrust", "lateral_force", "actuator_stiffness", "wall", "density", "m_delta", "m_motor", "gravity")}  # fmt: skip
 """The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names."""
 _MASSES = Masses()

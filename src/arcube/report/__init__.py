@@ -44,7 +44,7 @@ def check_report_path(path: str | os.PathLike[str], name: str = "path") -> Path:
 
 
 def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLike[str] | None = None,
-                 program: str | os.PathLike[str] | None = None, **run: Any) -> Path:  # fmt: skip
+                 program: str | os.PathLike[str] | None = None, preface: str | None = None, **run: Any) -> Path:  # fmt: skip
     """Write the self-contained HTML report of an evaluation (plots, 3D mechanism), or of an optimization
     run held in a folder, and its PNGs; returns the path.
 
@@ -54,7 +54,8 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
     ``program``: a program folder of the same
     design (program.csv, program.json) whose section (timeline, limits, motors, playback) the report
     adds; by default the ``program/`` beside a report written into an ``arcube design`` job's folder
-    (one with design.toml). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
+    (one with design.toml). ``preface``: an HTML fragment put under the title (an ``arcube design`` job's
+    verdict, requirements and budget, :func:`arcube.report.design_job.design_preface`). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
     PNGs beside it are named from its stem) or the program's files are unreadable.
     """
     from arcube.optimization.run_results import OptimizeResult
@@ -74,7 +75,7 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
 
     if program is None and (out.parent / "design.toml").is_file() and (out.parent / "program" / "program.json").is_file():
         program = out.parent / "program"
-    return write_evaluation_report(evaluation, out, program=program)
+    return write_evaluation_report(evaluation, out, program=program, preface=preface)
 
 
 def __getattr__(name: str) -> Any:
