@@ -45,6 +45,7 @@ from arcube.optimization.config import build_config
 from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, assess, design_options, program_rows, write_requirements_csv
 from arcube.optimization.settings import RunSettings
 from arcube.optimization.run_results import OptimizeResult
+from arcube.io.json_values import finite
 
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
 
@@ -256,7 +257,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: di
 
     write_report(ev, out / "report.html", preface=design_preface(result, rows, designs[0], c_z=_design_c_z(out), folder=out))
     write_requirements_csv(out / "requirements.csv", rows)
-    atomic_write_text(out / "summary.json", json.dumps(_finite(result), indent=2, allow_nan=False) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(finite(result), indent=2, allow_nan=False) + "\n")
     return DesignResult(out, met, result, rows)
 
 
@@ -288,16 +289,6 @@ def _design_c_z(out: Path) -> float | None:
     except (InputError, OSError):
         return None
 
-
-def _finite(value: Any) -> Any:
-    """``value`` with every non-finite float as None (JSON null)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
 
 
 def _closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:

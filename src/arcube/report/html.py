@@ -215,6 +215,14 @@ def summary_html(report: Evaluation) -> str:
                  f"{r.dexterity_max:.2f}", r.limiting_jacobian or "—", r.first_failure or "—")  # fmt: skip
         out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
     out += "</table>"
+    segments = None if report.anatomy is None else report.anatomy.segments
+    if segments:  # an anatomy read from a segmentation: which segments, how big, where (MODEL.md 14.2)
+        out += "<h3>Anatomy segments</h3><table><tr><th>segment</th><th>label</th><th>layer</th><th>voxels</th><th>bounds min (mm)</th><th>bounds max (mm)</th><th>file</th></tr>"
+        for seg in segments:
+            cells = (seg.name, seg.label, seg.layer, f"{seg.voxels:,}", ", ".join(f"{v:.1f}" for v in seg.lo), ", ".join(f"{v:.1f}" for v in seg.hi),
+                     Path(seg.file).name)  # fmt: skip
+            out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
+        out += "</table>"
     diag = report.diagnosis()
     if diag:
         out += "<h3>Why points fail</h3><ul>" + "".join(f"<li>{_esc(line)}</li>" for line in diag) + "</ul>"
