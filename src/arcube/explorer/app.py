@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import socket
 import threading
 import time
@@ -22,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.explorer import text
 from arcube.explorer.live import Figures, LiveModel, View
@@ -67,6 +69,9 @@ class ExplorerApp:
         import viser
 
         check_port(host, port)
+        # a port scanner (or a browser's aborted request) fails the websocket handshake, which websockets
+        # logs with a traceback on stderr; viser filters it only after its first request: silence it all
+        logging.getLogger("websockets").setLevel(logging.CRITICAL)
         self.model, self.host = model, host
         self.anatomy_spec, self.anatomy_frame = anatomy_spec, anatomy_frame
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints its own banner; the caller prints the URL
@@ -98,6 +103,8 @@ class ExplorerApp:
     # ------------------------------------------------------------------ scene
     def _build_scene(self, title: str) -> None:
         import trimesh
+
+        interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
 
         sc, m = self.server.scene, self.model
         sc.set_up_direction("+z")

@@ -49,7 +49,8 @@ def program(
     anatomy_frame: str = "LPS", mode: Any = None, order: str = "shortest", side: str | None = None,
     levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, transform: Any = None,
     limits: ProgramLimits | None = None, planner: Planner | None = None, seed: int | None = None,
-    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None, **changes: Any,
+    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None,
+    figures: Callable[[Program], dict[str, bytes]] | None = None, **changes: Any,
 ) -> Program:  # fmt: skip
     """The drilling program of ``design`` for a plan (MODEL.md 17).
 
@@ -74,6 +75,8 @@ def program(
             clearances), ``numpy`` (the reference) or ``auto`` (numba when it imports).
         planner, seed: the transit planner's settings (``seed`` overrides ``planner.seed``).
         log: called with one line per transit planned (progress).
+        figures: with ``out``, more files of the folder made from the program (name -> bytes, e.g. the
+            timeline ``program.png``), written with program.csv and program.json, all or none.
 
     Returns:
         The :class:`Program` (its ``path`` is ``out`` when written).
@@ -90,6 +93,7 @@ def program(
     from arcube.model.design import Design
     from arcube.motion.assemble import build_program
     from arcube.motion.output import prepare_folder, remove_folder
+    from arcube.motion.rows import check_rows
     from arcube.options import request_options
 
     limit_changes = {ProgramLimits.field_of(k): changes.pop(k) for k in list(changes) if ProgramLimits.field_of(k)}
@@ -105,15 +109,16 @@ def program(
         plan_settings = plan_settings.replace(seed=seed)
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
     ts = load_plan(plan, side=side, levels=levels, ids=ids, transform=transform)
+    check_rows(lim, ts)  # before the anatomy, the planning and any folder
     anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
-    folder, created = prepare_folder(out) if out is not None else (None, False)
+    if out is None:
+        return build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)
+    folder, created, lock = prepare_folder(out)
     try:
         prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)
-        if folder is None:
-            return prog
-        prog.write(folder)
+        prog.write(folder, figures(prog) if figures is not None else None)
     except BaseException:
-        if created and folder is not None:
-            remove_folder(folder)
+        remove_folder(folder, lock, created)
         raise
+    remove_folder(folder, lock, created=False)
     return dataclasses.replace(prog, path=Path(folder))
