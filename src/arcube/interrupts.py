@@ -15,6 +15,10 @@ The ``arcube`` script goes through three phases, each with its own SIGINT handle
   :func:`check` raises it again; it runs after each ``import trimesh`` and before any output file is put in place (:mod:`arcube.io.files`), and
   the CLI reports any error that follows an interrupt as the interrupt.
 
+A few system calls must not be split by an interrupt (a lock file created and written, the renames
+that put several output files in place): :func:`deferred` holds SIGINT off while they run; it is
+delivered when they are done.
+
 Library use (Python, notebooks) installs none of this: :func:`check` is then a no-op.
 """
 
@@ -27,7 +31,7 @@ if TYPE_CHECKING:
     from types import FrameType
     from typing import Any
 
-__all__ = ["EXIT_CODE", "MESSAGE", "arm", "check", "disarm", "pending", "start_up"]
+__all__ = ["EXIT_CODE", "MESSAGE", "arm", "check", "deferred", "disarm", "pending", "start_up"]
 
 MESSAGE = b"error: interrupted\n"
 """What the command line prints on Ctrl-C (on stderr), then exit code 130."""
@@ -88,3 +92,18 @@ def check() -> None:
     if _pending:
         raise KeyboardInterrupt
 
+
+
+class deferred:
+    """Context manager: SIGINT is held off (blocked) inside, delivered on leaving (POSIX; elsewhere a no-op)."""
+
+    def __enter__(self) -> deferred:
+        try:
+            self._old: Any = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        except (AttributeError, OSError, ValueError):
+            self._old = None
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._old is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, self._old)

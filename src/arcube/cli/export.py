@@ -79,7 +79,10 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
     rows = read_program(given.get("program"))
     anat = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), rows.summary.get("plan"), segments=given.get("segments"))
             if given.get("anatomy") else None)  # fmt: skip
-    check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
+    try:
+        check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
+    except OSError as exc:
+        raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename} ({exc.strerror})") from None
     result = export_program(rows, given.get("design"), c_z=c_z, options=options, anatomy=anat, masses=masses)  # type: ignore[arg-type]
     try:
         xml_path, csv_path = write_program_export(result, out)

@@ -173,11 +173,12 @@ def atomic_write_files(files: Mapping[str | os.PathLike[str], bytes]) -> None:
             except OSError as exc:
                 raise OSError(exc.errno, exc.strerror, os.fspath(target)) from exc
         interrupts.check()
-        for target, _ in staged:
-            kept[target] = _keep(target)
-        for target, tmp in staged:
-            os.replace(tmp, target)
-            done.append(target)
+        with interrupts.deferred():  # the renames are not split by Ctrl-C (a failure is still rolled back)
+            for target, _ in staged:
+                kept[target] = _keep(target)
+            for target, tmp in staged:
+                os.replace(tmp, target)
+                done.append(target)
     except BaseException:
         for target in reversed(done):  # put the user's files back
             old = kept.get(target)

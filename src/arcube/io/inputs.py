@@ -135,6 +135,8 @@ def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: 
         raise fail(f"too large: more than {limit} bytes (the limit is {_mib(limit)})")
     data = b"".join(chunks)
     if pipe:
+        if not data:  # a FIFO nobody writes to reads as empty at once (never waits): say so, not "empty file"
+            raise fail("is a FIFO (named pipe) that gave no data: no process writes to it")
         _PIPES[(st.st_dev, st.st_ino)] = data
     return data
 

@@ -113,12 +113,14 @@ def program(
     anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
     if out is None:
         return build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)
-    folder, created, lock = prepare_folder(out)
+    folder, created, lock = None, False, None
     try:
+        folder, created, lock = prepare_folder(out)
         prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine)
         prog.write(folder, figures(prog) if figures is not None else None)
     except BaseException:
-        remove_folder(folder, lock, created)
+        if folder is not None:
+            remove_folder(folder, lock, created)
         raise
-    remove_folder(folder, lock, created=False)
+    remove_folder(folder, lock, created=False)  # the lock goes; the folder stays, with the program
     return dataclasses.replace(prog, path=Path(folder))

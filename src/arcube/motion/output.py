@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_files
 from arcube.io.inputs import file_kind
@@ -120,27 +121,26 @@ def prepare_folder(out: str | os.PathLike[str]) -> tuple[Path, bool, Path]:
     program, or another process is writing a program into it.
     """
     folder = Path(out)
-    created = False
+    created, lock = False, None
     try:
         if folder.exists() and not folder.is_dir():
             raise InputError.of("out", f"{folder}: is {'a file' if folder.is_file() else 'not a folder'}, not a folder")
-        created = not folder.exists()
-        folder.mkdir(parents=True, exist_ok=True)
-        lock = acquire(folder)
-    except OSError as exc:
-        if created:
-            remove_folder(folder)
-        raise InputError.of("out", f"{folder}: cannot write ({exc.strerror or exc})") from None
-    except InputError as exc:
-        if created:
-            remove_folder(folder)
-        raise InputError.of("out", str(exc)) from None
-    older = [name for name in PROGRAM_FILES if os.path.lexists(folder / name)]
-    if older:
-        release(lock)
-        shown = [name if (folder / name).is_file() else f"{name} ({file_kind(os.lstat(folder / name).st_mode)})" for name in older]
-        raise InputError.of("out", f"{folder}: holds an older program ({', '.join(shown)}); give a new or empty folder, "
-                                   f"or delete {' and '.join(older)} first")  # fmt: skip
+        with interrupts.deferred():  # a folder made and its lock written, or neither
+            created = not folder.exists()
+            folder.mkdir(parents=True, exist_ok=True)
+            lock = acquire(folder)
+        older = [name for name in PROGRAM_FILES if os.path.lexists(folder / name)]
+        if older:
+            shown = [name if (folder / name).is_file() else f"{name} ({file_kind(os.lstat(folder / name).st_mode)})" for name in older]
+            raise InputError.of("out", f"{folder}: holds an older program ({', '.join(shown)}); give a new or empty folder, "
+                                       f"or delete {' and '.join(older)} first")  # fmt: skip
+    except BaseException as exc:
+        remove_folder(folder, lock, created)
+        if isinstance(exc, OSError):
+            raise InputError.of("out", f"{folder}: cannot write ({exc.strerror or exc})") from None
+        if isinstance(exc, InputError) and exc.param != "out":  # the lock's: another process writes here
+            raise InputError.of("out", str(exc)) from None
+        raise
     return folder, created, lock
 
 
