@@ -186,15 +186,21 @@ def test_each_summary_defect_of_the_issue_is_one_line(written: tuple[Program, Pa
 
 
 @pytest.mark.parametrize("which", [CSV_NAME, JSON_NAME])
-def test_device_files_are_refused_before_reading(written: tuple[Program, Path], tmp_path: Path, which: str) -> None:
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
+def test_device_files_and_fifos_are_refused_before_reading(written: tuple[Program, Path], tmp_path: Path, which: str, special: str) -> None:
+    """Inside a program folder only regular files are read: /dev/zero would never end, a FIFO could block."""
     _, source = written
     folder = tmp_path / "p"
     folder.mkdir()
     for name in (CSV_NAME, JSON_NAME):
         (folder / name).write_text((source / name).read_text())
     (folder / which).unlink()
-    os.symlink("/dev/zero", folder / which)
-    with pytest.raises(InputError, match="is a character device, not a regular file"):
+    if special == "fifo":
+        os.mkfifo(folder / which)
+    else:
+        os.symlink(special, folder / which)
+    kind = "a FIFO (named pipe)" if special == "fifo" else "a character device"
+    with pytest.raises(InputError, match=re.escape(f"{folder / which}: is {kind}, not a regular file")):
         read_program_files(folder)
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -109,3 +110,56 @@ def test_the_script_s_entry_installs_the_handling_before_the_heavy_imports() -> 
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60)
     assert out.returncode == 0 and out.stdout.strip() == "[]", out
+
+
+def _screen(data: str) -> list[str]:
+    """The lines a terminal shows after ``data``: enough of VT100 for Rich's live display (text, CR, LF,
+    erase line ``ESC[2K``, cursor up ``ESC[nA``; colours and cursor visibility ignored)."""
+    lines, row, col = [""], 0, 0
+    for token in re.findall(r"\x1b\[[0-9;?]*[A-Za-z]|\r|\n|[^\x1b\r\n]+", data):
+        if token == "\r":
+            col = 0
+        elif token == "\n":
+            row, col = row + 1, 0
+            lines += [""] * (row + 1 - len(lines))
+        elif token.startswith("\x1b["):
+            if token.endswith("K"):
+                lines[row] = ""
+            elif token.endswith("A"):
+                row = max(row - int(token[2:-1] or 1), 0)
+        else:
+            line = lines[row].ljust(col)
+            lines[row] = line[:col] + token + line[col + len(token):]
+            col += len(token)
+    return [ln for ln in lines if ln.strip()]
+
+
+def test_ctrl_c_under_a_progress_bar_leaves_one_line_on_the_terminal(tmp_path: Path) -> None:
+    """On a terminal, optimize draws a progress bar; after Ctrl-C the screen shows the one error line
+    (the bar is erased), not the bar's last state and the line."""
+    import pty
+
+    master, slave = pty.openpty()
+    env = {**os.environ, "PYTHONPATH": str(SRC), "TERM": "xterm", "COLUMNS": "120"}
+    argv = ["optimize", "--trajectories", "reference", "--ids", "1,3", "--points", "5", "--algorithm", "ga", "--population", "20",
+            "--generations", "100000", "--engine", "numpy", "--out", "r"]  # fmt: skip
+    p = subprocess.Popen([sys.executable, "-m", "arcube", *argv], cwd=tmp_path, env=env, stdin=slave, stdout=slave, stderr=slave)
+    os.close(slave)
+    data = b""
+    deadline = time.monotonic() + 240
+    while b"evaluations" not in data and time.monotonic() < deadline:  # the bar is up
+        data += os.read(master, 65536)
+    assert b"evaluations" in data, data[-500:]
+    time.sleep(1.0)
+    p.send_signal(signal.SIGINT)
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # the child closed the terminal
+            break
+        if not chunk:
+            break
+        data += chunk
+    os.close(master)
+    assert p.wait(timeout=120) == 130
+    assert _screen(data.decode("utf-8", "replace")) == ["error: interrupted"], _screen(data.decode("utf-8", "replace"))

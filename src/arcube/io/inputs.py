@@ -7,7 +7,8 @@ Whatever the reader, the same promises and limits hold, and a breach is an
 * **regular files and pipes only**: a folder, device or socket is refused before anything is read
   (``/dev/zero`` would never end); a pipe or FIFO (a shell's ``--trajectories <(...)``, which names
   ``/dev/fd/63``) is read once, to its end, and its bytes are kept for the rest of the process, since
-  a command may read its plan twice and a pipe gives its bytes only once;
+  a command may read its plan twice and a pipe gives its bytes only once (the files inside a folder
+  arcube wrote, a program's or a run's, are read as regular files only: ``pipes=False``);
 * **size**: at most :data:`MAX_TEXT_BYTES` (64 MiB) for a text file, :data:`MAX_MESH_BYTES`
   (1 GiB) for a mesh;
 * **encoding**: UTF-8, with or without a byte-order mark, or UTF-16 / UTF-32 with their
@@ -93,11 +94,12 @@ _PIPES: dict[tuple[int, int], bytes] = {}
 """The bytes of each pipe or FIFO read so far, by (device, inode): a pipe gives them only once."""
 
 
-def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None) -> bytes:
+def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> bytes:
     """The bytes of the regular file, pipe or FIFO ``path``, at most ``limit`` of them (module docstring).
+    ``pipes=False``: a regular file only (the files inside a folder arcube wrote: a FIFO there is not its file).
 
     Raises:
-        InputError (through ``fail``): missing, a folder, device or socket, unreadable, or over ``limit``.
+        InputError (through ``fail``): missing, a folder, device or socket (or a pipe), unreadable, or over ``limit``.
     """
     fail = fail or _default_fail(path)
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
@@ -109,7 +111,7 @@ def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: 
         raise fail(f"cannot read ({getattr(exc, 'strerror', None) or exc})") from None
     try:
         st = os.fstat(fd)
-        pipe = stat.S_ISFIFO(st.st_mode)
+        pipe = pipes and stat.S_ISFIFO(st.st_mode)
         if pipe and (st.st_dev, st.st_ino) in _PIPES:
             data = _PIPES[(st.st_dev, st.st_ino)]
             if len(data) > limit:
@@ -163,10 +165,10 @@ def decode_text(data: bytes, fail: Fail) -> str:
     return text
 
 
-def read_text(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None) -> str:
+def read_text(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> str:
     """:func:`read_bytes` then :func:`decode_text`."""
     fail = fail or _default_fail(path)
-    return decode_text(read_bytes(path, limit, fail), fail)
+    return decode_text(read_bytes(path, limit, fail, pipes=pipes), fail)
 
 
 def _parse_int(text: str) -> int | float:
@@ -202,10 +204,10 @@ def parse_json(text: str, fail: Fail) -> Any:
     return data
 
 
-def load_json(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None) -> Any:
+def load_json(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> Any:
     """:func:`read_text` then :func:`parse_json`."""
     fail = fail or _default_fail(path)
-    return parse_json(read_text(path, limit, fail), fail)
+    return parse_json(read_text(path, limit, fail, pipes=pipes), fail)
 
 
 def parse_decimal(text: str) -> float | None:

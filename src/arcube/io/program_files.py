@@ -9,7 +9,7 @@ non-finite value) reads as NaN, except in ``t_s``. ``program.json``: the summary
 smallest clearances, limits, motors, design, ...).
 
 Both files are read within the limits of every reader (:mod:`arcube.io.inputs`,
-:mod:`arcube.io.tables`: regular files or pipes only, size, encoding, JSON depth and integer
+:mod:`arcube.io.tables`: regular files only (no device, no FIFO), size, encoding, JSON depth and integer
 digits, field length, rows as wide as the header, each column once, numbers in decimal notation)
 and within the program's own: at most :data:`MAX_PROGRAM_ROWS` rows, times finite and increasing,
 segments one of :data:`SEGMENTS`, tips within the coordinate range, unit axes, angles, rates and
@@ -217,7 +217,7 @@ def read_summary(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not p.exists() and not p.is_symlink():
         raise _missing(p)
     fail = lambda problem: InputError(f"{p}: {problem}")  # noqa: E731
-    return _check_summary(load_json(p, fail=fail), fail)
+    return _check_summary(load_json(p, fail=fail, pipes=False), fail)
 
 
 # ----------------------------------------------------------------------------- program.csv
@@ -227,7 +227,7 @@ def _rows(path: Path) -> tuple[Any, bool]:
     """The parsed table of program.csv and whether it has the torque columns."""
     if not path.exists() and not path.is_symlink():
         raise _missing(path)
-    table = parse_table(read_text(path, MAX_PROGRAM_BYTES), os.fspath(path), required=CSV_COLUMNS)
+    table = parse_table(read_text(path, MAX_PROGRAM_BYTES, pipes=False), os.fspath(path), required=CSV_COLUMNS)
     if not table.rows:
         raise InputError(f"{path}: no rows")
     if len(table.rows) > MAX_PROGRAM_ROWS:

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.errors import InputError
-from arcube.io.inputs import parse_decimal, read_text, short_repr
+from arcube.io.inputs import MAX_TEXT_BYTES, parse_decimal, read_text, short_repr
 
 __all__ = ["MAX_FIELD_CHARS", "MAX_NUMBER_CHARS", "Table", "number", "parse_table", "read_table"]
 
@@ -171,6 +171,6 @@ def _check_header(header: tuple[str, ...], name: str, required: Iterable[str], a
         raise InputError(f"{name}: missing column(s) {', '.join(missing)}")
 
 
-def read_table(path: str | os.PathLike[str], **kw: object) -> Table:
-    """:func:`arcube.io.inputs.read_text` then :func:`parse_table` (keywords as there), named by ``path``."""
-    return parse_table(read_text(path), os.fspath(path), **kw)  # type: ignore[arg-type]
+def read_table(path: str | os.PathLike[str], *, limit: int = MAX_TEXT_BYTES, pipes: bool = True, **kw: object) -> Table:
+    """:func:`arcube.io.inputs.read_text` (``limit``, ``pipes`` as there) then :func:`parse_table` (keywords as there), named by ``path``."""
+    return parse_table(read_text(path, limit, pipes=pipes), os.fspath(path), **kw)  # type: ignore[arg-type]

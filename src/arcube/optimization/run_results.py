@@ -115,7 +115,7 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     NaN) as float, any other as text. Read as every CSV is (:mod:`arcube.io.tables`)."""
     if not path.exists():
         raise InputError(f"{path}: missing (the run has not written it)")
-    table = read_table(path)
+    table = read_table(path, pipes=False)
     out: dict[str, np.ndarray] = {}
     for j, key in enumerate(table.header):
         values = [cells[j] for _, cells in table.rows]

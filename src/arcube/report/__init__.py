@@ -59,16 +59,19 @@ def check_report_path(path: str | os.PathLike[str], name: str = "path") -> Path:
 
 
 def _check_writable(out: Path, name: str) -> None:
-    """InputError naming ``name`` unless a file can be created in ``out``'s folder (created if missing)."""
+    """InputError naming ``name`` unless a file can be created in ``out``'s folder, or, when the folder
+    does not exist yet, in its nearest existing parent (a probe file, removed at once: nothing is created)."""
     import tempfile
 
     folder = out.parent
+    existing = next((a for a in (folder, *folder.parents) if a.exists()), Path("."))
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=folder):
+        if not existing.is_dir():
+            raise NotADirectoryError(20, f"{existing} is a file, not a folder")
+        with tempfile.TemporaryFile(dir=existing):
             pass
     except OSError as exc:
-        raise InputError(f"{name} {out}: cannot write in {folder} ({exc.strerror or exc})") from None
+        raise InputError(f"{name} {out}: cannot write in {existing} ({exc.strerror or exc})") from None
 
 
 def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLike[str] | None = None,

@@ -106,7 +106,7 @@ def read_history(path: str | os.PathLike[str]) -> History:
     (the optimizer's +inf: no feasible design yet) and a non-finite number are gaps (NaN). Raises
     :class:`InputError` (one line naming the file and row) for a missing, binary or damaged file.
     """
-    table = read_table(path, key=_norm, required=[_norm(c) for c in _HISTORY_COLUMNS])
+    table = read_table(path, pipes=False, key=_norm, required=[_norm(c) for c in _HISTORY_COLUMNS])
     names = [_norm(c) for c in _HISTORY_COLUMNS] + (["evaluations"] if "evaluations" in table.header else [])
     data = np.array(table.numbers(names, empty=math.nan, finite=False), dtype=float).reshape(-1, len(names))
     with np.errstate(invalid="ignore"):
@@ -253,7 +253,7 @@ class ParetoFront(NamedTuple):
 def read_pareto(path: str | os.PathLike[str]) -> ParetoFront:
     """Read ``pareto.csv`` (columns eta_G, links_sum_mm, bbox_volume_L); InputError naming the file otherwise."""
     base = ("eta_G", "links_sum_mm", "bbox_volume_L")
-    table = read_table(path, required=base)  # arcube.io.tables: a text file, rows as wide as the header, each column once
+    table = read_table(path, pipes=False, required=base)  # arcube.io.tables: a text file, rows as wide as the header, each column once
     names = [k[len("objective_"):] for k in table.header if k.startswith("objective_")]
     data = np.array(table.numbers([*base, *("objective_" + n for n in names)], finite=False), dtype=float).reshape(-1, len(base) + len(names))
     cols = {k: data[:, j].copy() for j, k in enumerate(base)}
