@@ -142,7 +142,7 @@ def test_ctrl_c_under_a_progress_bar_leaves_one_line_on_the_terminal(tmp_path: P
     master, slave = pty.openpty()
     env = {**os.environ, "PYTHONPATH": str(SRC), "TERM": "xterm", "COLUMNS": "120"}
     argv = ["optimize", "--trajectories", "reference", "--ids", "1,3", "--points", "5", "--algorithm", "ga", "--population", "20",
-            "--generations", "100000", "--engine", "numpy", "--out", "r"]  # fmt: skip
+            "--generations", "100000", "--tolerance", "0", "--engine", "numpy", "--out", "r"]  # fmt: skip
     p = subprocess.Popen([sys.executable, "-m", "arcube", *argv], cwd=tmp_path, env=env, stdin=slave, stdout=slave, stderr=slave)
     os.close(slave)
     data = b""

@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes
 from arcube.io.tables import read_table
 from arcube.evaluation.indices import JACOBIAN_NAMES
