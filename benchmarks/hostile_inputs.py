@@ -149,7 +149,7 @@ def plan_cases() -> list[Case]:
 
 def limit_cases() -> list[Case]:
     opt = ["optimize", "--trajectories", "reference"]
-    prog = ["program", "--design", "paper", "--trajectories", "reference", "--ids", "1,3"]
+    prog = ["program", "--design", "design.json", "--trajectories", "reference", "--side", "R", "--ids", "5"]  # a design that runs it
     cases = {
         "--max torque=1_5": [*opt, "--max", "torque=1_5"], "--max torque=1 --max torque=50": [*opt, "--max", "torque=1", "--max", "torque=50"],
         "--no-torque --max torque=5": ["design", "--trajectories", "reference", "--no-torque", "--max", "torque=5"],
@@ -160,7 +160,14 @@ def limit_cases() -> list[Case]:
         "--population 1e8 (ga)": [*opt, "--algorithm", "ga", "--population", "100000000"],
         "--points 2e19": [*opt, "--points", "20000000000000000000"],
     }  # fmt: skip
-    return [("limits and computation bounds", name, lambda b, a=argv: [*a, "--out", str(b / "out")], "error") for name, argv in cases.items()]
+    return [("limits and computation bounds", name, lambda b, a=argv: [*with_design(b, a), "--out", str(b / "out")], "error")
+            for name, argv in cases.items()]  # fmt: skip
+
+
+def with_design(base: Path, argv: list[str]) -> list[str]:
+    """``argv``, with tests/test_program.py's design written as ``design.json`` (a design whose programs run)."""
+    Design.from_dict(DESIGN).to_json(base / "design.json")
+    return argv
 
 
 def write_cases() -> list[Case]:
@@ -168,7 +175,8 @@ def write_cases() -> list[Case]:
         (base / "prog").mkdir()
         (base / "prog" / "program.csv").write_text("older")
         (base / "prog" / "program.json").mkdir()
-        return ["program", "--design", "paper", "--trajectories", "reference", "--ids", "1", "--out", str(base / "prog")]
+        return with_design(base, ["program", "--design", "design.json", "--trajectories", "reference", "--side", "R", "--ids", "5", "--feed", "2",
+                                  "--dt", "0.05", "--out", str(base / "prog")])  # fmt: skip
 
     def replay_folder(base: Path) -> list[str]:
         folder = program_folder(base)
@@ -200,12 +208,32 @@ def message_cases() -> list[Case]:
             ("messages naming the culprit", "a mesh 5 m across", big_mesh, "error")]  # fmt: skip
 
 
+class Hung(Exception):
+    """A case that did not end within :data:`CASE_TIMEOUT_S` (e.g. a read blocked on a FIFO)."""
+
+
+CASE_TIMEOUT_S = 120
+
+
+def _alarm(signum: int, frame: object) -> None:
+    raise Hung
+
+
 def check(case: Case, base: Path) -> str | None:
     """None when the case kept the promise, else what happened."""
     _, name, setup, expected = case
     argv = setup(base)
     before = {p: (p.stat().st_size if p.is_file() else None) for p in base.rglob("*")}
-    code, err = run(argv, base)
+    signal.signal(signal.SIGALRM, _alarm)
+    signal.alarm(CASE_TIMEOUT_S)
+    try:
+        code, err = run(argv, base)
+    except Hung:
+        return f"no answer within {CASE_TIMEOUT_S} s"
+    except BaseException as exc:  # noqa: BLE001 - what escaped the command line, counted
+        return f"escaped the CLI: {type(exc).__name__}: {str(exc)[:120]}"
+    finally:
+        signal.alarm(0)
     after = {p: (p.stat().st_size if p.is_file() else None) for p in base.rglob("*")}
     if expected == "ok":
         return None if code == 0 else f"exit {code}: {err.strip()[:200]}"
@@ -269,7 +297,7 @@ def main_() -> None:
         print(f"{k:<{width}}  {n:>5}  {ok:>5}")
     print(f"{'all':<{width}}  {sum(n for n, _ in table.values()):>5}  {sum(ok for _, ok in table.values()):>5}")
     for line in failures:
-        print("FAILED", line)
+        print("FAILED", line, flush=True)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ heavy is imported, and Numba's cache folder is chosen (:mod:`arcube.caches`) bef
 from __future__ import annotations
 
 import importlib
+import importlib.util
 
 from arcube import caches as _caches
 
@@ -38,7 +39,7 @@ _SOURCES: dict[str, str] = {
     **dict.fromkeys(("PARAM_NAMES", "Design"), "arcube.model.design"),
     "generate_patient": "arcube.patients", "write_report": "arcube.report", "explore": "arcube.explorer",
 }  # fmt: skip
-"""Public name -> the module it comes from (``calibrate`` is the subpackage itself)."""
+"""Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
 
 if TYPE_CHECKING:
     from typing import Any
@@ -66,10 +67,10 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
-    if name == "calibrate":
-        value: Any = importlib.import_module("arcube.calibrate")
-    elif name in _SOURCES:
-        value = getattr(importlib.import_module(_SOURCES[name]), name)
+    if name in _SOURCES:
+        value: Any = getattr(importlib.import_module(_SOURCES[name]), name)
+    elif not name.startswith("_") and importlib.util.find_spec(f"arcube.{name}") is not None:
+        value = importlib.import_module(f"arcube.{name}")  # a subpackage, as when this module imported them all (arcube.io, arcube.calibrate)
     else:
         raise AttributeError(f"module 'arcube' has no attribute {name!r}")
     globals()[name] = value
