@@ -9,6 +9,7 @@ that is a failure (as tests/test_report_browser.py). Chromium runs with every ho
 from __future__ import annotations
 
 import io
+import logging
 import os
 import re
 import socket
@@ -211,6 +212,24 @@ def test_the_app_serves_its_page_and_refreshes_fast(app):
     assert set(app.timings) == {"evaluate_ms", "scene_ms", "draw_ms", "total_ms"}
     app.params["p_x"].value = app.params["p_x"].value - 1.0
     assert app.wait_idle() and app.figures.summary["reach_pct"] == 100.0
+
+
+def test_a_port_scanner_leaves_no_traceback_on_stderr(app, caplog):
+    """A client that connects and sends garbage (or nothing) fails the websocket handshake: websockets
+    logs that, with a traceback, on the user's terminal (the root logger's last-resort handler; here
+    pytest's capture stands in for it): no such record may be made."""
+    caplog.set_level(logging.DEBUG)
+    for payload in (b"", b"\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03", b"garbage\r\n\r\n"):
+        with socket.create_connection(("127.0.0.1", app.port), timeout=5) as s:
+            s.sendall(payload)
+            s.shutdown(socket.SHUT_WR)
+            try:
+                s.recv(4096)
+            except OSError:
+                pass
+    time.sleep(1.0)
+    noise = [f"{r.name}: {r.getMessage()}" for r in caplog.records if r.name.startswith("websockets") and r.levelno >= logging.WARNING]
+    assert not noise, noise
 
 
 def test_save_and_polish(app):

@@ -197,16 +197,13 @@ def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLik
 
 def program(design: Any, plan: Any, out: PathLike | None = None, **kwargs: Any) -> Program:
     """The drilling program of ``design`` for a plan (MODEL.md 17): :func:`arcube.motion.program`, and
-    with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json``. Arguments:
-    those of :func:`arcube.motion.program` (``options``, ``anatomy``, ``mode``, ``order``, ``limits``,
-    ``masses``, ``feed=1.0``, ...)."""
+    with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json`` (the three
+    written as one: all or none). Arguments: those of :func:`arcube.motion.program` (``options``,
+    ``anatomy``, ``mode``, ``order``, ``limits``, ``masses``, ``feed=1.0``, ...)."""
     from arcube.motion import program as build
-    from arcube.report.program import timeline_png
+    from arcube.report.program import timeline_png_bytes
 
-    prog = build(design, plan, out, **kwargs)
-    if prog.path is not None:
-        timeline_png(prog, prog.path / "program.png")
-    return prog
+    return build(design, plan, out, figures=lambda prog: {"program.png": timeline_png_bytes(prog)}, **kwargs)
 
 
 def _plans(plan: Any) -> list[Any]:
@@ -341,8 +338,8 @@ def design(
     out: PathLike | None = None,
     *,
     seeds: str | Sequence[int] = "1-3",
-    minima: dict[str, float] | None = None,
-    maxima: dict[str, float] | None = None,
+    minima: dict[str, float] | Sequence[str] | None = None,
+    maxima: dict[str, float] | Sequence[str] | None = None,
     drop: Sequence[str] = (),
     settings: RunSettings | None = None,
     workers: int = 1,
@@ -358,7 +355,8 @@ def design(
         plan: one plan or several (one placement per patient).
         out: the design folder to create (must be absent or empty).
         seeds: one optimization per seed (``"1-3"`` or a sequence).
-        minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``);
+        minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``, or
+            ``["torque=15"]`` as the command line gives them: each name once);
             the defaults are clearance >= 5 mm, self_clearance >= 2 mm, lateral_error <= 0.5 mm,
             axis_error <= 0.25 deg, torque <= 20 N m.
         drop: requirements to drop (``["torque"]``).

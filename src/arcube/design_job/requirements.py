@@ -66,23 +66,32 @@ class Requirement:
     limit: float
 
 
-def requirements_from(minima: Mapping[str, float] | None = None, maxima: Mapping[str, float] | None = None,
-                      drop: Sequence[str] = ()) -> list[Requirement]:  # fmt: skip
-    """The defaults, changed by ``minima`` / ``maxima`` and without the names in ``drop`` (checked)."""
+def requirements_from(minima: Mapping[str, float] | Sequence[str] | str | None = None,
+                      maxima: Mapping[str, float] | Sequence[str] | str | None = None, drop: Sequence[str] = ()) -> list[Requirement]:  # fmt: skip
+    """The defaults, changed by ``minima`` / ``maxima`` and without the names in ``drop`` (checked).
+
+    ``minima`` / ``maxima``: name -> limit, or ``"NAME=VALUE"`` texts as the command line gives them
+    (:func:`arcube.coerce.limit_pairs`: a name given twice, or a value such as ``1_5``, is refused);
+    a requirement both changed and dropped is a contradiction, refused too."""
+    from arcube.coerce import limit_pairs
+
     limits = dict(DEFAULTS)
-    for kind, given in (("min", minima or {}), ("max", maxima or {})):
-        for name, value in given.items():
-            if name not in REQUIREMENTS:
-                raise InputError.of(f"requirements.{kind}", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
-            if REQUIREMENTS[name][0] != kind:
-                raise InputError.of(f"requirements.{kind}", f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE")
-            v = float(value)
-            if not (math.isfinite(v) and v >= 0.0) or (kind == "max" and v == 0.0):
-                raise InputError.of(f"requirements.{kind}", f"{name}={value!r}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}")
-            limits[name] = v
     for name in drop:
         if name not in REQUIREMENTS:
             raise InputError.of("requirements.drop", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+    for kind, given in (("min", minima), ("max", maxima)):
+        param = f"requirements.{kind}"
+        for name, v, shown in limit_pairs(given, param=param, example="clearance=5" if kind == "min" else "torque=20"):
+            if name not in REQUIREMENTS:
+                raise InputError.of(param, f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+            if REQUIREMENTS[name][0] != kind:
+                raise InputError.of(param, f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE")
+            if not v >= 0.0 or (kind == "max" and v == 0.0):
+                raise InputError.of(param, f"{shown}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}")
+            if name in drop:
+                raise InputError.of(param, f"{shown}: the {name} requirement is also dropped; limit it or drop it, not both")
+            limits[name] = v
+    for name in drop:
         limits.pop(name, None)
     return [Requirement(n, REQUIREMENTS[n][0], v) for n, v in limits.items()]
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.coerce import engine_name, mode_signs
 from arcube.evaluation.task import build_task
@@ -89,6 +90,8 @@ def stl_roundtrip(anatomy: Any) -> Any:
     import io
 
     import trimesh
+
+    interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
 
     from arcube.evaluation.anatomy import Anatomy
     from arcube.io.meshes import _stl_bytes

@@ -25,7 +25,7 @@ from arcube.accuracy.settings import ToleranceSettings, parse_tol
 from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import PAPER_NAMES
-from arcube.coerce import mode_text
+from arcube.coerce import limit_pairs, mode_text
 from arcube.optimization.bounds import DEFAULT_BOUNDS, FREE_GROUPS, parse_bounds, parse_free, resolve_bounds
 from arcube.evaluation.envelope import envelope_spec
 from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_envelope_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
@@ -42,6 +42,15 @@ DEFAULT_PERIOD = 30
 """Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
 
 
+MAX_POPULATION = 10_000
+"""Largest population: a generation is evaluated as one batch, whose arrays grow with population x
+points (about 125 kB per design on the reference plan at 30 points with the NumPy engine: 1.3 GB at
+this bound); a larger one exhausts the memory instead of running (the paper's GA uses 400)."""
+MAX_STANDOFF_MM = 1000.0
+"""Largest standoff (mm): a metre beyond the anatomy is already far outside the robot's reach; a
+larger value is a unit mistake, and 1e308 overflows the approach lines to infinity."""
+
+
 def check_algorithm(name: str, population: int) -> None:
     """InputError for an unknown algorithm or a population it cannot use."""
     if name not in ALGORITHMS:
@@ -52,30 +61,14 @@ def check_algorithm(name: str, population: int) -> None:
 
 
 def _limits(kind: str) -> Any:
-    """``{"torque": 15}`` or ``["torque=15"]`` -> ``{"torque": 15.0}`` (checked)."""
+    """``{"torque": 15}`` or ``["torque=15"]`` -> ``{"torque": 15.0}``, checked (:func:`arcube.coerce.limit_pairs`:
+    a name given twice or a value such as ``1_5`` is refused)."""
 
     def parse(value: Any) -> dict[str, float]:
-        if value is None:
-            return {}
-        pairs: list[tuple[str, Any, str]] = []
-        if isinstance(value, Mapping):
-            pairs = [(str(k), v, f"{k}={v}") for k, v in value.items()]
-        else:
-            for item in [value] if isinstance(value, str) else value:
-                name, sep, v = str(item).partition("=")
-                if not sep or not name.strip():
-                    raise InputError.of(f"RunSettings.{kind}", f"{item!r}: expected NAME=VALUE, e.g. lateral_error=0.2")
-                pairs.append((name.strip(), v, str(item)))
         out: dict[str, float] = {}
-        for name, v, shown in pairs:
+        for name, number, shown in limit_pairs(value, param=f"RunSettings.{kind}", example="lateral_error=0.2"):
             if name not in OBJECTIVES:
                 raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})")
-            try:
-                number = float(v)
-            except (TypeError, ValueError):
-                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: the value {str(v).strip()!r} is not a number") from None
-            if not math.isfinite(number):
-                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: the value must be finite")
             if kind == "maxima" and number <= 0.0:
                 raise InputError.of("RunSettings.maxima", f"{shown!r}: an upper limit must be > 0")
             out[name] = number
@@ -126,8 +119,8 @@ class RunSettings(Settings):
 
     algorithm: str = DEFAULT_ALGORITHM
     """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, or nsga2 / nsga3 (several objectives)."""
-    population: int = Field(default=400, ge=1)
-    """Population size."""
+    population: int = Field(default=400, ge=1, le=MAX_POPULATION)
+    """Population size (at most 10,000: each generation is evaluated as one batch)."""
     generations: int = Field(default=300, ge=1)
     """Maximum number of generations."""
     tolerance: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
@@ -192,7 +185,7 @@ class RunSettings(Settings):
     """Tolerances set by hand for lateral_error_wc and lateral_error_rms, NAME=T (mm or deg): a source (r=0.02) or a group (lengths=0.05, angles=0.01, q0=0.05)."""
     docking: Literal["per-patient", "shared"] = "per-patient"
     """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
-    standoff: float | None = Field(default=None, ge=0, allow_inf_nan=False)
+    standoff: float | None = Field(default=None, ge=0, le=MAX_STANDOFF_MM, allow_inf_nan=False)
     """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1)."""
     options: Options = Options()
     """Clearance guards, body radii, loads and masses (the guards of ``guards`` are added on top)."""
