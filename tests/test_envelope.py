@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
-from arcube.evaluation.envelope_drawing import envelope_meshes, write_envelope_mesh
+from arcube.evaluation.envelope_drawing import ROUND_CELLS, envelope_meshes, write_envelope_mesh
 from arcube.evaluation.envelope import (
     BOX_TABLE, Envelope, Landmarks, default_envelope, envelope_from_boxes, landmarks, resolve_envelope, rounded_box_distance,
 )  # fmt: skip
@@ -188,8 +188,8 @@ def test_envelope_mesh_is_closed_and_on_the_surfaces(tmp_path) -> None:
         if name == "table":
             assert v[:, 2].max() == pytest.approx(env.table_z, abs=1e-9) and v[:, 2].min() < env.table_z - 10.0
             assert np.all(env(v[v[:, 2] == v[:, 2].max()]) <= 1e-9)  # the slab's top lies on the table, under the body
-        else:  # marching cubes on a 4 mm grid: vertices within step^2 / (8 rho) of the rounded box's surface
-            assert np.abs(d).max() < 4.0**2 / (8 * env.boxes[k, 6]), name
+        else:  # a mapped cube: every vertex on the rounded box's surface, a closed shell of few triangles
+            assert np.abs(d).max() < 1e-9 and len(mesh.faces) == 12 * ROUND_CELLS**2, name
             # and the mesh is the rounded box: its volume, (2a)^3-like terms of the Minkowski sum, to 1 %
             a, rho = env.boxes[k, 3:6], env.boxes[k, 6]
             vol = 8 * np.prod(a) + 8 * rho * (a[0] * a[1] + a[1] * a[2] + a[0] * a[2]) + 2 * np.pi * rho**2 * a.sum() + 4 / 3 * np.pi * rho**3
@@ -257,6 +257,27 @@ def test_bad_input_is_one_line_naming_it(tmp_path) -> None:
     env = resolve_envelope("default", PLAN, None)
     assert resolve_envelope(env) is env
     assert isinstance(envelope_from_boxes([[0, 0, 0, 1, 1, 1, 1]], ["b"], 0.0), Envelope)
+
+
+@pytest.mark.parametrize("argv, culprit", [
+    (["--table-z", "nan"], "--table-z"),
+    (["--envelope", "{tmp}/missing.stl"], "missing.stl"),
+    (["--envelope", "{tmp}/open.stl", "--anatomy-frame", "patient"], "open.stl"),
+    (["--envelope", "none", "--table-z", "-100"], "--table-z"),
+    (["--envelope", "default", "{tmp}/open.stl"], "--envelope"),
+], ids=["table-z nan", "missing file", "open surface", "table without envelope", "default beside a file"])  # fmt: skip
+def test_the_cli_refuses_a_bad_envelope_in_one_line(tmp_path, capsys, argv, culprit) -> None:
+    """The command line names its own flag or the file, exits 2 and writes no report."""
+    from arcube.cli import main
+
+    box = trimesh.creation.box(extents=(50.0, 50.0, 50.0))
+    (tmp_path / "open.stl").write_bytes(trimesh.Trimesh(box.vertices, box.faces[:-2], process=False).export(file_type="stl"))
+    args = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    with pytest.raises(SystemExit) as exc:
+        main(["evaluate", "--design", "paper", "--trajectories", "reference", "--points", "3", "--report", str(tmp_path / "r.html"), *args])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.count("\n") == 1 and err.startswith("error: ") and culprit in err, err
+    assert not (tmp_path / "r.html").exists()
 
 
 def test_the_evaluation_path_keeps_the_whole_plan_for_the_envelope() -> None:

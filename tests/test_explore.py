@@ -260,7 +260,7 @@ needs_chromium = CHROMIUM_SKIP
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
     # WebGL in software; only 127.0.0.1 resolves, so the page cannot load anything from elsewhere
-    drv = start_chromium(tmp_path_factory.mktemp("chromium-profile"), "--window-size=1400,1000", "--enable-unsafe-swiftshader",
+    drv = start_chromium(tmp_path_factory.mktemp("chromium-profile"), "--window-size=1000,720", "--enable-unsafe-swiftshader",
                          "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1")  # fmt: skip
     drv.set_script_timeout(60)
     yield drv

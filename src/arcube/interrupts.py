@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing: this module loads first, keep it light
 if TYPE_CHECKING:
     from types import FrameType
@@ -68,18 +69,30 @@ def start_up() -> None:
     _install(_exit_now)
 
 
+def _quiet_unraisable(unraisable: Any) -> None:
+    """An interrupt raised inside a finalizer (``__del__``, e.g. llvmlite's) cannot propagate; Python would print
+    "Exception ignored in ..." with a traceback before the one line. It is recorded (:func:`pending`) and the CLI
+    reports it, so it is dropped here; anything else goes to Python's own hook."""
+    if not issubclass(unraisable.exc_type, KeyboardInterrupt):
+        sys.__unraisablehook__(unraisable)
+
+
 def arm() -> Any:
     """Make Ctrl-C raise ``KeyboardInterrupt`` and be remembered (:func:`pending`); returns the handler
     it replaced, for :func:`disarm`. Call it inside the ``try`` that handles the interrupt."""
     global _pending
     _pending = False
-    return _install(_record_and_raise)
+    previous = _install(_record_and_raise)
+    if previous is not None:
+        sys.unraisablehook = _quiet_unraisable
+    return previous
 
 
 def disarm(previous: Any) -> None:
     """Put back the handler :func:`arm` replaced (in-process callers, e.g. tests, keep theirs)."""
     if previous is not None:
         _install(previous)
+        sys.unraisablehook = sys.__unraisablehook__
 
 
 def pending() -> bool:

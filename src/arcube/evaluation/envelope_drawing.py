@@ -1,5 +1,5 @@
 """Drawing the envelope of the whole patient and the table (MODEL.md 19.5): its regions as closed
-triangle meshes (rounded boxes by marching cubes of their signed distance, the table as a slab), for
+triangle meshes (rounded boxes as mapped cubes, the table as a slab), for
 reports, the explorer, ``arcube patients`` and a user who wants to see where the robot stands."""
 
 from __future__ import annotations
@@ -13,16 +13,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube import interrupts
-from arcube.evaluation.envelope import Envelope, resolve_envelope, rounded_box_distance
+from arcube.evaluation.envelope import Envelope, resolve_envelope
 
 if TYPE_CHECKING:  # trimesh loads only when an envelope is drawn
     import trimesh
 
-__all__ = ["MESH_STEP_MM", "envelope_meshes", "write_envelope_mesh", "write_plan_envelope"]
+__all__ = ["ROUND_CELLS", "envelope_meshes", "write_envelope_mesh", "write_plan_envelope"]
 
 
-MESH_STEP_MM = 4.0
-"""Grid step of the marching cubes that draw a rounded box (:func:`write_envelope_mesh`)."""
+ROUND_CELLS = 13
+"""Squares per cube face in a drawn rounded box (odd; 2028 triangles a box): vertices on the surface, the
+faces' chords within rho (1 - cos 4°) of it."""
 
 
 _TABLE_THICKNESS_MM = 20.0
@@ -33,22 +34,31 @@ _TABLE_BEYOND_MM = 150.0
 """How far the drawn table reaches beyond the other regions, mm."""
 
 
-def _rounded_box_mesh(box: NDArray[np.float64], step: float = MESH_STEP_MM) -> trimesh.Trimesh:
-    """A closed, outward-oriented mesh of a rounded box (marching cubes of its signed distance, ``step`` mm)."""
+def _rounded_box_mesh(box: NDArray[np.float64], cells: int = ROUND_CELLS) -> trimesh.Trimesh:
+    """A closed, outward-oriented mesh of a rounded box ``(c, a, rho)`` (MODEL.md 19.5): a cube's surface cut into
+    ``cells`` x ``cells`` squares per face, each node v sent to ``c + sign(v) a + rho v/|v|`` (a point of the surface,
+    whose outward normal is v/|v|). ``cells`` is odd, so no node lies on a symmetry plane: the squares that straddle
+    one become the flat faces and the rounded edges, and every vertex lies on the surface."""
     import trimesh
-    from skimage.measure import marching_cubes
 
     interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
-
     c, a, rho = box[:3], box[3:6], box[6]
-    # nodes off the surface (a node on it gives degenerate triangles): an offset no lattice of round sizes has
-    lo = c - a - rho - (2.0 + 0.3819660113) * step
-    n = np.ceil(2.0 * (a + rho + 2.5 * step) / step).astype(int) + 1
-    axes = [lo[i] + step * np.arange(n[i]) for i in range(3)]
-    X = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    values = rounded_box_distance(X, c, a, rho)
-    verts, faces, _, _ = marching_cubes(values, level=0.0, spacing=(step, step, step))
-    mesh = trimesh.Trimesh(vertices=verts + lo, faces=faces, process=False)
+    t = np.linspace(-1.0, 1.0, cells + 1)
+    U, V = (g.ravel() for g in np.meshgrid(t, t, indexing="ij"))
+    k = np.arange(cells)[:, None] * (cells + 1) + np.arange(cells)[None, :]
+    quads = np.stack([k, k + cells + 1, k + cells + 2, k + 1], axis=-1).reshape(-1, 4)  # counter-clockwise in (u, v)
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    nodes, faces = [], []
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            p = np.empty((len(U), 3))
+            p[:, axis], p[:, (axis + 1) % 3], p[:, (axis + 2) % 3] = sign, U, V  # (u, v, normal) right-handed for +1
+            faces.append((tris if sign > 0 else tris[:, ::-1]) + sum(len(n) for n in nodes))
+            nodes.append(p)
+    cube = np.concatenate(nodes)
+    verts = c + np.sign(cube) * a + rho * cube / np.linalg.norm(cube, axis=1, keepdims=True)
+    mesh = trimesh.Trimesh(vertices=verts, faces=np.concatenate(faces), process=False)
+    mesh.merge_vertices(digits_vertex=9)  # the faces' shared borders become one vertex each: a closed shell
     if mesh.volume < 0.0:
         mesh.invert()
     return mesh
@@ -72,11 +82,11 @@ def _table_mesh(envelope: Envelope) -> trimesh.Trimesh:
     return trimesh.creation.box(extents=extents, transform=trimesh.transformations.translation_matrix(centre))
 
 
-def envelope_meshes(envelope: Envelope, step: float = MESH_STEP_MM) -> list[tuple[str, trimesh.Trimesh]]:
-    """(region name, closed mesh) per region, patient frame: each rounded box drawn by marching cubes of its
-    signed distance every ``step`` mm (vertices within about step^2 / (8 rho) of the surface), the skin as
-    given, the table as a slab 20 mm thick whose top is the table, 150 mm beyond the other regions."""
-    out = [(name, _rounded_box_mesh(b, step)) for name, b in zip(envelope.names, envelope.boxes)]
+def envelope_meshes(envelope: Envelope, cells: int = ROUND_CELLS) -> list[tuple[str, trimesh.Trimesh]]:
+    """(region name, closed mesh) per region, patient frame: each rounded box as a mapped cube of ``cells`` x
+    ``cells`` squares a face (every vertex on the surface), the skin as given, the table as a slab 20 mm thick
+    whose top is the table, 150 mm beyond the other regions."""
+    out = [(name, _rounded_box_mesh(b, cells)) for name, b in zip(envelope.names, envelope.boxes)]
     out += [("skin", m) for m in envelope.skin]
     if envelope.table_z is not None:
         out.append(("table", _table_mesh(envelope)))
