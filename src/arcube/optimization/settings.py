@@ -290,6 +290,8 @@ class RunSettings(Settings):
             table["envelope"] = list(self.envelope)
         if self.table_z is not None:
             table["table_z"] = self.table_z
+        if g.envelope_clearance_mm is not None:  # its guard (MODEL.md 19.5): written only when on
+            table["envelope_clearance"] = g.envelope_clearance_mm
         for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
             value = getattr(self.options.masses, name) if name in Masses.model_fields else None
             if value is not None and value != getattr(_MASSES, name):
@@ -317,7 +319,7 @@ _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
 FLAT_OPTIONS: dict[str, tuple[str, str]] = {key: FLAT[key] for key in (
-    *_TABLE_GUARDS, "clearance", "self_clearance", "link_radius", "actuator_radius", "motor_radius", "motor_length", "encoder_deg",
+    *_TABLE_GUARDS, "clearance", "self_clearance", "envelope_clearance", "link_radius", "actuator_radius", "motor_radius", "motor_length", "encoder_deg",
     "thrust", "lateral_force", "actuator_stiffness", "wall", "density", "m_delta", "m_motor", "gravity")}  # fmt: skip
 """The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names."""
 _MASSES = Masses()
