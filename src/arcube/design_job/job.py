@@ -1,28 +1,31 @@
-"""``arcube design``: from a plan and a segmentation to a robot that meets every requirement.
+"""``arcube design``: from a plan and a segmentation (or a cohort of patients) to one robot that meets every requirement.
 
 One folder holds the job::
 
     design.toml        the requirements, the seeds, the standoff (what resume needs beside the study)
-    study/             one optimization per seed (arcube study), all 27 parameters and the working mode free
-    design.json        the chosen design (patient 1's placement; design_p<K>.json for patient K)
-    summary.json       meets_requirements, mode (+,+,-,+), seed, every summary figure, the requirements
-    requirements.csv   each requirement: limit, value, margin, pass/fail, where it is tightest
-    report.html        the design on the plan with the anatomy (plotly)
-    program/           the drilling program of a design that meets everything (MODEL.md 17): program.csv,
-                       program.json; a design whose program is blocked does not meet the requirements
-    design.xml         the MuJoCo model (when the z dyad closes with some c_z)
+    study/             one optimization per seed (arcube study): the robot's 22 parameters (c_z among them,
+                       MODEL.md 19.1), each docking's placement m and mounting angles, and the working mode free
+    design.json        the robot: the first docking's complete design (27 parameters, c_z, mode: what every
+                       command reads) and ``dockings``, each docking's patient, side, m and mounting angles
+    dockings/<patient>_<side>/
+                       design.json (that docking's complete design), requirements.csv (its own table),
+                       report.html, program/ (its drilling program, MODEL.md 17), design.xml (its MuJoCo model)
+    summary.json       meets_requirements, mode, seed, the robot, every docking's figures, the requirements
+    requirements.csv   each requirement: limit, value, margin, pass/fail, the docking and where it is tightest
+    report.html        every docking of the robot side by side, with its patient
 
-The best seed whose design meets every requirement when **re-evaluated by the NumPy reference**,
-its drilling program included (a seed whose program is blocked gives way to the next),
-is chosen; when none does, the best design found is written all the same and
-:attr:`DesignResult.met` is False (the CLI exits with code 3 and names what was missed).
+The dockings (MODEL.md 19.1) are one per patient and side by default (``dockings per-side``: a plan's R
+trajectories one docking, its L ones another), or one per patient. The best seed whose robot meets
+every requirement at every docking when **re-evaluated by the NumPy reference**, every docking's
+drilling program included (a seed whose program is blocked gives way to the next), is chosen; when
+none does, the best robot found is written all the same and :attr:`DesignResult.met` is False (the
+CLI exits with code 3 and names what was missed, at which docking).
 """
 
 from __future__ import annotations
 
 import json
 import math
-import re
 import shutil
 import time
 import tomllib
@@ -31,18 +34,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from arcube.design_job.dockings import ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
+from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_options, program_rows, write_requirements_csv
 from arcube.errors import InputError
-from arcube.evaluation.anatomy import resolve_anatomy
-from arcube.io import load_trajectories, select
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
 from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
-from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, assess, design_options, program_rows, write_requirements_csv
-from arcube.optimization.settings import RunSettings
 from arcube.optimization.run_results import OptimizeResult
+from arcube.optimization.settings import RunSettings
 
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
 
@@ -52,12 +54,14 @@ DESIGN_GENERATIONS = 100
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
 STUDY = "study"
 PROGRAM = "program"
+DOCKINGS = "dockings"
 
 
 @dataclass(frozen=True)
 class DesignResult:
-    """What ``arcube design`` decided: whether the chosen design meets every requirement, the summary
-    written to summary.json, and the requirement rows (requirements.csv)."""
+    """What ``arcube design`` decided: whether the chosen robot meets every requirement at every docking, the
+    summary written to summary.json, and the requirement rows (requirements.csv: per requirement, the docking
+    where it is tightest)."""
 
     path: Path
     met: bool
@@ -66,31 +70,41 @@ class DesignResult:
 
     @property
     def design(self) -> Design:
-        """The chosen design (patient 1's placement)."""
+        """The chosen design at its first docking (design.json)."""
         return Design.from_json(self.path / "design.json")
 
     @property
+    def dockings(self) -> dict[str, Design]:
+        """Each docking's complete design, by ``<patient>_<side>``."""
+        return {d["label"]: Design.from_json(self.path / DOCKINGS / d["label"] / "design.json") for d in self.summary.get("dockings", [])}
+
+    @property
     def missed(self) -> list[dict[str, Any]]:
-        """The requirement rows that fail."""
+        """The requirement rows that fail (each names its docking)."""
         return [r for r in self.rows if not r["passed"]]
 
 
 def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = None, **fields: Any) -> RunSettings:
     """The optimization a design job runs: ``settings`` (budget, engine, anatomy, objective ...) with
-    every parameter and the working mode free, the guards of 8.2, the clearance guards and the limits
-    of ``reqs``, the standoff lines of MODEL.md 17.1 (20 mm unless set) and the envelope of the whole
-    patient (MODEL.md 19.5: ``default`` unless set)."""
+    the robot's 22 parameters (c_z among them, MODEL.md 19.1), each docking's placement and the working mode
+    free, the guards of 8.2 and the z dyad (19.2), the clearance guards and the limits of ``reqs``, the standoff
+    lines of MODEL.md 17.1 (20 mm unless set), the envelope of the whole patient (19.5: ``default`` unless
+    set), one docking per side unless ``dockings`` is set, and the worst docking's eta_G unless ``aggregate`` is."""
     from arcube.optimization.config import run_settings
 
     s = run_settings(settings, **fields)
     maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
-    options = design_options(reqs, s.options)
+    options = design_options(reqs, s.options).replace(z_dyad=True)
     envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
     if envelope == ("none",) and any(r.name == "envelope_clearance" for r in reqs):
         raise InputError.of("RunSettings.envelope", "is none, but the envelope_clearance requirement needs one (envelope default or a skin "
                                                     "mesh); or drop the requirement")  # fmt: skip
-    return s.replace(free=["all", "mount", "L"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
-                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope)  # fmt: skip
+    dockings = s.dockings if s.dockings is not None or s.setups != 1 else "per-side"
+    aggregate = s.aggregate if "aggregate" in s.model_fields_set else "max"
+    algorithm = s.algorithm if "algorithm" in s.model_fields_set or dockings is None else "docked"  # mscmaes with one docking
+    return s.replace(free=["all", "mount", "L", "c_z"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
+                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope, dockings=dockings, aggregate=aggregate,
+                     docking="per-patient", algorithm=algorithm)  # fmt: skip
 
 
 def is_design(path: Path) -> bool:
@@ -101,16 +115,21 @@ def is_design(path: Path) -> bool:
 def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
                  workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
                  on_generation: Callable[[dict[str, Any]], None] | None = None) -> DesignResult:  # fmt: skip
-    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs."""
+    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs. ``plans``: the
+    trajectory sets, or :class:`~arcube.optimization.config.PatientPlan` (a cohort's patients, named, each with its own
+    anatomy and envelope)."""
+    from arcube.design_job.cohort import plans_as_cohort
+    from arcube.optimization.config import PatientPlan
+
     out = Path(out)
     runmod.check_new_folder(out)
-    if settings.anatomy == () and any(r.name == "clearance" for r in reqs):
-        raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
+    patients = list(plans) if all(isinstance(p, PatientPlan) for p in plans) else plans_as_cohort(list(plans))
+    _check_anatomies(patients, settings, reqs)
     on_program = [r.name for r in reqs if r.name in PROGRAM_FIGURES]
     if on_program and settings.setups != 1:
         raise InputError.of("requirements.max", f"{', '.join(on_program)}: judged on the drilling program, which a job with one placement "
                                                 "per side (setups 2) does not build; design per side (side R, side L) instead")  # fmt: skip
-    base = build_config(list(plans), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
+    base = build_config(list(patients), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     try:
@@ -118,11 +137,23 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
                 "seeds": [int(s) for s in seeds], "requirements": [[r.name, r.kind, r.limit] for r in reqs]}  # fmt: skip
         atomic_write_text(out / "design.toml", runmod.to_toml(meta))
         studymod.start_study(out / STUDY, base, list(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=on_generation)
-    except InputError:
-        if not (out / STUDY).exists():
+    except (InputError, Exception):
+        if not any((studymod.seed_dir(out / STUDY, int(sd)) / "checkpoint").exists() for sd in seeds):
             runmod.remove_folder(out, created)
         raise
     return finish_design(out)
+
+
+def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement]) -> None:
+    """InputError when the clearance requirement has no anatomy to clear (the run's, or a cohort patient's own)."""
+    if not any(r.name == "clearance" for r in reqs):
+        return
+    if settings.anatomy == () and all(p.anatomy is None for p in patients):
+        raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
+    for p in patients:
+        if (p.anatomy if p.anatomy is not None else settings.anatomy) == ():
+            raise InputError.of("cohort", f"patient {p.name}: anatomy none, but the clearance requirement needs one (give its anatomy, "
+                                          "or drop the requirement: --no-clearance)")  # fmt: skip
 
 
 def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
@@ -137,22 +168,8 @@ def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
     return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
 
 
-def _patients(cfg: dict[str, Any], run_dir: Path) -> tuple[list[Any], list[Any], tuple[Any, ...]]:
-    """Per patient of a run config: its plan (as the run selected it), its anatomy (or None), and the
-    envelopes of the whole patient the run recorded (MODEL.md 19.5; () without)."""
-    from arcube.optimization.build import run_envelopes
-
-    s = RunSettings.from_config(cfg)
-    plans, anatomies = [], []
-    for spec, pat in zip(cfg["settings"]["trajectories"], cfg["patients"]):
-        ts = load_trajectories(spec, s.transform)
-        plans.append(select(ts, ids=",".join(pat["ids"])))
-        anatomies.append(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None)
-    return plans, anatomies, run_envelopes(cfg, run_dir)
-
-
 def finish_design(out: Path) -> DesignResult:
-    """Choose the design, re-evaluate it with the NumPy reference and write the outputs."""
+    """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write the outputs."""
     out = Path(out)
     _, reqs = read_design(out)
     study = json.loads((out / STUDY / "summary.json").read_text(encoding="utf-8"))
@@ -163,44 +180,42 @@ def finish_design(out: Path) -> DesignResult:
         run = OptimizeResult(studymod.seed_dir(out / STUDY, int(row["seed"])))
         cfg = runmod.read_config(run.path)[0]
         s = RunSettings.from_config(cfg)
-        plans, anatomies, envelopes = _patients(cfg, run.path)
         summary = run.summary
-        designs = [d.to_vector() for d in run.designs]
-        rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(), envelopes=envelopes,
-                      points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
-        met = bool(row["feasible"] and all(r["passed"] for r in rows))
+        dockings = run_dockings(cfg, run, summary["mode"])
+        assess_dockings(dockings, reqs, s)
+        met = bool(row["feasible"] and all(d.met for d in dockings))
         if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
-            built = _program_rows(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs, envelopes[0] if envelopes else None)
-            rows = [*rows, *built]
-            met = all(r["passed"] for r in built)
+            for d in dockings:
+                d.rows = [*d.rows, *_program_rows(out / DOCKINGS / d.label, d, s, reqs)]
+            met = all(d.met for d in dockings)
         if chosen is None or (met and not chosen[-1]):
-            chosen = (row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met)
+            chosen = (row, run, s, summary, dockings, met)
         if met or not row["feasible"]:
             break  # met; or the infeasible seeds after the first cannot do better than the best one
         # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
     assert chosen is not None
-    row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met = chosen
-    return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows, envelopes)
+    row, run, s, summary, dockings, met = chosen
+    return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings)
 
 
-def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement],
-                  envelope: Any = None) -> list[dict[str, Any]]:  # fmt: skip
-    """Build the drilling program of the chosen design (MODEL.md 17, patient 1) into ``out/program`` with
-    the design's clearances and standoff; its requirement rows: the program (met, or the blocked segment
-    named), then ``torque_peak`` / ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
+def _program_rows(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
+    """Build the drilling program of one docking (MODEL.md 17) into ``folder/program`` with the design's clearances,
+    standoff and z dyad; its requirement rows: the program (met, or the blocked segment named), then ``torque_peak`` /
+    ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
     from arcube.motion import program
     from arcube.report.program import timeline_png
 
     # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
     limits = {"clearance": 0.0, "self_clearance": 0.0, "envelope_clearance": 0.0,
               **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")}}  # fmt: skip
-    shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
+    shutil.rmtree(folder / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
+    folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
     try:
-        prog = program(design, plan, out / PROGRAM, options=s.options, anatomy=anatomy, envelope=envelope, mode=mode, standoff_mm=float(s.standoff or 0.0),
-                       masses=True, **limits)  # fmt: skip
-        timeline_png(prog, out / PROGRAM / "program.png")
+        prog = program(d.design, d.plan, folder / PROGRAM, options=s.options, anatomy=d.anatomy, envelope=d.envelope, mode=d.design.mode,
+                       standoff_mm=float(s.standoff or 0.0), masses=True, **limits)  # fmt: skip
+        timeline_png(prog, folder / PROGRAM / "program.png")
     except InputError as exc:
         return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
     summary = prog.summary
@@ -208,35 +223,61 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
     return [built, *program_rows(reqs, summary.get("motors"))]
 
 
-def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
-                   anatomies: list[Any], summary: dict[str, Any], rows: list[dict[str, Any]], envelopes: tuple[Any, ...] = ()) -> DesignResult:  # fmt: skip
+def _docking_summary(d: Docking) -> dict[str, Any]:
+    """One docking's line of summary.json: who, where, met, and the figures of MODEL.md 19.4's table."""
+    rows = {r["requirement"]: r for r in d.rows}
+
+    def value(name: str) -> Any:
+        r = rows.get(name)
+        return None if r is None or not math.isfinite(r["value"]) else r["value"]
+
+    return {"label": d.label, "patient": d.name, "side": d.side, "meets_requirements": d.met, "missed": [r["requirement"] for r in d.rows if not r["passed"]],
+            "trajectories": list(d.plan.ids), **docking_entry(d), "clearance_mm": value("clearance"), "self_clearance_mm": value("self_clearance"),
+            "envelope_clearance_mm": value("envelope_clearance"), "lateral_error_mm": value("lateral_error"), "axis_error_deg": value("axis_error"),
+            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque")}  # fmt: skip
+
+
+def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunSettings, summary: dict[str, Any],
+                   dockings: list[Docking]) -> DesignResult:  # fmt: skip
     from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
 
-    designs = run.designs
-    designs[0].with_extras(mode=summary["mode"]).to_json(out / "design.json")  # a design file records its working mode
-    for k, d in enumerate(designs[1:], start=2):
-        d.to_json(out / f"design_p{k}.json")
+    first = dockings[0].design
+    entries = [docking_entry(d) for d in dockings]
+    robot = {**first.to_file_dict(), "dockings": entries}  # the first docking's complete design: every command reads it
+    atomic_write_text(out / "design.json", json.dumps(robot, indent=2) + "\n")
     options = s.evaluation_options()
     options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
-    ev = evaluate_design(designs[0], plans[0], s.points, parse_mode(summary["mode"]), options, "numpy", anatomy=anatomies[0],
-                         envelope=envelopes[0] if envelopes else None)  # fmt: skip
-    write_report(ev, out / "report.html")
-    mujoco = "design.xml"
-    try:
-        xml = export_mjcf(designs[0], plans[0], points=s.points, mode=summary["mode"], c_z=_closing_c_z(designs[0], plans[0], s, summary),
-                          radii=s.options.radii, anatomy=anatomies[0], masses=s.options)  # fmt: skip
-        atomic_write_text(out / mujoco, xml)
-    except InputError as exc:
-        mujoco = f"not written: {exc}"
+    evaluations = []
+    for d in dockings:
+        folder = out / DOCKINGS / d.label
+        folder.mkdir(parents=True, exist_ok=True)
+        d.design.to_json(folder / "design.json")
+        write_requirements_csv(folder / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
+        opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
+        ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode or "+,+,+,+"), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
+        program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
+        write_report(ev, folder / "report.html", program=program)
+        evaluations.append(ev)
+        try:
+            xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, radii=s.options.radii, anatomy=d.anatomy, masses=s.options)
+            atomic_write_text(folder / "design.xml", xml)
+        except InputError:
+            pass  # an open z dyad (a design that misses the z-dyad requirement): the summary says so
+    from arcube.report.dockings import write_dockings_report
+
+    rows = merge_rows(dockings)
+    write_dockings_report(out / "report.html", dockings, evaluations, rows, met)
+    robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
     result = {
         "meets_requirements": met, "seed": seed, "mode": summary["mode"], "objective": summary["objectives"][0] if summary.get("objectives") else "eta_G",
-        "missed": [r["requirement"] for r in rows if not r["passed"]],
+        "aggregate": s.aggregate, "docking_mode": s.dockings, "missed": [r["requirement"] for r in rows if not r["passed"]],
+        "missed_at": {r["requirement"]: r["docking"] for r in rows if not r["passed"]},
+        "robot": {n: robot_values[n] for n in ROBOT_NAMES}, "dockings": [_docking_summary(d) for d in dockings],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
-        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "mujoco": mujoco, "study": STUDY,
-                  **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
+        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS},
     }  # fmt: skip
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(_finite(result), indent=2, allow_nan=False) + "\n")
@@ -252,18 +293,3 @@ def _finite(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [_finite(v) for v in value]
     return value
-
-
-def _closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
-    """A z-dyad link c_z that closes the dyad at every point (the middle of the range the export names), or None (c_z = d_z)."""
-    from arcube.export.mjcf import export_mjcf
-
-    try:
-        export_mjcf(design, plan, points=s.points, mode=summary["mode"])
-        return None
-    except InputError as exc:
-        found = re.search(r"c_z in \[([0-9.eE+-]+), ([0-9.eE+-]+)\]", str(exc))
-        if not found:
-            raise
-        lo, hi = float(found.group(1)), float(found.group(2))
-        return 0.5 * (lo + hi)
