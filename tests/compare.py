@@ -108,6 +108,7 @@ STATE_TOL: dict[str, Tol] = {
     "ok": Tol(exact=True, skip=_NEAR_LIMIT), "reason": Tol(exact=True, skip=_NEAR_LIMIT),
     "E": EXACT, "e": EXACT, "q": EXACT, "assembly": EXACT, "tool_clearance": EXACT, "points": EXACT,
     "eta": Tol(), "self_clearance": SELF_CLEARANCE, "clearance": Tol(rel=0.0, abs=1e-9, below=BODY_CLEARANCE_GAP),
+    "envelope_clearance": ENVELOPE,
 }  # fmt: skip
 """Every :class:`arcube.motion.check.StateChecks` field: how the compiled check's (``engine="numba"``) must
 equal the reference's, applied with rtol :data:`STATE_RTOL`, with the default limits

@@ -26,6 +26,7 @@ from arcube.io import load_trajectories, select
 from arcube.model import mechanism
 from arcube.model.design import Design
 from arcube.model.mechanism import ALL_MODES, inverse_kinematics
+from arcube.motion.output import Program
 from naive import ALL_MODES_ORACLE, get, leg_triple, oracle_config, rotation, transmission_sines, vec
 
 REPO = Path(__file__).resolve().parents[1]
@@ -333,3 +334,18 @@ def plan_right(points: int = 5):
     """The reference plan's right side: (TrajectorySet, Task)."""
     ts = select(load_trajectories("reference"), side="R")
     return ts, build_task(ts.entry, ts.target, points, ids=ts.ids)
+
+
+def program_object(n: int = 6, torques: bool = True) -> Program:
+    """A random :class:`~arcube.motion.output.Program` of ``n`` rows as the writer holds it (not written): increasing times, unit axes, bounded angles."""
+    rng = np.random.default_rng(n)
+    e = rng.normal(size=(n, 3))
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    segments = np.array((["approach", "drill", "retract", "transit"] * n)[:n])
+    return Program(
+        t_s=np.arange(n) * 0.01, segment=segments, trajectory=np.array(["1"] * (n - 1) + ["1->2"]), E=rng.uniform(-80, 80, (n, 3)), e=e,
+        q_deg=rng.uniform(-170, 170, (n, 5)), q_dot_deg=rng.uniform(-30, 30, (n, 5)),
+        summary={"order": ["1", "2"], "total_s": 0.05, "transits": [{"from": "1", "to": "2"}], "limits": {"feed": 1.5, "dt": 0.01},
+                 "mode": "+,+,+,+", "motors": {"rho_x": {"torque_peak_Nm": 3.0}}},
+        tau_Nm=rng.uniform(-5, 5, (n, 5)) if torques else None,
+    )  # fmt: skip

@@ -88,7 +88,7 @@ def _bad_design(tmp_path: Path, **changes: object) -> Path:
         ("nan", "row"),
         ("entry_equals_target", "entry"),
         ("design_missing", "missing parameter(s) r"),
-        ("design_unknown", "unknown parameter 'c_z'"),
+        ("design_unknown", "unknown parameter 'q_z'"),
         ("design_negative", "length p_x must be positive"),
         ("bad_mode", "--mode"),
         ("bad_mode_signs", "--mode"),
@@ -115,7 +115,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str)
     elif case == "design_missing":
         design = str(_bad_design(tmp_path, r=None))
     elif case == "design_unknown":
-        design = str(_bad_design(tmp_path, c_z=10.0))
+        design = str(_bad_design(tmp_path, q_z=10.0))  # c_z is a design file's own field (MODEL.md 19)
     elif case == "design_negative":
         design = str(_bad_design(tmp_path, p_x=-1.0))
     elif case == "bad_mode":

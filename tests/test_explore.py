@@ -9,6 +9,7 @@ that is a failure (as tests/test_report_browser.py). Chromium runs with every ho
 from __future__ import annotations
 
 import io
+import logging
 import os
 import re
 import socket
@@ -25,6 +26,7 @@ import pytest
 from arcube.cli import main as cli_main
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.engine import evaluate_task
+from arcube.evaluation.envelope import resolve_envelope
 from arcube.explorer import explore, live_model, scene, text
 from arcube.explorer.live import LiveModel
 from arcube.io import load_trajectories, select
@@ -65,6 +67,12 @@ def plan():
 @pytest.fixture(scope="module")
 def anatomy():
     return resolve_anatomy("default", plan="reference")
+
+
+@pytest.fixture(scope="module")
+def envelope(anatomy):
+    """The default envelope (MODEL.md 19.5), placed on the whole reference plan, as arcube design and the explorer place it."""
+    return resolve_envelope("default", plan=load_trajectories("reference"), anatomy=anatomy)
 
 
 @pytest.fixture(scope="module")
@@ -156,16 +164,20 @@ def test_closest_pairs_agree_with_the_kernel(plan, anatomy):
 
 
 @pytest.mark.parametrize("design, mode", [(PLACED, MODE), (MET, parse_mode("+,+,+,-"))], ids=["placed", "met"])
-def test_live_requirements_are_those_of_arcube_design(plan, anatomy, design, mode):
-    """The kernel's requirement rows match assess() (the NumPy reference) on the same design."""
+def test_live_requirements_are_those_of_arcube_design(plan, anatomy, envelope, design, mode):
+    """The kernel's requirement rows match assess() (the NumPy reference) on the same design, the envelope's row too."""
     reqs = requirements_from()
-    model = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs)
+    model = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs, envelope=envelope)
     fig = model.evaluate()
     rows = {r["requirement"]: r for r in assess([design.to_vector()], mode, [plan], [anatomy], reqs, options=design_options(reqs),
-                                                points=6, standoff_mm=20.0)}  # fmt: skip
-    if design is MET:
-        assert all(np.isfinite(r["value"]) and r["passed"] for r in fig.requirements) and {r["requirement"] for r in fig.requirements} >= set(rows) - {
-            "rho_max", "transmission", "kappa_max", "single_assembly_mode"}  # fmt: skip
+                                                points=6, standoff_mm=20.0, envelopes=[envelope])}  # fmt: skip
+    assert "envelope_clearance" in {r["requirement"] for r in fig.requirements}
+    if design is MET:  # met every requirement before the envelope existed (MODEL.md 19.5): the envelope is judged, not assumed
+        bare = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs).evaluate()
+        assert all(np.isfinite(r["value"]) and r["passed"] for r in bare.requirements if r["requirement"] != "envelope_clearance")
+        judged = {r["requirement"]: r for r in fig.requirements}
+        assert not judged["envelope_clearance"]["passed"] and 0.0 < judged["envelope_clearance"]["value"] < 10.0
+        assert {r["requirement"] for r in fig.requirements} >= set(rows) - {"rho_max", "transmission", "kappa_max", "single_assembly_mode"}
     for r in fig.requirements:
         ref = rows[r["requirement"]]
         want = 100.0 * ref["value"] if r["requirement"] == "reach" else ref["value"]
@@ -200,6 +212,24 @@ def test_the_app_serves_its_page_and_refreshes_fast(app):
     assert set(app.timings) == {"evaluate_ms", "scene_ms", "draw_ms", "total_ms"}
     app.params["p_x"].value = app.params["p_x"].value - 1.0
     assert app.wait_idle() and app.figures.summary["reach_pct"] == 100.0
+
+
+def test_a_port_scanner_leaves_no_traceback_on_stderr(app, caplog):
+    """A client that connects and sends garbage (or nothing) fails the websocket handshake: websockets
+    logs that, with a traceback, on the user's terminal (the root logger's last-resort handler; here
+    pytest's capture stands in for it): no such record may be made."""
+    caplog.set_level(logging.DEBUG)
+    for payload in (b"", b"\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03", b"garbage\r\n\r\n"):
+        with socket.create_connection(("127.0.0.1", app.port), timeout=5) as s:
+            s.sendall(payload)
+            s.shutdown(socket.SHUT_WR)
+            try:
+                s.recv(4096)
+            except OSError:
+                pass
+    time.sleep(1.0)
+    noise = [f"{r.name}: {r.getMessage()}" for r in caplog.records if r.name.startswith("websockets") and r.levelno >= logging.WARNING]
+    assert not noise, noise
 
 
 def test_save_and_polish(app):

@@ -90,15 +90,40 @@ def test_a_damaged_history_is_refused_by_resume(finished_run: Path, tmp_path: Pa
     assert out.returncode == 2 and "history.csv: edited or corrupt" in out.stderr and out.stderr.count("\n") == 1, out.stderr
 
 
-def test_a_history_that_is_not_utf8_leaves_the_report_without_its_plot(finished_run: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize(("damage", "needle"), [
+    (lambda data: data + "é,1\n".encode("latin-1"), "not UTF-8 text"),
+    (lambda data: bytes(range(256)) * 4, "not UTF-8 text"),
+    (lambda data: data.replace(b"\n", b",7\n", 2), "fields, the header has"),
+])  # fmt: skip
+def test_a_damaged_history_is_refused_by_the_report(finished_run: Path, tmp_path: Path, damage, needle: str) -> None:
+    """A binary or damaged history.csv is a damaged run folder: the report says so (one line, exit 2,
+    no report written) instead of drawing around it; without history.csv it has no convergence plot."""
     import shutil
 
-    run = tmp_path / "latin"
+    run = tmp_path / "damaged"
     shutil.copytree(finished_run, run)
-    (run / "history.csv").write_bytes((run / "history.csv").read_bytes() + "é,1\n".encode("latin-1"))
+    (run / "history.csv").write_bytes(damage((run / "history.csv").read_bytes()))
     out = _arcube("report", str(run), cwd=tmp_path)
-    assert out.returncode == 0 and out.stderr == "", out.stderr  # the run report says why it has no convergence plot
-    assert "no convergence plot" in (run / "report.html").read_text() and "UnicodeDecodeError" in (run / "report.html").read_text()
+    assert out.returncode == 2 and out.stderr.count("\n") == 1 and out.stderr.startswith(f"error: {run / 'history.csv'}") and needle in out.stderr, out.stderr
+    assert "delete it for a report without the convergence plot" in out.stderr and not (run / "report.html").exists()
+    (run / "history.csv").unlink()
+    out = _arcube("report", str(run), cwd=tmp_path)
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+    assert "no convergence plot (the run folder has no history.csv)" in (run / "report.html").read_text()
+
+
+@pytest.mark.parametrize(("edit", "needle"), [
+    (("population = 20", 'population = "twenty"'), "settings.population must be an integer, got 'twenty'"),
+    (("seed = 7", 'seed = "x"'), "settings.seed must be an integer, got 'x'"),
+    (('algorithm = "ga"', "algorithm = 5"), "settings.algorithm is invalid"),
+])  # fmt: skip
+def test_resume_names_the_config_file_and_its_key(finished_run: Path, tmp_path: Path, edit: tuple[str, str], needle: str) -> None:
+    run = _unfinish(finished_run, tmp_path)
+    config = (run / "config.toml").read_text()
+    assert f"\n{edit[0]}\n" in config
+    (run / "config.toml").write_text(config.replace(f"\n{edit[0]}\n", f"\n{edit[1]}\n"))
+    out = _arcube("resume", str(run), "--quiet", cwd=tmp_path)
+    assert out.returncode == 2 and out.stderr.startswith(f"error: {run / 'config.toml'}: {needle}") and out.stderr.count("\n") == 1, out.stderr
 
 
 @pytest.mark.parametrize("points", ["20000000000000000000", "1000000000"])

@@ -62,7 +62,8 @@ CLI_ALLOWED_PREFIXES = ("arcube.cli",)
 CLI_ALLOWED_MODULES = {"arcube.__main__"}
 
 LAYERS = (
-    "arcube.errors", "arcube.io", "arcube.model", "arcube.validation", "arcube.options", "arcube.patients", "arcube.evaluation", "arcube.coerce",
+    "arcube.caches", "arcube.interrupts", "arcube.errors", "arcube.io", "arcube.model", "arcube.validation", "arcube.options", "arcube.patients",
+    "arcube.evaluation", "arcube.coerce",
     "arcube.accuracy", "arcube.optimization", "arcube.motion", "arcube.report", "arcube.calibrate", "arcube.export",
     "arcube.design_job", "arcube.api", "arcube.explorer", "arcube.cli",
 )  # fmt: skip
@@ -398,6 +399,9 @@ def _attribute_docstring(module: str, name: str, seen: frozenset[str] = frozense
     if path is None or module in seen:
         return None
     body = ast.parse(path.read_text(encoding="utf-8")).body
+    for stmt in list(body):  # a lazy package names its sources for the type checker (``if TYPE_CHECKING:``)
+        if isinstance(stmt, ast.If) and isinstance(stmt.test, ast.Name) and stmt.test.id == "TYPE_CHECKING":
+            body += stmt.body
     for stmt, nxt in zip(body, body[1:] + [None]):
         targets = stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target] if isinstance(stmt, ast.AnnAssign) else []
         if any(isinstance(t, ast.Name) and t.id == name for t in targets):

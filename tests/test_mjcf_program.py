@@ -167,9 +167,9 @@ def test_design_from_the_folder_and_unknown_columns(prog, tmp_path: Path) -> Non
     shutil.copytree(folder, job / "program")
     shutil.copy(design_file, job / "design.json")
     (job / "summary.json").write_text(json.dumps({"files": {"design": "design.json", "program": "program"}}))
-    with open(folder / "program.csv", newline="") as fh:  # a later program.csv with torque columns
+    with open(folder / "program.csv", newline="") as fh:  # a later program.csv with a column of its own (beside the torques)
         lines = fh.read().splitlines()
-    (job / "program" / "program.csv").write_text("\n".join([lines[0] + ",tau_rho_x_Nm"] + [ln + ",1.5" for ln in lines[1:]]) + "\n")
+    (job / "program" / "program.csv").write_text("\n".join([lines[0] + ",power_W"] + [ln + ",1.5" for ln in lines[1:]]) + "\n")
     out = tmp_path / "a" / "robot.xml"
     assert _cli(["--program", str(job / "program"), "--c-z", C_Z, "--out", str(out)]) == 0
     assert out.with_name("robot.replay.csv").read_text() == reference.replay_csv
@@ -214,7 +214,7 @@ def test_whole_turns_of_delta_are_the_program_s(prog) -> None:
         (["--design", "paper", "--c-z", C_Z], "error: --design does not run this program: it has no IK solution at row 0"),
         (["--design", "{design}", "--c-z", "60"], r"error: --c-z in [325.86, 485.80] mm closes the z-leg dyad"),
         (["--design", "{design}", "--c-z", C_Z, "--at", "1:0", "--points", "5"], "error: --at, --points: not with --program"),
-        (["--design", "{design}", "--c-z", C_Z, "--program", "{missing}"], "error: --program {missing}: no program.csv"),
+        (["--design", "{design}", "--c-z", C_Z, "--program", "{missing}"], "error: --program {missing}: no such folder"),
         (["--design", "{design}", "--c-z", C_Z, "--out", "{replay_blocked}"], "error: --out {replay_blocked}: cannot write"),
     ],
     ids=["no-design", "wrong-design", "z-dyad", "plan-options", "missing-folder", "replay-unwritable"],

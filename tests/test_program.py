@@ -334,19 +334,17 @@ def test_unwritable_output(tmp_path: Path, capsys) -> None:
 
 
 def test_a_failed_run_keeps_no_partial_program(tmp_path: Path, monkeypatch) -> None:
-    """If the second file cannot be written, the first is removed again."""
-    import importlib
+    """If the second file cannot be put in place (a full disk at its rename), the first is not left either."""
+    import os
 
-    output = importlib.import_module("arcube.motion.output")  # the module: ``arcube.program`` is the function
+    real = os.replace
 
-    real = output.atomic_write_text
+    def failing(src, dst):
+        if str(dst).endswith("program.json"):
+            raise OSError(28, "No space left on device", str(dst))
+        real(src, dst)
 
-    def failing(path, text):
-        if str(path).endswith("program.json"):
-            raise OSError(28, "No space left on device", str(path))
-        real(path, text)
-
-    monkeypatch.setattr(output, "atomic_write_text", failing)
+    monkeypatch.setattr(os, "replace", failing)
     out = tmp_path / "prog"
     with pytest.raises(OSError):
         program(program_design(), right_plan("5"), out, dt=0.05)

@@ -227,9 +227,9 @@ def test_arcube_report_without_a_design_has_no_playback(tmp_path: Path, capsys) 
 @pytest.mark.parametrize(
     ("breakage", "message"),
     [
-        (lambda text: text.replace(text.splitlines()[5].split(",")[4], "abc", 1), "line 6, column E_y: not a number"),
+        (lambda text: text.replace(text.splitlines()[5].split(",")[4], "abc", 1), "row 6: E_y is not a number"),
         (lambda text: text.replace(",E_x,", ",X,", 1), "missing column(s) E_x"),
-        (lambda text: text + "1.0,drill\n", "cells, the header has"),
+        (lambda text: text + "1.0,drill\n", "2 fields, the header has"),
         (lambda text: text.splitlines()[0] + "\n", "no rows"),
     ],
 )

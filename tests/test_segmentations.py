@@ -326,6 +326,21 @@ def test_anatomy_from_a_segmentation_is_cached_and_carries_its_segments(label_fi
     assert resolve_anatomy(str(path), segments="ball") is not a
 
 
+def test_the_report_names_the_segments_used(label_files: dict[str, Path], tmp_path: Path) -> None:
+    """An evaluation report of an anatomy read from a segmentation lists the segments kept, with their voxel counts."""
+    import html
+    import re
+
+    import arcube
+
+    a = resolve_anatomy(str(label_files["seg.nrrd LPS"]), segments="ball")
+    ev = arcube.evaluate("paper", "reference", ids="1", points=3, anatomy=a)
+    arcube.write_report(ev, tmp_path / "r.html")
+    text = " ".join(html.unescape(re.sub(r"<[^>]+>", " ", (tmp_path / "r.html").read_text())).split())
+    assert "Anatomy segments" in text and f" ball 3 0 {int((LABELS == 3).sum()):,} " in text
+    assert "box" not in text.split("Anatomy segments")[1].split("Why points fail")[0]  # only the segment kept
+
+
 BAD = {
     "not NRRD": lambda t: _text(t / "x.seg.nrrd", "hello"),
     "not NIfTI": lambda t: _text(t / "x.nii", "hello " * 100),

@@ -90,6 +90,29 @@ def test_table_round_trip() -> None:
     assert (table["clearance"], table["thrust"], table["link_radius"], table["limits"]) == (4.0, 22.0, 7.0, [["torque", "max", 12.0], ["clearance", "min", 3.0]])
 
 
+def _other_value(default):
+    """A valid value that differs from a field's default (a bool flipped, numbers scaled, None -> 7)."""
+    if isinstance(default, bool):
+        return not default
+    if isinstance(default, tuple):
+        return tuple(1.5 * v if v else 1.0 for v in default)
+    return 7.0 if default is None else 1.5 * default
+
+
+_GROUPS = {"guards": Guards, "body": Body, "loads": Loads, "masses": Masses}
+
+
+@pytest.mark.parametrize("group, field", [(g, f) for g, cls in _GROUPS.items() for f in cls.model_fields])
+def test_every_option_set_alone_survives_the_table(group: str, field: str) -> None:
+    """A run's config.toml must hold every option it ran with: a resume, the design job's reference check and
+    the report all rebuild the run from the table (the envelope guard was once lost this way)."""
+    value = _other_value(_GROUPS[group].model_fields[field].default)
+    s = RunSettings(anatomy="default", envelope="default", options={group: {field: value}})
+    assert getattr(getattr(s.options, group), field) == value
+    back = RunSettings.from_table(s.to_table())
+    assert getattr(getattr(back.options, group), field) == value and back == s
+
+
 def test_masses_round_trip_through_the_table_and_are_written_only_when_set() -> None:
     """MODEL.md 18.1's settings: flat keys (wall, density, m_delta, m_motor, gravity) in config.toml only when
     not the defaults, so that every earlier table is written as it was."""

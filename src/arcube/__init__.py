@@ -9,26 +9,54 @@ The public API (see :mod:`arcube.api`)::
     ev.summary["eta_G"]
 
 Every error a user can cause raises :class:`InputError` with a one-line message.
+
+The names below are imported on first use (PEP 562), so that ``import arcube`` itself stays light:
+the ``arcube`` script installs its Ctrl-C handling (:mod:`arcube.interrupts`) before anything
+heavy is imported, and Numba's cache folder is chosen (:mod:`arcube.caches`) before Numba loads.
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+
+from arcube import caches as _caches
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (a start-up cost of the arcube script)
+
 __version__ = "0.2.0"
 
-from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, joints, optimize, program, resume, study, tolerance
-from arcube.accuracy import ToleranceResult, ToleranceSettings
-from arcube import calibrate
-from arcube.errors import InputError
-from arcube.optimization.settings import RunSettings
-from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Options, Outputs
-from arcube.evaluation.result import Evaluation
-from arcube.export.mjcf import export_mjcf
-from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
-from arcube.model.design import PARAM_NAMES, Design
-from arcube.patients import generate_patient
-from arcube.report import write_report
-from arcube.explorer import explore  # noqa: E402 (after api: polish imports arcube.api lazily)
-from arcube.options import Masses
+_caches.configure()
+
+_SOURCES: dict[str, str] = {
+    **dict.fromkeys(("OptimizeResult", "Planner", "Program", "ProgramLimits", "Study", "design", "evaluate", "joints", "optimize", "program",
+                     "resume", "study", "tolerance"), "arcube.api"),
+    **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
+    "InputError": "arcube.errors", "RunSettings": "arcube.optimization.settings",
+    **dict.fromkeys(("GUARDED_OPTIONS", "Body", "Guards", "Loads", "Masses", "Options", "Outputs"), "arcube.options"),
+    "Evaluation": "arcube.evaluation.result", "export_mjcf": "arcube.export.mjcf",
+    **dict.fromkeys(("TrajectorySet", "load_trajectories", "read_markups", "select", "write_csv", "write_markups"), "arcube.io"),
+    **dict.fromkeys(("PARAM_NAMES", "Design"), "arcube.model.design"),
+    "generate_patient": "arcube.patients", "write_report": "arcube.report", "explore": "arcube.explorer",
+}  # fmt: skip
+"""Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from arcube import calibrate
+    from arcube.accuracy import ToleranceResult, ToleranceSettings
+    from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, joints, optimize, program, resume, study, tolerance
+    from arcube.errors import InputError
+    from arcube.evaluation.result import Evaluation
+    from arcube.explorer import explore
+    from arcube.export.mjcf import export_mjcf
+    from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
+    from arcube.model.design import PARAM_NAMES, Design
+    from arcube.optimization.settings import RunSettings
+    from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options, Outputs
+    from arcube.patients import generate_patient
+    from arcube.report import write_report
 
 __all__ = [
     "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
@@ -36,3 +64,18 @@ __all__ = [
     "__version__", "calibrate", "design", "evaluate", "explore", "export_mjcf", "generate_patient", "joints", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study", "tolerance",
     "write_csv", "write_markups", "write_report",
 ]  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    if name in _SOURCES:
+        value: Any = getattr(importlib.import_module(_SOURCES[name]), name)
+    elif not name.startswith("_") and importlib.util.find_spec(f"arcube.{name}") is not None:
+        value = importlib.import_module(f"arcube.{name}")  # a subpackage, as when this module imported them all (arcube.io, arcube.calibrate)
+    else:
+        raise AttributeError(f"module 'arcube' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -1,5 +1,25 @@
-"""python -m arcube"""
+"""``python -m arcube`` and the ``arcube`` script: install the Ctrl-C handling, then import and run the CLI.
 
-from arcube.cli import main
+Importing the CLI takes seconds (NumPy, SciPy, pydantic, the commands); an interrupt in that time ends
+the process with one line and exit code 130 (:func:`arcube.interrupts.start_up`), and so does one
+after the command has finished, while Python shuts down.
+"""
 
-main()
+from __future__ import annotations
+
+
+def main() -> None:
+    """The ``arcube`` command: :func:`arcube.cli.main` under the Ctrl-C handling of :mod:`arcube.interrupts`."""
+    from arcube import interrupts
+
+    interrupts.start_up()
+    try:
+        from arcube.cli import main as cli_main
+
+        cli_main()
+    finally:
+        interrupts.start_up()
+
+
+if __name__ == "__main__":
+    main()

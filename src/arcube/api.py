@@ -197,16 +197,13 @@ def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLik
 
 def program(design: Any, plan: Any, out: PathLike | None = None, **kwargs: Any) -> Program:
     """The drilling program of ``design`` for a plan (MODEL.md 17): :func:`arcube.motion.program`, and
-    with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json``. Arguments:
-    those of :func:`arcube.motion.program` (``options``, ``anatomy``, ``mode``, ``order``, ``limits``,
-    ``masses``, ``feed=1.0``, ...)."""
+    with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json`` (the three
+    written as one: all or none). Arguments: those of :func:`arcube.motion.program` (``options``,
+    ``anatomy``, ``mode``, ``order``, ``limits``, ``masses``, ``feed=1.0``, ...)."""
     from arcube.motion import program as build
-    from arcube.report.program import timeline_png
+    from arcube.report.program import timeline_png_bytes
 
-    prog = build(design, plan, out, **kwargs)
-    if prog.path is not None:
-        timeline_png(prog, prog.path / "program.png")
-    return prog
+    return build(design, plan, out, figures=lambda prog: {"program.png": timeline_png_bytes(prog)}, **kwargs)
 
 
 def _plans(plan: Any) -> list[Any]:
@@ -270,10 +267,11 @@ def optimize(
 
 
 def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
-           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None) -> OptimizeResult | Study | DesignResult:  # fmt: skip
+           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+           on_stage: Callable[[str], None] | None = None) -> OptimizeResult | Study | DesignResult:  # fmt: skip
     """Continue an interrupted run from its checkpoint, or finish an interrupted study or design job
     (the same result as an uninterrupted one); returns the :class:`OptimizeResult`, the :class:`Study`
-    or the :class:`~arcube.design_job.DesignResult`."""
+    or the :class:`~arcube.design_job.DesignResult` (a design job tells ``on_stage`` its stages after the search)."""
     from arcube.design_job import STUDY, finish_design, is_design, read_design
     from arcube.optimization import run as runmod
     from arcube.optimization import study as studymod
@@ -284,7 +282,7 @@ def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None 
         if not (run_dir / STUDY / "summary.json").exists():
             studymod.resume_study(run_dir / STUDY, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
             write_study_convergence(run_dir / STUDY)
-        return finish_design(run_dir)
+        return finish_design(run_dir, on_stage)
     if studymod.is_study(run_dir):
         studymod.resume_study(run_dir, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
         write_study_convergence(run_dir)
@@ -344,14 +342,15 @@ def design(
     *,
     cohort: PathLike | None = None,
     seeds: str | Sequence[int] = "1-3",
-    minima: dict[str, float] | None = None,
-    maxima: dict[str, float] | None = None,
+    minima: dict[str, float] | Sequence[str] | None = None,
+    maxima: dict[str, float] | Sequence[str] | None = None,
     drop: Sequence[str] = (),
     settings: RunSettings | None = None,
     workers: int = 1,
     dask: str | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
     on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    on_stage: Callable[[str], None] | None = None,
     **fields: Any,
 ) -> DesignResult:
     """Find one robot that meets every requirement at every docking (``arcube design``; MODEL.md 16-17, 19).
@@ -363,13 +362,16 @@ def design(
         cohort: a cohort file instead of ``plan`` (:mod:`arcube.design_job.cohort`): the patients, each
             with its own plan, anatomy and envelope (paths relative to the file).
         seeds: one optimization per seed (``"1-3"`` or a sequence).
-        minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``);
+        minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``, or
+            ``["torque=15"]`` as the command line gives them: each name once);
             the defaults are clearance >= 5 mm, self_clearance >= 2 mm, lateral_error <= 0.5 mm,
             axis_error <= 0.25 deg, torque <= 20 N m.
         drop: requirements to drop (``["torque"]``).
         settings, fields: the optimization's budget, engine, anatomy, objectives, standoff (as
             :func:`optimize` takes them); the free parameters, working mode, guards and limits are
             the design job's.
+        progress, on_seed, on_stage: told each generation's history row, each finished seed's summary
+            and each stage after the search (``"building the drilling program ..."``).
 
     Returns:
         A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).
@@ -383,16 +385,16 @@ def design(
     if settings is None and "generations" not in fields:
         fields = {**fields, "generations": DESIGN_GENERATIONS}  # the design job's budget, as the CLI's
     seed_list = checked_seeds(seeds)
+    if cohort is not None and plan is not None:
+        raise InputError.of("cohort", "replaces the plans: give a cohort file or trajectories, not both")
+    if cohort is not None and settings is None and "anatomy" not in fields:
+        fields = {**fields, "anatomy": "default"}  # each patient's own anatomy (default: its plan's) comes from the cohort
+    s = design_settings(reqs, _settings(settings, fields, "design"))
     if cohort is not None:
         from arcube.design_job.cohort import read_cohort
 
-        if plan is not None:
-            raise InputError.of("cohort", "replaces the plans: give a cohort file or trajectories, not both")
-        if settings is None and "anatomy" not in fields:
-            fields = {**fields, "anatomy": "default"}  # each patient's own anatomy (default: its plan's) comes from the cohort
-        s = design_settings(reqs, _settings(settings, fields, "design"))
         plans: list[Any] = read_cohort(cohort, side=s.side, levels=s.levels, ids=s.ids, transform=s.transform)
     else:
-        s = design_settings(reqs, _settings(settings, fields, "design"))
         plans = _plans("reference" if plan is None else plan)
-    return start_design(Path(out), plans, s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
+    return start_design(Path(out), plans, s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
+                        on_stage=on_stage)  # fmt: skip

@@ -4,7 +4,9 @@ text) as the values the library computes with, each checked once, with one error
 * :func:`mode_signs` / :func:`mode_text`: a working mode (MODEL.md 4.3, 5.3), ``(1, 1, -1, 1)`` or
   ``"+,+,-,+"``, as four signs ``(4,)`` or as its text;
 * :func:`points`: samples per trajectory (MODEL.md 1.4), an integer in ``[2, MAX_POINTS]``;
-* :func:`seeds`: ``"1-5"``, ``"1,3,7"``, ``"1-3,10"`` or a sequence of integers, as sorted distinct seeds.
+* :func:`seeds`: ``"1-5"``, ``"1,3,7"``, ``"1-3,10"`` or a sequence of integers, as sorted distinct seeds;
+* :func:`limit_pairs`: limits ``NAME=VALUE`` (``--max torque=15``, repeatable) or a mapping, each name
+  once, each value a finite number in plain decimal notation (``1_5`` is refused, not read as 15).
 
 A bad value raises :class:`~arcube.errors.InputError` whose ``param`` is the argument's name as a
 Python caller writes it (``mode``, ``points``, ``seeds``); the CLI replaces it with its flag.
@@ -12,17 +14,18 @@ Python caller writes it (``mode``, ``points``, ``seeds``); the CLI replaces it w
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from arcube.errors import InputError
+from arcube.io.inputs import parse_decimal, short_repr
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.mechanism import format_mode, parse_mode
 
-__all__ = ["MAX_POINTS", "MAX_SEEDS", "design_mode", "engine_name", "mode_signs", "mode_text", "points", "seeds"]
+__all__ = ["MAX_POINTS", "MAX_SEEDS", "design_mode", "engine_name", "limit_pairs", "mode_signs", "mode_text", "points", "seeds"]
 
 MAX_SEEDS = 1000
 """The most seeds one study or design job takes (a typo such as 1-100000 is refused instead of run)."""
@@ -107,3 +110,39 @@ def engine_name(name: Any) -> str:
         return resolve(name)
     except (ValueError, TypeError, AttributeError) as exc:
         raise InputError.of("engine", str(exc)) from None
+
+
+def limit_pairs(value: Any, *, param: str, example: str = "torque=15") -> list[tuple[str, float, str]]:
+    """Limits as ``[(name, value, as given)]``, from ``"NAME=VALUE"``, a sequence of them, or a mapping
+    name -> number (or its text). InputError naming ``param``: not NAME=VALUE, a value that is not a
+    finite number in plain decimal notation (:func:`arcube.io.inputs.parse_decimal`: ``1_5``, ``0x10``
+    and ``1,5`` are refused), or a name given twice (which one would count?)."""
+    if value is None:
+        return []
+    if isinstance(value, Mapping):
+        items = [(str(k), v, f"{k}={v}") for k, v in value.items()]
+    else:
+        items = []
+        for item in [value] if isinstance(value, str) else list(value):
+            name, sep, text = str(item).partition("=")
+            if not sep or not name.strip():
+                raise InputError.of(param, f"{short_repr(item)}: expected NAME=VALUE, e.g. {example}")
+            items.append((name.strip(), text, str(item)))
+    out: list[tuple[str, float, str]] = []
+    seen: dict[str, str] = {}
+    for name, v, shown in items:
+        if name in seen:
+            raise InputError.of(param, f"{short_repr(shown)}: {name} is given twice ({short_repr(seen[name])} and {short_repr(shown)}); give it once")
+        seen[name] = shown
+        if isinstance(v, bool):
+            number = None
+        elif isinstance(v, (int, float, np.integer, np.floating)):
+            number = float(v)
+        else:
+            number = parse_decimal(str(v).strip())
+        if number is None:
+            raise InputError.of(param, f"{short_repr(shown)}: the value {short_repr(str(v).strip())} is not a number (plain decimal notation, e.g. {example})")
+        if not np.isfinite(number):
+            raise InputError.of(param, f"{short_repr(shown)}: the value must be finite")
+        out.append((name, number, shown))
+    return out

@@ -113,10 +113,10 @@ class Loads(Settings):
 
     encoder_deg: PerActuator = (0.01,) * 5
     """Position error bound of the actuators (MODEL.md 15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y)."""
-    thrust_N: float = Field(default=30.0, ge=0, allow_inf_nan=False)
-    """Drilling thrust along the drill axis (MODEL.md 15.3), N."""
-    lateral_force_N: float = Field(default=10.0, ge=0, allow_inf_nan=False)
-    """Largest lateral (skiving) force across the drill axis (MODEL.md 15.3), N."""
+    thrust_N: float = Field(default=30.0, ge=0, le=1e5, allow_inf_nan=False)
+    """Drilling thrust along the drill axis (MODEL.md 15.3), N (at most 1e5: ten tonnes-force, beyond any drill)."""
+    lateral_force_N: float = Field(default=10.0, ge=0, le=1e5, allow_inf_nan=False)
+    """Largest lateral (skiving) force across the drill axis (MODEL.md 15.3), N (at most 1e5)."""
     actuator_stiffness: PerActuator = (1e4,) * 5
     """Torsional stiffness of the actuators (MODEL.md 15.4), N·m/rad: one value or five."""
 

@@ -8,7 +8,6 @@ part in the summaries.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,6 +21,7 @@ from arcube.accuracy.sources import SOURCE_NAMES, UNITS, sigmas
 from arcube.errors import InputError
 from arcube.model.design import Design
 from arcube.model.mechanism import DEFAULT_MODE, format_mode, inverse_kinematics, parse_mode
+from arcube.io.json_values import finite
 
 SUMMARY_KEYS: tuple[str, ...] = (
     "lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm", "lateral_error_p95_mm",
@@ -129,18 +129,8 @@ class ToleranceResult:
             "engine": self.engine,
             "sources": [{"source": s, "tolerance": t, "unit": u, "share": v} for s, t, u, v in self.ranked_sources()],
         }
-        return _finite(data)
+        return finite(data)
 
-
-def _finite(value: Any) -> Any:
-    """The value with every non-finite float replaced by None (strict JSON)."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _array(value: ArrayLike, name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:

@@ -25,8 +25,9 @@ MAX_ROBOT_POINTS = 5_000_000
 _FIELD = "ToleranceSettings.tol"
 
 
-def _parse_tol(value: Any) -> dict[str, float]:
-    """``{"r": 0.02, "lengths": 0.05}`` or ``["r=0.02", "lengths=0.05"]`` (the flag's text) -> a checked mapping."""
+def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
+    """``{"r": 0.02, "lengths": 0.05}`` or ``["r=0.02", "lengths=0.05"]`` (the flag's text) -> a checked mapping;
+    an error names ``field`` (the settings field that holds the mapping)."""
     if value is None:
         return {}
     pairs: list[tuple[str, Any, str]] = []
@@ -36,22 +37,22 @@ def _parse_tol(value: Any) -> dict[str, float]:
         for item in [value] if isinstance(value, str) else value:
             name, sep, v = str(item).partition("=")
             if not sep or not name.strip():
-                raise InputError.of(_FIELD, f"{item!r}: expected NAME=T, e.g. r=0.02 (mm) or angles=0.01 (deg)")
+                raise InputError.of(field, f"{item!r}: expected NAME=T, e.g. r=0.02 (mm) or angles=0.01 (deg)")
             pairs.append((name.strip(), v, str(item)))
     out: dict[str, float] = {}
     for name, v, shown in pairs:
         if name not in SOURCE_NAMES and name not in GROUPS:
             raise InputError.of(
-                _FIELD, f"{shown!r}: unknown error source {name!r} (known: the groups lengths and angles; a parameter that moves "
+                field, f"{shown!r}: unknown error source {name!r} (known: the groups lengths, angles, q0, encoder, backlash; a parameter that moves "
                 "the tool, f_x .. r, L, o_x .. beta_y, m_x .. m_z, mount_rx .. mount_rz; q0_J, encoder_J, backlash_J with J one of "
                 "rho_x, rho_y, rho_z, delta_x, delta_y)",
             )
         try:
             number = float(v)
         except (TypeError, ValueError):
-            raise InputError.of(_FIELD, f"{shown!r}: the tolerance {str(v).strip()!r} is not a number") from None
+            raise InputError.of(field, f"{shown!r}: the tolerance {str(v).strip()!r} is not a number") from None
         if not (math.isfinite(number) and number >= 0.0):
-            raise InputError.of(_FIELD, f"{shown!r}: a tolerance must be a finite number >= 0 (mm or deg)")
+            raise InputError.of(field, f"{shown!r}: a tolerance must be a finite number >= 0 (mm or deg)")
         out[name] = number
     return out
 
@@ -66,8 +67,8 @@ class ToleranceSettings(Settings):
 
     tolerance_class: Literal["f", "m", "c", "v"] = "m"
     """ISO 2768-1 class of the lengths and angles: f (fine), m (medium), c (coarse), v (very coarse)."""
-    tol: Annotated[dict[str, float], BeforeValidator(_parse_tol)] = {}
-    """Tolerances set by hand, NAME=T (mm or deg): a source (r=0.02, q0_rho_x=0.05) or a group (lengths=0.05, angles=0.01); a name beats its group."""
+    tol: Annotated[dict[str, float], BeforeValidator(parse_tol)] = {}
+    """Tolerances set by hand, NAME=T (mm or deg): a source (r=0.02, q0_rho_x=0.05) or a group (lengths=0.05, angles=0.01, q0=0.05 for the five joints); a name beats its group."""
     q0_deg: Tolerance = 0.1
     """Joint zero offset of each actuator, once per built robot, deg."""
     encoder_deg: Tolerance = 0.01

@@ -38,8 +38,10 @@ JOINT_KINDS: tuple[str, ...] = ("q0", "encoder", "backlash")
 SOURCE_NAMES: tuple[str, ...] = (*PARAM_SOURCES, *(f"{kind}_{j}" for kind in JOINT_KINDS for j in JOINTS))
 """Every error source, in the order of the arrays of :mod:`arcube.accuracy`."""
 N_SOURCES = len(SOURCE_NAMES)
-GROUPS: dict[str, tuple[str, ...]] = {"lengths": LENGTHS, "angles": ANGLES}
-"""Names a tolerance override may give for several sources at once."""
+GROUPS: dict[str, tuple[str, ...]] = {"lengths": LENGTHS, "angles": ANGLES,
+                                      **{kind: tuple(f"{kind}_{j}" for j in JOINTS) for kind in JOINT_KINDS}}  # fmt: skip
+"""Names a tolerance override may give for several sources at once: ``lengths``, ``angles``, and ``q0``,
+``encoder``, ``backlash`` (that source of all five joints, deg)."""
 
 _DEG_NAMES = frozenset({*ANGLES, *DOCKING_DEG})
 UNITS: tuple[str, ...] = tuple("mm" if n in PARAM_SOURCES and n not in _DEG_NAMES else "deg" for n in SOURCE_NAMES)

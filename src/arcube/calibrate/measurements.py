@@ -35,7 +35,8 @@ from numpy.typing import NDArray
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
-from arcube.io.inputs import coordinate_problem, parse_decimal, read_text, short_repr
+from arcube.io.inputs import coordinate_problem, read_text, short_repr
+from arcube.io.tables import number, parse_table
 
 JOINT_COLUMNS: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 POSE_COLUMNS: tuple[str, ...] = ("E_x", "E_y", "E_z", "e_x", "e_y", "e_z")
@@ -77,13 +78,7 @@ class Measurements:
 
 
 def _cell(text: str, where: str, column: str) -> float:
-    value = parse_decimal(text)
-    if value is None:
-        shown = "empty" if not text else f"not a number ({short_repr(text)})"
-        raise InputError(f"{where}: {column} is {shown}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {column} is not finite ({short_repr(text)})")
-    return value
+    return number(text, where, column)
 
 
 def _header(cells: list[str], name: str) -> dict[str, int]:
@@ -103,41 +98,30 @@ def _header(cells: list[str], name: str) -> dict[str, int]:
 
 def parse_measurements(text: str, name: str) -> Measurements:
     """Parse the CSV ``text`` of a measurement (or poses) file; ``name`` labels every message."""
-    text = text.removeprefix("\ufeff")
-    if not text.strip():
-        raise InputError(f"{name}: empty file")
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        col = _header(next(reader), name)
-        width = len(col)
-        values: list[list[float]] = []
-        poses: list[str] = []
-        digests: set[str] = set()
-        lines: list[int] = []
-        for row in reader:
-            if not any(cell.strip() for cell in row):
-                continue  # a blank line carries no measurement
-            where = f"{name} row {reader.line_num}"
-            if len(row) != width:
-                raise InputError(f"{where}: {len(row)} fields, the header has {width}")
-            nums = [_cell(row[col[c]].strip(), where, c) for c in NUMBER_COLUMNS]
-            q, E, e = nums[:5], nums[5:8], nums[8:]
-            bad = next((c for c, v in zip(JOINT_COLUMNS, q) if abs(v) > MAX_JOINT_DEG), None)
-            if bad is not None:
-                raise InputError(f"{where}: {bad} = {q[JOINT_COLUMNS.index(bad)]:g} deg is beyond +-{MAX_JOINT_DEG:g} deg (joint angles in degrees)")
-            problem = coordinate_problem(E)
-            if problem:
-                raise InputError(f"{where}: {problem}")
-            if not math.hypot(*e) > 0.0:
-                raise InputError(f"{where}: the axis (e_x, e_y, e_z) is (0, 0, 0): a drill axis needs a direction")
-            values.append(nums)
-            lines.append(reader.line_num)
-            if "pose" in col:
-                poses.append(row[col["pose"]].strip())
-            if "design" in col:
-                digests.add(row[col["design"]].strip())
-    except csv.Error as exc:
-        raise InputError(f"{name} row {reader.line_num}: not valid CSV ({exc})") from None
+    table = parse_table(text, name)  # rows as wide as the header, each column once (arcube.io.tables)
+    col = _header(list(table.header), name)
+    values: list[list[float]] = []
+    poses: list[str] = []
+    digests: set[str] = set()
+    lines: list[int] = []
+    for line, row in table.rows:
+        where = table.where(line)
+        nums = [_cell(row[col[c]], where, c) for c in NUMBER_COLUMNS]
+        q, E, e = nums[:5], nums[5:8], nums[8:]
+        bad = next((c for c, v in zip(JOINT_COLUMNS, q) if abs(v) > MAX_JOINT_DEG), None)
+        if bad is not None:
+            raise InputError(f"{where}: {bad} = {q[JOINT_COLUMNS.index(bad)]:g} deg is beyond +-{MAX_JOINT_DEG:g} deg (joint angles in degrees)")
+        problem = coordinate_problem(E)
+        if problem:
+            raise InputError(f"{where}: {problem}")
+        if not math.hypot(*e) > 0.0:
+            raise InputError(f"{where}: the axis (e_x, e_y, e_z) is (0, 0, 0): a drill axis needs a direction")
+        values.append(nums)
+        lines.append(line)
+        if "pose" in col:
+            poses.append(row[col["pose"]])
+        if "design" in col:
+            digests.add(row[col["design"]])
     if not values:
         raise InputError(f"{name}: no measurements (header only)")
     if len(digests) > 1:

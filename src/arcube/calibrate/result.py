@@ -29,6 +29,7 @@ from arcube.calibrate.model import (
 )
 from arcube.calibrate.settings import IdentifySettings
 from arcube.model.mechanism import format_mode
+from arcube.io.json_values import finite
 
 
 def pose_errors(E_meas: ArrayLike, e_meas: ArrayLike, E_model: ArrayLike, e_model: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -154,14 +155,6 @@ class Calibration:
             "budget": None if self.budget is None else self.budget.to_json(),
             "design": self.design_json(),
         }
-        return _finite(data)
+        return finite(data)
 
 
-def _finite(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value

@@ -8,11 +8,13 @@ stderr and exit code 2, with no traceback (see :func:`main`).
 from __future__ import annotations
 
 import os
+import re
 import sys
+import warnings
 
 import typer
 
-from arcube import __version__
+from arcube import __version__, interrupts
 from arcube.cli import calibrate, demo, design, evaluate, explore, export, joints, optimize, patients, program, report, resume, study, tolerance
 from arcube.cli.projection import REGISTRY
 from arcube.errors import InputError
@@ -81,46 +83,83 @@ def _check_empty_paths(args: list[str]) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Entry point of the ``arcube`` script: one-line errors and exit code 2 on bad input."""
+    """Entry point of the ``arcube`` script: one-line errors and exit code 2 on bad input; Ctrl-C: one
+    line and exit code 130, also when a dependency swallowed the interrupt (:mod:`arcube.interrupts`)."""
+    previous = None
+    try:
+        previous = interrupts.arm()
+        _run(argv)
+    except KeyboardInterrupt:
+        _interrupted()
+    finally:
+        interrupts.disarm(previous)
+
+
+def _interrupted() -> None:
+    sys.stderr.write("error: interrupted\n")
+    sys.exit(130)
+
+
+def _run(argv: list[str] | None) -> None:
     command = typer.main.get_command(app)
     args = expand_multi_value(list(sys.argv[1:] if argv is None else argv))
     try:
         _check_empty_paths(args)
-        code = command.main(args=args, prog_name="arcube", standalone_mode=False)
+        with warnings.catch_warnings():
+            if not os.environ.get("ARCUBE_DEBUG"):
+                # numbers are checked where they matter (finite, in range); NumPy's and matplotlib's overflow
+                # warnings on extreme values would only precede the one line that says what is wrong
+                warnings.simplefilter("ignore", RuntimeWarning)
+            code = command.main(args=args, prog_name="arcube", standalone_mode=False)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except typer.Abort:
         sys.stderr.write("error: aborted\n")
         sys.exit(130)
-    except typer.TyperException as exc:
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:
+        if interrupts.pending() and not isinstance(exc, SystemExit):  # what a swallowed interrupt became (ImportError, ...)
+            _interrupted()
+        _error(exc)
+    if code == 130 or interrupts.pending():  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
+        _interrupted()
+    if isinstance(code, int) and code:
+        sys.exit(code)
+
+
+def _error(exc: BaseException) -> None:
+    """One line and the exit code for an exception that ended a command."""
+    if isinstance(exc, SystemExit):
+        raise exc
+    if isinstance(exc, typer.TyperException):
         if type(exc).__name__ == "NoArgsIsHelpError":
             sys.stdout.write(exc.format_message() + "\n")
             sys.exit(0)
         sys.stderr.write(f"error: {_one_line(exc.format_message())}\n")
         sys.exit(2)
-    except InputError as exc:
+    if isinstance(exc, InputError):
         sys.stderr.write(f"error: {_one_line(str(exc))}\n")
         sys.exit(2)
-    except OSError as exc:
+    if isinstance(exc, OSError):
         # A file the user named cannot be read or written (permissions, missing folder, full disk).
         where = f"{exc.filename}: " if exc.filename else ""
         sys.stderr.write(f"error: {where}{_one_line(exc.strerror or str(exc))}\n")
         sys.exit(2)
-    except KeyboardInterrupt:
-        sys.stderr.write("error: interrupted\n")
-        sys.exit(130)
-    except Exception as exc:  # a bug, not bad input: one line and a hint, the traceback only on request
-        if os.environ.get("ARCUBE_DEBUG"):
-            raise
-        sys.stderr.write(f"error: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); "
-                         "rerun with ARCUBE_DEBUG=1 for the traceback and please report it\n")  # fmt: skip
-        sys.exit(1)
-    if code == 130:  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
-        sys.stderr.write("error: interrupted\n")
-        sys.exit(130)
-    if isinstance(code, int) and code:
-        sys.exit(code)
+    if not isinstance(exc, Exception) or os.environ.get("ARCUBE_DEBUG"):
+        raise exc
+    # a bug, not bad input: one line and a hint, the traceback only on request
+    sys.stderr.write(f"error: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); "
+                     "rerun with ARCUBE_DEBUG=1 for the traceback and please report it\n")  # fmt: skip
+    sys.exit(1)
+
+
+_LONG_NUMBER = re.compile(r"[0-9]{25,}")
+_MAX_MESSAGE = 2000
 
 
 def _one_line(text: str) -> str:
-    return " ".join(text.split())
+    """``text`` on one line, each run of more than 24 digits shortened (``999999999999...(300 digits)``:
+    the value a user typed is recognisable without filling the terminal), at most 2000 characters."""
+    line = _LONG_NUMBER.sub(lambda m: f"{m.group()[:12]}...({len(m.group())} digits)", " ".join(text.split()))
+    return line if len(line) <= _MAX_MESSAGE else line[: _MAX_MESSAGE - 3] + "..."

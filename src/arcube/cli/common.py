@@ -129,4 +129,6 @@ class RichBar:
 
     def __exit__(self, *exc: Any) -> None:
         if self.enabled:
+            if exc[0] is not None:  # an error or Ctrl-C: the bar is erased, so its one line stands alone
+                self.progress.live.transient = True
             self.progress.__exit__(*exc)

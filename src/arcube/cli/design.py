@@ -24,7 +24,7 @@ from arcube.errors import InputError
 __all__ = ["COHORT", "missed_line", "print_design", "register"]
 
 _RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "dockings", "aggregate", "objectives", "standoff", "points", "side", "levels",
-               "ids", "setups", "population", "generations", "tolerance", "algorithm", "engine")  # fmt: skip
+               "ids", "setups", "population", "generations", "tolerance", "algorithm", "engine", "tolerance_class", "tol")  # fmt: skip
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
@@ -39,9 +39,12 @@ _HELPS = {
     "tolerance": "ftol (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
     "algorithm": "The optimizer. [default: mscmaes]",
     "engine": "Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference). [default: auto]",
+    "tolerance_class": "ISO 2768-1 class (f, m, c, v) of the robot as built: the accuracy budget reported (accuracy/) and the "
+                       "lateral_error_wc / lateral_error_rms requirements (MODEL.md 20). [default: m]",
 }
 MINIMA = option("--min", "Change a lower limit: clearance=5, self_clearance=2 (mm).", key="minima", multiple=True, params=("requirements.min",))
 MAXIMA = option("--max", "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
+                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm); "
                 "on the program (none by default): torque_peak (N m), power_peak (W).", key="maxima", multiple=True, params=("requirements.max",))  # fmt: skip
 DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}")
                      for name in DEFAULTS]  # fmt: skip
@@ -76,15 +79,13 @@ def _pairs(items: list[str] | None, flag: Flag) -> dict[str, float]:
 def print_design(result: Any) -> None:
     """The requirements table (each at the docking where it is tightest), the dockings, the verdict and, for each
     requirement missed, what relaxing it would take (a command line the tool accepts)."""
+    from arcube.report.design_job import requirement_where
+
     typer.echo(f"{'requirement':<22} {'limit':>9} {'value':>10} {'margin':>10}  {'':4}  {'docking':<16} where")
     for r in result.rows:
-        w = r.get("where") or {}
-        where = f"trajectory {w['trajectory']} ({w['segment']}, point {w['point']})" if w else ""
-        part = f"{', ' if where else ''}{r['part']}" if r.get("part") and r["requirement"] != "program" else ""
-        part = f"{r['part']}" if r["requirement"] == "program" and r["passed"] else part
         sign = ">=" if r["kind"] == "min" else "<="
         typer.echo(f"{r['requirement']:<22} {sign}{r['limit']:>7.4g} {_num(r['value']):>10} {_num(r['margin']):>10}  "
-                   f"{'ok' if r['passed'] else 'FAIL':4}  {r.get('docking', ''):<16} {where}{part}".rstrip())  # fmt: skip
+                   f"{'ok' if r['passed'] else 'FAIL':4}  {r.get('docking') or '':<16} {requirement_where(r)}".rstrip())  # fmt: skip
     s = result.summary
     dockings = s.get("dockings") or []
     if len(dockings) > 1:
@@ -94,16 +95,25 @@ def print_design(result: Any) -> None:
                        f"{_num(d['envelope_clearance_mm']):>8} {_num(d['lateral_error_mm']):>8} {_num(d['holding_torque_Nm']):>8}  "
                        f"{d['m_x']:.1f}, {d['m_y']:.1f}, {d['m_z']:.1f}; {d['mount_rx']:.1f}, {d['mount_ry']:.1f}, {d['mount_rz']:.1f}")  # fmt: skip
     head = "meets every requirement" + (f" at all {len(dockings)} dockings" if len(dockings) > 1 else "") if result.met else "does NOT meet every requirement"
+    met = len(result.rows) - len(result.missed)
     robot = s.get("robot") or {}
     c_z = f", c_z {robot['c_z']:.1f} mm" if robot.get("c_z") is not None else ""
-    typer.echo(f"design {head}: seed {s['seed']}, mode {s['mode']}, eta_G {_num(s.get('eta_G'))}{c_z}; results in {result.path}")
+    typer.echo(f"design {head} ({met} of {len(result.rows)} requirements met): seed {s['seed']}, mode {s['mode']}, "
+               f"eta_G {_num(s.get('eta_G'))}{c_z}; results in {result.path}")  # fmt: skip
+    acc = s.get("accuracy") or {}
+    if "lateral_error_p95_mm" in acc:
+        top = ", ".join(f"{t['source']} {t['share']:.0%}" for t in acc.get("tighten_first", []))
+        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
+                   f"{acc['robots']} robots, worst case {_num(acc['lateral_error_wc_mm'])} mm (a perfect robot: "
+                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {result.path / 'accuracy'}")  # fmt: skip
+    elif acc:
+        typer.echo(f"  accuracy as built: not computed ({acc.get('not_computed')})")
     for r in result.missed:
         typer.echo("  " + missed_line(r))
 
 
 def missed_line(r: dict[str, Any]) -> str:
-    """What one missed requirement row says: by how much, at which docking, and the flag that would relax it (only values
-    the flags accept: a lower limit below 0 or an upper limit of 0 cannot be asked for, so the line says so)."""
+    """What one missed requirement row says: by how much, at which docking, and what relaxing it would take."""
     at = f" at docking {r['docking']}" if r.get("docking") else ""
     name, value = r["requirement"], r["value"]
     if not math.isfinite(value) and name in PROGRAM_FIGURES:
@@ -113,17 +123,24 @@ def missed_line(r: dict[str, Any]) -> str:
     if name == "program":
         return f"missed: program{at}: {r['part']}"
     if name in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode", "z_dyad"):
-        return f"missed: {name}{at} ({_num(value)} {r['unit']}); cannot be relaxed: a larger budget (--generations) or more seeds (--seeds) may find a design"
+        return f"missed: {name}{at} ({_num(value)} {r['unit']}); a larger budget (--generations) or more seeds (--seeds) may find a design"
+    need = f">= {value:.4g}" if r["kind"] == "max" else f"<= {value:.4g}"
+    return f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}" + _relax(r)
+
+
+def _relax(row: dict[str, Any]) -> str:
+    """What to add to the command to accept the best design found: the limit it meets (a value the flag
+    accepts: a maximum > 0, a minimum >= 0), and/or the flag that drops the requirement."""
+    name, value = row["requirement"], float(row["value"])
+    flag = (MINIMA if row["kind"] == "min" else MAXIMA).name
     drop = next((f.name for f in DROPS if f.key == f"drop.{name}"), None)
-    alternative = f" or {drop}" if drop else ""
-    if r["kind"] == "min":
-        if value < 0.0:
-            return (f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']} (value {_num(value)}); cannot be relaxed that far (a lower limit "
-                    f"must be >= 0){': ' + drop + ' drops it' if drop else ''}; a larger budget or more seeds may find a design")  # fmt: skip
-        limit = math.floor(value * 100.0) / 100.0
-        return f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets {MINIMA.name} {name}={limit:g}{alternative}"
-    limit = math.ceil(value * 100.0) / 100.0
-    return f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets {MAXIMA.name} {name}={limit:g}{alternative}"
+    # rounded away from the limit so that the printed value is met by the design (4 significant digits)
+    digits = 3 - math.floor(math.log10(abs(value))) if value != 0.0 else 0
+    scale = 10.0**digits
+    shown = math.ceil(value * scale) / scale if row["kind"] == "max" else math.floor(value * scale) / scale
+    options = [f"{flag} {name}={shown:g}"] if (shown > 0.0 if row["kind"] == "max" else shown >= 0.0) else []
+    options += [drop] if drop else []
+    return f" ({' or '.join(options)})" if options else ""
 
 
 def _num(v: Any) -> str:
@@ -133,7 +150,7 @@ def _num(v: Any) -> str:
 def design(given: Given) -> None:
     """Find a robot that meets every requirement for a plan and its anatomy (MODEL.md 16-17), checked by the NumPy reference."""
     from arcube.api import design as design_api
-    from arcube.cli.study import SeedProgress
+    from arcube.cli.design_progress import DesignProgress
     from arcube.coerce import seeds as checked_seeds
     from arcube.design_job import DESIGN_GENERATIONS
     from arcube.optimization.settings import RunSettings
@@ -153,10 +170,10 @@ def design(given: Given) -> None:
         raise InputError(f"{PLANS.name} or {COHORT.name} is required")
     if plans is not None and cohort is not None:
         raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")
-    with SeedProgress(len(checked_seeds(seeds)), enabled=not given.get("quiet")) as bar:
+    with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
         result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
-                            maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar, settings=settings,
-                            **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
+                            maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar.seed, progress=bar.generation,
+                            on_stage=bar.stage, settings=settings, **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
     print_design(result)
     if not result.met:
         raise typer.Exit(3)

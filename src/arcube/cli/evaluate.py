@@ -29,10 +29,12 @@ def evaluate(given: Given) -> None:
     if options.mass_model_on(True if masses_given(given) else None):  # the holding torque, unless the links are too thin for the default wall and no mass flag asks for it
         options = options.replace(outputs=options.outputs.replace(holding_torque=True))
     report = given.get("report")
+    if report is not None:
+        report = check_report_path(report, REPORT.name)  # before the work: a folder that cannot be written, a FIFO
     result = evaluate_api(given.get("design", "paper"), one_plan(given), options=options, **{k: given.get(k) for k in ("points", "mode", "engine") if k in given},
                           **plan_request(given))  # fmt: skip
     if report is not None:
-        write_report(result, check_report_path(report, REPORT.name))
+        write_report(result, report)
     if given.get("as_json"):
         sys.stdout.write(json.dumps(result.to_json(), allow_nan=False) + "\n")
     else:

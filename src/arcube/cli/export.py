@@ -74,7 +74,8 @@ def export(given: Given) -> None:
 def _export_program(given: Given, out: Path, options: object, c_z: float | None, masses: bool | None) -> None:
     """``--program``: the model at the program's first row and its replay (written atomically, both or none)."""
     from arcube.evaluation.anatomy import resolve_anatomy
-    from arcube.export.replay import export_program, read_program, write_program_export
+    from arcube.export.replay import export_program, read_program, replay_path, write_program_export
+    from arcube.io.files import check_targets
 
     clash = [f.name for f in PLAN_FLAGS if f.key in given]
     if clash:
@@ -82,11 +83,15 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
     rows = read_program(given.get("program"))
     anat = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), rows.summary.get("plan"), segments=given.get("segments"))
             if given.get("anatomy") else None)  # fmt: skip
+    try:
+        check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
+    except OSError as exc:
+        raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename} ({exc.strerror})") from None
     result = export_program(rows, given.get("design"), c_z=c_z, options=options, anatomy=anat, masses=masses)  # type: ignore[arg-type]
     try:
         xml_path, csv_path = write_program_export(result, out)
     except OSError as exc:
-        raise InputError(f"{MODEL_OUT.name} {out}: cannot write ({exc.strerror or exc})") from None
+        raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename or out} ({exc.strerror or exc}); nothing was written") from None
     sys.stdout.write(f"{xml_path}\n{csv_path}\n")
 
 

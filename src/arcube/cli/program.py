@@ -18,7 +18,7 @@ from arcube.motion.limits import Planner, ProgramLimits
 
 __all__ = ["register"]
 
-FOLDER = with_help(OUT, "Folder for program.csv and program.json (created).", required=True)
+FOLDER = with_help(OUT, "Folder for program.csv, program.json and program.png (created; one that holds an older program is refused).", required=True)
 ORDER = option("--order", "Trajectory order: shortest (least total time) or given (the plan's). [default: shortest]", params=("order",))
 FLAGS = [
     FOLDER, with_help(DESIGN, DESIGN.help.split(" [")[0], required=True), with_help(TRAJECTORIES, TRAJECTORIES.help.split(" [")[0], required=True),

@@ -244,6 +244,10 @@ def _parameter(f: Flag) -> inspect.Parameter:
     return inspect.Parameter(f.dest, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=Annotated[annotation, info])
 
 
+_EXCLUSIVE = {("workers", "dask"): "a Dask cluster has its own workers"}
+"""Pairs of flags (by key) a command refuses together, naming both, and why (``--workers`` > 1 with ``--dask``)."""
+
+
 def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given], None], *, help: str,
             arguments: Iterable[inspect.Parameter] = (), registry_name: str | None = None) -> None:  # fmt: skip
     """Register command ``name`` on ``app``: its options are ``flags``, then ``arguments`` (Typer
@@ -274,6 +278,9 @@ def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given
         for p in extra:
             if p.name != "more_values":
                 given.values[p.name] = kw.get(p.name)
+        for (a, b), why in _EXCLUSIVE.items():
+            if given.get(a) not in (None, 1) and given.get(b) is not None:
+                raise InputError(f"{given.flag(a)} {given.get(a)} and {given.flag(b)} {given.get(b)}: one or the other ({why})")
         if more:
             if spread is None or spread.key not in given.values:
                 raise InputError(f"unexpected argument {more[0]!r}" + (f" (values go after {spread.name})" if spread is not None else ""))

@@ -34,6 +34,10 @@ def report(given: Given) -> None:
 
     run_dir: Path = given.get("run_dir")
     anatomy, frame, best_known, design = given.get("anatomy"), given.get("anatomy_frame", "LPS"), given.get("best_known"), given.get("design")
+    if run_dir.is_dir():  # before the work: never into a FIFO or a folder named report.html, nor its PNGs beside one
+        from arcube.report import check_report_path
+
+        check_report_path(run_dir / "report.html", "RUN_DIR")
     if is_program_folder(run_dir) and not (run_dir / "config.toml").exists():
         from arcube.report.program_html import write_program_report
 

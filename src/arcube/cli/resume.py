@@ -35,9 +35,16 @@ def resume(given: Given) -> None:
     if workers is not None and workers < 1:
         raise InputError.of("workers", f"must be at least 1, got {workers}")
     if is_design(run_dir):
-        seeds = folder.read_study(run_dir / STUDY)[0]["seeds"] if folder.is_study(run_dir / STUDY) else []
-        with SeedProgress(len(seeds), enabled=not quiet) as seed_bar:
-            result = resume_api(run_dir, workers=workers, dask=dask, on_seed=seed_bar)
+        from arcube.cli.design_progress import DesignProgress
+
+        study, base = folder.read_study(run_dir / STUDY) if folder.is_study(run_dir / STUDY) else ({}, {})
+        run = base.get("settings") if isinstance(base.get("settings"), dict) else {}
+        try:
+            budget = max(int(run.get("population", 1)) * int(run.get("generations", 1)), 1)
+        except (TypeError, ValueError, OverflowError):  # a damaged config: resume itself refuses it, with the reason
+            budget = 1
+        with DesignProgress(study.get("seeds", []), budget, enabled=not quiet) as bar:
+            result = resume_api(run_dir, workers=workers, dask=dask, on_seed=bar.seed, progress=bar.generation, on_stage=bar.stage)
         print_design(result)
         if not result.met:
             raise typer.Exit(3)

@@ -88,7 +88,8 @@ def assess_dockings(dockings: Sequence[Docking], reqs: Sequence[Any], s: RunSett
     for d in dockings:
         options = base if d.design.c_z is None else base.replace(z_dyad=True, c_z=d.design.c_z)
         rows = assess([d.design.to_vector()], parse_mode(d.design.mode or "+,+,+,+"), [d.plan], [d.anatomy], reqs, options=options,
-                      envelopes=[d.envelope] if d.envelope is not None else (), points=s.points, standoff_mm=float(s.standoff or 0.0))  # fmt: skip
+                      envelopes=[d.envelope] if d.envelope is not None else (), points=s.points, standoff_mm=float(s.standoff or 0.0),
+                      accuracy=s.accuracy_settings())  # fmt: skip
         if d.design.c_z is not None:
             rows.insert(1, _z_dyad_row(rows, d, options, s))
         for r in rows:
@@ -147,6 +148,7 @@ def _tighter(a: dict[str, Any], b: dict[str, Any]) -> bool:
 
 
 def docking_entry(d: Docking) -> dict[str, Any]:
-    """``{"patient", "side", "m_x", ..., "mount_rz"}`` of a robot's ``design.json`` (MODEL.md 19.1), and its file."""
+    """``{"patient", "side", "m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"}``: one entry of a robot's ``design.json``
+    ``dockings`` list (MODEL.md 19.1; its full design is ``dockings/<patient>_<side>/design.json``)."""
     values = d.design.to_dict()
-    return {"patient": d.name, "side": d.side, **{n: values[n] for n in PLACEMENT}, "file": f"dockings/{d.label}/design.json"}
+    return {"patient": d.name, "side": d.side, **{n: values[n] for n in PLACEMENT}}

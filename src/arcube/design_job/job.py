@@ -8,11 +8,17 @@ One folder holds the job::
     design.json        the robot: the first docking's complete design (27 parameters, c_z, mode: what every
                        command reads) and ``dockings``, each docking's patient, side, m and mounting angles
     dockings/<patient>_<side>/
-                       design.json (that docking's complete design), requirements.csv (its own table),
-                       report.html, program/ (its drilling program, MODEL.md 17), design.xml (its MuJoCo model)
+                       design.json (that docking's complete design), requirements.csv (its own table); with
+                       several dockings also report.html, accuracy/, program/ and design.xml (its MuJoCo model)
     summary.json       meets_requirements, mode, seed, the robot, every docking's figures, the requirements
     requirements.csv   each requirement: limit, value, margin, pass/fail, the docking and where it is tightest
-    report.html        every docking of the robot side by side, with its patient
+    report.html        one docking: the design on the plan with the anatomy (plotly), under the verdict and the
+                       requirements; several: every docking of the robot side by side, with its patient
+    accuracy/          (one docking) the accuracy budget of the chosen design as built (MODEL.md 20, class m unless
+                       --class): arcube tolerance's folder (tolerance.json, CSVs, pictures)
+    program/           (one docking) the drilling program of a design that meets everything (MODEL.md 17):
+                       program.csv, program.json; a design whose program is blocked does not meet the requirements
+    design.xml         (one docking) the MuJoCo model (when the z dyad closes)
 
 The dockings (MODEL.md 19.1) are one per patient and side by default (``dockings per-side``: a plan's R
 trajectories one docking, its L ones another), or one per patient. The best seed whose robot meets
@@ -26,6 +32,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import shutil
 import time
 import tomllib
@@ -45,6 +52,7 @@ from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
 from arcube.optimization.run_results import OptimizeResult
 from arcube.optimization.settings import RunSettings
+from arcube.io.json_values import finite
 
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
 
@@ -55,6 +63,7 @@ DESIGN_GENERATIONS = 100
 STUDY = "study"
 PROGRAM = "program"
 DOCKINGS = "dockings"
+ACCURACY = "accuracy"
 
 
 @dataclass(frozen=True)
@@ -93,6 +102,9 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
     from arcube.optimization.config import run_settings
 
     s = run_settings(settings, **fields)
+    if not s.anatomy and any(r.name == "clearance" for r in reqs):  # before the guard below would blame its own field
+        raise InputError.of("RunSettings.anatomy", "is needed by the clearance requirement (anatomy default, mesh files or a "
+                                                   "segmentation); or drop the clearance requirement")  # fmt: skip
     maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
     options = design_options(reqs, s.options).replace(z_dyad=True)
     envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
@@ -114,10 +126,10 @@ def is_design(path: Path) -> bool:
 
 def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
                  workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-                 on_generation: Callable[[dict[str, Any]], None] | None = None) -> DesignResult:  # fmt: skip
+                 on_generation: Callable[[dict[str, Any]], None] | None = None, on_stage: Callable[[str], None] | None = None) -> DesignResult:  # fmt: skip
     """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs. ``plans``: the
     trajectory sets, or :class:`~arcube.optimization.config.PatientPlan` (a cohort's patients, named, each with its own
-    anatomy and envelope)."""
+    anatomy and envelope); ``on_stage`` is told each stage after the search (:func:`finish_design`)."""
     from arcube.design_job.cohort import plans_as_cohort
     from arcube.optimization.config import PatientPlan
 
@@ -141,7 +153,7 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
         if not any((studymod.seed_dir(out / STUDY, int(sd)) / "checkpoint").exists() for sd in seeds):
             runmod.remove_folder(out, created)
         raise
-    return finish_design(out)
+    return finish_design(out, on_stage)
 
 
 def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement]) -> None:
@@ -168,9 +180,12 @@ def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
     return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
 
 
-def finish_design(out: Path) -> DesignResult:
-    """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write the outputs."""
+def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> DesignResult:
+    """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write
+    the outputs; ``on_stage`` is told each stage ("checking seed 2 with the NumPy reference", "building the drilling
+    program", ...)."""
     out = Path(out)
+    say = on_stage or (lambda text: None)
     _, reqs = read_design(out)
     study = json.loads((out / STUDY / "summary.json").read_text(encoding="utf-8"))
     # feasible seeds by objective, then the others by violation (the study's own ranking)
@@ -182,11 +197,13 @@ def finish_design(out: Path) -> DesignResult:
         s = RunSettings.from_config(cfg)
         summary = run.summary
         dockings = run_dockings(cfg, run, summary["mode"])
+        say(f"checking seed {row['seed']}'s robot with the NumPy reference" + (f" at {len(dockings)} dockings" if len(dockings) > 1 else ""))
         assess_dockings(dockings, reqs, s)
         met = bool(row["feasible"] and all(d.met for d in dockings))
         if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
             for d in dockings:
-                d.rows = [*d.rows, *_program_rows(out / DOCKINGS / d.label, d, s, reqs)]
+                say(f"building the drilling program of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
+                d.rows = [*d.rows, *_program_rows(_folder(out, d, dockings), d, s, reqs)]
             met = all(d.met for d in dockings)
         if chosen is None or (met and not chosen[-1]):
             chosen = (row, run, s, summary, dockings, met)
@@ -195,7 +212,14 @@ def finish_design(out: Path) -> DesignResult:
         # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
     assert chosen is not None
     row, run, s, summary, dockings, met = chosen
+    say("writing the report, the accuracy budget (MODEL.md 20) and the MuJoCo model")
     return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings)
+
+
+def _folder(out: Path, d: Docking, dockings: Sequence[Docking]) -> Path:
+    """Where a docking's program, accuracy budget, report and MuJoCo model go: the job's folder when it is the only
+    docking (the layout of a one-docking job, as before MODEL.md 19), else ``dockings/<patient>_<side>``."""
+    return out if len(dockings) == 1 else out / DOCKINGS / d.label
 
 
 def _program_rows(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
@@ -249,27 +273,34 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     atomic_write_text(out / "design.json", json.dumps(robot, indent=2) + "\n")
     options = s.evaluation_options()
     options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
-    evaluations = []
+    from arcube.report.design_job import design_preface
+
+    one = len(dockings) == 1
+    evaluations, accuracies, mujoco = [], [], "design.xml"
     for d in dockings:
-        folder = out / DOCKINGS / d.label
-        folder.mkdir(parents=True, exist_ok=True)
-        d.design.to_json(folder / "design.json")
-        write_requirements_csv(folder / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
+        folder = _folder(out, d, dockings)
+        (out / DOCKINGS / d.label).mkdir(parents=True, exist_ok=True)
+        d.design.to_json(out / DOCKINGS / d.label / "design.json")
+        write_requirements_csv(out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
         opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
         ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode or "+,+,+,+"), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
-        program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
-        write_report(ev, folder / "report.html", program=program)
         evaluations.append(ev)
+        accuracies.append({**_accuracy_budget(folder, d.design, d.plan, summary, s), **({} if one else {"docking": d.label})})
+        c_z = d.design.c_z if d.design.c_z is not None else _closing_c_z(d.design, d.plan, s, summary)
         try:
-            xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, radii=s.options.radii, anatomy=d.anatomy, masses=s.options)
+            xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, c_z=c_z, options=s.options, anatomy=d.anatomy,
+                              envelope=d.envelope)  # fmt: skip
             atomic_write_text(folder / "design.xml", xml)
-        except InputError:
-            pass  # an open z dyad (a design that misses the z-dyad requirement): the summary says so
-    from arcube.report.dockings import write_dockings_report
-
+        except InputError as exc:  # an open z dyad (a design that misses the z-dyad requirement): the summary says so
+            mujoco = f"not written: {exc}" if one else mujoco
+        if not one:
+            program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
+            preface = design_preface({**summary, "meets_requirements": d.met}, d.rows, d.design, c_z=d.design.c_z, folder=folder)
+            write_report(ev, folder / "report.html", program=program, preface=preface)
     rows = merge_rows(dockings)
-    write_dockings_report(out / "report.html", dockings, evaluations, rows, met)
     robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
+    # the accuracy as built of the docking where it is worst (each docking's own: in its folder's accuracy/)
+    accuracy = max(accuracies, key=lambda a: a.get("lateral_error_p95_mm") if isinstance(a.get("lateral_error_p95_mm"), float) else -math.inf)
     result = {
         "meets_requirements": met, "seed": seed, "mode": summary["mode"], "objective": summary["objectives"][0] if summary.get("objectives") else "eta_G",
         "aggregate": s.aggregate, "docking_mode": s.dockings, "missed": [r["requirement"] for r in rows if not r["passed"]],
@@ -277,19 +308,57 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         "robot": {n: robot_values[n] for n in ROBOT_NAMES}, "dockings": [_docking_summary(d) for d in dockings],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
-        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS},
+        "accuracy": accuracy,
+        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS,
+                  **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
+                  **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
+    from arcube.report.design_job import design_preface
+
+    if one:
+        program = out / PROGRAM if (out / PROGRAM / "program.json").exists() else None
+        write_report(evaluations[0], out / "report.html", program=program, preface=design_preface(result, rows, first, c_z=first.c_z, folder=out))
+    else:
+        from arcube.report.dockings import write_dockings_report
+
+        write_dockings_report(out / "report.html", dockings, evaluations, rows, met)
     write_requirements_csv(out / "requirements.csv", rows)
-    atomic_write_text(out / "summary.json", json.dumps(_finite(result), indent=2, allow_nan=False) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(finite(result), indent=2, allow_nan=False) + "\n")
     return DesignResult(out, met, result, rows)
 
 
-def _finite(value: Any) -> Any:
-    """``value`` with every non-finite float as None (JSON null)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
+def _accuracy_budget(out: Path, design: Design, plan: Any, summary: dict[str, Any], s: RunSettings) -> dict[str, Any]:
+    """The accuracy budget of one docking's design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
+    on its plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
+    beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
+    from arcube.accuracy import budget
+    from arcube.evaluation.task import build_task
+    from arcube.report.accuracy import write_budget
+
+    shutil.rmtree(out / ACCURACY, ignore_errors=True)  # ours: a resumed job writes it again
+    settings = s.accuracy_settings()
+    task = build_task(plan.entry, plan.target, s.points, tuple(plan.ids))
+    try:
+        result = budget(design, task.E, task.e, summary["mode"], settings, [task.ids[i] for i in task.trajectory], task.k)
+    except InputError as exc:
+        return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
+    write_budget(result, out / ACCURACY)
+    return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
+            "perfect_robot_lateral_error_mm": summary.get("lateral_error_max_mm"),
+            "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
+
+
+def _closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
+    """For a design without c_z: a z-dyad link c_z that closes the dyad at every point (the middle of the range the
+    export names), or None (c_z = d_z closes it)."""
+    from arcube.export.mjcf import export_mjcf
+
+    try:
+        export_mjcf(design, plan, points=s.points, mode=summary["mode"])
+        return None
+    except InputError as exc:
+        found = re.search(r"c_z in \[([0-9.eE+-]+), ([0-9.eE+-]+)\]", str(exc))
+        if not found:
+            raise
+        lo, hi = float(found.group(1)), float(found.group(2))
+        return 0.5 * (lo + hi)

@@ -8,6 +8,9 @@ A requirement is a limit on one figure over the points where it applies:
 * ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2), ``torque`` <= 20 N m (15.3) and
   ``holding_torque`` <= 20 N m (18.2: the robot's weight with the drilling loads, the masses of
   :class:`arcube.options.Masses`) where the drill works, from entry to target;
+* optional, the accuracy of the robot as built (MODEL.md 20.3, under ``--class`` and ``--tol``; not by default):
+  ``lateral_error_wc`` (first-order worst case) and ``lateral_error_rms`` (mm) where the drill works; the
+  ``part`` of their row is the error source with the largest share at the tightest point;
 * optional, on the drilling program of the chosen design (MODEL.md 18.3; a program cannot be built
   inside the optimizer, so these are checked, not searched for): ``torque_peak`` (N m) and
   ``power_peak`` (W), the largest over the actuators of ``program.json``'s motor figures;
@@ -42,7 +45,8 @@ __all__ = ["DEFAULTS", "PROGRAM_FIGURES", "REQUIREMENTS", "Requirement", "assess
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
     "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"), "envelope_clearance": ("min", "mm", "whole line"),
     "lateral_error": ("max", "mm", "drill"), "axis_error": ("max", "deg", "drill"), "torque": ("max", "N·m", "drill"),
-    "holding_torque": ("max", "N·m", "drill"), "torque_peak": ("max", "N·m", "program"), "power_peak": ("max", "W", "program"),
+    "holding_torque": ("max", "N·m", "drill"), "lateral_error_wc": ("max", "mm", "drill"), "lateral_error_rms": ("max", "mm", "drill"),
+    "torque_peak": ("max", "N·m", "program"), "power_peak": ("max", "W", "program"),
 }  # fmt: skip
 """Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
 PROGRAM_FIGURES: dict[str, str] = {"torque_peak": "torque_peak_Nm", "power_peak": "power_peak_W"}
@@ -62,23 +66,32 @@ class Requirement:
     limit: float
 
 
-def requirements_from(minima: Mapping[str, float] | None = None, maxima: Mapping[str, float] | None = None,
-                      drop: Sequence[str] = ()) -> list[Requirement]:  # fmt: skip
-    """The defaults, changed by ``minima`` / ``maxima`` and without the names in ``drop`` (checked)."""
+def requirements_from(minima: Mapping[str, float] | Sequence[str] | str | None = None,
+                      maxima: Mapping[str, float] | Sequence[str] | str | None = None, drop: Sequence[str] = ()) -> list[Requirement]:  # fmt: skip
+    """The defaults, changed by ``minima`` / ``maxima`` and without the names in ``drop`` (checked).
+
+    ``minima`` / ``maxima``: name -> limit, or ``"NAME=VALUE"`` texts as the command line gives them
+    (:func:`arcube.coerce.limit_pairs`: a name given twice, or a value such as ``1_5``, is refused);
+    a requirement both changed and dropped is a contradiction, refused too."""
+    from arcube.coerce import limit_pairs
+
     limits = dict(DEFAULTS)
-    for kind, given in (("min", minima or {}), ("max", maxima or {})):
-        for name, value in given.items():
-            if name not in REQUIREMENTS:
-                raise InputError.of(f"requirements.{kind}", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
-            if REQUIREMENTS[name][0] != kind:
-                raise InputError.of(f"requirements.{kind}", f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE")
-            v = float(value)
-            if not (math.isfinite(v) and v >= 0.0) or (kind == "max" and v == 0.0):
-                raise InputError.of(f"requirements.{kind}", f"{name}={value!r}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}")
-            limits[name] = v
     for name in drop:
         if name not in REQUIREMENTS:
             raise InputError.of("requirements.drop", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+    for kind, given in (("min", minima), ("max", maxima)):
+        param = f"requirements.{kind}"
+        for name, v, shown in limit_pairs(given, param=param, example="clearance=5" if kind == "min" else "torque=20"):
+            if name not in REQUIREMENTS:
+                raise InputError.of(param, f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+            if REQUIREMENTS[name][0] != kind:
+                raise InputError.of(param, f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE")
+            if not v >= 0.0 or (kind == "max" and v == 0.0):
+                raise InputError.of(param, f"{shown}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}")
+            if name in drop:
+                raise InputError.of(param, f"{shown}: the {name} requirement is also dropped; limit it or drop it, not both")
+            limits[name] = v
+    for name in drop:
         limits.pop(name, None)
     return [Requirement(n, REQUIREMENTS[n][0], v) for n, v in limits.items()]
 
@@ -95,12 +108,15 @@ def _where(patient: int, ids: Sequence[str], segment: str, n_points: int, index:
 
 
 def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: Sequence[Any], reqs: Sequence[Requirement], *,
-           options: Options, points: int, standoff_mm: float, engine: str = "numpy", envelopes: Sequence[Any] = ()) -> list[dict[str, Any]]:  # fmt: skip
+           options: Options, points: int, standoff_mm: float, engine: str = "numpy", envelopes: Sequence[Any] = (),
+           accuracy: Any = None) -> list[dict[str, Any]]:  # fmt: skip
     """One row per requirement (and per guard of 8.2, and reach): the worst over every patient.
 
     ``designs``: per patient, a ``(27,)`` vector; ``plans``: per patient a TrajectorySet; ``anatomies``:
     per patient an :class:`~arcube.evaluation.anatomy.Anatomy` or None; ``mode``: four signs; ``envelopes``:
-    per patient the envelope of MODEL.md 19.5 (an :class:`~arcube.evaluation.envelope.Envelope`), or ().
+    per patient the envelope of MODEL.md 19.5 (an :class:`~arcube.evaluation.envelope.Envelope`), or ();
+    ``accuracy``: the :class:`~arcube.accuracy.settings.ToleranceSettings` of ``lateral_error_wc`` and
+    ``lateral_error_rms`` (default class m), computed by the NumPy first order of MODEL.md 20.3.
     """
     holding = any(r.name == "holding_torque" for r in reqs)  # MODEL.md 18.2 (needs a valid mass model)
     opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
@@ -123,10 +139,16 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
                 reach.update(value=frac, where=_where(p, plan.ids, segment, points, bad), part=FAILURES[failure[bad] - 1])
             for g in _GUARDS:
                 guard_fail[g] += int(np.sum(failure == FAILURES.index(g) + 1))
+            robust = None
+            if segment == "drill" and any(r.name in ROBUST_FIGURES for r in reqs):
+                robust = robust_figures(np.asarray(x, float), E, e, mode, accuracy)
             for r in reqs:
                 if (segment == "approach" and REQUIREMENTS[r.name][2] == "drill") or r.name in PROGRAM_FIGURES:
                     continue
-                values, part = requirement_figure(pts, r.name, () if env is None else tuple(env.names))
+                if r.name in ROBUST_FIGURES:
+                    values, part = robust[r.name]  # type: ignore[index]
+                else:
+                    values, part = requirement_figure(pts, r.name, () if env is None else tuple(env.names))
                 values = np.where(np.isfinite(values), values, np.nan)
                 if np.all(np.isnan(values)):
                     continue
@@ -170,6 +192,28 @@ def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, 
         rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], "value": value,
                      "where": {}, "part": part})  # fmt: skip
     return judge(rows)
+
+
+ROBUST_FIGURES = ("lateral_error_wc", "lateral_error_rms")
+"""The requirements on the robot as built (MODEL.md 20.3), from the first order rather than a point result."""
+
+
+def robust_figures(x: np.ndarray, E: np.ndarray, e: np.ndarray, mode: Any, accuracy: Any = None) -> dict[str, tuple[np.ndarray, Any]]:
+    """Per point, the first-order worst-case and RMS lateral errors (mm) of design ``x`` ``(27,)`` at (E, e) ``(P, 3)``
+    (NaN where the point is not reached), each with index -> the source with the largest share there."""
+    from arcube.accuracy.first_order import first_order
+    from arcube.accuracy.settings import ToleranceSettings
+    from arcube.accuracy.sources import SOURCE_NAMES, sigmas
+
+    s = ToleranceSettings() if accuracy is None else accuracy
+    T = s.tolerances(x)
+    fo = first_order(x, E, e, np.asarray(mode, float), T, sigmas(T, s.distribution))
+    share = np.asarray(fo.share)
+
+    def top(i: int) -> str:
+        return SOURCE_NAMES[int(np.nanargmax(share[i]))] if np.isfinite(share[i]).any() and np.nanmax(share[i]) > 0 else ""
+
+    return {"lateral_error_wc": (np.asarray(fo.lateral_wc_mm, float), top), "lateral_error_rms": (np.asarray(fo.lateral_rms_mm, float), top)}
 
 
 def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tuple[np.ndarray, Any]:

@@ -73,10 +73,15 @@ class Anatomy:
         from arcube.evaluation.sdf import AnatomyDistance
 
         if "d" not in self._cache:
-            if self.boxes is not None:
-                self._cache["d"] = AnatomyDistance.from_boxes(list(self.boxes))
-            else:
-                self._cache["d"] = AnatomyDistance.from_meshes(list(self.meshes))
+            try:
+                if self.boxes is not None:
+                    self._cache["d"] = AnatomyDistance.from_boxes(list(self.boxes))
+                else:
+                    self._cache["d"] = AnatomyDistance.from_meshes(list(self.meshes))
+            except InputError as exc:  # name the files: "anatomy spans ..." alone does not say which
+                if exc.param != "anatomy" or not str(exc).startswith("anatomy "):
+                    raise
+                raise InputError(f"anatomy {self.source}: {str(exc)[len('anatomy '):]}", param="anatomy") from None
         return self._cache["d"]
 
     def write_stl(self, path: str | os.PathLike[str]) -> Path:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube import interrupts
 from arcube.evaluation.envelope import Envelope, resolve_envelope, rounded_box_distance
 
 if TYPE_CHECKING:  # trimesh loads only when an envelope is drawn
@@ -37,6 +38,8 @@ def _rounded_box_mesh(box: NDArray[np.float64], step: float = MESH_STEP_MM) -> t
     import trimesh
     from skimage.measure import marching_cubes
 
+    interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
+
     c, a, rho = box[:3], box[3:6], box[6]
     # nodes off the surface (a node on it gives degenerate triangles): an offset no lattice of round sizes has
     lo = c - a - rho - (2.0 + 0.3819660113) * step
@@ -55,6 +58,7 @@ def _table_mesh(envelope: Envelope) -> trimesh.Trimesh:
     """The table as a thin box under everything else: its top at ``table_z``, 150 mm beyond the other regions."""
     import trimesh
 
+    interrupts.check()  # as in _rounded_box_mesh
     if envelope.n_boxes:
         b = envelope.boxes
         lo, hi = (b[:, :3] - b[:, 3:6] - b[:, 6:7]).min(axis=0), (b[:, :3] + b[:, 3:6] + b[:, 6:7]).max(axis=0)

@@ -1,19 +1,18 @@
 """The live explorer: a viser server (its web client is bundled in the wheel: no CDN, works offline).
 
-Every control changes :class:`~arcube.explorer.live.LiveModel` and asks one worker thread to refresh;
-the worker coalesces requests (a slider dragged fast re-evaluates only for its latest value), runs
-the kernel on the whole plan (skipped when only the point along the plan moved), builds the scene
-at the point shown (:mod:`arcube.explorer.scene`) and sends it in one batch. :attr:`ExplorerApp.timings`
-holds the last refresh's milliseconds; :meth:`ExplorerApp.wait_idle` waits for the worker.
+Every control changes :class:`~arcube.explorer.live.LiveModel` and asks one worker thread to refresh; the worker coalesces
+requests (a slider dragged fast re-evaluates only for its latest value), runs the kernel on the whole plan (skipped when only
+the point along the plan moved), builds the scene at the point shown (:mod:`arcube.explorer.scene`) and sends it in one batch.
+:attr:`ExplorerApp.timings` holds the last refresh's milliseconds; :meth:`ExplorerApp.wait_idle` waits for the worker.
 
-The viewer works in metres (three.js' near and far planes suit them); the library's mm are scaled by
-:data:`SCALE` on the way in.
+The viewer works in metres (three.js' near and far planes suit them); the library's mm are scaled by :data:`SCALE` on the way in.
 """
 
 from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import socket
 import threading
 import time
@@ -22,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.explorer import text
 from arcube.explorer.live import Figures, LiveModel, View
@@ -67,6 +67,8 @@ class ExplorerApp:
         import viser
 
         check_port(host, port)
+        # a port scanner's aborted handshake is logged by websockets with a traceback; viser filters it late
+        logging.getLogger("websockets").setLevel(logging.CRITICAL)
         self.model, self.host = model, host
         self.anatomy_spec, self.anatomy_frame = anatomy_spec, anatomy_frame
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints its own banner; the caller prints the URL
@@ -99,6 +101,7 @@ class ExplorerApp:
     def _build_scene(self, title: str) -> None:
         import trimesh
 
+        interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
         sc, m = self.server.scene, self.model
         sc.set_up_direction("+z")
         sc.configure_default_lights(cast_shadow=False)  # shadow passes double the cost of a frame (software WebGL)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube import interrupts
 from arcube.explorer import text
 from arcube.explorer.live import Figures, LiveModel, View
 from arcube.explorer.scene import CLASSES, COLOURS, cylinder_frames
@@ -47,6 +48,8 @@ def _instances(base: Any, pos: NDArray[np.float64], rot: NDArray[np.float64], sc
 
 def _body_mesh(view: View) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.uint8]]:
     import trimesh
+
+    interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
 
     s = view.solids
     pos, quat, length = cylinder_frames(s.cylinders)

@@ -151,10 +151,8 @@ def export_mjcf(
     where = f"trajectory {pl.ids[pl.trajectory[idx]]}, k={int(pl.k[idx])}"
     if not ok[idx]:
         one = inverse_kinematics(params, pl.E[idx], pl.e[idx], signs)
-        raise InputError(
-            f"the design has no IK solution at {where} in mode {format_mode(signs)}: {no_ik_reason(one)}; "
-            "pick another point (at), mode or design"
-        )
+        raise InputError.of("at", f"{short_repr(at)}: the design has no IK solution at {where} in mode {format_mode(signs)}: "
+                                  f"{no_ik_reason(one)}; pick another point, mode or design")  # fmt: skip
     check_z_dyad(params, pl.E[ok], pl.e[ok], signs, cz, "solvable points of the plan")
     if envelope is not None and not hasattr(envelope, "boxes"):
         from arcube.evaluation.envelope import resolve_envelope

@@ -38,9 +38,7 @@ an ``arcube design`` job (``design.toml`` beside it, or its ``summary.json`` lis
 
 from __future__ import annotations
 
-import csv
 import io
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -53,11 +51,13 @@ from numpy.typing import NDArray
 from arcube.errors import InputError
 from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
 from arcube.export.mjcf import check_z_dyad, checked_inputs, export_masses, model_xml
-from arcube.io.files import atomic_write_text
+from arcube.io.files import atomic_write_files
+from arcube.io.inputs import load_json
+from arcube.io.program_files import CSV_NAME, read_program_files
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
-from arcube.motion.output import CSV_COLUMNS, Program
+from arcube.motion.output import Program
 
 __all__ = ["ANGLE_TOL_RAD", "REPLAY_COLUMNS", "ProgramExport", "export_program", "read_program", "recorded_design", "replay_path",
            "write_program_export"]
@@ -83,34 +83,24 @@ class ProgramExport:
 
 
 def read_program(folder: str | os.PathLike[str]) -> Program:
-    """The program in ``folder`` (``program.csv`` and ``program.json``; columns beyond MODEL.md 17.3's, such
-    as ``tau_*_Nm``, are ignored). InputError naming ``program`` for a missing or unreadable file."""
+    """The program in ``folder``, read by :func:`arcube.io.program_files.read_program_files` (the one
+    reader of program folders: its limits and checks); columns beyond MODEL.md 17.3's, such as
+    ``tau_*_Nm``, are ignored. InputError naming ``program`` and the file for a missing, unreadable or
+    damaged file, or a cell the replay cannot use (empty or not finite)."""
     path = Path(folder)
-    csv_path, json_path = path / "program.csv", path / "program.json"
-    for p in (csv_path, json_path):
-        if not p.is_file():
-            raise InputError.of("program", f"{path}: no {p.name} (give the folder that 'arcube program' wrote)")
+    if not path.is_dir():
+        raise InputError.of("program", f"{path}: {'no such folder' if not path.exists() else 'not a folder'} (give the folder that 'arcube program' wrote)")
     try:
-        summary = json.loads(json_path.read_text(encoding="utf-8"))
-        with open(csv_path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(fh))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError.of("program", f"{path}: cannot read ({exc})") from None
-    if not isinstance(summary, dict):
-        raise InputError.of("program", f"{json_path}: not a program summary (a JSON object)")
-    missing = [c for c in CSV_COLUMNS if not rows or c not in rows[0]]
-    if not rows or missing:
-        raise InputError.of("program", f"{csv_path}: " + ("no rows" if not rows else f"missing columns {', '.join(missing)}"))
-    numeric = [c for c in CSV_COLUMNS if c not in ("segment", "trajectory")]
-    try:
-        table = np.array([[float(r[c]) for c in numeric] for r in rows])
-    except (TypeError, ValueError):
-        raise InputError.of("program", f"{csv_path}: a cell of {', '.join(numeric)} is not a number") from None
-    if not np.all(np.isfinite(table)):
-        raise InputError.of("program", f"{csv_path}: a cell is empty or not finite")
+        files = read_program_files(path)
+    except InputError as exc:
+        raise InputError.of("program", str(exc)) from None
+    table = np.column_stack([files.t_s, files.E, files.e, files.q_deg, files.q_dot_deg])
+    bad = np.flatnonzero(~np.all(np.isfinite(table), axis=1))
+    if len(bad):
+        raise InputError.of("program", f"{path / CSV_NAME}: data row {int(bad[0]) + 1} has an empty or non-finite pose, angle or rate (the replay needs every one)")
     return Program(
-        t_s=table[:, 0], segment=np.array([r["segment"] for r in rows]), trajectory=np.array([r["trajectory"] for r in rows]),
-        E=table[:, 1:4], e=table[:, 4:7], q_deg=table[:, 7:12], q_dot_deg=table[:, 12:17], summary=summary, path=path,
+        t_s=files.t_s, segment=files.segment, trajectory=files.trajectory, E=files.E, e=files.e, q_deg=files.q_deg,
+        q_dot_deg=files.q_dot_deg, summary=files.summary, path=path,
     )  # fmt: skip
 
 
@@ -136,9 +126,10 @@ def recorded_design(rows: Program) -> Design | None:
     if not (job / "design.json").is_file():
         return None
     try:
-        files = json.loads((job / "summary.json").read_text(encoding="utf-8")).get("files", {})
-    except (OSError, ValueError, AttributeError):
-        files = {}
+        summary = load_json(job / "summary.json")
+    except InputError:  # no job summary, or an unreadable one: design.toml alone decides
+        summary = {}
+    files = summary.get("files", {}) if isinstance(summary, dict) else {}
     if (job / "design.toml").is_file() or (isinstance(files, dict) and files.get("program") == folder.name):
         return Design.from_json(job / "design.json")
     return None
@@ -227,15 +218,9 @@ def replay_path(model_path: str | os.PathLike[str]) -> Path:
 
 
 def write_program_export(export: ProgramExport, model_path: str | os.PathLike[str]) -> tuple[Path, Path]:
-    """Write the model to ``model_path`` and the replay beside it (:func:`replay_path`), atomically: if the
-    replay cannot be written the model is removed again. Returns both paths; OSError as raised."""
+    """Write the model to ``model_path`` and the replay beside it (:func:`replay_path`) as one output
+    (:func:`arcube.io.files.atomic_write_files`): both or none, the existing files kept if either cannot
+    be written. Returns both paths; OSError naming the file at fault (e.g. a folder where the replay goes)."""
     xml_path, csv_path = Path(model_path), replay_path(model_path)
-    existed = xml_path.exists()
-    atomic_write_text(xml_path, export.xml)
-    try:
-        atomic_write_text(csv_path, export.replay_csv)
-    except BaseException:
-        if not existed:
-            xml_path.unlink(missing_ok=True)
-        raise
+    atomic_write_files({xml_path: export.xml.encode("utf-8"), csv_path: export.replay_csv.encode("utf-8")})
     return xml_path, csv_path

@@ -5,8 +5,11 @@
 * :mod:`arcube.io.load`: :func:`load_trajectories`, one entry point for every format, and
   :func:`load_plan`, a plan as every command takes it (a set or a file, kept to a side, levels, ids);
 * :mod:`arcube.io.files`: atomic writes (temporary file, then rename; special files written in place);
-* :mod:`arcube.io.inputs`: the layer under every reader (regular files only, size, encoding, JSON
-  nesting and number limits, the coordinate range).
+* :mod:`arcube.io.inputs`: the layer under every reader (regular files and pipes only, size,
+  encoding, JSON nesting and number limits, the coordinate range);
+* :mod:`arcube.io.tables`: the strict layer under every CSV (rows as wide as the header, each column
+  once, numbers in plain decimal notation);
+* :mod:`arcube.io.program_files`: a drilling program's folder read back (report, export, replay).
 """
 
 from __future__ import annotations

@@ -6,19 +6,29 @@ character device (``/dev/null``, ``/dev/stdout``, a shell's ``>(...)``) is writt
 as a shell redirection would (a FIFO must have a reader already: the write never waits for one);
 a folder, block device or socket is refused. Errors are :class:`OSError` naming the caller's
 path, never the temporary file.
+
+An output of several files (a program's CSV, JSON and PNG; a model and its replay) is written by
+:func:`atomic_write_files` as one: every target must be a regular file or absent (a folder, FIFO,
+device or socket among them is refused, naming it, before anything is written), every new file is
+complete in its temporary file before the first rename, and if a rename fails the files already
+replaced are put back, so the user's existing files survive a failed write. Before any output is
+put in place, a Ctrl-C that a dependency swallowed is raised again (:func:`arcube.interrupts.check`).
 """
 
 from __future__ import annotations
 
 import errno
 import os
+import secrets
 import stat
 import tempfile
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from arcube import interrupts
 from arcube.io.inputs import file_kind
 
-__all__ = ["atomic_write_bytes", "atomic_write_text"]
+__all__ = ["atomic_write_bytes", "atomic_write_files", "atomic_write_text", "check_targets"]
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
@@ -76,6 +86,7 @@ def _atomic_write(target: Path, data: bytes) -> None:
             os.fsync(fh.fileno())
         # mkstemp creates 0600 files; outputs are meant to be shared like any other file.
         os.chmod(tmp, 0o644)
+        interrupts.check()
         os.replace(tmp, target)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -97,3 +108,88 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
         if exc.errno is None or exc.filename == os.fspath(target):
             raise
         raise OSError(exc.errno, exc.strerror, os.fspath(target)) from exc
+
+
+def check_targets(paths: Iterable[str | os.PathLike[str]]) -> None:
+    """OSError naming the first of ``paths`` that exists and is not a regular file (a folder, FIFO,
+    device or socket): the targets of an output of several files, checked before anything is written."""
+    for path in paths:
+        try:
+            st = os.stat(path)
+        except (FileNotFoundError, NotADirectoryError):
+            continue
+        if not stat.S_ISREG(st.st_mode):
+            code = errno.EISDIR if stat.S_ISDIR(st.st_mode) else errno.EINVAL
+            raise OSError(code, f"is {file_kind(st.st_mode)}, not a file arcube can replace (an output of several files is "
+                                "written to regular files only)", os.fspath(path))  # fmt: skip
+
+
+def _stage(target: Path, data: bytes) -> str:
+    """A complete temporary copy of ``data`` beside ``target`` (its path)."""
+    _make_parent(target.parent, target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return tmp
+
+
+def _keep(target: Path) -> str | None:
+    """A hard link to the existing ``target`` (its old content, to put back), or None if there is none."""
+    if not target.exists():
+        return None
+    keep = os.fspath(target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(6)}.old"))
+    try:
+        os.link(target, keep)
+    except OSError:  # a file system without hard links: a copy
+        import shutil
+
+        shutil.copy2(target, keep)
+    return keep
+
+
+def atomic_write_files(files: Mapping[str | os.PathLike[str], bytes]) -> None:
+    """Write every ``path -> bytes`` of ``files`` as one output (module docstring): all or none.
+
+    Raises:
+        OSError: naming the target at fault (a folder, FIFO, device or socket where a file goes;
+            a folder that cannot be written); the existing files are then as they were.
+    """
+    items = [(Path(p), data) for p, data in files.items()]
+    check_targets(p for p, _ in items)
+    staged: list[tuple[Path, str]] = []
+    kept: dict[Path, str | None] = {}
+    done: list[Path] = []
+    try:
+        for target, data in items:
+            try:
+                staged.append((target, _stage(target, data)))
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror, os.fspath(target)) from exc
+        interrupts.check()
+        with interrupts.deferred():  # the renames are not split by Ctrl-C (a failure is still rolled back)
+            for target, _ in staged:
+                kept[target] = _keep(target)
+            for target, tmp in staged:
+                os.replace(tmp, target)
+                done.append(target)
+    except BaseException:
+        for target in reversed(done):  # put the user's files back
+            old = kept.get(target)
+            try:
+                os.replace(old, target) if old is not None else target.unlink(missing_ok=True)
+            except OSError:
+                pass
+        for _, tmp in staged:
+            Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        for target, old in kept.items():
+            if old is not None and Path(old).exists():
+                Path(old).unlink(missing_ok=True)

@@ -4,8 +4,11 @@ transform, design JSON, anatomy meshes).
 Whatever the reader, the same promises and limits hold, and a breach is an
 :class:`~arcube.errors.InputError` whose message is one line naming the file and the problem:
 
-* **regular files only**: a folder, FIFO, device or socket is refused before anything is read
-  (``/dev/zero`` would never end, a FIFO could block for ever);
+* **regular files and pipes only**: a folder, device or socket is refused before anything is read
+  (``/dev/zero`` would never end); a pipe or FIFO (a shell's ``--trajectories <(...)``, which names
+  ``/dev/fd/63``) is read once, to its end, and its bytes are kept for the rest of the process, since
+  a command may read its plan twice and a pipe gives its bytes only once (the files inside a folder
+  arcube wrote, a program's or a run's, are read as regular files only: ``pipes=False``);
 * **size**: at most :data:`MAX_TEXT_BYTES` (64 MiB) for a text file, :data:`MAX_MESH_BYTES`
   (1 GiB) for a mesh;
 * **encoding**: UTF-8, with or without a byte-order mark, or UTF-16 / UTF-32 with their
@@ -87,15 +90,20 @@ def _mib(n: int) -> str:
     return f"{n / 2**20:.0f} MiB" if n >= 2**20 else f"{n} bytes"
 
 
-def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None) -> bytes:
-    """The bytes of the regular file ``path``, at most ``limit`` of them.
+_PIPES: dict[tuple[int, int], bytes] = {}
+"""The bytes of each pipe or FIFO read so far, by (device, inode): a pipe gives them only once."""
+
+
+def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> bytes:
+    """The bytes of the regular file, pipe or FIFO ``path``, at most ``limit`` of them (module docstring).
+    ``pipes=False``: a regular file only (the files inside a folder arcube wrote: a FIFO there is not its file).
 
     Raises:
-        InputError (through ``fail``): missing, not a regular file, unreadable, or over ``limit``.
+        InputError (through ``fail``): missing, a folder, device or socket (or a pipe), unreadable, or over ``limit``.
     """
     fail = fail or _default_fail(path)
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
-    try:  # non-blocking: opening a FIFO must not wait for a writer; fstat then refuses it
+    try:  # non-blocking: opening a FIFO must not wait for a writer
         fd = os.open(path, flags)
     except FileNotFoundError:
         raise fail("no such file") from None
@@ -103,7 +111,13 @@ def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: 
         raise fail(f"cannot read ({getattr(exc, 'strerror', None) or exc})") from None
     try:
         st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
+        pipe = pipes and stat.S_ISFIFO(st.st_mode)
+        if pipe and (st.st_dev, st.st_ino) in _PIPES:
+            data = _PIPES[(st.st_dev, st.st_ino)]
+            if len(data) > limit:
+                raise fail(f"too large: more than {limit} bytes (the limit is {_mib(limit)})")
+            return data
+        if not (stat.S_ISREG(st.st_mode) or pipe):
             raise fail(f"is {file_kind(st.st_mode)}, not a regular file")
         if st.st_size > limit:
             raise fail(f"too large: {st.st_size} bytes (the limit is {_mib(limit)})")
@@ -121,7 +135,12 @@ def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: 
         os.close(fd)
     if total > limit:  # grew while being read
         raise fail(f"too large: more than {limit} bytes (the limit is {_mib(limit)})")
-    return b"".join(chunks)
+    data = b"".join(chunks)
+    if pipe:
+        if not data:  # a FIFO nobody writes to reads as empty at once (never waits): say so, not "empty file"
+            raise fail("is a FIFO (named pipe) that gave no data: no process writes to it")
+        _PIPES[(st.st_dev, st.st_ino)] = data
+    return data
 
 
 def decode_text(data: bytes, fail: Fail) -> str:
@@ -146,10 +165,10 @@ def decode_text(data: bytes, fail: Fail) -> str:
     return text
 
 
-def read_text(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None) -> str:
+def read_text(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> str:
     """:func:`read_bytes` then :func:`decode_text`."""
     fail = fail or _default_fail(path)
-    return decode_text(read_bytes(path, limit, fail), fail)
+    return decode_text(read_bytes(path, limit, fail, pipes=pipes), fail)
 
 
 def _parse_int(text: str) -> int | float:
@@ -185,10 +204,10 @@ def parse_json(text: str, fail: Fail) -> Any:
     return data
 
 
-def load_json(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None) -> Any:
+def load_json(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> Any:
     """:func:`read_text` then :func:`parse_json`."""
     fail = fail or _default_fail(path)
-    return parse_json(read_text(path, limit, fail), fail)
+    return parse_json(read_text(path, limit, fail, pipes=pipes), fail)
 
 
 def parse_decimal(text: str) -> float | None:

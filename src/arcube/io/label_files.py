@@ -46,6 +46,8 @@ _NRRD_ITEMSIZE = {  # NRRD type names (all spellings of the format) -> bytes per
                      "double"), 8),
 }  # fmt: skip
 _NIFTI_UNITS = {"mm": 1.0, "unknown": 1.0, "meter": 1000.0, "micron": 1e-3}
+_MAX_NAME = 200
+"""Longest segment name accepted, characters."""
 _SEGMENT_KEY = re.compile(r"Segment([0-9]+)_(ID|Name|LabelValue|Layer)")
 
 
@@ -192,6 +194,11 @@ def _segment_table(path: Path, header: dict[str, Any], dim: int, n_layers: int) 
     table = []
     for n in indices:
         name = str(header.get(f"Segment{n}_Name", header.get(f"Segment{n}_ID", f"Segment_{n}"))).strip()
+        bad = next((i for i, ch in enumerate(name) if not ch.isprintable()), None)
+        if bad is not None:  # a NUL or a line break would be copied into every message, mesh and report naming it
+            raise _fail(path, f"Segment{n}_Name {short_repr(name[:60])} holds a control character (U+{ord(name[bad]):04X}) at position {bad}")
+        if len(name) > _MAX_NAME:
+            raise _fail(path, f"Segment{n}_Name has {len(name)} characters (at most {_MAX_NAME})")
         values = []
         for key, default in (("LabelValue", 1), ("Layer", n if dim == 4 else 0)):
             text = str(header.get(f"Segment{n}_{key}", default)).strip()

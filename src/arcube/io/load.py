@@ -32,6 +32,8 @@ def load_trajectories(spec: str | os.PathLike[str],
     Returns:
         The set, points in mm in the patient frame.
     """
+    if not isinstance(spec, (str, os.PathLike)):
+        raise InputError.of("plan", f"must be a trajectory file or folder, 'reference' or a TrajectorySet, got {type(spec).__name__}")
     if os.fspath(spec) == "reference":  # the word always means the bundled file; use ./reference for a path
         ts = read_reference()
     else:
@@ -62,6 +64,8 @@ def load_plan(plan: TrajectorySet | str | os.PathLike[str], *, side: str | None 
     from arcube.io.trajectories import select
 
     if isinstance(plan, TrajectorySet):
+        if len(plan) == 0:
+            raise InputError.of("plan", f"{plan.source} has no trajectories")
         validate_points([f"{plan.source} trajectory {i}" for i in plan.ids], plan.ids, np.asarray(plan.entry), np.asarray(plan.target))
         ts = plan
     else:

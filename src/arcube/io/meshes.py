@@ -29,10 +29,13 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes
 from arcube.io.inputs import COORDINATE_LIMIT_MM, MAX_MESH_BYTES, read_bytes
 from arcube.io.slicer import PATIENT_FROM_LPS, PATIENT_FROM_RAS
+
+interrupts.check()  # trimesh's optional imports (above) catch BaseException: a Ctrl-C there must not be lost
 
 __all__ = ["FRAMES", "MESH_SUFFIXES", "read_mesh", "read_meshes", "split_shells", "write_stl"]
 

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes
 from arcube.io.segmentations import MAX_SEGMENTATION_VOXELS
@@ -54,6 +55,8 @@ def _bounds(solid: Any) -> np.ndarray:
 
 def _contains(solid: Any, points: np.ndarray) -> np.ndarray:
     import trimesh
+
+    interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
 
     if isinstance(solid, trimesh.Trimesh):
         import igl

@@ -63,6 +63,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.io.inputs import short_repr
 from arcube.io.label_files import (
@@ -203,6 +204,8 @@ def label_surface(mask: np.ndarray, index_to_patient: np.ndarray, start: Sequenc
         voxel, enclosed holes filled, faces reversed when the affine mirrors (det < 0).
     """
     import trimesh
+
+    interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
     from scipy import ndimage
     from skimage.measure import marching_cubes
 

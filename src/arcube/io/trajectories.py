@@ -3,7 +3,8 @@
 A trajectory is an entry point and a target point in the patient frame (x = patient's right,
 y = superior, z = posterior; mm). A :class:`TrajectorySet` holds T of them in file order.
 
-CSV layout (one trajectory per row, header required, extra columns ignored)::
+CSV layout (one trajectory per row, header required, extra columns ignored; every row has as many
+fields as the header, each column is named once: :mod:`arcube.io.tables`)::
 
     trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z
 
@@ -17,7 +18,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import os
 import re
 from dataclasses import dataclass
@@ -29,7 +29,8 @@ import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
-from arcube.io.inputs import coordinate_problem, load_json, parse_decimal, read_text, short_repr
+from arcube.io.inputs import coordinate_problem, load_json, read_text, short_repr
+from arcube.io.tables import number, parse_table
 
 __all__ = [
     "CSV_COLUMNS",
@@ -154,55 +155,21 @@ def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray
             raise InputError(f"{labels[i]}: zero-length trajectory (entry == target)")
 
 
-def _parse_number(text: str, where: str, column: str) -> float:
-    value = parse_decimal(text)
-    if value is None:
-        raise InputError(f"{where}: {column} is not a number ({short_repr(text)})")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {column} is not finite ({short_repr(text)})")
-    return value
-
-
 def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
-    """Parse CSV ``text``; ``name`` labels error messages, ``source`` goes into the set."""
-    if text.startswith("\ufeff"):  # spreadsheet programs often prepend a BOM
-        text = text[1:]
-    if not text.strip():
-        raise InputError(f"{name}: empty file")
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        return _parse_rows(reader, name, source)
-    except csv.Error as exc:  # e.g. a field over csv.field_size_limit() (131,072 characters)
-        problem = (f"a field is longer than {csv.field_size_limit()} characters" if "field limit" in str(exc)
-                   else f"not valid CSV ({exc})")
-        raise InputError(f"{name} row {reader.line_num}: {problem}") from None
-
-
-def _parse_rows(reader: Any, name: str, source: str) -> TrajectorySet:
-    header = [h.strip().lower() for h in next(reader)]
-    missing = [c for c in _REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise InputError(f"{name}: missing column(s) {', '.join(missing)}")
-    for c in CSV_COLUMNS:
-        if header.count(c) > 1:
-            first, second = [i + 1 for i, h in enumerate(header) if h == c][:2]
-            raise InputError(f"{name}: column {c} appears more than once (columns {first} and {second})")
-    col = {c: header.index(c) for c in CSV_COLUMNS if c in header}
+    """Parse CSV ``text`` (:func:`arcube.io.tables.parse_table`); ``name`` labels error messages, ``source`` goes into the set."""
+    table = parse_table(text, name, required=_REQUIRED_COLUMNS, key=lambda h: h.strip().lower())
+    col = {c: table.index(c) for c in CSV_COLUMNS if c in table.header}
     ids: list[str] = []
     levels: list[str] = []
     sides: list[str] = []
     labels: list[str] = []
     points: list[list[float]] = []
-    for row in reader:
-        if not any(cell.strip() for cell in row):
-            continue  # blank lines carry no trajectory
-        where = f"{name} row {reader.line_num}"
-        if len(row) <= max(col.values()):
-            raise InputError(f"{where}: {len(row)} fields, the header has {len(header)}")
-        points.append([_parse_number(row[col[c]].strip(), where, c) for c in _COORD_COLUMNS])
-        ids.append(row[col["trajectory"]].strip())
-        levels.append(row[col["level"]].strip().upper() if "level" in col else "")
-        side = row[col["side"]].strip().upper() if "side" in col else ""
+    for line, row in table.rows:
+        where = table.where(line)
+        points.append([number(row[col[c]], where, c) for c in _COORD_COLUMNS])
+        ids.append(row[col["trajectory"]])
+        levels.append(row[col["level"]].upper() if "level" in col else "")
+        side = row[col["side"]].upper() if "side" in col else ""
         if side not in _SIDES:
             raise InputError(f"{where}: side must be R, L or empty ({short_repr(side)})")
         sides.append(side)

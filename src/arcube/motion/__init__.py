@@ -50,7 +50,8 @@ def program(
     levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, transform: Any = None,
     limits: ProgramLimits | None = None, planner: Planner | None = None, seed: int | None = None,
     log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None,
-    envelope: Any = None, table_z: float | None = None, **changes: Any,
+    envelope: Any = None, table_z: float | None = None, figures: Callable[[Program], dict[str, bytes]] | None = None,
+    **changes: Any,
 ) -> Program:  # fmt: skip
     """The drilling program of ``design`` for a plan (MODEL.md 17).
 
@@ -78,6 +79,8 @@ def program(
             then clears it by ``envelope_clearance`` (ProgramLimits, 10 mm) everywhere.
         planner, seed: the transit planner's settings (``seed`` overrides ``planner.seed``).
         log: called with one line per transit planned (progress).
+        figures: with ``out``, more files of the folder made from the program (name -> bytes, e.g. the
+            timeline ``program.png``), written with program.csv and program.json, all or none.
 
     Returns:
         The :class:`Program` (its ``path`` is ``out`` when written).
@@ -96,6 +99,7 @@ def program(
     from arcube.model.design import Design
     from arcube.motion.assemble import build_program
     from arcube.motion.output import prepare_folder, remove_folder
+    from arcube.motion.rows import check_rows
     from arcube.options import request_options
 
     limit_changes = {ProgramLimits.field_of(k): changes.pop(k) for k in list(changes) if ProgramLimits.field_of(k)}
@@ -114,16 +118,19 @@ def program(
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
     full = load_plan(plan, transform=transform)
     ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
+    check_rows(lim, ts)  # before the anatomy, the planning and any folder
     anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
     env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)
-    folder, created = prepare_folder(out) if out is not None else (None, False)
+    if out is None:
+        return build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env)
+    folder, created, lock = None, False, None
     try:
+        folder, created, lock = prepare_folder(out)
         prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env)
-        if folder is None:
-            return prog
-        prog.write(folder)
+        prog.write(folder, figures(prog) if figures is not None else None)
     except BaseException:
-        if created and folder is not None:
-            remove_folder(folder)
+        if folder is not None:
+            remove_folder(folder, lock, created)
         raise
+    remove_folder(folder, lock, created=False)  # the lock goes; the folder stays, with the program
     return dataclasses.replace(prog, path=Path(folder))

@@ -34,6 +34,7 @@ from arcube.motion.limits import RESOLUTION_MM, Planner, ProgramLimits
 from arcube.motion.motors import motor_figures
 from arcube.motion.order import EXACT_MAX, path_cost, shortest_order
 from arcube.motion.output import JOINTS, Program
+from arcube.motion.rows import check_total
 from arcube.motion.sampling import cruise_problem, sample_piece
 from arcube.motion.segments import Line, Piece, line_piece, polyline_fn
 from arcube.motion.timing import TimingError, time_optimal
@@ -219,6 +220,7 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
         for piece, rows in b.line_rows(line):
             blocks.append((piece.kind, line.tid, rows))
             info[f"{piece.kind}_s"] = float(rows["t"][-1])
+            check_total(limits, sum(len(r["t"]) for _, _, r in blocks), piece.kind)
         per_traj.append(info)
         if pos + 1 < len(seq):
             tr, rows_list, duration = b.transit(j, seq[pos + 1])
@@ -227,6 +229,7 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
                              "waypoints": tr.waypoints, "pieces": len(tr.pieces), "planner_s": tr.planner_s,
                              "straight_blocked_by": None if tr.blocked is None else str(tr.blocked.reason[tr.blocked_index])})  # fmt: skip
             blocks += [("transit", label, rows) for rows in rows_list]
+            check_total(limits, sum(len(r["t"]) for _, _, r in blocks), "transit")
             checked += [(piece.checks, label, True) for piece in tr.pieces]
     prog = _program(b, seq, order_method, blocks, per_traj, transits, checked)
     prog = dataclasses.replace(prog, summary={**prog.summary, "clearances_along_time": clearances_along_time(prog, b.checker)})

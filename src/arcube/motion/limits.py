@@ -23,37 +23,36 @@ ORDERS = ("shortest", "given")
 RESOLUTION_MM = 0.5
 """MODEL.md 17.2: no point of the body or tool moves more than this between two checked states."""
 
-_Pos = dict(gt=0, allow_inf_nan=False)
-
+_SPEED = dict(gt=0, le=1000.0, allow_inf_nan=False)  # mm/s: a metre per second is beyond any drilling robot
 
 class ProgramLimits(Settings):
     """Speeds and limits of MODEL.md 17 (mm, s, deg)."""
 
     SHORT: ClassVar[dict[str, str]] = {"standoff_mm": "standoff", "max_joint_speed_deg": "max_joint_speed", "max_joint_accel_deg": "max_joint_accel"}
 
-    standoff_mm: float = Field(default=20.0, ge=0, allow_inf_nan=False)
-    """The tip waits this far outside the anatomy along its axis (MODEL.md 17.1), mm."""
-    approach_speed: float = Field(default=10.0, **_Pos)
-    """Standoff -> entry, mm/s."""
-    feed: float = Field(default=1.5, **_Pos)
-    """Drilling feed, entry -> target, mm/s."""
-    retract_speed: float = Field(default=10.0, **_Pos)
-    """Target -> standoff, mm/s."""
-    max_joint_speed_deg: float = Field(default=30.0, **_Pos)
-    """Largest actuator rate, deg/s."""
-    max_joint_accel_deg: float = Field(default=120.0, **_Pos)
-    """Largest actuator acceleration, deg/s^2."""
-    max_tip_speed: float = Field(default=50.0, **_Pos)
-    """Largest tip speed in transit, mm/s."""
-    tool_radius: float = Field(default=1.5, ge=0, allow_inf_nan=False)
+    standoff_mm: float = Field(default=20.0, ge=0, le=1000.0, allow_inf_nan=False)
+    """The tip waits this far outside the anatomy along its axis (MODEL.md 17.1), mm (at most a metre: beyond the robot's reach)."""
+    approach_speed: float = Field(default=10.0, **_SPEED)
+    """Standoff -> entry, mm/s (at most 1000)."""
+    feed: float = Field(default=1.5, **_SPEED)
+    """Drilling feed, entry -> target, mm/s (at most 1000)."""
+    retract_speed: float = Field(default=10.0, **_SPEED)
+    """Target -> standoff, mm/s (at most 1000)."""
+    max_joint_speed_deg: float = Field(default=30.0, gt=0, le=3600.0, allow_inf_nan=False)
+    """Largest actuator rate, deg/s (at most 3600: ten turns a second)."""
+    max_joint_accel_deg: float = Field(default=120.0, gt=0, le=1e5, allow_inf_nan=False)
+    """Largest actuator acceleration, deg/s^2 (at most 1e5)."""
+    max_tip_speed: float = Field(default=50.0, **_SPEED)
+    """Largest tip speed in transit, mm/s (at most 1000)."""
+    tool_radius: float = Field(default=1.5, ge=0, le=100.0, allow_inf_nan=False)
     """Radius of the tool E -> H, which clears the anatomy in transit, mm."""
     dt: float = Field(default=0.01, gt=0, le=1.0, allow_inf_nan=False)
     """Time step of the rows, s."""
-    clearance: float = Field(default=5.0, ge=0, allow_inf_nan=False)
+    clearance: float = Field(default=5.0, ge=0, le=1000.0, allow_inf_nan=False)
     """Body to anatomy everywhere, mm (with an anatomy)."""
-    self_clearance: float = Field(default=2.0, allow_inf_nan=False)
+    self_clearance: float = Field(default=2.0, ge=-1000.0, le=1000.0, allow_inf_nan=False)
     """Between the body's own parts everywhere, mm (negative: an overlap the caller accepts, e.g. a skeleton design)."""
-    kappa_max: float = Field(default=100.0, ge=1, allow_inf_nan=False)
+    kappa_max: float = Field(default=100.0, ge=1, le=1e12, allow_inf_nan=False)
     """Largest eta_L everywhere."""
     envelope_clearance: float = Field(default=10.0, allow_inf_nan=False)
     """Body to the envelope of the whole patient and the table everywhere, mm (with an envelope; MODEL.md 19.5)."""

@@ -1,9 +1,17 @@
-"""The program's files (MODEL.md 17.3): ``program.csv`` (one row per time step) and ``program.json``.
+"""The program's files (MODEL.md 17.3): ``program.csv`` (one row per time step) and ``program.json``
+(and, through :func:`arcube.program`, the timeline ``program.png``).
 
 Numbers are written with ``repr`` (the shortest text that reads back to the same float64), so the
-forward kinematics of a row's angles reproduces its pose to rounding (far below 1e-6 mm). Both
-files are written atomically (temporary file, then rename); if the second cannot be written the
-first is removed again, so a folder never holds half a program.
+forward kinematics of a row's angles reproduces its pose to rounding (far below 1e-6 mm). The files
+are written as one (:func:`arcube.io.files.atomic_write_files`): all or none, so a folder never
+holds half a program.
+
+The folder (:func:`prepare_folder`, before any work): created if missing; a file there, a folder
+that cannot be written, or one that holds an older program (any of :data:`~arcube.io.program_files.PROGRAM_FILES`)
+is refused. Replacing an older program silently would lose it; a program folder is like a run
+folder, new or without a program, and the message says which file to delete. While a program is
+built its folder holds the lock ``.running`` (:mod:`arcube.optimization.lock`): a second
+``arcube program`` into the same folder is refused instead of racing the first.
 """
 
 from __future__ import annotations
@@ -12,6 +20,7 @@ import io
 import json
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,20 +28,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube import interrupts
 from arcube.errors import InputError
-from arcube.io.files import atomic_write_text
+from arcube.io.files import atomic_write_files
+from arcube.io.inputs import file_kind
+from arcube.io.program_files import CSV_COLUMNS, CSV_NAME, JOINTS, JSON_NAME, PROGRAM_FILES, TORQUE_COLUMNS
+from arcube.optimization.lock import acquire, release
 
 __all__ = ["CSV_COLUMNS", "JOINTS", "TORQUE_COLUMNS", "Program", "prepare_folder", "remove_folder"]
-
-JOINTS = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
-"""The five actuators, in q's order."""
-CSV_COLUMNS: tuple[str, ...] = (
-    "t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", *JOINTS, *(f"{j}_dot" for j in JOINTS),
-)  # fmt: skip
-"""Columns of ``program.csv`` (MODEL.md 17.3): s; patient frame, mm; deg; deg/s."""
-TORQUE_COLUMNS: tuple[str, ...] = tuple(f"tau_{j}_Nm" for j in JOINTS)
-"""Columns appended to ``program.csv`` when the program has its actuator torques (MODEL.md 18.2), N m."""
-CSV_NAME, JSON_NAME = "program.csv", "program.json"
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,17 +83,15 @@ class Program:
         """The object of ``program.json`` (non-finite numbers as null)."""
         return _clean(self.summary)
 
-    def write(self, out: str | os.PathLike[str]) -> Path:
-        """Write both files into the folder ``out`` (created); returns it."""
+    def write(self, out: str | os.PathLike[str], extra: Mapping[str, bytes] | None = None) -> Path:
+        """Write program.csv, program.json and the ``extra`` files (name -> bytes, e.g. the timeline
+        PNG) into the folder ``out`` (created), all or none; returns it. OSError names the file at fault."""
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
-        csv_path = folder / CSV_NAME
-        atomic_write_text(csv_path, self.to_csv())
-        try:
-            atomic_write_text(folder / JSON_NAME, json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
-        except BaseException:
-            csv_path.unlink(missing_ok=True)
-            raise
+        files = {folder / CSV_NAME: self.to_csv().encode("utf-8"),
+                 folder / JSON_NAME: (json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n").encode("utf-8")}  # fmt: skip
+        files.update({folder / name: data for name, data in (extra or {}).items()})
+        atomic_write_files(files)
         return folder
 
 
@@ -112,31 +113,43 @@ def _clean(obj: Any) -> Any:
     return obj
 
 
-def prepare_folder(out: str | os.PathLike[str]) -> tuple[Path, bool]:
-    """Make sure the program can be written into ``out`` before any work: (folder, created_here).
+def prepare_folder(out: str | os.PathLike[str]) -> tuple[Path, bool, Path]:
+    """Make sure the program can be written into ``out`` before any work (module docstring):
+    (folder, created_here, lock). Release the lock with :func:`remove_folder`.
 
-    InputError naming ``out`` when it is a file, cannot be created, or cannot be written.
+    InputError naming ``out`` when it is a file, cannot be created or written, holds an older
+    program, or another process is writing a program into it.
     """
     folder = Path(out)
-    created = False
+    created, lock = False, None
     try:
         if folder.exists() and not folder.is_dir():
-            raise InputError.of("out", f"{folder}: is a file, not a folder")
-        created = not folder.exists()
-        folder.mkdir(parents=True, exist_ok=True)
-        probe = folder / f".program-write-test-{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        if created:
-            remove_folder(folder)
-        raise InputError.of("out", f"{folder}: cannot write ({exc.strerror or exc})") from None
-    return folder, created
+            raise InputError.of("out", f"{folder}: is {'a file' if folder.is_file() else 'not a folder'}, not a folder")
+        with interrupts.deferred():  # a folder made and its lock written, or neither
+            created = not folder.exists()
+            folder.mkdir(parents=True, exist_ok=True)
+            lock = acquire(folder)
+        older = [name for name in PROGRAM_FILES if os.path.lexists(folder / name)]
+        if older:
+            shown = [name if (folder / name).is_file() else f"{name} ({file_kind(os.lstat(folder / name).st_mode)})" for name in older]
+            raise InputError.of("out", f"{folder}: holds an older program ({', '.join(shown)}); give a new or empty folder, "
+                                       f"or delete {' and '.join(older)} first")  # fmt: skip
+    except BaseException as exc:
+        remove_folder(folder, lock, created)
+        if isinstance(exc, OSError):
+            raise InputError.of("out", f"{folder}: cannot write ({exc.strerror or exc})") from None
+        if isinstance(exc, InputError) and exc.param != "out":  # the lock's: another process writes here
+            raise InputError.of("out", str(exc)) from None
+        raise
+    return folder, created, lock
 
 
-def remove_folder(folder: Path) -> None:
-    """Remove a folder this run created, if it is still empty (a failed run leaves nothing)."""
-    try:
-        folder.rmdir()
-    except OSError:
-        pass
+def remove_folder(folder: Path, lock: Path | None = None, created: bool = True) -> None:
+    """Release the folder's ``lock`` (if given); remove a folder this run ``created``, if it is then empty (a failed run leaves nothing)."""
+    if lock is not None:
+        release(lock)
+    if created:
+        try:
+            folder.rmdir()
+        except OSError:
+            pass

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from arcube.motion.limits import ProgramLimits
 from arcube.motion.output import JOINTS
+from arcube.motion.rows import check_piece
 from arcube.motion.segments import Piece
 from arcube.motion.timing import TimingError, time_optimal
 
@@ -62,6 +63,7 @@ def sample_piece(piece: Piece, limits: ProgramLimits, line: bool) -> dict[str, N
     for _ in range(_ATTEMPTS):
         law = time_optimal(piece.fn, piece.grid, limits.qd_max, limits.qdd_max, piece.speed * (1.0 if line else factor),
                            piece.gain, factor=factor)  # fmt: skip
+        check_piece(limits, law.duration, "transit" if not line else piece.kind)  # before the rows are allocated
         n = max(int(math.ceil(law.duration / dt - 1e-9)), 1)
         t = np.arange(n + 1) * dt
         s, sd, _ = law.at(t)

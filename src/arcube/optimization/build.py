@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.coerce import engine_name, mode_signs
 from arcube.evaluation.task import build_task
@@ -99,6 +100,8 @@ def stl_roundtrip(anatomy: Any) -> Any:
 
     import trimesh
 
+    interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
+
     from arcube.evaluation.anatomy import Anatomy
     from arcube.io.meshes import _stl_bytes
 
@@ -143,6 +146,7 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
         margin_deg=rs.margin, by_docking=rs.dockings is not None,
         docking_plans=tuple((np.array(p["entry"], float), np.array(p["target"], float)) for p in cfg["patients"]) if rs.dockings is not None else (),
         objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
+        accuracy=rs.accuracy_settings(),
     )  # fmt: skip
 
 

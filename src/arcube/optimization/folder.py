@@ -89,9 +89,12 @@ def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
     try:
         check_engine(cfg["settings"]["engine_resolved"])
         build_model(cfg)
+    except InputError as exc:  # a setting the file holds: name the file and its [settings] key, not RunSettings
+        text = str(exc)
+        if text.startswith("RunSettings."):
+            text = "settings." + text[len("RunSettings."):]
+        raise InputError(f"{path}: {text}") from None
     except (KeyError, TypeError, ValueError, IndexError) as exc:
-        if isinstance(exc, InputError):
-            raise
         raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
     return cfg, raw
 

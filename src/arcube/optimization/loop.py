@@ -169,7 +169,7 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
                "bbox_dx_mm": ext[0], "bbox_dy_mm": ext[1], "bbox_dz_mm": ext[2],
                "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"],
                "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k == "moving_mass_kg"}}  # fmt: skip
+               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in _EXTRA}}  # fmt: skip
         row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
         if "c_z" in rep:
             row["c_z"] = rep["c_z"]
@@ -182,6 +182,10 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
                     row.update({f"{n}{suffix}": float(d[PARAM_NAMES.index(n)]) for n in (("m_x", "m_y", "m_z") if setup else space.docked)})
         rows.append(row)
     return rows
+
+
+_EXTRA = ("moving_mass_kg", "lateral_error_wc_mm", "lateral_error_rms_mm", "tolerance_class")
+"""A report's figures that only some runs have (the masses of 18.1, the accuracy under tolerances of 20.3)."""
 
 
 def describe(cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]) -> tuple[dict[str, Any], list[np.ndarray], list[dict[str, Any]] | None]:
@@ -198,7 +202,7 @@ def describe(cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dic
         "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
         "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
         "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in ("moving_mass_kg", "envelope_clearance_min_mm")},
+        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in (*_EXTRA, "envelope_clearance_min_mm")},
         **({"c_z": rep["c_z"]} if "c_z" in rep else {}),
         "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
         "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from arcube.accuracy.robust import ROBUST_NAMES
+
 
 OBJECTIVES: dict[str, str] = {
     "eta_G": "the paper's global conditioning index (mean of the worst kappa), lower is better",
@@ -30,6 +32,8 @@ OBJECTIVES: dict[str, str] = {
     "bbox": "largest bounding-box volume of the body over a task, litres",
     "clearance": "smallest clearance to the anatomy, mm (maximized; needs --anatomy)",
     "envelope_clearance": "smallest clearance to the envelope of the whole patient and the table, mm (maximized; MODEL.md 19.5)",
+    "lateral_error_wc": "largest first-order worst-case lateral error of the robot as built to --class / --tol, mm (MODEL.md 20.3)",
+    "lateral_error_rms": "largest RMS lateral error of the robot as built to --class / --tol, mm (MODEL.md 20.3)",
 }
 """Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure."""
 
@@ -42,7 +46,7 @@ SUMMARY_KEYS: dict[str, str] = {
     "eta_G": "eta_G", "tip_error": "tip_error_max_mm", "lateral_error": "lateral_error_max_mm", "axial_error": "axial_error_max_mm",
     "axis_error": "axis_error_max_deg", "torque": "torque_max_Nm", "deflection": "deflection_max_mm", "links": "links_sum_mm",
     "bbox": "bbox_volume_L", "clearance": "clearance_min_mm", "holding_torque": "holding_torque_max_Nm", "mass": "moving_mass_kg",
-    "envelope_clearance": "envelope_clearance_min_mm",
+    "envelope_clearance": "envelope_clearance_min_mm", "lateral_error_wc": "lateral_error_wc_mm", "lateral_error_rms": "lateral_error_rms_mm",
 }  # fmt: skip
 """The field of a run's summary.json (and of arcube.evaluate's summary) that holds each objective's value."""
 
@@ -63,6 +67,11 @@ def needs_envelope_clearance(objectives: tuple[str, ...], limits: list[list[Any]
     return "envelope_clearance" in objectives or any(n == "envelope_clearance" for n, _, _ in limits)
 
 
+def needs_robust(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether the accuracy under tolerances (MODEL.md 20.3, :mod:`arcube.accuracy.robust`) must be computed."""
+    return any(n in ROBUST_NAMES for n in (*objectives, *(n for n, _, _ in limits)))
+
+
 def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the metrics of MODEL.md 15 must be computed for these objectives and limits."""
     return any(n in _SUMMARY for n in objectives) or any(n in _SUMMARY for n, _, _ in limits)
@@ -79,13 +88,18 @@ def needs_masses(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
 
 
 def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray,
-                  clearance_results: list[Any] | None = None, mass: np.ndarray | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+                  clearance_results: list[Any] | None = None, mass: np.ndarray | None = None,
+                  robust: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:  # fmt: skip
     """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable);
     the clearance over ``clearance_results`` when given (the plan's and the approach lines' tasks);
-    ``mass``: the moving mass per design (kg), needed for the name ``mass``."""
+    ``mass``: the moving mass per design (kg), needed for the name ``mass``; ``robust``: the values of
+    :data:`~arcube.accuracy.robust.ROBUST_NAMES` per design, needed for those names."""
     out: dict[str, np.ndarray] = {}
     for name in names:
-        if name == "eta_G":
+        if name in ROBUST_NAMES:
+            assert robust is not None, "the robust objectives need the designs' accuracy under tolerances"
+            out[name] = robust[name]
+        elif name == "eta_G":
             out[name] = eta
         elif name == "mass":
             assert mass is not None, "the mass objective needs the designs' moving masses"

@@ -38,7 +38,9 @@ from arcube.evaluation.reference import fit_violation
 from arcube.model.design import INDEX, MOUNT_NAMES, N_PARAMS, PARAM_NAMES, SLICES
 from arcube.errors import InputError
 from arcube.options import Options
-from arcube.optimization.objectives import limit_shortfall, metric_values, needs_masses, objective_columns
+from arcube.accuracy.robust import ROBUST_NAMES
+from arcube.accuracy.settings import ToleranceSettings
+from arcube.optimization.objectives import SUMMARY_KEYS, limit_shortfall, metric_values, needs_masses, objective_columns
 from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
 from arcube.optimization.bounds import C_Z, C_Z_BOUNDS
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
@@ -239,6 +241,7 @@ class FitnessModel:
     are NaN in the batch's first row is left out of it (NaN in its columns): :mod:`arcube.optimization.docked`."""
     docking_plans: tuple[tuple[Array, Array], ...] = ()
     """Per docking, its trajectories' entry and target points ``(T, 3)`` each (R_w, mm), for warm starts between dockings."""
+    accuracy: Any = None  # the ToleranceSettings of lateral_error_wc / lateral_error_rms (MODEL.md 20.3); None: class m
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
@@ -327,11 +330,11 @@ class FitnessModel:
         if self.by_docking:
             active = self.active_dockings(X)
             results = self._run_tasks(params, modes, want_points=False, c_z=c_z, active=active)
-            eta, viol, values, viol_d, eta_d = self._judge_dockings(results, params, c_z, active)
+            eta, viol, values, viol_d, eta_d = self._judge_dockings(results, params, modes, c_z, active)
             cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
             return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta, "VIOL_D": viol_d, "ETA_D": eta_d}
         results = self._run_tasks(params, modes, want_points=False, c_z=c_z)
-        eta, viol, values = self._judge(results, params, c_z)
+        eta, viol, values = self._judge(results, params, modes, c_z)
         cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
         return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta}
 
@@ -342,13 +345,29 @@ class FitnessModel:
             return (True,) * self.n_patients
         return tuple(not (cols and bool(np.isnan(row[cols]).any())) for cols in columns)
 
-    def _judge(self, results: list[Any], params: list[Array], c_z: Array | None = None) -> tuple[Array, Array, dict[str, Array]]:
+    def robust_values(self, params: list[Array], modes: Array, want: Array, patient: int | None = None) -> dict[str, Array]:
+        """lateral_error_wc and lateral_error_rms (mm, MODEL.md 20.3) ``(n,)``: the largest over the plan's tasks
+        (of one ``patient`` entry, a docking, when given), computed only where ``want`` (the designs that reach
+        every point; NaN elsewhere)."""
+        from arcube.accuracy.robust import robust_errors
+
+        engine = "numba" if self.engine == "numba" else "numpy"
+        n = params[0].shape[0]
+        wc, rms = np.full(n, -np.inf), np.full(n, -np.inf)
+        for t in self.tasks:
+            if t.role != "plan" or (patient is not None and t.patient != patient):
+                continue
+            w, r = robust_errors(params[self.space.slot(t.patient, t.setup)], modes, t.E, t.e, self.accuracy, engine, want)
+            wc, rms = np.maximum(wc, w), np.maximum(rms, r)  # a NaN stays NaN
+        return {"lateral_error_wc": np.where(np.isfinite(wc), wc, np.nan), "lateral_error_rms": np.where(np.isfinite(rms), rms, np.nan)}
+
+    def _judge(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None = None) -> tuple[Array, Array, dict[str, Array]]:
         """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is MODEL.md 16's:
         margin shortfall + sum of the tasks' V_reach + G / (1 + G) / (2n), n = the points of all tasks (approach
         lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible. With
         ``by_docking`` (MODEL.md 19.3) it is :meth:`_judge_dockings`'s, every docking evaluated."""
         if self.by_docking:
-            return self._judge_dockings(results, params, c_z, (True,) * self.n_patients)[:3]
+            return self._judge_dockings(results, params, modes, c_z, (True,) * self.n_patients)[:3]
         eta, reach, grade, all_w = self._combine(results, params)
         names = set(self.objectives) | {name for name, _, _ in self.limits}
         links = vol = np.zeros(0)
@@ -356,7 +375,9 @@ class FitnessModel:
             links, vol = self.compactness_values(params)
         plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
         mass = self.moving_mass(params, c_z) if "mass" in names else None
-        values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass)
+        # the first order costs ~25 us a point: only for the designs that reach every point of every task
+        robust = self.robust_values(params, modes, reach == 0.0) if names & {"lateral_error_wc", "lateral_error_rms"} else None
+        values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass, robust=robust)
         n_all = sum(t.n_points for t in self.tasks)
         fit = fit_violation(grade / n_all + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta), len(reach)), n_all)
         fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
@@ -371,7 +392,7 @@ class FitnessModel:
             defined["eta_G"] = np.where(np.isfinite(eta), eta, np.nan)
         return defined
 
-    def _judge_dockings(self, results: list[Any], params: list[Array], c_z: Array | None,
+    def _judge_dockings(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None,
                         active: tuple[bool, ...]) -> tuple[Array, Array, dict[str, Array], Array, Array]:  # fmt: skip
         """MODEL.md 19.3 over the ``active`` dockings: (eta, violation, values, each docking's violation ``(n, K)``, each
         docking's eta_G ``(n, K)``). Docking k's V_k is its tasks' V_reach plus its own V_fit, G_k / (1 + G_k) / (2 n_k)
@@ -387,6 +408,8 @@ class FitnessModel:
             links, vol = self.compactness_values(params)
         mass = self.moving_mass(params, c_z) if "mass" in names else None
         viol_d, eta_d = np.full((n, K), np.nan), np.full((n, K), np.nan)
+        robust_names = {"lateral_error_wc", "lateral_error_rms"}
+        robust_d: list[dict[str, Array] | None] = []
         for k in (k for k in range(K) if active[k]):
             mine = [(t, r) for t, r in zip(self.tasks, results) if t.patient == k]
             reach, grade, all_w = np.zeros(n), np.zeros(n), np.ones(n, dtype=bool)
@@ -400,8 +423,10 @@ class FitnessModel:
                     eta_sum += t.n_points * np.where(w, np.asarray(r.eta_G, dtype=float), 0.0)
                     pts += t.n_points
             eta_k = np.where((reach == 0.0) & all_w, eta_sum / pts, np.inf)
+            robust = self.robust_values(params, modes, reach == 0.0, patient=k) if names & robust_names else None
+            robust_d.append(robust)
             values = metric_values(names, [r for t, r in mine if t.role == "plan"], eta_k, links, vol, clearance_results=[r for _, r in mine],
-                                   mass=mass)  # fmt: skip
+                                   mass=mass, robust=robust)  # fmt: skip
             n_k = sum(t.n_points for t, _ in mine)
             fit = fit_violation(grade / n_k + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta_k), n), n_k)
             fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
@@ -413,7 +438,10 @@ class FitnessModel:
         eta = np.where(viol == 0.0, eta, np.inf)
         kept = [r for t, r in zip(self.tasks, results) if active[t.patient]]
         plan = [r for t, r in zip(self.tasks, results) if active[t.patient] and t.role == "plan"]
-        values = metric_values(names, plan, eta, links, vol, clearance_results=kept, mass=mass)
+        robust = None
+        if names & robust_names:  # the worst over the dockings (a NaN, a docking not reached, stays NaN)
+            robust = {name: np.max(np.stack([rd[name] for rd in robust_d if rd is not None]), axis=0) for name in robust_names}
+        values = metric_values(names, plan, eta, links, vol, clearance_results=kept, mass=mass, robust=robust)
         return eta, viol, values, viol_d, eta_d
 
     __call__ = evaluate
@@ -428,7 +456,7 @@ class FitnessModel:
         metrics = {**_METRICS, **_MASS_METRICS} if masses else _METRICS
         c_z = self.space.c_z(X)
         results = described._run_tasks(params, modes, want_points=True, c_z=c_z)
-        eta, viol, _ = self._judge(results, params, c_z)
+        eta, viol, values = self._judge(results, params, modes, c_z)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"])
         links, vol = self.compactness_values(params)
         tasks = []
@@ -459,6 +487,8 @@ class FitnessModel:
             "bbox_volume_L": float(vol[0]),
             **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in metrics.items()},
             **({"moving_mass_kg": float(self.moving_mass(params, c_z)[0])} if masses else {}),
+            **{SUMMARY_KEYS[name]: _num(values[name][0]) for name in ROBUST_NAMES if name in values},
+            **({"tolerance_class": (self.accuracy or ToleranceSettings()).tolerance_class} if set(ROBUST_NAMES) & set(values) else {}),
             "tasks": tasks,
         }
 

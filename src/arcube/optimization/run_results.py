@@ -4,8 +4,8 @@ history and the front; drawing them is the report's (:func:`arcube.write_report`
 
 from __future__ import annotations
 
-import csv
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
+from arcube.io.inputs import parse_decimal
+from arcube.io.tables import read_table
 from arcube.model.design import Design
 from arcube.optimization.folder import placement_file, read_config, read_study, seed_dir
 
@@ -109,24 +111,17 @@ class OptimizeResult:
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
-    """A CSV of numbers (and a few text columns) as name -> array; numeric columns as float."""
-    try:
-        with path.open(encoding="utf-8", newline="") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise InputError(f"{path}: missing (the run has not written it)") from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise InputError(f"{path}: unreadable ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})") from None
-    if not rows:
-        return {}
+    """A CSV of numbers (and a few text columns) as name -> array; a column of numbers (empty cells
+    NaN) as float, any other as text. Read as every CSV is (:mod:`arcube.io.tables`)."""
+    if not path.exists():
+        raise InputError(f"{path}: missing (the run has not written it)")
+    table = read_table(path, pipes=False)
     out: dict[str, np.ndarray] = {}
-    for key in rows[0]:
-        values = [r[key] for r in rows]
-        try:
-            out[key] = np.array([float(v) if v != "" else np.nan for v in values])
-        except ValueError:
-            out[key] = np.array(values)
-    return out
+    for j, key in enumerate(table.header):
+        values = [cells[j] for _, cells in table.rows]
+        parsed = [math.nan if v == "" else parse_decimal(v) for v in values]
+        out[key] = np.array(parsed, dtype=float) if all(v is not None for v in parsed) else np.array(values)
+    return out if table.rows else {}
 
 
 @dataclass(frozen=True)

@@ -21,10 +21,11 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
+from arcube.accuracy.settings import ToleranceSettings, parse_tol
 from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import PAPER_NAMES
-from arcube.coerce import mode_text
+from arcube.coerce import limit_pairs, mode_text
 from arcube.optimization.bounds import DEFAULT_BOUNDS, FREE_GROUPS, parse_bounds, parse_free, resolve_bounds
 from arcube.evaluation.envelope import envelope_spec
 from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_envelope_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
@@ -41,6 +42,15 @@ DEFAULT_PERIOD = 30
 """Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
 
 
+MAX_POPULATION = 10_000
+"""Largest population: a generation is evaluated as one batch, whose arrays grow with population x
+points (about 125 kB per design on the reference plan at 30 points with the NumPy engine: 1.3 GB at
+this bound); a larger one exhausts the memory instead of running (the paper's GA uses 400)."""
+MAX_STANDOFF_MM = 1000.0
+"""Largest standoff (mm): a metre beyond the anatomy is already far outside the robot's reach; a
+larger value is a unit mistake, and 1e308 overflows the approach lines to infinity."""
+
+
 def check_algorithm(name: str, population: int) -> None:
     """InputError for an unknown algorithm or a population it cannot use."""
     if name not in ALGORITHMS:
@@ -51,30 +61,14 @@ def check_algorithm(name: str, population: int) -> None:
 
 
 def _limits(kind: str) -> Any:
-    """``{"torque": 15}`` or ``["torque=15"]`` -> ``{"torque": 15.0}`` (checked)."""
+    """``{"torque": 15}`` or ``["torque=15"]`` -> ``{"torque": 15.0}``, checked (:func:`arcube.coerce.limit_pairs`:
+    a name given twice or a value such as ``1_5`` is refused)."""
 
     def parse(value: Any) -> dict[str, float]:
-        if value is None:
-            return {}
-        pairs: list[tuple[str, Any, str]] = []
-        if isinstance(value, Mapping):
-            pairs = [(str(k), v, f"{k}={v}") for k, v in value.items()]
-        else:
-            for item in [value] if isinstance(value, str) else value:
-                name, sep, v = str(item).partition("=")
-                if not sep or not name.strip():
-                    raise InputError.of(f"RunSettings.{kind}", f"{item!r}: expected NAME=VALUE, e.g. lateral_error=0.2")
-                pairs.append((name.strip(), v, str(item)))
         out: dict[str, float] = {}
-        for name, v, shown in pairs:
+        for name, number, shown in limit_pairs(value, param=f"RunSettings.{kind}", example="lateral_error=0.2"):
             if name not in OBJECTIVES:
                 raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})")
-            try:
-                number = float(v)
-            except (TypeError, ValueError):
-                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: the value {str(v).strip()!r} is not a number") from None
-            if not math.isfinite(number):
-                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: the value must be finite")
             if kind == "maxima" and number <= 0.0:
                 raise InputError.of("RunSettings.maxima", f"{shown!r}: an upper limit must be > 0")
             out[name] = number
@@ -121,12 +115,12 @@ def _anatomy(value: Any) -> tuple[str, ...]:
 class RunSettings(Settings):
     """Everything that decides an optimization run except the plans themselves."""
 
-    SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min"}
+    SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min", "tolerance_class": "class"}
 
     algorithm: str = DEFAULT_ALGORITHM
     """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, nsga2 / nsga3 (several objectives), or docked (with dockings: the robot at its first docking, then every other docking's placement, then all together; MODEL.md 19.3)."""
-    population: int = Field(default=400, ge=1)
-    """Population size."""
+    population: int = Field(default=400, ge=1, le=MAX_POPULATION)
+    """Population size (at most 10,000: each generation is evaluated as one batch)."""
     generations: int = Field(default=300, ge=1)
     """Maximum number of generations."""
     tolerance: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
@@ -180,16 +174,20 @@ class RunSettings(Settings):
     """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (MODEL.md 19.5)."""
     """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
-    """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance (maximized). Two or three: nsga2; more: nsga3."""
+    """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance and envelope_clearance (maximized), lateral_error_wc and lateral_error_rms (as built to --class / --tol). Two or three: nsga2; more: nsga3."""
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
-    """Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3."""
+    """Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3 --max lateral_error_rms=0.5."""
     minima: Annotated[dict[str, float], _limits("minima")] = {}
     """Lower limit NAME=VALUE (repeatable), e.g. --min clearance=5."""
+    tolerance_class: Literal["f", "m", "c", "v"] = "m"
+    """ISO 2768-1 class of the lengths and angles under which lateral_error_wc and lateral_error_rms are computed (MODEL.md 20.1): f, m, c or v."""
+    tol: Annotated[dict[str, float], BeforeValidator(lambda v: parse_tol(v, "RunSettings.tol"))] = {}
+    """Tolerances set by hand for lateral_error_wc and lateral_error_rms, NAME=T (mm or deg): a source (r=0.02) or a group (lengths=0.05, angles=0.01, q0=0.05)."""
     docking: Literal["per-patient", "shared"] = "per-patient"
     """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
     dockings: Literal["per-side", "per-patient"] | None = None
     """One robot, several dockings (MODEL.md 19): per-side (each plan's R trajectories one docking, its L ones another) or per-patient; each docking its own placement m and mounting angles, the rest shared; the violation the sum over dockings."""
-    standoff: float | None = Field(default=None, ge=0, allow_inf_nan=False)
+    standoff: float | None = Field(default=None, ge=0, le=MAX_STANDOFF_MM, allow_inf_nan=False)
     """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1)."""
     options: Options = Options()
     """Clearance guards, body radii, loads and masses (the guards of ``guards`` are added on top)."""
@@ -246,6 +244,10 @@ class RunSettings(Settings):
             return self.objectives
         return ("eta_G", self.compactness) if self.algorithm in MULTI_OBJECTIVE_ALGORITHMS else ("eta_G",)
 
+    def accuracy_settings(self) -> ToleranceSettings:
+        """The tolerances of the robust objectives and limits (``lateral_error_wc``, ``lateral_error_rms``)."""
+        return ToleranceSettings(tolerance_class=self.tolerance_class, tol=self.tol)
+
     @property
     def all_bounds(self) -> dict[str, tuple[float, float]]:
         """Every parameter's bounds: the defaults with the overrides (c_z's too when it is free)."""
@@ -298,6 +300,10 @@ class RunSettings(Settings):
             table["envelope"] = list(self.envelope)
         if self.table_z is not None:
             table["table_z"] = self.table_z
+        if self.tolerance_class != "m" or self.tol:  # MODEL.md 20: written only when not the defaults
+            table["tolerance_class"] = self.tolerance_class
+        if self.tol:
+            table["tol"] = dict(self.tol)
         if g.envelope_clearance_mm is not None:  # its guard (MODEL.md 19.5): written only when on
             table["envelope_clearance"] = g.envelope_clearance_mm
         for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults

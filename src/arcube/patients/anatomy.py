@@ -69,6 +69,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.patients.virtual import LEVELS, build_patient, draw_parameters, level_frames
 
 if TYPE_CHECKING:  # trimesh is imported only when meshes are made (it is slow to import)
@@ -117,6 +118,8 @@ class Box:
     def mesh(self) -> trimesh.Trimesh:
         """Closed, outward-oriented 12-triangle mesh of the box."""
         import trimesh
+
+        interrupts.check()  # trimesh's optional imports catch BaseException: a Ctrl-C there must not be lost
 
         transform = np.eye(4)
         transform[:3, :3] = self.rotation

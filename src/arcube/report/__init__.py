@@ -35,16 +35,47 @@ REPORT_SUFFIXES = (".html", ".htm")
 """File endings of an HTML report (its PNGs are named from the stem)."""
 
 
+REPORT_PNGS = ("_dexterity.png", "_convergence.png", "_pareto.png")
+"""The PNGs a report may write beside its HTML file (``report.html`` -> ``report_dexterity.png``, ...)."""
+
+
 def check_report_path(path: str | os.PathLike[str], name: str = "path") -> Path:
-    """``path`` as a :class:`Path`; :class:`InputError` naming ``name`` unless it ends in .html/.htm."""
+    """``path`` as a :class:`Path`, checked before any work: :class:`InputError` naming ``name`` unless
+    it ends in .html/.htm, its folder can be written, and it and its PNGs (:data:`REPORT_PNGS`) are
+    regular files or absent (a report is several files: it is never written into a FIFO or a device,
+    which would leave its PNGs beside them)."""
+    from arcube.io.files import check_targets
+
     out = Path(path)
     if out.suffix.lower() not in REPORT_SUFFIXES:
         raise InputError(f"{name} {out}: the report file must end in .html")
+    stem = out.with_suffix("")
+    try:
+        check_targets([out, *(stem.with_name(stem.name + png) for png in REPORT_PNGS)])
+    except OSError as exc:
+        raise InputError(f"{name} {out}: {exc.filename}: {exc.strerror}") from None
+    _check_writable(out, name)
     return out
 
 
+def _check_writable(out: Path, name: str) -> None:
+    """InputError naming ``name`` unless a file can be created in ``out``'s folder, or, when the folder
+    does not exist yet, in its nearest existing parent (a probe file, removed at once: nothing is created)."""
+    import tempfile
+
+    folder = out.parent
+    existing = next((a for a in (folder, *folder.parents) if a.exists()), Path("."))
+    try:
+        if not existing.is_dir():
+            raise NotADirectoryError(20, f"{existing} is a file, not a folder")
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise InputError(f"{name} {out}: cannot write in {existing} ({exc.strerror or exc})") from None
+
+
 def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLike[str] | None = None,
-                 program: str | os.PathLike[str] | None = None, **run: Any) -> Path:  # fmt: skip
+                 program: str | os.PathLike[str] | None = None, preface: str | None = None, **run: Any) -> Path:  # fmt: skip
     """Write the self-contained HTML report of an evaluation (plots, 3D mechanism), or of an optimization
     run held in a folder, and its PNGs; returns the path.
 
@@ -54,7 +85,8 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
     ``program``: a program folder of the same
     design (program.csv, program.json) whose section (timeline, limits, motors, playback) the report
     adds; by default the ``program/`` beside a report written into an ``arcube design`` job's folder
-    (one with design.toml). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
+    (one with design.toml). ``preface``: an HTML fragment put under the title (an ``arcube design`` job's
+    verdict, requirements and budget, :func:`arcube.report.design_job.design_preface`). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
     PNGs beside it are named from its stem) or the program's files are unreadable.
     """
     from arcube.optimization.run_results import OptimizeResult
@@ -74,7 +106,7 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
 
     if program is None and (out.parent / "design.toml").is_file() and (out.parent / "program" / "program.json").is_file():
         program = out.parent / "program"
-    return write_evaluation_report(evaluation, out, program=program)
+    return write_evaluation_report(evaluation, out, program=program, preface=preface)
 
 
 def __getattr__(name: str) -> Any:

@@ -14,7 +14,6 @@ written atomically.
 
 from __future__ import annotations
 
-import csv
 import io
 import math
 import os
@@ -24,8 +23,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes
+from arcube.io.tables import read_table
 from arcube.evaluation.indices import JACOBIAN_NAMES
 
 if TYPE_CHECKING:
@@ -97,40 +96,21 @@ def _norm(name: str) -> str:
     return "_".join(name.strip().lower().replace("-", " ").replace("_", " ").split())
 
 
-def _cell(text: str | None) -> float:
-    # The optimizer writes "" for +inf (no feasible design yet); anything unparsable is a gap too.
-    try:
-        v = float(text) if text not in (None, "") else math.nan
-    except ValueError:
-        v = math.nan
-    return v if math.isfinite(v) else math.nan
-
-
 def read_history(path: str | os.PathLike[str]) -> History:
     """Read ``history.csv``: needs the columns generation, best_eta_G, mean_eta_G, feasible_fraction.
 
     Header names are matched case-insensitively, with spaces, '-' and '_' equivalent; other
-    columns are ignored. Raises :class:`InputError` (one line) if the file or a column is missing.
+    columns are ignored. The file is read as every CSV is (:mod:`arcube.io.tables`: a text file,
+    every row as wide as the header, each column once, numbers in decimal notation); an empty cell
+    (the optimizer's +inf: no feasible design yet) and a non-finite number are gaps (NaN). Raises
+    :class:`InputError` (one line naming the file and row) for a missing, binary or damaged file.
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-        rows = list(csv.reader(io.StringIO(text)))
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read history ({exc.strerror or exc})") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise InputError(f"{p}: unreadable history ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})") from None
-    if not rows:
-        raise InputError(f"{p}: empty history file (no header)")
-    header = {_norm(h): i for i, h in enumerate(rows[0])}
-    missing = [c for c in _HISTORY_COLUMNS if _norm(c) not in header]
-    if missing:
-        raise InputError(f"{p}: history lacks column(s) {', '.join(missing)} (has {', '.join(rows[0])})")
-    cols = [header[_norm(c)] for c in _HISTORY_COLUMNS]
-    if "evaluations" in header:
-        cols.append(header["evaluations"])
-    data = np.array([[_cell(r[i] if i < len(r) else None) for i in cols] for r in rows[1:] if any(r)], dtype=float).reshape(-1, len(cols))
-    return History(*(data[:, j].copy() for j in range(len(cols))))
+    table = read_table(path, pipes=False, key=_norm, required=[_norm(c) for c in _HISTORY_COLUMNS])
+    names = [_norm(c) for c in _HISTORY_COLUMNS] + (["evaluations"] if "evaluations" in table.header else [])
+    data = np.array(table.numbers(names, empty=math.nan, finite=False), dtype=float).reshape(-1, len(names))
+    with np.errstate(invalid="ignore"):
+        data[~np.isfinite(data)] = np.nan
+    return History(*(data[:, j].copy() for j in range(len(names))))
 
 
 def _png_bytes(fig: object) -> bytes:
@@ -271,15 +251,12 @@ class ParetoFront(NamedTuple):
 
 def read_pareto(path: str | os.PathLike[str]) -> ParetoFront:
     """Read ``pareto.csv`` (columns eta_G, links_sum_mm, bbox_volume_L); InputError naming the file otherwise."""
-    p = Path(path)
-    try:
-        with p.open(newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(fh))
-        cols = {k: np.array([float(r[k]) for r in rows]) for k in ("eta_G", "links_sum_mm", "bbox_volume_L")}
-        names = [k[len("objective_"):] for k in (rows[0] if rows else {}) if k.startswith("objective_")]
-        objs = {n: np.array([float(r["objective_" + n]) for r in rows]) for n in names}
-    except (OSError, KeyError, ValueError, TypeError) as exc:
-        raise InputError(f"{p}: not a readable pareto.csv ({exc})") from None
+    base = ("eta_G", "links_sum_mm", "bbox_volume_L")
+    table = read_table(path, pipes=False, required=base)  # arcube.io.tables: a text file, rows as wide as the header, each column once
+    names = [k[len("objective_"):] for k in table.header if k.startswith("objective_")]
+    data = np.array(table.numbers([*base, *("objective_" + n for n in names)], finite=False), dtype=float).reshape(-1, len(base) + len(names))
+    cols = {k: data[:, j].copy() for j, k in enumerate(base)}
+    objs = {n: data[:, len(base) + j].copy() for j, n in enumerate(names)}
     if objs:  # a run with --objectives: rows as written (sorted by the first objective)
         return ParetoFront(**cols, objectives=objs)
     order = np.argsort(cols["links_sum_mm"], kind="stable")

@@ -215,6 +215,14 @@ def summary_html(report: Evaluation) -> str:
                  f"{r.dexterity_max:.2f}", r.limiting_jacobian or "—", r.first_failure or "—")  # fmt: skip
         out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
     out += "</table>"
+    segments = None if report.anatomy is None else report.anatomy.segments
+    if segments:  # an anatomy read from a segmentation: which segments, how big, where (MODEL.md 14.2)
+        out += "<h3>Anatomy segments</h3><table><tr><th>segment</th><th>label</th><th>layer</th><th>voxels</th><th>bounds min (mm)</th><th>bounds max (mm)</th><th>file</th></tr>"
+        for seg in segments:
+            cells = (seg.name, seg.label, seg.layer, f"{seg.voxels:,}", ", ".join(f"{v:.1f}" for v in seg.lo), ", ".join(f"{v:.1f}" for v in seg.hi),
+                     Path(seg.file).name)  # fmt: skip
+            out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
+        out += "</table>"
     diag = report.diagnosis()
     if diag:
         out += "<h3>Why points fail</h3><ul>" + "".join(f"<li>{_esc(line)}</li>" for line in diag) + "</ul>"
@@ -265,6 +273,7 @@ def write_evaluation_report(
     report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
     run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
     limits: dict[str, float] | None = None, best_known: float | None = None, program: str | os.PathLike[str] | None = None,
+    preface: str | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
@@ -275,6 +284,7 @@ def write_evaluation_report(
     ``best_known``: an eta_G drawn as a reference line on the convergence plots.
     ``program``: a program folder of this design (program.csv, program.json; ``arcube design``'s
     ``program/``): adds the program's section (:mod:`arcube.report.program_html`), read before any file is written.
+    ``preface``: an HTML fragment put right under the title (a design job's verdict and requirements).
     Returns the HTML path. Every file is written atomically.
     """
     out = Path(path)
@@ -303,6 +313,8 @@ def write_evaluation_report(
     title = f"AR-CUBE report: {report.trajectories.source}"
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
              f"<h1>{_esc(title)}</h1>"]  # fmt: skip
+    if preface:
+        parts.append(preface)
     if run_info:
         parts.append("<h2>Optimization run</h2><table>" + "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(_fmt(v))}</td></tr>" for k, v in run_info.items()) + "</table>")
     parts += ["<h2>Design (Table 2 layout)</h2>", design_table(report), "<h2>Summary</h2>", summary_html(report), "<h2>Dexterity</h2>", divs["dexterity"]]

@@ -67,6 +67,11 @@ def timeline_figure(prog: Any) -> Any:
     return fig
 
 
+def timeline_png_bytes(prog: Any) -> bytes:
+    """:func:`timeline_figure` of ``prog`` as PNG bytes."""
+    return _png_bytes(timeline_figure(prog))
+
+
 def timeline_png(prog: Any, path: str | os.PathLike[str]) -> Path:
     """Write :func:`timeline_figure` of ``prog`` to ``path`` as a PNG (atomically); returns the path."""
     atomic_write_bytes(path, _png_bytes(timeline_figure(prog)))

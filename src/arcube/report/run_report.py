@@ -15,7 +15,8 @@ What is read (everything defensively: the run format belongs to :mod:`arcube.opt
   it is the right-side placement and ``best_design_L.json`` the left one: the main report covers
   the R trajectories and a second report ``report_L.html`` the L ones;
 * ``history.csv`` (optional): columns generation, best_eta_G, mean_eta_G, feasible_fraction
-  (:func:`arcube.report.figures.read_history`); unreadable -> no convergence plot, and a note;
+  (:func:`arcube.report.figures.read_history`); missing -> no convergence plot, and a note;
+  present but damaged (binary, a row wider than the header, text where a number belongs) -> InputError;
 * ``summary.json`` (optional): shown in the run table;
 * ``program/`` (optional): a drilling program of the first patient's design (program.csv,
   program.json), shown in ``report.html`` (:mod:`arcube.report.program_html`).
@@ -149,11 +150,14 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
         info["note: patients"] = (f"{n_patients} patients in the run: this report shows the first; report_p2.html ... the others"
                                   + (", each with its own placement (per-patient docking)" if (run / "best_design_p2.json").exists() else ""))  # fmt: skip
     history: Path | None = run / "history.csv"
-    try:
-        read_history(history)  # type: ignore[arg-type]
-    except InputError as exc:
-        info["note: history"] = f"no convergence plot ({exc})"
+    if not history.exists():  # type: ignore[union-attr]
+        info["note: history"] = "no convergence plot (the run folder has no history.csv)"
         history = None
+    else:  # a damaged history is a damaged run folder: said, not drawn around
+        try:
+            read_history(history)  # type: ignore[arg-type]
+        except InputError as exc:
+            raise InputError(f"{exc} (a damaged run folder: restore history.csv, or delete it for a report without the convergence plot)") from None
     two_sides = settings.get("setups") == 2 and (run / "best_design_L.json").exists()  # per-patient runs write it too
     if two_sides:
         info["note: setups"] = "two placements: this report covers the R trajectories; report_L.html the L ones"

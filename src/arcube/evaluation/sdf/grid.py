@@ -175,7 +175,7 @@ class AnatomyDistance:
         if need > MAX_GRID_BYTES:  # checked before anything is allocated
             extent = np.asarray(hi, float) - np.asarray(lo, float)
             raise InputError.of("anatomy", f"spans {extent[0]:.4g} x {extent[1]:.4g} x {extent[2]:.4g} mm: its distance grids would need "
-                                f"{need / 2**30:.1f} GiB (at most {MAX_GRID_BYTES / 2**30:.0f}); is the segmentation in mm "
-                                "(not um or m), and only the operated region?")  # fmt: skip
+                                f"{need / 2**30:.1f} GiB (at most {MAX_GRID_BYTES / 2**30:.0f}); is it in mm "
+                                "(not um or m) and only the operated region?")  # fmt: skip
         grids = [DistanceGrid(origin, spacing, fill(origin, shape, float(spacing))) for spacing, origin, shape in layout]
         return cls(grids[0], grids[1], (np.asarray(lo, dtype=np.float64).copy(), np.asarray(hi, dtype=np.float64).copy()))

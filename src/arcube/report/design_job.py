@@ -1,0 +1,108 @@
+"""The opening of an ``arcube design`` job's report: the verdict, the requirements, the whole design, and
+what the robot drills as built (MODEL.md 20), before the evaluation's plots.
+
+:func:`design_preface` returns an HTML fragment that :func:`arcube.report.write_report` puts right under
+the title. Its requirement rows are the ones the terminal prints and requirements.csv holds (the same
+list), so the three never disagree.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from arcube.model.design import PARAM_NAMES, UNITS, Design
+from arcube.report.page import esc, fmt
+
+__all__ = ["design_preface", "requirement_where"]
+
+
+def requirement_where(row: Mapping[str, Any]) -> str:
+    """Where a requirement is tightest, as the terminal says it (patient, trajectory, segment, point; part or actuator)."""
+    w = row.get("where") or {}
+    where = f"patient {w['patient']}, trajectory {w['trajectory']} ({w['segment']}, point {w['point']})" if w else ""
+    part = row.get("part") or ""
+    if row["requirement"] == "program":
+        return str(part)
+    return ", ".join(p for p in (where, str(part)) if p)
+
+
+def _num(v: Any) -> str:
+    return f"{v:.4g}" if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) else "—"
+
+
+def _requirements_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    head = "<tr><th>requirement</th><th>limit</th><th>value</th><th>margin</th><th>unit</th><th></th><th>where</th></tr>"
+    body = []
+    for r in rows:
+        sign = "≥" if r["kind"] == "min" else "≤"
+        verdict = "ok" if r["passed"] else "<span class='fail'>FAIL</span>"
+        body.append(f"<tr><th>{esc(r['requirement'])}</th><td>{sign} {_num(r['limit'])}</td><td>{_num(r['value'])}</td>"
+                    f"<td>{_num(r['margin'])}</td><td>{esc(r.get('unit', ''))}</td><td>{verdict}</td>"
+                    f"<td style='text-align:left'>{esc(requirement_where(r))}</td></tr>")  # fmt: skip
+    return "<table>" + head + "".join(body) + "</table>"
+
+
+def _parameters_table(design: Design, mode: str, c_z: float | None) -> str:
+    vals = design.to_dict()
+    cells = [(name, vals[name], UNITS.get(name, "")) for name in PARAM_NAMES]
+    cells.append(("c_z", c_z if c_z is not None else vals["d_z"], "mm" + ("" if c_z is not None else " (= d_z)")))
+    rows = [cells[i : i + 4] for i in range(0, len(cells), 4)]
+    html = "<table>" + "".join("<tr>" + "".join(f"<th>{esc(n)}</th><td>{fmt(float(v))} {esc(u)}</td>" for n, v, u in row) + "</tr>" for row in rows)
+    return html + f"<tr><th>working mode</th><td colspan='7' style='text-align:left'>{esc(mode)}</td></tr></table>"
+
+
+def _image(path: Path, alt: str) -> str:
+    if not path.is_file():
+        return ""
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return f"<img alt='{esc(alt)}' style='max-width:48%' src='data:image/png;base64,{data}'>"
+
+
+def _accuracy(accuracy: Mapping[str, Any] | None, folder: Path | None) -> str:
+    if not accuracy:
+        return ""
+    cls = accuracy.get("tolerance_class", "m")
+    if "not_computed" in accuracy:
+        return f"<h2>Accuracy as built (ISO 2768-{esc(cls)})</h2><p>Not computed: {esc(accuracy['not_computed'])}</p>"
+    top = ", ".join(f"{t['source']} {100 * t['share']:.0f} % (T {t['tolerance']:g} {t['unit']})" for t in accuracy.get("tighten_first", []))
+    items = [
+        ("perfect robot: largest lateral error (encoders only, MODEL.md 15.2)", f"{_num(accuracy.get('perfect_robot_lateral_error_mm'))} mm"),
+        (f"built to ISO 2768-{cls}: lateral error p95 over {accuracy.get('robots')} robots", f"{_num(accuracy.get('lateral_error_p95_mm'))} mm"),
+        ("first-order worst case / RMS lateral error", f"{_num(accuracy.get('lateral_error_wc_mm'))} / {_num(accuracy.get('lateral_error_rms_mm'))} mm"),
+        ("axis error p95 / worst case", f"{_num(accuracy.get('axis_error_p95_deg'))} / {_num(accuracy.get('axis_error_wc_deg'))} deg"),
+        ("tighten first", top or "—"),
+    ]  # fmt: skip
+    html = (f"<h2>Accuracy as built (ISO 2768-{esc(cls)})</h2><p class='note'>What robots machined to these tolerances drill "
+            "(MODEL.md 20: the first order's exact worst case over the tolerance box, and a Monte Carlo of built robots "
+            "commanded by the nominal model). A calibration (arcube calibrate) removes the part it can identify. Files: accuracy/.</p><table>")  # fmt: skip
+    html += "".join(f"<tr><th style='text-align:left'>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in items) + "</table>"
+    if folder is not None:
+        html += _image(folder / "lateral_histogram.png", "lateral error of each built robot") + _image(folder / "sources.png", "error sources ranked")
+    return html
+
+
+def design_preface(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], design: Design, c_z: float | None = None,
+                   folder: str | Path | None = None) -> str:  # fmt: skip
+    """The HTML that opens a design job's report: verdict, requirements table (``rows``, as requirements.csv),
+    the 27 parameters with c_z and the working mode, the accuracy budget as built (``summary["accuracy"]``,
+    its pictures from ``folder``/accuracy when given), and the program's line."""
+    met = bool(summary.get("meets_requirements"))
+    missed = [r for r in rows if not r["passed"]]
+    verdict = ("meets every requirement" if met else f"does NOT meet every requirement ({len(missed)} missed: "
+               + ", ".join(str(r["requirement"]) for r in missed) + ")")  # fmt: skip
+    head = (f"<h2>Verdict</h2><p><b{'' if met else ' class=fail'}>The design {esc(verdict)}</b>: seed {esc(summary.get('seed'))}, "
+            f"mode {esc(summary.get('mode'))}, η_G {_num(summary.get('eta_G'))}; {len(rows) - len(missed)} of {len(rows)} requirements met, "
+            "checked by the NumPy reference.</p>")  # fmt: skip
+    program = next((r for r in rows if r["requirement"] == "program"), None)
+    prog = ""
+    if program is not None:
+        prog = (f"<p>Drilling program: {'built, ' + esc(program.get('part', '')) if program['passed'] else '<span class=fail>blocked</span>: ' + esc(program.get('part', ''))}"
+                " (its section is at the end of this page; files: program/).</p>")  # fmt: skip
+    base = None if folder is None else Path(folder) / "accuracy"
+    return (head + prog + "<h2>Requirements</h2>" + _requirements_table(rows)
+            + "<h2>The design: every parameter</h2>" + _parameters_table(design, str(summary.get("mode", "")), c_z)
+            + _accuracy(summary.get("accuracy"), base))  # fmt: skip

@@ -1,0 +1,202 @@
+"""The rest of issue "Hardening II", part A: limits and requirements as the user types them, numbers in
+every notation, messages that name what the user wrote, noise on stderr, a plan from a pipe, an install
+the user cannot write to, and the Python API's errors."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import arcube
+from arcube.cli import _one_line, main
+from arcube.coerce import limit_pairs
+from arcube.design_job.requirements import DEFAULTS, requirements_from
+from arcube.errors import InputError
+from arcube.io import TrajectorySet, load_trajectories, select, write_csv
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    try:
+        main(argv)
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    return code, capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- limits and requirements
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["--max", "torque=1_5"], "the value '1_5' is not a number"),
+    (["--max", "torque=1", "--max", "torque=50"], "torque is given twice ('torque=1' and 'torque=50')"),
+    (["--min", "clearance=0x10", "--anatomy", "default"], "the value '0x10' is not a number"),
+    (["--max", "torque=1,5"], "the value '1,5' is not a number"),
+])  # fmt: skip
+def test_optimize_limits_are_refused_as_typed(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], needle: str) -> None:
+    code, err = _cli(["optimize", "--trajectories", "reference", *argv, "--out", str(tmp_path / "r")], capsys)
+    assert code == 2 and err.count("\n") == 1 and err.startswith("error: --m") and needle in err, err
+    assert os.listdir(tmp_path) == []
+
+
+def test_design_refuses_a_requirement_both_dropped_and_limited(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, err = _cli(["design", "--trajectories", "reference", "--no-torque", "--max", "torque=5", "--out", str(tmp_path / "d")], capsys)
+    assert code == 2 and err.count("\n") == 1 and err.startswith("error: --max torque=5.0: the torque requirement is also dropped"), err
+    assert os.listdir(tmp_path) == []
+
+
+def test_requirements_from_texts_as_the_command_line_gives_them() -> None:
+    reqs = {r.name: r.limit for r in requirements_from(["clearance=8"], ["torque=15", "power_peak=40"], drop=["axis_error"])}
+    assert reqs == {**{k: v for k, v in DEFAULTS.items() if k != "axis_error"}, "clearance": 8.0, "torque": 15.0, "power_peak": 40.0}
+    for minima, maxima, drop, needle in [
+        (None, ["torque=1_5"], (), "'1_5' is not a number"),
+        (None, ["torque=1", "torque=50"], (), "given twice"),
+        (None, {"torque": 5.0}, ["torque"], "also dropped"),
+        (["clearance=-21.25"], None, (), "must be a finite number >= 0"),
+        (["clearance=nan"], None, (), "must be finite"),
+    ]:
+        with pytest.raises(InputError, match=re.escape(needle)) as info:
+            requirements_from(minima, maxima, drop)
+        assert info.value.param in ("requirements.min", "requirements.max")
+
+
+@settings(max_examples=200, derandomize=True, deadline=None, database=None)
+@given(text=st.one_of(st.from_regex(r"[+-]?[0-9_]{0,4}[.]?[0-9_]{0,3}([eE][+-]?[0-9]{1,3})?", fullmatch=True),
+                      st.sampled_from(["nan", "inf", "-Infinity", "1_5", "١", "１", "0x10", "1e400", " 2 ", ".5", "5.", "+.5e-3"])))  # fmt: skip
+def test_limit_values_in_every_notation(text: str) -> None:
+    """A value is taken exactly when it is a finite number in plain decimal notation, and is then
+    Python's float of its text (Python's float alone would take ``1_5``, ``١``, ``１``)."""
+    plain = DECIMAL.fullmatch(text.strip()) is not None and np.isfinite(float(text.strip()))
+    try:
+        got = limit_pairs([f"torque={text}"], param="p")
+    except InputError:
+        assert not plain
+    else:
+        assert plain and got == [("torque", float(text.strip()), f"torque={text}")]
+
+
+# ----------------------------------------------------------------------------- messages and noise
+
+
+def test_long_numbers_in_messages_are_shortened(capsys: pytest.CaptureFixture[str]) -> None:
+    big = "9" * 300
+    code, err = _cli(["export", "--out", "r.xml", "--at", f"1:{big}"], capsys)
+    assert code == 2 and err == "error: --at 1:999999999999...(300 digits): sample index k must lie in 0..29 (points=30)\n", err
+    assert _one_line("x " + "1" * 24 + "\n y") == "x " + "1" * 24 + " y"
+
+
+def test_at_on_an_unreachable_point_names_the_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, err = _cli(["export", "--design", "paper", "--at", "1:0", "--out", str(tmp_path / "r.xml")], capsys)
+    assert code == 2 and err.startswith("error: --at '1:0': the design has no IK solution at trajectory 1, k=0") and err.count("\n") == 1, err
+
+
+def test_dask_with_workers_names_both_flags(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, err = _cli(["optimize", "--trajectories", "reference", "--dask", "127.0.0.1:8786", "--workers", "2", "--out", str(tmp_path / "r")], capsys)
+    assert code == 2 and err == "error: --workers 2 and --dask 127.0.0.1:8786: one or the other (a Dask cluster has its own workers)\n", err
+
+
+def test_an_anatomy_too_large_names_its_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import trimesh
+
+    trimesh.creation.box(extents=(5000.0, 5000.0, 5000.0)).export(tmp_path / "big.stl")
+    code, err = _cli(["evaluate", "--points", "3", "--ids", "1,2", "--engine", "numpy", "--anatomy", str(tmp_path / "big.stl")], capsys)
+    assert code == 2 and err.startswith(f"error: --anatomy {tmp_path / 'big.stl'} (LPS): spans 5000 x 5000 x 5000 mm") and err.count("\n") == 1, err
+
+
+def test_a_control_character_in_a_segment_name_is_refused(tmp_path: Path) -> None:
+    from arcube.io.segmentations import read_segmentation
+
+    head = ("NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 2 2 2\n"
+            "space directions: (1,0,0) (0,1,0) (0,0,1)\nkinds: domain domain domain\nendian: little\n"
+            "encoding: raw\nspace origin: (0,0,0)\nSegment0_ID:=Segment_1\nSegment0_Name:=C3\x00x\n"
+            "Segment0_LabelValue:=1\nSegment0_Layer:=0\n\n")  # fmt: skip
+    path = tmp_path / "nul.seg.nrrd"
+    path.write_bytes(head.encode() + np.ones(8, dtype=np.uint8).tobytes())
+    with pytest.raises(InputError, match=r"nul.seg.nrrd: Segment0_Name 'C3\\x00x' holds a control character \(U\+0000\) at position 2"):
+        read_segmentation(path)
+
+
+# ----------------------------------------------------------------------------- a plan from a pipe
+
+
+def test_a_plan_read_from_a_pipe_is_accepted(tmp_path: Path) -> None:
+    """``--trajectories <(...)``: the shell passes /dev/fd/N, a pipe; it is read once (the command reads its plan twice)."""
+    write_csv(select(load_trajectories("reference"), ids="1,2"), tmp_path / "plan.csv")
+    text = (tmp_path / "plan.csv").read_bytes()
+    r, w = os.pipe()
+    os.write(w, text)
+    os.close(w)
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    out = subprocess.run([sys.executable, "-m", "arcube", "evaluate", "--points", "3", "--engine", "numpy", "--json", "--trajectories",
+                          f"/dev/fd/{r}", "--anatomy", "none"], pass_fds=(r,), capture_output=True, text=True, env=env, timeout=300)  # fmt: skip
+    os.close(r)
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+    assert '"1"' in out.stdout and '"2"' in out.stdout
+
+
+def test_an_empty_fifo_is_named_not_waited_for(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "plan.csv")
+    with pytest.raises(InputError, match="plan.csv: is a FIFO \\(named pipe\\) that gave no data"):
+        load_trajectories(tmp_path / "plan.csv")
+
+
+# ----------------------------------------------------------------------------- an install nobody can write to
+
+
+def test_the_numba_cache_moves_to_a_private_folder_when_the_install_is_read_only(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from arcube import caches
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setattr(caches, "_in_tree_writable", lambda: False)
+    monkeypatch.setattr(sys, "modules", {k: v for k, v in sys.modules.items() if k != "numba"})
+    assert caches.configure() == str(tmp_path / "xdg" / "arcube" / "numba") == os.environ["NUMBA_CACHE_DIR"]
+    assert (os.stat(tmp_path / "xdg" / "arcube" / "numba").st_mode & 0o777) == 0o700
+    shared = tmp_path / "shared"
+    shared.mkdir(mode=0o777)
+    os.chmod(shared, 0o777)
+    assert not caches._writable(str(shared))  # another user could plant code there: not used
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None, reason="needs root and setpriv to run as nobody")
+def test_an_unprivileged_user_with_no_home_loads_the_compiled_kernel() -> None:
+    """The source tree is root's (not writable by nobody), HOME is missing: Numba used to refuse the
+    ``cache=True`` functions at import (``no locator available``); now they cache in a private folder
+    under the temporary directory. (Importing decorates them: the refusal needs no compilation.)"""
+    import tempfile
+
+    tmp = Path(tempfile.mkdtemp(prefix="arcube-nobody-"))
+    try:
+        os.chmod(tmp, 0o1777)
+        env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "PYTHONPATH": str(SRC), "TMPDIR": str(tmp)}
+        code = "import os, arcube.evaluation.kernel, arcube.accuracy._kernel, arcube.evaluation.sdf; print(os.environ['NUMBA_CACHE_DIR'])"
+        out = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", sys.executable, "-c", code],
+                             capture_output=True, text=True, env=env, cwd=tmp, timeout=300)  # fmt: skip
+        assert out.returncode == 0 and out.stderr == "", out.stderr[-2000:]
+        folder = Path(out.stdout.strip())
+        assert folder.parent == tmp and folder.name.startswith("arcube-numba-") and folder.stat().st_mode & 0o777 == 0o700
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+# ----------------------------------------------------------------------------- the Python API
+
+
+def test_the_api_raises_input_error_for_a_missing_or_empty_plan() -> None:
+    empty = TrajectorySet((), (), (), np.zeros((0, 3)), np.zeros((0, 3)), "hand")
+    for plan, needle in ((None, "got NoneType"), (5, "got int"), (empty, "hand has no trajectories")):
+        with pytest.raises(InputError, match=needle) as info:
+            arcube.evaluate("paper", plan)
+        assert info.value.param == "plan"
