@@ -103,9 +103,11 @@ def print_design(result: Any) -> None:
     acc = s.get("accuracy") or {}
     if "lateral_error_p95_mm" in acc:
         top = ", ".join(f"{t['source']} {t['share']:.0%}" for t in acc.get("tighten_first", []))
-        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
+        folder = result.path / "dockings" / acc["docking"] if acc.get("docking") else result.path  # several dockings: the worst one's
+        at = f" at docking {acc['docking']}" if acc.get("docking") else ""
+        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}{at}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
                    f"{acc['robots']} robots, worst case {_num(acc['lateral_error_wc_mm'])} mm (a perfect robot: "
-                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {result.path / 'accuracy'}")  # fmt: skip
+                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {folder / 'accuracy'}")  # fmt: skip
     elif acc:
         typer.echo(f"  accuracy as built: not computed ({acc.get('not_computed')})")
     for r in result.missed:

@@ -23,7 +23,7 @@ from arcube.model.mechanism import parse_mode
 from arcube.optimization.config import own_settings, patient_settings
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["Docking", "ROBOT_NAMES", "assess_dockings", "docking_entry", "merge_rows", "run_dockings"]
+__all__ = ["Docking", "PLACEMENT", "ROBOT_NAMES", "assess_dockings", "docking_entry", "merge_rows", "run_dockings"]
 
 PLACEMENT = ("m_x", "m_y", "m_z", *MOUNT_NAMES)
 """A docking's own parameters (MODEL.md 19.1): where the base is clamped and how it is turned."""

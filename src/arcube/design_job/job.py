@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from arcube.design_job.dockings import ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
+from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
 from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_options, program_rows, write_requirements_csv
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
@@ -79,7 +79,10 @@ class DesignResult:
 
     @property
     def design(self) -> Design:
-        """The chosen design at its first docking (design.json)."""
+        """The chosen design at its first docking (design.json, or with several dockings the first one's file)."""
+        first = self.summary.get("dockings") or []
+        if len(first) > 1:
+            return Design.from_json(self.path / DOCKINGS / first[0]["label"] / "design.json")
         return Design.from_json(self.path / "design.json")
 
     @property
@@ -269,7 +272,11 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
 
     first = dockings[0].design
     entries = [docking_entry(d) for d in dockings]
-    robot = {**first.to_file_dict(), "dockings": entries}  # the first docking's complete design: every command reads it
+    full = first.to_file_dict()
+    # MODEL.md 19.1 / issue 30: one docking, its complete design (what every command reads, as before); several, the
+    # robot's 22 parameters, its mode and the dockings (each docking's complete design: dockings/<patient>_<side>/design.json)
+    robot = full if len(dockings) == 1 else {k: v for k, v in full.items() if k not in PLACEMENT}
+    robot = {**robot, "c_z": first.c_z_mm, "dockings": entries}
     atomic_write_text(out / "design.json", json.dumps(robot, indent=2) + "\n")
     options = s.evaluation_options()
     options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
