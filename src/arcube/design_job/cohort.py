@@ -19,85 +19,117 @@ unknown key) and refuses the first problem in one line naming the file and the e
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
+
+from pydantic import BeforeValidator, Field, field_validator
 
 from arcube.errors import InputError
 from arcube.io.inputs import short_repr
 from arcube.optimization.config import PatientPlan
+from arcube.validation import Settings
 
-__all__ = ["COHORT_KEYS", "plans_as_cohort", "read_cohort"]
+__all__ = ["COHORT_KEYS", "CohortPatient", "plans_as_cohort", "read_cohort"]
 
-COHORT_KEYS = ("name", "plan", "anatomy", "anatomy_frame", "segments", "envelope", "table_z")
-"""The keys of a ``[[patient]]`` entry (``name`` and ``plan`` required)."""
-FRAMES = ("LPS", "RAS", "patient")
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+_NAME = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"
 WORDS = ("default", "none")
 
 
-def _paths(value: Any, key: str, base: Path, where: str) -> tuple[str, ...]:
-    """``"default"``, ``"none"``, one path or a list of paths -> the words, or absolute paths that exist."""
-    items = [value] if isinstance(value, str) else value
-    if not isinstance(items, list) or not items or not all(isinstance(v, str) and v.strip() for v in items):
-        raise InputError(f"{where}: {key} must be \"default\", \"none\" or a list of files, got {short_repr(value)}")
-    items = [v.strip() for v in items]
-    if any(v in WORDS for v in items):
-        if len(items) != 1:
-            raise InputError(f"{where}: {key} {short_repr(value)}: \"default\" and \"none\" stand alone (not with files)")
-        return (items[0],)
-    out = []
-    for v in items:
-        path = (base / v) if not os.path.isabs(v) else Path(v)
-        if not path.exists():
-            raise InputError(f"{where}: {key} file {v!r} does not exist ({path})")
-        out.append(str(path.resolve()))
-    return tuple(out)
+def _files(value: Any) -> Any:
+    """One path or word as a list of one; a list as it is (each item checked by the field's type)."""
+    return [value] if isinstance(value, str) else value
+
+
+def _segment_list(value: Any) -> Any:
+    """``"C3,C4"`` or a list of names and label values (integers) as a list of text."""
+    if isinstance(value, str):
+        return value.split(",")
+    if isinstance(value, list):
+        return [str(v) if isinstance(v, int) and not isinstance(v, bool) else v for v in value]
+    return value
+
+
+Files = Annotated[tuple[Annotated[str, Field(min_length=1)], ...], BeforeValidator(_files), Field(min_length=1)]
+
+
+class CohortPatient(Settings):
+    """One ``[[patient]]`` table of a cohort file (paths as written: relative to the file)."""
+
+    name: str
+    """Unique; 1-64 letters, digits, '_', '.' or '-' (it names the docking folders and table rows)."""
+    plan: Annotated[str, Field(min_length=1)]
+    """The plan: CSV, .mrk.json or folder ("reference": the bundled patient)."""
+    anatomy: Files = ("default",)
+    """Mesh or segmentation files, "default" (the plan's default anatomy) or "none"."""
+    anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
+    """The frame of the anatomy files."""
+    segments: Annotated[tuple[str, ...] | None, BeforeValidator(_segment_list)] = None
+    """Segments of segmentation files to keep (names or label values); default every labelled segment."""
+    envelope: Files | None = None
+    """The whole patient (MODEL.md 19.5): "default", "none" or skin files; default the run's."""
+    table_z: Annotated[float, Field(allow_inf_nan=False)] | None = None
+    """The table's top, mm, patient frame; default below the skin."""
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        if not re.match(_NAME, v):
+            raise ValueError("must be 1-64 letters, digits, '_', '.' or '-' (it names files), starting with a letter or digit")
+        return v
+
+    @field_validator("anatomy", "envelope")
+    @classmethod
+    def _words_alone(cls, v: tuple[str, ...] | None) -> tuple[str, ...] | None:
+        if v is not None and len(v) > 1 and any(x.strip() in WORDS for x in v):
+            raise ValueError("must be \"default\", \"none\" or a list of files, not both")
+        return v
+
+    @field_validator("segments")
+    @classmethod
+    def _segments(cls, v: tuple[str, ...] | None) -> tuple[str, ...] | None:
+        if v is not None and (not v or not all(s.strip() for s in v)):
+            raise ValueError("must be segment names or label values")
+        return None if v is None else tuple(s.strip() for s in v)
+
+
+COHORT_KEYS = tuple(CohortPatient.model_fields)
+"""The keys of a ``[[patient]]`` entry (``name`` and ``plan`` required)."""
+
+
+def _existing(value: str, key: str, base: Path, where: str) -> str:
+    """An absolute path that exists (relative ones to the cohort file's folder); InputError naming the entry."""
+    path = (base / value) if not os.path.isabs(value) else Path(value)
+    if not path.exists():
+        raise InputError.of("cohort", f"{where}: {key} {value!r} does not exist ({path})")
+    return str(path.resolve())
 
 
 def _entry(raw: Any, k: int, base: Path, source: Path) -> PatientPlan:
     where = f"{source}: patient {k + 1}"
     if not isinstance(raw, dict):
-        raise InputError(f"{where}: expected a [[patient]] table, got {short_repr(raw)}")
-    name = raw.get("name")
-    if isinstance(name, str) and name:
-        where = f"{source}: patient {k + 1} ({name})"
+        raise InputError.of("cohort", f"{where}: expected a [[patient]] table, got {short_repr(raw)}")
+    if isinstance(raw.get("name"), str) and raw["name"]:
+        where = f"{source}: patient {k + 1} ({raw['name']})"
     unknown = [key for key in raw if key not in COHORT_KEYS]
     if unknown:
-        raise InputError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(COHORT_KEYS)})")
-    for key in ("name", "plan"):
-        if key not in raw:
-            raise InputError(f"{where}: {key} is missing")
-    if not isinstance(name, str) or not _NAME.match(name):
-        raise InputError(f"{where}: name must be 1-64 letters, digits, '_', '.' or '-' (it names files), got {short_repr(name)}")
-    plan = raw["plan"]
-    if not isinstance(plan, str) or not plan.strip():
-        raise InputError(f"{where}: plan must be a file or folder name, got {short_repr(plan)}")
-    if plan.strip() != "reference":
-        path = base / plan if not os.path.isabs(plan) else Path(plan)
-        if not path.exists():
-            raise InputError(f"{where}: plan {plan!r} does not exist ({path})")
-        plan = str(path.resolve())
-    anatomy = _paths(raw.get("anatomy", "default"), "anatomy", base, where)
-    frame = raw.get("anatomy_frame", "LPS")
-    if frame not in FRAMES:
-        raise InputError(f"{where}: anatomy_frame must be one of {', '.join(FRAMES)}, got {short_repr(frame)}")
-    segments = raw.get("segments")
-    if segments is not None:
-        items = segments.split(",") if isinstance(segments, str) else segments
-        if not isinstance(items, list) or not items or not all(isinstance(s, (str, int)) and not isinstance(s, bool) for s in items):
-            raise InputError(f"{where}: segments must be names or label values, got {short_repr(segments)}")
-        segments = tuple(str(s).strip() for s in items)
-    envelope = _paths(raw["envelope"], "envelope", base, where) if "envelope" in raw else None
-    table_z = raw.get("table_z")
-    if table_z is not None and (isinstance(table_z, bool) or not isinstance(table_z, (int, float)) or not math.isfinite(table_z)):
-        raise InputError(f"{where}: table_z must be a number of mm, got {short_repr(table_z)}")
-    return PatientPlan(name, plan, () if anatomy == ("none",) else anatomy, frame, segments, envelope,
-                       None if table_z is None else float(table_z))  # fmt: skip
+        raise InputError.of("cohort", f"{where}: unknown key {unknown[0]!r} (known: {', '.join(COHORT_KEYS)})")
+    missing = [key for key in ("name", "plan") if key not in raw]
+    if missing:
+        raise InputError.of("cohort", f"{where}: {missing[0]} is missing")
+    try:
+        p = CohortPatient(**raw)
+    except InputError as exc:
+        raise InputError.of("cohort", f"{where}: {str(exc).removeprefix('CohortPatient.')}") from None
+    plan = p.plan.strip() if p.plan.strip() == "reference" else _existing(p.plan, "plan", base, where)
+    anatomy = p.anatomy if p.anatomy[0] in WORDS else tuple(_existing(v, "anatomy file", base, where) for v in p.anatomy)
+    envelope = p.envelope
+    if envelope is not None and envelope[0] not in WORDS:
+        envelope = tuple(_existing(v, "envelope file", base, where) for v in envelope)
+    return PatientPlan(p.name, plan, () if anatomy == ("none",) else anatomy, p.anatomy_frame, p.segments, envelope, p.table_z)
 
 
 def read_cohort(path: str | os.PathLike[str], *, side: str | None = None, levels: Any = None, ids: Any = None,
