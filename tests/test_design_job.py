@@ -246,6 +246,26 @@ def test_a_met_design_clears_the_envelope_everywhere_the_robot_goes(met_design: 
     assert row["passed"] and row["value"] >= 10.0
 
 
+def test_the_z_dyad_closes_at_every_row_of_the_program(met_design: Path) -> None:
+    """MODEL.md 19.2: along the drilling program the z dyad (d_z, the design's c_z) spans D_z -> Q_z at every row, by hand:
+    the legs built from the row's pose and joint angles (tests/naive.py), |d_z - c_z| <= |Q_z - D_z| <= d_z + c_z."""
+    from naive import oracle_config, read_program_csv, rotation
+
+    design = arcube.Design.load(met_design / "design.json")
+    assert design.c_z is not None and 20.0 <= design.c_z <= 500.0  # c_z a parameter of the design (MODEL.md 19.1)
+    prog = read_program_csv(met_design / "program")
+    E = np.stack([prog[f"E_{a}"] for a in "xyz"], axis=-1)
+    e = np.stack([prog[f"e_{a}"] for a in "xyz"], axis=-1)
+    rho = np.radians(np.stack([prog[f"rho_{a}"] for a in "xyz"], axis=-1))
+    delta = np.radians(np.stack([prog[f"delta_{a}"] for a in "xy"], axis=-1))
+    x = design.to_vector()
+    R, m, L = rotation(x[23:26]), x[:3], x[26]
+    cfg = oracle_config(x[:23], m + (E + L * e - m) @ R, e @ R, rho, delta, np.zeros_like(delta))
+    assert np.abs(cfg.planar).max() < 1e-6  # the rows' joint angles put every leg's D and Q in one plane (MODEL.md 3.1)
+    span = np.linalg.norm(cfg.Q[..., 2, :] - cfg.D[..., 2, :], axis=-1)
+    assert len(span) > 10 and np.all(abs(design["d_z"] - design.c_z) <= span) and np.all(span <= design["d_z"] + design.c_z)
+
+
 def test_the_report_opens_with_the_verdict_and_the_terminals_rows(met_design: Path) -> None:
     """The design report states the verdict, the requirements as requirements.csv holds them, every parameter with c_z
     and the mode, and the accuracy budget as built (MODEL.md 20, class m), equal to arcube tolerance's on the same plan."""

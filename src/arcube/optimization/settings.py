@@ -134,7 +134,7 @@ class RunSettings(Settings):
     setups: Literal[1, 2] = 1
     """1, or 2: shared links, one placement per side (R and L)."""
     guards: bool = False
-    """Turn on the guards of MODEL.md 8.2 (all but z_dyad)."""
+    """Turn on the guards of MODEL.md 8.2 (the z dyad's too when c_z is free, MODEL.md 19.2)."""
     margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
     """Orientation margin mu (deg) of the spherical stage's cone (MODEL.md 12.2)."""
     seed: int | None = Field(default=None, ge=0, lt=2**63)
@@ -261,6 +261,8 @@ class RunSettings(Settings):
             on = GUARDED_OPTIONS.guards
             guards = guards.replace(rho_max_deg=on.rho_max_deg, min_transmission_deg=on.min_transmission_deg,
                                     kappa_max=on.kappa_max, single_assembly_mode=True)  # fmt: skip
+            if "c_z" in self.free:  # MODEL.md 19.2: a design with a z-dyad link of its own has a z leg that can be assembled
+                guards = guards.replace(z_dyad=True)
         clearance = needs_clearance(self.run_objectives, self.limits)
         outputs = self.options.outputs.replace(
             anatomy_clearance=clearance and guards.clearance_mm is None, tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
