@@ -292,7 +292,9 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
         ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode or "+,+,+,+"), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
         evaluations.append(ev)
-        accuracies.append({**_accuracy_budget(folder, d.design, d.plan, summary, s), **({} if one else {"docking": d.label})})
+        # the perfect robot's lateral error beside it: the run's figure (one docking), else this docking's requirement row
+        perfect = summary.get("lateral_error_max_mm") if one else next((r["value"] for r in d.rows if r["requirement"] == "lateral_error"), None)
+        accuracies.append({**_accuracy_budget(folder, d.design, d.plan, summary["mode"], s, perfect), **({} if one else {"docking": d.label})})
         c_z = d.design.c_z if d.design.c_z is not None else _closing_c_z(d.design, d.plan, s, summary)
         try:
             xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, c_z=c_z, options=s.options, anatomy=d.anatomy,
@@ -302,7 +304,8 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
             mujoco = f"not written: {exc}" if one else mujoco
         if not one:
             program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
-            preface = design_preface({**summary, "meets_requirements": d.met}, d.rows, d.design, c_z=d.design.c_z, folder=folder)
+            mine = {**summary, "seed": seed, "meets_requirements": d.met, "accuracy": accuracies[-1]}
+            preface = design_preface(mine, d.rows, d.design, c_z=d.design.c_z, folder=folder)
             write_report(ev, folder / "report.html", program=program, preface=preface)
     rows = merge_rows(dockings)
     robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
@@ -320,8 +323,6 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
                   **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
                   **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
-    from arcube.report.design_job import design_preface
-
     if one:
         program = out / PROGRAM if (out / PROGRAM / "program.json").exists() else None
         write_report(evaluations[0], out / "report.html", program=program, preface=design_preface(result, rows, first, c_z=first.c_z, folder=out))
@@ -334,7 +335,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     return DesignResult(out, met, result, rows)
 
 
-def _accuracy_budget(out: Path, design: Design, plan: Any, summary: dict[str, Any], s: RunSettings) -> dict[str, Any]:
+def _accuracy_budget(out: Path, design: Design, plan: Any, mode: str, s: RunSettings, perfect: Any) -> dict[str, Any]:
     """The accuracy budget of one docking's design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
     on its plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
     beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
@@ -346,12 +347,12 @@ def _accuracy_budget(out: Path, design: Design, plan: Any, summary: dict[str, An
     settings = s.accuracy_settings()
     task = build_task(plan.entry, plan.target, s.points, tuple(plan.ids))
     try:
-        result = budget(design, task.E, task.e, summary["mode"], settings, [task.ids[i] for i in task.trajectory], task.k)
+        result = budget(design, task.E, task.e, mode, settings, [task.ids[i] for i in task.trajectory], task.k)
     except InputError as exc:
         return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
     write_budget(result, out / ACCURACY)
     return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
-            "perfect_robot_lateral_error_mm": summary.get("lateral_error_max_mm"),
+            "perfect_robot_lateral_error_mm": perfect,
             "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
 
 
