@@ -269,7 +269,7 @@ def test_cli_cohort_folder(cli, tmp_path: Path) -> None:
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
     names = sorted(f.name for f in out.iterdir())
-    assert names == sorted(f"patient_00{k}.{ext}" for k in range(3) for ext in ("csv", "json", "anatomy.stl", "envelope.stl"))  # MODEL.md 14.2, 19.5
+    assert names == sorted(["cohort.toml", *(f"patient_00{k}.{ext}" for k in range(3) for ext in ("csv", "json", "anatomy.stl", "envelope.stl"))])  # MODEL.md 14.2, 19
     seeds = [json.loads((out / f"patient_00{k}.json").read_text())["seed"] for k in range(3)]
     assert seeds == [40, 41, 42]
     ts, _ = generate_patient(41, "magerl")

@@ -253,10 +253,13 @@ def optimize(
     specs = _plans(plan)
     cfg = build_config(specs, s, workers=workers, dask=dask)
     if out is None:
-        anatomies = tuple(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) for spec in specs) if s.anatomy else ()
+        # per entry of the config (a patient, or one of its dockings: MODEL.md 19), its plan's anatomy
+        by_plan = [resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) for spec in specs] if s.anatomy else []
+        anatomies = tuple(by_plan[p.get("plan_index", i)] for i, p in enumerate(cfg["patients"])) if by_plan else ()
         for p, anatomy in zip(cfg["patients"], anatomies):
             p["anatomy_source"] = anatomy.source
-        return runmod.run_in_memory(cfg, tuple(stl_roundtrip(a) for a in anatomies), progress)
+        grids = {id(a): stl_roundtrip(a) for a in by_plan}
+        return runmod.run_in_memory(cfg, tuple(grids[id(a)] for a in anatomies), progress)
     run_dir = Path(out)
     runmod.check_new_folder(run_dir)
     runmod.start(run_dir, cfg, on_generation=progress)
@@ -334,9 +337,10 @@ def study(
 
 
 def design(
-    plan: TrajectorySet | PathLike | Sequence[TrajectorySet | PathLike] = "reference",
+    plan: TrajectorySet | PathLike | Sequence[TrajectorySet | PathLike] | None = None,
     out: PathLike | None = None,
     *,
+    cohort: PathLike | None = None,
     seeds: str | Sequence[int] = "1-3",
     minima: dict[str, float] | Sequence[str] | None = None,
     maxima: dict[str, float] | Sequence[str] | None = None,
@@ -349,11 +353,14 @@ def design(
     on_stage: Callable[[str], None] | None = None,
     **fields: Any,
 ) -> DesignResult:
-    """Find a robot that meets every requirement (``arcube design``; MODEL.md 16-17).
+    """Find one robot that meets every requirement at every docking (``arcube design``; MODEL.md 16-17, 19).
 
     Args:
-        plan: one plan or several (one placement per patient).
+        plan: one plan or several (None: the bundled reference patient); each patient's R and L trajectories
+            are docked apart (``dockings="per-side"``, the default) or together (``dockings="per-patient"``).
         out: the design folder to create (must be absent or empty).
+        cohort: a cohort file instead of ``plan`` (:mod:`arcube.design_job.cohort`): the patients, each
+            with its own plan, anatomy and envelope (paths relative to the file).
         seeds: one optimization per seed (``"1-3"`` or a sequence).
         minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``, or
             ``["torque=15"]`` as the command line gives them: each name once);
@@ -378,6 +385,16 @@ def design(
     if settings is None and "generations" not in fields:
         fields = {**fields, "generations": DESIGN_GENERATIONS}  # the design job's budget, as the CLI's
     seed_list = checked_seeds(seeds)
+    if cohort is not None and plan is not None:
+        raise InputError.of("cohort", "replaces the plans: give a cohort file or trajectories, not both")
+    if cohort is not None and settings is None and "anatomy" not in fields:
+        fields = {**fields, "anatomy": "default"}  # each patient's own anatomy (default: its plan's) comes from the cohort
     s = design_settings(reqs, _settings(settings, fields, "design"))
-    return start_design(Path(out), _plans(plan), s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
+    if cohort is not None:
+        from arcube.design_job.cohort import read_cohort
+
+        plans: list[Any] = read_cohort(cohort, side=s.side, levels=s.levels, ids=s.ids, transform=s.transform)
+    else:
+        plans = _plans("reference" if plan is None else plan)
+    return start_design(Path(out), plans, s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
                         on_stage=on_stage)  # fmt: skip

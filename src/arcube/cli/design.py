@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import typer
@@ -20,17 +21,20 @@ from arcube.cli.study import SEED_DASK, SEED_WORKERS, SEEDS
 from arcube.design_job.requirements import DEFAULTS, PROGRAM_FIGURES
 from arcube.errors import InputError
 
-__all__ = ["print_design", "register"]
+__all__ = ["COHORT", "missed_line", "print_design", "register"]
 
-_RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "objectives", "standoff", "points", "side", "levels", "ids", "setups", "population",
-               "generations", "tolerance", "algorithm", "engine", "tolerance_class", "tol")  # fmt: skip
+_RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "dockings", "aggregate", "objectives", "standoff", "points", "side", "levels",
+               "ids", "setups", "population", "generations", "tolerance", "algorithm", "engine", "tolerance_class", "tol")  # fmt: skip
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
     "standoff": "The drill waits this far outside the anatomy (MODEL.md 17.1), mm. [default: 20]",
     "envelope": "The envelope of the whole patient and the table (MODEL.md 19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files. [default: default]",
     "side": "Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).",
-    "setups": "1, or 2: one robot docked once per side (R and L placements, shared links). [default: 1]",
+    "setups": "1, or 2: one placement m per side, the mounting shared (before MODEL.md 19; dockings gives each docking its own). [default: 1]",
+    "dockings": "One robot, docked anew per patient and side (MODEL.md 19): per-side (each patient's R trajectories one docking, its L ones "
+                "another) or per-patient. [default: per-side]",
+    "aggregate": "What the robot minimizes over its dockings: max (the worst docking's eta_G) or mean. [default: max]",
     "generations": "Generations (the budget is population x generations evaluations per seed). [default: 100]",
     "tolerance": "ftol (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
     "algorithm": "The optimizer. [default: mscmaes]",
@@ -46,6 +50,8 @@ DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.r
                      for name in DEFAULTS]  # fmt: skip
 """``--no-<requirement>`` for each default requirement."""
 _OBJECTIVE = {"objectives": "--objective"}
+COHORT = option("--cohort", "A cohort file (TOML): [[patient]] tables with name, plan, anatomy, anatomy_frame (and segments, envelope, "
+                            "table_z), paths relative to the file; one robot for all of them (MODEL.md 19).", Path, params=("cohort",))  # fmt: skip
 
 
 def _run_flags() -> list[Flag]:
@@ -71,40 +77,57 @@ def _pairs(items: list[str] | None, flag: Flag) -> dict[str, float]:
 
 
 def print_design(result: Any) -> None:
-    """The requirements table and the verdict."""
+    """The requirements table (each at the docking where it is tightest), the dockings, the verdict and, for each
+    requirement missed, what relaxing it would take (a command line the tool accepts)."""
     from arcube.report.design_job import requirement_where
 
-    typer.echo(f"{'requirement':<22} {'limit':>9} {'value':>10} {'margin':>10}  {'':4}  where")
+    typer.echo(f"{'requirement':<22} {'limit':>9} {'value':>10} {'margin':>10}  {'':4}  {'docking':<16} where")
     for r in result.rows:
         sign = ">=" if r["kind"] == "min" else "<="
         typer.echo(f"{r['requirement']:<22} {sign}{r['limit']:>7.4g} {_num(r['value']):>10} {_num(r['margin']):>10}  "
-                   f"{'ok' if r['passed'] else 'FAIL':4}  {requirement_where(r)}")  # fmt: skip
+                   f"{'ok' if r['passed'] else 'FAIL':4}  {r.get('docking') or '':<16} {requirement_where(r)}".rstrip())  # fmt: skip
     s = result.summary
-    head = "meets every requirement" if result.met else "does NOT meet every requirement"
+    dockings = s.get("dockings") or []
+    if len(dockings) > 1:
+        typer.echo(f"\n{'docking':<16} {'met':<4} {'clearance':>9} {'self':>6} {'envelope':>8} {'lateral':>8} {'holding':>8}  m (mm); mount (deg)")
+        for d in dockings:
+            typer.echo(f"{d['label']:<16} {'yes' if d['meets_requirements'] else 'NO':<4} {_num(d['clearance_mm']):>9} {_num(d['self_clearance_mm']):>6} "
+                       f"{_num(d['envelope_clearance_mm']):>8} {_num(d['lateral_error_mm']):>8} {_num(d['holding_torque_Nm']):>8}  "
+                       f"{d['m_x']:.1f}, {d['m_y']:.1f}, {d['m_z']:.1f}; {d['mount_rx']:.1f}, {d['mount_ry']:.1f}, {d['mount_rz']:.1f}")  # fmt: skip
+    head = "meets every requirement" + (f" at all {len(dockings)} dockings" if len(dockings) > 1 else "") if result.met else "does NOT meet every requirement"
     met = len(result.rows) - len(result.missed)
+    robot = s.get("robot") or {}
+    c_z = f", c_z {robot['c_z']:.1f} mm" if robot.get("c_z") is not None else ""
     typer.echo(f"design {head} ({met} of {len(result.rows)} requirements met): seed {s['seed']}, mode {s['mode']}, "
-               f"eta_G {_num(s.get('eta_G'))}; results in {result.path}")  # fmt: skip
+               f"eta_G {_num(s.get('eta_G'))}{c_z}; results in {result.path}")  # fmt: skip
     acc = s.get("accuracy") or {}
     if "lateral_error_p95_mm" in acc:
         top = ", ".join(f"{t['source']} {t['share']:.0%}" for t in acc.get("tighten_first", []))
-        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
+        folder = result.path / "dockings" / acc["docking"] if acc.get("docking") else result.path  # several dockings: the worst one's
+        at = f" at docking {acc['docking']}" if acc.get("docking") else ""
+        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}{at}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
                    f"{acc['robots']} robots, worst case {_num(acc['lateral_error_wc_mm'])} mm (a perfect robot: "
-                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {result.path / 'accuracy'}")  # fmt: skip
+                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {folder / 'accuracy'}")  # fmt: skip
     elif acc:
         typer.echo(f"  accuracy as built: not computed ({acc.get('not_computed')})")
     for r in result.missed:
-        need = f">= {r['value']:.4g}" if r["kind"] == "max" else f"<= {r['value']:.4g}"
-        if not math.isfinite(r["value"]) and r["requirement"] in PROGRAM_FIGURES:
-            typer.echo(f"  missed: {r['requirement']} (not measured: no drilling program)")
-        elif not math.isfinite(r["value"]):
-            typer.echo(f"  missed: {r['requirement']} (not measured: the design reaches none of the points where it holds)")
-        elif r["requirement"] == "program":
-            typer.echo(f"  missed: program: {r['part']}")
-        elif r["requirement"] in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode"):
-            typer.echo(f"  missed: {r['requirement']} ({_num(r['value'])} {r['unit']}); a larger budget or more seeds may find a design")
-        else:
-            typer.echo(f"  missed: {r['requirement']} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}"
-                       + _relax(r))  # fmt: skip
+        typer.echo("  " + missed_line(r))
+
+
+def missed_line(r: dict[str, Any]) -> str:
+    """What one missed requirement row says: by how much, at which docking, and what relaxing it would take."""
+    at = f" at docking {r['docking']}" if r.get("docking") else ""
+    name, value = r["requirement"], r["value"]
+    if not math.isfinite(value) and name in PROGRAM_FIGURES:
+        return f"missed: {name}{at} (not measured: no drilling program)"
+    if not math.isfinite(value):
+        return f"missed: {name}{at} (not measured: the design reaches none of the points where it holds)"
+    if name == "program":
+        return f"missed: program{at}: {r['part']}"
+    if name in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode", "z_dyad"):
+        return f"missed: {name}{at} ({_num(value)} {r['unit']}); a larger budget (--generations) or more seeds (--seeds) may find a design"
+    need = f">= {value:.4g}" if r["kind"] == "max" else f"<= {value:.4g}"
+    return f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}" + _relax(r)
 
 
 def _relax(row: dict[str, Any]) -> str:
@@ -136,14 +159,21 @@ def design(given: Given) -> None:
 
     run = given.tree("run")
     run.setdefault("generations", DESIGN_GENERATIONS)
+    if given.get("cohort") is not None:
+        run.setdefault("anatomy", "default")  # each patient's own (default: its plan's) comes from the cohort file
     masses = given.tree("options")
     settings = RunSettings(**run, options=masses) if masses else RunSettings(**run)
     if given.tree("options.masses"):
         settings.options.check_masses()
     drop = [name for name in DEFAULTS if given.get(f"drop.{name}")]
     seeds = given.get("seeds", "1-3")
+    plans, cohort = given.get("plan"), given.get("cohort")
+    if plans is None and cohort is None:
+        raise InputError(f"{PLANS.name} or {COHORT.name} is required")
+    if plans is not None and cohort is not None:
+        raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")
     with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
-        result = design_api(given.get("plan"), given.get("out"), seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
+        result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
                             maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar.seed, progress=bar.generation,
                             on_stage=bar.stage, settings=settings, **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
     print_design(result)
@@ -156,5 +186,7 @@ def register(app: typer.Typer) -> None:
     out = with_help(OUT, "Design folder (created; must be new or empty).", required=True)
     seeds = with_help(SEEDS, "Seeds, one optimization each: 1-3, 1,3,7. [default: 1-3]")
     masses = [*request_flags("masses"), *[f for f in request_flags("loads") if f.key == "options.loads.encoder_deg"]]
-    flags = [PLANS, out, seeds, MINIMA, MAXIMA, *DROPS, *masses, *_run_flags(), SEED_WORKERS, SEED_DASK, QUIET]
+    plans = with_help(PLANS, "Trajectory sets (CSV, .mrk.json, folder or 'reference'): one patient each, each with its default anatomy "
+                             "(--anatomy default); or --cohort.", required=False)  # fmt: skip
+    flags = [plans, COHORT, out, seeds, MINIMA, MAXIMA, *DROPS, *masses, *_run_flags(), SEED_WORKERS, SEED_DASK, QUIET]
     command(app, "design", flags, design, help=design.__doc__ or "")

@@ -1,23 +1,31 @@
-"""``arcube design``: from a plan and a segmentation to a robot that meets every requirement.
+"""``arcube design``: from a plan and a segmentation (or a cohort of patients) to one robot that meets every requirement.
 
 One folder holds the job::
 
     design.toml        the requirements, the seeds, the standoff (what resume needs beside the study)
-    study/             one optimization per seed (arcube study), all 27 parameters and the working mode free
-    design.json        the chosen design (patient 1's placement; design_p<K>.json for patient K)
-    summary.json       meets_requirements, mode (+,+,-,+), seed, every summary figure, the requirements
-    requirements.csv   each requirement: limit, value, margin, pass/fail, where it is tightest
-    report.html        the design on the plan with the anatomy (plotly)
-    accuracy/          the accuracy budget of the chosen design as built (MODEL.md 20, class m unless --class):
-                       arcube tolerance's folder (tolerance.json, CSVs, pictures)
-    program/           the drilling program of a design that meets everything (MODEL.md 17): program.csv,
-                       program.json; a design whose program is blocked does not meet the requirements
-    design.xml         the MuJoCo model (when the z dyad closes with some c_z)
+    study/             one optimization per seed (arcube study): the robot's 22 parameters (c_z among them,
+                       MODEL.md 19.1), each docking's placement m and mounting angles, and the working mode free
+    design.json        the robot: the first docking's complete design (27 parameters, c_z, mode: what every
+                       command reads) and ``dockings``, each docking's patient, side, m and mounting angles
+    dockings/<patient>_<side>/
+                       design.json (that docking's complete design), requirements.csv (its own table); with
+                       several dockings also report.html, accuracy/, program/ and design.xml (its MuJoCo model)
+    summary.json       meets_requirements, mode, seed, the robot, every docking's figures, the requirements
+    requirements.csv   each requirement: limit, value, margin, pass/fail, the docking and where it is tightest
+    report.html        one docking: the design on the plan with the anatomy (plotly), under the verdict and the
+                       requirements; several: every docking of the robot side by side, with its patient
+    accuracy/          (one docking) the accuracy budget of the chosen design as built (MODEL.md 20, class m unless
+                       --class): arcube tolerance's folder (tolerance.json, CSVs, pictures)
+    program/           (one docking) the drilling program of a design that meets everything (MODEL.md 17):
+                       program.csv, program.json; a design whose program is blocked does not meet the requirements
+    design.xml         (one docking) the MuJoCo model (when the z dyad closes)
 
-The best seed whose design meets every requirement when **re-evaluated by the NumPy reference**,
-its drilling program included (a seed whose program is blocked gives way to the next),
-is chosen; when none does, the best design found is written all the same and
-:attr:`DesignResult.met` is False (the CLI exits with code 3 and names what was missed).
+The dockings (MODEL.md 19.1) are one per patient and side by default (``dockings per-side``: a plan's R
+trajectories one docking, its L ones another), or one per patient. The best seed whose robot meets
+every requirement at every docking when **re-evaluated by the NumPy reference**, every docking's
+drilling program included (a seed whose program is blocked gives way to the next), is chosen; when
+none does, the best robot found is written all the same and :attr:`DesignResult.met` is False (the
+CLI exits with code 3 and names what was missed, at which docking).
 """
 
 from __future__ import annotations
@@ -33,18 +41,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
+from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_options, program_rows, write_requirements_csv
 from arcube.errors import InputError
-from arcube.evaluation.anatomy import resolve_anatomy
-from arcube.io import load_trajectories, select
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
 from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
-from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, assess, design_options, program_rows, write_requirements_csv
-from arcube.optimization.settings import RunSettings
 from arcube.optimization.run_results import OptimizeResult
+from arcube.optimization.settings import RunSettings
 from arcube.io.json_values import finite
 
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
@@ -55,13 +62,15 @@ DESIGN_GENERATIONS = 100
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
 STUDY = "study"
 PROGRAM = "program"
+DOCKINGS = "dockings"
 ACCURACY = "accuracy"
 
 
 @dataclass(frozen=True)
 class DesignResult:
-    """What ``arcube design`` decided: whether the chosen design meets every requirement, the summary
-    written to summary.json, and the requirement rows (requirements.csv)."""
+    """What ``arcube design`` decided: whether the chosen robot meets every requirement at every docking, the
+    summary written to summary.json, and the requirement rows (requirements.csv: per requirement, the docking
+    where it is tightest)."""
 
     path: Path
     met: bool
@@ -70,20 +79,29 @@ class DesignResult:
 
     @property
     def design(self) -> Design:
-        """The chosen design (patient 1's placement)."""
+        """The chosen design at its first docking (design.json, or with several dockings the first one's file)."""
+        first = self.summary.get("dockings") or []
+        if len(first) > 1:
+            return Design.from_json(self.path / DOCKINGS / first[0]["label"] / "design.json")
         return Design.from_json(self.path / "design.json")
 
     @property
+    def dockings(self) -> dict[str, Design]:
+        """Each docking's complete design, by ``<patient>_<side>``."""
+        return {d["label"]: Design.from_json(self.path / DOCKINGS / d["label"] / "design.json") for d in self.summary.get("dockings", [])}
+
+    @property
     def missed(self) -> list[dict[str, Any]]:
-        """The requirement rows that fail."""
+        """The requirement rows that fail (each names its docking)."""
         return [r for r in self.rows if not r["passed"]]
 
 
 def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = None, **fields: Any) -> RunSettings:
     """The optimization a design job runs: ``settings`` (budget, engine, anatomy, objective ...) with
-    every parameter and the working mode free, the guards of 8.2, the clearance guards and the limits
-    of ``reqs``, the standoff lines of MODEL.md 17.1 (20 mm unless set) and the envelope of the whole
-    patient (MODEL.md 19.5: ``default`` unless set)."""
+    the robot's 22 parameters (c_z among them, MODEL.md 19.1), each docking's placement and the working mode
+    free, the guards of 8.2 and the z dyad (19.2), the clearance guards and the limits of ``reqs``, the standoff
+    lines of MODEL.md 17.1 (20 mm unless set), the envelope of the whole patient (19.5: ``default`` unless
+    set), one docking per side unless ``dockings`` is set, and the worst docking's eta_G unless ``aggregate`` is."""
     from arcube.optimization.config import run_settings
 
     s = run_settings(settings, **fields)
@@ -91,13 +109,17 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
         raise InputError.of("RunSettings.anatomy", "is needed by the clearance requirement (anatomy default, mesh files or a "
                                                    "segmentation); or drop the clearance requirement")  # fmt: skip
     maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
-    options = design_options(reqs, s.options)
+    options = design_options(reqs, s.options).replace(z_dyad=True)
     envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
     if envelope == ("none",) and any(r.name == "envelope_clearance" for r in reqs):
         raise InputError.of("RunSettings.envelope", "is none, but the envelope_clearance requirement needs one (envelope default or a skin "
                                                     "mesh); or drop the requirement")  # fmt: skip
-    return s.replace(free=["all", "mount", "L"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
-                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope)  # fmt: skip
+    dockings = s.dockings if s.dockings is not None or s.setups != 1 else "per-side"
+    aggregate = s.aggregate if "aggregate" in s.model_fields_set else "max"
+    algorithm = s.algorithm if "algorithm" in s.model_fields_set or dockings is None else "docked"  # mscmaes with one docking
+    return s.replace(free=["all", "mount", "L", "c_z"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
+                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope, dockings=dockings, aggregate=aggregate,
+                     docking="per-patient", algorithm=algorithm)  # fmt: skip
 
 
 def is_design(path: Path) -> bool:
@@ -108,17 +130,21 @@ def is_design(path: Path) -> bool:
 def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
                  workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
                  on_generation: Callable[[dict[str, Any]], None] | None = None, on_stage: Callable[[str], None] | None = None) -> DesignResult:  # fmt: skip
-    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs
-    (``on_stage`` is told each stage after the search, :func:`finish_design`)."""
+    """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs. ``plans``: the
+    trajectory sets, or :class:`~arcube.optimization.config.PatientPlan` (a cohort's patients, named, each with its own
+    anatomy and envelope); ``on_stage`` is told each stage after the search (:func:`finish_design`)."""
+    from arcube.design_job.cohort import plans_as_cohort
+    from arcube.optimization.config import PatientPlan
+
     out = Path(out)
     runmod.check_new_folder(out)
-    if settings.anatomy == () and any(r.name == "clearance" for r in reqs):
-        raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
+    patients = list(plans) if all(isinstance(p, PatientPlan) for p in plans) else plans_as_cohort(list(plans))
+    _check_anatomies(patients, settings, reqs)
     on_program = [r.name for r in reqs if r.name in PROGRAM_FIGURES]
     if on_program and settings.setups != 1:
         raise InputError.of("requirements.max", f"{', '.join(on_program)}: judged on the drilling program, which a job with one placement "
                                                 "per side (setups 2) does not build; design per side (side R, side L) instead")  # fmt: skip
-    base = build_config(list(plans), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
+    base = build_config(list(patients), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     try:
@@ -126,11 +152,23 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
                 "seeds": [int(s) for s in seeds], "requirements": [[r.name, r.kind, r.limit] for r in reqs]}  # fmt: skip
         atomic_write_text(out / "design.toml", runmod.to_toml(meta))
         studymod.start_study(out / STUDY, base, list(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=on_generation)
-    except InputError:
-        if not (out / STUDY).exists():
+    except (InputError, Exception):
+        if not any((studymod.seed_dir(out / STUDY, int(sd)) / "checkpoint").exists() for sd in seeds):
             runmod.remove_folder(out, created)
         raise
     return finish_design(out, on_stage)
+
+
+def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement]) -> None:
+    """InputError when the clearance requirement has no anatomy to clear (the run's, or a cohort patient's own)."""
+    if not any(r.name == "clearance" for r in reqs):
+        return
+    if settings.anatomy == () and all(p.anatomy is None for p in patients):
+        raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
+    for p in patients:
+        if (p.anatomy if p.anatomy is not None else settings.anatomy) == ():
+            raise InputError.of("cohort", f"patient {p.name}: anatomy none, but the clearance requirement needs one (give its anatomy, "
+                                          "or drop the requirement: --no-clearance)")  # fmt: skip
 
 
 def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
@@ -145,23 +183,10 @@ def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
     return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
 
 
-def _patients(cfg: dict[str, Any], run_dir: Path) -> tuple[list[Any], list[Any], tuple[Any, ...]]:
-    """Per patient of a run config: its plan (as the run selected it), its anatomy (or None), and the
-    envelopes of the whole patient the run recorded (MODEL.md 19.5; () without)."""
-    from arcube.optimization.build import run_envelopes
-
-    s = RunSettings.from_config(cfg)
-    plans, anatomies = [], []
-    for spec, pat in zip(cfg["settings"]["trajectories"], cfg["patients"]):
-        ts = load_trajectories(spec, s.transform)
-        plans.append(select(ts, ids=",".join(pat["ids"])))
-        anatomies.append(resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None)
-    return plans, anatomies, run_envelopes(cfg, run_dir)
-
-
 def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> DesignResult:
-    """Choose the design, re-evaluate it with the NumPy reference and write the outputs; ``on_stage`` is
-    told each stage ("checking seed 2 with the NumPy reference", "building the drilling program", ...)."""
+    """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write
+    the outputs; ``on_stage`` is told each stage ("checking seed 2 with the NumPy reference", "building the drilling
+    program", ...)."""
     out = Path(out)
     say = on_stage or (lambda text: None)
     _, reqs = read_design(out)
@@ -173,47 +198,51 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> D
         run = OptimizeResult(studymod.seed_dir(out / STUDY, int(row["seed"])))
         cfg = runmod.read_config(run.path)[0]
         s = RunSettings.from_config(cfg)
-        plans, anatomies, envelopes = _patients(cfg, run.path)
         summary = run.summary
-        designs = [d.to_vector() for d in run.designs]
-        say(f"checking seed {row['seed']}'s design with the NumPy reference")
-        rows = assess(designs, parse_mode(summary["mode"]), plans, anatomies, reqs, options=s.evaluation_options(), envelopes=envelopes,
-                      points=s.points, standoff_mm=float(s.standoff or 0.0), accuracy=s.accuracy_settings())  # fmt: skip
-        met = bool(row["feasible"] and all(r["passed"] for r in rows))
+        dockings = run_dockings(cfg, run, summary["mode"])
+        say(f"checking seed {row['seed']}'s robot with the NumPy reference" + (f" at {len(dockings)} dockings" if len(dockings) > 1 else ""))
+        assess_dockings(dockings, reqs, s)
+        met = bool(row["feasible"] and all(d.met for d in dockings))
         if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
-            say(f"building the drilling program of seed {row['seed']}'s design")
-            built = _program_rows(out, run.designs[0], plans[0], anatomies[0], summary["mode"], s, reqs, envelopes[0] if envelopes else None)
-            rows = [*rows, *built]
-            met = all(r["passed"] for r in built)
+            for d in dockings:
+                say(f"building the drilling program of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
+                d.rows = [*d.rows, *_program_rows(_folder(out, d, dockings), d, s, reqs)]
+            met = all(d.met for d in dockings)
         if chosen is None or (met and not chosen[-1]):
-            chosen = (row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met)
+            chosen = (row, run, s, summary, dockings, met)
         if met or not row["feasible"]:
             break  # met; or the infeasible seeds after the first cannot do better than the best one
         # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
     assert chosen is not None
-    row, run, cfg, s, plans, anatomies, envelopes, summary, rows, met = chosen
+    row, run, s, summary, dockings, met = chosen
     say("writing the report, the accuracy budget (MODEL.md 20) and the MuJoCo model")
-    return _write_outputs(out, met, int(row["seed"]), run, cfg, s, plans, anatomies, summary, rows, envelopes)
+    return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings)
 
 
-def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str, s: RunSettings, reqs: Sequence[Requirement],
-                  envelope: Any = None) -> list[dict[str, Any]]:  # fmt: skip
-    """Build the drilling program of the chosen design (MODEL.md 17, patient 1) into ``out/program`` with
-    the design's clearances and standoff; its requirement rows: the program (met, or the blocked segment
-    named), then ``torque_peak`` / ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
+def _folder(out: Path, d: Docking, dockings: Sequence[Docking]) -> Path:
+    """Where a docking's program, accuracy budget, report and MuJoCo model go: the job's folder when it is the only
+    docking (the layout of a one-docking job, as before MODEL.md 19), else ``dockings/<patient>_<side>``."""
+    return out if len(dockings) == 1 else out / DOCKINGS / d.label
+
+
+def _program_rows(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
+    """Build the drilling program of one docking (MODEL.md 17) into ``folder/program`` with the design's clearances,
+    standoff and z dyad; its requirement rows: the program (met, or the blocked segment named), then ``torque_peak`` /
+    ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
     from arcube.motion import program
     from arcube.report.program import timeline_png
 
     # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
     limits = {"clearance": 0.0, "self_clearance": 0.0, "envelope_clearance": 0.0,
               **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")}}  # fmt: skip
-    shutil.rmtree(out / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
+    shutil.rmtree(folder / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
+    folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
     try:
-        prog = program(design, plan, out / PROGRAM, options=s.options, anatomy=anatomy, envelope=envelope, mode=mode, standoff_mm=float(s.standoff or 0.0),
-                       masses=True, **limits)  # fmt: skip
-        timeline_png(prog, out / PROGRAM / "program.png")
+        prog = program(d.design, d.plan, folder / PROGRAM, options=s.options, anatomy=d.anatomy, envelope=d.envelope, mode=d.design.mode,
+                       standoff_mm=float(s.standoff or 0.0), masses=True, **limits)  # fmt: skip
+        timeline_png(prog, folder / PROGRAM / "program.png")
     except InputError as exc:
         return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
     summary = prog.summary
@@ -221,49 +250,94 @@ def _program_rows(out: Path, design: Design, plan: Any, anatomy: Any, mode: str,
     return [built, *program_rows(reqs, summary.get("motors"))]
 
 
-def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, cfg: dict[str, Any], s: RunSettings, plans: list[Any],
-                   anatomies: list[Any], summary: dict[str, Any], rows: list[dict[str, Any]], envelopes: tuple[Any, ...] = ()) -> DesignResult:  # fmt: skip
+def _docking_summary(d: Docking) -> dict[str, Any]:
+    """One docking's line of summary.json: who, where, met, and the figures of MODEL.md 19.4's table."""
+    rows = {r["requirement"]: r for r in d.rows}
+
+    def value(name: str) -> Any:
+        r = rows.get(name)
+        return None if r is None or not math.isfinite(r["value"]) else r["value"]
+
+    return {"label": d.label, "patient": d.name, "side": d.side, "meets_requirements": d.met, "missed": [r["requirement"] for r in d.rows if not r["passed"]],
+            "trajectories": list(d.plan.ids), **docking_entry(d), "clearance_mm": value("clearance"), "self_clearance_mm": value("self_clearance"),
+            "envelope_clearance_mm": value("envelope_clearance"), "lateral_error_mm": value("lateral_error"), "axis_error_deg": value("axis_error"),
+            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque")}  # fmt: skip
+
+
+def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunSettings, summary: dict[str, Any],
+                   dockings: list[Docking]) -> DesignResult:  # fmt: skip
     from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
 
-    designs = run.designs
-    designs[0].with_extras(mode=summary["mode"]).to_json(out / "design.json")  # a design file records its working mode
-    for k, d in enumerate(designs[1:], start=2):
-        d.to_json(out / f"design_p{k}.json")
+    first = dockings[0].design
+    entries = [docking_entry(d) for d in dockings]
+    full = first.to_file_dict()
+    # MODEL.md 19.1 / issue 30: one docking, its complete design (what every command reads, as before); several, the
+    # robot's 22 parameters, its mode and the dockings (each docking's complete design: dockings/<patient>_<side>/design.json)
+    robot = full if len(dockings) == 1 else {k: v for k, v in full.items() if k not in PLACEMENT}
+    robot = {**robot, "c_z": first.c_z_mm, "dockings": entries}
+    atomic_write_text(out / "design.json", json.dumps(robot, indent=2) + "\n")
     options = s.evaluation_options()
     options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
-    ev = evaluate_design(designs[0], plans[0], s.points, parse_mode(summary["mode"]), options, "numpy", anatomy=anatomies[0],
-                         envelope=envelopes[0] if envelopes else None)  # fmt: skip
-    accuracy = _accuracy_budget(out, designs[0], plans[0], summary, s)
-    mujoco = "design.xml"
-    try:
-        xml = export_mjcf(designs[0], plans[0], points=s.points, mode=summary["mode"], c_z=_closing_c_z(designs[0], plans[0], s, summary),
-                          radii=s.options.radii, anatomy=anatomies[0], masses=s.options)  # fmt: skip
-        atomic_write_text(out / mujoco, xml)
-    except InputError as exc:
-        mujoco = f"not written: {exc}"
+    from arcube.report.design_job import design_preface
+
+    one = len(dockings) == 1
+    evaluations, accuracies, mujoco = [], [], "design.xml"
+    for d in dockings:
+        folder = _folder(out, d, dockings)
+        (out / DOCKINGS / d.label).mkdir(parents=True, exist_ok=True)
+        d.design.to_json(out / DOCKINGS / d.label / "design.json")
+        write_requirements_csv(out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
+        opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
+        ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode or "+,+,+,+"), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
+        evaluations.append(ev)
+        # the perfect robot's lateral error beside it: the run's figure (one docking), else this docking's requirement row
+        perfect = summary.get("lateral_error_max_mm") if one else next((r["value"] for r in d.rows if r["requirement"] == "lateral_error"), None)
+        accuracies.append({**_accuracy_budget(folder, d.design, d.plan, summary["mode"], s, perfect), **({} if one else {"docking": d.label})})
+        c_z = d.design.c_z if d.design.c_z is not None else _closing_c_z(d.design, d.plan, s, summary)
+        try:
+            xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, c_z=c_z, options=s.options, anatomy=d.anatomy,
+                              envelope=d.envelope)  # fmt: skip
+            atomic_write_text(folder / "design.xml", xml)
+        except InputError as exc:  # an open z dyad (a design that misses the z-dyad requirement): the summary says so
+            mujoco = f"not written: {exc}" if one else mujoco
+        if not one:
+            program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
+            mine = {**summary, "seed": seed, "meets_requirements": d.met, "accuracy": accuracies[-1]}
+            preface = design_preface(mine, d.rows, d.design, c_z=d.design.c_z, folder=folder)
+            write_report(ev, folder / "report.html", program=program, preface=preface)
+    rows = merge_rows(dockings)
+    robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
+    # the accuracy as built of the docking where it is worst (each docking's own: in its folder's accuracy/)
+    accuracy = max(accuracies, key=lambda a: a.get("lateral_error_p95_mm") if isinstance(a.get("lateral_error_p95_mm"), float) else -math.inf)
     result = {
         "meets_requirements": met, "seed": seed, "mode": summary["mode"], "objective": summary["objectives"][0] if summary.get("objectives") else "eta_G",
-        "missed": [r["requirement"] for r in rows if not r["passed"]],
+        "aggregate": s.aggregate, "docking_mode": s.dockings, "missed": [r["requirement"] for r in rows if not r["passed"]],
+        "missed_at": {r["requirement"]: r["docking"] for r in rows if not r["passed"]},
+        "robot": {n: robot_values[n] for n in ROBOT_NAMES}, "dockings": [_docking_summary(d) for d in dockings],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
         "accuracy": accuracy,
-        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "mujoco": mujoco, "study": STUDY,
-                  **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
+        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS,
+                  **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
                   **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
-    from arcube.report.design_job import design_preface
+    if one:
+        program = out / PROGRAM if (out / PROGRAM / "program.json").exists() else None
+        write_report(evaluations[0], out / "report.html", program=program, preface=design_preface(result, rows, first, c_z=first.c_z, folder=out))
+    else:
+        from arcube.report.dockings import write_dockings_report
 
-    write_report(ev, out / "report.html", preface=design_preface(result, rows, designs[0], c_z=_design_c_z(out), folder=out))
+        write_dockings_report(out / "report.html", dockings, evaluations, rows, met)
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(finite(result), indent=2, allow_nan=False) + "\n")
     return DesignResult(out, met, result, rows)
 
 
-def _accuracy_budget(out: Path, design: Design, plan: Any, summary: dict[str, Any], s: RunSettings) -> dict[str, Any]:
-    """The accuracy budget of the chosen design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
-    on patient 1's plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
+def _accuracy_budget(out: Path, design: Design, plan: Any, mode: str, s: RunSettings, perfect: Any) -> dict[str, Any]:
+    """The accuracy budget of one docking's design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
+    on its plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
     beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
     from arcube.accuracy import budget
     from arcube.evaluation.task import build_task
@@ -273,26 +347,18 @@ def _accuracy_budget(out: Path, design: Design, plan: Any, summary: dict[str, An
     settings = s.accuracy_settings()
     task = build_task(plan.entry, plan.target, s.points, tuple(plan.ids))
     try:
-        result = budget(design, task.E, task.e, summary["mode"], settings, [task.ids[i] for i in task.trajectory], task.k)
+        result = budget(design, task.E, task.e, mode, settings, [task.ids[i] for i in task.trajectory], task.k)
     except InputError as exc:
         return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
     write_budget(result, out / ACCURACY)
     return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
-            "perfect_robot_lateral_error_mm": summary.get("lateral_error_max_mm"),
+            "perfect_robot_lateral_error_mm": perfect,
             "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
 
 
-def _design_c_z(out: Path) -> float | None:
-    """The c_z design.json records (the z dyad's second link, MODEL.md 19), or None."""
-    try:
-        return Design.from_json(out / "design.json").c_z
-    except (InputError, OSError):
-        return None
-
-
-
 def _closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
-    """A z-dyad link c_z that closes the dyad at every point (the middle of the range the export names), or None (c_z = d_z)."""
+    """For a design without c_z: a z-dyad link c_z that closes the dyad at every point (the middle of the range the
+    export names), or None (c_z = d_z closes it)."""
     from arcube.export.mjcf import export_mjcf
 
     try:

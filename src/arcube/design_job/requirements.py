@@ -240,8 +240,8 @@ def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tupl
     return np.asarray(getattr(pts, field), float), lambda i: ""
 
 
-CSV_COLUMNS = ("requirement", "kind", "limit", "value", "unit", "margin", "passed", "patient", "trajectory", "segment", "point", "part")
-"""The columns of ``requirements.csv``."""
+CSV_COLUMNS = ("requirement", "kind", "limit", "value", "unit", "margin", "passed", "docking", "patient", "trajectory", "segment", "point", "part")
+"""The columns of ``requirements.csv`` (``docking``: where the requirement is tightest, ``<patient>_<side>``, MODEL.md 19.4)."""
 
 
 def requirements_csv(rows: Sequence[Mapping[str, Any]]) -> str:
@@ -251,7 +251,7 @@ def requirements_csv(rows: Sequence[Mapping[str, Any]]) -> str:
         w = row.get("where") or {}
         cells = [row["requirement"], row["kind"], repr(float(row["limit"])), "" if not math.isfinite(row["value"]) else repr(float(row["value"])),
                  row["unit"], "" if not math.isfinite(row["margin"]) else repr(float(row["margin"])), "pass" if row["passed"] else "fail",
-                 str(w.get("patient", "")), str(w.get("trajectory", "")), str(w.get("segment", "")), str(w.get("point", "")), row.get("part", "")]  # fmt: skip
+                 str(row.get("docking", "")), str(w.get("patient", "")), str(w.get("trajectory", "")), str(w.get("segment", "")), str(w.get("point", "")), row.get("part", "")]  # fmt: skip
         lines.append(",".join(cells))
     return "\n".join(lines) + "\n"
 

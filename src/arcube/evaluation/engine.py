@@ -34,11 +34,13 @@ def resolve(engine: str) -> str:
 def evaluate_task(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE,
     options: Options = Options(), engine: str = "auto", want_points: bool = True, anatomy: Any = None, envelope: Any = None,
+    c_z: ArrayLike | None = None,
 ) -> TaskResults:  # fmt: skip
     """Evaluate designs ``(..., 27)`` on a task's points ``(P, 3)``; see :func:`arcube.evaluation.reference.evaluate_task`.
 
     ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of MODEL.md 14.3;
-    ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5 (None: none).
+    ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5 (None: none);
+    ``c_z`` ``(...)``: each design's own z-dyad link, mm (MODEL.md 19.1; None or NaN: ``Guards.c_z``, else d_z).
 
     ``want_points=False`` lets the compiled engine skip per-point outputs it does not need
     (the optimizer only reads the summaries); the summaries are the same either way.
@@ -46,5 +48,5 @@ def evaluate_task(
     if resolve(engine) == "numba":
         from arcube.evaluation.kernel import evaluate_task_numba
 
-        return evaluate_task_numba(params, E, e, mode, options, want_points=want_points, anatomy=anatomy, envelope=envelope)
-    return evaluate_task_numpy(params, E, e, mode, options, anatomy, envelope)
+        return evaluate_task_numba(params, E, e, mode, options, want_points=want_points, anatomy=anatomy, envelope=envelope, c_z=c_z)
+    return evaluate_task_numpy(params, E, e, mode, options, anatomy, envelope, c_z)

@@ -136,11 +136,17 @@ def _check(obj: MassModel, name: str, ok, text: str) -> None:  # type: ignore[no
         raise InputError.of(f"MassModel.{name}", f"must be a finite number {text}, got {short_repr(v)}")
 
 
-def _chord_lengths(params: ArrayLike, model: MassModel) -> NDArray[np.float64]:
-    """``(..., 62)``: the length (mm) of every rod of the links and arcs, fixed by the design."""
+def _chord_lengths(params: ArrayLike, model: MassModel, c_z: ArrayLike | None = None) -> NDArray[np.float64]:
+    """``(..., 62)``: the length (mm) of every rod of the links and arcs, fixed by the design; ``c_z``: each
+    design's own z-dyad link (mm, broadcasting as ``params[..., 0]``), else the model's (d_z when None)."""
     g = unpack(params)
     lead = np.shape(g.r)
-    c_z = g.d[..., 2] if model.c_z_mm is None else np.full(lead, float(model.c_z_mm))
+    if c_z is not None:
+        c_z = np.asarray(c_z, dtype=float)
+    elif model.c_z_mm is None:
+        c_z = g.d[..., 2]
+    else:
+        c_z = np.full(lead, float(model.c_z_mm))
     side = np.sqrt(2.0) * g.r
     arcs = [2.0 * g.r[..., None] * np.sin(phi / (2 * N_CHORDS)) for phi in (g.alpha, g.beta)]  # (..., 2) each
     links = [*np.moveaxis(g.p, -1, 0), g.d[..., 0], g.d[..., 1], g.c[..., 0], g.c[..., 1], g.t[..., 0], g.t[..., 1],
@@ -149,10 +155,11 @@ def _chord_lengths(params: ArrayLike, model: MassModel) -> NDArray[np.float64]:
     return np.concatenate([np.stack(np.broadcast_arrays(*links), axis=-1), *chords], axis=-1)
 
 
-def body_masses_kg(params: ArrayLike, options: Options | MassModel | None = None) -> NDArray[np.float64]:
-    """``(..., 65)`` the mass (kg) of every body in :data:`BODY_NAMES` order, per design ``(..., 27)``."""
+def body_masses_kg(params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None) -> NDArray[np.float64]:
+    """``(..., 65)`` the mass (kg) of every body in :data:`BODY_NAMES` order, per design ``(..., 27)``;
+    ``c_z`` ``(...)``: each design's own z-dyad link (mm; None: the model's)."""
     model = MassModel.of(options)
-    rods = model.lambda_kg_per_mm * _chord_lengths(params, model)
+    rods = model.lambda_kg_per_mm * _chord_lengths(params, model, c_z)
     lead = rods.shape[:-1]
     tail = np.broadcast_to(np.array([model.m_delta_kg, model.m_delta_kg, model.m_motor_kg]), lead + (3,))
     return np.concatenate([rods, tail], axis=-1)
@@ -197,16 +204,17 @@ def _outer(vec: NDArray[np.float64], row: NDArray[np.float64]) -> NDArray[np.flo
 
 def bodies_of_solution(
     sol: IKSolution, params: ArrayLike, options: Options | MassModel | None = None,
-    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
 ) -> Bodies:  # fmt: skip
     """The moving bodies (MODEL.md 18.1) at the poses of an IK solution, with their Jacobians.
 
-    ``jacobians`` = (J_E, J_e) of :func:`arcube.evaluation.performance.jacobians_of_solution` if at hand.
+    ``jacobians`` = (J_E, J_e) of :func:`arcube.evaluation.performance.jacobians_of_solution` if at hand;
+    ``c_z``: each design's own z-dyad link (mm, broadcasting as ``params[..., 0]``; None: the model's).
     """
     model = MassModel.of(options)
     g = unpack(params)
     J_E, J_e = jacobians_of_solution(sol, params) if jacobians is None else jacobians
-    mp = mechanism_points(params, sol.E_m, sol.e, c_z=model.c_z_mm, z_elbow=model.z_elbow, motor_length=model.motor_length_mm,
+    mp = mechanism_points(params, sol.E_m, sol.e, c_z=model.c_z_mm if c_z is None else c_z, z_elbow=model.z_elbow, motor_length=model.motor_length_mm,
                           arc_samples=2, sol=sol)  # the chords' points are built below
     lead = np.broadcast_shapes(mp.C.shape[:-1], J_E.shape[:-2])
     L = np.broadcast_to(g.L, lead)[..., None, None]
@@ -269,7 +277,7 @@ def bodies_of_solution(
     bad = ~np.all(np.isfinite(J_E), axis=(-2, -1))
     ends = np.where(bad[..., None, None, None], np.nan, ends)
     J_ends = np.where(bad[..., None, None, None, None], np.nan, J_ends)
-    mass = np.broadcast_to(body_masses_kg(params, model), lead + (N_BODIES,))
+    mass = np.broadcast_to(body_masses_kg(params, model, c_z), lead + (N_BODIES,))
     radial = np.broadcast_to(model.m_motor_kg * model.motor_radius_mm**2 / 4.0, lead)
     return Bodies(mass=mass, ends=ends, J_ends=J_ends, radial_inertia=radial)
 

@@ -72,9 +72,10 @@ __all__ = [
 ]  # fmt: skip
 
 
-def moving_mass_kg(params: ArrayLike, options: Options | MassModel | None = None) -> NDArray[np.float64]:
-    """The moving mass (kg) of each design ``(..., 27)`` -> ``(...)`` (MODEL.md 18.1, 18.3 ``moving_mass``)."""
-    return np.sum(body_masses_kg(params, options), axis=-1)
+def moving_mass_kg(params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None) -> NDArray[np.float64]:
+    """The moving mass (kg) of each design ``(..., 27)`` -> ``(...)`` (MODEL.md 18.1, 18.3 ``moving_mass``);
+    ``c_z`` ``(...)``: each design's own z-dyad link (mm; None: the options')."""
+    return np.sum(body_masses_kg(params, options, c_z), axis=-1)
 
 
 def _solve(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike) -> IKSolution:
@@ -96,12 +97,13 @@ def potential_energy_J(
 
 def gravity_torque_of_solution(
     sol: IKSolution, params: ArrayLike, options: Options | MassModel | None = None,
-    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
 ) -> NDArray[np.float64]:  # fmt: skip
-    """dV/dq ``(..., 5)`` N m at the poses of ``sol``; ``jacobians`` = (J_E, J_e) if at hand."""
+    """dV/dq ``(..., 5)`` N m at the poses of ``sol``; ``jacobians`` = (J_E, J_e) if at hand; ``c_z``: each
+    design's own z-dyad link (mm; None: the model's)."""
     model = MassModel.of(options)
     with np.errstate(invalid="ignore", divide="ignore"):
-        b = bodies_of_solution(sol, params, model, jacobians)
+        b = bodies_of_solution(sol, params, model, jacobians, c_z)
     J_weight = np.einsum("...b,...bij->...ij", b.mass, b.J_com)  # sum_b m_b J_b, kg mm/rad, (..., 3, 5)
     return -np.einsum("...ij,i->...j", J_weight, np.asarray(model.gravity, dtype=float)) / 1000.0
 
@@ -124,19 +126,20 @@ class HoldingTorque(NamedTuple):
 
 def holding_torque_of_solution(
     sol: IKSolution, params: ArrayLike, options: Options | None = None, masses: MassModel | None = None,
-    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
 ) -> HoldingTorque:  # fmt: skip
     """The holding torque (MODEL.md 18.2) at the poses of an IK solution.
 
     ``options`` gives the loads (``Options.loads``: thrust F_t, lateral bound F_l) and, unless
-    ``masses`` is given, the mass model. ``jacobians`` = (J_E, J_e) of 15.1 if at hand.
+    ``masses`` is given, the mass model. ``jacobians`` = (J_E, J_e) of 15.1 if at hand. ``c_z``: each
+    design's own z-dyad link (mm, broadcasting as the poses; None: the mass model's).
     """
     opts = Options() if options is None else options
     model = MassModel.of(opts if masses is None else masses)
     F_t = check_force(opts.loads.thrust_N, "thrust_N")
     F_l = check_force(opts.loads.lateral_force_N, "lateral_N")
     J_E, J_e = jacobians_of_solution(sol, params) if jacobians is None else jacobians
-    tau_g = gravity_torque_of_solution(sol, params, model, (J_E, J_e))
+    tau_g = gravity_torque_of_solution(sol, params, model, (J_E, J_e), c_z)
     e_w = frames.directions_to_world(unpack(params), sol.e)
     e_w = e_w / np.linalg.norm(e_w, axis=-1, keepdims=True)
     axial = np.einsum("...i,...ij->...j", e_w, J_E)  # e^T J_E,i, mm/rad

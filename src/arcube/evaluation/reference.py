@@ -42,7 +42,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FAILURES", "GRADE_SCALES", "GUARDED_OPTIONS", "IK_FAILURES", "Options", "PointResults", "TaskResults", "evaluate_points",
-    "evaluate_task", "failure_name", "fit_violation",
+    "design_c_z", "evaluate_task", "failure_name", "fit_violation",
 ]  # fmt: skip
 from arcube.model.stages import rts, zleg
 
@@ -161,10 +161,11 @@ def _grade(short: ArrayLike, scale: ArrayLike) -> NDArray[np.float64]:
 
 
 def _guard_checks(
-    sol: IKSolution, params: ArrayLike, eta: NDArray[np.float64], options: Options,
+    sol: IKSolution, params: ArrayLike, eta: NDArray[np.float64], options: Options, c_z: NDArray[np.float64] | None = None,
 ) -> list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]]:  # fmt: skip
     """(reason, failed, grade) of each active local guard; ``grade`` is its MODEL.md 16 term(s) at each
-    point, sum of min(s / S, 1), 0 where undefined (NaN). Points without an IK solution are masked later."""
+    point, sum of min(s / S, 1), 0 where undefined (NaN). Points without an IK solution are masked later.
+    ``c_z``: each design's own z-dyad link (mm, :func:`design_c_z`), else the options' (d_z when None)."""
     g = unpack(params)
     out: list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]] = []
 
@@ -172,7 +173,7 @@ def _guard_checks(
         out.append((reason, failed, np.nan_to_num(grade, nan=0.0)))
 
     if options.guards.z_dyad:
-        c_z = g.d[..., 2] if options.guards.c_z is None else options.guards.c_z
+        c_z = (g.d[..., 2] if options.guards.c_z is None else options.guards.c_z) if c_z is None else c_z
         short = zleg.closure_shortfall(zleg.span(sol.E_m, sol.rho[..., 2], g.p[..., 2]), g.d[..., 2], c_z)
         add("guard/z_dyad", short > 0.0, _grade(short, GRADE_SCALES["z_dyad"]))
     if options.guards.rho_max_deg is not None:
@@ -198,31 +199,43 @@ def _guard_checks(
     return out
 
 
+def design_c_z(params: ArrayLike, options: Options, c_z: ArrayLike | None) -> NDArray[np.float64] | None:
+    """Each design's z-dyad link c_z (mm, MODEL.md 19.1) ``(...)`` from a per-design column ``c_z`` broadcasting
+    as ``params[..., 0]``: its value, else (NaN) ``Options.guards.c_z``, else d_z; None when no column is given
+    (every design then takes the options' c_z, as before c_z became a design parameter)."""
+    if c_z is None:
+        return None
+    d_z, own = np.broadcast_arrays(unpack(params).d[..., 2], np.asarray(c_z, dtype=float))
+    fallback = d_z if options.guards.c_z is None else np.full(np.shape(d_z), float(options.guards.c_z))
+    return np.where(np.isnan(own), fallback, own)
+
+
 def evaluate_points(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
-    anatomy: Distance | None = None, envelope: Envelope | None = None,
+    anatomy: Distance | None = None, envelope: Envelope | None = None, c_z: ArrayLike | None = None,
 ) -> PointResults:  # fmt: skip
     """Local evaluation (no global guard): every argument broadcasts, results ``(...)``.
 
     Parameters: ``params`` ``(..., 27)`` (or ``(..., 23)``) mm/deg; ``E`` ``(..., 3)`` drill tips in R_w, mm;
-    ``e`` ``(..., 3)`` unit drill axes; ``mode`` ``(..., 4)`` working-mode signs.
+    ``e`` ``(..., 3)`` unit drill axes; ``mode`` ``(..., 4)`` working-mode signs; ``c_z`` ``(...)`` each
+    design's own z-dyad link, mm (:func:`design_c_z`; None: ``Options.guards.c_z``).
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, E, e, mode)
-        return _judge(sol, params, options, anatomy, envelope)
+        return _judge(sol, params, options, anatomy, envelope, design_c_z(params, options, c_z))
 
 
 def _body_clearances(
     sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None, shape: tuple[int, ...],
-    envelope: Envelope | None = None,
+    envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
     """(clearance, part, self clearance, envelope clearance, envelope part, envelope region) ``shape`` each:
-    NaN / -1 where not asked for or without IK."""
+    NaN / -1 where not asked for or without IK. ``c_z``: each design's own (None: the options')."""
     nan, none = np.full(shape, np.nan), np.full(shape, -1, dtype=np.intp)
     if not options.wants_body:
         return nan, none, nan, nan, none, none
     radii = options.radii
-    mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.guards.c_z, motor_length=radii.motor_length, sol=sol)
+    mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.guards.c_z if c_z is None else c_z, motor_length=radii.motor_length, sol=sol)
     parts = body_parts(mp, radii)
     selfc = np.broadcast_to(self_clearance(parts), shape) if options.wants_self_clearance else nan
     env: tuple[NDArray[Any], ...] = (nan, none, none)
@@ -235,7 +248,7 @@ def _body_clearances(
 
 
 def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None = None,
-           envelope: Envelope | None = None) -> PointResults:  # fmt: skip
+           envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None) -> PointResults:  # fmt: skip
     kappa = condition_numbers(sol, params)
     shape = kappa.shape[:-1]
     tls_bad = np.abs(sol.tls_arg) > 1.0
@@ -252,8 +265,8 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     ]
     excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)  # 0 where the stages solve the point
     solved = stages_ok & ~np.any(singular, axis=-1)  # the IK solves the point (MODEL.md 16)
-    clear, part, selfc, env, env_part, env_region = _body_clearances(sol, params, options, anatomy, shape, envelope)
-    guards = _guard_checks(sol, params, eta_raw, options)
+    clear, part, selfc, env, env_part, env_region = _body_clearances(sol, params, options, anatomy, shape, envelope, c_z)
+    guards = _guard_checks(sol, params, eta_raw, options, c_z)
     scale = GRADE_SCALES["clearance"]
     if options.guards.clearance_mm is not None and anatomy is not None:
         short = np.maximum(options.guards.clearance_mm - clear, 0.0)  # mm, MODEL.md 14.3
@@ -270,7 +283,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         grade = grade + term
     failure = _first_failure(checks, shape)
     reachable = failure == 0
-    perf = _performance(sol, params, options)
+    perf = _performance(sol, params, options, c_z)
     eta = np.where(reachable, eta_raw, np.inf)
     with np.errstate(divide="ignore"):
         dex = np.where(reachable, 100.0 / eta, 0.0)
@@ -298,9 +311,10 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     return _mask_performance(pts)
 
 
-def _performance(sol: IKSolution, params: ArrayLike, options: Options) -> dict[str, Any] | None:
+def _performance(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None = None) -> dict[str, Any] | None:
     """The drill-tip metrics of MODEL.md 15 and, with ``Outputs.holding_torque``, the holding torque of
-    18.2 (NaN and -1 without it) at the points of ``sol``, by field name; None without ``Outputs.tip_metrics``."""
+    18.2 (NaN and -1 without it) at the points of ``sol``, by field name; None without ``Outputs.tip_metrics``.
+    ``c_z``: each design's own z-dyad link (None: the options')."""
     if not options.outputs.tip_metrics:
         return None
     loads = options.loads
@@ -309,7 +323,7 @@ def _performance(sol: IKSolution, params: ArrayLike, options: Options) -> dict[s
     out: dict[str, Any] = tip_metrics(J_E, J_e, e_w, loads.encoder_deg, loads.thrust_N, loads.lateral_force_N, loads.actuator_stiffness)._asdict()
     out["holding_torque_Nm"], out["holding_torque_actuator"] = np.nan, -1
     if options.outputs.holding_torque:
-        hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e))
+        hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e), c_z=c_z)
         out["holding_torque_Nm"], out["holding_torque_actuator"] = hold.holding_torque_Nm, hold.holding_torque_actuator
     return out
 
@@ -350,7 +364,7 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
 
 def evaluate_task(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
-    anatomy: Distance | None = None, envelope: Envelope | None = None,
+    anatomy: Distance | None = None, envelope: Envelope | None = None, c_z: ArrayLike | None = None,
 ) -> TaskResults:  # fmt: skip
     """Evaluate designs ``(..., 27)`` (or ``(..., 23)``) on the P points of a task (``E``, ``e`` each ``(P, 3)``).
 
@@ -360,12 +374,15 @@ def evaluate_task(
     for this task alone (no --max/--min limits: the optimizer adds them, with several tasks, from
     ``violation_reach`` and ``guard_grade``). ``anatomy``: the anatomy's signed distance (MODEL.md 14.3);
     ``envelope``: the envelope of the whole patient (19.5), whose landmarks come from the whole plan.
+    ``c_z`` ``(...)``: each design's own z-dyad link c_z, mm (MODEL.md 19.1; a column beside the 27
+    parameters, broadcasting as ``params[..., 0]``; NaN or None: ``Options.guards.c_z``, else d_z).
     """
     p = np.asarray(params, dtype=float)[..., None, :]
     m = np.asarray(mode, dtype=float)[..., None, :]
+    cz = design_c_z(params, options, c_z)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(p, E, e, m)
-        pts = _judge(sol, p, options, anatomy, envelope)
+        pts = _judge(sol, p, options, anatomy, envelope, None if cz is None else cz[..., None])
         if options.guards.single_assembly_mode:
             pts = _single_assembly_mode(sol, pts)
         n = pts.reachable.shape[-1]

@@ -191,6 +191,8 @@ def _check_summary(data: Any, fail: Any) -> dict[str, Any]:
             if not isinstance(table, dict):
                 raise fail(f"{key} must be an object of numbers, got {_kind(table)}")
             for name, v in table.items():
+                if key == "design" and name == "mode" and isinstance(v, str):  # a design's working mode ("+,+,-,+"), checked by Design
+                    continue
                 _check_number(v, f"{key}.{name}", fail, nullable=key != "design")
     motors = data.get("motors")
     if motors is not None:

@@ -252,6 +252,9 @@ class Design:
         if not isinstance(values, Mapping):
             raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
         params = {k: v for k, v in values.items() if k not in EXTRA_KEYS and k not in _LISTS}
+        if isinstance(values.get("dockings"), list) and "m_x" not in values:  # MODEL.md 19.1: a robot without its placements
+            raise InputError(f"{source}: one robot at {len(values['dockings'])} dockings, no placement of its own: give one docking's "
+                             "design (dockings/<patient>_<side>/design.json beside it)")  # fmt: skip
         checked = validate_values(params, source)
         present = [k for k in Q0_KEYS if k in values]
         if present and len(present) != len(Q0_KEYS):

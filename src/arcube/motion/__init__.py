@@ -113,6 +113,8 @@ def program(
     plan_settings = planner if planner is not None else Planner()
     if seed is not None:
         plan_settings = plan_settings.replace(seed=seed)
+    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (MODEL.md 19.2): its masses are the two real links
+        opts = opts.replace(c_z=d.c_z)
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
     full = load_plan(plan, transform=transform)
     ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full

@@ -89,7 +89,7 @@ class _Builder:
         self.lines = _lines(ts, anatomy, limits)
         self.anatomy_source = None if anatomy is None else str(anatomy.source)
         distance = None if anatomy is None else anatomy.distance
-        self.checker = Checker(design.to_vector(), mode, limits, body, distance, engine=engine, envelope=envelope)
+        self.checker = Checker(design.to_vector(), mode, limits, body, distance, engine=engine, envelope=envelope, c_z=design.c_z)
         self.envelope_source = None if envelope is None else envelope.source
         self.transits: dict[tuple[int, int], tuple[Transit, list[dict[str, Any]], float]] = {}
 

@@ -7,7 +7,8 @@ mode (the first state's signs of H_x, H_y and det[x_beta, y_beta, e]). At a stat
 1. the inverse kinematics solves the pose in the design's working mode (failures as
    :data:`arcube.evaluation.reference.FAILURES` names them: ``TLS/x``, ``TMS/y``, ``singular/...``);
    for a joint state, q also assembles (``FK/assembly``) and the IK of its pose gives q back
-   (``IK/working_mode``: else q is in another working mode);
+   (``IK/working_mode``: else q is in another working mode); with the design's own c_z (MODEL.md 19.2)
+   the z dyad closes (``guard/z_dyad``), and the body's ``zdyad`` is the closed dyad D_z -> J_z -> Q_z;
 2. the assembly signs are the program's (``guard/assembly_mode``): no Type-2 singularity is crossed;
 3. eta_L <= kappa_max (``guard/kappa_max``);
 4. the body (MODEL.md 14.1, without the tool) clears the anatomy by c_min (``collision/patient``)
@@ -47,7 +48,7 @@ from arcube.evaluation.envelope_clearance import envelope_clearance
 from arcube.evaluation.indices import JACOBIAN_NAMES, condition_numbers
 from arcube.model.body import BodyParts, body_parts, great_circle, mechanism_points
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
-from arcube.options import Body, Options, Outputs
+from arcube.options import Body, Guards, Options, Outputs
 from arcube.motion.limits import RESOLUTION_MM, ProgramLimits
 
 __all__ = ["Checker", "PLANNING_RESOLUTION_MM", "StateChecks", "displacement", "refine"]
@@ -95,6 +96,7 @@ class StateChecks(NamedTuple):
         where = "E = (" + ", ".join(f"{v:.2f}" for v in self.E[i]) + ") mm" if np.all(np.isfinite(self.E[i])) else "this joint state"
         detail = {
             "guard/kappa_max": f"eta_L {self.eta[i]:.4g} > {limits.kappa_max:g}",
+            "guard/z_dyad": "the z dyad (d_z, c_z) cannot span D_z -> Q_z",
             "collision/patient": f"clearance {self.clearance[i]:.3g} mm < {limits.clearance:g}",
             "collision/self": f"self clearance {self.self_clearance[i]:.3g} mm < {limits.self_clearance:g}",
             "collision/tool": f"tool clearance {self.tool_clearance[i]:.3g} mm < 0",
@@ -117,10 +119,12 @@ class Checker:
 
     def __init__(self, params: ArrayLike, mode: ArrayLike, limits: ProgramLimits, body: Body = Body(),
                  distance: Distance | None = None, assembly: ArrayLike | None = None, *,
-                 step: float = SAMPLE_STEP_MM, margin: float = 0.0, engine: str = "numpy", envelope: Any = None) -> None:  # fmt: skip
+                 step: float = SAMPLE_STEP_MM, margin: float = 0.0, engine: str = "numpy", envelope: Any = None,
+                 c_z: float | None = None) -> None:  # fmt: skip
         if engine not in ("numpy", "numba"):
             raise ValueError(f"engine must be numpy or numba, got {engine!r}")
         self.engine = engine
+        self.c_z = None if c_z is None else float(c_z)  # the design's own z dyad (MODEL.md 19.2): closed at every state
         self.params = np.asarray(params, dtype=float)
         self.mode = np.asarray(mode, dtype=float)
         self.limits, self.body, self.distance, self.envelope = limits, body, distance, envelope
@@ -146,7 +150,7 @@ class Checker:
             least = float(np.nanmin(np.concatenate(slack)))
             res = float(np.clip(0.9 * least, RESOLUTION_MM, PLANNING_RESOLUTION_MM))
         out = Checker(self.params, self.mode, self.limits, self.body, self.distance, self.assembly, step=res, margin=res,
-                      engine=self.engine, envelope=self.envelope)  # fmt: skip
+                      engine=self.engine, envelope=self.envelope, c_z=self.c_z)  # fmt: skip
         out.resolution = res
         return out
 
@@ -158,7 +162,7 @@ class Checker:
         self.calls += n
         with np.errstate(invalid="ignore", divide="ignore"):
             sol = inverse_kinematics(self.params, E, e, self.mode)
-            mp = mechanism_points(self.params, E, e, c_z=None, motor_length=self.body.motor_length, sol=sol)
+            mp = mechanism_points(self.params, E, e, c_z=self.c_z, motor_length=self.body.motor_length, sol=sol)
             clear = tool_clear = env = np.full(n, np.nan)
             if self.engine == "numba" and n >= _KERNEL_MIN_STATES:
                 kappa, clear_k, selfc, env = self._compiled(E, e)
@@ -184,6 +188,8 @@ class Checker:
             arg = getattr(sol, field)
             checks += [(f"{name}/{leg}", ~(np.abs(arg[..., i]) <= 1.0)) for i, leg in enumerate(legs)]
         checks += [(f"singular/{name}", ~np.isfinite(kappa[..., i])) for i, name in enumerate(JACOBIAN_NAMES)]
+        if self.c_z is not None:  # MODEL.md 19.2: a z leg that can be assembled, at every state
+            checks.append(("guard/z_dyad", ~np.asarray(mp.z_closes)))
         checks += [
             ("guard/assembly_mode", np.any(asm != self.assembly, axis=-1) if self.assembly is not None else np.zeros(n, bool)),
             ("guard/kappa_max", ~(eta <= lim.kappa_max)),
@@ -210,10 +216,11 @@ class Checker:
         from arcube.evaluation.kernel._clearance import TOL_MM
 
         outputs = Outputs(clearances=True, anatomy_clearance=self.distance is not None, tip_metrics=False)
+        guards = Guards() if self.c_z is None else Guards(c_z=self.c_z)  # the body's z dyad is the design's
         ok = np.all(np.isfinite(E), axis=-1) & np.all(np.isfinite(e), axis=-1)
         kappa, clear, selfc, env = np.full((len(E), 7), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan)
         if ok.any():
-            pts = evaluate_task_numba(self.params, E[ok], e[ok], self.mode, Options(body=self.body, outputs=outputs),
+            pts = evaluate_task_numba(self.params, E[ok], e[ok], self.mode, Options(guards=guards, body=self.body, outputs=outputs),
                                       anatomy=self.distance, envelope=self.envelope).points  # fmt: skip
             kappa[ok], clear[ok], selfc[ok] = pts.kappa, pts.clearance_mm - TOL_MM, pts.self_clearance_mm
             if self.envelope is not None:  # a skin mesh is searched as the anatomy is: its tolerance below, as the clearance's

@@ -20,6 +20,7 @@
 * ``cmaes``: pymoo's CMA-ES (the ``cma`` package), no restarts, sigma 0.2 of the normalized box,
   started from the start design; it has no constraint handling, so it sees the penalized F.
 * ``nsga2``: NSGA-II (SBX, PM, rank and crowding, constrained domination) for eta vs compactness.
+* ``docked``: one robot at several dockings (MODEL.md 19.3), :mod:`arcube.optimization.docked`; ``mscmaes`` with one docking.
 
 All random draws go through the algorithm's ``random_state`` (``np.random.default_rng(seed)``,
 made in ``Algorithm.setup``); CMA-ES also seeds numpy's global RNG through ``cma`` from a number
@@ -54,10 +55,13 @@ from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_ALGORITHM, che
     ALGORITHMS, DEFAULT_ALGORITHM, DEFAULT_PERIOD, MULTI_OBJECTIVE_ALGORITHMS, check_algorithm,
 )  # fmt: skip
 
-BUDGETED: frozenset[str] = frozenset({"mscmaes"})
+BUDGETED: frozenset[str] = frozenset({"mscmaes", "docked"})
 """Algorithms whose budget is population * generations design evaluations, not generations."""
 MULTI_OBJECTIVE: frozenset[str] = MULTI_OBJECTIVE_ALGORITHMS
-PENALTY_ONLY: frozenset[str] = frozenset({"cmaes", "mscmaes"})
+PENALTY_ONLY: frozenset[str] = frozenset({"cmaes", "mscmaes", "docked"})
+DOCKED_SLACK = 8
+"""Rows ``docked`` may spend beyond its budget when the budget is smaller than its phases (its warm starts and the one
+whole evaluation it always ends with); it stops itself otherwise (:mod:`arcube.optimization.docked`)."""
 """Algorithms without constraint handling: they minimize the penalized F of problem.PENALTY."""
 
 
@@ -77,10 +81,12 @@ class SeededSampling(Sampling):
 
 
 def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None = None, *,
-                   eliminate_duplicates: bool = False, lean: bool = True, n_obj: int = 2, generations: int = 300) -> Algorithm:  # fmt: skip
+                   eliminate_duplicates: bool = False, lean: bool = True, n_obj: int = 2, generations: int = 300,
+                   structure: Any = None) -> Algorithm:  # fmt: skip
     """A fresh pymoo algorithm; ``x0`` (an optimizer vector) seeds the initial population.
 
-    ``generations`` matters to the budgeted algorithms (``mscmaes``: ``population * generations`` evaluations).
+    ``generations`` matters to the budgeted algorithms (``mscmaes``, ``docked``: ``population * generations`` evaluations);
+    ``structure``: ``docked``'s :class:`~arcube.optimization.docked.DockingStructure` (None: ``mscmaes``).
 
     ``eliminate_duplicates`` applies to ``ga`` (see the module docstring); ``lean=False`` builds
     the GA from pymoo's stock components (the reference the lean ones must equal bit for bit).
@@ -91,6 +97,10 @@ def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None 
         from arcube.optimization.multistart import make_multistart  # noqa: PLC0415
 
         return make_multistart(population * generations, seed, x0)
+    if name == "docked":
+        from arcube.optimization.docked import make_docked  # noqa: PLC0415
+
+        return make_docked(population * generations, seed, structure, x0)
     if name == "ga":
         if lean:  # offspring are always new individuals: nothing to skip, no check needed
             common.update(evaluator=LeanEvaluator(skip_already_evaluated=False), repair=PassRepair())
@@ -136,7 +146,7 @@ def make_termination(name: str, generations: int, tolerance: float, period: int 
     if not (tolerance >= 0.0 and np.isfinite(tolerance)):
         raise InputError.of("RunSettings.tolerance", f"must be a finite number >= 0, got {tolerance}")
     if name in BUDGETED:
-        return TerminationCollection(MaximumFunctionCallTermination(population * generations))
+        return TerminationCollection(MaximumFunctionCallTermination(population * generations + (DOCKED_SLACK if name == "docked" else 0)))
     criteria: list[Termination] = [MaximumGenerationTermination(generations)]
     if tolerance > 0.0:
         ftol = MultiObjectiveSpaceTermination(tolerance, only_feas=True) if name in MULTI_OBJECTIVE else SingleObjectiveSpaceTermination(tolerance, only_feas=True)

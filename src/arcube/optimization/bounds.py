@@ -10,7 +10,7 @@ from typing import Any
 from arcube.errors import InputError
 from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
 
-__all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "parse_bounds", "parse_free", "resolve_bounds"]
+__all__ = ["C_Z", "C_Z_BOUNDS", "DEFAULT_BOUNDS", "FREE_GROUPS", "parse_bounds", "parse_free", "resolve_bounds"]
 
 _B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (-400.0, 400.0), (20.0, 250.0), (30.0, 200.0), (50.0, 80.0), (-270.0, 270.0), (30.0, 90.0)
 DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
@@ -25,11 +25,16 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
     "mount_rx": (-180.0, 180.0), "mount_ry": (-180.0, 180.0), "mount_rz": (-180.0, 180.0), "L": (0.0, 200.0),
 }  # fmt: skip
 """MODEL.md 12.1 and 13.3 default bounds (mm, deg)."""
+C_Z = "c_z"
+"""The z dyad's second link (MODEL.md 19.1): a free parameter beside the 27 (``free=...,c_z``), in no design vector."""
+C_Z_BOUNDS: tuple[float, float] = (20.0, 500.0)
+"""Its default bounds, mm (MODEL.md 19.1)."""
 FREE_GROUPS: dict[str, tuple[str, ...]] = {"all": PAPER_NAMES, "mount": MOUNT_NAMES}
 """Group words of ``free``: ``all`` (the paper's 23) and ``mount`` (the three mounting angles)."""
 def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
     """Parameter names and group words (``all``: the paper's 23, ``mount``: the three mounting
-    angles), as a list or comma-separated text (``"all,mount,L"``) -> names in PARAM_NAMES order."""
+    angles), as a list or comma-separated text (``"all,mount,L"``) -> names in PARAM_NAMES order,
+    then ``c_z`` (MODEL.md 19.1) when named."""
     text = spec if isinstance(spec, str) else ",".join(str(s) for s in spec)
     items = [s.strip() for s in text.strip().split(",")]
     if not items or any(not n for n in items):
@@ -38,11 +43,11 @@ def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
     for item in items:
         if item.lower() in FREE_GROUPS:
             names.update(FREE_GROUPS[item.lower()])
-        elif item in INDEX:
+        elif item in INDEX or item == C_Z:
             names.add(item)
         else:
-            raise InputError.of("RunSettings.free", f"has an unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)})")
-    return tuple(n for n in PARAM_NAMES if n in names)
+            raise InputError.of("RunSettings.free", f"has an unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)}, {C_Z})")
+    return tuple(n for n in (*PARAM_NAMES, C_Z) if n in names)
 
 
 def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, tuple[float, float]]:
@@ -67,15 +72,15 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
     else:
         items = list(dict(spec).items())
     for name, pair in items:
-        if name not in INDEX:
-            raise InputError.of("RunSettings.bounds", f"{name!r}: not one of the 27 parameters")
+        if name not in INDEX and name != C_Z:
+            raise InputError.of("RunSettings.bounds", f"{name!r}: not one of the 27 parameters or {C_Z}")
         try:
             lo, hi = (float(v) for v in pair)
         except (TypeError, ValueError):
             raise InputError.of("RunSettings.bounds", f"{name}: expected two numbers (lo, hi), got {pair!r}") from None
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise InputError.of("RunSettings.bounds", f"{name}={lo!r}:{hi!r}: need finite lo < hi")
-        if name in LENGTH_NAMES and lo <= 0.0:
+        if (name in LENGTH_NAMES or name == C_Z) and lo <= 0.0:
             raise InputError.of("RunSettings.bounds", f"{name}: a length needs a lower bound > 0, got {lo:g}")
         if name == "L" and lo < 0.0:
             raise InputError.of("RunSettings.bounds", f"L: the tool offset needs a lower bound >= 0, got {lo:g}")
@@ -85,6 +90,6 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
     return out
 
 
-def resolve_bounds(overrides: Mapping[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
-    """DEFAULT_BOUNDS updated with ``overrides``."""
-    return {**DEFAULT_BOUNDS, **(overrides or {})}
+def resolve_bounds(overrides: Mapping[str, tuple[float, float]] | None = None, c_z: bool = False) -> dict[str, tuple[float, float]]:
+    """DEFAULT_BOUNDS updated with ``overrides``; with ``c_z`` (a free c_z) also c_z's (:data:`C_Z_BOUNDS` unless overridden)."""
+    return {**DEFAULT_BOUNDS, **({C_Z: C_Z_BOUNDS} if c_z else {}), **(overrides or {})}

@@ -36,7 +36,7 @@ def envelope_file(i: int) -> str:
 
 
 def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ...] | None = None) -> tuple[Any, ...]:
-    """Per patient, the envelope of the whole patient (MODEL.md 19.5) its config records (() without one);
+    """Per patient (or docking), the envelope of the whole patient (MODEL.md 19.5) its config records (() without one);
     a skin mesh is read from the run folder, or given as ``skins`` (one mesh list per patient)."""
     import json
 
@@ -65,8 +65,10 @@ def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ..
 
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
-    """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy)."""
-    if not cfg["settings"].get("anatomy"):
+    """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy; None for a
+    patient without one, in a cohort, MODEL.md 19); the dockings of one plan share one file and one grid."""
+    s = cfg["settings"]
+    if not s.get("anatomy") and not any(p.get("anatomy") for p in cfg["patients"]):
         return ()
     from pathlib import Path
 
@@ -75,12 +77,19 @@ def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
 
     if run_dir is None:
         return ()
-    out = []
-    for i in range(len(cfg["patients"])):
-        path = Path(run_dir) / anatomy_file(i)
-        if not path.exists():
-            raise InputError(f"{run_dir}: the run's anatomy file {path.name} is missing")
-        out.append(Anatomy.from_meshes(read_meshes([path], "patient"), str(path)).distance)
+    out: list[Any] = []
+    loaded: dict[str, Any] = {}
+    for i, p in enumerate(cfg["patients"]):
+        if not p.get("anatomy", s.get("anatomy")):
+            out.append(None)
+            continue
+        name = p.get("anatomy_file", anatomy_file(i))
+        if name not in loaded:
+            path = Path(run_dir) / name
+            if not path.exists():
+                raise InputError(f"{run_dir}: the run's anatomy file {path.name} is missing")
+            loaded[name] = Anatomy.from_meshes(read_meshes([path], "patient"), str(path)).distance
+        out.append(loaded[name])
     return tuple(out)
 
 
@@ -117,14 +126,14 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
     base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
     # configs written before --docking existed shared one placement among patients
     space = VariableSpace(base=base, free=rs.free, bounds=bounds, setups=rs.setups, mode=mode, patients=len(cfg["patients"]),
-                          docking=rs.docking)  # fmt: skip
+                          docking=rs.docking, base_c_z=cfg["design"].get("c_z"))  # fmt: skip
     tasks: list[TaskData] = []
     for i, pat in enumerate(cfg["patients"]):
         entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
         groups = [("", np.ones(len(sides), bool))] if space.setups == 1 else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
         for setup, (side, keep) in enumerate(groups):
             task = build_task(entry[keep], target[keep], rs.points)
-            label = f"{pat['source']}{' ' + side if side else ''}"
+            label = f"{pat['source']}{' ' + side if side else ''}" if "name" not in pat else f"{pat['name']} {pat['side']}"
             tasks.append(TaskData(i, setup, label, task.E, task.e))
             if "standoff" in pat:  # MODEL.md 17.1: the line from each standoff S_j to its entry A_j
                 approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], rs.points)
@@ -134,7 +143,8 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
         space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
         options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
         envelopes=run_envelopes(cfg, run_dir, skins),
-        margin_deg=rs.margin,
+        margin_deg=rs.margin, by_docking=rs.dockings is not None,
+        docking_plans=tuple((np.array(p["entry"], float), np.array(p["target"], float)) for p in cfg["patients"]) if rs.dockings is not None else (),
         objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
         accuracy=rs.accuracy_settings(),
     )  # fmt: skip

@@ -34,6 +34,8 @@ CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
 FORMAT_VERSION = 1
 Batch = dict[str, np.ndarray]
 LOG_KEYS = ("F", "VIOL", "ETA")
+EXTRA_KEYS = ("VIOL_D", "ETA_D")
+"""Logged too when every batch has them: each docking's violation and eta_G (``(n, K)``, a model over dockings, MODEL.md 19)."""
 
 
 class BatchFunction(Protocol):
@@ -93,10 +95,11 @@ def write_checkpoint(run_dir: Path, state: dict[str, Any], log: EvalLog, generat
     if log.pending:
         buf = io.BytesIO()
         entries = log.pending
+        keys = (*LOG_KEYS, *(k for k in EXTRA_KEYS if all(k in b for _, b in entries)))
         np.savez(
             buf, digest=np.array([np.frombuffer(d, np.uint8) for d, _ in entries]),
             sizes=np.array([len(b["VIOL"]) for _, b in entries], dtype=np.int64),
-            **{k: np.concatenate([b[k] for _, b in entries]).astype(np.float64) for k in LOG_KEYS},
+            **{k: np.concatenate([b[k] for _, b in entries]).astype(np.float64) for k in keys},
         )  # fmt: skip
         name = f"evals_{generation:06d}.npz"
         atomic_write_bytes(ckdir / name, buf.getvalue())
@@ -154,14 +157,17 @@ def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple
             if _sha(data) != ch["sha256"]:
                 raise ValueError(f"{f.name} does not match its SHA-256")
             with np.load(io.BytesIO(data), allow_pickle=False) as z:
-                arr = {k: z[k] for k in ("digest", "sizes", *LOG_KEYS)}
+                keys = (*LOG_KEYS, *(k for k in EXTRA_KEYS if k in z.files))
+                arr = {k: z[k] for k in ("digest", "sizes", *keys)}
             sizes, n = arr["sizes"].astype(np.int64), int(arr["sizes"].sum())
             if arr["digest"].shape != (len(sizes), 32) or arr["F"].shape != (n, n_obj) or arr["VIOL"].shape != (n,) or arr["ETA"].shape != (n,) or len(sizes) != ch["calls"]:
+                raise ValueError(f"{f.name} has inconsistent shapes")
+            if any(arr[k].ndim != 2 or len(arr[k]) != n for k in keys[len(LOG_KEYS):]):
                 raise ValueError(f"{f.name} has inconsistent shapes")
             start = np.concatenate([[0], np.cumsum(sizes)])
             for i in range(len(sizes)):
                 sl = slice(start[i], start[i + 1])
-                entries.append((arr["digest"][i].tobytes(), {k: arr[k][sl] for k in LOG_KEYS}))
+                entries.append((arr["digest"][i].tobytes(), {k: arr[k][sl] for k in keys}))
         int(state["generation"]), float(state["elapsed_s"])
     except (OSError, ValueError, KeyError, TypeError, EOFError) as exc:
         raise InputError(f"{path.parent}: corrupt checkpoint ({exc})") from None

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import secrets
+from dataclasses import dataclass
 from typing import Any
 
 from arcube.errors import InputError
@@ -24,12 +25,60 @@ from arcube.optimization.build import check_engine
 from arcube.optimization.settings import RunSettings
 from arcube.options import Options, validated
 
-__all__ = ["build_config", "run_settings"]
+__all__ = ["OWN", "PatientPlan", "build_config", "docking_groups", "own_settings", "patient_settings", "run_settings"]
+
+
+@dataclass(frozen=True)
+class PatientPlan:
+    """One patient of a design problem over several (a cohort, MODEL.md 19): a name, a plan, and what of the
+    run's settings is this patient's own (None: the run's). Paths are as the caller resolved them."""
+
+    name: str
+    plan: Any
+    """What :func:`arcube.io.load_trajectories` reads (CSV, .mrk.json, folder, ``reference``), or a TrajectorySet."""
+    anatomy: tuple[str, ...] | None = None
+    """``("default",)``, ``()`` (none) or mesh / segmentation files."""
+    anatomy_frame: str | None = None
+    segments: tuple[str, ...] | None = None
+    envelope: tuple[str, ...] | None = None
+    table_z: float | None = None
+
+
+OWN = {"anatomy": "anatomy", "anatomy_frame": "anatomy_frame", "segments": "segments", "envelope": "envelope_spec", "table_z": "table_z"}
+"""The settings a :class:`PatientPlan` may set for its patient alone -> the key of its config entries that records them
+(``envelope`` is the entry's placed envelope, its spec ``envelope_spec``)."""
+
+
+def own_settings(entry: dict[str, Any]) -> dict[str, Any]:
+    """A config entry's own settings (:data:`OWN`), by setting name."""
+    return {name: entry[key] for name, key in OWN.items() if key in entry}
+
+
+def patient_settings(s: RunSettings, own: dict[str, Any]) -> RunSettings:
+    """The run's settings with one patient's own (:data:`OWN`, by setting name) on top."""
+    changes = {k: own[k] for k in OWN if own.get(k) is not None}
+    return s.model_copy(update={k: (tuple(v) if isinstance(v, list) else v) for k, v in changes.items()}) if changes else s
+
+
+def docking_groups(ts: TrajectorySet, dockings: str | None) -> list[tuple[str, TrajectorySet]]:
+    """The dockings of one plan (MODEL.md 19.1): ``per-side`` one per side present (R before L), ``per-patient``
+    one for the whole plan (side ``both``, or its one side), None the plan as it is (side '')."""
+    if dockings is None:
+        return [("", ts)]
+    sides = [sd for sd in ("R", "L") if sd in ts.sides]
+    if dockings == "per-side":
+        return [(sd, select(ts, side=sd)) for sd in sides]
+    return [(sides[0] if len(sides) == 1 else "both", ts)]
 
 
 def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
     patients = []
-    for spec in specs:
+    names: list[str] = []
+    for index, item in enumerate(specs):
+        pat = item if isinstance(item, PatientPlan) else None
+        spec = pat.plan if pat is not None else item
+        own = {k: getattr(pat, k) for k in OWN if getattr(pat, k) is not None} if pat is not None else {}
+        ps = patient_settings(s, own)
         full = ts = spec if isinstance(spec, TrajectorySet) else load_trajectories(spec, s.transform)
         if s.side is not None or s.levels is not None or s.ids is not None:
             ts = select(ts, side=s.side, levels=s.levels, ids=s.ids)
@@ -39,18 +88,30 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
             for sd in ("R", "L"):
                 if sd not in ts.sides:
                     raise InputError.of("RunSettings.setups", f"2 needs R and L trajectories; {spec} has no side {sd} (after the selection)")
-        patient = {
-            "source": ts.source if isinstance(spec, TrajectorySet) else str(spec), "ids": list(ts.ids), "levels": list(ts.levels), "sides": list(ts.sides),
-            "entry": [[float(v) for v in row] for row in ts.entry], "target": [[float(v) for v in row] for row in ts.target],
-        }  # fmt: skip
-        anatomy = resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) if s.anatomy else None
-        if s.standoff is not None:  # MODEL.md 17.1: computed once, with the anatomy as given, and kept in config.toml
-            S, _ = standoff_points(ts.entry, ts.target, anatomy, s.standoff)
-            patient["standoff"] = [[float(v) for v in row] for row in S]
-        if s.envelope != ("none",):  # MODEL.md 19.5: placed once on the whole plan (both sides), kept in config.toml
-            envelope = resolve_envelope(list(s.envelope), full, anatomy, s.table_z, s.anatomy_frame)
-            patient["envelope"] = json.dumps(envelope.to_record())
-        patients.append(patient)
+        anatomy = resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
+        envelope = None
+        if ps.envelope != ("none",):  # MODEL.md 19.5: placed once on the whole plan (both sides), kept in config.toml
+            envelope = json.dumps(resolve_envelope(list(ps.envelope), full, anatomy, ps.table_z, ps.anatomy_frame).to_record())
+        name = pat.name if pat is not None else (f"patient_{index + 1}" if len(specs) > 1 else "patient")
+        names.append(name)
+        for side, group in docking_groups(ts, s.dockings):
+            patient = {
+                "source": ts.source if isinstance(spec, TrajectorySet) else str(spec), "ids": list(group.ids), "levels": list(group.levels),
+                "sides": list(group.sides), "entry": [[float(v) for v in row] for row in group.entry],
+                "target": [[float(v) for v in row] for row in group.target],
+            }  # fmt: skip
+            if s.dockings is not None or pat is not None:  # MODEL.md 19: whose docking this is (written only then)
+                patient.update(name=name, side=side or "both", plan_index=index)
+            patient.update({OWN[k]: (list(v) if isinstance(v, tuple) else v) for k, v in own.items()})
+            if s.standoff is not None:  # MODEL.md 17.1: computed once, with the anatomy as given, and kept in config.toml
+                S, _ = standoff_points(group.entry, group.target, anatomy, s.standoff)
+                patient["standoff"] = [[float(v) for v in row] for row in S]
+            if envelope is not None:
+                patient["envelope"] = envelope
+            patients.append(patient)
+    if len(set(names)) != len(names):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise InputError.of("plan", f"two patients are named {dup!r}: each needs its own name")
     return patients
 
 
@@ -82,13 +143,13 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
         s = s.replace(seed=secrets.randbelow(2**31))
     engine_resolved = check_engine(s.engine)
     design = Design.load(s.design_from)
-    patients = _load_patients(trajectories, s)
-    if s.anatomy:  # read now, so that a bad file stops the run before its folder exists
-        for spec in trajectories:
-            resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments)
+    patients = _load_patients(trajectories, s)  # reads every anatomy: a bad file stops the run before its folder exists
+    plans = [t.plan if isinstance(t, PatientPlan) else t for t in trajectories]
     table = {**s.to_table(), "engine_resolved": engine_resolved,
-             "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in trajectories]}  # fmt: skip
+             "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in plans]}  # fmt: skip
     cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
+    if design.c_z is not None:  # the start design's own z dyad (MODEL.md 19.1): fixed parameters keep it
+        cfg["design"]["c_z"] = design.c_z
     cfg["rerun"] = _rerun_command(s, table["trajectories"])
     return cfg
 

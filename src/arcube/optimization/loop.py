@@ -73,8 +73,13 @@ def run_algorithm(model: FitnessModel, s: RunSettings, batch: Callable[[np.ndarr
     ``seconds``, which the caller's clock owns). ``s.seed`` must be set.
     """
     assert s.seed is not None, "the composer runs a seeded problem"
+    structure = None
+    if s.algorithm == "docked" and model.n_patients > 1:
+        from arcube.optimization.docked import DockingStructure
+
+        structure = DockingStructure.of(model)
     algo = make_algorithm(s.algorithm, s.population, s.seed, model.space.encode(model.space.base), n_obj=model.n_obj,
-                          eliminate_duplicates=s.eliminate_duplicates, generations=s.generations)  # fmt: skip
+                          eliminate_duplicates=s.eliminate_duplicates, generations=s.generations, structure=structure)  # fmt: skip
     problem = ArcubeProblem(model.space, model.n_obj, batch, penalty_only=s.algorithm in PENALTY_ONLY)
     termination = make_termination(s.algorithm, s.generations, s.tolerance, s.period, s.population)
     algo.setup(problem, termination=termination, seed=s.seed, verbose=False)
@@ -166,6 +171,8 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
                "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
                **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in _EXTRA}}  # fmt: skip
         row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
+        if "c_z" in rep:
+            row["c_z"] = rep["c_z"]
         space = model.space
         for p in range(space.patients if space.per_patient else 1):
             for setup in range(space.setups):
@@ -196,6 +203,7 @@ def describe(cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dic
         "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
         "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
         **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in (*_EXTRA, "envelope_clearance_min_mm")},
+        **({"c_z": rep["c_z"]} if "c_z" in rep else {}),
         "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
         "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
         "points": model.n_points, "files": {}, "resumed": info["resumed"], "docking": s.get("docking", "shared"),

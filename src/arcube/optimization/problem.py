@@ -42,6 +42,7 @@ from arcube.accuracy.robust import ROBUST_NAMES
 from arcube.accuracy.settings import ToleranceSettings
 from arcube.optimization.objectives import SUMMARY_KEYS, limit_shortfall, metric_values, needs_masses, objective_columns
 from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
+from arcube.optimization.bounds import C_Z, C_Z_BOUNDS
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
     DEFAULT_BOUNDS, FREE_GROUPS, RunSettings, parse_bounds, parse_free, resolve_bounds,
 )  # fmt: skip
@@ -59,7 +60,10 @@ as a ranking; GA, DE and NSGA-II compare infeasible designs by the constraint (f
 COMPACTNESS = ("links", "bbox")
 DOCKINGS = ("per-patient", "shared")
 """``--docking`` over several trajectory sets: each patient its own placement (and mounting when free), or one for all."""
-AGGREGATES = ("mean", "worst")
+DOCKING_KEYS = ("VIOL_D", "ETA_D")
+"""What a batch of a model with ``by_docking`` holds beside F, VIOL and ETA: each docking's violation and eta_G ``(n, K)``."""
+AGGREGATES = ("mean", "worst", "max")
+"""How eta_G is combined over patients or dockings: the mean, or the worst (``max`` is the same as ``worst``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +95,7 @@ class VariableSpace:
     mode: Array | None = None  # (4,) fixed working mode; None lets the optimizer choose
     patients: int = 1
     docking: str = "shared"  # "per-patient": each patient has its own placement (and mounting, when free)
+    base_c_z: float | None = None  # the start design's c_z (mm): a fixed c_z keeps it; None: d_z (MODEL.md 6)
 
     def __post_init__(self) -> None:
         if self.setups not in (1, 2):
@@ -98,7 +103,7 @@ class VariableSpace:
         if self.docking not in DOCKINGS:
             raise InputError.of("RunSettings.docking", f"must be one of {', '.join(DOCKINGS)}, got {self.docking!r}")
         for n in self.free:
-            lo, hi = self.bounds[n]
+            lo, hi = self._bound(n)
             if not lo < hi:
                 raise InputError(f"bounds of {n}: need LO < HI, got {lo:g}:{hi:g}")
 
@@ -150,14 +155,39 @@ class VariableSpace:
         return np.array([self._bound(p)[1] for _, p in self.genes()])
 
     def _bound(self, param: str) -> tuple[float, float]:
+        if param == C_Z:
+            return self.bounds.get(C_Z, C_Z_BOUNDS)
         return (-1.0, 1.0) if not param else self.bounds[param]
 
+    @property
+    def free_params(self) -> tuple[str, ...]:
+        """The free parameters of the 27 (``free`` without c_z, which is last in ``free`` when free)."""
+        return tuple(n for n in self.free if n != C_Z)
+
+    def placement_columns(self) -> list[list[int]]:
+        """Per docking (slot, with per-patient docking over several patients; one slot otherwise), the optimizer-vector
+        columns of its own placement and mounting genes (m_x, m_y, m_z, mount_rx, mount_ry, mount_rz, those that are free)."""
+        names = self.names
+        own = [n for n in (*PLACEMENT_NAMES, *MOUNT_NAMES) if n in self.free]
+        out = [[names.index(n) for n in own]]
+        for p in range(1, self.patients if self.per_patient else 1):
+            out.append([names.index(f"{n}_p{p + 1}") for n in own if n in self.docked])
+        return out
+
+    def c_z(self, X: Array) -> Array | None:
+        """Each design's z-dyad link c_z ``(n,)`` mm (MODEL.md 19.1): its gene when free, else the start design's;
+        None when neither (c_z = d_z, or ``Guards.c_z``: every run before c_z became a parameter)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if C_Z in self.free:
+            return X[:, len(self.free) - 1].copy()
+        return None if self.base_c_z is None else np.full(X.shape[0], float(self.base_c_z))
+
     def decode(self, X: Array) -> tuple[list[Array], Array]:
-        """``X`` ``(n, n_var)`` -> ([params ``(n, 27)`` per slot], modes ``(n, 4)``)."""
+        """``X`` ``(n, n_var)`` -> ([params ``(n, 27)`` per slot], modes ``(n, 4)``); c_z: :meth:`c_z`."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n, col = X.shape[0], len(self.free)
         params = np.tile(self.base, (n, 1))
-        params[:, [INDEX[nm] for nm in self.free]] = X[:, :col]
+        params[:, [INDEX[nm] for nm in self.free_params]] = X[:, : len(self.free_params)]
         out = []
         for p in range(self.patients if self.per_patient else 1):
             own = params
@@ -181,7 +211,9 @@ class VariableSpace:
         """The optimizer vector of a design (27,), clipped into the bounds; every patient starts at its placement."""
         d = np.asarray(design, dtype=float)
         lm = d[:3] if left_m is None else np.asarray(left_m, dtype=float)
-        vals = [(lm if g[len(p) :].startswith("_L") else d)[INDEX[p]] for g, p in self.genes() if p]  # m_x_L, m_x_L_p2: left side
+        c_z = d[INDEX["d_z"]] if self.base_c_z is None else self.base_c_z
+        vals = [c_z if p == C_Z else (lm if g[len(p) :].startswith("_L") else d)[INDEX[p]]
+                for g, p in self.genes() if p]  # m_x_L, m_x_L_p2: left side  # fmt: skip
         if self.mode is None:
             vals += list(0.5 * (np.ones(4) if mode is None else np.asarray(mode, dtype=float)))
         return np.clip(np.array(vals, dtype=float), self.xl, self.xu)
@@ -202,6 +234,13 @@ class FitnessModel:
     limits: tuple[tuple[str, str, float], ...] = ()  # (name, "max" | "min", value): --max / --min
     anatomies: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.sdf.AnatomyDistance, or None
     envelopes: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.envelope.Envelope (MODEL.md 19.5), or None
+    by_docking: bool = False
+    """MODEL.md 19.3: each patient entry is a docking, and the violation is the sum of each docking's V (its V_reach and
+    its own V_fit over its points and limits); False: one V_fit over every point (every run before 19). A batch then also
+    returns each docking's violation and eta_G (``VIOL_D``, ``ETA_D`` ``(n, K)``), and a docking whose placement genes
+    are NaN in the batch's first row is left out of it (NaN in its columns): :mod:`arcube.optimization.docked`."""
+    docking_plans: tuple[tuple[Array, Array], ...] = ()
+    """Per docking, its trajectories' entry and target points ``(T, 3)`` each (R_w, mm), for warm starts between dockings."""
     accuracy: Any = None  # the ToleranceSettings of lateral_error_wc / lateral_error_rms (MODEL.md 20.3); None: class m
 
     def __post_init__(self) -> None:
@@ -233,12 +272,15 @@ class FitnessModel:
         short = np.maximum(self._ang_max + mu - (a + b), 0.0) + np.maximum(np.abs(a - b) - (self._ang_min - mu), 0.0)  # type: ignore[attr-defined]
         return np.radians(short.sum(axis=1))
 
-    def _run_tasks(self, params: list[Array], modes: Array, want_points: bool) -> list[Any]:
+    def _run_tasks(self, params: list[Array], modes: Array, want_points: bool, c_z: Array | None = None,
+                   active: tuple[bool, ...] | None = None) -> list[Any]:  # fmt: skip
+        """Each task's results (None for the tasks of a docking not ``active``)."""
         return [
             core_engine.evaluate_task(params[self.space.slot(t.patient, t.setup)], t.E, t.e, modes,
                                       self.options if t.role == "plan" else self._approach_options,  # type: ignore[attr-defined]
                                       engine=self.engine, want_points=want_points, anatomy=self.anatomies[t.patient] if self.anatomies else None,
-                                      envelope=self.envelopes[t.patient] if self.envelopes else None)  # fmt: skip
+                                      envelope=self.envelopes[t.patient] if self.envelopes else None, c_z=c_z)  # fmt: skip
+            if active is None or active[t.patient] else None
             for t in self.tasks
         ]
 
@@ -273,57 +315,134 @@ class FitnessModel:
             vol = np.maximum(vol, np.prod(hi - lo, axis=1) / 1e6)
         return links, vol
 
-    def moving_mass(self, params: list[Array]) -> Array:
+    def moving_mass(self, params: list[Array], c_z: Array | None = None) -> Array:
         """The moving mass (kg, MODEL.md 18.1) of each design ``(n,)``: the links are shared by every slot."""
         from arcube.evaluation.masses import moving_mass_kg
 
-        return moving_mass_kg(params[0], self.options)
+        return moving_mass_kg(params[0], self.options, c_z)
 
     def evaluate(self, X: Array) -> dict[str, Array]:
-        """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)``."""
+        """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)`` (with ``by_docking``
+        also VIOL_D, ETA_D ``(n, K)``, NaN for a docking left out)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
         params, modes = self.space.decode(X)
-        results = self._run_tasks(params, modes, want_points=False)
-        eta, viol, values = self._judge(results, params, modes)
+        c_z = self.space.c_z(X)
+        if self.by_docking:
+            active = self.active_dockings(X)
+            results = self._run_tasks(params, modes, want_points=False, c_z=c_z, active=active)
+            eta, viol, values, viol_d, eta_d = self._judge_dockings(results, params, modes, c_z, active)
+            cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
+            return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta, "VIOL_D": viol_d, "ETA_D": eta_d}
+        results = self._run_tasks(params, modes, want_points=False, c_z=c_z)
+        eta, viol, values = self._judge(results, params, modes, c_z)
         cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
         return {"F": np.stack(cols, axis=1), "VIOL": viol, "ETA": eta}
 
-    def robust_values(self, params: list[Array], modes: Array, want: Array) -> dict[str, Array]:
-        """lateral_error_wc and lateral_error_rms (mm, MODEL.md 20.3) ``(n,)``: the largest over the plan's tasks,
-        computed only where ``want`` (the designs that reach every point; NaN elsewhere)."""
+    def active_dockings(self, X: Array) -> tuple[bool, ...]:
+        """Per docking: evaluated in this batch, unless its placement genes are NaN in the first row (a docking left out)."""
+        row, columns = np.atleast_2d(X)[0], self.space.placement_columns()
+        if len(columns) != self.n_patients:  # one placement for every patient: nothing to leave out
+            return (True,) * self.n_patients
+        return tuple(not (cols and bool(np.isnan(row[cols]).any())) for cols in columns)
+
+    def robust_values(self, params: list[Array], modes: Array, want: Array, patient: int | None = None) -> dict[str, Array]:
+        """lateral_error_wc and lateral_error_rms (mm, MODEL.md 20.3) ``(n,)``: the largest over the plan's tasks
+        (of one ``patient`` entry, a docking, when given), computed only where ``want`` (the designs that reach
+        every point; NaN elsewhere)."""
         from arcube.accuracy.robust import robust_errors
 
         engine = "numba" if self.engine == "numba" else "numpy"
         n = params[0].shape[0]
         wc, rms = np.full(n, -np.inf), np.full(n, -np.inf)
         for t in self.tasks:
-            if t.role != "plan":
+            if t.role != "plan" or (patient is not None and t.patient != patient):
                 continue
             w, r = robust_errors(params[self.space.slot(t.patient, t.setup)], modes, t.E, t.e, self.accuracy, engine, want)
             wc, rms = np.maximum(wc, w), np.maximum(rms, r)  # a NaN stays NaN
         return {"lateral_error_wc": np.where(np.isfinite(wc), wc, np.nan), "lateral_error_rms": np.where(np.isfinite(rms), rms, np.nan)}
 
-    def _judge(self, results: list[Any], params: list[Array], modes: Array) -> tuple[Array, Array, dict[str, Array]]:
+    def _judge(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None = None) -> tuple[Array, Array, dict[str, Array]]:
         """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is MODEL.md 16's:
         margin shortfall + sum of the tasks' V_reach + G / (1 + G) / (2n), n = the points of all tasks (approach
-        lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible."""
+        lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible. With
+        ``by_docking`` (MODEL.md 19.3) it is :meth:`_judge_dockings`'s, every docking evaluated."""
+        if self.by_docking:
+            return self._judge_dockings(results, params, modes, c_z, (True,) * self.n_patients)[:3]
         eta, reach, grade, all_w = self._combine(results, params)
         names = set(self.objectives) | {name for name, _, _ in self.limits}
         links = vol = np.zeros(0)
         if names & {"links", "bbox"}:
             links, vol = self.compactness_values(params)
         plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
-        mass = self.moving_mass(params) if "mass" in names else None
+        mass = self.moving_mass(params, c_z) if "mass" in names else None
         # the first order costs ~25 us a point: only for the designs that reach every point of every task
         robust = self.robust_values(params, modes, reach == 0.0) if names & {"lateral_error_wc", "lateral_error_rms"} else None
         values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass, robust=robust)
         n_all = sum(t.n_points for t in self.tasks)
-        defined = dict(values)
-        if "eta_G" in values:  # +inf (a task not w_G): no eta_G to bound; the reach and the guards grade that design
-            defined["eta_G"] = np.where(np.isfinite(eta), eta, np.nan)
-        fit = fit_violation(grade / n_all + limit_shortfall([list(lim) for lim in self.limits], defined, len(reach)), n_all)
+        fit = fit_violation(grade / n_all + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta), len(reach)), n_all)
         fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
         viol = reach + fit
         return np.where(viol == 0.0, eta, np.inf), viol, values
+
+    @staticmethod
+    def _defined(values: dict[str, Array], eta: Array) -> dict[str, Array]:
+        """``values`` with eta_G NaN where +inf (a task not w_G: no eta_G to bound; the reach and the guards grade it)."""
+        defined = dict(values)
+        if "eta_G" in values:
+            defined["eta_G"] = np.where(np.isfinite(eta), eta, np.nan)
+        return defined
+
+    def _judge_dockings(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None,
+                        active: tuple[bool, ...]) -> tuple[Array, Array, dict[str, Array], Array, Array]:  # fmt: skip
+        """MODEL.md 19.3 over the ``active`` dockings: (eta, violation, values, each docking's violation ``(n, K)``, each
+        docking's eta_G ``(n, K)``). Docking k's V_k is its tasks' V_reach plus its own V_fit, G_k / (1 + G_k) / (2 n_k)
+        with n_k its points (approach lines too) and G_k its guard grades / n_k plus its own --max/--min shortfalls (the
+        values over its tasks); its eta_G is over its plan's points (+inf unless every task of it is w_G). The violation is
+        the orientation margin's shortfall plus the sum of the V_k; eta the max (or mean) of the eta_G over the dockings,
+        +inf unless the violation is 0; values: the objectives over every active docking."""
+        n = params[0].shape[0]
+        K = self.n_patients
+        names = set(self.objectives) | {name for name, _, _ in self.limits}
+        links = vol = np.zeros(0)
+        if names & {"links", "bbox"}:
+            links, vol = self.compactness_values(params)
+        mass = self.moving_mass(params, c_z) if "mass" in names else None
+        viol_d, eta_d = np.full((n, K), np.nan), np.full((n, K), np.nan)
+        robust_names = {"lateral_error_wc", "lateral_error_rms"}
+        robust_d: list[dict[str, Array] | None] = []
+        for k in (k for k in range(K) if active[k]):
+            mine = [(t, r) for t, r in zip(self.tasks, results) if t.patient == k]
+            reach, grade, all_w = np.zeros(n), np.zeros(n), np.ones(n, dtype=bool)
+            eta_sum, pts = np.zeros(n), 0
+            for t, r in mine:
+                reach = reach + np.nan_to_num(np.asarray(r.violation_reach, dtype=float), nan=1e6, posinf=1e6)
+                grade = grade + np.asarray(r.guard_grade, dtype=float)
+                w = np.asarray(r.w_G)
+                all_w &= w
+                if t.role == "plan":
+                    eta_sum += t.n_points * np.where(w, np.asarray(r.eta_G, dtype=float), 0.0)
+                    pts += t.n_points
+            eta_k = np.where((reach == 0.0) & all_w, eta_sum / pts, np.inf)
+            robust = self.robust_values(params, modes, reach == 0.0, patient=k) if names & robust_names else None
+            robust_d.append(robust)
+            values = metric_values(names, [r for t, r in mine if t.role == "plan"], eta_k, links, vol, clearance_results=[r for _, r in mine],
+                                   mass=mass, robust=robust)  # fmt: skip
+            n_k = sum(t.n_points for t, _ in mine)
+            fit = fit_violation(grade / n_k + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta_k), n), n_k)
+            fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
+            viol_d[:, k] = reach + fit
+            eta_d[:, k] = np.where(viol_d[:, k] == 0.0, eta_k, np.inf)
+        on = np.array(active)
+        viol = self.margin_shortfall(params[0]) + np.sum(viol_d[:, on], axis=1)
+        eta = eta_d[:, on].mean(axis=1) if self.aggregate == "mean" else eta_d[:, on].max(axis=1)
+        eta = np.where(viol == 0.0, eta, np.inf)
+        kept = [r for t, r in zip(self.tasks, results) if active[t.patient]]
+        plan = [r for t, r in zip(self.tasks, results) if active[t.patient] and t.role == "plan"]
+        robust = None
+        if names & robust_names:  # the worst over the dockings (a NaN, a docking not reached, stays NaN)
+            robust = {name: np.max(np.stack([rd[name] for rd in robust_d if rd is not None]), axis=0) for name in robust_names}
+        values = metric_values(names, plan, eta, links, vol, clearance_results=kept, mass=mass, robust=robust)
+        return eta, viol, values, viol_d, eta_d
 
     __call__ = evaluate
 
@@ -335,8 +454,9 @@ class FitnessModel:
         outputs = self.options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=masses)
         described = replace(self, options=self.options.replace(outputs=outputs))
         metrics = {**_METRICS, **_MASS_METRICS} if masses else _METRICS
-        results = described._run_tasks(params, modes, want_points=True)
-        eta, viol, values = self._judge(results, params, modes)
+        c_z = self.space.c_z(X)
+        results = described._run_tasks(params, modes, want_points=True, c_z=c_z)
+        eta, viol, values = self._judge(results, params, modes, c_z)
         dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"])
         links, vol = self.compactness_values(params)
         tasks = []
@@ -353,6 +473,7 @@ class FitnessModel:
             })  # fmt: skip
         return {
             "designs": [p[0] for p in params],
+            **({} if c_z is None else {"c_z": float(c_z[0])}),
             "mode": format_mode(modes[0]),
             "feasible": bool(viol[0] == 0.0),
             "eta_G": _num(eta[0]),
@@ -365,7 +486,7 @@ class FitnessModel:
             **({"envelope_clearance_min_mm": _min_num([tk["envelope_clearance_min_mm"] for tk in tasks])} if self.envelopes else {}),
             "bbox_volume_L": float(vol[0]),
             **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in metrics.items()},
-            **({"moving_mass_kg": float(self.moving_mass(params)[0])} if masses else {}),
+            **({"moving_mass_kg": float(self.moving_mass(params, c_z)[0])} if masses else {}),
             **{SUMMARY_KEYS[name]: _num(values[name][0]) for name in ROBUST_NAMES if name in values},
             **({"tolerance_class": (self.accuracy or ToleranceSettings()).tolerance_class} if set(ROBUST_NAMES) & set(values) else {}),
             "tasks": tasks,
@@ -436,10 +557,13 @@ class ArcubeProblem(Problem):
             out["CV"] = np.maximum(r["VIOL"], 0.0)[:, None] + 0.0  # pymoo's calc_cv of one inequality
         out["ETA"] = r["ETA"]
         out["VIOL"] = r["VIOL"]
+        for key in DOCKING_KEYS:  # one robot, several dockings (MODEL.md 19): each docking's own
+            if key in r:
+                out[key] = r[key]
 
 
 __all__ = [
-    "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "DOCKINGS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
+    "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "DOCKING_KEYS", "DOCKINGS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
     "ArcubeProblem", "FitnessModel", "TaskData", "VariableSpace", "bounding_box", "mechanism_points",
     "evaluate_with", "parse_bounds", "parse_free", "resolve_bounds", "worker_evaluate", "worker_init",
 ]  # fmt: skip

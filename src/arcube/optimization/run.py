@@ -62,12 +62,12 @@ def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algor
     """Write the best design(s), pareto.csv (multi-objective) and summary.json; returns the summary."""
     summary, designs, front = describe(cfg, model, algorithm, info)
     if model.space.per_patient:
-        files = write_placements(run_dir, cfg, model, designs)
+        files = write_placements(run_dir, cfg, model, designs, summary.get("c_z"))
     else:
-        Design.from_vector(designs[0]).to_json(run_dir / "best_design.json")
+        run_design(designs[0], summary).to_json(run_dir / "best_design.json")
         files = {"best_design": "best_design.json"}
         if len(designs) == 2:
-            Design.from_vector(designs[1]).to_json(run_dir / "best_design_L.json")
+            run_design(designs[1], summary).to_json(run_dir / "best_design_L.json")
             files = {"best_design_R": "best_design.json", "best_design_L": "best_design_L.json"}
     summary["files"] = files
     if front is not None:
@@ -87,20 +87,30 @@ def front_csv(rows: list[dict[str, Any]]) -> str:
     return buf.getvalue()
 
 
-def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray]) -> dict[str, str]:
+def run_design(vector: np.ndarray, summary: dict[str, Any]) -> Design:
+    """The design of one slot ``(27,)`` with the run's c_z when it has one (MODEL.md 19.1)."""
+    d = Design.from_vector(vector)
+    return d.with_extras(c_z=summary["c_z"]) if summary.get("c_z") is not None else d
+
+
+def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None) -> dict[str, str]:
     """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
-    design (placed for the first patient) with a ``placements`` list: each patient's m and mounting."""
+    design (placed for the first patient) with a ``placements`` list: each patient's m and mounting.
+    ``c_z``: the run's (MODEL.md 19.1), in every file when given."""
     space, placements, files = model.space, [], {"best_design": "best_design.json"}
     own = [n for n in PARAM_NAMES if n in (*space.docked, *space.free_m)] or ["m_x", "m_y", "m_z"]
+    extra = {} if c_z is None else {"c_z": c_z}
     for p, patient in enumerate(cfg["patients"]):
         for setup in range(space.setups):
             values = Design.from_vector(designs[space.slot(p, setup)]).to_dict()
             name = placement_file(p, setup)
-            atomic_write_text(run_dir / name, json.dumps(values, indent=2) + "\n")
+            atomic_write_text(run_dir / name, json.dumps({**values, **extra}, indent=2) + "\n")
             files[name.removesuffix(".json")] = name
             entry = {"patient": p + 1, "trajectories": patient["source"], "file": name, **{n: values[n] for n in own}}
+            if "name" in patient:  # a docking of one robot (MODEL.md 19)
+                entry = {**entry, "name": patient["name"], "side": patient["side"]}
             placements.append(entry if space.setups == 1 else {**entry, "side": "L" if setup else "R"})
-    shared = {**Design.from_vector(designs[0]).to_dict(), "placements": placements}
+    shared = {**Design.from_vector(designs[0]).to_dict(), **extra, "placements": placements}
     atomic_write_text(run_dir / "best_design.json", json.dumps(shared, indent=2) + "\n")
     if space.setups == 2:  # the first patient's left side, where runs with two setups always put it
         Design.from_vector(designs[space.slot(0, 1)]).to_json(run_dir / "best_design_L.json")
@@ -225,7 +235,7 @@ def run_in_memory(cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation
     summary, designs, front = describe(cfg, model, loop.algorithm, info)
     history = {c: np.array([float(r[c]) for r in rows.rows]) for c in HISTORY_COLUMNS}
     pareto = None if front is None else {k: np.array([r.get(k) for r in front]) for k in (front[0] if front else {})}
-    return OptimizeResult(summary=summary, designs=[Design.from_vector(d) for d in designs], history=history, pareto=pareto, config=cfg)
+    return OptimizeResult(summary=summary, designs=[run_design(d, summary) for d in designs], history=history, pareto=pareto, config=cfg)
 
 
 def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, float]], design: Design, patients: list[dict[str, Any]],
@@ -240,16 +250,27 @@ def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, floa
 
 
 def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
-    """Copy each patient's anatomy into the run folder (patient frame), so that resume and report need nothing else."""
-    s = cfg["settings"]
-    if not s.get("anatomy"):
-        return
+    """Copy each patient's anatomy into the run folder (patient frame), so that resume and report need nothing else.
+    A patient's own anatomy (a cohort's, MODEL.md 19) is that entry's; the dockings of one plan share one file."""
     from arcube.evaluation.anatomy import resolve_anatomy
 
-    for i, spec in enumerate(s["trajectories"]):
-        anatomy = resolve_anatomy(s["anatomy"], s.get("anatomy_frame", "LPS"), spec, segments=s.get("segments"))
+    s = cfg["settings"]
+    written: dict[int, tuple[str, str]] = {}
+    for i, p in enumerate(cfg["patients"]):
+        spec_anatomy = p.get("anatomy", s.get("anatomy"))
+        if not spec_anatomy:
+            continue
+        plan = p.get("plan_index", i)
+        if plan in written:  # another docking of the same plan
+            p["anatomy_file"], p["anatomy_source"] = written[plan]
+            continue
+        anatomy = resolve_anatomy(spec_anatomy, p.get("anatomy_frame", s.get("anatomy_frame", "LPS")), s["trajectories"][plan],
+                                  segments=p.get("segments", s.get("segments")))  # fmt: skip
         anatomy.write_stl(run_dir / anatomy_file(i))
-        cfg["patients"][i]["anatomy_source"] = anatomy.source
+        p["anatomy_source"] = anatomy.source
+        if "plan_index" in p:
+            p["anatomy_file"] = anatomy_file(i)
+            written[plan] = (p["anatomy_file"], anatomy.source)
 
 
 def write_envelopes(run_dir: Path, cfg: dict[str, Any]) -> None:
@@ -259,9 +280,10 @@ def write_envelopes(run_dir: Path, cfg: dict[str, Any]) -> None:
         return
     from arcube.io.meshes import read_meshes, write_stl
 
-    meshes = read_meshes(list(s["envelope"]), s.get("anatomy_frame", "LPS"))
-    for i in range(len(cfg["patients"])):
-        write_stl(meshes, run_dir / envelope_file(i))
+    for i, p in enumerate(cfg["patients"]):
+        if "envelope" in p and json.loads(p["envelope"]).get("skin"):
+            meshes = read_meshes(list(p.get("envelope_spec", s["envelope"])), p.get("anatomy_frame", s.get("anatomy_frame", "LPS")))
+            write_stl(meshes, run_dir / envelope_file(i))
 
 
 def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:

@@ -34,7 +34,7 @@ from arcube.options import FLAT, GUARDED_OPTIONS, Masses, Options, Settings, rou
 
 __all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "parse_bounds", "parse_free", "resolve_bounds"]
 
-ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3")
+ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3", "docked")
 DEFAULT_ALGORITHM = "mscmaes"
 """The default single-objective optimizer, chosen by measurement (README, "Which optimizer")."""
 MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
@@ -118,7 +118,7 @@ class RunSettings(Settings):
     SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min", "tolerance_class": "class"}
 
     algorithm: str = DEFAULT_ALGORITHM
-    """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, or nsga2 / nsga3 (several objectives)."""
+    """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, nsga2 / nsga3 (several objectives), or docked (with dockings: the robot at its first docking, then every other docking's placement, then all together; MODEL.md 19.3)."""
     population: int = Field(default=400, ge=1, le=MAX_POPULATION)
     """Population size (at most 10,000: each generation is evaluated as one batch)."""
     generations: int = Field(default=300, ge=1)
@@ -134,15 +134,15 @@ class RunSettings(Settings):
     setups: Literal[1, 2] = 1
     """1, or 2: shared links, one placement per side (R and L)."""
     guards: bool = False
-    """Turn on the guards of MODEL.md 8.2 (all but z_dyad)."""
+    """Turn on the guards of MODEL.md 8.2 (the z dyad's too when c_z is free, MODEL.md 19.2)."""
     margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
     """Orientation margin mu (deg) of the spherical stage's cone (MODEL.md 12.2)."""
     seed: int | None = Field(default=None, ge=0, lt=2**63)
     """Random seed (drawn and recorded when omitted)."""
     engine: str = "auto"
     """Evaluation engine: auto, numba or numpy."""
-    aggregate: Literal["mean", "worst"] = "mean"
-    """Over several trajectory sets: mean or worst eta_G."""
+    aggregate: Literal["mean", "worst", "max"] = "mean"
+    """Over several trajectory sets (or dockings): mean or worst (max: the same) eta_G."""
     compactness: Literal["links", "bbox"] = "links"
     """nsga2's second objective: links (sum of link lengths) or bbox (bounding-box volume)."""
     checkpoint_every: int = Field(default=10, ge=1)
@@ -185,6 +185,8 @@ class RunSettings(Settings):
     """Tolerances set by hand for lateral_error_wc and lateral_error_rms, NAME=T (mm or deg): a source (r=0.02) or a group (lengths=0.05, angles=0.01, q0=0.05)."""
     docking: Literal["per-patient", "shared"] = "per-patient"
     """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
+    dockings: Literal["per-side", "per-patient"] | None = None
+    """One robot, several dockings (MODEL.md 19): per-side (each plan's R trajectories one docking, its L ones another) or per-patient; each docking its own placement m and mounting angles, the rest shared; the violation the sum over dockings."""
     standoff: float | None = Field(default=None, ge=0, le=MAX_STANDOFF_MM, allow_inf_nan=False)
     """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1)."""
     options: Options = Options()
@@ -213,6 +215,10 @@ class RunSettings(Settings):
         if len(self.objectives) == 1 and self.algorithm in MULTI_OBJECTIVE_ALGORITHMS:
             raise InputError.of("RunSettings.algorithm", f"{self.algorithm} needs two or more objectives (got {self.objectives[0]} alone)")
         check_algorithm(self.algorithm, self.population)
+        if self.algorithm == "docked" and self.dockings is None:
+            raise InputError.of("RunSettings.algorithm", "docked needs dockings (per-side or per-patient)")
+        if self.dockings is not None and (self.setups != 1 or self.docking != "per-patient"):
+            raise InputError.of("RunSettings.dockings", "gives every docking its own placement: it needs setups 1 and docking per-patient")
         if self.setups == 2 and self.side is not None:
             raise InputError.of("RunSettings.setups", "2 uses both sides (one placement each); drop side")
         if not self.anatomy:
@@ -244,8 +250,8 @@ class RunSettings(Settings):
 
     @property
     def all_bounds(self) -> dict[str, tuple[float, float]]:
-        """Every parameter's bounds: the defaults with the overrides."""
-        return resolve_bounds(self.bounds)
+        """Every parameter's bounds: the defaults with the overrides (c_z's too when it is free)."""
+        return resolve_bounds(self.bounds, c_z="c_z" in self.free)
 
     def evaluation_options(self) -> Options:
         """The options the run's evaluations use: guards, body, loads, and only the outputs its
@@ -255,6 +261,8 @@ class RunSettings(Settings):
             on = GUARDED_OPTIONS.guards
             guards = guards.replace(rho_max_deg=on.rho_max_deg, min_transmission_deg=on.min_transmission_deg,
                                     kappa_max=on.kappa_max, single_assembly_mode=True)  # fmt: skip
+            if "c_z" in self.free:  # MODEL.md 19.2: a design with a z-dyad link of its own has a z leg that can be assembled
+                guards = guards.replace(z_dyad=True)
         clearance = needs_clearance(self.run_objectives, self.limits)
         outputs = self.options.outputs.replace(
             anatomy_clearance=clearance and guards.clearance_mm is None, tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
@@ -284,6 +292,8 @@ class RunSettings(Settings):
         for name in _TABLE_GUARDS:
             if getattr(g, name) not in (None, False):
                 table[name] = getattr(g, name)
+        if self.dockings is not None:  # MODEL.md 19: written only when set
+            table["dockings"] = self.dockings
         if self.standoff is not None:  # written only when set: earlier tables stay as they were
             table["standoff"] = self.standoff
         if self.segments is not None:
@@ -296,7 +306,7 @@ class RunSettings(Settings):
             table["tolerance_class"] = self.tolerance_class
         if self.tol:
             table["tol"] = dict(self.tol)
-        if g.envelope_clearance_mm is not None:
+        if g.envelope_clearance_mm is not None:  # its guard (MODEL.md 19.5): written only when on
             table["envelope_clearance"] = g.envelope_clearance_mm
         for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
             value = getattr(self.options.masses, name) if name in Masses.model_fields else None
@@ -317,7 +327,8 @@ class RunSettings(Settings):
     def from_config(cls, cfg: Mapping[str, Any]) -> RunSettings:
         """The settings of a whole run config: its ``[settings]`` table and its ``[bounds]``."""
         bounds = {k: (float(v[0]), float(v[1])) for k, v in (cfg.get("bounds") or {}).items()}
-        return cls.from_table({**cfg["settings"], "bounds": {k: v for k, v in bounds.items() if v != DEFAULT_BOUNDS.get(k)}})
+        defaults = resolve_bounds(c_z=True)
+        return cls.from_table({**cfg["settings"], "bounds": {k: v for k, v in bounds.items() if v != defaults.get(k)}})
 
 
 _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")

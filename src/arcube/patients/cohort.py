@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from arcube.errors import InputError
+from arcube.io.files import atomic_write_text
 from arcube.io.inputs import short_repr
 from arcube.io.trajectories import read_csv
 from arcube.patients.segmentation import anatomy_suffix, write_anatomy_as
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
 
-__all__ = ["write_patients"]
+__all__ = ["COHORT_FILE", "cohort_toml", "write_patients"]
 
 
 def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path, *,
@@ -26,7 +29,8 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         technique: pedicle, roy-camille, magerl or an.
         count: number of patients K (>= 1).
         out: K = 1: the CSV path (an existing folder receives ``patient_000.csv``);
-            K > 1: a folder (created) receiving ``patient_000.csv`` ... ``patient_{K-1}.csv``.
+            K > 1: a folder (created) receiving ``patient_000.csv`` ... ``patient_{K-1}.csv``, and ``cohort.toml``
+            (every patient of the folder, for ``arcube design --cohort``).
             Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
             anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
             (binary STL, patient frame, one closed shell per box).
@@ -61,7 +65,8 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
     if any(p.suffix.lower() == ".json" for p in paths):
         raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")
-    texts = []
+    texts: list[str] = []
+    entries: list[dict[str, Any]] = []
     for k, path in enumerate(paths):
         ts, params = generate_patient(None if mean else seed + k, technique)
         anatomy_path = path.with_suffix(suffix)
@@ -75,4 +80,22 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         more = "" if beside is None else beside(path)  # what a higher layer writes beside the plan (its envelope)
         texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame}{more})\n"
                      f"# {layout.summary()}\n{check}")
+        entries.append({"name": path.stem, "plan": path.name, "anatomy": [anatomy_path.name], "anatomy_frame": COHORT_FRAMES[anatomy_format]})
+    if paths[0].parent == out:  # a folder of patients: the cohort file of one design job for all of them (MODEL.md 19)
+        atomic_write_text(out / COHORT_FILE, cohort_toml(entries))
+        texts.append(f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}")
     return texts
+
+
+COHORT_FILE = "cohort.toml"
+"""The cohort file ``arcube patients`` writes into a folder of patients."""
+COHORT_FRAMES = {"stl": "patient", "seg.nrrd": "LPS", "nii.gz": "RAS"}
+"""The frame a cohort entry names for each anatomy format (the STL is written in the patient frame)."""
+
+
+def cohort_toml(entries: list[dict[str, Any]]) -> str:
+    """A cohort file's text (``arcube design --cohort``): one ``[[patient]]`` table per entry, paths relative to the file."""
+    lines = ["# arcube cohort: the patients of one design job (arcube design --cohort cohort.toml); paths relative to this file"]
+    for e in entries:
+        lines += ["", "[[patient]]", *(f"{k} = {json.dumps(v)}" for k, v in e.items())]
+    return "\n".join(lines) + "\n"

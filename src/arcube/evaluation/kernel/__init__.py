@@ -81,11 +81,12 @@ def _rows(layout: Layout, values: dict[str, Any], lead: tuple[int, ...]) -> np.n
     return out
 
 
-def _geometry(params: np.ndarray) -> np.ndarray:
+def _geometry(params: np.ndarray, c_z: np.ndarray | None = None) -> np.ndarray:
     """Per-design geometry rows ``(D, N_GEO)`` (``_layout.GEOMETRY``) of designs ``(D, 27)`` (mm, deg):
     the fields of :func:`arcube.model.design.unpack` (mm, rad), the trig of alpha and beta, the mounting
     rotation and whether it is I, computed with the same NumPy operations as the stage modules and
-    arcube.model.frames; and the spherical links' chords (``kernel._masses``)."""
+    arcube.model.frames; the spherical links' chords (``kernel._masses``); and each design's own z-dyad link
+    ``c_z`` ``(D,)`` mm (MODEL.md 19.1; NaN or None: the option's, else d_z: ``_scalar.z_link``)."""
     g = unpack(params)
     phi = np.concatenate([g.alpha, g.beta], axis=-1)  # (D, 4): alpha_x, alpha_y, beta_x, beta_y
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate arcs (phi = 0): NaN, as in the reference
@@ -96,6 +97,7 @@ def _geometry(params: np.ndarray) -> np.ndarray:
         "rot": frames.mount_rotation(g), "L": g.L, "flat": frames.is_unrotated(g),
         "arc_chord": np.sin(phi / (2 * N_CHORDS)),
         "arc_a": np.sum(0.5 * (a[..., :-1] + a[..., 1:]), axis=-1), "arc_b": np.sum(0.5 * (b[..., :-1] + b[..., 1:]), axis=-1),
+        "c_z": np.full(params.shape[0], np.nan) if c_z is None else c_z,
     }  # fmt: skip
     return _rows(GEOMETRY, values, (params.shape[0],))
 
@@ -201,7 +203,7 @@ def _envelope_context(envelope: Any) -> tuple[Any, ...]:
 def evaluate_task_numba(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE,
     options: Options = Options(), want_points: bool = True, *, exact: bool = False, anatomy: Any = None,
-    envelope: Any = None,
+    envelope: Any = None, c_z: ArrayLike | None = None,
 ) -> TaskResults:  # fmt: skip
     """Same results as :func:`arcube.evaluation.reference.evaluate_task`, compiled (see the module doc).
 
@@ -212,7 +214,8 @@ def evaluate_task_numba(
     with no designs x points arrays); the summaries are identical either way.
     ``exact=True`` evaluates every trigonometric function as the reference does (slower).
     ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of MODEL.md 14.3;
-    ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5.
+    ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5;
+    ``c_z``: each design's own z-dyad link (mm, broadcasting as the batch; NaN or None: ``Guards.c_z``, else d_z).
     E or e not 2-D, no points or no designs: handed to the NumPy reference.
     """
     p = np.asarray(params, dtype=float)
@@ -225,13 +228,13 @@ def evaluate_task_numba(
     if m.ndim < 1 or m.shape[-1] != 4:
         raise ValueError(f"mode must have last axis 4, got shape {m.shape}")
     if E_a.ndim != 2 or e_a.ndim != 2 or E_a.shape[-1] != 3 or e_a.shape[-1] != 3:
-        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy, envelope)
+        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy, envelope, c_z)
     E_b, e_b = np.broadcast_arrays(E_a, e_a)
     batch = np.broadcast_shapes(p.shape[:-1], m.shape[:-1])
     n_des = math.prod(batch)
     n_pts = E_b.shape[0]
     if n_pts == 0 or n_des == 0:
-        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy, envelope)
+        return _evaluate_task_numpy(p, E_a, e_a, m, options, anatomy, envelope, c_z)
 
     pf = _owned(np.broadcast_to(p, batch + (N_PARAMS,)).reshape(n_des, N_PARAMS))
     mf = _owned(np.broadcast_to(m, batch + (4,)).reshape(n_des, 4))
@@ -240,7 +243,7 @@ def evaluate_task_numba(
     same_e = np.zeros(n_pts, dtype=np.bool_)
     bits = ec.view(np.int64)  # bitwise: -0.0 and 0.0 may take different RTS branches
     same_e[1:] = np.all(bits[1:] == bits[:-1], axis=-1)
-    geometry = _geometry(pf)
+    geometry = _geometry(pf, None if c_z is None else np.broadcast_to(np.asarray(c_z, dtype=float), batch).reshape(n_des))
     # the fast path's angle-sum identities hold for signs only; other values (meaningless,
     # but accepted by the reference) take the reference's formulas
     exact = exact or not bool(np.all(np.abs(mf) == 1.0))

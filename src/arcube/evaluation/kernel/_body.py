@@ -49,7 +49,7 @@ def _body_world(g, c_z, motor_length, C0, C1, C2, e0, e1, e2, cr0, sr0, cr1, sr1
     d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
     t0, t1 = g[G_T], g[G_T + 1]
     r = g[G_R]
-    cz = d2 if c_z != c_z else c_z
+    cz = c_z
     # TLS: P_u = -f_u u, D_u = P_u + p_u (-sin rho u + cos rho w); Q_u = C + r u
     Dx0, Dx1, Dx2 = -f0 - p0 * sr0, 0.0, p0 * cr0
     Dy0, Dy1, Dy2 = p1 * cr1, -f1 - p1 * sr1, 0.0

@@ -108,12 +108,13 @@ GEOMETRY = Layout("G", (
     # the spherical links as 12 chords each (MODEL.md 18.1), in the order alpha_x, alpha_y, beta_x, beta_y:
     ("arc_chord", 4),  # sin(phi / 24): a chord is 2 r sin(phi / 24) long
     ("arc_a", 4), ("arc_b", 4),  # sum over the chords of the slerp coefficients of their midpoints (kernel._masses)
+    ("c_z", 1),  # the z dyad's second link, mm: the design's own (MODEL.md 19.1); NaN: Guards.c_z's, else d_z
 ))  # fmt: skip
 """One design's geometry row ``(N_GEO,)``: mm, rad and the trig of the spherical angles."""
 
 OPTIONS = Layout("O", (
     # guards (MODEL.md 8.2, 14.3); an optional threshold is a pair <name>_on (1.0: active), <name>
-    ("z_dyad", 1), ("c_z", 1),  # c_z in mm, NaN: c_z = d_z
+    ("z_dyad", 1), ("c_z", 1),  # c_z in mm, NaN: c_z = d_z (a design's own c_z, in its geometry row, comes first)
     ("rho_max_on", 1), ("rho_max", 1),  # rad
     ("transmission_on", 1), ("transmission", 1),  # sine of the smallest transmission angle
     ("kappa_max_on", 1), ("kappa_max", 1),

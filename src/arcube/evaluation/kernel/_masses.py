@@ -34,9 +34,9 @@ import math
 from numba import njit
 
 from arcube.evaluation.kernel._layout import G_ARC_A, G_ARC_B, G_ARC_CHORD, G_C, G_D, G_F, G_P, G_R, G_T, NAN
-from arcube.evaluation.kernel._layout import O_C_Z, O_GRAVITY, O_LATERAL_FORCE, O_LINK_MASS, O_M_DELTA, O_M_MOTOR, O_MOTOR_LENGTH, O_THRUST
+from arcube.evaluation.kernel._layout import O_GRAVITY, O_LATERAL_FORCE, O_LINK_MASS, O_M_DELTA, O_M_MOTOR, O_MOTOR_LENGTH, O_THRUST
 from arcube.evaluation.kernel._layout import X_HOLDING_TORQUE_ACTUATOR, X_HOLDING_TORQUE_NM
-from arcube.evaluation.kernel._scalar import rot, rot_t
+from arcube.evaluation.kernel._scalar import rot, rot_t, z_link
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -78,7 +78,7 @@ def _holding_torque(g, opt, C0, C1, C2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
     d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
     c0, c1, t0, t1, r = g[G_C], g[G_C + 1], g[G_T], g[G_T + 1], g[G_R]
-    cz = d2 if opt[O_C_Z] != opt[O_C_Z] else opt[O_C_Z]
+    cz = z_link(g, opt)
     # one chord's mass (kg) of the links alpha_x, alpha_y, beta_x, beta_y, and the chords' slerp sums (no array temporaries)
     lr2 = 2.0 * r * lam
     mu0, mu1, mu2, mu3 = lr2 * g[G_ARC_CHORD], lr2 * g[G_ARC_CHORD + 1], lr2 * g[G_ARC_CHORD + 2], lr2 * g[G_ARC_CHORD + 3]

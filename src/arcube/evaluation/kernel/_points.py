@@ -19,7 +19,7 @@ from arcube.evaluation.kernel._layout import CODE_ENVELOPE, CODE_KAPPA, CODE_PAT
 from arcube.evaluation.kernel._layout import G_C, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
-from arcube.evaluation.kernel._layout import O_C_Z, O_EXACT, O_KAPPA_MAX, O_KAPPA_MAX_ON, O_RHO_MAX, O_RHO_MAX_ON, O_SINGLE_ASSEMBLY_MODE
+from arcube.evaluation.kernel._layout import O_EXACT, O_KAPPA_MAX, O_KAPPA_MAX_ON, O_RHO_MAX, O_RHO_MAX_ON, O_SINGLE_ASSEMBLY_MODE
 from arcube.evaluation.kernel._layout import O_TRANSMISSION, O_TRANSMISSION_ON, O_Z_DYAD
 from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT, O_CLEARANCE_ON, O_DO_CLEARANCE, O_DO_SELF_CLEARANCE
 from arcube.evaluation.kernel._layout import O_HOLDING_TORQUE, O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
@@ -31,7 +31,7 @@ from arcube.evaluation.kernel._clearance import _anatomy_clearance, _carry_bound
 from arcube.evaluation.kernel._self import _self_clearance, self_moves
 from arcube.evaluation.kernel._masses import _holding_torque
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
-from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t
+from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t, z_link
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
 
 N_LINES = N_SEGMENTS + N_SPHERES
@@ -168,9 +168,7 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
     gr = 0.0
     if opt[O_Z_DYAD] != 0.0:
         d2 = g[G_D + 2]
-        cz = opt[O_C_Z]
-        if cz != cz:
-            cz = d2
+        cz = z_link(g, opt)
         reach_z = d2 + cz
         L = math.hypot(Em0, Em1 - pcr2)
         short = (_pos(L - reach_z) + _pos(abs(d2 - cz) - L)) / reach_z
@@ -324,7 +322,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             clr = selfc = env = _NAN
             part = env_part = env_region = -1.0
             if do_clr or do_self or do_env:
-                arc_r = _body_world(g, opt[O_C_Z], opt[O_MOTOR_LENGTH], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
+                arc_r = _body_world(g, z_link(g, opt), opt[O_MOTOR_LENGTH], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
                                     cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
                 if do_self:
                     self_cap = _INF if full or track_self else opt[O_SELF_CLEARANCE]

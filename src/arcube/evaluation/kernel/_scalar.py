@@ -10,7 +10,7 @@ from numba import njit
 
 from arcube.evaluation.kernel._layout import BIG as _BIG
 from arcube.evaluation.kernel._layout import EXCESS_CAP as _CAP
-from arcube.evaluation.kernel._layout import G_FLAT, G_ROT
+from arcube.evaluation.kernel._layout import G_C_Z, G_D, G_FLAT, G_ROT, O_C_Z
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
 from arcube.evaluation.kernel._layout import PI as _PI
@@ -252,3 +252,15 @@ def _pairwise_sum(a):
     return 0.0 + ret
 
 
+
+
+@njit(cache=True, error_model="numpy")
+def z_link(g, opt):
+    """The z dyad's second link c_z (mm) of the geometry row ``g``: the design's own (MODEL.md 19.1), else
+    (NaN) the option's ``Guards.c_z``, else (NaN) d_z, as ``reference.design_c_z``."""
+    cz = g[G_C_Z]
+    if cz != cz:
+        cz = opt[O_C_Z]
+    if cz != cz:
+        cz = g[G_D + 2]
+    return cz
