@@ -25,6 +25,25 @@ CHROMIUM_SKIP = pytest.mark.skipif(
 """Skip a browser test when Chromium is missing, except on CI (CI=true), where that is a failure."""
 
 
+def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    """``arcube ARGV`` in this process: (exit code, stdout, stderr), as captured by ``capsys``."""
+    from arcube.cli import main
+
+    try:
+        main(argv)
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def cli_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """``arcube ARGV`` in this process: (exit code, stderr)."""
+    code, _, err = run_cli(argv, capsys)
+    return code, err
+
+
 def start_chromium(profile: Path, *args: str):  # noqa: ANN201 - a selenium driver
     """A headless Chromium driver with a fresh profile in ``profile``, the browser log kept, and ``args``
     added to the common ones; skips without selenium unless on CI."""

@@ -17,20 +17,10 @@ import pytest
 import arcube
 from arcube.calibrate import IdentifySettings, SimulateSettings
 from arcube.calibrate.measurements import read_measurements
-from arcube.cli import main
 from arcube.model.design import Design
+from harness import run_cli as _run
 
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
-
-
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")

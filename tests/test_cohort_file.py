@@ -12,20 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from arcube.cli import main
 from arcube.design_job.cohort import COHORT_KEYS, read_cohort
 from arcube.io import load_trajectories
 from arcube.patients.anatomy import reference_anatomy_path
 
-
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
+from harness import run_cli as _run
 
 
 @pytest.fixture()

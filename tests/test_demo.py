@@ -39,7 +39,7 @@ def test_quick_demo_writes_reports_and_reproducible_designs(tmp_path: Path) -> N
     links = Design.from_json(out / "paper_links_right" / "best_design.json").to_vector()
     np.testing.assert_array_equal(links[3:], Design.preset("paper").to_vector()[3:])  # only m was free
     # step 4: arcube design's folder, its requirement table re-read from the files it wrote
-    design = out / "design_right"
+    design = out / "one_robot"
     summary = json.loads((design / "summary.json").read_text())
     assert str(design / "report.html") in proc.stdout and "4/4" in proc.stdout
     verdict = "design meets every requirement" if summary["meets_requirements"] else "design does NOT meet every requirement"

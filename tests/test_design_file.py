@@ -18,25 +18,15 @@ import numpy as np
 import pytest
 
 import arcube
-from arcube.cli import main
 from arcube.errors import InputError
 from arcube.model.design import PARAM_NAMES, Q0_KEYS, Design
 from arcube.model.mechanism import inverse_kinematics
+from harness import run_cli as _run
 
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
 """Table 2's links placed for the right side (README): reaches the right side's points in +,+,+,+."""
 PROGRAMMED = Design.from_json(Path(__file__).with_name("data") / "program_design.json")
 """A design whose right-side program exists (tests/test_program.py's), in +,+,+,+."""
-
-
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_extras_round_trip_and_an_old_file_reads_as_before(tmp_path: Path) -> None:

@@ -7,6 +7,7 @@ terminal, the stages after the search in their order, and nothing at all with --
 from __future__ import annotations
 
 import io
+import time
 from pathlib import Path
 
 from arcube.cli.design_progress import LOG_EVERY_S, DesignProgress, duration
@@ -80,3 +81,36 @@ def test_the_command_logs_its_seeds_and_stages_when_stderr_is_not_a_terminal(tmp
     stages = [line for line in lines if "so far)" in line]
     assert stages[0].startswith("design: checking seed ") and stages[-1].startswith("design: writing the report")
     assert lines.index(done[-1]) < lines.index(stages[0])
+
+
+def test_seeds_in_other_processes_are_read_from_their_history(tmp_path: Path, monkeypatch) -> None:
+    """--workers 2: no generation reaches this process; the last complete history rows do, with the time left."""
+    import arcube.cli.design_progress as dp
+
+    study = tmp_path / "study"
+    header = "generation,evaluations,best_eta_G,mean_eta_G,feasible_fraction,best_violation,seconds\n"
+    for seed, rows in ((1, ["1,100,,,0.0,3.5,1.0\n", "2,200,1.75,2.0,0.5,0.0,2.0\n", "3,3"]), (2, ["1,100,,,0.0,0.25,1.0\n"])):
+        (study / f"seed_{seed}").mkdir(parents=True)
+        (study / f"seed_{seed}" / "history.csv").write_text(header + "".join(rows))  # seed 1's last row is half written
+    assert dp.last_row(study / "seed_1" / "history.csv")["evaluations"] == 200.0
+    assert dp.last_row(study / "seed_3" / "history.csv") is None and dp.last_row(study / "seed_2" / "history.csv")["best_violation"] == 0.25
+    out, clock = io.StringIO(), Clock()
+    p = DesignProgress([1, 2, 3], budget=1000, stream=out, clock=clock)
+    rows = {s: dp.last_row(study / f"seed_{s}" / "history.csv") for s in (1, 2)}
+    p.running(rows)  # first sight: no rate yet
+    clock.t = 10.0
+    rows[1]["evaluations"], rows[2]["evaluations"] = 400.0, 300.0  # 400 more in 10 s: 40/s; 3000 - 700 left -> 57.5 s
+    p.running(rows)
+    lines = out.getvalue().splitlines()
+    assert lines[0] == ("design: 2 seeds running (0 of 3 done): seed 1 generation 2, 200 evaluations, best eta_G 1.75 (feasible 50%); "
+                        "seed 2 generation 1, 100 evaluations, none feasible yet, smallest violation 0.25")  # fmt: skip
+    assert lines[1].endswith("; about 58 s left"), lines[1]
+    # the watcher thread does the same from the files, and stops with the context
+    monkeypatch.setattr(dp, "LOG_EVERY_S", 0.05)
+    out2 = io.StringIO()
+    with DesignProgress([1, 2, 3], budget=1000, stream=out2) as watched:
+        watched.watch(study)
+        deadline = time.monotonic() + 20.0
+        while "2 seeds running" not in out2.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.02)
+    assert "seed 1 generation 2, 200 evaluations" in out2.getvalue() and not watched.watcher.is_alive()

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from arcube.cli import main
+from harness import cli_error as _run
 
 EXAMPLES = 120
 _tried = {"evaluate": 0, "joints": 0}
@@ -32,15 +32,6 @@ FLAGS = {
     "--side": st.one_of(st.sampled_from(["R", "L", "r", "X"]), texts), "--levels": st.one_of(st.sampled_from(["C3-C5", "C5-C3", "C9"]), texts),
     "--ids": st.one_of(st.sampled_from(["1,3", "99", "1,1"]), texts), "--engine": st.one_of(st.sampled_from(["numba", "numpy", "gpu"]), texts),
 }  # fmt: skip
-
-
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    return code, capsys.readouterr().err
 
 
 def _check(code: int, err: str) -> None:

@@ -17,23 +17,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import arcube
-from arcube.cli import _one_line, main
+from arcube.cli import _one_line
 from arcube.coerce import limit_pairs
 from arcube.design_job.requirements import DEFAULTS, requirements_from
 from arcube.errors import InputError
 from arcube.io import TrajectorySet, load_trajectories, select, write_csv
+from harness import cli_error as _cli
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
-
-
-def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    return code, capsys.readouterr().err
 
 
 # ----------------------------------------------------------------------------- limits and requirements

@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from arcube.cli import main
 from arcube.evaluation.performance import ACTUATOR_NAMES
 from arcube.export.joints import CSV_COLUMNS, MASS_COLUMNS
 from arcube.model.design import Design
@@ -24,16 +23,7 @@ from arcube.options import Masses
 from arcube.design_job.requirements import DEFAULTS, REQUIREMENTS, requirements_from
 
 from naive import mass_by_hand
-
-
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
+from harness import run_cli as _run
 
 
 @pytest.fixture(scope="module")

@@ -28,13 +28,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from arcube.cli import main
 from arcube.errors import InputError
 from arcube.io import read_csv
 from arcube.io.program_files import CSV_COLUMNS, CSV_NAME, JSON_NAME, TORQUE_COLUMNS, read_program_files
 from arcube.motion.output import Program
 
 from designs import program_object
+from harness import cli_error as _cli
 
 FUZZ = settings(max_examples=120, derandomize=True, deadline=None, database=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])  # fmt: skip
@@ -296,15 +296,6 @@ def test_plan_csv_rows_and_numbers(case: tuple[str, dict[str, Any]], tmp_path_fa
 
 
 # ----------------------------------------------------------------------------- through the command line
-
-
-def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    return code, capsys.readouterr().err
 
 
 @CLI_FUZZ

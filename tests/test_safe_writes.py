@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 import arcube
-from arcube.cli import main
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_files
 from arcube.io.program_files import MAX_PROGRAM_ROWS
@@ -25,15 +24,7 @@ from arcube.motion.output import prepare_folder, remove_folder
 from arcube.optimization.lock import LOCK_FILE
 
 from designs import PROGRAM_DESIGN as DESIGN, program_object
-
-
-def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    return code, capsys.readouterr().err
+from harness import cli_error as _cli
 
 
 # ----------------------------------------------------------------------------- all or none

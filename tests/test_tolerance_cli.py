@@ -17,24 +17,14 @@ import pytest
 
 import arcube
 from arcube.accuracy import ToleranceSettings, budget
-from arcube.cli import main
 from arcube.evaluation.task import build_task
 from arcube.model.design import Design
+from harness import run_cli as _run
 
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
 POINT_COLUMNS = ["trajectory", "point", "lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm",
                  "lateral_error_p50_mm", "lateral_error_p95_mm", "lateral_error_p99_mm", "lateral_error_max_mm"]  # fmt: skip
 SUMMARY = ("lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm", "lateral_error_p95_mm", "axis_error_p95_deg")
-
-
-def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    try:
-        main(argv)
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")

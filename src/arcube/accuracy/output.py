@@ -16,14 +16,12 @@ import io
 import json
 import math
 import os
-import shutil
-import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 from arcube.accuracy.budget import POINT_COLUMNS, ToleranceResult
-from arcube.errors import InputError
+from arcube.io.files import write_folder
 
 FILES: tuple[str, ...] = ("tolerance.json", "tolerance_points.csv", "sensitivity.csv")
 SENSITIVITY_COLUMNS: tuple[str, ...] = ("source", "tolerance", "unit", "share")
@@ -81,29 +79,4 @@ def write(result: ToleranceResult, out_dir: str | os.PathLike[str], figures: Fig
         InputError: ``out_dir`` is a file or a folder that is not empty (named ``out``).
         OSError: the file system refuses (nothing is left behind).
     """
-    out = Path(out_dir)
-    if out.exists() or out.is_symlink():
-        if not out.is_dir() or out.is_symlink():
-            raise InputError.of("out", f"{out}: is not a folder (give a new or empty folder)")
-        if any(out.iterdir()):
-            raise InputError.of("out", f"{out}: the folder is not empty (give a new or empty folder)")
-    files = contents(result, figures)  # drawn before anything touches the disk
-    made = [a for a in reversed(out.parents) if not a.exists()]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
-    try:
-        for name, data in files.items():
-            (tmp / name).write_bytes(data)
-        os.chmod(tmp, 0o755)  # mkdtemp makes it private; an output folder is shared like any other
-        if out.is_dir():
-            out.rmdir()  # empty (checked above)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        for folder in reversed(made):
-            try:
-                folder.rmdir()
-            except OSError:
-                break
-        raise
-    return out
+    return write_folder(contents(result, figures), out_dir)  # the pictures drawn before anything touches the disk

@@ -14,13 +14,11 @@ import csv
 import io
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from arcube.calibrate.result import Calibration
-from arcube.errors import InputError
+from arcube.io.files import write_folder
 
 RESIDUAL_COLUMNS: tuple[str, ...] = ("row", "pose", "set", "E_before_mm", "e_before_deg", "E_after_mm", "e_after_deg")
 
@@ -51,40 +49,6 @@ def contents(result: Calibration, pages: Pages | None = None) -> dict[str, bytes
     }
     files.update({name: render(result) for name, render in (pages or {}).items()})
     return files
-
-
-def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) -> Path:
-    """Write ``files`` (name -> bytes) as the folder ``out_dir`` (new or empty), all or nothing.
-
-    Raises:
-        InputError: ``out_dir`` is a file or a folder that is not empty (named ``out``).
-        OSError: the file system refuses (nothing is left behind).
-    """
-    out = Path(out_dir)
-    if out.exists() or out.is_symlink():
-        if not out.is_dir() or out.is_symlink():
-            raise InputError.of("out", f"{out}: is not a folder (give a new or empty folder)")
-        if any(out.iterdir()):
-            raise InputError.of("out", f"{out}: the folder is not empty (give a new or empty folder)")
-    made = [a for a in reversed(out.parents) if not a.exists()]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
-    try:
-        for name, data in files.items():
-            (tmp / name).write_bytes(data)
-        os.chmod(tmp, 0o755)  # mkdtemp makes it private; an output folder is shared like any other
-        if out.is_dir():
-            out.rmdir()  # empty (checked above)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        for folder in reversed(made):
-            try:
-                folder.rmdir()
-            except OSError:
-                break
-        raise
-    return out
 
 
 def write(result: Calibration, out_dir: str | os.PathLike[str], pages: Pages | None = None) -> Path:

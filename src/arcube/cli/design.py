@@ -154,7 +154,7 @@ def design(given: Given) -> None:
     from arcube.api import design as design_api
     from arcube.cli.design_progress import DesignProgress
     from arcube.coerce import seeds as checked_seeds
-    from arcube.design_job import DESIGN_GENERATIONS
+    from arcube.design_job import DESIGN_GENERATIONS, STUDY
     from arcube.optimization.settings import RunSettings
 
     run = given.tree("run")
@@ -173,6 +173,7 @@ def design(given: Given) -> None:
     if plans is not None and cohort is not None:
         raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")
     with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
+        bar.watch(Path(given.get("out")) / STUDY)  # seeds in other processes (--workers, --dask) report through their history
         result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
                             maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar.seed, progress=bar.generation,
                             on_stage=bar.stage, settings=settings, **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip

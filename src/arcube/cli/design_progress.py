@@ -5,13 +5,20 @@ no design is feasible yet, the smallest violation) and the time left; then the n
 search (checking with the NumPy reference, building the program, writing the outputs). On a terminal a
 Rich bar; otherwise (a CI log, a pipe) one plain line every :data:`LOG_EVERY_S` seconds and one per
 event, so that a log shows the job is alive and how far it is.
+
+Seeds that run in other processes (``--workers``, ``--dask``) send no generation to this one: then
+:meth:`DesignProgress.watch` reads the last complete row of each running seed's ``history.csv``
+(written every generation) and reports the seeds together.
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import sys
+import threading
 import time
+from pathlib import Path
 from typing import Any, TextIO
 
 __all__ = ["LOG_EVERY_S", "DesignProgress", "duration"]
@@ -40,6 +47,27 @@ def _best(row: dict[str, Any]) -> str:
     return f"none feasible yet, smallest violation {viol:.3g}" if isinstance(viol, (int, float)) and math.isfinite(viol) else "none feasible yet"
 
 
+def last_row(history: Path) -> dict[str, Any] | None:
+    """The last complete row of a run's ``history.csv`` (numbers as floats), or None (no file or no row yet)."""
+    try:
+        text = history.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    lines = text.splitlines(keepends=True)
+    if len(lines) < 2 or not lines[-1].endswith("\n"):  # a row being written is not read
+        lines = lines[:-1]
+    if len(lines) < 2:
+        return None
+    row = next(csv.DictReader([lines[0], lines[-1]]), None)
+    out: dict[str, Any] = {}
+    for key, value in (row or {}).items():
+        try:
+            out[str(key)] = float(value) if value not in (None, "") else math.nan
+        except ValueError:
+            out[str(key)] = value
+    return out
+
+
 class DesignProgress:
     """Progress of a design job: pass :meth:`generation` as ``progress``, :meth:`seed` as ``on_seed`` and
     :meth:`stage` as ``on_stage`` to :func:`arcube.design` / :func:`arcube.resume`; use as a context manager.
@@ -56,7 +84,12 @@ class DesignProgress:
         self.done: dict[int, dict[str, Any]] = {}
         self.first: tuple[int, int, float] | None = None  # (seed, evaluations, session s) at its first row seen
         self.last_log = -math.inf
+        self.last_generation = -math.inf  # when generation() was last called (seeds in this process)
         self.started = clock()
+        self.seen: dict[int, float] = {}  # seed -> evaluations at the first history row watched
+        self.lock = threading.Lock()
+        self.stop = threading.Event()
+        self.watcher: threading.Thread | None = None
         self.bar: Any = None
         if enabled and self.stream.isatty():
             from rich.console import Console
@@ -72,8 +105,48 @@ class DesignProgress:
         return self
 
     def __exit__(self, *exc: Any) -> None:
+        self.stop.set()
+        if self.watcher is not None:
+            self.watcher.join(timeout=5.0)
         if self.bar is not None:
             self.bar.__exit__(*exc)
+
+    def watch(self, study: str | Path) -> None:
+        """Report seeds that run in other processes from their ``history.csv`` under ``study`` (the job's
+        study folder), every second on a terminal and every :data:`LOG_EVERY_S` s otherwise; silent while
+        :meth:`generation` is being called (the seeds run in this process)."""
+        if not self.enabled or self.watcher is not None:
+            return
+        self.watcher = threading.Thread(target=self._poll, args=(Path(study),), name="design-progress", daemon=True)
+        self.watcher.start()
+
+    def _poll(self, study: Path) -> None:
+        from arcube.optimization.folder import seed_dir
+
+        while not self.stop.wait(1.0 if self.bar is not None else LOG_EVERY_S):
+            if self.clock() - self.last_generation < 2 * LOG_EVERY_S:
+                continue
+            rows = {s: r for s in self.seeds if s not in self.done and (r := last_row(seed_dir(study, s) / "history.csv")) is not None}
+            if rows:
+                self.running(rows)
+
+    def running(self, rows: dict[int, dict[str, Any]]) -> None:
+        """The seeds running in other processes, each with its last history row."""
+        parts, evals = [], 0.0
+        for seed, row in sorted(rows.items()):
+            e = min(float(row.get("evaluations", 0.0)), float(self.budget))
+            self.seen.setdefault(seed, e)
+            evals += e
+            parts.append(f"seed {seed} generation {int(row.get('generation', 0))}, {int(e):,} evaluations, {_best(row)}")
+        done = sum(min(float(v.get("evaluations", self.budget)), float(self.budget)) for v in self.done.values())
+        total = len(self.seeds) * self.budget
+        ran, took = evals - sum(self.seen[s] for s in rows), self.clock() - self.started
+        left = (total - done - evals) / (ran / took) if ran > 0 and took > 0 else math.nan
+        text = (f"{len(rows)} seeds running ({len(self.done)} of {len(self.seeds)} done): " + "; ".join(parts)
+                + (f"; about {duration(left)} left" if math.isfinite(left) else ""))  # fmt: skip
+        if self.bar is not None:
+            self.bar.update(self.task, completed=done + evals)
+        self._say(text, force=True)
 
     @property
     def current(self) -> int | None:
@@ -86,17 +159,19 @@ class DesignProgress:
         if self.bar is not None:
             self.bar.update(self.task, status=text)
             return
-        now = self.clock()
-        if force or now - self.last_log >= LOG_EVERY_S:
-            self.last_log = now
-            self.stream.write(f"design: {text}\n")
-            self.stream.flush()
+        with self.lock:  # the watcher thread writes too
+            now = self.clock()
+            if force or now - self.last_log >= LOG_EVERY_S:
+                self.last_log = now
+                self.stream.write(f"design: {text}\n")
+                self.stream.flush()
 
     def generation(self, row: dict[str, Any]) -> None:
         """One generation of the running seed (a history row with its timing, :class:`~arcube.optimization.loop.Progress`)."""
         seed = self.current
         if seed is None:
             return
+        self.last_generation = self.clock()
         k = self.seeds.index(seed)
         evals = min(int(row.get("evaluations", 0)), self.budget)
         session = float(row.get("session_s", 0.0))

@@ -44,6 +44,7 @@ def resume(given: Given) -> None:
         except (TypeError, ValueError, OverflowError):  # a damaged config: resume itself refuses it, with the reason
             budget = 1
         with DesignProgress(study.get("seeds", []), budget, enabled=not quiet) as bar:
+            bar.watch(run_dir / STUDY)
             result = resume_api(run_dir, workers=workers, dask=dask, on_seed=bar.seed, progress=bar.generation, on_stage=bar.stage)
         print_design(result)
         if not result.met:

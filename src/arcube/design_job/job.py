@@ -168,7 +168,7 @@ def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Seque
     for p in patients:
         if (p.anatomy if p.anatomy is not None else settings.anatomy) == ():
             raise InputError.of("cohort", f"patient {p.name}: anatomy none, but the clearance requirement needs one (give its anatomy, "
-                                          "or drop the requirement: --no-clearance)")  # fmt: skip
+                                          "or drop the clearance requirement)")  # fmt: skip
 
 
 def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:

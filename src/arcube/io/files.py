@@ -28,7 +28,7 @@ from pathlib import Path
 from arcube import interrupts
 from arcube.io.inputs import file_kind
 
-__all__ = ["atomic_write_bytes", "atomic_write_files", "atomic_write_text", "check_targets"]
+__all__ = ["atomic_write_bytes", "atomic_write_files", "atomic_write_text", "check_targets", "write_folder"]
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
@@ -77,15 +77,8 @@ def _atomic_write(target: Path, data: bytes) -> None:
             return
         code = errno.EISDIR if stat.S_ISDIR(st.st_mode) else errno.EINVAL
         raise OSError(code, f"is {file_kind(st.st_mode)}, not a file arcube can write", os.fspath(target))
-    _make_parent(target.parent, target)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    tmp = _stage(target, data)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        # mkstemp creates 0600 files; outputs are meant to be shared like any other file.
-        os.chmod(tmp, 0o644)
         interrupts.check()
         os.replace(tmp, target)
     except BaseException:
@@ -133,7 +126,7 @@ def _stage(target: Path, data: bytes) -> str:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600 files; outputs are meant to be shared like any other file
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -193,3 +186,43 @@ def atomic_write_files(files: Mapping[str | os.PathLike[str], bytes]) -> None:
         for target, old in kept.items():
             if old is not None and Path(old).exists():
                 Path(old).unlink(missing_ok=True)
+
+
+def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) -> Path:
+    """Write ``files`` (name -> bytes) as the folder ``out_dir`` (new or empty), all or nothing: the files go
+    into a temporary folder beside it, which is then renamed; returns its path.
+
+    Raises:
+        InputError: ``out_dir`` is a file or a folder that is not empty (named ``out``).
+        OSError: the file system refuses (nothing is left behind, not even the parents it made).
+    """
+    import shutil
+
+    from arcube.errors import InputError
+
+    out = Path(out_dir)
+    if out.exists() or out.is_symlink():
+        if not out.is_dir() or out.is_symlink():
+            raise InputError.of("out", f"{out}: is not a folder (give a new or empty folder)")
+        if any(out.iterdir()):
+            raise InputError.of("out", f"{out}: the folder is not empty (give a new or empty folder)")
+    made = [a for a in reversed(out.parents) if not a.exists()]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    try:
+        for name, data in files.items():
+            (tmp / name).write_bytes(data)
+        os.chmod(tmp, 0o755)  # mkdtemp makes it private; an output folder is shared like any other
+        if out.is_dir():
+            out.rmdir()  # empty (checked above)
+        interrupts.check()
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        for folder in reversed(made):
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
+    return out

@@ -31,13 +31,12 @@ from typing import Any
 
 import numpy as np
 from pymoo.core.algorithm import Algorithm
-from pymoo.core.population import Population
 
 from arcube.errors import InputError
 from arcube.model.frames import rotation_matrix
 from arcube.optimization.batch_cma import BatchCMA
 from arcube.optimization.lean import LeanEvaluator, column, new_population
-from arcube.optimization.multistart import POLISH_RUNS, POLISH_SIGMA, POLISH_TOL, RUNS, SIGMA, TOL, default_popsize, into_box, make_multistart
+from arcube.optimization.multistart import AskTell, POLISH_RUNS, POLISH_SIGMA, POLISH_TOL, RUNS, SIGMA, TOL, default_popsize, into_box, make_multistart
 
 __all__ = ["A_SHARE", "B_SHARE", "DockedCMA", "DockingStructure", "make_docked", "task_motions"]
 
@@ -118,7 +117,7 @@ def carried(placement: np.ndarray, motion: tuple[np.ndarray, np.ndarray]) -> np.
     return np.concatenate([Q @ placement[:3] + t, _angles(Q @ R)])
 
 
-class DockedCMA(Algorithm):
+class DockedCMA(AskTell):
     """The three phases of the module docstring over ``budget`` rows; ``x0``: the start design (problem units)."""
 
     def __init__(self, budget: int, structure: DockingStructure, x0: np.ndarray | None = None, **kwargs: Any) -> None:
@@ -293,19 +292,6 @@ class DockedCMA(Algorithm):
             self.budget_a = self.runs_a * self.lam_a
             self.budget_b = max(self.budget_b, self.budget_a)
         return new_population(self._ask_a())
-
-    def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
-        self._tell(infills)
-
-    def _infill(self) -> Any:
-        return self._ask()
-
-    def _advance(self, infills: Any = None, **kwargs: Any) -> None:
-        if infills is not None:
-            self._tell(infills)
-
-    def _set_optimum(self) -> None:
-        self.opt = None if self.best is None else Population.create(self.best)
 
 
 def make_docked(budget: int, seed: int, structure: DockingStructure | None, x0: np.ndarray | None = None) -> Algorithm:

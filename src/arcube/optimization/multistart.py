@@ -85,7 +85,25 @@ def default_popsize(n_var: int) -> int:
     return 4 + int(3.0 * math.log(max(n_var, 1)))
 
 
-class MultiStartCMAES(Algorithm):
+class AskTell(Algorithm):
+    """A pymoo algorithm driven by ``_ask()`` (the next population) and ``_tell(population)`` (its evaluated
+    rows), which a subclass defines with ``best`` (the best row so far, or None) and ``_initialize_infill``."""
+
+    def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
+        self._tell(infills)
+
+    def _infill(self) -> Any:
+        return self._ask()
+
+    def _advance(self, infills: Any = None, **kwargs: Any) -> None:
+        if infills is not None:
+            self._tell(infills)
+
+    def _set_optimum(self) -> None:
+        self.opt = None if self.best is None else Population.create(self.best)
+
+
+class MultiStartCMAES(AskTell):
     """``runs`` concurrent CMA-ES runs with random restarts, then a polish, until ``budget`` design evaluations.
 
     The first run starts at ``x0`` (the start design, in the problem's units) when given, every
@@ -160,18 +178,6 @@ class MultiStartCMAES(Algorithm):
         self._new_phase(self.runs)
         return self._ask()
 
-    def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
-        self._tell(infills)
-
-    def _infill(self) -> Any:
-        return self._ask()
-
-    def _advance(self, infills: Any = None, **kwargs: Any) -> None:
-        if infills is not None:
-            self._tell(infills)
-
-    def _set_optimum(self) -> None:
-        self.opt = None if self.best is None else Population.create(self.best)
 
 
 def make_multistart(budget: int, seed: int, x0: np.ndarray | None = None) -> MultiStartCMAES:

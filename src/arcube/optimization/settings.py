@@ -14,7 +14,6 @@ mapping between the typed settings and the file's keys lives here and nowhere el
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
