@@ -65,3 +65,16 @@ def right_side_design(tmp_path_factory: pytest.TempPathFactory):
     path = tmp_path_factory.mktemp("design") / "right.json"
     Design.preset("paper").replace(**RIGHT_SIDE_M).to_json(path)
     return path
+
+
+SLOW_FIRST = ("test_one_robot_design.py", "test_design_job.py", "test_explore.py", "test_docs.py", "test_demo.py", "test_study.py",
+              "test_paper_check.py", "test_envelope_clearance.py", "test_clearance.py", "test_segmentations.py", "test_report_browser.py",
+              "test_interrupts.py", "test_program.py", "test_design_progress.py", "test_optimize.py", "test_hardening.py")  # fmt: skip
+"""The files whose tests take longest (benchmarks of the suite: ``pytest --durations``), in that order."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Start the slowest files first: pytest-xdist hands files to its workers in this order (``--dist loadfile``),
+    so that no long file starts last and runs alone at the end. A stable sort: each file keeps its own order."""
+    rank = {name: i for i, name in enumerate(SLOW_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))

@@ -35,7 +35,7 @@ def test_requirements_defaults_changes_and_drops() -> None:
 def test_the_advice_of_a_missed_requirement_is_a_command_that_accepts_the_design(name: str, value: float) -> None:
     """Each flag the design job prints for a missed requirement parses (the same parser as the command line) and,
     given, accepts the design that missed: its value meets the printed limit; a limit no flag takes is not printed."""
-    from arcube.cli.design import DROPS, MAXIMA, MINIMA, _pairs, _relax
+    from arcube.cli.design import DROPS, MAXIMA, MINIMA, _pairs, _relax, missed_line
     from arcube.design_job.requirements import REQUIREMENTS, judge
 
     kind = REQUIREMENTS[name][0]
@@ -56,6 +56,8 @@ def test_the_advice_of_a_missed_requirement_is_a_command_that_accepts_the_design
         assert (value >= req.limit) if kind == "min" else (value <= req.limit)
         assert abs(req.limit - value) <= 1e-3 * abs(value) + 1e-12  # the design's own value, rounded the safe way
     assert (value < 0.0) == (not any("=" in t for t in suggestions))  # a negative minimum: no flag accepts it
+    # and the sentence before it states the limit the design meets, on the side the requirement bounds
+    assert f"the best design found meets a limit {'<=' if kind == 'max' else '>='} {value:.4g}" in missed_line(row)
 
 
 def test_program_requirements_are_judged_on_the_program_not_searched() -> None:

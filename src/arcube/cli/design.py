@@ -126,7 +126,7 @@ def missed_line(r: dict[str, Any]) -> str:
         return f"missed: program{at}: {r['part']}"
     if name in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode", "z_dyad"):
         return f"missed: {name}{at} ({_num(value)} {r['unit']}); a larger budget (--generations) or more seeds (--seeds) may find a design"
-    need = f">= {value:.4g}" if r["kind"] == "max" else f"<= {value:.4g}"
+    need = f"<= {value:.4g}" if r["kind"] == "max" else f">= {value:.4g}"  # the limit the design found would meet
     return f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}" + _relax(r)
 
 
