@@ -176,10 +176,11 @@ def reference_task():
     return build_task(entry, target, 12)
 
 
-def reaching_design(mount, L: float, seed: int = 0, n: int = 600, mode: int = 0) -> np.ndarray:
+def reaching_design(mount, L: float, seed: int = 0, n: int = 600, mode: int = 0, task=None) -> np.ndarray:
     """Of n random designs (links within MODEL.md 12.1 bounds, the TLS box centred on the task's mean
-    C in R_m), the one that reaches the most points of :func:`reference_task` in mode ``ALL_MODES[mode]``."""
-    task = reference_task()
+    C in R_m), the one that reaches the most points of ``task`` (default :func:`reference_task`) in mode
+    ``ALL_MODES[mode]``."""
+    task = reference_task() if task is None else task
     rng = np.random.default_rng(seed)
     X = np.zeros((n, 27))
     X[:, 3:16] = rng.uniform(30, 200, (n, 13))

@@ -99,6 +99,24 @@ def _csv_lines(folder: Path) -> list[str]:
     return (folder / CSV_NAME).read_text().splitlines()
 
 
+RESHAPES = ("extra", "missing", "duplicate")
+"""Damage that changes a CSV's shape: a field too many in a row, one too few, a duplicated column."""
+
+
+def _reshape(draw: Any, kind: str, header: list[str], rows: list[list[str]], r: int, extra: Any) -> None:
+    """Apply one of :data:`RESHAPES` in place: row ``r`` gains a field drawn from ``extra`` or loses one, or a
+    column is duplicated (header and every row)."""
+    if kind == "extra":
+        rows[r].insert(draw(st.integers(0, len(rows[r]))), draw(extra))
+    elif kind == "missing":
+        del rows[r][draw(st.integers(0, len(rows[r]) - 1))]
+    else:
+        j = draw(st.integers(0, len(header) - 1))
+        header.append(header[j])
+        for row in rows:
+            row.append(row[j])
+
+
 @st.composite
 def damaged_csv(draw: Any, lines: list[str]) -> str:
     """program.csv's text with one kind of damage."""
@@ -107,15 +125,8 @@ def damaged_csv(draw: Any, lines: list[str]) -> str:
     r = draw(st.integers(0, len(rows) - 1))
     if kind == "cell":
         rows[r][draw(st.integers(0, len(header) - 1))] = draw(NUMBER_TEXT)
-    elif kind == "extra":
-        rows[r].insert(draw(st.integers(0, len(rows[r]))), draw(NUMBER_TEXT))
-    elif kind == "missing":
-        del rows[r][draw(st.integers(0, len(rows[r]) - 1))]
-    elif kind == "duplicate":
-        j = draw(st.integers(0, len(header) - 1))
-        header.append(header[j])
-        for row in rows:
-            row.append(row[j])
+    elif kind in RESHAPES:
+        _reshape(draw, kind, header, rows, r, NUMBER_TEXT)
     elif kind == "header":
         header[draw(st.integers(0, len(header) - 1))] = draw(st.sampled_from(["", "E_X", "e_x", "t_s ", "tau_rho_x_Nm", "segment"]))
     else:
@@ -244,15 +255,8 @@ def plan_text(draw: Any) -> tuple[str, dict[str, Any]]:
         j = draw(st.integers(3, 8))
         info["text"] = rows[r][j] = draw(NUMBER_TEXT)
         info["column"] = HEADER[j]
-    elif kind == "extra":
-        rows[r].insert(draw(st.integers(0, len(rows[r]))), draw(st.sampled_from(["681", "", "x", "19"])))
-    elif kind == "missing":
-        del rows[r][draw(st.integers(0, len(rows[r]) - 1))]
-    elif kind == "duplicate":
-        j = draw(st.integers(0, len(header) - 1))
-        header.append(header[j])
-        for row in rows:
-            row.append(row[j])
+    elif kind in RESHAPES:
+        _reshape(draw, kind, header, rows, r, st.sampled_from(["681", "", "x", "19"]))
     return "\n".join(",".join(x) for x in [header, *rows]) + "\n", info
 
 

@@ -34,13 +34,13 @@ from arcube.errors import InputError  # noqa: E402
 from arcube.options import Masses, Options
 from arcube.evaluation.mass_bodies import MassModel  # noqa: E402
 from arcube.evaluation.masses import gravity_torque_Nm, moving_mass_kg  # noqa: E402
-from arcube.evaluation.reference import evaluate_task  # noqa: E402
 from arcube.io.load import load_plan  # noqa: E402
 from arcube.evaluation.task import build_task  # noqa: E402
 from arcube.export.mjcf import ACTUATED, JOINT_NAMES, export_mjcf, joint_values  # noqa: E402
-from arcube.model import frames  # noqa: E402
 from arcube.model.body import mechanism_points  # noqa: E402
 from arcube.model.design import Design  # noqa: E402
+
+from designs import reaching_design  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "mujoco_drive.py"
@@ -64,19 +64,7 @@ def _design_b() -> Design:
     mean C, the one reaching most points (as tests/test_mounting.py does); d_z = c_z then set so that the
     z dyad closes everywhere (2 d_z > max |Q_z - D_z|). A setup, not an oracle."""
     _, task = _plan()
-    mount, L = (20.0, -35.0, 170.0), 60.0
-    rng = np.random.default_rng(0)
-    n = 400
-    X = np.zeros((n, 27))
-    X[:, 3:16] = rng.uniform(30, 200, (n, 13))
-    X[:, 16] = rng.uniform(50, 80, n)
-    X[:, 17:19] = rng.uniform(-180, 180, (n, 2))
-    X[:, 19:23] = rng.uniform(50, 90, (n, 4))
-    X[:, 23:26] = mount
-    X[:, 26] = L
-    R = frames.rotation_matrix(np.radians(mount))
-    X[:, :3] = (task.E + L * task.e).mean(axis=0) - (-X[:, 3:6] - X[:, 16:17]) @ R.T
-    x = X[int(np.argmax(evaluate_task(X, task.E, task.e, np.ones(4)).points.reachable.sum(axis=1)))]
+    x = reaching_design((20.0, -35.0, 170.0), 60.0, seed=0, n=400, mode=0, task=task)  # mode 0: +,+,+,+
     with np.errstate(invalid="ignore"):
         mp = mechanism_points(x, task.E, task.e)
     x[11] = float(np.nanmax(np.linalg.norm(mp.Q[:, 2] - mp.D[:, 2], axis=-1))) / 2.0 + 5.0
