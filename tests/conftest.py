@@ -18,6 +18,8 @@ from a clean clone with an editable install).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -78,3 +80,42 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     so that no long file starts last and runs alone at the end. A stable sort: each file keeps its own order."""
     rank = {name: i for i, name in enumerate(SLOW_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """With xdist, every process the suite starts runs Numba's parallel loops on one thread (``NUMBA_NUM_THREADS=1``,
+    inherited by the workers and the commands their tests start; a value already set is kept). The workers already
+    fill the cores; two OpenMP threads in each of several processes on two cores wait at each loop's barrier for a
+    thread that is not running, and a test that takes 10 s alone then took 100-170 s now and then."""
+    if not hasattr(config, "workerinput") and getattr(config.option, "numprocesses", None):
+        os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+
+_COMPILE = (
+    "from arcube.evaluation.kernel import warm_up; warm_up()",
+    "import trimesh, arcube\n"
+    "from arcube.evaluation.anatomy import Anatomy, resolve_anatomy\n"
+    "resolve_anatomy('default', plan='reference').distance\n"
+    "Anatomy.from_meshes([trimesh.creation.box(extents=(30.0, 30.0, 30.0))], 'warm-up').distance\n"
+    "arcube.tolerance(arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89), 'reference', side='R', levels='C3',"
+    " points=3, samples=20, seed=1)",
+)
+"""What fills Numba's cache: the evaluation kernel; the distance grids and the accuracy kernel (two processes, one a core)."""
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """With xdist, compile the kernels once before the workers start (a fresh clone, as CI, has no Numba cache).
+
+    Otherwise every process that needs a kernel before the first one has written it to the cache compiles it again:
+    both workers and the commands their tests start, four or more compilations of the same kernel at once on two
+    cores (measured: the first tests of a cold run took 100-170 s instead of 2-20 s). The two parts run side by side,
+    the evaluation kernel (the longest) in one process, everything else in the other. A part that fails is left to
+    the tests to report."""
+    if hasattr(session.config, "workerinput") or not getattr(session.config.option, "numprocesses", None):
+        return
+    import subprocess
+    import sys
+
+    procs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for code in _COMPILE]
+    for p in procs:
+        p.wait()

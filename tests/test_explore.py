@@ -188,6 +188,32 @@ def test_live_requirements_are_those_of_arcube_design(plan, anatomy, envelope, d
     assert "reach, whole lines" in text.markdown_table(fig)
 
 
+@pytest.mark.parametrize("c_z", [1.0, 250.0, 300.0, 1000.0])
+def test_the_z_dyad_row_counts_the_points_where_the_z_leg_cannot_close(plan, anatomy, c_z):
+    """MODEL.md 19.2 in the explorer: a design with its own c_z gets a ``z_dyad`` row, the number of points of the lines
+    (drill and approach) where the z leg cannot close, as the NumPy reference counts them with only that guard on; a
+    1 mm or a 1 m c_z closes nowhere (every one of the 2 x 5 x 6 points, by hand: the leg's span is neither within
+    d_z + 1 nor 1000 - d_z). The design saved keeps its c_z and the mode shown; a design without c_z has no row."""
+    from arcube.evaluation.reference import FAILURES
+    from arcube.evaluation.standoff import approach_lines
+    from arcube.evaluation.task import build_task
+
+    mode, design = parse_mode("+,+,+,-"), MET.with_extras(c_z=c_z)
+    model = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=requirements_from())
+    row = {r["requirement"]: r for r in model.evaluate().requirements}["z_dyad"]
+    only = Options().replace(z_dyad=True, c_z=c_z)
+    task = build_task(plan.entry, plan.target, 6)
+    lines = [(task.E, task.e), approach_lines(plan.entry, plan.target, anatomy, 6, 20.0)]
+    code = FAILURES.index("guard/z_dyad") + 1
+    bad = sum(int(np.sum(evaluate_task(design.to_vector(), E, e, mode, only, engine="numpy", want_points=True).points.failure == code)) for E, e in lines)
+    assert row["value"] == bad and row["passed"] == (bad == 0) and row["limit"] == 0.0
+    if c_z in (1.0, 1000.0):
+        assert bad == 2 * 5 * 6
+    saved = model.current_design()
+    assert saved.c_z == c_z and saved.mode == "+,+,+,-" and saved.to_dict() == design.to_dict()
+    assert "z_dyad" not in {r["requirement"] for r in LiveModel(MET, plan, anatomy, mode=mode, points=6).evaluate().requirements}
+
+
 # ----------------------------------------------------------------------------- the app
 
 

@@ -28,8 +28,8 @@ from harness import arcube as run_arcube
 
 # Both sides of the reference patient at C3 (one trajectory a side), 8 points per line, 16,000 evaluations, seed 2:
 # about 50 s; the robot it finds meets every sampled requirement at docking reference_R (reference_L misses some).
-_JOB = ["design", "--trajectories", "reference", "--levels", "C3", "--anatomy", "default", "--points", "8", "--generations", "40",
-        "--seeds", "2", "--quiet", "--out", "d"]  # fmt: skip
+_BUDGET = ["--levels", "C3", "--points", "8", "--generations", "40", "--seeds", "2", "--quiet"]
+_JOB = ["design", "--trajectories", "reference", "--anatomy", "default", *_BUDGET, "--out", "d"]
 _ENTRY_KEYS = ["patient", "side", "m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"]
 
 
@@ -124,3 +124,32 @@ def test_a_docking_the_job_reports_as_met_is_met_by_the_numpy_reference(job: Pat
             if what == "plan":
                 assert s["lateral_error_max_mm"] <= 0.5 and s["axis_error_max_deg"] <= 0.25 and s["torque_max_Nm"] <= 20.0
                 assert math.isfinite(s["eta_G"])
+
+
+def test_a_killed_cohort_job_resumes_to_the_same_robot(job: Path, tmp_path: Path) -> None:
+    """The fixture's job as a cohort file (the bundled patient, its default anatomy, C3), killed (SIGKILL) after
+    10 generations and resumed (``arcube resume``), writes the very robot the uninterrupted ``--trajectories`` job
+    wrote: design.json, every docking's design file and the summary's verdicts, byte for byte."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "cohort.toml").write_text('[[patient]]\nname = "reference"\nplan = "reference"\nanatomy = "default"\n')
+    flags = ["design", "--cohort", "cohort.toml", *_BUDGET, "--out", "cut"]  # the fixture's job, its patient from the file
+    proc = subprocess.Popen([sys.executable, "-m", "arcube", *flags], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    mark, deadline = tmp_path / "cut" / "study" / "seed_2" / "checkpoint" / "evals_000010.npz", time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None and not mark.exists():
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL and mark.exists() and not (tmp_path / "cut" / "summary.json").exists()
+    res = run_arcube("resume", "cut", "--quiet", cwd=tmp_path)
+    assert res.returncode in (0, 3), res.stdout + res.stderr
+    cut = tmp_path / "cut"
+    assert (cut / "design.json").read_text() == (job / "design.json").read_text()
+    for label in ("reference_R", "reference_L"):
+        assert (cut / "dockings" / label / "design.json").read_text() == (job / "dockings" / label / "design.json").read_text(), label
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (cut, job))
+    keys = ("meets_requirements", "mode", "seed", "eta_G", "requirements", "dockings", "missed_at")
+    assert {k: a[k] for k in keys} == {k: b[k] for k in keys}

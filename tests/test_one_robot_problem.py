@@ -19,7 +19,7 @@ from arcube.model.design import Design
 from arcube.model.frames import rotation_matrix
 from arcube.optimization.build import build_model
 from arcube.optimization.config import build_config, docking_groups
-from arcube.optimization.docked import carried, task_motions
+from arcube.optimization.docked import carried, peer_starts, task_motions
 from arcube.optimization.settings import RunSettings
 
 from designs import DEMO
@@ -119,6 +119,25 @@ def test_kabsch_recovers_a_known_motion(angles, which) -> None:
     found = task_motions((ts.entry, ts.target), (ts.entry @ Q.T + t, ts.target @ Q.T + t))[which]
     np.testing.assert_allclose(found[0], Q, atol=1e-10)
     np.testing.assert_allclose(found[1], t, atol=1e-8)
+
+
+def test_an_infeasible_docking_is_offered_each_feasible_peers_placement_carried_onto_its_plan() -> None:
+    """peer_starts: three dockings, plans 1 and 2 the plan 0 moved by known motions; docking 2 infeasible. Its starts are
+    docking 0's and docking 1's best placements carried by the motions from their plans onto plan 2 (three each, in
+    order); the level pairing's start from docking 0 is the placement moved by the known motion (by hand: Q m + t, and
+    the mounting Q R); docking 2 itself and infeasible peers give none; with no feasible peer, no start."""
+    ts = select(load_trajectories("reference"), side="R")
+    Q1, t1 = rotation_matrix(np.radians([3.0, -4.0, 8.0])), np.array([10.0, -20.0, 5.0])
+    Q2, t2 = rotation_matrix(np.radians([-6.0, 2.0, 15.0])), np.array([-15.0, 25.0, 0.0])
+    plans = [(ts.entry, ts.target), (ts.entry @ Q1.T + t1, ts.target @ Q1.T + t1), (ts.entry @ Q2.T + t2, ts.target @ Q2.T + t2)]
+    best = [np.array([-80.0, 60.0, 200.0, 20.0, -70.0, 5.0]), np.array([-60.0, 40.0, 210.0, 25.0, -65.0, 12.0]), np.zeros(6)]
+    starts = peer_starts(2, best, [True, True, False], plans)
+    want = [carried(best[j], m) for j in (0, 1) for m in task_motions(plans[j], plans[2])]
+    assert len(starts) == len(want) == 6 and all(np.array_equal(a, b) for a, b in zip(starts, want, strict=True))
+    np.testing.assert_allclose(starts[0][:3], Q2 @ best[0][:3] + t2, atol=1e-8)
+    np.testing.assert_allclose(rotation_matrix(np.radians(starts[0][3:])), Q2 @ rotation_matrix(np.radians(best[0][3:])), atol=1e-10)
+    assert len(peer_starts(2, best, [False, True, False], plans)) == 3
+    assert peer_starts(2, best, [False, False, True], plans) == []
 
 
 def test_per_side_dockings_split_each_plan_by_side() -> None:

@@ -36,12 +36,13 @@ def test_table2_reaches_right_side_for_some_placement() -> None:
     """Search m (scipy differential evolution) so that every R point is reachable; print the dexterity."""
     task = _reference("R")
 
-    def objective(m: np.ndarray) -> float:
-        res = evaluate_task(_with_m(m)[0], task.E, task.e)
+    def objective(m: np.ndarray) -> np.ndarray:
+        res = evaluate_task(_with_m(m.T), task.E, task.e)  # the whole population (3, S) in one batch over designs
         # Feasibility first: any feasible m beats every infeasible one.
-        return float(res.eta_G) if res.w_G else 1e3 + float(res.violation)
+        return np.where(res.w_G, res.eta_G, 1e3 + res.violation)
 
-    found = differential_evolution(objective, [(-400.0, 400.0)] * 3, seed=7, popsize=20, maxiter=150, tol=1e-10, polish=False)
+    found = differential_evolution(objective, [(-400.0, 400.0)] * 3, seed=7, popsize=20, maxiter=150, tol=1e-10, polish=False,
+                                   vectorized=True, updating="deferred")  # fmt: skip
     res = evaluate_task(_with_m(found.x)[0], task.E, task.e)
     print(
         f"\nTable 2 links, right side, m = {np.round(found.x, 2)} mm: reachable {res.reachable_fraction:.0%}, "

@@ -320,17 +320,19 @@ def first_order_numba(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: Array
     ``mode`` ``(4,)``; ``T``, ``sigma`` ``(n,)`` per source of :data:`arcube.accuracy.sources.SOURCE_NAMES` (mm, deg).
     """
     geo = geometry_rows(np.asarray(params, dtype=float).reshape(-1))
-    E_a = np.ascontiguousarray(np.asarray(E, dtype=float).reshape(-1, 3))
-    e_a = np.ascontiguousarray(np.broadcast_to(np.asarray(e, dtype=float), E_a.shape))
-    T_a = np.ascontiguousarray(T, dtype=np.float64)
-    s_a = np.ascontiguousarray(sigma, dtype=np.float64)
+    # writable C-order copies: Numba compiles a function anew for a read-only array (a broadcast view, a constant)
+    E_a = np.array(np.asarray(E, dtype=float).reshape(-1, 3), order="C")
+    e_a = np.array(np.broadcast_to(np.asarray(e, dtype=float), E_a.shape), order="C")
+    T_a = np.array(T, dtype=np.float64, order="C")
+    s_a = np.array(sigma, dtype=np.float64, order="C")
     col, scale = source_map(PARAM_COLUMN, JOINT_COLUMN, IS_ANGLE)
     P, n = E_a.shape[0], T_a.shape[0]
     valid = np.empty(P, dtype=np.bool_)
     out = np.empty((P, 4))
     share = np.empty((P, n))
     G = np.empty((P, 2, 3, n))
-    _first_order_points(geo, np.ascontiguousarray(mode, dtype=np.float64), E_a, e_a, T_a, s_a, col, scale, valid, out, share, G)
+    mode = np.array(mode, dtype=np.float64)  # as E_a (the working mode is often a module constant)
+    _first_order_points(geo, mode, E_a, e_a, T_a, s_a, col, scale, valid, out, share, G)
     return FirstOrder(
         lateral_wc_mm=out[:, 0], axis_wc_deg=out[:, 1], axial_wc_mm=out[:, 2], lateral_rms_mm=out[:, 3], share=share,
         G_E=G[:, 0], G_e=G[:, 1], valid=valid,

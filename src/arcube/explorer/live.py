@@ -154,11 +154,12 @@ class LiveModel:
         self.x[PARAM_NAMES.index(name)] = v
 
     def current_design(self) -> Design:
-        """The design the sliders show."""
-        return Design.from_vector(self.x)
+        """The design the sliders show, with the loaded design's c_z (MODEL.md 19.1) and the working mode shown."""
+        return self.design.replace(**dict(zip(PARAM_NAMES, self.x.tolist(), strict=True))).with_extras(mode=format_mode(self.mode))
 
     def load(self, design: Design) -> None:
-        """Replace all 27 parameters."""
+        """Replace all 27 parameters and the design's c_z."""
+        self.design = design
         self.x = design.to_vector().astype(float)
 
     def options(self) -> Options:
@@ -174,6 +175,8 @@ class LiveModel:
         else:
             base = Options()
         base = base.replace(link_radius=r.link, actuator_radius=r.actuator, motor_radius=r.motor, motor_length=r.motor_length)
+        if self.design.c_z is not None:  # the z dyad closed with the design's own c_z, and a guard when guarded (MODEL.md 19.2)
+            base = base.replace(c_z=self.design.c_z, z_dyad=self.guards)
         holding = any(q.name == "holding_torque" for q in self.requirements)  # MODEL.md 18.2, as arcube design's
         return base.replace(outputs=base.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
 
@@ -214,6 +217,11 @@ class LiveModel:
         frac = min(float(drill.reachable_fraction), float(app.reachable_fraction))
         rows = [{"requirement": "reach", "kind": "min", "limit": 100.0, "unit": "%", "value": 100.0 * frac, "part": "",
                  "passed": frac >= 1.0}]  # fmt: skip
+        if self.design.c_z is not None and self.guards:  # as arcube design's z_dyad row (MODEL.md 19.2)
+            code = FAILURES.index("guard/z_dyad") + 1
+            bad = sum(int(np.sum(np.asarray(res.points.failure) == code)) for res in (drill, app))
+            rows.append({"requirement": "z_dyad", "kind": "max", "limit": 0.0, "unit": "failing points", "value": float(bad),
+                         "part": f"c_z {self.design.c_z:.1f} mm, d_z {self.x[PARAM_NAMES.index('d_z')]:.1f} mm", "passed": bad == 0})  # fmt: skip
         for r in self.requirements:
             kind, unit, where = REQUIREMENTS[r.name]
             if where == "program":  # judged on the drilling program (arcube design, arcube program), not here

@@ -14,7 +14,7 @@ __all__ = ["PASS", "FAIL", "figure_rows", "html_table", "markdown_table", "point
 PASS, FAIL, NA = "pass", "FAIL", "—"
 _LABELS = {"reach": "reach, whole lines", "clearance": "clearance to the anatomy", "self_clearance": "self clearance",
            "lateral_error": "lateral error", "axis_error": "axis error", "torque": "actuator torque",
-           "holding_torque": "holding torque (weight)"}  # fmt: skip
+           "holding_torque": "holding torque (weight)", "z_dyad": "z leg closes (MODEL.md 19.2)"}  # fmt: skip
 
 
 def _num(v: Any, digits: int = 2, unit: str = "") -> str:
@@ -26,7 +26,7 @@ def _num(v: Any, digits: int = 2, unit: str = "") -> str:
 
 
 def _digits(unit: str) -> int:
-    return {"mm": 2, "deg": 3, "N·m": 2, "%": 1}.get(unit, 3)
+    return {"mm": 2, "deg": 3, "N·m": 2, "%": 1, "failing points": 0}.get(unit, 3)
 
 
 def figure_rows(fig: Figures) -> list[tuple[str, str, str, str]]:

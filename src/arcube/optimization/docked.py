@@ -13,7 +13,10 @@ B. **Every other docking's placement for that robot** (:data:`B_SHARE`): the fir
    first side turned half a turn about the vertical; and the translation of the centroid); the best of these starts
    a CMA-ES run of that docking's own, in its six variables. All those runs share each batch (a row holds one sample
    of every docking's run; the first docking is left out) and each run is ranked by its own docking's violation and
-   eta_G (``VIOL_D``, ``ETA_D``): independent problems, solved side by side.
+   eta_G (``VIOL_D``, ``ETA_D``): independent problems, solved side by side. Halfway through (:data:`RESCUE_AT`), a
+   docking still infeasible is offered every feasible docking's best placement carried onto its own trajectories the
+   same way (:func:`peer_starts`), and its run restarts from its best placement, a peer's when that is better: a docking
+   stuck in a bad basin takes a placement that works for a patient like it.
 C. **Everything together** (the rest): the assembled design (phase A's robot and first placement, phase B's best
    placements) evaluated whole, then polish runs (``mscmaes``'s polish: 4 runs, small steps) over every variable,
    restarted at the best design when they stop: what one docking gives up for another is settled here.
@@ -27,6 +30,7 @@ comes from the algorithm's ``random_state``, in a fixed order, so a run replays 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -38,7 +42,7 @@ from arcube.optimization.batch_cma import BatchCMA
 from arcube.optimization.lean import LeanEvaluator, column, new_population
 from arcube.optimization.multistart import AskTell, POLISH_RUNS, POLISH_SIGMA, POLISH_TOL, RUNS, SIGMA, TOL, default_popsize, into_box, make_multistart
 
-__all__ = ["A_SHARE", "B_SHARE", "DockedCMA", "DockingStructure", "make_docked", "task_motions"]
+__all__ = ["A_SHARE", "B_SHARE", "RESCUE_AT", "DockedCMA", "DockingStructure", "make_docked", "peer_starts", "task_motions"]
 
 A_SHARE = 0.85
 """Share of the rows for phase A (the robot at its first docking)."""
@@ -48,6 +52,8 @@ B_SIGMA = 0.05
 """Phase B's initial step, in units of a placement gene's range (m: 40 mm of 800; mounting angles: 18 deg)."""
 B_POPSIZE = 12
 """Samples per docking and generation in phase B."""
+RESCUE_AT = 0.5
+"""Share of phase B's rows after which an infeasible docking is offered its feasible peers' placements (:func:`peer_starts`)."""
 PENALTY = 1e6
 """As :data:`arcube.optimization.problem.PENALTY`."""
 
@@ -117,6 +123,13 @@ def carried(placement: np.ndarray, motion: tuple[np.ndarray, np.ndarray]) -> np.
     return np.concatenate([Q @ placement[:3] + t, _angles(Q @ R)])
 
 
+def peer_starts(k: int, best: Sequence[np.ndarray], feasible: Sequence[bool], plans: Sequence[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]:
+    """Starts for docking ``k`` from its peers: every other feasible docking j's best placement ``best[j]`` (6,) carried by
+    each of :func:`task_motions` from j's trajectories to k's (``plans``: per docking entry, target ``(T, 3)``), in the
+    order of j, then of the motions. Empty when no other docking is feasible."""
+    return [carried(best[j], m) for j in range(len(best)) if j != k and feasible[j] for m in task_motions(plans[j], plans[k])]
+
+
 class DockedCMA(AskTell):
     """The three phases of the module docstring over ``budget`` rows; ``x0``: the start design (problem units)."""
 
@@ -132,6 +145,8 @@ class DockedCMA(AskTell):
         self.best: Any = None  # the best whole evaluation (an individual)
         self.best_u: np.ndarray | None = None
         self.candidates: list[list[np.ndarray]] = []
+        self.rescued = False  # the peers' placements offered (once, at RESCUE_AT of phase B)
+        self.rescue: list[int] = []  # the dockings offered them
 
     # ------------------------------------------------------------------ set-up
     def _setup(self, problem: Any, **kwargs: Any) -> None:
@@ -234,8 +249,39 @@ class DockedCMA(AskTell):
         F = self._keep_best_k(infills)
         for r in np.flatnonzero(self.es.tell(F[:, 1:].T.reshape(-1))):  # run k-1 ranks its samples by docking k's own F
             self.es.restart(int(r), self._norm(self.best_k[int(r) + 1][1], self.s.placement[int(r) + 1]), self._rng())
+        self._next_b()
+
+    def _next_b(self) -> None:
+        """Phase B goes on, offers the peers' placements (once, at RESCUE_AT of its rows), or ends."""
         if self.evaluator.n_eval + self.es.lam > self.budget_b:
             self._enter_c0()
+        elif not self.rescued and self.evaluator.n_eval >= self.budget_a + RESCUE_AT * (self.budget_b - self.budget_a):
+            self._enter_b1()
+
+    def _enter_b1(self) -> None:
+        """Every docking still infeasible gets :func:`peer_starts` (a docking that is not: its own best, as filler)."""
+        self.rescued = True
+        K = len(self.s.placement)
+        best = [self.best_a[1][self.s.placement[0]], *(self.best_k[k][1] for k in range(1, K))]
+        feasible = [self.best_a[0] < PENALTY, *(self.best_k[k][0] < PENALTY for k in range(1, K))]
+        starts = {k: peer_starts(k, best, feasible, self.s.plans) for k in range(1, K) if not feasible[k]}
+        self.rescue = [k for k, c in starts.items() if c]
+        if not self.rescue:
+            return
+        rows = max(len(starts[k]) for k in self.rescue)
+        self.candidates = []
+        for k in range(1, K):
+            cols, own = self.s.placement[k], starts.get(k, [])
+            cands = [np.clip(c, self.xl[cols], self.xu[cols]) for c in own] or [best[k]]
+            self.candidates.append(cands + [cands[-1]] * (rows - len(cands)))
+        self.phase = "B1"
+
+    def _tell_b1(self, infills: Any) -> None:
+        self._keep_best_k(infills)
+        self.phase = "B"
+        for k in self.rescue:
+            self.es.restart(k - 1, self._norm(self.best_k[k][1], self.s.placement[k]), self._rng())
+        self._next_b()
 
     def _enter_c0(self) -> None:
         self.phase = "C0"
@@ -277,12 +323,13 @@ class DockedCMA(AskTell):
     def _ask(self) -> Any:
         if self.phase == "A" and self.evaluator.n_eval + self.runs_a * self.lam_a > self.budget_a:
             self._enter_b0()  # a budget too small for phase A
-        X = {"A": self._ask_a, "B0": self._ask_b0, "B": self._ask_b, "C0": lambda: self.assembled[None, :].copy(), "C": self._ask_c}[self.phase]()
+        X = {"A": self._ask_a, "B0": self._ask_b0, "B1": self._ask_b0, "B": self._ask_b, "C0": lambda: self.assembled[None, :].copy(),
+             "C": self._ask_c}[self.phase]()  # fmt: skip
         return new_population(X)
 
     def _tell(self, infills: Any) -> None:
         self.pop = infills
-        {"A": self._tell_a, "B0": self._tell_b0, "B": self._tell_b, "C0": self._tell_c0, "C": self._tell_c}[self.phase](infills)
+        {"A": self._tell_a, "B0": self._tell_b0, "B1": self._tell_b1, "B": self._tell_b, "C0": self._tell_c0, "C": self._tell_c}[self.phase](infills)
         if self.phase == "done":
             self.termination.force_termination = True
 

@@ -21,6 +21,8 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
     arrays are (1, 1) placeholders and each design works in rows of its own: no D x P temporaries."""
     n_des = geometry.shape[0]
     n_pts = E.shape[0]
+    # the point range as plain int64 in all three calls (not the constant 0 nor prange's uint64): one compiled
+    # _design_points instead of three (numba specializes a callee on each constant argument and each integer type)
     single_assembly_mode = opt[_O_SAM] != 0.0
     if split:
         n_chunk = (n_pts + chunk - 1) // chunk
@@ -28,13 +30,13 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             i = tile // n_chunk
             k0 = (tile % n_chunk) * chunk
             k1 = min(n_pts, k0 + chunk)
-            _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
+            _design_points(np.int64(i), np.int64(k0), np.int64(k1), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
         for i in prange(n_des):
             _finalize(single_assembly_mode, failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
     elif full:
         for i in prange(n_des):
-            _design_points(i, 0, n_pts, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
+            _design_points(np.int64(i), np.int64(0), np.int64(n_pts), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
             _finalize(single_assembly_mode, failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
     else:
@@ -45,6 +47,6 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             assembly_i = np.empty(n_pts, np.int8)
             dexterity_i = np.empty(n_pts)
             extra_i = np.empty((n_pts, _N_EXTRA))
-            _design_points(i, 0, n_pts, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
+            _design_points(np.int64(i), np.int64(0), np.int64(n_pts), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure_i, eta_i, excess_i, assembly_i, extra_i, detail)  # fmt: skip
             _finalize(single_assembly_mode, failure_i, eta_i, excess_i, assembly_i, dexterity_i, extra_i, summary[i])

@@ -244,7 +244,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     env_state = np.empty(state_size(env_boxes.shape[0]))
     env_lower = np.empty(N_PRIMS)
     env_work = np.empty((6, 96))
-    have_prev_env = False
+    have_prev_env = np.bool_(False)  # not the constant False: numba would compile _envelope_regions for it too
     lines = np.empty((N_LINES, 2, 3))
     arcs = np.empty((4, 2, 3))
     arc_c = np.empty(3)
@@ -281,7 +281,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     pair_lower = np.full(pairs.shape[0], -_INF)  # the same for the self-clearance pairs
     prev_self = np.zeros((N_LINES, 2, 3))
     move = np.empty(N_LINES)
-    have_prev_self = False
+    have_prev_self = np.bool_(False)  # as have_prev_env
     prev = np.empty((N_LINES, 2, 3))
     have_prev = False
     floor = opt[O_CLEARANCE] if opt[O_CLEARANCE_ON] != 0.0 else -_INF

@@ -207,7 +207,7 @@ def _pairwise_sum(a):
     """
     n = a.shape[0]
     if n <= 128:
-        return 0.0 + _block_sum(a, 0, n)
+        return 0.0 + _block_sum(a, np.int64(0), n)  # int64, not the constant 0: one specialization (see _driver)
     # frames: lo, n, state (0 = new, 1 = left done), partial (left result)
     los = np.empty(64, np.int64)
     ns = np.empty(64, np.int64)
