@@ -28,14 +28,17 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
+
+from arcube.patients.cohort import cohort_toml
 
 
 def cohort(src: Path, count: int) -> Path:
     """A cohort file in ``src`` (beside the patients' files) with the first ``count`` patients of ``src/cohort.toml``."""
-    tables = src.joinpath("cohort.toml").read_text().split("[[patient]]")
+    patients = tomllib.loads(src.joinpath("cohort.toml").read_text())["patient"]
     path = src / f"cohort_{count}.toml"
-    path.write_text("[[patient]]".join(tables[: count + 1]))
+    path.write_text(cohort_toml(patients[:count]))
     return path
 
 

@@ -19,12 +19,8 @@ import json
 import math
 from pathlib import Path
 
-from arcube.design_job.dockings import assess_dockings, run_dockings
-from arcube.design_job.job import read_design
-from arcube.optimization import run as runmod
-from arcube.optimization import study as studymod
-from arcube.optimization.run_results import OptimizeResult
-from arcube.optimization.settings import RunSettings
+from arcube.design_job.dockings import assess_dockings
+from arcube.design_job.job import read_design, seed_dockings
 
 
 def _v(rows: dict, name: str, digits: int) -> str:
@@ -41,11 +37,7 @@ def main() -> None:
     print(f"{'seed':>4} {'feasible':>8} {'met':>4} {'worst eta_G':>11} {'c_z':>6} {'L':>6} {'wall':>6}  missed")
     details = []
     for row in sorted(study["rows"], key=lambda r: r["seed"]):
-        run = OptimizeResult(studymod.seed_dir(args.folder / "study", int(row["seed"])))
-        cfg = runmod.read_config(run.path)[0]
-        s = RunSettings.from_config(cfg)
-        summary = run.summary
-        dockings = run_dockings(cfg, run, summary["mode"])
+        _, s, summary, dockings = seed_dockings(args.folder, int(row["seed"]))
         assess_dockings(dockings, reqs, s)
         met = bool(row["feasible"] and all(d.met for d in dockings))
         missed = sorted({f"{r['requirement']} at {d.label}" for d in dockings for r in d.rows if not r["passed"]})

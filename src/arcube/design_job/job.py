@@ -54,7 +54,7 @@ from arcube.optimization.run_results import OptimizeResult
 from arcube.optimization.settings import RunSettings
 from arcube.io.json_values import finite
 
-__all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "start_design"]
+__all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "read_design", "seed_dockings", "start_design"]
 
 DESIGN_FORMAT = "arcube-design"
 DESIGN_GENERATIONS = 100
@@ -183,6 +183,15 @@ def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
     return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
 
 
+def seed_dockings(out: Path, seed: int) -> tuple[OptimizeResult, RunSettings, dict[str, Any], list[Docking]]:
+    """One seed of a design folder: its run, settings, summary and dockings (each with the run's design for it, not yet
+    re-checked: :func:`~arcube.design_job.dockings.assess_dockings`)."""
+    run = OptimizeResult(studymod.seed_dir(Path(out) / STUDY, seed))
+    cfg = runmod.read_config(run.path)[0]
+    summary = run.summary
+    return run, RunSettings.from_config(cfg), summary, run_dockings(cfg, run, summary["mode"])
+
+
 def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> DesignResult:
     """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write
     the outputs; ``on_stage`` is told each stage ("checking seed 2 with the NumPy reference", "building the drilling
@@ -195,11 +204,7 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> D
     order = sorted(study["rows"], key=lambda r: (not r["feasible"], r.get(f"objective_{study['objective']}") or math.inf, r["violation"], r["seed"]))
     chosen = None
     for row in order:
-        run = OptimizeResult(studymod.seed_dir(out / STUDY, int(row["seed"])))
-        cfg = runmod.read_config(run.path)[0]
-        s = RunSettings.from_config(cfg)
-        summary = run.summary
-        dockings = run_dockings(cfg, run, summary["mode"])
+        run, s, summary, dockings = seed_dockings(out, int(row["seed"]))
         say(f"checking seed {row['seed']}'s robot with the NumPy reference" + (f" at {len(dockings)} dockings" if len(dockings) > 1 else ""))
         assess_dockings(dockings, reqs, s)
         met = bool(row["feasible"] and all(d.met for d in dockings))
