@@ -294,3 +294,66 @@ def test_cli_errors_raise_input_error(cli, tmp_path: Path, monkeypatch, args, ne
     assert isinstance(result.exception, InputError), result.output
     assert needle in str(result.exception)
     assert not any(tmp_path.iterdir())  # nothing written
+
+
+# ------------------------------------------------------------ every written anatomy reads back (Hardening III item 0)
+
+def test_every_patient_of_a_200_patient_cohort_reads_back_through_the_strict_readers(cli, tmp_path: Path) -> None:
+    """``arcube patients --seed 1 --count 200``: every anatomy and envelope passes the mesh reader, and every
+    arch holds its level's entries on its posterior face with at least 2 mm of bone in front of them.
+
+    Seeds 2 and 25 drew entries in front of the body's posterior wall: their arches came out inside out, which
+    the reader refused ("shell 4 encloses no positive volume") and which left the folder half written.
+    """
+    from arcube.design_job.cohort import read_cohort
+    from arcube.io.meshes import read_mesh
+    from arcube.patients.anatomy import default_anatomy_boxes
+
+    runner, app = cli
+    out = tmp_path / "cohort"
+    result = runner.invoke(app, ["patients", "--seed", "1", "--count", "200", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    plans = read_cohort(out / "cohort.toml")
+    assert len(plans) == 200
+    for k in range(200):
+        stem = out / f"patient_{k:03d}"
+        meshes = [read_mesh(stem.with_suffix(".anatomy.stl"), "patient"), read_mesh(stem.with_suffix(".envelope.stl"), "patient")]
+        assert all(m.volume > 0 for m in meshes)
+    # the geometry behind it, by hand: the arch's +z face (its third axis) holds the entries, 2 mm thick at least
+    for seed in (2, 25, 60):
+        ts, params = generate_patient(seed)
+        arches = [b for b in default_anatomy_boxes(params) if b.name.endswith("arch")]
+        for box, lv in zip(arches, LEVELS):
+            normal = box.rotation[:, 2]
+            face = float(box.centre @ normal) + box.half_extents[2]
+            entries = ts.entry[[i for i, level in enumerate(ts.levels) if level == lv]]
+            assert np.allclose(entries @ normal, face, atol=1e-9)
+            assert 2 * box.half_extents[2] >= 2.0 - 1e-12
+
+
+def test_a_cohort_that_fails_midway_leaves_nothing_behind(tmp_path: Path) -> None:
+    """A failure while writing patient 2 of 3 (here: the envelope step) writes no file at all, in a new folder
+    (which is not left behind) and in an existing one (which keeps only what it held)."""
+    from arcube.patients.cohort import write_patients
+
+    calls = []
+
+    def envelope_that_fails_on_the_second(plan: Path) -> str:
+        calls.append(plan)
+        if len(calls) == 2:
+            raise InputError(f"{plan}: refused on purpose")
+        return ""
+
+    new = tmp_path / "a" / "new"
+    with pytest.raises(InputError, match="refused on purpose"):
+        write_patients(False, 1, "pedicle", 3, new, beside=envelope_that_fails_on_the_second)
+    assert not (tmp_path / "a").exists()
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    (kept / "notes.txt").write_text("mine")
+    (kept / "patient_000.csv").write_text("old")
+    calls.clear()
+    with pytest.raises(InputError, match="refused on purpose"):
+        write_patients(False, 1, "pedicle", 3, kept, beside=envelope_that_fails_on_the_second)
+    assert sorted(f.name for f in kept.iterdir()) == ["notes.txt", "patient_000.csv"]
+    assert (kept / "patient_000.csv").read_text() == "old"

@@ -21,7 +21,12 @@ Per level C3–C7 (the operated levels), two bone blocks, both in the vertebra f
   MORPHOMETRY.md section 2); along the vertebra (y), it covers the body's height and every
   entry point (pedicle and trajectory) ± ``ARCH_ENTRY_MARGIN_MM`` = 3 mm; anteriorly it
   reaches the body's posterior wall (z = D/2; for a tilted arch, the most anterior point of
-  that wall, so the two blocks always touch). The canal is not hollowed out: the arch is solid.
+  that wall, so the two blocks always touch), and it is at least ``ARCH_MIN_THICKNESS_MM`` = 2 mm
+  thick. Without that floor a patient whose drawn pedicle axis is short and steep has its entries
+  at or in front of the body's posterior wall (about one patient in ten of ``arcube patients``),
+  and the arch came out flat or inside out: a box no mesh reader accepts and a 0.5 mm label map
+  misses. The extra millimetres lie in front of the entries, inside the body or the soft tissue's
+  floor layer. The canal is not hollowed out: the arch is solid.
 
 Soft tissue: a slab, axis-aligned in the patient frame, minus a surgical corridor:
 
@@ -76,7 +81,7 @@ if TYPE_CHECKING:  # trimesh is imported only when meshes are made (it is slow t
     import trimesh
 
 __all__ = [
-    "ARCH_ENTRY_MARGIN_MM", "BODY_WIDTH_MM", "Box", "CORRIDOR_BEYOND_ENTRY_MM", "DefaultAnatomy",
+    "ARCH_ENTRY_MARGIN_MM", "ARCH_MIN_THICKNESS_MM", "BODY_WIDTH_MM", "Box", "CORRIDOR_BEYOND_ENTRY_MM", "DefaultAnatomy",
     "FLOOR_BELOW_ARCH_MM", "LATERAL_MASS_MARGIN_MM",
     "REFERENCE_ANATOMY_FILE", "SLAB_BEYOND_LEVELS_MM", "SLAB_HALF_WIDTH_MM", "default_anatomy",
     "default_anatomy_boxes", "default_anatomy_layout", "reference_anatomy", "reference_anatomy_boxes",
@@ -86,6 +91,7 @@ __all__ = [
 BODY_WIDTH_MM = 18.0            # vertebral body width (x), assumed
 LATERAL_MASS_MARGIN_MM = 2.0    # arch beyond each pedicle entry (entry 2 mm medial to the lateral notch)
 ARCH_ENTRY_MARGIN_MM = 3.0      # arch beyond every entry point along the vertebra (y)
+ARCH_MIN_THICKNESS_MM = 2.0     # arch at least this thick in front of its posterior face (never flat or inverted)
 SLAB_HALF_WIDTH_MM = 80.0       # soft tissue x in [-80, 80]
 SLAB_BEYOND_LEVELS_MM = 40.0    # soft tissue 40 mm beyond the C3 and C7 blocks (y)
 CORRIDOR_BEYOND_ENTRY_MM = 5.0  # corridor walls at least this far beyond every entry point (x)
@@ -190,12 +196,13 @@ def _arch_box(centre: np.ndarray, rot: np.ndarray, lv: str, params: dict[str, An
     axes = np.column_stack([xb, yb, n])                # arch frame in the vertebra frame
     pts = np.array(cover_local) @ axes                 # points to cover, in arch coordinates
     wall = np.array([[sx * BODY_WIDTH_MM / 2, sy * h / 2, d / 2] for sx in (-1, 1) for sy in (-1, 1)])
+    face = float(right @ n)
     lo = np.array([pts[:, 0].min() - LATERAL_MASS_MARGIN_MM,
                    min(-h / 2, pts[:, 1].min() - ARCH_ENTRY_MARGIN_MM),
-                   float((wall @ axes)[:, 2].min())])
+                   min(float((wall @ axes)[:, 2].min()), face - ARCH_MIN_THICKNESS_MM)])
     hi = np.array([pts[:, 0].max() + LATERAL_MASS_MARGIN_MM,
                    max(h / 2, pts[:, 1].max() + ARCH_ENTRY_MARGIN_MM),
-                   float(right @ n)])
+                   face])
     mid = (lo + hi) / 2
     return Box(centre + rot @ (axes @ mid), (hi - lo) / 2, rot @ axes, f"{lv} posterior arch", "bone")
 

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import shutil
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from arcube.errors import InputError
-from arcube.io.files import atomic_write_text
+from arcube.io.files import atomic_write_files
 from arcube.io.inputs import short_repr
 from arcube.io.trajectories import read_csv
 from arcube.patients.segmentation import anatomy_suffix, write_anatomy_as
@@ -33,14 +35,16 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
             (every patient of the folder, for ``arcube design --cohort``).
             Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
             anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
-            (binary STL, patient frame, one closed shell per box).
+            (binary STL, patient frame, one closed shell per box). All of these files are written, or
+            none (they are made in a staging folder and put in place together; a file of the same name is
+            replaced, a folder or device where one goes is refused before anything is written).
         anatomy_format: ``stl`` (default), ``seg.nrrd`` (3D Slicer segmentation, LPS) or ``nii.gz``
             (NIfTI label map, RAS): the anatomy file is then ``<stem>.anatomy.seg.nrrd`` or
             ``<stem>.anatomy.nii.gz``, one segment per vertebra and one for soft tissue
             (:mod:`arcube.patients.segmentation`).
         anatomy_spacing_mm: voxel size of a label-map anatomy, mm (> 0).
     """
-    suffix = anatomy_suffix(anatomy_format)
+    anatomy_suffix(anatomy_format)
     if anatomy_format != "stl" and (isinstance(anatomy_spacing_mm, bool) or not isinstance(anatomy_spacing_mm, (int, float))
                                     or not 0 < anatomy_spacing_mm < float("inf")):
         raise InputError.of("anatomy_spacing_mm", f"{anatomy_spacing_mm!r}: expected a positive number of mm")
@@ -65,26 +69,55 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
     if any(p.suffix.lower() == ".json" for p in paths):
         raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")
+    # Every file is made in a staging folder beside the output first; only when every patient is written
+    # (and its anatomy read back by the envelope's writer) do they all go into place, as one output.
+    parent = paths[0].parent
+    made = [a for a in (*reversed(parent.parents), parent) if not a.exists()]
+    parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{parent.name or 'patients'}.", suffix=".tmp", dir=parent))
+    try:
+        texts, entries = _stage_patients(paths, stage, mean, seed, technique, anatomy_format, anatomy_spacing_mm, beside)
+        if paths[0].parent == out:  # a folder of patients: the cohort file of one design job for all of them (MODEL.md 19)
+            (stage / COHORT_FILE).write_text(cohort_toml(entries))
+            texts.append(f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}")
+        staged = sorted(stage.iterdir(), key=lambda f: f.stat().st_mtime_ns)  # the order they were made in
+        atomic_write_files({parent / f.name: f.read_bytes() for f in staged})
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        for folder in reversed(made):  # the folders this call made, if nothing went into them
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
+    shutil.rmtree(stage, ignore_errors=True)
+    return texts
+
+
+def _stage_patients(paths: list[Path], stage: Path, mean: bool, seed: int | None, technique: str, anatomy_format: str,
+                    anatomy_spacing_mm: float, beside: Callable[[Path], str] | None) -> tuple[list[str], list[dict[str, Any]]]:
+    """Write each patient's files into ``stage`` under the names of ``paths``; the check texts name ``paths``."""
+    suffix = anatomy_suffix(anatomy_format)
     texts: list[str] = []
     entries: list[dict[str, Any]] = []
     for k, path in enumerate(paths):
-        ts, params = generate_patient(None if mean else seed + k, technique)
+        ts, params = generate_patient(None if mean else seed + k, technique)  # type: ignore[operator]
+        staged = stage / path.name
         anatomy_path = path.with_suffix(suffix)
         # the anatomy first: a label map can fail (spacing too coarse or too fine) before the CSV exists
-        layout = write_anatomy_as(params, anatomy_path, anatomy_format, anatomy_spacing_mm)
-        json_path = write_patient(ts, params, path)
+        layout = write_anatomy_as(params, staged.with_suffix(suffix), anatomy_format, anatomy_spacing_mm)
+        json_path = path.with_suffix(".json")
+        write_patient(ts, params, staged)
         frame = {"stl": "patient frame", "seg.nrrd": f"LPS label map, {anatomy_spacing_mm:g} mm voxels",
                  "nii.gz": f"RAS label map, {anatomy_spacing_mm:g} mm voxels"}[anatomy_format]
         # The check re-reads the written file, so it sees the 3-decimal points a user gets.
-        check = format_check(check_patient(read_csv(path), params))
-        more = "" if beside is None else beside(path)  # what a higher layer writes beside the plan (its envelope)
+        check = format_check(check_patient(read_csv(staged), params))
+        # what a higher layer writes beside the plan (its envelope; it reads the anatomy back on the way)
+        more = "" if beside is None else beside(staged).replace(str(stage), str(path.parent))
         texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame}{more})\n"
                      f"# {layout.summary()}\n{check}")
         entries.append({"name": path.stem, "plan": path.name, "anatomy": [anatomy_path.name], "anatomy_frame": COHORT_FRAMES[anatomy_format]})
-    if paths[0].parent == out:  # a folder of patients: the cohort file of one design job for all of them (MODEL.md 19)
-        atomic_write_text(out / COHORT_FILE, cohort_toml(entries))
-        texts.append(f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}")
-    return texts
+    return texts, entries
 
 
 COHORT_FILE = "cohort.toml"
