@@ -15,7 +15,7 @@ import pytest
 
 from arcube.evaluation import kernel
 from arcube.evaluation.masses import holding_torque, moving_mass_kg
-from arcube.evaluation.reference import FAILURES, Options, evaluate_task
+from arcube.evaluation.reference import FAILURES, IK_FAILURES, Options, evaluate_task, fit_violation
 from arcube.model.body import mechanism_points
 from arcube.model.design import Design
 from arcube.model.mechanism import ALL_MODES
@@ -43,15 +43,43 @@ def case():
 
 
 def test_a_c_z_per_design_equals_one_design_at_a_time(case) -> None:
+    """Batch against loop: each design alone with ``Guards.c_z`` = its c_z gives the same points; the violation
+    differs only as MODEL.md 16's amendment says (an own c_z makes an open dyad a point not reached)."""
     X, E, e, c_z = case
     mode = ALL_MODES[0]
     batch = evaluate_task(X, E, e, mode, OPTIONS, c_z=c_z)
     assert np.any(batch.points.failure == CODE_Z) and np.any(batch.points.reachable)  # the guard fires at some points, not all
+    shortfall = _dyad_shortfall_by_hand(X, E, e, mode, c_z)
+    n = E.shape[0]
     for i in range(len(X)):
         one = evaluate_task(X[i], E, e, mode, OPTIONS if np.isnan(c_z[i]) else OPTIONS.replace(c_z=float(c_z[i])))
-        for name in ("failure", "eta_L", "guard_grade", "self_clearance_mm", "holding_torque_Nm"):
+        for name in ("failure", "eta_L", "self_clearance_mm", "holding_torque_Nm"):
             np.testing.assert_allclose(getattr(batch.points, name)[i], getattr(one.points, name), rtol=1e-12, err_msg=name)
-        assert batch.violation[i] == pytest.approx(one.violation, rel=1e-12)
+        if np.isnan(c_z[i]):  # the options' c_z: the dyad is a guard, as before
+            np.testing.assert_allclose(batch.points.guard_grade[i], one.points.guard_grade, rtol=1e-12)
+            assert batch.violation[i] == pytest.approx(one.violation, rel=1e-12)
+            continue
+        # the amendment by hand, from the one-at-a-time (guard) result and the dyad's span; the dyad is checked
+        # where the stages of sections 3-5 solve the point (failure codes 1-7 are theirs)
+        stages_fail = (one.points.failure >= 1) & (one.points.failure <= 7)
+        opens = (np.nan_to_num(shortfall[i]) > 0.0) & ~stages_fail
+        ik = ((one.points.failure > 0) & (one.points.failure <= IK_FAILURES)) | (one.points.failure == CODE_Z)
+        reach = 0.0 if not ik.any() else ik.sum() / n + one.points.excess.sum() + np.nan_to_num(shortfall[i])[opens].sum()
+        grade = np.where(opens, 0.0, one.points.guard_grade)
+        np.testing.assert_allclose(batch.points.guard_grade[i], grade, rtol=1e-12, atol=1e-15)
+        assert batch.violation_reach[i] == pytest.approx(reach, rel=1e-12, abs=1e-15)
+        assert batch.violation[i] == pytest.approx(reach + fit_violation(grade.sum() / n, n), rel=1e-12, abs=1e-15)
+        if opens.any():
+            assert batch.violation[i] >= 1.0 / n  # at least one point not reached
+
+
+def _dyad_shortfall_by_hand(X, E, e, mode, c_z) -> np.ndarray:
+    """(D, P): how far |Q_z - D_z| lies outside [|d_z - c_z|, d_z + c_z], over d_z + c_z; NaN where the stages fail."""
+    mp = mechanism_points(X[:, None, :], E, e, mode)
+    span = np.linalg.norm(mp.Q[..., 2, :] - mp.D[..., 2, :], axis=-1)
+    d_z = X[:, 11][:, None]
+    cz = np.where(np.isnan(c_z), X[:, 11], c_z)[:, None]
+    return (np.maximum(span - (d_z + cz), 0.0) + np.maximum(np.abs(d_z - cz) - span, 0.0)) / (d_z + cz)
 
 
 def test_the_options_c_z_stands_in_for_a_missing_one(case) -> None:

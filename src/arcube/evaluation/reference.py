@@ -14,6 +14,11 @@ domain excess; V_fit = G / (1 + G) / (2 P) < 1 / (2 P), G = (1/P) sum over the p
 IK of each active guard's min(s / S, 1) (:data:`GRADE_SCALES`). So a design that misses a point
 always ranks below one that solves the IK everywhere, and among those V grows with every shortfall.
 
+MODEL.md 16's amendment: for a design that carries its own z-dyad link c_z (19.1, 19.2; a ``c_z`` column that
+is not NaN) and with the z-dyad guard on, the dyad's closure is part of the z leg's inverse kinematics: a
+point where it cannot close counts in V_reach (with the closure shortfall as its domain excess) and none of
+its guards count in V_fit. Its failure is still reported as ``guard/z_dyad``. Without an own c_z nothing changes.
+
 The anatomy (``anatomy``: its signed distance, MODEL.md 14.2) and the envelope of the whole patient
 (``envelope``: an :class:`arcube.evaluation.envelope.Envelope`, 19.5) are data, passed beside the options;
 without them (None) their clearances are NaN and their guards off, and every result is as before.
@@ -42,7 +47,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FAILURES", "GRADE_SCALES", "GUARDED_OPTIONS", "IK_FAILURES", "Options", "PointResults", "TaskResults", "evaluate_points",
-    "design_c_z", "evaluate_task", "failure_name", "fit_violation",
+    "design_c_z", "dyad_in_reach", "evaluate_task", "failure_name", "fit_violation",
 ]  # fmt: skip
 from arcube.model.stages import rts, zleg
 
@@ -173,8 +178,7 @@ def _guard_checks(
         out.append((reason, failed, np.nan_to_num(grade, nan=0.0)))
 
     if options.guards.z_dyad:
-        c_z = (g.d[..., 2] if options.guards.c_z is None else options.guards.c_z) if c_z is None else c_z
-        short = zleg.closure_shortfall(zleg.span(sol.E_m, sol.rho[..., 2], g.p[..., 2]), g.d[..., 2], c_z)
+        short = _z_dyad_shortfall(sol, params, options, c_z)
         add("guard/z_dyad", short > 0.0, _grade(short, GRADE_SCALES["z_dyad"]))
     if options.guards.rho_max_deg is not None:
         short = np.sum(np.maximum(np.abs(sol.rho) - np.deg2rad(options.guards.rho_max_deg), 0.0), axis=-1)
@@ -197,6 +201,23 @@ def _guard_checks(
         km = options.guards.kappa_max
         add("guard/kappa_max", eta > km, _grade(np.maximum(eta - km, 0.0), km))
     return out
+
+
+def _z_dyad_shortfall(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """How far the z dyad is from closing at each point, relative to d_z + c_z (section 6; 0 where it closes,
+    NaN where the z leg has no solution). ``c_z``: each design's own, else the options' (d_z when None)."""
+    g = unpack(params)
+    c_z = (g.d[..., 2] if options.guards.c_z is None else options.guards.c_z) if c_z is None else c_z
+    return zleg.closure_shortfall(zleg.span(sol.E_m, sol.rho[..., 2], g.p[..., 2]), g.d[..., 2], c_z)
+
+
+def dyad_in_reach(params: ArrayLike, options: Options, c_z: ArrayLike | None) -> NDArray[np.bool_]:
+    """Per design ``(...)``: True where the z dyad closes as part of the inverse kinematics (MODEL.md 16's
+    amendment): the z-dyad guard is on and the design has its own c_z (a ``c_z`` column, not NaN)."""
+    shape = np.shape(unpack(params).d[..., 2])
+    if c_z is None or not options.guards.z_dyad:
+        return np.zeros(shape, dtype=bool)
+    return ~np.isnan(np.broadcast_to(np.asarray(c_z, dtype=float), shape))
 
 
 def design_c_z(params: ArrayLike, options: Options, c_z: ArrayLike | None) -> NDArray[np.float64] | None:
@@ -222,7 +243,8 @@ def evaluate_points(
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, E, e, mode)
-        return _judge(sol, params, options, anatomy, envelope, design_c_z(params, options, c_z))
+        own = dyad_in_reach(params, options, c_z)
+        return _judge(sol, params, options, anatomy, envelope, design_c_z(params, options, c_z), own)
 
 
 def _body_clearances(
@@ -248,7 +270,10 @@ def _body_clearances(
 
 
 def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None = None,
-           envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None) -> PointResults:  # fmt: skip
+           envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None,
+           dyad_ik: NDArray[np.bool_] | None = None) -> PointResults:  # fmt: skip
+    """Every point's results; ``dyad_ik`` (broadcasting as the points): where an open z dyad is an IK failure
+    (:func:`dyad_in_reach`, MODEL.md 16's amendment)."""
     kappa = condition_numbers(sol, params)
     shape = kappa.shape[:-1]
     tls_bad = np.abs(sol.tls_arg) > 1.0
@@ -265,6 +290,11 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     ]
     excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)  # 0 where the stages solve the point
     solved = stages_ok & ~np.any(singular, axis=-1)  # the IK solves the point (MODEL.md 16)
+    if dyad_ik is not None and np.any(dyad_ik):  # the amendment: an open z dyad is a point not reached
+        short = _z_dyad_shortfall(sol, params, options, c_z)
+        open_dyad = dyad_ik & stages_ok & (short > 0.0)
+        excess = excess + np.where(open_dyad, short, 0.0)
+        solved = solved & ~open_dyad
     clear, part, selfc, env, env_part, env_region = _body_clearances(sol, params, options, anatomy, shape, envelope, c_z)
     guards = _guard_checks(sol, params, eta_raw, options, c_z)
     scale = GRADE_SCALES["clearance"]
@@ -336,13 +366,14 @@ def _mask_performance(pts: PointResults) -> PointResults:
                         holding_torque_actuator=np.where(r, pts.holding_torque_actuator, -1), **fields)  # fmt: skip
 
 
-def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
+def _single_assembly_mode(sol: IKSolution, pts: PointResults, ik_last: ArrayLike = IK_FAILURES) -> PointResults:
     """Fail the points whose assembly signs differ from the task's most common ones (per design).
 
     The reference triple is the most frequent (sign H_x, sign H_y, sign det) among the points
     that are reachable so far; ties go to the lowest code. The points that pass so far and differ
     from it fail; every point that the IK solves and that differs from it (whether or not it also
-    fails a local guard) adds 1 to its ``guard_grade`` (MODEL.md 16).
+    fails a local guard) adds 1 to its ``guard_grade`` (MODEL.md 16). ``ik_last`` ``(..., 1)``: the last failure
+    code that is an IK failure (IK_FAILURES, or the z dyad's code for a design under MODEL.md 16's amendment).
     """
     asm = sol.assembly
     code = ((asm[..., 0] > 0) * 4 + (asm[..., 1] > 0) * 2 + (asm[..., 2] > 0)).astype(np.int64)
@@ -352,7 +383,7 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults) -> PointResults:
     off = pts.reachable & other
     failure = np.where(off, np.int16(_CODE["guard/single_assembly_mode"]), pts.failure)
     reachable = failure == 0
-    solved = (pts.failure == 0) | (pts.failure > IK_FAILURES)
+    solved = (pts.failure == 0) | (pts.failure > ik_last)
     return _mask_performance(pts._replace(
         reachable=reachable,
         failure=failure,
@@ -380,16 +411,18 @@ def evaluate_task(
     p = np.asarray(params, dtype=float)[..., None, :]
     m = np.asarray(mode, dtype=float)[..., None, :]
     cz = design_c_z(params, options, c_z)
+    own = dyad_in_reach(params, options, c_z)[..., None]
+    ik_last = IK_FAILURES + own.astype(np.int16)  # the z dyad's code is an IK failure under the amendment
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(p, E, e, m)
-        pts = _judge(sol, p, options, anatomy, envelope, None if cz is None else cz[..., None])
+        pts = _judge(sol, p, options, anatomy, envelope, None if cz is None else cz[..., None], own)
         if options.guards.single_assembly_mode:
-            pts = _single_assembly_mode(sol, pts)
+            pts = _single_assembly_mode(sol, pts, ik_last)
         n = pts.reachable.shape[-1]
         n_bad = np.sum(~pts.reachable, axis=-1)
         w_G = n_bad == 0
         eta_G = np.where(w_G, np.mean(np.where(pts.reachable, pts.eta_L, 0.0), axis=-1), np.inf)
-        n_ik = np.sum((pts.failure > 0) & (pts.failure <= IK_FAILURES), axis=-1)
+        n_ik = np.sum((pts.failure > 0) & (pts.failure <= ik_last), axis=-1)
         reach = np.where(n_ik == 0, 0.0, n_ik / n + np.sum(pts.excess, axis=-1))
         grade = np.sum(pts.guard_grade, axis=-1)
     return TaskResults(

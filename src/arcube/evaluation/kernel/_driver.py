@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from arcube.evaluation.kernel._layout import CODE_IK_LAST as _CODE_IK_LAST
+from arcube.evaluation.kernel._layout import CODE_Z_DYAD as _CODE_Z_DYAD
+from arcube.evaluation.kernel._layout import G_C_Z as _G_C_Z
 from arcube.evaluation.kernel._layout import N_EXTRA as _N_EXTRA
+from arcube.evaluation.kernel._layout import O_Z_DYAD as _O_Z_DYAD
 from arcube.evaluation.kernel._layout import O_SINGLE_ASSEMBLY_MODE as _O_SAM
 from arcube.evaluation.kernel._points import _design_points
 from arcube.evaluation.kernel._summary import _finalize
@@ -24,6 +28,11 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
     # the point range as plain int64 in all three calls (not the constant 0 nor prange's uint64): one compiled
     # _design_points instead of three (numba specializes a callee on each constant argument and each integer type)
     single_assembly_mode = opt[_O_SAM] != 0.0
+    # the last IK failure code per design: the z dyad's too for a design with its own c_z (MODEL.md 16's amendment)
+    ik_last = np.empty(n_des, np.int64)
+    for i in range(n_des):
+        own = opt[_O_Z_DYAD] != 0.0 and geometry[i, _G_C_Z] == geometry[i, _G_C_Z]
+        ik_last[i] = _CODE_Z_DYAD if own else _CODE_IK_LAST
     if split:
         n_chunk = (n_pts + chunk - 1) // chunk
         for tile in prange(n_des * n_chunk):
@@ -33,12 +42,12 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             _design_points(np.int64(i), np.int64(k0), np.int64(k1), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
         for i in prange(n_des):
-            _finalize(single_assembly_mode, failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
+            _finalize(single_assembly_mode, ik_last[i], failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
     elif full:
         for i in prange(n_des):
             _design_points(np.int64(i), np.int64(0), np.int64(n_pts), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
-            _finalize(single_assembly_mode, failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
+            _finalize(single_assembly_mode, ik_last[i], failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
     else:
         for i in prange(n_des):
             failure_i = np.empty(n_pts, np.int16)
@@ -49,4 +58,4 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             extra_i = np.empty((n_pts, _N_EXTRA))
             _design_points(np.int64(i), np.int64(0), np.int64(n_pts), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
                            failure_i, eta_i, excess_i, assembly_i, extra_i, detail)  # fmt: skip
-            _finalize(single_assembly_mode, failure_i, eta_i, excess_i, assembly_i, dexterity_i, extra_i, summary[i])
+            _finalize(single_assembly_mode, ik_last[i], failure_i, eta_i, excess_i, assembly_i, dexterity_i, extra_i, summary[i])

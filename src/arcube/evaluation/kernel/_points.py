@@ -16,7 +16,7 @@ from arcube.evaluation.clearance import ARC_CHORDS
 from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
 from arcube.evaluation.kernel._layout import GRADE_CLEARANCE, GRADE_ENVELOPE, GRADE_RHO, GRADE_SINE, GRADE_Z_DYAD
 from arcube.evaluation.kernel._layout import CODE_ENVELOPE, CODE_KAPPA, CODE_PATIENT, CODE_RHO, CODE_SELF, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
-from arcube.evaluation.kernel._layout import G_C, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
+from arcube.evaluation.kernel._layout import G_C, G_C_Z, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
 from arcube.evaluation.kernel._layout import O_EXACT, O_KAPPA_MAX, O_KAPPA_MAX_ON, O_RHO_MAX, O_RHO_MAX_ON, O_SINGLE_ASSEMBLY_MODE
@@ -163,9 +163,11 @@ def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, ful
 
 @njit(cache=True, error_model="numpy")
 def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det):
-    """The active local guards of MODEL.md 8.2 in FAILURES order: (failure code, grade), the grade being the
-    sum of their MODEL.md 16 terms min(s / S, 1) (a guard's NaN counts 0), as ``reference._guard_checks``."""
+    """The active local guards of MODEL.md 8.2 in FAILURES order: (failure code, grade, z-dyad shortfall), the
+    grade being the sum of their MODEL.md 16 terms min(s / S, 1) (a guard's NaN counts 0), as
+    ``reference._guard_checks``; the z dyad's closure shortfall is 0 when its guard is off."""
     gr = 0.0
+    zs = 0.0
     if opt[O_Z_DYAD] != 0.0:
         d2 = g[G_D + 2]
         cz = z_link(g, opt)
@@ -175,6 +177,7 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
         if short > 0.0 and fc == 0:
             fc = CODE_Z_DYAD
         gr = gr + _nan_to_num(_term(short, GRADE_Z_DYAD))
+        zs = short
     if opt[O_RHO_MAX_ON] != 0.0:
         rho_th = opt[O_RHO_MAX]
         short = ((0.0 + _pos(abs(rho0) - rho_th)) + _pos(abs(rho1) - rho_th)) + _pos(abs(rho2) - rho_th)
@@ -213,7 +216,7 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
         if eta_raw > km and fc == 0:
             fc = CODE_KAPPA
         gr = gr + _nan_to_num(_term(_pos(eta_raw - km), km))
-    return fc, gr
+    return fc, gr, zs
 
 
 @njit(cache=True, error_model="numpy")
@@ -262,6 +265,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     epsT0, epsT1, epsR0, epsR1 = modes[i, 0], modes[i, 1], modes[i, 2], modes[i, 3]
     exact = opt[O_EXACT] != 0.0
     need_rho = full or opt[O_RHO_MAX_ON] != 0.0
+    dyad_ik = opt[O_Z_DYAD] != 0.0 and g[G_C_Z] == g[G_C_Z]  # MODEL.md 16's amendment: the design's own c_z
 
     # RTS cache (depends on the direction only)
     have = False
@@ -318,7 +322,10 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
         if fc == 0:
             eta_raw, fc = _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_o[i, k] if full else kappa_o[0, 0])
             solved = fc == 0  # the IK solves the point: its guards are graded (MODEL.md 16)
-            fc, gr = _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
+            fc, gr, zs = _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
+            if dyad_ik and zs > 0.0:  # an open z dyad is a point the IK does not reach: its excess, no guard grade
+                ex = ex + zs
+                solved = False
             clr = selfc = env = _NAN
             part = env_part = env_region = -1.0
             if do_clr or do_self or do_env:

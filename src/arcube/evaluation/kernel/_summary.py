@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from arcube.evaluation.kernel._layout import CODE_IK_LAST as _CODE_IK_LAST
 from arcube.evaluation.kernel._layout import CODE_SAM as _CODE_SAM
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import MAXIMA, NAN as _NAN
@@ -19,14 +18,15 @@ from arcube.evaluation.kernel._scalar import _pairwise_sum
 
 
 @njit(cache=True, error_model="numpy")
-def _finalize(single_assembly_mode, failure, eta, excess, assembly, dexterity, extra, summary):
+def _finalize(single_assembly_mode, ik_last, failure, eta, excess, assembly, dexterity, extra, summary):
     """The global guard, then eta_L, dexterity and the summaries of one design, from its rows (P,).
 
     ``failure`` gains the single-assembly-mode failures; ``eta`` holds eta_raw and gets eta_L (+inf where
     unreachable); ``excess`` and ``assembly`` as ``_points._design_points`` wrote them; ``dexterity`` gets
     100 / eta_L (%, 0 where unreachable); ``extra`` (P, N_EXTRA) loses the tip metrics of the points that
     fail and its guard grade gains 1 at each point the IK solves outside the majority assembly mode (as
-    ``reference._single_assembly_mode``); ``summary`` (N_SUMM,) gets the ``S_*`` columns.
+    ``reference._single_assembly_mode``); ``summary`` (N_SUMM,) gets the ``S_*`` columns. Failure codes
+    1 .. ``ik_last`` are IK failures (CODE_IK_LAST, or CODE_Z_DYAD under MODEL.md 16's amendment).
     """
     n = failure.shape[0]
     if single_assembly_mode:
@@ -39,7 +39,7 @@ def _finalize(single_assembly_mode, failure, eta, excess, assembly, dexterity, e
             if counts[c] > counts[ref]:
                 ref = c
         for k in range(n):
-            if assembly[k] != ref and (failure[k] == 0 or failure[k] > _CODE_IK_LAST):
+            if assembly[k] != ref and (failure[k] == 0 or failure[k] > ik_last):
                 extra[k, X_GUARD_GRADE] = extra[k, X_GUARD_GRADE] + 1.0
                 if failure[k] == 0:
                     failure[k] = _CODE_SAM
@@ -52,7 +52,7 @@ def _finalize(single_assembly_mode, failure, eta, excess, assembly, dexterity, e
             dk = 100.0 / eta[k]
         else:
             n_bad += 1
-            if failure[k] <= _CODE_IK_LAST:
+            if failure[k] <= ik_last:
                 n_ik += 1
             eta[k] = _INF
             dk = 0.0
