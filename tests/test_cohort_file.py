@@ -40,7 +40,8 @@ def test_patients_write_a_cohort_that_reads_back_as_their_plans(tmp_path: Path, 
     assert code == 0, err
     assert f"{tmp_path / 'c' / 'cohort.toml'}" in out
     patients = read_cohort(tmp_path / "c" / "cohort.toml")
-    assert [p.name for p in patients] == sorted(f.stem for f in (tmp_path / "c").glob("*.csv")) and len(patients) == 2
+    assert [p.name for p in patients] == ["seed7", "seed8"]  # named by the seed that makes each patient (patient k: seed 7 + k)
+    assert [Path(p.plan).name for p in patients] == sorted(f.name for f in (tmp_path / "c").glob("*.csv"))
     for p in patients:
         plan = Path(p.plan)
         assert plan.parent == (tmp_path / "c").resolve() and plan.suffix == ".csv"

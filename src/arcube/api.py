@@ -282,7 +282,7 @@ def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None 
         if not (run_dir / STUDY / "summary.json").exists():
             studymod.resume_study(run_dir / STUDY, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
             write_study_convergence(run_dir / STUDY)
-        return finish_design(run_dir, on_stage)
+        return finish_design(run_dir, on_stage, workers or 1, dask)
     if studymod.is_study(run_dir):
         studymod.resume_study(run_dir, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress)
         write_study_convergence(run_dir)
@@ -341,6 +341,7 @@ def design(
     out: PathLike | None = None,
     *,
     cohort: PathLike | None = None,
+    validate: PathLike | None = None,
     seeds: str | Sequence[int] = "1-3",
     minima: dict[str, float] | Sequence[str] | None = None,
     maxima: dict[str, float] | Sequence[str] | None = None,
@@ -359,8 +360,8 @@ def design(
         plan: one plan or several (None: the bundled reference patient); each patient's R and L trajectories
             are docked apart (``dockings="per-side"``, the default) or together (``dockings="per-patient"``).
         out: the design folder to create (must be absent or empty).
-        cohort: a cohort file instead of ``plan`` (:mod:`arcube.design_job.cohort`): the patients, each
-            with its own plan, anatomy and envelope (paths relative to the file).
+        cohort: a cohort file instead of ``plan`` (:mod:`arcube.design_job.cohort`): the patients, each with its own
+            plan, anatomy and envelope (paths relative to the file).
         seeds: one optimization per seed (``"1-3"`` or a sequence).
         minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``, or
             ``["torque=15"]`` as the command line gives them: each name once);
@@ -372,6 +373,7 @@ def design(
             the design job's.
         progress, on_seed, on_stage: told each generation's history row, each finished seed's summary
             and each stage after the search (``"building the drilling program ..."``).
+        validate: a held-out cohort file, docked by the robot chosen into ``validation/`` (coverage: MODEL.md 19.6).
 
     Returns:
         A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).
@@ -384,17 +386,13 @@ def design(
     reqs = requirements_from(minima, maxima, drop)
     if settings is None and "generations" not in fields:
         fields = {**fields, "generations": DESIGN_GENERATIONS}  # the design job's budget, as the CLI's
-    seed_list = checked_seeds(seeds)
     if cohort is not None and plan is not None:
         raise InputError.of("cohort", "replaces the plans: give a cohort file or trajectories, not both")
     if cohort is not None and settings is None and "anatomy" not in fields:
         fields = {**fields, "anatomy": "default"}  # each patient's own anatomy (default: its plan's) comes from the cohort
     s = design_settings(reqs, _settings(settings, fields, "design"))
-    if cohort is not None:
-        from arcube.design_job.cohort import read_cohort
+    from arcube.design_job.cohort import read_cohort
 
-        plans: list[Any] = read_cohort(cohort, side=s.side, levels=s.levels, ids=s.ids, transform=s.transform)
-    else:
-        plans = _plans("reference" if plan is None else plan)
-    return start_design(Path(out), plans, s, reqs, seed_list, workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
-                        on_stage=on_stage)  # fmt: skip
+    plans = read_cohort(cohort, side=s.side, levels=s.levels, ids=s.ids, transform=s.transform) if cohort is not None else _plans("reference" if plan is None else plan)
+    return start_design(Path(out), plans, s, reqs, checked_seeds(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
+                        on_stage=on_stage, validate=validate)  # fmt: skip

@@ -21,7 +21,7 @@ from arcube.cli.study import SEED_DASK, SEED_WORKERS, SEEDS
 from arcube.design_job.requirements import DEFAULTS, PROGRAM_FIGURES
 from arcube.errors import InputError
 
-__all__ = ["COHORT", "missed_line", "print_design", "register"]
+__all__ = ["COHORT", "DROPS", "MAXIMA", "MINIMA", "missed_line", "print_design", "register", "run_flags"]
 
 _RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "dockings", "aggregate", "objectives", "standoff", "points", "side", "levels",
                "ids", "setups", "population", "generations", "tolerance", "algorithm", "engine", "tolerance_class", "tol")  # fmt: skip
@@ -53,26 +53,18 @@ _OBJECTIVE = {"objectives": "--objective"}
 COHORT = option("--cohort", "A cohort file (TOML): [[patient]] tables with name, plan, anatomy, anatomy_frame (and segments, envelope, "
                             "table_z), paths relative to the file; one robot for all of them (MODEL.md 19).", Path, params=("cohort",))  # fmt: skip
 
+VALIDATE = option("--validate", "A held-out cohort file (as --cohort; no patient named as a training one): the robot chosen is docked on "
+                                "it as arcube dock does, and the job reports the training and held-out coverage side by side "
+                                "(validation/, coverage.html).", Path, params=("validate",))  # fmt: skip
 
-def _run_flags() -> list[Flag]:
+
+def run_flags(fields: tuple[str, ...] = _RUN_FIELDS) -> list[Flag]:
+    """The flags of these RunSettings ``fields``, with the design job's help texts (and ``--objective``)."""
     by_field = {f.key.removeprefix("run."): f for f in RUN_FLAGS}
     out = []
-    for name in _RUN_FIELDS:
+    for name in fields:
         f = by_field[name]
         out.append(replace(f, help=_HELPS.get(name, f.help), name=_OBJECTIVE.get(name, f.name)))
-    return out
-
-
-def _pairs(items: list[str] | None, flag: Flag) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = str(item).partition("=")
-        if not sep or not name.strip():
-            raise InputError(f"{flag.name} {item!r}: expected NAME=VALUE, e.g. {flag.name} clearance=5")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise InputError(f"{flag.name} {item!r}: the value {value.strip()!r} is not a number") from None
     return out
 
 
@@ -112,6 +104,20 @@ def print_design(result: Any) -> None:
         typer.echo(f"  accuracy as built: not computed ({acc.get('not_computed')})")
     for r in result.missed:
         typer.echo("  " + missed_line(r))
+    _print_coverage(s)
+
+
+def _print_coverage(s: dict[str, Any]) -> None:
+    """The training coverage (several dockings) and the held-out one (with --validate), and the sides not served."""
+    for key, name in (("training", "training"), ("held_out", "held-out")):
+        c = s.get(key)
+        if c is None or (key == "training" and c["sides"] < 2):
+            continue
+        typer.echo(f"  {name} coverage: {c['met']} of {c['sides']} sides ({100 * c['coverage']:.0f} %, 95 % Wilson interval "
+                   f"{100 * c['coverage_low']:.0f}-{100 * c['coverage_high']:.0f} %)" + ("; see validation/ and coverage.html" if key == "held_out" else ""))  # fmt: skip
+    for d in s.get("dockings", []):
+        if not d["meets_requirements"] and len(s.get("dockings", [])) > 1:
+            typer.echo(f"  not served: {d['label']} (binds: {d.get('binding')} {_num(d.get('binding_margin'))} {d.get('binding_unit') or ''})".rstrip())
 
 
 def missed_line(r: dict[str, Any]) -> str:
@@ -174,9 +180,10 @@ def design(given: Given) -> None:
         raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")
     with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
         bar.watch(Path(given.get("out")) / STUDY)  # seeds in other processes (--workers, --dask) report through their history
-        result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=_pairs(given.get("minima"), MINIMA),
-                            maxima=_pairs(given.get("maxima"), MAXIMA), drop=drop, on_seed=bar.seed, progress=bar.generation,
-                            on_stage=bar.stage, settings=settings, **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
+        result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=given.get("minima"),
+                            maxima=given.get("maxima"), drop=drop, on_seed=bar.seed, progress=bar.generation,
+                            on_stage=bar.stage, settings=settings, validate=given.get("validate"),
+                            **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
     print_design(result)
     if not result.met:
         raise typer.Exit(3)
@@ -189,5 +196,5 @@ def register(app: typer.Typer) -> None:
     masses = [*request_flags("masses"), *[f for f in request_flags("loads") if f.key == "options.loads.encoder_deg"]]
     plans = with_help(PLANS, "Trajectory sets (CSV, .mrk.json, folder or 'reference'): one patient each, each with its default anatomy "
                              "(--anatomy default); or --cohort.", required=False)  # fmt: skip
-    flags = [plans, COHORT, out, seeds, MINIMA, MAXIMA, *DROPS, *masses, *_run_flags(), SEED_WORKERS, SEED_DASK, QUIET]
+    flags = [plans, COHORT, VALIDATE, out, seeds, MINIMA, MAXIMA, *DROPS, *masses, *run_flags(), SEED_WORKERS, SEED_DASK, QUIET]
     command(app, "design", flags, design, help=design.__doc__ or "")

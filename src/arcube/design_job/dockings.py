@@ -147,8 +147,14 @@ def _tighter(a: dict[str, Any], b: dict[str, Any]) -> bool:
     return ma < mb
 
 
-def docking_entry(d: Docking) -> dict[str, Any]:
+def docking_entry(d: Docking, points: bool = False) -> dict[str, Any]:
     """``{"patient", "side", "m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"}``: one entry of a robot's ``design.json``
-    ``dockings`` list (MODEL.md 19.1; its full design is ``dockings/<patient>_<side>/design.json``)."""
+    ``dockings`` list (MODEL.md 19.1; its full design is ``dockings/<patient>_<side>/design.json``); with ``points``
+    also ``entry`` and ``target``, the docking's trajectories (mm, patient frame), which ``arcube dock`` carries onto
+    a new patient's plan to start its search there (MODEL.md 19.6)."""
     values = d.design.to_dict()
-    return {"patient": d.name, "side": d.side, **{n: values[n] for n in PLACEMENT}}
+    out: dict[str, Any] = {"patient": d.name, "side": d.side, **{n: values[n] for n in PLACEMENT}}
+    if points:
+        out["entry"] = [[round(float(v), 4) for v in row] for row in d.plan.entry]
+        out["target"] = [[round(float(v), 4) for v in row] for row in d.plan.target]
+    return out

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 import math
-import re
+import os
 import shutil
 import time
 import tomllib
@@ -41,8 +41,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, build_program, closing_c_z
 from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
-from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_options, program_rows, write_requirements_csv
+from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
+from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_options, write_requirements_csv
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
@@ -61,9 +63,7 @@ DESIGN_GENERATIONS = 100
 """The design job's default budget: population 400 x 100 generations = 40,000 evaluations per seed
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
 STUDY = "study"
-PROGRAM = "program"
 DOCKINGS = "dockings"
-ACCURACY = "accuracy"
 
 
 @dataclass(frozen=True)
@@ -129,10 +129,12 @@ def is_design(path: Path) -> bool:
 
 def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
                  workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-                 on_generation: Callable[[dict[str, Any]], None] | None = None, on_stage: Callable[[str], None] | None = None) -> DesignResult:  # fmt: skip
+                 on_generation: Callable[[dict[str, Any]], None] | None = None, on_stage: Callable[[str], None] | None = None,
+                 validate: str | os.PathLike[str] | None = None) -> DesignResult:  # fmt: skip
     """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs. ``plans``: the
     trajectory sets, or :class:`~arcube.optimization.config.PatientPlan` (a cohort's patients, named, each with its own
-    anatomy and envelope); ``on_stage`` is told each stage after the search (:func:`finish_design`)."""
+    anatomy and envelope); ``on_stage`` is told each stage after the search (:func:`finish_design`); ``validate``: a
+    held-out cohort file (its patients must not share a name with the training ones), docked by the robot chosen."""
     from arcube.design_job.cohort import plans_as_cohort
     from arcube.optimization.config import PatientPlan
 
@@ -144,19 +146,21 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
     if on_program and settings.setups != 1:
         raise InputError.of("requirements.max", f"{', '.join(on_program)}: judged on the drilling program, which a job with one placement "
                                                 "per side (setups 2) does not build; design per side (side R, side L) instead")  # fmt: skip
+    held_out = check_held_out(validate, patients, settings) if validate is not None else None
     base = build_config(list(patients), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     try:
         meta = {"format": DESIGN_FORMAT, "format_version": 1, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                "seeds": [int(s) for s in seeds], "requirements": [[r.name, r.kind, r.limit] for r in reqs]}  # fmt: skip
+                "seeds": [int(s) for s in seeds], "requirements": [[r.name, r.kind, r.limit] for r in reqs],
+                **({"validate": held_out} if held_out is not None else {})}  # fmt: skip
         atomic_write_text(out / "design.toml", runmod.to_toml(meta))
         studymod.start_study(out / STUDY, base, list(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=on_generation)
     except (InputError, Exception):
         if not any((studymod.seed_dir(out / STUDY, int(sd)) / "checkpoint").exists() for sd in seeds):
             runmod.remove_folder(out, created)
         raise
-    return finish_design(out, on_stage)
+    return finish_design(out, on_stage, workers, dask)
 
 
 def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement]) -> None:
@@ -192,67 +196,94 @@ def seed_dockings(out: Path, seed: int) -> tuple[OptimizeResult, RunSettings, di
     return run, RunSettings.from_config(cfg), summary, run_dockings(cfg, run, summary["mode"])
 
 
-def finish_design(out: Path, on_stage: Callable[[str], None] | None = None) -> DesignResult:
+def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, workers: int = 1, dask: str | None = None) -> DesignResult:
     """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write
     the outputs; ``on_stage`` is told each stage ("checking seed 2 with the NumPy reference", "building the drilling
-    program", ...)."""
+    program", ...). With a held-out cohort (design.toml's ``validate``), the robot chosen is then docked on it
+    (:mod:`arcube.design_job.coverage`, over ``workers`` or ``dask``) into ``validation/``.
+
+    Seed by seed in the study's ranking, the robot is re-checked at every docking; where a docking falls short (at the
+    plan's points, or its program blocked), the robot is docked there anew with its parameters fixed
+    (:func:`arcube.design_job.redock.redock`). The robot chosen is the first that meets every requirement at every
+    docking; when there is none, the one that meets the most dockings (MODEL.md 19.6: coverage first, then the worst
+    met docking's eta_G), its programs built."""
     out = Path(out)
     say = on_stage or (lambda text: None)
-    _, reqs = read_design(out)
+    meta, reqs = read_design(out)
     study = json.loads((out / STUDY / "summary.json").read_text(encoding="utf-8"))
     # feasible seeds by objective, then the others by violation (the study's own ranking)
     order = sorted(study["rows"], key=lambda r: (not r["feasible"], r.get(f"objective_{study['objective']}") or math.inf, r["violation"], r["seed"]))
-    chosen = None
+    chosen, seen, built = None, [], None
     for row in order:
         run, s, summary, dockings = seed_dockings(out, int(row["seed"]))
+        entry = (row, run, s, summary, dockings)
         say(f"checking seed {row['seed']}'s robot with the NumPy reference" + (f" at {len(dockings)} dockings" if len(dockings) > 1 else ""))
         assess_dockings(dockings, reqs, s)
-        met = bool(row["feasible"] and all(d.met for d in dockings))
-        if met and s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
+        if s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
+            _settle(out, entry, reqs, say, workers, dask)
+            built = row["seed"]
+        seen.append(entry)
+        if all(d.met for d in dockings):
+            chosen = entry
+            break
+        # a docking missed even when docked anew: the next seed's robot may serve every docking
+    if chosen is None:
+        chosen = max(seen, key=lambda e: (sum(d.met for d in e[4]), -_worst_met_eta(e[3], e[4])))
+        row, s, dockings = chosen[0], chosen[2], chosen[4]
+        if built != row["seed"] and s.setups == 1:  # the programs in the folders are another seed's
             for d in dockings:
-                say(f"building the drilling program of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
-                d.rows = [*d.rows, *_program_rows(_folder(out, d, dockings), d, s, reqs)]
-            met = all(d.met for d in dockings)
-        if chosen is None or (met and not chosen[-1]):
-            chosen = (row, run, s, summary, dockings, met)
-        if met or not row["feasible"]:
-            break  # met; or the infeasible seeds after the first cannot do better than the best one
-        # a seed met at the sampled points whose program is blocked (a failed build writes nothing): try the next
-    assert chosen is not None
-    row, run, s, summary, dockings, met = chosen
-    say("writing the report, the accuracy budget (MODEL.md 20) and the MuJoCo model")
-    return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings)
+                shutil.rmtree(_folder(out, d, dockings) / PROGRAM, ignore_errors=True)
+                d.rows = [r for r in d.rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
+            _programs(out, chosen, reqs, say, [d for d in dockings if d.met])
+    row, run, s, summary, dockings = chosen
+    met = all(d.met for d in dockings)
+    held_out = validate(out, meta, dockings, reqs, s, say, workers, dask) if meta.get("validate") else None
+    say("writing the report, the accuracy budget (the model, 20) and the MuJoCo model")
+    return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings, held_out)
+
+
+def _settle(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], workers: int, dask: str | None) -> None:
+    """A seed's dockings after their re-check: the ones that miss are docked anew; once every docking meets the
+    requirements at the plan's points, their programs are built, and a docking whose program is blocked is docked anew."""
+    from arcube.design_job.redock import redock
+
+    row, run, s, _, dockings = entry
+    cfg = runmod.read_config(run.path)[0]
+    folders = [_folder(out, d, dockings) for d in dockings]
+    redone = redock(cfg, dockings, [k for k, d in enumerate(dockings) if not d.met], folders, s, reqs, int(row["seed"]), workers=workers,
+                    dask=dask, say=say)  # fmt: skip
+    if not all(d.met for d in dockings):
+        return  # the programs are built for the seed chosen
+    _programs(out, entry, reqs, say, [d for k, d in enumerate(dockings) if k not in redone])
+    blocked = {k: d.rows for k, d in enumerate(dockings) if not d.met}
+    for k in blocked:
+        dockings[k].rows = [r for r in dockings[k].rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
+    redone = redock(cfg, dockings, list(blocked), folders, s, reqs, int(row["seed"]), workers=workers, dask=dask, say=say)
+    for k, rows in blocked.items():
+        if k not in redone:
+            dockings[k].rows = rows  # its own placement: met at the plan's points, its program blocked
+
+
+def _programs(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], which: Sequence[Docking]) -> None:
+    """Build the drilling program of the dockings ``which`` of a seed (their rows gain the program's)."""
+    row, _, s, _, dockings = entry
+    for d in which:
+        say(f"building the drilling program of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
+        d.rows = [*d.rows, *build_program(_folder(out, d, dockings), d, s, reqs)]
+
+
+def _worst_met_eta(summary: dict[str, Any], dockings: Sequence[Docking]) -> float:
+    """The largest eta_G over the met dockings of a seed (its run's figure per docking; +inf when none is met)."""
+    tasks = {t["label"]: t.get("eta_G") for t in summary.get("tasks", [])}
+    etas = [tasks.get(f"{d.name} {d.side}") for d in dockings if d.met]
+    etas = [e if isinstance(e, (int, float)) and math.isfinite(e) else math.inf for e in etas]
+    return max(etas) if etas else math.inf
 
 
 def _folder(out: Path, d: Docking, dockings: Sequence[Docking]) -> Path:
     """Where a docking's program, accuracy budget, report and MuJoCo model go: the job's folder when it is the only
     docking (the layout of a one-docking job, as before MODEL.md 19), else ``dockings/<patient>_<side>``."""
     return out if len(dockings) == 1 else out / DOCKINGS / d.label
-
-
-def _program_rows(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
-    """Build the drilling program of one docking (MODEL.md 17) into ``folder/program`` with the design's clearances,
-    standoff and z dyad; its requirement rows: the program (met, or the blocked segment named), then ``torque_peak`` /
-    ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
-    from arcube.motion import program
-    from arcube.report.program import timeline_png
-
-    # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
-    limits = {"clearance": 0.0, "self_clearance": 0.0, "envelope_clearance": 0.0,
-              **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")}}  # fmt: skip
-    shutil.rmtree(folder / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
-    folder.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
-    row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
-    try:
-        prog = program(d.design, d.plan, folder / PROGRAM, options=s.options, anatomy=d.anatomy, envelope=d.envelope, mode=d.design.mode,
-                       standoff_mm=float(s.standoff or 0.0), masses=True, **limits)  # fmt: skip
-        timeline_png(prog, folder / PROGRAM / "program.png")
-    except InputError as exc:
-        return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
-    summary = prog.summary
-    built = {**row, "value": 1.0, "margin": 0.0, "passed": True, "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s"}
-    return [built, *program_rows(reqs, summary.get("motors"))]
 
 
 def _docking_summary(d: Docking) -> dict[str, Any]:
@@ -263,20 +294,26 @@ def _docking_summary(d: Docking) -> dict[str, Any]:
         r = rows.get(name)
         return None if r is None or not math.isfinite(r["value"]) else r["value"]
 
+    from arcube.design_job.coverage import binding_row
+
+    bind = binding_row(d.rows)
     return {"label": d.label, "patient": d.name, "side": d.side, "meets_requirements": d.met, "missed": [r["requirement"] for r in d.rows if not r["passed"]],
             "trajectories": list(d.plan.ids), **docking_entry(d), "clearance_mm": value("clearance"), "self_clearance_mm": value("self_clearance"),
             "envelope_clearance_mm": value("envelope_clearance"), "lateral_error_mm": value("lateral_error"), "axis_error_deg": value("axis_error"),
-            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque")}  # fmt: skip
+            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque"),
+            "binding": None if bind is None else bind["requirement"], "binding_margin": None if bind is None else bind["margin"],
+            "binding_unit": None if bind is None else bind.get("unit"), "binding_where": None if bind is None else (bind.get("part") or None),
+            "folder": f"{DOCKINGS}/{d.label}"}  # fmt: skip
 
 
 def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunSettings, summary: dict[str, Any],
-                   dockings: list[Docking]) -> DesignResult:  # fmt: skip
+                   dockings: list[Docking], held_out: dict[str, Any] | None = None) -> DesignResult:  # fmt: skip
     from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
 
     first = dockings[0].design
-    entries = [docking_entry(d) for d in dockings]
+    entries = [docking_entry(d, points=True) for d in dockings]
     full = first.to_file_dict()
     # MODEL.md 19.1 / issue 30: one docking, its complete design (what every command reads, as before); several, the
     # robot's 22 parameters, its mode and the dockings (each docking's complete design: dockings/<patient>_<side>/design.json)
@@ -299,8 +336,8 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         evaluations.append(ev)
         # the perfect robot's lateral error beside it: the run's figure (one docking), else this docking's requirement row
         perfect = summary.get("lateral_error_max_mm") if one else next((r["value"] for r in d.rows if r["requirement"] == "lateral_error"), None)
-        accuracies.append({**_accuracy_budget(folder, d.design, d.plan, summary["mode"], s, perfect), **({} if one else {"docking": d.label})})
-        c_z = d.design.c_z if d.design.c_z is not None else _closing_c_z(d.design, d.plan, s, summary)
+        accuracies.append({**accuracy_budget(folder, d.design, d.plan, summary["mode"], s, perfect), **({} if one else {"docking": d.label})})
+        c_z = d.design.c_z if d.design.c_z is not None else closing_c_z(d.design, d.plan, s, summary)
         try:
             xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, c_z=c_z, options=s.options, anatomy=d.anatomy,
                               envelope=d.envelope)  # fmt: skip
@@ -323,8 +360,9 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         "robot": {n: robot_values[n] for n in ROBOT_NAMES}, "dockings": [_docking_summary(d) for d in dockings],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
-        "accuracy": accuracy,
+        "accuracy": accuracy, **coverage_fields(dockings, held_out),
         "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS,
+                  **({"validation": VALIDATION, "coverage": "coverage.html"} if held_out is not None else {}),
                   **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
                   **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
@@ -334,44 +372,11 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     else:
         from arcube.report.dockings import write_dockings_report
 
-        write_dockings_report(out / "report.html", dockings, evaluations, rows, met)
+        write_dockings_report(out / "report.html", dockings, evaluations, rows, met, extra=coverage_html(result, held_out))
+    if held_out is not None:
+        from arcube.report.coverage import write_coverage_report
+
+        write_coverage_report(out / "coverage.html", {**result, **result["training"]}, held_out, held_out_link=f"{VALIDATION}/")
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(finite(result), indent=2, allow_nan=False) + "\n")
     return DesignResult(out, met, result, rows)
-
-
-def _accuracy_budget(out: Path, design: Design, plan: Any, mode: str, s: RunSettings, perfect: Any) -> dict[str, Any]:
-    """The accuracy budget of one docking's design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
-    on its plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
-    beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
-    from arcube.accuracy import budget
-    from arcube.evaluation.task import build_task
-    from arcube.report.accuracy import write_budget
-
-    shutil.rmtree(out / ACCURACY, ignore_errors=True)  # ours: a resumed job writes it again
-    settings = s.accuracy_settings()
-    task = build_task(plan.entry, plan.target, s.points, tuple(plan.ids))
-    try:
-        result = budget(design, task.E, task.e, mode, settings, [task.ids[i] for i in task.trajectory], task.k)
-    except InputError as exc:
-        return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
-    write_budget(result, out / ACCURACY)
-    return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
-            "perfect_robot_lateral_error_mm": perfect,
-            "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
-
-
-def _closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
-    """For a design without c_z: a z-dyad link c_z that closes the dyad at every point (the middle of the range the
-    export names), or None (c_z = d_z closes it)."""
-    from arcube.export.mjcf import export_mjcf
-
-    try:
-        export_mjcf(design, plan, points=s.points, mode=summary["mode"])
-        return None
-    except InputError as exc:
-        found = re.search(r"c_z in \[([0-9.eE+-]+), ([0-9.eE+-]+)\]", str(exc))
-        if not found:
-            raise
-        lo, hi = float(found.group(1)), float(found.group(2))
-        return 0.5 * (lo + hi)

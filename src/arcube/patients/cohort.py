@@ -16,7 +16,7 @@ from arcube.io.trajectories import read_csv
 from arcube.patients.segmentation import anatomy_suffix, write_anatomy_as
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
 
-__all__ = ["COHORT_FILE", "cohort_toml", "write_patients"]
+__all__ = ["COHORT_FILE", "cohort_toml", "patient_name", "write_patients"]
 
 
 def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path, *,
@@ -32,7 +32,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         count: number of patients K (>= 1).
         out: K = 1: the CSV path (an existing folder receives ``patient_000.csv``);
             K > 1: a folder (created) receiving ``patient_000.csv`` ... ``patient_{K-1}.csv``, and ``cohort.toml``
-            (every patient of the folder, for ``arcube design --cohort``).
+            (every patient of the folder, for ``arcube design --cohort``, named by :func:`patient_name`: ``seed7`` ...).
             Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
             anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
             (binary STL, patient frame, one closed shell per box). All of these files are written, or
@@ -116,8 +116,16 @@ def _stage_patients(paths: list[Path], stage: Path, mean: bool, seed: int | None
         more = "" if beside is None else beside(staged).replace(str(stage), str(path.parent))
         texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame}{more})\n"
                      f"# {layout.summary()}\n{check}")
-        entries.append({"name": path.stem, "plan": path.name, "anatomy": [anatomy_path.name], "anatomy_frame": COHORT_FRAMES[anatomy_format]})
+        entries.append({"name": patient_name(params), "plan": path.name, "anatomy": [anatomy_path.name], "anatomy_frame": COHORT_FRAMES[anatomy_format]})
     return texts, entries
+
+
+def patient_name(params: dict[str, Any]) -> str:
+    """A virtual patient's name in a cohort file: what makes it the patient it is, ``seed<S>`` (``mean`` for the mean
+    patient), after its technique when that is not the pedicle screw (``magerl_seed<S>``). Two cohorts that share a
+    name share that patient: a design job refuses such a held-out cohort (MODEL.md 19.6)."""
+    base = "mean" if params.get("seed") is None else f"seed{params['seed']}"
+    return base if params.get("technique", "pedicle") == "pedicle" else f"{params['technique']}_{base}"
 
 
 COHORT_FILE = "cohort.toml"

@@ -34,9 +34,10 @@ def _value(rows: Sequence[dict[str, Any]], name: str) -> str:
 
 
 def write_dockings_report(path: str | os.PathLike[str], dockings: Sequence[Any], evaluations: Sequence[Any], rows: Sequence[dict[str, Any]],
-                          met: bool) -> Path:  # fmt: skip
+                          met: bool, extra: str = "") -> Path:  # fmt: skip
     """Write the page (module docstring) to ``path``; ``evaluations``: each docking's
-    :class:`~arcube.evaluation.result.Evaluation` (its scene), ``rows``: the requirements at their tightest docking."""
+    :class:`~arcube.evaluation.result.Evaluation` (its scene), ``rows``: the requirements at their tightest docking;
+    ``extra``: an HTML fragment after the verdict (the coverage, :func:`arcube.report.coverage.coverage_section`)."""
     from arcube.report.html import scene_figure
 
     out = Path(path)
@@ -47,7 +48,8 @@ def write_dockings_report(path: str | os.PathLike[str], dockings: Sequence[Any],
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>AR-CUBE: one robot, {len(dockings)} dockings</title>"
              f"<style>{CSS}.grid{{display:grid;grid-template-columns:repeat(auto-fit,minmax(520px,1fr));gap:1em}}</style></head><body>",
              f"<h1>One robot, {len(dockings)} docking{'s' if len(dockings) > 1 else ''}</h1>",
-             f"<p>The robot {esc(verdict)}; working mode {esc(first.mode or '+,+,+,+')}.</p>", "<h2>The robot (MODEL.md 19.1)</h2><table><tr>"]  # fmt: skip
+             f"<p>The robot {esc(verdict)}; working mode {esc(first.mode or '+,+,+,+')}.</p>", extra,
+             "<h2>The robot (MODEL.md 19.1)</h2><table><tr>"]  # fmt: skip
     parts.append("".join(f"<th>{esc(n)}</th>" for n in robot) + "</tr><tr>" + "".join(f"<td>{values[n]:.2f}</td>" for n in robot) + "</tr></table>")
     parts.append("<h2>Requirements, where each is tightest (MODEL.md 19.4)</h2><table><tr><th>requirement</th><th>limit</th><th>value</th>"
                  "<th>margin</th><th>docking</th><th>where</th></tr>")  # fmt: skip

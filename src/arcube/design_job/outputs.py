@@ -1,0 +1,85 @@
+"""What a design job writes for each docking it checked, beside its requirement rows: the drilling program (MODEL.md 17)
+and its rows, the accuracy budget as built (MODEL.md 20), and a z-dyad link for a design without one. Shared by
+``arcube design`` (:mod:`arcube.design_job.job`) and ``arcube dock`` (:mod:`arcube.design_job.dock`)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+from collections.abc import Sequence
+
+from arcube.design_job.dockings import Docking
+from arcube.design_job.requirements import Requirement, program_rows
+from arcube.errors import InputError
+from arcube.model.design import Design
+from arcube.optimization.settings import RunSettings
+
+__all__ = ["ACCURACY", "PROGRAM", "accuracy_budget", "build_program", "closing_c_z"]
+
+PROGRAM = "program"
+ACCURACY = "accuracy"
+
+
+def build_program(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
+    """Build the drilling program of one docking (MODEL.md 17) into ``folder/program`` with the design's clearances,
+    standoff and z dyad; its requirement rows: the program (met, or the blocked segment named), then ``torque_peak`` /
+    ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
+    from arcube.motion import program
+    from arcube.report.program import timeline_png
+
+    # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
+    limits = {"clearance": 0.0, "self_clearance": 0.0, "envelope_clearance": 0.0,
+              **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")}}  # fmt: skip
+    shutil.rmtree(folder / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
+    folder.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
+    try:
+        prog = program(d.design, d.plan, folder / PROGRAM, options=s.options, anatomy=d.anatomy, envelope=d.envelope, mode=d.design.mode,
+                       standoff_mm=float(s.standoff or 0.0), masses=True, **limits)  # fmt: skip
+        timeline_png(prog, folder / PROGRAM / "program.png")
+    except InputError as exc:
+        return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
+    summary = prog.summary
+    built = {**row, "value": 1.0, "margin": 0.0, "passed": True, "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s"}
+    return [built, *program_rows(reqs, summary.get("motors"))]
+
+
+def accuracy_budget(out: Path, design: Design, plan: Any, mode: str, s: RunSettings, perfect: Any) -> dict[str, Any]:
+    """The accuracy budget of one docking's design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
+    on its plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
+    beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
+    from arcube.accuracy import budget
+    from arcube.evaluation.task import build_task
+    from arcube.report.accuracy import write_budget
+
+    shutil.rmtree(out / ACCURACY, ignore_errors=True)  # ours: a resumed job writes it again
+    settings = s.accuracy_settings()
+    task = build_task(plan.entry, plan.target, s.points, tuple(plan.ids))
+    try:
+        result = budget(design, task.E, task.e, mode, settings, [task.ids[i] for i in task.trajectory], task.k)
+    except InputError as exc:
+        return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
+    write_budget(result, out / ACCURACY)
+    return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
+            "perfect_robot_lateral_error_mm": perfect,
+            "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
+
+
+def closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
+    """For a design without c_z: a z-dyad link c_z that closes the dyad at every point (the middle of the range the
+    export names), or None (c_z = d_z closes it)."""
+    from arcube.export.mjcf import export_mjcf
+
+    try:
+        export_mjcf(design, plan, points=s.points, mode=summary["mode"])
+        return None
+    except InputError as exc:
+        found = re.search(r"c_z in \[([0-9.eE+-]+), ([0-9.eE+-]+)\]", str(exc))
+        if not found:
+            raise
+        lo, hi = float(found.group(1)), float(found.group(2))
+        return 0.5 * (lo + hi)

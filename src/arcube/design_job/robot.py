@@ -1,0 +1,125 @@
+"""A built robot read from a file (MODEL.md 19.1, 19.6): its 22 parameters, working mode and z-dyad elbow, and its
+own dockings as warm starts for docking it on a new patient.
+
+A robot file is ``design.json`` of ``arcube design`` (the robot's parameters, ``mode``, ``c_z`` and a ``dockings``
+list: each docking's patient, side, placement m and mounting angles, and, from this version on, the entry and target
+points of that docking's trajectories), or any docking file (a complete design: its own placement is its one docking).
+The robot is used as it is; its dockings only say where to start looking.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES
+from arcube.errors import InputError
+from arcube.io.inputs import load_json, short_repr
+from arcube.model.design import Design
+
+__all__ = ["BuiltRobot", "WarmStart", "read_robot"]
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """One of the robot's own dockings: its placement (m_x, m_y, m_z mm, mount_rx, mount_ry, mount_rz deg) ``(6,)``
+    and, when the file records them, the entry and target points ``(T, 3)`` mm of that docking's trajectories."""
+
+    label: str
+    placement: np.ndarray
+    entry: np.ndarray | None = None
+    target: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class BuiltRobot:
+    """The robot of a file: ``design`` is complete (its first docking's placement, or zeros without one), with
+    ``c_z``, ``mode`` and ``zdyad_elbow``; ``c_z_assumed`` when the file had no c_z (then d_z, MODEL.md 6)."""
+
+    source: str
+    design: Design
+    starts: tuple[WarmStart, ...]
+    c_z_assumed: bool = False
+
+    def placed(self, placement: np.ndarray) -> Design:
+        """The robot at one docking: its parameters unchanged, the placement ``(6,)`` given."""
+        return self.design.replace(**dict(zip(PLACEMENT, (float(v) for v in placement))))
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The robot's 22 parameters (MODEL.md 19.1) by name, c_z last."""
+        d = self.design.to_dict()
+        return {**{n: d[n] for n in ROBOT_NAMES if n != "c_z"}, "c_z": float(self.design.c_z_mm)}
+
+
+def _points(value: Any, key: str, where: str) -> np.ndarray | None:
+    if value is None:
+        return None
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: {key} must be a list of [x, y, z] points in mm") from None
+    if arr.ndim != 2 or arr.shape[1] != 3 or not len(arr) or not np.isfinite(arr).all():
+        raise InputError(f"{where}: {key} must be a non-empty list of finite [x, y, z] points in mm")
+    return arr
+
+
+def _placement(entry: Any, where: str) -> np.ndarray:
+    if not isinstance(entry, dict):
+        raise InputError(f"{where}: expected a table with {', '.join(PLACEMENT)}, got {short_repr(entry)}")
+    missing = [n for n in PLACEMENT if n not in entry]
+    if missing:
+        raise InputError(f"{where}: missing {', '.join(missing)}")
+    out = []
+    for n in PLACEMENT:
+        v = entry[n]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
+            raise InputError(f"{where}: {n} must be a finite number, got {short_repr(v)}")
+        out.append(float(v))
+    return np.array(out)
+
+
+def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
+    """The robot of ``path`` (a design job's ``design.json`` or a docking file); one-line InputError naming the file
+    and what is missing or wrong (a robot parameter, the working mode, a docking's placement)."""
+    p = Path(path)
+    data = load_json(p)
+    if not isinstance(data, dict):
+        raise InputError(f"{p}: a robot file must hold one JSON object (a design.json of arcube design, or a docking's design file)")
+    missing = [n for n in ROBOT_NAMES if n != "c_z" and n not in data]
+    if missing:
+        raise InputError(f"{p}: not a robot: missing robot parameter(s) {', '.join(missing)} (give a design.json of arcube design "
+                         "or a docking's design file)")  # fmt: skip
+    if data.get("mode") is None:
+        raise InputError(f"{p}: the robot's working mode is missing (\"mode\": \"+,+,+,-\"): a built robot has one; add it to the file")
+    raw = data.get("dockings")
+    if raw is not None and (not isinstance(raw, list) or not raw):
+        raise InputError(f"{p}: dockings must be a non-empty list of the robot's dockings")
+    starts: list[WarmStart] = []
+    for k, entry in enumerate(raw or []):
+        where = f"{p}: docking {k + 1}"
+        label = f"{entry.get('patient', k + 1)}_{entry.get('side', '')}".rstrip("_") if isinstance(entry, dict) else str(k + 1)
+        placement = _placement(entry, where)
+        entry_pts, target_pts = _points(entry.get("entry"), "entry", where), _points(entry.get("target"), "target", where)
+        if (entry_pts is None) != (target_pts is None) or (entry_pts is not None and entry_pts.shape != target_pts.shape):
+            raise InputError(f"{where}: entry and target must be given together, one point each per trajectory")
+        starts.append(WarmStart(label, placement, entry_pts, target_pts))
+    values = {n: data[n] for n in ROBOT_NAMES if n != "c_z"}
+    if all(n in data for n in PLACEMENT):
+        own = _placement(data, str(p))
+        if not starts:  # a docking file: its own placement is its one docking
+            starts.append(WarmStart(str(data.get("patient", "own")) + (f"_{data['side']}" if data.get("side") else ""), own))
+    else:
+        own = starts[0].placement if starts else np.zeros(len(PLACEMENT))
+    values.update(zip(PLACEMENT, (float(v) for v in own)))
+    extras = {k: data[k] for k in ("c_z", "mode", "zdyad_elbow") if k in data}
+    design = Design.from_dict({**values, **extras}, source=str(p))
+    assumed = design.c_z is None
+    if assumed:
+        design = design.with_extras(c_z=float(design["d_z"]))
+    return BuiltRobot(str(p), design, tuple(starts), assumed)
