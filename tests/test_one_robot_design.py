@@ -53,7 +53,11 @@ def test_design_json_is_the_robot_and_its_dockings(job: Path) -> None:
     issue's keys; each docking's file is the robot with that entry's placement, and every file names the mode."""
     robot = json.loads((job / "design.json").read_text())
     assert [(d["patient"], d["side"]) for d in robot["dockings"]] == [("reference", "R"), ("reference", "L")]
-    assert all(list(d) == _ENTRY_KEYS for d in robot["dockings"])
+    assert all(list(d)[: len(_ENTRY_KEYS)] == _ENTRY_KEYS and set(d) - set(_ENTRY_KEYS) == {"entry", "target"} for d in robot["dockings"])
+    c3 = select(arcube.load_trajectories("reference"), levels="C3")
+    for d in robot["dockings"]:  # each docking's trajectories, for arcube dock to carry its placement onto a new plan (MODEL.md 19.6)
+        side = select(c3, side=d["side"])
+        np.testing.assert_allclose(d["entry"], side.entry, atol=1e-4) and np.testing.assert_allclose(d["target"], side.target, atol=1e-4)
     assert set(robot) == {*ROBOT_NAMES, "mode", "dockings"} and len(ROBOT_NAMES) == 22
     assert 20.0 <= robot["c_z"] <= 500.0  # the default bounds of c_z (MODEL.md 19.1)
     for entry in robot["dockings"]:

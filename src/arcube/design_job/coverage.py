@@ -82,7 +82,7 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float, float]:
 
 def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
     """The requirement that binds at a docking: of the failed rows the one with the least relative margin (margin over its
-    limit, or the margin itself where the limit is 0), else of the named requirements (:data:`REQUIREMENTS`: clearance,
+    limit, or the margin itself where the limit is 0; an unmeasured one last), else of the named requirements (:data:`REQUIREMENTS`: clearance,
     torque, ...; not the pass/fail rows of reach, the guards and the program) the tightest relative to its limit."""
     def rel(r: dict[str, Any]) -> float:
         m = r["margin"]
@@ -91,8 +91,8 @@ def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
         return m / abs(r["limit"]) if r["limit"] else m
 
     failed = [r for r in rows if not r["passed"]]
-    if failed:
-        return min(failed, key=rel)
+    if failed:  # a measured one before an unmeasured one (NaN: the points where it holds are not reached)
+        return min(failed, key=lambda r: (rel(r) == -math.inf, rel(r)))
     limits = [r for r in rows if r["requirement"] in REQUIREMENTS and r.get("limit") and isinstance(r.get("margin"), (int, float))
               and math.isfinite(r["margin"])]  # fmt: skip
     return min(limits, key=rel) if limits else None
