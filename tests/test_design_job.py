@@ -35,7 +35,7 @@ def test_requirements_defaults_changes_and_drops() -> None:
 def test_the_advice_of_a_missed_requirement_is_a_command_that_accepts_the_design(name: str, value: float) -> None:
     """Each flag the design job prints for a missed requirement parses (the same parser as the command line) and,
     given, accepts the design that missed: its value meets the printed limit; a limit no flag takes is not printed."""
-    from arcube.cli.design import DROPS, MAXIMA, MINIMA, _pairs, _relax, missed_line
+    from arcube.cli.design import DROPS, MAXIMA, MINIMA, _relax, missed_line
     from arcube.design_job.requirements import REQUIREMENTS, judge
 
     kind = REQUIREMENTS[name][0]
@@ -51,8 +51,8 @@ def test_the_advice_of_a_missed_requirement_is_a_command_that_accepts_the_design
             assert flag in {f.name for f in DROPS}
             continue
         assert flag == (MINIMA if kind == "min" else MAXIMA).name
-        pairs = _pairs([pair], MINIMA if kind == "min" else MAXIMA)
-        (req,) = [r for r in requirements_from(**{"minima" if kind == "min" else "maxima": pairs}) if r.name == name]
+        # the command line's NAME=VALUE text, as the CLI hands it to the library
+        (req,) = [r for r in requirements_from(**{"minima" if kind == "min" else "maxima": [pair]}) if r.name == name]
         assert (value >= req.limit) if kind == "min" else (value <= req.limit)
         assert abs(req.limit - value) <= 1e-3 * abs(value) + 1e-12  # the design's own value, rounded the safe way
     assert (value < 0.0) == (not any("=" in t for t in suggestions))  # a negative minimum: no flag accepts it

@@ -45,7 +45,7 @@ def test_optimize_limits_are_refused_as_typed(tmp_path: Path, capsys: pytest.Cap
 
 def test_design_refuses_a_requirement_both_dropped_and_limited(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, err = _cli(["design", "--trajectories", "reference", "--no-torque", "--max", "torque=5", "--out", str(tmp_path / "d")], capsys)
-    assert code == 2 and err.count("\n") == 1 and err.startswith("error: --max torque=5.0: the torque requirement is also dropped"), err
+    assert code == 2 and err.count("\n") == 1 and err.startswith("error: --max torque=5: the torque requirement is also dropped"), err
     assert os.listdir(tmp_path) == []
 
 

@@ -77,7 +77,8 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float, float]:
     p = k / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return p, max(0.0, centre - half), min(1.0, centre + half)
+    # at k = 0 (k = n) the interval reaches 0 (1) exactly; computed, it would miss by a rounding error
+    return p, 0.0 if k == 0 else max(0.0, centre - half), 1.0 if k == n else min(1.0, centre + half)
 
 
 def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
@@ -109,7 +110,7 @@ def docking_jobs(robot: BuiltRobot, patients: Sequence[PatientPlan], settings: R
         plan = load_trajectories(p.plan, settings.transform)
         plan = select(plan, side=settings.side, levels=settings.levels, ids=settings.ids)
         if not len(plan.ids):
-            raise InputError.of("plan", f"patient {p.name}: no trajectories left after the selection (--side, --levels, --ids)")
+            raise InputError.of("plan", f"patient {p.name}: no trajectories left after the selection of side, levels and ids")
         sides: list[str | None] = [sd for sd in ("R", "L") if sd in plan.sides] if settings.dockings != "per-patient" else [None]
         for side in sides:
             job = DockingJob(robot, p, side, settings, tuple(reqs), int(seed), int(starts), int(evaluations), "")
@@ -319,8 +320,7 @@ def dock(robot: str | os.PathLike[str], plan: Any = None, out: str | os.PathLike
     from arcube.design_job.cohort import plans_as_cohort, read_cohort
     from arcube.io import TrajectorySet
     from arcube.optimization.config import run_settings
-    from arcube.design_job.job import design_settings
-    from arcube.design_job.requirements import requirements_from
+    from arcube.design_job.requirements import design_settings, requirements_from
 
     if out is None:
         raise InputError.of("out", "is required (the folder of the dockings)")

@@ -44,7 +44,7 @@ from typing import Any
 from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, build_program, closing_c_z
 from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
 from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
-from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_options, write_requirements_csv
+from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_settings, write_requirements_csv
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
@@ -94,32 +94,6 @@ class DesignResult:
     def missed(self) -> list[dict[str, Any]]:
         """The requirement rows that fail (each names its docking)."""
         return [r for r in self.rows if not r["passed"]]
-
-
-def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = None, **fields: Any) -> RunSettings:
-    """The optimization a design job runs: ``settings`` (budget, engine, anatomy, objective ...) with
-    the robot's 22 parameters (c_z among them, MODEL.md 19.1), each docking's placement and the working mode
-    free, the guards of 8.2 and the z dyad (19.2), the clearance guards and the limits of ``reqs``, the standoff
-    lines of MODEL.md 17.1 (20 mm unless set), the envelope of the whole patient (19.5: ``default`` unless
-    set), one docking per side unless ``dockings`` is set, and the worst docking's eta_G unless ``aggregate`` is."""
-    from arcube.optimization.config import run_settings
-
-    s = run_settings(settings, **fields)
-    if not s.anatomy and any(r.name == "clearance" for r in reqs):  # before the guard below would blame its own field
-        raise InputError.of("RunSettings.anatomy", "is needed by the clearance requirement (anatomy default, mesh files or a "
-                                                   "segmentation); or drop the clearance requirement")  # fmt: skip
-    maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in PROGRAM_FIGURES}  # the program's: checked after
-    options = design_options(reqs, s.options).replace(z_dyad=True)
-    envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
-    if envelope == ("none",) and any(r.name == "envelope_clearance" for r in reqs):
-        raise InputError.of("RunSettings.envelope", "is none, but the envelope_clearance requirement needs one (envelope default or a skin "
-                                                    "mesh); or drop the requirement")  # fmt: skip
-    dockings = s.dockings if s.dockings is not None or s.setups != 1 else "per-side"
-    aggregate = s.aggregate if "aggregate" in s.model_fields_set else "max"
-    algorithm = s.algorithm if "algorithm" in s.model_fields_set or dockings is None else "docked"  # mscmaes with one docking
-    return s.replace(free=["all", "mount", "L", "c_z"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
-                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope, dockings=dockings, aggregate=aggregate,
-                     docking="per-patient", algorithm=algorithm)  # fmt: skip
 
 
 def is_design(path: Path) -> bool:

@@ -25,7 +25,7 @@ from arcube.design_job.robot import BuiltRobot, WarmStart
 from arcube.optimization.config import PatientPlan, own_settings
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["docking_patient", "redock"]
+__all__ = ["docking_patient", "redock", "redock_budget"]
 
 
 def docking_patient(cfg: dict[str, Any], k: int) -> PatientPlan:
@@ -37,6 +37,17 @@ def docking_patient(cfg: dict[str, Any], k: int) -> PatientPlan:
     return PatientPlan(str(entry.get("name", f"patient_{k + 1}")), spec, **own)
 
 
+SMALLEST_JOB = 2000
+"""A job of fewer evaluations per seed (a quick look, a test) does not dock its robot anew: its robot is not worth it."""
+
+
+def redock_budget(s: RunSettings) -> int:
+    """The evaluations of one docking searched anew: a tenth of what the job spent on each seed, at most
+    :data:`~arcube.design_job.dock.DOCK_EVALUATIONS`; 0 (not at all) below :data:`SMALLEST_JOB` evaluations per seed."""
+    budget = s.population * s.generations
+    return 0 if budget < SMALLEST_JOB else int(min(DOCK_EVALUATIONS, budget // 10))
+
+
 def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], folders: Sequence[Path], s: RunSettings,
            reqs: Sequence[Requirement], seed: int, *, workers: int = 1, dask: str | None = None,
            say: Callable[[str], None] | None = None) -> list[int]:  # fmt: skip
@@ -44,7 +55,7 @@ def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], f
     into its folder of ``folders``; a docking met that way takes the new placement and rows. Returns the indices met."""
     from arcube.design_job.coverage import run_jobs, solve_only
 
-    if not which:
+    if not which or redock_budget(s) == 0:
         return []
     starts = tuple(WarmStart(d.label, np.array([d.design[n] for n in PLACEMENT]), d.plan.entry, d.plan.target) for d in dockings)
     jobs = []
@@ -52,7 +63,7 @@ def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], f
         d = dockings[k]
         robot = BuiltRobot(d.label, d.design, (starts[k], *(w for j, w in enumerate(starts) if j != k)))
         side = d.side if d.side in ("R", "L") else None
-        jobs.append(DockingJob(robot, docking_patient(cfg, k), side, s, tuple(reqs), int(seed), 8, DOCK_EVALUATIONS, str(folders[k])))
+        jobs.append(DockingJob(robot, docking_patient(cfg, k), side, s, tuple(reqs), int(seed), 8, redock_budget(s), str(folders[k])))
     if say is not None:
         say(f"docking the robot anew at {', '.join(dockings[k].label for k in which)} (the robot fixed)")
     met = []
