@@ -15,7 +15,7 @@ import warnings
 import typer
 
 from arcube import __version__, interrupts
-from arcube.cli import calibrate, demo, design, dock, evaluate, explore, export, joints, optimize, patients, program, report, resume, study, tolerance
+from arcube.cli import breach, calibrate, demo, design, dock, evaluate, explore, export, joints, optimize, patients, program, report, resume, study, tolerance
 from arcube.cli.projection import REGISTRY
 from arcube.errors import InputError
 
@@ -44,7 +44,7 @@ def _root(
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, resume, study, design, dock, report, joints, patients, demo, export, explore, program, tolerance, calibrate):
+for _module in (evaluate, optimize, resume, study, design, dock, breach, report, joints, patients, demo, export, explore, program, tolerance, calibrate):
     _module.register(app)
 
 

@@ -8,7 +8,12 @@ fields as the header, each column is named once: :mod:`arcube.io.tables`)::
 
     trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z
 
-``level`` and ``side`` may be missing or empty (unknown); each column may appear once.
+``level`` and ``side`` may be missing or empty (unknown); each column may appear once. Four optional
+columns describe each screw's pedicle (MODEL.md 22.1; an empty cell: the level's mean, or the default,
+applies): ``pedicle_width_mm``, ``pedicle_height_mm`` (the isthmus, outer cortex to outer cortex),
+``isthmus_depth_mm`` (from the entry along the drill) and ``screw_diameter_mm``. A column whose name is a
+near miss of a known one (``pedicle_widht_mm``) is refused, naming the one it resembles: a misspelt
+column is not silently ignored.
 Coordinates are plain decimal numbers (``-12.5``, ``1e3``; not ``1_000``) within ±1e5 mm
 (:mod:`arcube.io.inputs`, which also sets the size, file-type and encoding limits of every
 reader). Row numbers in error messages are line numbers in the file, the header being row 1.
@@ -18,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -34,6 +40,7 @@ from arcube.io.tables import number, parse_table
 
 __all__ = [
     "CSV_COLUMNS",
+    "PEDICLE_COLUMNS",
     "LEVEL_ORDER",
     "TrajectorySet",
     "apply_transform",
@@ -49,6 +56,10 @@ CSV_COLUMNS = (
     "trajectory", "level", "side",
     "entry_x", "entry_y", "entry_z", "target_x", "target_y", "target_z",
 )
+PEDICLE_COLUMNS = ("pedicle_width_mm", "pedicle_height_mm", "isthmus_depth_mm", "screw_diameter_mm")
+"""The optional columns of a plan CSV that describe each screw's pedicle (MODEL.md 22.1), mm."""
+PEDICLE_LIMITS = {"pedicle_width_mm": 30.0, "pedicle_height_mm": 30.0, "isthmus_depth_mm": 200.0, "screw_diameter_mm": 20.0}
+"""Each pedicle column's values lie in (0, limit) mm (a screw of 20 mm or more is no pedicle screw)."""
 _COORD_COLUMNS = CSV_COLUMNS[3:]
 # level and side may be absent: a plan exported from elsewhere often has neither.
 _REQUIRED_COLUMNS = ("trajectory",) + _COORD_COLUMNS
@@ -70,6 +81,8 @@ class TrajectorySet:
         entry: (T, 3) float array, mm, patient frame; read-only.
         target: (T, 3) float array, mm, patient frame; read-only.
         source: the path the set came from, ``"reference"``, or a generator tag.
+        pedicle: (T, 4) float array, mm, the :data:`PEDICLE_COLUMNS` of each trajectory, NaN where not
+            given; None when the plan has none of them. Read-only.
     """
 
     ids: tuple[str, ...]
@@ -78,6 +91,7 @@ class TrajectorySet:
     entry: np.ndarray
     target: np.ndarray
     source: str
+    pedicle: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         # Copy and freeze the arrays so a frozen set cannot be mutated through them.
@@ -89,6 +103,12 @@ class TrajectorySet:
         object.__setattr__(self, "target", target)
         for name in ("ids", "levels", "sides"):
             object.__setattr__(self, name, tuple(str(v) for v in getattr(self, name)))
+        if self.pedicle is not None:
+            pedicle = np.array(self.pedicle, dtype=float).reshape(-1, len(PEDICLE_COLUMNS))
+            if pedicle.shape[0] != entry.shape[0]:
+                raise ValueError(f"TrajectorySet: pedicle has {pedicle.shape[0]} rows for {entry.shape[0]} trajectories")
+            pedicle.setflags(write=False)
+            object.__setattr__(self, "pedicle", pedicle)
         n = len(self.ids)
         if not (len(self.levels) == len(self.sides) == entry.shape[0] == target.shape[0] == n):
             raise ValueError(
@@ -107,6 +127,8 @@ class TrajectorySet:
             self.ids == other.ids and self.levels == other.levels and self.sides == other.sides
             and self.source == other.source
             and np.array_equal(self.entry, other.entry) and np.array_equal(self.target, other.target)
+            and (self.pedicle is None) == (other.pedicle is None)
+            and (self.pedicle is None or np.array_equal(self.pedicle, other.pedicle, equal_nan=True))
         )
 
     __hash__ = None  # type: ignore[assignment]  # equality is by value over arrays
@@ -158,7 +180,10 @@ def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray
 def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
     """Parse CSV ``text`` (:func:`arcube.io.tables.parse_table`); ``name`` labels error messages, ``source`` goes into the set."""
     table = parse_table(text, name, required=_REQUIRED_COLUMNS, key=lambda h: h.strip().lower())
-    col = {c: table.index(c) for c in CSV_COLUMNS if c in table.header}
+    _refuse_near_misses(table.header, name)
+    col = {c: table.index(c) for c in (*CSV_COLUMNS, *PEDICLE_COLUMNS) if c in table.header}
+    pedicle_cols = [c for c in PEDICLE_COLUMNS if c in col]
+    pedicle: list[list[float]] = []
     ids: list[str] = []
     levels: list[str] = []
     sides: list[str] = []
@@ -174,11 +199,44 @@ def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
             raise InputError(f"{where}: side must be R, L or empty ({short_repr(side)})")
         sides.append(side)
         labels.append(where)
+        if pedicle_cols:
+            pedicle.append([_pedicle_value(row[col[c]], where, c) if c in col else np.nan for c in PEDICLE_COLUMNS])
     if not ids:
         raise InputError(f"{name}: no trajectories (header only)")
     pts = np.array(points, dtype=float)
     validate_points(labels, ids, pts[:, :3], pts[:, 3:])
-    return TrajectorySet(tuple(ids), tuple(levels), tuple(sides), pts[:, :3], pts[:, 3:], source)
+    ped = np.array(pedicle, dtype=float) if pedicle_cols else None
+    if ped is not None:
+        length = np.linalg.norm(pts[:, 3:] - pts[:, :3], axis=1)
+        bad = np.flatnonzero(ped[:, 2] >= length)
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"{labels[k]}: isthmus_depth_mm {ped[k, 2]:g} is not inside the trajectory ({length[k]:.3g} mm from entry to target)")
+    return TrajectorySet(tuple(ids), tuple(levels), tuple(sides), pts[:, :3], pts[:, 3:], source, ped)
+
+
+def _pedicle_value(text: str, where: str, column: str) -> float:
+    """One pedicle cell: NaN when empty (the default applies), else a number in (0, limit) mm."""
+    if not text.strip():
+        return float("nan")
+    v = number(text, where, column)
+    limit = PEDICLE_LIMITS[column]
+    if not (math.isfinite(v) and 0.0 < v < limit):
+        raise InputError(f"{where}: {column} must be a number of mm in (0, {limit:g}), got {short_repr(text)}")
+    return v
+
+
+def _refuse_near_misses(header: Sequence[str], name: str) -> None:
+    """InputError for a column that is not one of the plan's but nearly is (a misspelt optional column is read as none)."""
+    import difflib
+
+    known = (*CSV_COLUMNS, *PEDICLE_COLUMNS)
+    for h in header:
+        if h and h not in known:
+            close = difflib.get_close_matches(h, known, n=1, cutoff=0.8)
+            if close:
+                raise InputError(f"{name}: unknown column {short_repr(h)}: did you mean {close[0]}? (other columns are ignored, a "
+                                 "misspelt one is not)")  # fmt: skip
 
 
 def read_csv(path: str | os.PathLike[str]) -> TrajectorySet:
@@ -238,7 +296,7 @@ def apply_transform(ts: TrajectorySet, matrix: np.ndarray) -> TrajectorySet:
     """Map entry and target points by the (4, 4) homogeneous ``matrix``: p' = R p + t."""
     rot, t = matrix[:3, :3], matrix[:3, 3]
     return TrajectorySet(ts.ids, ts.levels, ts.sides, ts.entry @ rot.T + t,
-                         ts.target @ rot.T + t, ts.source)
+                         ts.target @ rot.T + t, ts.source, ts.pedicle)
 
 
 def _expand_levels(spec: str) -> set[str]:
@@ -298,7 +356,8 @@ def select(ts: TrajectorySet, side: str | None = None, levels: str | Sequence[st
         raise InputError(f"no trajectory of {ts.source} matches {given}")
     idx = np.flatnonzero(keep)
     return TrajectorySet(tuple(ts.ids[i] for i in idx), tuple(ts.levels[i] for i in idx),
-                         tuple(ts.sides[i] for i in idx), ts.entry[idx], ts.target[idx], ts.source)
+                         tuple(ts.sides[i] for i in idx), ts.entry[idx], ts.target[idx], ts.source,
+                         None if ts.pedicle is None else ts.pedicle[idx])
 
 
 def _fmt(value: float, decimals: int | None) -> str:
@@ -310,7 +369,8 @@ def _fmt(value: float, decimals: int | None) -> str:
 
 
 def write_csv(ts: TrajectorySet, path: str | os.PathLike[str], decimals: int | None = None) -> None:
-    """Write ``ts`` as CSV (columns of :data:`CSV_COLUMNS`), atomically.
+    """Write ``ts`` as CSV (columns of :data:`CSV_COLUMNS`, then :data:`PEDICLE_COLUMNS` when the set has them;
+    an empty cell where a row has none), atomically.
 
     Args:
         decimals: fixed decimals for coordinates (mm); None writes the shortest text that
@@ -318,8 +378,9 @@ def write_csv(ts: TrajectorySet, path: str | os.PathLike[str], decimals: int | N
     """
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
+    writer.writerow(CSV_COLUMNS + (PEDICLE_COLUMNS if ts.pedicle is not None else ()))
     for i in range(len(ts)):
         coords = [_fmt(v, decimals) for v in (*ts.entry[i], *ts.target[i])]
-        writer.writerow([ts.ids[i], ts.levels[i], ts.sides[i], *coords])
+        ped = [] if ts.pedicle is None else ["" if math.isnan(v) else _fmt(v, decimals) for v in ts.pedicle[i]]
+        writer.writerow([ts.ids[i], ts.levels[i], ts.sides[i], *coords, *ped])
     atomic_write(path, buf.getvalue())

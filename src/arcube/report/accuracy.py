@@ -10,7 +10,6 @@ Drawn on bare :class:`matplotlib.figure.Figure` objects (no pyplot, no global ba
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
@@ -18,18 +17,14 @@ import numpy as np
 
 from arcube.accuracy.budget import ToleranceResult
 from arcube.accuracy.output import write
+from arcube.report.page import png_bytes
 
 MAX_BARS = 20
 """Sources drawn by :func:`sources_png`; the rest are summed into one bar."""
 
 
 def _png(fig: object) -> bytes:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig)  # type: ignore[arg-type]
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)  # type: ignore[attr-defined]
-    return buf.getvalue()
+    return png_bytes(fig)
 
 
 def _subtitle(result: ToleranceResult) -> str:

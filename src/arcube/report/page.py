@@ -8,7 +8,7 @@ import html as _html
 import math
 from typing import Any
 
-__all__ = ["CSS", "esc", "fmt", "plotly_div"]
+__all__ = ["CSS", "esc", "fmt", "plotly_div", "png_bytes"]
 
 CSS = """body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:1200px;color:#222}
 table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding:2px 8px;text-align:right}
@@ -38,3 +38,15 @@ def plotly_div(fig: Any, div_id: str, include_js: bool) -> str:
 
     return pio.to_html(fig, full_html=False, include_plotlyjs=include_js, auto_play=False, div_id=div_id,
                        config={"displaylogo": False, "responsive": True})  # fmt: skip
+
+
+def png_bytes(fig: Any, dpi: int = 120) -> bytes:
+    """A bare :class:`matplotlib.figure.Figure` (no pyplot, no global backend state) as PNG bytes."""
+    import io
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()

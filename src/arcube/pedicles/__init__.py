@@ -1,0 +1,16 @@
+"""From the drill tip to the pedicle: the probability that a screw breaches (MODEL.md 22).
+
+* :mod:`~arcube.pedicles.geometry`: each screw's pedicle at its isthmus (22.1) and the breach test, its direction and
+  grade (22.3);
+* :mod:`~arcube.pedicles.sources`: what moves the screw there (22.2): the built or calibrated robot, the registration,
+  the deflection; the reference one sample at a time and the batched path;
+* :mod:`~arcube.pedicles.monte_carlo`: the Monte Carlo and its results (22.4);
+* :mod:`~arcube.pedicles.settings`: :class:`BreachSettings`;
+* :mod:`~arcube.pedicles.run`: :func:`breach` (``arcube breach``) and its folder.
+"""
+
+from arcube.pedicles.monte_carlo import BREACH_COLUMNS, BreachResult
+from arcube.pedicles.run import breach
+from arcube.pedicles.settings import BreachSettings
+
+__all__ = ["BREACH_COLUMNS", "BreachResult", "BreachSettings", "breach"]

@@ -1,0 +1,139 @@
+"""The Monte Carlo of breaches (MODEL.md 22.4): N samples, each a built robot, a registration and the deflection.
+
+Per screw: P(breach) with its 95 % Wilson interval, P by direction (medial, lateral, cranial, caudal), P(major), the
+p95 of the offset |delta| at the isthmus, and P(breach) with each source alone (the other two at 0), computed on the
+same draws (which source decides the screw). Per level and side the largest P(breach); per docking the largest and the
+expected number of breached screws, sum_j P_j. ``breach_probability``: the largest P(breach) over the screws that are
+not too wide; ``too_wide``: the others (P = 1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from arcube.pedicles.geometry import DIRECTIONS, Pedicles, classify
+from arcube.pedicles.sources import Draws, RobotModel, deflection, draw, registration, robot_displacements, robot_displacements_reference
+
+__all__ = ["BREACH_COLUMNS", "BreachResult", "monte_carlo", "wilson"]
+
+BREACH_COLUMNS = (
+    "trajectory", "level", "side", "width_mm", "height_mm", "isthmus_depth_mm", "screw_mm", "room_mm", "too_wide", "p_breach",
+    "p_breach_low", "p_breach_high", "p_medial", "p_lateral", "p_cranial", "p_caudal", "p_major", "offset_p95_mm",
+    "p_robot_alone", "p_registration_alone", "p_deflection_alone",
+)  # fmt: skip
+"""The columns of breach.csv, one row per screw in the plan's order (then ``room_height_mm``, ``docking``, ``reached``)."""
+Z95 = 1.959963984540054
+
+
+def wilson(k: NDArray[np.float64] | float, n: int, z: float = Z95) -> tuple[Any, Any]:
+    """The 95 % Wilson score interval (low, high) of a proportion k/n, elementwise; exactly 0 (1) at k = 0 (k = n)."""
+    k_a = np.asarray(k, dtype=float)
+    p = k_a / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return np.where(k_a == 0, 0.0, np.maximum(centre - half, 0.0)), np.where(k_a == n, 1.0, np.minimum(centre + half, 1.0))
+
+
+@dataclass(frozen=True)
+class BreachResult:
+    """The breach Monte Carlo of one plan: per-screw arrays ``(J,)`` and the settings it ran with."""
+
+    pedicles: Pedicles
+    docking: tuple[str, ...]  # (J,) the docking of each screw (its side, or "both")
+    samples: int
+    reached: NDArray[np.bool_]  # the nominal design reaches the isthmus pose (else P = 1, counted as a breach)
+    p_breach: NDArray[np.float64]
+    p_direction: NDArray[np.float64]  # (J, 4) medial, lateral, cranial, caudal
+    p_major: NDArray[np.float64]
+    offset_p95_mm: NDArray[np.float64]
+    p_alone: NDArray[np.float64]  # (J, 3) robot, registration, deflection
+    offsets: NDArray[np.float64] = field(repr=False)  # (N, J, 2) the combined offsets, for the pictures
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def interval(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The 95 % Wilson interval of each P(breach)."""
+        return wilson(np.round(self.p_breach * self.samples), self.samples)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per screw with :data:`BREACH_COLUMNS` (and ``room_height_mm``, ``docking``, ``reached``); NaN where
+        a figure is not defined (the direction, grade and offsets of a too-wide screw)."""
+        p, (low, high), room, wide = self.pedicles, self.interval, self.pedicles.room, self.pedicles.too_wide
+        out = []
+        for j in range(len(p.ids)):
+            nan_if_wide = (lambda v: math.nan if wide[j] else float(v))  # noqa: E731 - one screw's rule
+            out.append({
+                "trajectory": p.ids[j], "level": p.levels[j], "side": p.sides[j], "width_mm": float(p.width[j]), "height_mm": float(p.height[j]),
+                "isthmus_depth_mm": float(p.depth[j]), "screw_mm": float(p.screw[j]), "room_mm": float(room[j, 0]), "too_wide": bool(wide[j]),
+                "p_breach": float(self.p_breach[j]), "p_breach_low": float(low[j]), "p_breach_high": float(high[j]),
+                **{f"p_{name}": nan_if_wide(self.p_direction[j, k]) for k, name in enumerate(DIRECTIONS)},
+                "p_major": nan_if_wide(self.p_major[j]), "offset_p95_mm": nan_if_wide(self.offset_p95_mm[j]),
+                "p_robot_alone": nan_if_wide(self.p_alone[j, 0]), "p_registration_alone": nan_if_wide(self.p_alone[j, 1]),
+                "p_deflection_alone": nan_if_wide(self.p_alone[j, 2]),
+                "room_height_mm": float(room[j, 1]), "docking": self.docking[j], "reached": bool(self.reached[j]),
+            })  # fmt: skip
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """``breach_probability`` (the largest P over the screws that are not too wide), ``too_wide`` (their ids), the
+        largest P per level and side, per docking the largest and the expected breaches, and the settings."""
+        p, wide = self.pedicles, self.pedicles.too_wide
+        fit = ~wide
+        worst = int(np.argmax(np.where(fit, self.p_breach, -1.0))) if fit.any() else None
+        per_level: dict[str, float] = {}
+        for j in range(len(p.ids)):
+            key = f"{p.levels[j]} {p.sides[j]}"
+            per_level[key] = max(per_level.get(key, 0.0), float(self.p_breach[j]))
+        per_docking = {}
+        for name in dict.fromkeys(self.docking):
+            mine = np.array([d == name for d in self.docking])
+            per_docking[name] = {"breach_probability": float(np.max(self.p_breach[mine & fit])) if (mine & fit).any() else None,
+                                 "expected_breaches": float(np.sum(self.p_breach[mine])), "screws": int(mine.sum())}  # fmt: skip
+        return {
+            "breach_probability": None if worst is None else float(self.p_breach[worst]),
+            "worst_screw": None if worst is None else p.ids[worst],
+            "too_wide": [p.ids[j] for j in np.flatnonzero(wide)],
+            "not_reached": [p.ids[j] for j in np.flatnonzero(~self.reached)],
+            "expected_breaches": float(np.sum(self.p_breach)),
+            "per_level_side": per_level, "per_docking": per_docking, "samples": self.samples, "settings": self.settings,
+        }  # fmt: skip
+
+
+def _stats(offsets: NDArray[np.float64], p: Pedicles) -> tuple[NDArray[np.float64], ...]:
+    """(P(breach), P by direction (J, 4), P(major)) of offsets ``(N, J, 2)``."""
+    breach, direction, major = classify(offsets, p)
+    p_dir = np.stack([np.mean(direction == k, axis=0) for k in range(len(DIRECTIONS))], axis=-1)
+    return np.mean(breach, axis=0), p_dir, np.mean(major, axis=0)
+
+
+def monte_carlo(robot: RobotModel, p: Pedicles, docking: tuple[str, ...], *, samples: int, seed: int, registration_mm: float,
+                registration_deg: float, thrust_N: float, stiffness_Nm_per_rad: Any, reference: bool = False,
+                settings: dict[str, Any] | None = None) -> BreachResult:  # fmt: skip
+    """Run the Monte Carlo (module docstring) on the screws ``p``; ``docking`` ``(J,)`` names each screw's docking (one
+    registration per docking, about the centroid of its screws' entries). ``reference``: the robot's displacements
+    one sample at a time (:func:`~arcube.pedicles.sources.robot_displacements_reference`), else all at once."""
+    e = -p.u
+    names = list(dict.fromkeys(docking))
+    index = np.array([names.index(d) for d in docking], dtype=np.intp)
+    entries = p.isthmus - p.depth[:, None] * p.u
+    centres = np.array([entries[index == k].mean(axis=0) for k in range(len(names))])
+    draws: Draws = draw(np.random.default_rng(seed), robot, samples, len(p.ids), len(names), registration_mm, registration_deg)
+    robot_d = (robot_displacements_reference if reference else robot_displacements)(robot, p.isthmus, e, draws)
+    reached = ~np.any(np.isnan(robot_d[0]), axis=-1) if samples else np.ones(len(p.ids), bool)
+    robot_d = np.where(np.isnan(robot_d), np.inf, robot_d)  # a screw the robot does not reach is not drilled where planned
+    reg_d = registration(draws, p.isthmus, index, centres)
+    defl_d = np.nan_to_num(deflection(robot, p.isthmus, e, thrust_N, stiffness_Nm_per_rad), nan=np.inf)[None]
+    offsets = p.offsets(robot_d + reg_d + defl_d)
+    with np.errstate(invalid="ignore"):
+        p_breach, p_dir, p_major = _stats(offsets, p)
+        alone = np.stack([_stats(p.offsets(d), p)[0] for d in (robot_d, reg_d, np.broadcast_to(defl_d, robot_d.shape))], axis=-1)
+        size = np.linalg.norm(offsets, axis=-1)
+    from arcube.accuracy.monte_carlo import percentiles
+
+    p95 = percentiles(size, [95.0], axis=0)[0]
+    return BreachResult(p, tuple(docking), samples, reached, p_breach, p_dir, p_major, p95, alone, offsets, settings or {})
