@@ -62,3 +62,21 @@ def start_chromium(profile: Path, *args: str):  # noqa: ANN201 - a selenium driv
         opts.add_argument(arg)
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+
+
+def assert_csvs_read_back(folder: Path) -> int:
+    """Every CSV under ``folder`` reads back with Python's csv module and with pandas, every row at the header's field
+    count (a field holding a comma is quoted); returns how many were read."""
+    import csv
+
+    import pandas as pd
+
+    files = sorted(Path(folder).rglob("*.csv"))
+    for path in files:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+        assert rows, path
+        assert all(len(r) == len(rows[0]) for r in rows), f"{path}: a row's field count differs from the header's"
+        frame = pd.read_csv(path)
+        assert frame.shape == (len(rows) - 1, len(rows[0])), path
+    return len(files)

@@ -136,7 +136,10 @@ def test_calibrated_design_file_and_the_ik_minus_q0_of_its_poses(tmp_path, plan,
     write_measurements(tmp_path / "meas.csv", sim.measurements)
     res = identify(tmp_path / "nominal.json", tmp_path / "meas.csv", DEMO_MODE, IdentifySettings(**FAST), plan[0], out=tmp_path / "cal")
     files = sorted(p.name for p in (tmp_path / "cal").iterdir())
-    assert files == ["calibration.html", "calibration.json", "design.json", "residuals.csv"]
+    assert files == ["calibration.html", "calibration.json", "covariance.csv", "design.json", "residuals.csv"]
+    from arcube.calibrate.output import read_covariance
+
+    np.testing.assert_array_equal(read_covariance(tmp_path / "cal" / "covariance.csv"), res.covariance)  # exact round trip
     written = json.loads((tmp_path / "cal" / "design.json").read_text())
     assert written["c_z"] == 300.0 and written["mode"] == DEMO_MODE and written["d_z"] == DEMO["d_z"]
     design, q0 = read_calibrated(tmp_path / "cal" / "design.json")

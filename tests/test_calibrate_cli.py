@@ -44,7 +44,7 @@ def test_poses_simulate_identify_from_the_command_line(folder: Path, capsys: pyt
     code, out, err = _run(["calibrate", "identify", "--design", d, "--measurements", str(folder / "meas.csv"), "--holdout", "0",
                            "--sigma-mm", "0.15", "--out", str(folder / "id")], capsys)  # fmt: skip
     assert code == 0, err
-    assert sorted(p.name for p in (folder / "id").iterdir()) == ["calibration.html", "calibration.json", "design.json", "residuals.csv"]
+    assert sorted(p.name for p in (folder / "id").iterdir()) == ["calibration.html", "calibration.json", "covariance.csv", "design.json", "residuals.csv"]
     calibrated = Design.from_json(folder / "id" / "design.json")
     np.testing.assert_allclose(calibrated.q0, sim.q0_deg, atol=1e-6)  # noise-free: the real zero offsets, recovered
     doc = json.loads((folder / "id" / "calibration.json").read_text())

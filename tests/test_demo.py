@@ -46,3 +46,6 @@ def test_quick_demo_writes_reports_and_reproducible_designs(tmp_path: Path) -> N
     assert verdict in proc.stdout
     assert summary["missed"] == [r["requirement"] for r in summary["requirements"] if not r["passed"]]
     assert (design / "requirements.csv").read_text().count("\n") == len(summary["requirements"]) + 1
+    from harness import assert_csvs_read_back
+
+    assert assert_csvs_read_back(out) >= 4  # every CSV the demo writes: csv and pandas, the header's field count

@@ -160,10 +160,10 @@ def met_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
     import json
 
     root = tmp_path_factory.mktemp("design")
-    out = _arcube("design", *_SMALL, "--seeds", "3", "--out", "d", "--max", "power_peak=1000", cwd=root)
+    out = _arcube("design", *_SMALL, "--seeds", "3", "--out", "d", "--max", "power_peak=1000", "--max", "breach_probability=1", cwd=root)
     assert out.returncode in (0, 3), out.stdout + out.stderr
     summary = json.loads((root / "d" / "summary.json").read_text())
-    assert set(summary["missed"]) <= {"program", "power_peak"}, out.stdout  # every sampled requirement met
+    assert set(summary["missed"]) <= {"program", "power_peak", "breach_probability"}, out.stdout  # every sampled requirement met
     assert ("design meets every requirement" in out.stdout) == (out.returncode == 0) == (summary["missed"] == [])
     return root / "d"
 
@@ -417,3 +417,25 @@ def test_without_an_anatomy_the_design_blames_its_own_flag(tmp_path: Path) -> No
     with pytest.raises(InputError) as err:
         arcube.design("reference", tmp_path / "d")
     assert err.value.param == "RunSettings.anatomy" and not (tmp_path / "d").exists()
+
+
+def test_the_chosen_robot_carries_the_breach_probability_of_its_screws(met_design: Path) -> None:
+    """MODEL.md 22.4 on the robot chosen: summary.json's breach figures and the breach_probability row are those of
+    arcube.breach on the design file with the job's class and seed (the same draws), and breach/ holds its files."""
+    import json
+
+    summary = json.loads((met_design / "summary.json").read_text())
+    plan = arcube.select(arcube.load_trajectories("reference"), side="R", levels="C3-C4")
+    again = arcube.breach(str(met_design / "design.json"), plan, samples=10_000, seed=1)
+    assert summary["breach"]["breach_probability"] == again.summary()["breach_probability"]
+    assert [s["p_breach"] for s in summary["breach"]["screws"]] == [r["p_breach"] for r in again.rows()]
+    row = next(r for r in summary["requirements"] if r["requirement"] == "breach_probability")
+    assert row["value"] == again.summary()["breach_probability"] and row["limit"] == 1.0 and row["passed"]
+    assert (met_design / "breach" / "breach.csv").exists() and (met_design / "breach" / "summary.json").exists()
+
+
+def test_every_csv_the_design_job_writes_reads_back(met_design: Path) -> None:
+    """requirements.csv's part holds commas (c_z 277.4 mm, d_z 85.3 mm): quoted, so csv and pandas read every file."""
+    from harness import assert_csvs_read_back
+
+    assert assert_csvs_read_back(met_design) >= 5  # requirements (top and docking), program, accuracy, breach

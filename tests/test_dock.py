@@ -75,6 +75,9 @@ def test_the_summary_and_coverage_csv_agree_and_read_back(docked: Path) -> None:
         assert r["binding"] == d["binding"] and float(r["m_x"]) == pytest.approx(d["m_x"], abs=1e-6)
         assert None not in r.values() and None not in r  # the header's field count on every row
     assert (docked / "report.html").read_text().count("<svg") == 1
+    from harness import assert_csvs_read_back
+
+    assert assert_csvs_read_back(docked) >= 7  # coverage, and per side requirements, program, accuracy, breach
     for d in summary["dockings"]:
         assert (docked / d["folder"] / "program" / "program.json").exists() and (docked / d["folder"] / "report.html").exists()
 

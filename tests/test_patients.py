@@ -197,6 +197,36 @@ def test_cohort_pedicle_parameters_and_correlation(pedicle_cohort: list[dict]) -
             assert abs(r - 0.7) < 4.5 * 0.51 / math.sqrt(N_COHORT), f"{name} {lv}: r = {r:.3f}"
 
 
+# Section 6, typed from MORPHOMETRY.md: the isthmus, means C3..C7, SD, range (mm)
+ISTHMUS_TABLE = {"width_mm": ((4.7, 4.9, 5.4, 5.8, 6.4), 0.8, (2.5, 9.0)), "height_mm": ((6.4, 6.5, 6.6, 6.7, 6.9), 0.8, (4.0, 10.0))}
+
+
+def test_cohort_isthmus_matches_section_6_and_leaves_every_other_draw_alone(pedicle_cohort: list[dict]) -> None:
+    for name, (means, sd, (lo, hi)) in ISTHMUS_TABLE.items():
+        for k, lv in enumerate(LEVELS):
+            right = [p["isthmus"][lv]["R"][name] for p in pedicle_cohort]
+            left = [p["isthmus"][lv]["L"][name] for p in pedicle_cohort]
+            assert_sample_matches(right, means[k], sd, lo, hi, f"{name} {lv} R")
+            assert_sample_matches(left, means[k], sd, lo, hi, f"{name} {lv} L")
+            r = np.corrcoef(right, left)[0, 1]
+            assert abs(r - 0.7) < 4.5 * 0.51 / math.sqrt(N_COHORT), f"{name} {lv}: r = {r:.3f}"
+    # its own stream: a technique's draws of the same seed share the isthmus, and the pedicle draws do not depend on it
+    a, b = draw_parameters(12, "pedicle"), draw_parameters(12, "magerl")
+    assert a["isthmus"] == b["isthmus"] and a["pedicle"] == b["pedicle"]
+    assert draw_parameters(None)["isthmus"]["C3"]["R"] == {"width_mm": 4.7, "height_mm": 6.4}
+
+
+def test_a_drawn_patients_plan_carries_its_isthmus_and_the_mean_patients_does_not(tmp_path: Path) -> None:
+    ts, params = generate_patient(31)
+    write_patient(ts, params, tmp_path / "p.csv")
+    back = read_csv(tmp_path / "p.csv")
+    expected = [[params["isthmus"][lv][sd]["width_mm"], params["isthmus"][lv][sd]["height_mm"]] for lv, sd in zip(back.levels, back.sides)]
+    np.testing.assert_allclose(back.pedicle[:, :2], expected, atol=5e-4)  # 3 decimals in the CSV
+    assert np.isnan(back.pedicle[:, 2:]).all()  # isthmus depth and screw: the defaults
+    mean, mean_params = generate_patient(None)
+    assert mean.pedicle is None
+
+
 def test_cohort_geometry_recomputed_from_points(pedicle_cohort: list[dict]) -> None:
     """TA recomputed from the built points, per level, matches the table statistically."""
     ta = {lv: [] for lv in LEVELS}

@@ -39,6 +39,7 @@ _SOURCES: dict[str, str] = {
     **dict.fromkeys(("PARAM_NAMES", "Design"), "arcube.model.design"),
     "generate_patient": "arcube.patients", "write_report": "arcube.report", "explore": "arcube.explorer",
     **dict.fromkeys(("DockResult", "dock"), "arcube.design_job.coverage"),
+    **dict.fromkeys(("BreachResult", "BreachSettings", "breach"), "arcube.pedicles"),
 }  # fmt: skip
 """Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
 
@@ -51,6 +52,7 @@ if TYPE_CHECKING:
     from arcube.errors import InputError
     from arcube.evaluation.result import Evaluation
     from arcube.design_job.coverage import DockResult, dock
+    from arcube.pedicles import BreachResult, BreachSettings, breach
     from arcube.explorer import explore
     from arcube.export.mjcf import export_mjcf
     from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
@@ -61,9 +63,9 @@ if TYPE_CHECKING:
     from arcube.report import write_report
 
 __all__ = [
-    "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "Design", "DockResult", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
+    "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "BreachResult", "BreachSettings", "Design", "DockResult", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
     "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "RunSettings", "ToleranceResult", "ToleranceSettings", "Study", "TrajectorySet",
-    "__version__", "calibrate", "design", "dock", "evaluate", "explore", "export_mjcf", "generate_patient", "joints", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study", "tolerance",
+    "__version__", "breach", "calibrate", "design", "dock", "evaluate", "explore", "export_mjcf", "generate_patient", "joints", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study", "tolerance",
     "write_csv", "write_markups", "write_report",
 ]  # fmt: skip
 

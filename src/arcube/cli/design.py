@@ -44,7 +44,7 @@ _HELPS = {
 }
 MINIMA = option("--min", "Change a lower limit: clearance=5, self_clearance=2 (mm).", key="minima", multiple=True, params=("requirements.min",))
 MAXIMA = option("--max", "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
-                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm); "
+                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm), breach_probability (0-1, MODEL.md 22: checked on the robot chosen); "
                 "on the program (none by default): torque_peak (N m), power_peak (W).", key="maxima", multiple=True, params=("requirements.max",))  # fmt: skip
 DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}")
                      for name in DEFAULTS]  # fmt: skip

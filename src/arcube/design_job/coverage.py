@@ -34,7 +34,7 @@ from typing import Any
 from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob, DockingOutcome, solve_docking
 from arcube.design_job.dockings import PLACEMENT, Docking
 from arcube.design_job.requirements import REQUIREMENTS, Requirement, write_requirements_csv
-from arcube.design_job.robot import BuiltRobot, read_robot
+from arcube.model.robot import BuiltRobot, read_robot
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.io.json_values import finite
@@ -128,7 +128,7 @@ def _dock_and_write(job: DockingJob) -> DockingOutcome:
 def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: RunSettings, seed: int) -> None:
     """The docking's own files: its design (the robot unchanged, at the docking), its requirement rows and its report
     (the verdict, the requirements, the accuracy as built to the job's tolerance class, the program when built)."""
-    from arcube.design_job.outputs import PROGRAM, accuracy_budget
+    from arcube.design_job.outputs import PROGRAM, accuracy_budget, breach_check
     from arcube.evaluation.result import evaluate_design
     from arcube.model.mechanism import parse_mode
     from arcube.report import write_report
@@ -144,8 +144,10 @@ def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: R
     perfect = next((r["value"] for r in outcome.rows if r["requirement"] == "lateral_error"), None)
     accuracy = {**accuracy_budget(folder, d.design, d.plan, str(d.design.mode), s, perfect), "docking": outcome.label}
     outcome.extra["accuracy_p95_mm"] = accuracy.get("lateral_error_p95_mm")
+    breach, _ = breach_check(folder, d, s, ())
+    outcome.extra["breach_probability"] = breach.get("breach_probability")
     program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
-    mine = {"meets_requirements": outcome.met, "seed": seed, "mode": d.design.mode, "eta_G": outcome.eta_G, "accuracy": accuracy}
+    mine = {"meets_requirements": outcome.met, "seed": seed, "mode": d.design.mode, "eta_G": outcome.eta_G, "accuracy": accuracy, "breach": breach}
     write_report(ev, folder / "report.html", program=program, preface=design_preface(mine, outcome.rows, d.design, c_z=d.design.c_z, folder=folder))
 
 

@@ -1,6 +1,6 @@
 """Docking a built robot on one patient side (MODEL.md 19.6): the six-variable problem, its starts, its search, its check.
 
-The robot is fixed (its 22 parameters, working mode and z-dyad elbow, :class:`~arcube.design_job.robot.BuiltRobot`); the
+The robot is fixed (its 22 parameters, working mode and z-dyad elbow, :class:`~arcube.model.robot.BuiltRobot`); the
 variables are the placement m and the mounting angles. The problem is the design job's for one docking: the same
 settings (:func:`arcube.design_job.job.design_settings`: guards, z dyad with the robot's c_z, envelope, standoff and
 approach lines, the requirements as limits), so the violation is MODEL.md 16's over the plan's points and the approach
@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from arcube.design_job.dockings import PLACEMENT, Docking, assess_dockings
-from arcube.design_job.outputs import build_program
+from arcube.design_job.outputs import breach_check, build_program
 from arcube.design_job.requirements import Requirement
-from arcube.design_job.robot import BuiltRobot
+from arcube.model.robot import BuiltRobot
 from arcube.model.design import Design
 from arcube.optimization.config import PatientPlan
 from arcube.optimization.settings import RunSettings
@@ -256,6 +256,9 @@ def solve_docking(job: DockingJob) -> tuple[DockingOutcome, Docking, RunSettings
         if d.met:
             d.rows = [*d.rows, *build_program(folder, d, s, job.reqs)]
             built = x
+        if d.met and any(r.name == "breach_probability" for r in job.reqs):  # MODEL.md 22.4: on a docking that meets the rest
+            d.breach, extra = breach_check(None, d, s, job.reqs)
+            d.rows = [*d.rows, *extra]
         tried.append((f, x, how, d.rows))
         if d.met:
             chosen = tried[-1]

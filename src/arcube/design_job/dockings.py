@@ -18,17 +18,14 @@ from typing import Any
 
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.io import load_trajectories, select
-from arcube.model.design import MOUNT_NAMES, PARAM_NAMES, Design
+from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
 from arcube.model.mechanism import parse_mode
 from arcube.optimization.config import own_settings, patient_settings
 from arcube.optimization.settings import RunSettings
 
 __all__ = ["Docking", "PLACEMENT", "ROBOT_NAMES", "assess_dockings", "docking_entry", "merge_rows", "run_dockings"]
 
-PLACEMENT = ("m_x", "m_y", "m_z", *MOUNT_NAMES)
-"""A docking's own parameters (MODEL.md 19.1): where the base is clamped and how it is turned."""
-ROBOT_NAMES: tuple[str, ...] = (*(n for n in PARAM_NAMES if n not in PLACEMENT), "c_z")
-"""The robot's 22 parameters (MODEL.md 19.1): the 27 but the docking's six, then c_z."""
+
 
 
 @dataclass
@@ -43,6 +40,8 @@ class Docking:
     design: Design
     rows: list[dict[str, Any]] = field(default_factory=list)
     """Its requirement rows (:func:`arcube.design_job.requirements.assess`, then its program's)."""
+    breach: dict[str, Any] = field(default_factory=dict)
+    """Its breach figures (MODEL.md 22, :func:`arcube.design_job.outputs.breach_check`), once checked."""
 
     @property
     def label(self) -> str:

@@ -43,7 +43,7 @@ def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs:
     from arcube.design_job.cohort import read_cohort
     from arcube.design_job.coverage import dock_patients
     from arcube.design_job.dock import DOCK_EVALUATIONS
-    from arcube.design_job.robot import BuiltRobot, WarmStart
+    from arcube.model.robot import BuiltRobot, WarmStart
 
     patients = read_cohort(meta["validate"], side=s.side, levels=s.levels, ids=s.ids, transform=s.transform)
     robot = BuiltRobot(str(out / "design.json"), dockings[0].design,
@@ -51,8 +51,14 @@ def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs:
     folder = out / VALIDATION
     shutil.rmtree(folder, ignore_errors=True)  # ours: a resumed job docks again
     say(f"docking the robot on the {len(patients)} held-out patients (never seen by the search)")
+    done: list[bool] = []
+
+    def progress(outcome: Any) -> None:
+        done.append(outcome.met)
+        say(f"held out: {sum(done)} of {len(done)} sides served; {outcome.label} {'served' if outcome.met else 'not served'}")
+
     return dock_patients(robot, patients, folder, s, reqs, seed=int(meta["seeds"][0]), evaluations=DOCK_EVALUATIONS, workers=workers,
-                         dask=dask).summary  # fmt: skip
+                         dask=dask, on_docking=progress).summary  # fmt: skip
 
 
 def coverage_fields(dockings: Sequence[Docking], held_out: dict[str, Any] | None) -> dict[str, Any]:

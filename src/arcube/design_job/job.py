@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, build_program, closing_c_z
+from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, breach_check, build_program, closing_c_z
 from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
 from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
 from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_settings, write_requirements_csv
@@ -210,6 +210,10 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
                 d.rows = [r for r in d.rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
             _programs(out, chosen, reqs, say, [d for d in dockings if d.met])
     row, run, s, summary, dockings = chosen
+    for d in dockings:  # MODEL.md 22.4: the breach Monte Carlo, on the chosen robot only
+        say(f"the breach probability of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
+        d.breach, breach_rows = breach_check(_folder(out, d, dockings), d, s, reqs)
+        d.rows = [*d.rows, *breach_rows]
     met = all(d.met for d in dockings)
     held_out = validate(out, meta, dockings, reqs, s, say, workers, dask) if meta.get("validate") else None
     say("writing the report, the accuracy budget (the model, 20) and the MuJoCo model")
@@ -274,10 +278,19 @@ def _docking_summary(d: Docking) -> dict[str, Any]:
     return {"label": d.label, "patient": d.name, "side": d.side, "meets_requirements": d.met, "missed": [r["requirement"] for r in d.rows if not r["passed"]],
             "trajectories": list(d.plan.ids), **docking_entry(d), "clearance_mm": value("clearance"), "self_clearance_mm": value("self_clearance"),
             "envelope_clearance_mm": value("envelope_clearance"), "lateral_error_mm": value("lateral_error"), "axis_error_deg": value("axis_error"),
-            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque"),
+            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque"), "breach_probability": d.breach.get("breach_probability"),
             "binding": None if bind is None else bind["requirement"], "binding_margin": None if bind is None else bind["margin"],
             "binding_unit": None if bind is None else bind.get("unit"), "binding_where": None if bind is None else (bind.get("part") or None),
             "folder": f"{DOCKINGS}/{d.label}"}  # fmt: skip
+
+
+def _worst_breach(dockings: Sequence[Docking]) -> dict[str, Any]:
+    """The breach figures (MODEL.md 22) of the docking where the breach probability is largest, with its name."""
+    judged = [d for d in dockings if isinstance(d.breach.get("breach_probability"), float)]
+    if not judged:
+        return dockings[0].breach
+    worst = max(judged, key=lambda d: d.breach["breach_probability"])
+    return {**worst.breach, **({} if len(dockings) == 1 else {"docking": worst.label})}
 
 
 def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunSettings, summary: dict[str, Any],
@@ -320,7 +333,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
             mujoco = f"not written: {exc}" if one else mujoco
         if not one:
             program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
-            mine = {**summary, "seed": seed, "meets_requirements": d.met, "accuracy": accuracies[-1]}
+            mine = {**summary, "seed": seed, "meets_requirements": d.met, "accuracy": accuracies[-1], "breach": d.breach}
             preface = design_preface(mine, d.rows, d.design, c_z=d.design.c_z, folder=folder)
             write_report(ev, folder / "report.html", program=program, preface=preface)
     rows = merge_rows(dockings)
@@ -335,6 +348,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
         "accuracy": accuracy, **coverage_fields(dockings, held_out),
+        "breach": _worst_breach(dockings),
         "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS,
                   **({"validation": VALIDATION, "coverage": "coverage.html"} if held_out is not None else {}),
                   **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),

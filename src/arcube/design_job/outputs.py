@@ -17,10 +17,13 @@ from arcube.errors import InputError
 from arcube.model.design import Design
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["ACCURACY", "PROGRAM", "accuracy_budget", "build_program", "closing_c_z"]
+__all__ = ["ACCURACY", "BREACH", "PROGRAM", "accuracy_budget", "breach_check", "build_program", "closing_c_z"]
 
 PROGRAM = "program"
 ACCURACY = "accuracy"
+BREACH = "breach"
+BREACH_SAMPLES = 10_000
+"""Samples of a docking's breach Monte Carlo (MODEL.md 22.4's default)."""
 
 
 def build_program(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
@@ -83,3 +86,33 @@ def closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, An
             raise
         lo, hi = float(found.group(1)), float(found.group(2))
         return 0.5 * (lo + hi)
+
+
+def breach_check(out: Path | None, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The breach probability of one docking's screws (MODEL.md 22), the robot as built to ``s.tolerance_class`` with the
+    default registration and the run's thrust, written to ``out/breach`` when ``out`` is given: (its figures for
+    summary.json, the ``breach_probability`` row when the requirement is set). A docking whose screws cannot be judged
+    (no side, no level) has its reason instead of figures, and fails the requirement."""
+    from arcube.pedicles.run import breach, write_breach
+
+    acc = s.accuracy_settings()
+    row = next(({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": "probability", "where": {}, "part": ""}
+                for r in reqs if r.name == "breach_probability"), None)  # fmt: skip
+    try:
+        result = breach(d.design, d.plan, tolerances=acc, samples=BREACH_SAMPLES, seed=acc.seed, loads=s.options.loads)
+    except InputError as exc:
+        rows = [] if row is None else [{**row, "value": float("nan"), "margin": float("nan"), "passed": False, "part": str(exc)}]
+        return {"not_computed": str(exc)}, rows
+    if out is not None:
+        shutil.rmtree(out / BREACH, ignore_errors=True)  # ours: a resumed job writes it again
+        write_breach(result, out / BREACH)
+    summary = result.summary()
+    figures = {k: summary[k] for k in ("breach_probability", "worst_screw", "too_wide", "expected_breaches")}
+    figures["screws"] = [{k: r[k] for k in ("trajectory", "level", "side", "room_mm", "too_wide", "p_breach", "p_breach_low", "p_breach_high",
+                                            "p_major", "p_robot_alone", "p_registration_alone", "p_deflection_alone")} for r in result.rows()]  # fmt: skip
+    if row is None:
+        return figures, []
+    value = 1.0 if summary["breach_probability"] is None else float(summary["breach_probability"])  # every screw too wide
+    worst = summary["worst_screw"] or (summary["too_wide"] or [""])[0]
+    return figures, [{**row, "value": value, "margin": row["limit"] - value, "passed": value <= row["limit"] and not summary["too_wide"],
+                      "part": f"screw {worst}" + (f"; too wide: {', '.join(summary['too_wide'])}" if summary["too_wide"] else "")}]  # fmt: skip

@@ -21,7 +21,7 @@ from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob
 from arcube.design_job.dockings import PLACEMENT, Docking
 from arcube.design_job.outputs import PROGRAM
 from arcube.design_job.requirements import Requirement
-from arcube.design_job.robot import BuiltRobot, WarmStart
+from arcube.model.robot import BuiltRobot, WarmStart
 from arcube.optimization.config import PatientPlan, own_settings
 from arcube.optimization.settings import RunSettings
 

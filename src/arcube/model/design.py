@@ -66,6 +66,10 @@ MOUNT_NAMES: tuple[str, ...] = ("mount_rx", "mount_ry", "mount_rz")
 ADDED_NAMES: tuple[str, ...] = (*MOUNT_NAMES, "L")
 """The four additions of MODEL.md 13; 0 when a design file omits them (the paper)."""
 INDEX: dict[str, int] = {name: i for i, name in enumerate(PARAM_NAMES)}
+PLACEMENT: tuple[str, ...] = ("m_x", "m_y", "m_z", *MOUNT_NAMES)
+"""A docking's own parameters (MODEL.md 19.1): where the base is clamped and how it is turned."""
+ROBOT_NAMES: tuple[str, ...] = (*(n for n in PARAM_NAMES if n not in PLACEMENT), "c_z")
+"""The robot's 22 parameters (MODEL.md 19.1): the 27 but the docking's six, then c_z."""
 
 ANGLE_NAMES: frozenset[str] = frozenset({"o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y", *MOUNT_NAMES})
 POSITION_NAMES: frozenset[str] = frozenset({"m_x", "m_y", "m_z"})

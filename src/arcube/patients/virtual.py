@@ -32,13 +32,13 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.io.inputs import short_repr
 from arcube.io.trajectories import TrajectorySet, atomic_write, write_csv
+from arcube.patients.isthmus import LEVELS, draw_isthmus
 
 __all__ = [
-    "ISTHMUS", "LEVELS", "TECHNIQUES", "PatientCheck", "build_patient", "check_patient", "draw_parameters", "isthmus_mean",
+    "LEVELS", "TECHNIQUES", "PatientCheck", "build_patient", "check_patient", "draw_parameters",
     "format_check", "generate_patient", "level_frames", "write_patient",
 ]
 
-LEVELS = ("C3", "C4", "C5", "C6", "C7")
 TECHNIQUES = ("pedicle", "roy-camille", "magerl", "an")
 _SIDES = (("R", 1.0), ("L", -1.0))  # side sign σ: +1 = patient's right (+x)
 
@@ -76,14 +76,6 @@ PEDICLE: dict[str, tuple[tuple[float, ...], float, float | None, float | None]] 
     "XA_mm": ((0.0, 0.0, 0.0, 1.7, 1.7), 1.0, -3.0, 5.0),
 }
 RL_CORRELATION = 0.7
-# Section 6: the pedicle's isthmus (outer cortex to outer cortex), per level C3..C7, SD, range; mm (MODEL.md 22.1).
-ISTHMUS: dict[str, tuple[tuple[float, ...], float, float, float]] = {
-    "width_mm": ((4.7, 4.9, 5.4, 5.8, 6.4), 0.8, 2.5, 9.0),
-    "height_mm": ((6.4, 6.5, 6.6, 6.7, 6.9), 0.8, 4.0, 10.0),
-}
-ISTHMUS_STREAM = 22
-"""The isthmus is drawn from a generator of its own, seeded (seed, 22): every earlier draw of a seed stays as it was,
-and the same seed gives the same pedicles with every technique."""
 ANTERIOR_MARGIN_MM = 3.0      # drill stops short of the anterior cortex
 MIN_TIP_MIDLINE_MM = 2.0      # tip kept this far from the midline
 # Section 2. Lateral-mass centre from the pedicle entry (vertebra frame).
@@ -168,36 +160,13 @@ def draw_parameters(seed: int | None = None, technique: str = "pedicle") -> dict
                 screw["cranial_offset_mm"] = cranial
                 lm[lv][side] = screw
         params["lateral_mass"] = lm
-    params["isthmus"] = _draw_isthmus(seed)
+    params["isthmus"] = draw_isthmus(seed)
     frames = level_frames(params)
     params["derived"] = {
         "level_tilt_deg": {lv: frames[lv][2] for lv in LEVELS},
         "level_centre_mm": {lv: [float(v) for v in frames[lv][0]] for lv in LEVELS},
     }
     return params
-
-
-def isthmus_mean(level: str) -> tuple[float, float]:
-    """(width, height) mm of a level's mean pedicle isthmus (MORPHOMETRY.md section 6); NaN for a level outside C3-C7."""
-    if level not in LEVELS:
-        return math.nan, math.nan
-    k = LEVELS.index(level)
-    return ISTHMUS["width_mm"][0][k], ISTHMUS["height_mm"][0][k]
-
-
-def _draw_isthmus(seed: int | None) -> dict[str, Any]:
-    """Per level and side the isthmus width and height, mm (section 6): a right/left pair of correlation 0.7 per
-    level, normal, clipped to the range; the means for the mean patient (``seed`` None)."""
-    rng = None if seed is None else np.random.default_rng([seed, ISTHMUS_STREAM])
-    out: dict[str, Any] = {lv: {"R": {}, "L": {}} for lv in LEVELS}
-    rho = RL_CORRELATION
-    for k, lv in enumerate(LEVELS):
-        for name, (means, sd, lo, hi) in ISTHMUS.items():
-            dist = _Normal(means[k], sd, lo, hi)
-            z_right, z_other = (0.0, 0.0) if rng is None else (float(rng.standard_normal()), float(rng.standard_normal()))
-            out[lv]["R"][name] = dist.clip(z_right)
-            out[lv]["L"][name] = dist.clip(rho * z_right + math.sqrt(1 - rho * rho) * z_other)
-    return out
 
 
 def level_frames(params: dict[str, Any]) -> dict[str, tuple[np.ndarray, np.ndarray, float]]:

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
 from arcube.io.trajectories import PEDICLE_COLUMNS
-from arcube.patients.virtual import isthmus_mean
+from arcube.patients.isthmus import isthmus_mean
 
 __all__ = [
     "DEFAULT_ISTHMUS_DEPTH_MM", "DEFAULT_SCREW_MM", "DIRECTIONS", "GRADES", "Pedicles", "breach_depth", "classify", "pedicles",

@@ -52,7 +52,7 @@ def read_calibration(folder: str | os.PathLike[str]) -> tuple[Any, np.ndarray, d
 def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Side -> the complete Design of that docking, for a design job's ``design.json`` (a robot with ``dockings``);
     ``{"": design}`` for a design file of one docking."""
-    from arcube.design_job.robot import read_robot
+    from arcube.model.robot import read_robot
     from arcube.io.inputs import load_json
     from arcube.model.design import Design
 
@@ -107,7 +107,9 @@ def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[s
         by_side = robot_dockings(design)
     else:
         by_side = {"": Design.coerce(design)}
-    ts = load_trajectories(plan, transform)
+    from arcube.io import TrajectorySet
+
+    ts = plan if isinstance(plan, TrajectorySet) and transform is None else load_trajectories(plan, transform)
     ts = select(ts, side=side, levels=levels, ids=ids) if (side or levels or ids) else ts
     p_all = pedicles(ts, s.screw_mm)
     groups = _groups(ts, by_side)
@@ -115,15 +117,13 @@ def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[s
     for name, idx, d in groups:
         text = mode if mode is not None else d.mode
         if text is None:
-            raise InputError.of("mode", f"is not in the design file: give the robot's working mode (e.g. +,+,+,-)")
+            raise InputError.of("mode", "is not in the design file: give the robot's working mode (e.g. +,+,+,-)")
         signs = mode_signs(text)
         x = d.to_vector()
         if cov is not None:
-            T = np.zeros(41)
             model = RobotModel(x, signs, _calibrated_T(cal), "normal", cov)
         else:
-            T = tol.tolerances(x)
-            model = RobotModel(x, signs, T, tol.distribution)
+            model = RobotModel(x, signs, tol.tolerances(x), tol.distribution)
         sub = select(ts, ids=",".join(ts.ids[i] for i in idx))
         info = {"registration_mm": s.registration_mm, "registration_deg": s.registration_deg, "thrust_N": ld.thrust_N,
                 "screw_mm": s.screw_mm, "seed": s.seed, "robot": "calibrated" if cov is not None else f"ISO 2768-{tol.tolerance_class}"}  # fmt: skip
@@ -152,7 +152,7 @@ def _groups(ts: Any, by_side: dict[str, Any]) -> list[tuple[str, np.ndarray, Any
     out = []
     for side in dict.fromkeys(ts.sides):
         if side not in by_side:
-            raise InputError.of("design", f"has no docking for side {side!r} (its dockings: {', '.join(by_side)}); give --side")
+            raise InputError.of("design", f"has no docking for side {side!r} (its dockings: {', '.join(by_side)}); keep that side out (side)")
         out.append((side, np.array([i for i, sd in enumerate(ts.sides) if sd == side]), by_side[side]))
     return out
 

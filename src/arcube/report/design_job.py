@@ -85,6 +85,33 @@ def _accuracy(accuracy: Mapping[str, Any] | None, folder: Path | None) -> str:
     return html
 
 
+def _breach(figures: Mapping[str, Any] | None, folder: Path | None) -> str:
+    """The breach section (MODEL.md 22): per screw P(breach), its interval, the major ones, each source alone."""
+    if not figures:
+        return ""
+    if "not_computed" in figures:
+        return f"<h2>Breach probability</h2><p>Not computed: {esc(figures['not_computed'])}</p>"
+
+    def pct(v: Any) -> str:
+        return "—" if v is None or (isinstance(v, float) and v != v) else f"{100 * v:.1f} %"
+
+    head = ("<h2>Breach probability (MODEL.md 22)</h2><p class='note'>How likely each screw is to leave its pedicle with this robot as "
+            "built (the accuracy section's tolerances), a registration of 0.5 mm / 0.5° RMS and the drilling thrust, and what decides it: "
+            f"each source alone. Largest: {pct(figures.get('breach_probability'))} (screw {esc(figures.get('worst_screw'))}); expected "
+            f"breached screws {_num(figures.get('expected_breaches'))}. Files: breach/.</p>")  # fmt: skip
+    table = ["<table><tr><th>screw</th><th>level</th><th>side</th><th>room (mm)</th><th>P(breach)</th><th>95 % interval</th><th>major</th>"
+             "<th>robot alone</th><th>registration alone</th><th>deflection alone</th></tr>"]  # fmt: skip
+    for r in figures.get("screws", []):
+        cls = " class='fail'" if r["too_wide"] else ""
+        table.append(f"<tr{cls}><td>{esc(r['trajectory'])}</td><td>{esc(r['level'])}</td><td>{esc(r['side'])}</td><td>{r['room_mm']:.2f}</td>"
+                     f"<td>{pct(r['p_breach'])}</td><td>{pct(r['p_breach_low'])} – {pct(r['p_breach_high'])}</td><td>{pct(r['p_major'])}</td>"
+                     f"<td>{pct(r['p_robot_alone'])}</td><td>{pct(r['p_registration_alone'])}</td><td>{pct(r['p_deflection_alone'])}</td></tr>")  # fmt: skip
+    html = head + "".join(table) + "</table>"
+    if folder is not None:
+        html += _image(folder / "breach_by_screw.png", "P(breach) per screw and each source alone") + _image(folder / "worst_screw.png", "the worst screw's isthmus")
+    return html
+
+
 def design_preface(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], design: Design, c_z: float | None = None,
                    folder: str | Path | None = None) -> str:  # fmt: skip
     """The HTML that opens a design job's report: verdict, requirements table (``rows``, as requirements.csv),
@@ -105,4 +132,4 @@ def design_preface(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]]
     base = None if folder is None else Path(folder) / "accuracy"
     return (head + prog + "<h2>Requirements</h2>" + _requirements_table(rows)
             + "<h2>The design: every parameter</h2>" + _parameters_table(design, str(summary.get("mode", "")), c_z)
-            + _accuracy(summary.get("accuracy"), base))  # fmt: skip
+            + _accuracy(summary.get("accuracy"), base) + _breach(summary.get("breach"), None if folder is None else Path(folder) / "breach"))  # fmt: skip

@@ -17,10 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES
 from arcube.errors import InputError
 from arcube.io.inputs import load_json, short_repr
-from arcube.model.design import Design
+from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
 
 __all__ = ["BuiltRobot", "WarmStart", "read_robot"]
 
