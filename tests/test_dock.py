@@ -38,15 +38,17 @@ from harness import arcube as run_arcube
 from harness import cli_error
 
 ROBOT = Path(__file__).parent / "data" / "one_robot.json"
-SMALL = ["--levels", "C3-C4", "--points", "8", "--evaluations", "600", "--quiet"]
-"""Two trajectories a side, 8 points a line, 600 evaluations a side: a few seconds a side."""
+SMALL = ["--levels", "C3", "--points", "6", "--evaluations", "400", "--quiet"]
+"""One trajectory a side, 6 points a line, 400 evaluations a side: a few seconds a side."""
 
 
 @pytest.fixture(scope="module")
 def docked(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The robot docked on both sides of the reference patient with every default (what a user types)."""
+    """The robot docked on both sides of the reference patient, every default but 12 points a line and 1500 evaluations
+    a side (the suite's time)."""
     root = tmp_path_factory.mktemp("dock")
-    out = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--quiet", cwd=root)
+    out = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--quiet", "--points", "12", "--evaluations",
+                     "1500", cwd=root)  # fmt: skip
     assert out.returncode == 0, out.stdout + out.stderr  # every side served
     assert "the robot serves 2 of 2 sides" in out.stdout
     return root / "d"
@@ -94,7 +96,7 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
     for d in summary["dockings"]:
         file = docked / d["folder"] / "design.json"
         ev = run_arcube("evaluate", "--design", str(file), "--trajectories", "reference", "--side", d["side"], "--anatomy", "default",
-                        "--guards", "--clearance", "5", "--self-clearance", "2", "--engine", "numpy", "--json", cwd=tmp_path)  # fmt: skip
+                        "--guards", "--clearance", "5", "--self-clearance", "2", "--engine", "numpy", "--json", "--points", "12", cwd=tmp_path)  # fmt: skip
         assert ev.returncode == 0, ev.stderr
         doc = json.loads(ev.stdout)
         assert doc["summary"]["reachable_fraction"] == 1.0 and doc["summary"]["failures"] == {}
@@ -104,7 +106,7 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
         S, _ = standoff_points(side.entry, side.target, anatomy, 20.0)
         for what, entry, target in (("plan", side.entry, side.target), ("approach", S, side.entry)):
             lines = dataclasses.replace(side, entry=np.asarray(entry), target=np.asarray(target), source=what)
-            s = arcube.evaluate(design, lines, guards=True, engine="numpy", anatomy=anatomy, envelope=envelope, clearance=5.0,
+            s = arcube.evaluate(design, lines, points=12, guards=True, engine="numpy", anatomy=anatomy, envelope=envelope, clearance=5.0,
                                 self_clearance=2.0, envelope_clearance=10.0, z_dyad=True, c_z=design.c_z).summary  # fmt: skip
             assert s["reachable_fraction"] == 1.0 and s["failures"] == {}, (d["label"], what, s["failures"])
             assert s["clearance_min_mm"] >= 5.0 and s["self_clearance_min_mm"] >= 2.0 and s["envelope_clearance_min_mm"] >= 10.0
@@ -126,12 +128,12 @@ def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(tmp_path: P
     mesh = trimesh.load(tmp_path / "moved_source.stl", force="mesh", process=False)
     mesh.apply_translation(t)
     mesh.export(tmp_path / "moved.anatomy.stl")
-    levels = ["--levels", "C3-C4", "--points", "8", "--quiet", "--side", "R"]
+    levels = ["--levels", "C3", "--points", "6", "--quiet", "--side", "R"]
     out = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "moved.csv", "--anatomy", "moved.anatomy.stl", "--anatomy-frame",
-                     "patient", "--out", "d", "--evaluations", "600", *levels, cwd=tmp_path)  # fmt: skip
+                     "patient", "--out", "d", "--evaluations", "400", *levels, cwd=tmp_path)  # fmt: skip
     assert out.returncode == 0, out.stdout + out.stderr
     found = json.loads((tmp_path / "d" / "summary.json").read_text())["dockings"][0]
-    home = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "h", "--evaluations", "600", *levels, cwd=tmp_path)
+    home = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "h", "--evaluations", "400", *levels, cwd=tmp_path)
     assert home.returncode == 0, home.stdout + home.stderr
     at_home = json.loads((tmp_path / "h" / "summary.json").read_text())["dockings"][0]
     assert found["meets_requirements"] and found["eta_G"] <= at_home["eta_G"] + 1e-9
@@ -170,8 +172,8 @@ def test_the_binding_requirement_is_the_tightest_relative_to_its_limit() -> None
 def test_dask_gives_the_dockings_one_process_gives(tmp_path: Path) -> None:
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        a = arcube.dock(str(ROBOT), "reference", tmp_path / "a", seed=3, evaluations=600, levels="C3-C4", points=8, dask=cluster.scheduler_address)
-    b = arcube.dock(str(ROBOT), "reference", tmp_path / "b", seed=3, evaluations=600, levels="C3-C4", points=8, workers=1)
+        a = arcube.dock(str(ROBOT), "reference", tmp_path / "a", seed=3, evaluations=300, levels="C3", points=6, dask=cluster.scheduler_address)
+    b = arcube.dock(str(ROBOT), "reference", tmp_path / "b", seed=3, evaluations=300, levels="C3", points=6, workers=1)
     for x, y in zip(a.summary["dockings"], b.summary["dockings"]):
         assert {k: x[k] for k in (*PLACEMENT, "meets_requirements", "eta_G")} == {k: y[k] for k in (*PLACEMENT, "meets_requirements", "eta_G")}
 

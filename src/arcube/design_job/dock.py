@@ -114,15 +114,15 @@ def docking_rng(seed: int, label: str) -> np.random.Generator:
 
 
 def warm_starts(robot: BuiltRobot, entry: np.ndarray, target: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    """(name, placement ``(6,)``) of each of the robot's dockings carried onto a plan (``entry``, ``target`` ``(T, 3)``
-    mm) by each rigid motion of :func:`~arcube.optimization.docked.task_motions`; a docking whose trajectories the file
-    does not record is taken as it is."""
+    """(name, placement ``(6,)``) of each of the robot's dockings as it is, and carried onto a plan (``entry``, ``target``
+    ``(T, 3)`` mm) by each rigid motion of :func:`~arcube.optimization.docked.task_motions` when the file records that
+    docking's trajectories."""
     from arcube.optimization.docked import carried, task_motions
 
     out = []
     for w in robot.starts:
+        out.append((f"{w.label} as it is", w.placement.copy()))  # the same patient, or one close to it in the same frame
         if w.entry is None or w.target is None:
-            out.append((f"{w.label} as it is", w.placement.copy()))
             continue
         for k, motion in enumerate(task_motions((w.entry, w.target), (entry, target))):
             how = ("by level", "in reverse", "by the centroids")[k]
