@@ -1,6 +1,6 @@
 """Time to dock a built robot (MODEL.md 19.6, issue 'A robot for the population'): per side, and a cohort over workers.
 
-``arcube dock`` as a user runs it, in a subprocess, with its defaults (8 starts, 3000 evaluations a side, every
+``arcube dock`` as a user runs it, in a subprocess, with its defaults (8 starts, 6000 evaluations a side, every
 requirement of arcube design, the report, accuracy budget and program of each side):
 
 * the robot of ``--robot`` (default tests/data/one_robot.json, the one robot ``arcube design --trajectories reference``

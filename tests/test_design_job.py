@@ -439,3 +439,30 @@ def test_every_csv_the_design_job_writes_reads_back(met_design: Path) -> None:
     from harness import assert_csvs_read_back
 
     assert assert_csvs_read_back(met_design) >= 5  # requirements (top and docking), program, accuracy, breach
+
+
+@pytest.mark.parametrize("file, text, needle", [
+    ("study/summary.json", "garbage{", "summary.json"),
+    ("study/summary.json", "[1, 2]", "not a study summary"),
+    ("study/summary.json", '{"objective": "eta_G", "rows": []}', "not a study summary"),
+    ("design.toml", None, "requirements is not a list"),
+    ("design.toml", "", "requirements is missing"),
+])  # fmt: skip
+def test_resume_of_a_damaged_design_job_is_one_line_exit_2(met_design: Path, tmp_path: Path, file: str, text: str | None, needle: str) -> None:
+    """Hardening III: a damaged file the job reads back at resume names itself (was: 'internal error (JSONDecodeError ...)')."""
+    import shutil
+
+    copy = tmp_path / "d"
+    shutil.copytree(met_design, copy)
+    path = copy / file
+    if file == "design.toml":
+        lines = [line for line in path.read_text().splitlines() if not line.startswith("requirements")]
+        lines += [] if text == "" else ['requirements = "clearance"']
+        path.write_text("\n".join(lines) + "\n")
+    else:
+        path.write_text(text)
+    before = sorted(p.relative_to(copy) for p in copy.rglob("*"))
+    out = _arcube("resume", str(copy), cwd=tmp_path)
+    assert out.returncode == 2 and out.stderr.startswith("error: ") and out.stderr.count("\n") == 1, out.stderr
+    assert needle in out.stderr and file.split("/")[-1] in out.stderr, out.stderr
+    assert sorted(p.relative_to(copy) for p in copy.rglob("*")) == before  # nothing written or removed

@@ -192,3 +192,27 @@ def test_the_api_raises_input_error_for_a_missing_or_empty_plan() -> None:
         with pytest.raises(InputError, match=needle) as info:
             arcube.evaluate("paper", plan)
         assert info.value.param == "plan"
+
+
+def test_dir_of_the_package_shows_only_public_names_and_every_returned_type_is_exported() -> None:
+    """House II: dir(arcube) leaked TYPE_CHECKING, annotations, importlib, caches; DesignResult and JointTrajectory (returned
+    by arcube.design and arcube.joints) were not exported. Every name dir lists resolves."""
+    import arcube
+
+    names = dir(arcube)
+    assert not {"TYPE_CHECKING", "annotations", "importlib", "caches"} & set(names)
+    assert {"DesignResult", "JointTrajectory", "DockResult", "BreachResult", "dock", "breach"} <= set(names)
+    for name in names:
+        getattr(arcube, name)
+
+
+def test_every_settings_field_has_a_description() -> None:
+    """House II: a field without a docstring gave its flag the help text of its name (--segments showed 'segments')."""
+    from arcube.accuracy import ToleranceSettings
+    from arcube.optimization.settings import RunSettings
+    from arcube.options import Body, Guards, Loads, Masses, Outputs
+    from arcube.pedicles.settings import BreachSettings
+
+    for model in (RunSettings, ToleranceSettings, Guards, Body, Loads, Masses, Outputs, BreachSettings):
+        missing = [n for n, f in model.model_fields.items() if not (f.description or "").strip() or f.description.strip() == n]
+        assert not missing, f"{model.__name__}: {missing}"

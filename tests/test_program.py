@@ -116,12 +116,14 @@ def check_rows(rows: dict[str, np.ndarray], summary: dict, ts, dt: float, anatom
             assert np.max(np.linalg.norm(rel - along[:, None] * ax, axis=1)) < TOL  # on the plan's axis
             assert np.allclose(e[idx], ax, atol=1e-12)
         drill = np.flatnonzero(mine & (seg == "drill"))
-        assert np.linalg.norm(E[drill[0]] - A) < TOL and np.linalg.norm(E[drill[-1] + 1] - B) < TOL  # A, then B (at rest)
-        speed = np.linalg.norm(np.diff(E[drill[0] : drill[-1] + 2], axis=0), axis=1) / dt
+        approach = np.flatnonzero(mine & (seg == "approach"))
+        # every segment ends exactly where it should: the approach at A, the drill at B (the row after A is the drill's first)
+        assert np.linalg.norm(E[approach[-1]] - A) < 1e-9 and approach[-1] + 1 == drill[0] and np.linalg.norm(E[drill[-1]] - B) < 1e-9
+        speed = np.linalg.norm(np.diff(E[drill[0] - 1 : drill[-1] + 1], axis=0), axis=1) / dt
         assert speed.max() <= lim["feed"] * (1 + TOL) and abs(np.median(speed) - lim["feed"]) < TOL
         for kind, v in (("approach", lim["approach_speed"]), ("retract", lim["retract_speed"])):
             idx = np.flatnonzero(mine & (seg == kind))
-            assert np.linalg.norm(np.diff(E[idx[0] : idx[-1] + 2], axis=0), axis=1).max() / dt <= v * (1 + TOL)
+            assert np.linalg.norm(np.diff(E[max(idx[0] - 1, 0) : idx[-1] + 1], axis=0), axis=1).max() / dt <= v * (1 + TOL)
     # finite-difference rates and accelerations, tip speed in transit
     vmax, amax = lim["max_joint_speed_deg"], lim["max_joint_accel_deg"]
     qdeg, qddeg = rows["q"], rows["qd"]

@@ -39,6 +39,7 @@ _SOURCES: dict[str, str] = {
     **dict.fromkeys(("PARAM_NAMES", "Design"), "arcube.model.design"),
     "generate_patient": "arcube.patients", "write_report": "arcube.report", "explore": "arcube.explorer",
     **dict.fromkeys(("DockResult", "dock"), "arcube.design_job.coverage"),
+    "DesignResult": "arcube.design_job", "JointTrajectory": "arcube.export.joints",
     **dict.fromkeys(("BreachResult", "BreachSettings", "breach"), "arcube.pedicles"),
 }  # fmt: skip
 """Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
@@ -51,7 +52,9 @@ if TYPE_CHECKING:
     from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, joints, optimize, program, resume, study, tolerance
     from arcube.errors import InputError
     from arcube.evaluation.result import Evaluation
+    from arcube.design_job import DesignResult
     from arcube.design_job.coverage import DockResult, dock
+    from arcube.export.joints import JointTrajectory
     from arcube.pedicles import BreachResult, BreachSettings, breach
     from arcube.explorer import explore
     from arcube.export.mjcf import export_mjcf
@@ -63,7 +66,7 @@ if TYPE_CHECKING:
     from arcube.report import write_report
 
 __all__ = [
-    "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "BreachResult", "BreachSettings", "Design", "DockResult", "Evaluation", "Guards", "InputError", "Loads", "OptimizeResult", "Options",
+    "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "BreachResult", "BreachSettings", "Design", "DesignResult", "DockResult", "Evaluation", "Guards", "InputError", "JointTrajectory", "Loads", "OptimizeResult", "Options",
     "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "RunSettings", "ToleranceResult", "ToleranceSettings", "Study", "TrajectorySet",
     "__version__", "breach", "calibrate", "design", "dock", "evaluate", "explore", "export_mjcf", "generate_patient", "joints", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study", "tolerance",
     "write_csv", "write_markups", "write_report",
@@ -82,4 +85,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+    return sorted(__all__)  # the public names only (not TYPE_CHECKING, importlib, the caches module ...)

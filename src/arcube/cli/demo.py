@@ -96,7 +96,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     typer.echo("Run folders hold config.toml, history.csv, best_design.json and summary.json; rerun a design with")
     typer.echo(f"  arcube evaluate {DESIGN.name} {out / 'all_free_bilateral' / 'best_design.json'} {TRAJECTORIES.name} reference")
     typer.echo("The paper's GA lands in a seed-dependent basin; arcube optimize's default (mscmaes, multi-start CMA-ES) goes")
-    typer.echo("further at the same budget, and 'arcube study --seeds 1-5' shows the spread over seeds (README, 'Which optimizer').")
+    typer.echo("further at the same budget, and 'arcube study --seeds 1-5' shows the spread over seeds (docs: guide/optimize.md, 'Which optimizer').")
     return reports
 
 

@@ -28,7 +28,7 @@ ROBOT = option("--robot", "The built robot: a design.json of arcube design, or a
                           "z-dyad elbow are used as they are; its dockings only as warm starts).", Path, required=True, params=("robot",))  # fmt: skip
 STARTS = option("--starts", "Search runs per side: the best warm starts (the robot's own dockings carried onto the plan) and random "
                             "placements within the bounds. [default: 8]", int, params=("starts",))  # fmt: skip
-EVALUATIONS = option("--evaluations", "Evaluations of each side's search. [default: 3000]", int, params=("evaluations",))
+EVALUATIONS = option("--evaluations", "Evaluations of each side's search. [default: 6000]", int, params=("evaluations",))
 
 
 def _num(v: Any, digits: str = ".4g") -> str:

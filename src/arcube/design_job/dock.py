@@ -41,8 +41,9 @@ from arcube.optimization.settings import RunSettings
 
 __all__ = ["DOCK_EVALUATIONS", "DockingJob", "DockingOutcome", "docking_rng", "search", "solve_docking", "warm_starts"]
 
-DOCK_EVALUATIONS = 3000
-"""Evaluations of one docking's search unless set: about 6 s on one core near a feasible placement (benchmarks/bench_dock.py)."""
+DOCK_EVALUATIONS = 6000
+"""Evaluations of one docking's search unless set (a search that holds four placements meeting everything stops earlier; 12 s
+on one core when it does not, benchmarks/bench_dock.py)."""
 RANDOM_SAMPLE = 64
 """Random placements drawn within the bounds, of which the best start the runs that no warm start begins."""
 SIGMA = 0.1

@@ -35,7 +35,6 @@ import math
 import os
 import shutil
 import time
-import tomllib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +42,7 @@ from typing import Any
 
 from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, breach_check, build_program, closing_c_z
 from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
+from arcube.design_job.folder import DESIGN_FORMAT, STUDY, is_design, read_design, read_study_summary
 from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
 from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_settings, write_requirements_csv
 from arcube.errors import InputError
@@ -58,11 +58,9 @@ from arcube.io.json_values import finite
 
 __all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "read_design", "seed_dockings", "start_design"]
 
-DESIGN_FORMAT = "arcube-design"
 DESIGN_GENERATIONS = 100
 """The design job's default budget: population 400 x 100 generations = 40,000 evaluations per seed
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
-STUDY = "study"
 DOCKINGS = "dockings"
 
 
@@ -94,11 +92,6 @@ class DesignResult:
     def missed(self) -> list[dict[str, Any]]:
         """The requirement rows that fail (each names its docking)."""
         return [r for r in self.rows if not r["passed"]]
-
-
-def is_design(path: Path) -> bool:
-    """Whether ``path`` holds a design job (design.toml)."""
-    return (Path(path) / "design.toml").is_file()
 
 
 def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
@@ -149,18 +142,6 @@ def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Seque
                                           "or drop the clearance requirement)")  # fmt: skip
 
 
-def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
-    """design.toml and its requirements (InputError if it is not a design folder)."""
-    path = Path(out) / "design.toml"
-    try:
-        meta = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: not a readable design job ({exc})") from None
-    if meta.get("format") != DESIGN_FORMAT:
-        raise InputError(f"{path}: not an arcube design job")
-    return meta, [Requirement(str(n), str(k), float(v)) for n, k, v in meta["requirements"]]
-
-
 def seed_dockings(out: Path, seed: int) -> tuple[OptimizeResult, RunSettings, dict[str, Any], list[Docking]]:
     """One seed of a design folder: its run, settings, summary and dockings (each with the run's design for it, not yet
     re-checked: :func:`~arcube.design_job.dockings.assess_dockings`)."""
@@ -184,7 +165,7 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
     out = Path(out)
     say = on_stage or (lambda text: None)
     meta, reqs = read_design(out)
-    study = json.loads((out / STUDY / "summary.json").read_text(encoding="utf-8"))
+    study = read_study_summary(out)
     # feasible seeds by objective, then the others by violation (the study's own ranking)
     order = sorted(study["rows"], key=lambda r: (not r["feasible"], r.get(f"objective_{study['objective']}") or math.inf, r["violation"], r["seed"]))
     chosen, seen, built = None, [], None

@@ -274,10 +274,13 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
     step = 0
     starts = []
     for i, (seg, label, rows) in enumerate(blocks):
-        n = len(rows["t"]) - (0 if i == len(blocks) - 1 else 1)  # a piece's last row is the next one's first
+        # a piece's last row is the next one's first: it belongs to the piece that ends there, so that every segment
+        # ends exactly where it should (the approach at A, the drill at B, the retract at the standoff)
+        first = 0 if i == 0 else 1
+        n = len(rows["t"]) - first
         starts.append(step)
         for k in ("E", "e", "q", "qd"):
-            parts[k].append(rows[k][:n])
+            parts[k].append(rows[k][first:])
         parts["seg"] += [seg] * n
         parts["traj"] += [label] * n
         step += len(rows["t"]) - 1
@@ -287,7 +290,7 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
     t = np.arange(len(q)) * lim.dt
     seg = np.array(parts["seg"])
     total = float(t[-1])
-    times = {k: float(np.sum(np.diff(t)[seg[:-1] == k])) for k in ("approach", "drill", "retract", "transit")}
+    times = {k: float(np.sum(np.diff(t)[seg[1:] == k])) for k in ("approach", "drill", "retract", "transit")}  # a step is its end row's
     kinds = [blk[0] for blk in blocks]
     traj_starts = [starts[i] * lim.dt for i, k in enumerate(kinds) if k == "approach"]
     for info, start in zip(per_traj, traj_starts):

@@ -18,7 +18,7 @@ Why this method: the paper's problem converges early to seed-dependent basins. A
 budget (120,000 evaluations) the paper's GA gives eta_G 1.25-1.36 depending on the seed, and ten
 times the budget does not help; one CMA-ES gives 1.28, and so do CMA-ES restarts with growing
 populations (large populations settle in a broad basin near 1.28); many short runs with cma's
-default population reach the 1.2475 basin on every seed measured (README, "Which optimizer").
+default population reach the 1.2475 basin on every seed measured (docs: guide/optimize.md, "Which optimizer").
 The settings below were chosen by measurement over 15 seeds (8 concurrent runs, sigma 0.3,
 tolerance 3e-3, then a 10 % polish: 1.2475 / 1.2479 / 1.2488 best / median / worst; the GA, islands
 of GAs, and a GA followed by a local CMA-ES stayed in the GA's seed-dependent basins).

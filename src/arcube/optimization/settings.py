@@ -35,7 +35,7 @@ __all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "p
 
 ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3", "docked")
 DEFAULT_ALGORITHM = "mscmaes"
-"""The default single-objective optimizer, chosen by measurement (README, "Which optimizer")."""
+"""The default single-objective optimizer, chosen by measurement (docs: guide/optimize.md, "Which optimizer")."""
 MULTI_OBJECTIVE_ALGORITHMS = frozenset({"nsga2", "nsga3"})
 DEFAULT_PERIOD = 30
 """Generations over which the ftol criterion must hold (pymoo's default for one objective)."""
@@ -167,11 +167,11 @@ class RunSettings(Settings):
     anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
     """Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient."""
     segments: Segments = None
+    """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("none",)
     """The envelope of the whole patient and the table (MODEL.md 19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files (closed, the patient inside, in the anatomy's frame)."""
     table_z: float | None = Field(default=None, allow_inf_nan=False)
     """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (MODEL.md 19.5)."""
-    """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
     """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance and envelope_clearance (maximized), lateral_error_wc and lateral_error_rms (as built to --class / --tol). Two or three: nsga2; more: nsga3."""
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}

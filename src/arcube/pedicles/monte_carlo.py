@@ -127,12 +127,14 @@ def monte_carlo(robot: RobotModel, p: Pedicles, docking: tuple[str, ...], *, sam
     reached = ~np.any(np.isnan(robot_d[0]), axis=-1) if samples else np.ones(len(p.ids), bool)
     robot_d = np.where(np.isnan(robot_d), np.inf, robot_d)  # a screw the robot does not reach is not drilled where planned
     reg_d = registration(draws, p.isthmus, index, centres)
-    defl_d = np.nan_to_num(deflection(robot, p.isthmus, e, thrust_N, stiffness_Nm_per_rad), nan=np.inf)[None]
-    offsets = p.offsets(robot_d + reg_d + defl_d)
-    with np.errstate(invalid="ignore"):
+    # an unassembled or unreached screw's offset is not finite (inf x 0 gives NaN): classify() counts it a breach
+    with np.errstate(invalid="ignore", over="ignore"):
+        defl_d = np.nan_to_num(deflection(robot, p.isthmus, e, thrust_N, stiffness_Nm_per_rad), nan=np.inf)[None]
+        offsets = p.offsets(robot_d + reg_d + defl_d)
+    with np.errstate(invalid="ignore", over="ignore"):
         p_breach, p_dir, p_major = _stats(offsets, p)
         alone = np.stack([_stats(p.offsets(d), p)[0] for d in (robot_d, reg_d, np.broadcast_to(defl_d, robot_d.shape))], axis=-1)
-        size = np.linalg.norm(offsets, axis=-1)
+        size = np.nan_to_num(np.linalg.norm(offsets, axis=-1), nan=np.inf)  # not finite: beyond any room
     from arcube.accuracy.monte_carlo import percentiles
 
     p95 = percentiles(size, [95.0], axis=0)[0]
