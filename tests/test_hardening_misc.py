@@ -216,3 +216,43 @@ def test_every_settings_field_has_a_description() -> None:
     for model in (RunSettings, ToleranceSettings, Guards, Body, Loads, Masses, Outputs, BreachSettings):
         missing = [n for n, f in model.model_fields.items() if not (f.description or "").strip() or f.description.strip() == n]
         assert not missing, f"{model.__name__}: {missing}"
+
+
+@pytest.mark.parametrize("drop, needle", [
+    (("mount_rx",), "the mounting rotation needs all of mount_rx, mount_ry, mount_rz; missing mount_rx"),
+    (("L",), "a mounted design needs its tool offset L"),
+])  # fmt: skip
+def test_a_partial_design_file_is_refused_naming_what_is_missing(tmp_path: Path, capsys: pytest.CaptureFixture[str], drop, needle) -> None:
+    """Hardening III: without mount_rx evaluate gave eta_G 2.05 instead of 1.38, without L 3.36, and said nothing."""
+    import json
+
+    from designs import DEMO
+
+    values = {k: v for k, v in DEMO.to_file_dict().items() if k not in drop}
+    (tmp_path / "d.json").write_text(json.dumps(values))
+    code, err = _cli(["evaluate", "--design", str(tmp_path / "d.json"), "--trajectories", "reference"], capsys)
+    assert code == 2 and err.count("\n") == 1 and needle in err, err
+    paper = {k: v for k, v in arcube.Design.paper().to_dict().items() if k not in ("mount_rx", "mount_ry", "mount_rz", "L")}
+    assert arcube.Design.from_dict(paper).to_dict()["L"] == 0.0  # a paper-style file without mount and L stays valid
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["evaluate", "--design", "papper", "--trajectories", "reference"], "papper: no such file, and not a preset (presets: paper)"),
+    (["evaluate", "--trajectories", "SEMI"], "the header is one field with semicolons: separate the columns with commas"),
+    (["optimize", "foo.csv", "--out", "run"], "--trajectories is required; 'foo.csv' is a value without its flag (give --trajectories foo.csv)"),
+])  # fmt: skip
+def test_smaller_mistakes_get_a_line_that_says_what_to_do(tmp_path: Path, monkeypatch, capsys, argv, needle) -> None:
+    """Hardening III's smaller items: a misspelt preset, a semicolon-separated CSV, a plan given without its flag."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "semi.csv").write_text("trajectory;entry_x;entry_y;entry_z;target_x;target_y;target_z\n1;0;0;0;0;0;1\n")
+    code, err = _cli([a.replace("SEMI", "semi.csv") for a in argv], capsys)
+    assert code == 2 and err.count("\n") == 1 and needle in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["semi.csv"]
+
+
+def test_tol_takes_a_comma_list_as_several_items() -> None:
+    from arcube.accuracy.settings import parse_tol
+
+    assert parse_tol(["r=0.1,L=0.2", "angles=0.01"]) == {"r": 0.1, "L": 0.2, "angles": 0.01}
+    with pytest.raises(arcube.InputError, match="'L=x': the tolerance 'x' is not a number"):
+        parse_tol("r=0.1,L=x")

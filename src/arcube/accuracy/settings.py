@@ -34,7 +34,8 @@ def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
     if isinstance(value, Mapping):
         pairs = [(str(k), v, f"{k}={v}") for k, v in value.items()]
     else:
-        for item in [value] if isinstance(value, str) else value:
+        items = [value] if isinstance(value, str) else list(value)
+        for item in (part for it in items for part in str(it).split(",")):  # r=0.1,L=0.2 as two items
             name, sep, v = str(item).partition("=")
             if not sep or not name.strip():
                 raise InputError.of(field, f"{item!r}: expected NAME=T, e.g. r=0.02 (mm) or angles=0.01 (deg)")

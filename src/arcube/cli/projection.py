@@ -266,11 +266,13 @@ def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given
 
     def fn(**kw: Any) -> None:
         given = Given(flags={f.key: f for f in flags})
+        stray = kw.get("more_values") or []
         for f in flags:
             value = kw.get(f.dest)
             if value is None or (isinstance(value, list) and not value):
                 if f.required:
-                    raise InputError(f"{f.name} is required")
+                    hint = f"; {stray[0]!r} is a value without its flag (give {f.name} {stray[0]})" if stray and f.spread else ""
+                    raise InputError(f"{f.name} is required{hint}")
                 continue
             given.values[f.key] = [f.parse(v, f.name) for v in value] if (f.parse and isinstance(value, list)) else (
                 f.parse(value, f.name) if f.parse else value)  # fmt: skip

@@ -40,6 +40,8 @@ class Docking:
     design: Design
     rows: list[dict[str, Any]] = field(default_factory=list)
     """Its requirement rows (:func:`arcube.design_job.requirements.assess`, then its program's)."""
+    redocked: bool = False
+    """Docked anew with the robot fixed (:mod:`arcube.design_job.redock`): its placement is not the search's."""
     breach: dict[str, Any] = field(default_factory=dict)
     """Its breach figures (MODEL.md 22, :func:`arcube.design_job.outputs.breach_check`), once checked."""
 

@@ -329,12 +329,16 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
         "accuracy": accuracy, **coverage_fields(dockings, held_out),
-        "breach": _worst_breach(dockings),
+        "breach": _worst_breach(dockings), "redocked": [d.label for d in dockings if d.redocked],
         "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS,
                   **({"validation": VALIDATION, "coverage": "coverage.html"} if held_out is not None else {}),
                   **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
                   **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
     }  # fmt: skip
+    etas = [ev.summary.get("eta_G") for ev in evaluations]
+    if result.get("eta_G") is None and all(isinstance(v, float) and math.isfinite(v) for v in etas):
+        # the run's robot missed somewhere and was docked anew (redocked): its eta_G is the NumPy reference's, over the dockings
+        result["eta_G"] = max(etas) if s.aggregate != "mean" else sum(etas) / len(etas)
     if one:
         program = out / PROGRAM if (out / PROGRAM / "program.json").exists() else None
         write_report(evaluations[0], out / "report.html", program=program, preface=design_preface(result, rows, first, c_z=first.c_z, folder=out))

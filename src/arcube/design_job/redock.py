@@ -69,7 +69,7 @@ def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], f
     met = []
     for k, outcome in zip(which, run_jobs(jobs, workers, dask, None, task=solve_only)):
         if outcome.met:
-            dockings[k].design, dockings[k].rows = outcome.design, outcome.rows
+            dockings[k].design, dockings[k].rows, dockings[k].redocked = outcome.design, outcome.rows, True
             met.append(k)
         else:  # the docking keeps its placement and rows; a program built on the way was another placement's
             shutil.rmtree(Path(folders[k]) / PROGRAM, ignore_errors=True)

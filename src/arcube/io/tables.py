@@ -168,7 +168,9 @@ def _check_header(header: tuple[str, ...], name: str, required: Iterable[str], a
             raise InputError(f"{name}: unknown column {_label(unknown)} (known: {', '.join(known)})")
     missing = [c for c in required if c not in seen]
     if missing:
-        raise InputError(f"{name}: missing column(s) {', '.join(missing)}")
+        semicolons = len(header) == 1 and ";" in header[0]
+        raise InputError(f"{name}: missing column(s) {', '.join(missing)}" + (" (the header is one field with semicolons: separate the "
+                                                                               "columns with commas)" if semicolons else ""))  # fmt: skip
 
 
 def read_table(path: str | os.PathLike[str], *, limit: int = MAX_TEXT_BYTES, pipes: bool = True, **kw: object) -> Table:

@@ -136,8 +136,8 @@ def unpack(params: ArrayLike) -> Geometry:
 
 
 def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[str, float]:
-    """Check a name -> value mapping: the 23 names of MODEL.md 2 (the four of 13.3 are optional,
-    0 when absent), finite numbers, positive lengths, L >= 0.
+    """Check a name -> value mapping: the 23 names of MODEL.md 2 (the four of 13.3 are optional, 0 when absent; but the
+    three mounting angles come together, and with L), finite numbers, positive lengths, L >= 0.
 
     Returns the values as floats in :data:`PARAM_NAMES` order. Raises :class:`InputError` with
     a one-line message naming ``source`` and the first problem found.
@@ -147,6 +147,12 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
     unknown = [k for k in values if k not in INDEX]
     if unknown:
         raise InputError(f"{source}: unknown parameter {short_repr(unknown[0])} (expected the 27 names of MODEL.md 2 and 13.3: {', '.join(PARAM_NAMES)})")
+    mounted = [n for n in MOUNT_NAMES if n in values]
+    if mounted and len(mounted) < len(MOUNT_NAMES):  # a partial group is a mistake, not a rotation about fewer axes
+        raise InputError(f"{source}: the mounting rotation needs all of {', '.join(MOUNT_NAMES)}; missing "
+                         f"{', '.join(n for n in MOUNT_NAMES if n not in values)} (a paper-style design gives none of them)")  # fmt: skip
+    if mounted and "L" not in values:
+        raise InputError(f"{source}: a mounted design needs its tool offset L (mm): the tip is L from the spherical stage's centre")
     values = {**{n: 0.0 for n in ADDED_NAMES}, **values}
     missing = [n for n in PARAM_NAMES if n not in values]
     if missing:
@@ -316,6 +322,8 @@ class Design:
         """A preset name (``paper``) or a path to a design JSON file."""
         if isinstance(spec, str) and spec in PRESETS:
             return cls.preset(spec)
+        if isinstance(spec, str) and not os.path.lexists(spec) and not os.path.splitext(spec)[1]:
+            raise InputError(f"{spec}: no such file, and not a preset (presets: {', '.join(PRESETS)})")
         return cls.from_json(spec)
 
     def to_dict(self) -> dict[str, float]:
