@@ -256,3 +256,55 @@ def test_tol_takes_a_comma_list_as_several_items() -> None:
     assert parse_tol(["r=0.1,L=0.2", "angles=0.01"]) == {"r": 0.1, "L": 0.2, "angles": 0.01}
     with pytest.raises(arcube.InputError, match="'L=x': the tolerance 'x' is not a number"):
         parse_tol("r=0.1,L=x")
+
+
+@pytest.mark.parametrize("command", ["joints", "export", "poses", "simulate"])
+def test_a_single_file_output_is_not_replaced_without_force(tmp_path: Path, monkeypatch, capsys, command: str) -> None:
+    """Hardening III item 2: calibrate poses --out real_measurements.csv overwrote a user's file; so did simulate,
+    export and joints. Without --force the file is left as it was; with it, it is replaced."""
+    monkeypatch.chdir(tmp_path)
+    from arcube.pedicles.run import robot_dockings
+
+    robot_dockings(Path(__file__).parent / "data" / "one_robot.json")["R"].to_json(tmp_path / "d.json")  # the demo robot's right docking
+    mine = tmp_path / "mine.out"
+    mine.write_text("the tracker's readings, taken by hand\n")
+    argv = {
+        "joints": ["joints", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--points", "3", "--out", "mine.out"],
+        "export": ["export", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--out", "mine.out"],
+        "poses": ["calibrate", "poses", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--count", "12", "--points", "3",
+                  "--around", "2", "--out", "mine.out"],
+        "simulate": ["calibrate", "simulate", "--design", "d.json", "--poses", "poses.csv", "--out", "mine.out"],
+    }[command]  # fmt: skip
+    if command == "simulate":
+        assert _cli(["calibrate", "poses", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--count", "12",
+                     "--points", "3", "--around", "2", "--out", "poses.csv"], capsys)[0] == 0  # fmt: skip
+    code, err = _cli(argv, capsys)
+    assert code == 2 and err.count("\n") == 1 and "exists; give --force to replace it" in err, err
+    assert mine.read_text() == "the tracker's readings, taken by hand\n"
+    from harness import run_cli
+
+    assert run_cli([*argv, "--force"], capsys)[0] == 0
+    assert mine.read_text() != "the tracker's readings, taken by hand\n"
+    if command == "simulate":  # the rehearsal's ground truth beside its measurements: a design file arcube reads
+        assert arcube.Design.load(tmp_path / "mine.truth.json").q0_deg is not None
+
+
+def test_a_calibration_cannot_fool_itself(tmp_path: Path, monkeypatch, capsys) -> None:
+    """Hardening III item 3: the nominal poses given as measurements, measurements of another design's poses, and too
+    few poses are refused in one line naming the problem (they exited 0 with a 'calibrated' design equal to the nominal,
+    or with O1 0 and condition number inf)."""
+    from arcube.pedicles.run import robot_dockings
+
+    monkeypatch.chdir(tmp_path)
+    right = robot_dockings(Path(__file__).parent / "data" / "one_robot.json")["R"]
+    right.to_json(tmp_path / "d.json")
+    right.replace(r=right["r"] + 1.0).to_json(tmp_path / "other.json")
+    poses = ["calibrate", "poses", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--points", "3", "--around", "2"]
+    code, err = _cli([*poses, "--count", "3", "--out", "few.csv"], capsys)
+    assert code == 2 and "--count is 3, but the" in err and "identifiable unknowns need at least" in err and not (tmp_path / "few.csv").exists()
+    assert _cli([*poses, "--count", "12", "--out", "poses.csv"], capsys)[0] == 0
+    code, err = _cli(["calibrate", "identify", "--design", "d.json", "--measurements", "poses.csv", "--out", "cal"], capsys)
+    assert code == 2 and err.count("\n") == 1 and "these are the poses to measure, not measurements" in err, err
+    code, err = _cli(["calibrate", "identify", "--design", "other.json", "--measurements", "poses.csv", "--out", "cal"], capsys)
+    assert code == 2 and "measured at poses chosen for another design" in err, err
+    assert not (tmp_path / "cal").exists()

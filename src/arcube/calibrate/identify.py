@@ -30,7 +30,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from arcube.calibrate.budget import calibrated_budget
-from arcube.calibrate.design_file import load_design, signs_of
+from arcube.calibrate.design_file import design_digest, load_design, signs_of
 from arcube.calibrate.identifiability import identifiability, observability
 from arcube.calibrate.measurements import Measurements, read_measurements
 from arcube.calibrate.model import (
@@ -99,6 +99,12 @@ def _holdout(n: int, fraction: float, seed: int) -> NDArray[np.bool_]:
     return fitted
 
 
+NOT_MEASURED = 0.01
+"""Measurements whose RMS residual against the nominal design is below this many tracker noises are not measurements:
+a real robot measured by a real tracker is off by its errors and the noise (the poses file given as its own readings
+matched to 1e-13 mm)."""
+
+
 def identify(
     design: Any, measurements: Measurements | str | os.PathLike[str], mode: ArrayLike | str | None = None,
     settings: IdentifySettings | None = None, trajectories: Any = None, out: str | os.PathLike[str] | None = None,
@@ -138,8 +144,18 @@ def identify(
             f"fit at least {need} (IdentifySettings.holdout sets how many are held out)"
         )  # fmt: skip
 
+    digest = design_digest(start.vector, start.q0_deg)
+    if meas.design is not None and meas.design != digest:
+        raise InputError(f"{meas.source}: measured at poses chosen for another design (digest {meas.design}, this design's is {digest}); "
+                         "identify with the design the poses were chosen for")  # fmt: skip
     with np.errstate(invalid="ignore", divide="ignore"):
         pose0 = full.pose(np.zeros(N_UNKNOWNS))
+        r0 = full.residuals(pose0)[fitted]
+    rms0 = float(np.sqrt(np.nanmean(r0 * r0)))
+    if rms0 < NOT_MEASURED:
+        raise InputError(f"{meas.source}: the rows match the nominal design to {rms0:.1e} of the tracker's noise (sigma_mm "
+                         f"{settings.sigma_mm:g}, sigma_deg {settings.sigma_deg:g}): these are the poses to measure, not measurements "
+                         "(fill in E and e with the tracker's readings)")  # fmt: skip
     J0 = full.jacobian(pose0)[fitted].reshape(-1, N_UNKNOWNS)
     ident = identifiability(J0)
     idx = np.flatnonzero(ident.identifiable)

@@ -40,6 +40,7 @@ from arcube.calibrate.identifiability import (
 )
 from arcube.calibrate.measurements import Measurements, write_measurements
 from arcube.calibrate.model import (
+    DOF_PER_MEASUREMENT,
     N_UNKNOWNS,
     UNKNOWNS,
     Problem,
@@ -195,6 +196,10 @@ def poses(design: Any, trajectories: Any, mode: ArrayLike | str | None = None, s
                             f"with the guards in working mode {format_mode(signs)}")  # fmt: skip
     ident = identifiability(J.reshape(-1, N_UNKNOWNS))
     cols = np.flatnonzero(ident.identifiable)
+    least = cols.size // DOF_PER_MEASUREMENT + 1  # each pose gives 5 independent values (3 of the tip, 2 of the axis)
+    if settings.count < least:
+        raise InputError.of("PoseSettings.count", f"is {settings.count}, but the {cols.size} identifiable unknowns need at least {least} "
+                                                  "poses (each gives 5 independent values); measure more, and some held out")  # fmt: skip
     Jr = tip_and_tilt_rows(J[..., cols], e)
     chosen = greedy_d_optimal(Jr, settings.count)
     random = rng.choice(C, settings.count, replace=False)

@@ -14,8 +14,10 @@ directions perpendicular to e). The generator draws the robot first, then the no
 
 from __future__ import annotations
 
+import json
 import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,12 +25,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.accuracy.monte_carlo import robot_draws, split
 from arcube.accuracy.settings import ToleranceSettings
-from arcube.calibrate.design_file import StartDesign, design_digest, load_design
-from arcube.calibrate.measurements import (
-    Measurements,
-    read_measurements,
-    write_measurements,
-)
+from arcube.calibrate.design_file import StartDesign, calibrated_dict, design_digest, load_design
+from arcube.calibrate.measurements import Measurements, measurements_csv, read_measurements
 from arcube.calibrate.model import robot_assembly, unknown_values
 from arcube.calibrate.settings import SimulateSettings
 from arcube.errors import InputError
@@ -103,9 +101,19 @@ def simulate(design: Any, poses: Measurements | str | os.PathLike[str], settings
     meas = Measurements(taken.q_deg, E, e, taken.pose, m.design, f"simulated robot (class {settings.tolerance_class}, seed {settings.seed})",
                         None)  # fmt: skip
     dropped = tuple(int(m.rows[i]) if m.rows else i + 1 for i in np.flatnonzero(~good))
-    if out is not None:
-        write_measurements(out, meas)
+    if out is not None:  # the measurements and, beside them, the robot they were taken on (a rehearsal's ground truth)
+        from arcube.io.files import atomic_write_files
+
+        truth = calibrated_dict(x_real, q0_real, start.mode or "+,+,+,+", start.c_z)
+        atomic_write_files({out: measurements_csv(meas).encode(), truth_path(out): (json.dumps(truth, indent=2) + "\n").encode()})
     return Simulation(meas, x_real, q0_real, start, asm[good], dropped, settings)
+
+
+def truth_path(measurements: str | os.PathLike[str]) -> Path:
+    """Where :func:`simulate` writes the simulated robot's true design beside its measurements: ``<stem>.truth.json``
+    (a calibrated design file: the 27 parameters and q0_* it was built with; ``arcube evaluate --design`` reads it)."""
+    p = Path(measurements)
+    return p.with_name(p.stem + ".truth.json")
 
 
 def tip_errors(real_design: ArrayLike, real_q0_deg: ArrayLike, model_design: ArrayLike, model_q0_deg: ArrayLike,

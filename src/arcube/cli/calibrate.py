@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from arcube.calibrate.settings import IdentifySettings, PoseSettings, SimulateSettings
-from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, IDS, LEVELS, MODE, OUT, SEGMENTS, SIDE, TRAJECTORIES, one_plan, with_help
+from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, FORCE, check_replace, IDS, LEVELS, MODE, OUT, SEGMENTS, SIDE, TRAJECTORIES, one_plan, with_help
 from arcube.cli.projection import Given, command, model_flags, option
 
 __all__ = ["register"]
@@ -22,9 +22,10 @@ POSES = option("--poses", "Poses CSV (arcube calibrate poses), the joint angles 
                required=True)  # fmt: skip
 POSE_FLAGS = [_DESIGN, with_help(TRAJECTORIES, "The plan whose points and approach lines the poses are chosen around.", required=True),
               SIDE, LEVELS, IDS, MODE, ANATOMY, ANATOMY_FRAME, SEGMENTS, *model_flags(PoseSettings, "poses"),
-              with_help(OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", required=True)]  # fmt: skip
+              with_help(OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", required=True), FORCE]  # fmt: skip
 SIMULATE_FLAGS = [_DESIGN, POSES, *model_flags(SimulateSettings, "simulate"),
-                  with_help(OUT, "Measurement CSV to write (the simulated tracker's readings).", required=True)]  # fmt: skip
+                  with_help(OUT, "Measurement CSV to write (the simulated tracker's readings), and beside it <stem>.truth.json, the "
+                                 "simulated robot's true design.", required=True), FORCE]  # fmt: skip
 IDENTIFY_FLAGS = [_DESIGN, MEASUREMENTS, MODE, *model_flags(IdentifySettings, "identify"),
                   with_help(TRAJECTORIES, "Optional plan: the calibrated robot's accuracy budget on its points (default: the measured poses)."),
                   SIDE, with_help(OUT, "Folder for design.json, calibration.json, residuals.csv and calibration.html (created; new or empty).",
@@ -45,6 +46,7 @@ def poses(given: Given) -> None:
     from arcube.calibrate import poses as poses_api
     from arcube.evaluation.anatomy import resolve_anatomy
 
+    check_replace(given)
     plan = _plan(given)
     anatomy = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments"))
                if given.get("anatomy") else None)  # fmt: skip
@@ -63,9 +65,12 @@ def simulate(given: Given) -> None:
     """Build a robot to a tolerance class and measure it at the poses with tracker noise (a rehearsal of a calibration)."""
     from arcube.calibrate import simulate as simulate_api
 
+    from arcube.calibrate.simulate import truth_path
+
+    check_replace(given, truth_path(given.get("out")))
     sim = simulate_api(given.get("design"), given.get("poses"), SimulateSettings().merged(given.tree("simulate")), out=given.get("out"))
     typer.echo(f"{len(sim.measurements)} measurements of a robot built to ISO 2768-{sim.settings.tolerance_class} (seed {sim.settings.seed}) "
-               f"in {given.get('out')}")  # fmt: skip
+               f"in {given.get('out')}; the robot's true design in {truth_path(given.get('out'))}")  # fmt: skip
 
 
 def identify(given: Given) -> None:
@@ -82,6 +87,13 @@ def identify(given: Given) -> None:
                f"{rms['noise']['e_rms_deg']:.3g} deg)")  # fmt: skip
     if held["rows"]:
         typer.echo(f"held out {held['rows']}: tip {held['E_rms_mm']:.3g} mm, axis {held['e_rms_deg']:.3g} deg")
+    if cal.budget is not None:  # the robot's accuracy before (its tip off by what the residuals say) and after calibration
+        b = cal.budget.summary
+        typer.echo(f"accuracy: the tip was {fit['E_rms_mm_before']:.3g} mm RMS from where the nominal model put it; calibrated, the lateral "
+                   f"error is {b['lateral_error_p95_mm']:.3g} mm (p95 over {cal.budget.robot_lateral_max_mm.size} robots drawn from the "
+                   f"identification, on the {cal.budget.where}'s points), RMS {b['lateral_error_rms_mm']:.3g} mm")  # fmt: skip
+    hidden = [u["name"] for u in cal.unknown_rows() if not u["identifiable"]]
+    typer.echo(f"not identifiable from these poses (kept at their nominal values): {', '.join(hidden) if hidden else 'none'}")
     typer.echo(f"calibrated design in {Path(given.get('out')) / 'design.json'}")
 
 

@@ -18,7 +18,7 @@ from arcube.patients.settings import SegmentSelection
 
 __all__ = [
     "ANATOMY", "ANATOMY_FRAME", "DASK", "DESIGN", "ENGINE", "ENVELOPE", "GUARDS", "IDS", "LEVELS", "MODE", "OPTION_FLAGS", "OUT", "PLAN",
-    "POINTS", "QUIET", "RichBar", "SEED", "SIDE", "TRAJECTORIES", "TRANSFORM", "WORKERS", "options_of", "request_flags",
+    "FORCE", "POINTS", "QUIET", "RichBar", "check_replace", "SEED", "SIDE", "TRAJECTORIES", "TRANSFORM", "WORKERS", "options_of", "request_flags",
 ]  # fmt: skip
 
 DESIGN = option("--design", "Design: a preset name (paper) or a design JSON file. [default: paper]", params=("design",), path=True)
@@ -49,6 +49,20 @@ SEED = option("--seed", "Random seed.", int, params=("seed",))
 WORKERS = option("--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",))
 DASK = option("--dask", "Address of a dask.distributed scheduler to send batches to.", params=("dask",))
 QUIET = option("--quiet", "No progress bar.", bool)
+FORCE = option("--force", "Replace the output file if it exists (a file is never replaced without it).", bool)
+
+
+def check_replace(given: Given, *beside: Any) -> None:
+    """InputError when the command's ``--out`` file (or a file it writes ``beside``) exists as a regular file and
+    ``--force`` was not given: measurements a user took by hand are never overwritten silently. A FIFO or a device
+    (/dev/stdout) is written into, not replaced."""
+    from arcube.errors import InputError
+
+    if given.get("force"):
+        return
+    for path in (given.get("out"), *beside):
+        if path is not None and Path(path).is_file():
+            raise InputError(f"{OUT.name} {given.get('out')}: {path} exists; give {FORCE.name} to replace it")
 
 PLAN: list[Flag] = [DESIGN, TRAJECTORIES, POINTS, MODE, GUARDS, SIDE, LEVELS, IDS, TRANSFORM, ENGINE, ANATOMY, ANATOMY_FRAME, SEGMENTS]
 """The plan, its selection and what evaluates it: the request of ``evaluate``, ``joints``, ``export`` and ``explore``."""

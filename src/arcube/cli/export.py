@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
-    ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, IDS, LEVELS, MODE, OUT, POINTS, SEGMENTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
+    ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, FORCE, check_replace, IDS, LEVELS, MODE, OUT, POINTS, SEGMENTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
 )  # fmt: skip
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
@@ -25,7 +25,7 @@ PROGRAM = option("--program", "Program folder (arcube program): assemble at its 
                  "(robot.xml -> robot.replay.csv); design: --design, else the folder's.", Path, params=("program",))  # fmt: skip
 PLAN_FLAGS = [TRAJECTORIES, AT, POINTS, MODE, SIDE, LEVELS, IDS]
 """Flags that pick the task point; a program fixes its own (its first row, its working mode)."""
-FLAGS = [MODEL_OUT, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, SEGMENTS, *ENVELOPE, *request_flags("body", "masses"), PROGRAM]
+FLAGS = [MODEL_OUT, FORCE, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, SEGMENTS, *ENVELOPE, *request_flags("body", "masses"), PROGRAM]
 
 
 def export(given: Given) -> None:
@@ -43,6 +43,7 @@ def export(given: Given) -> None:
     blocker = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
     if blocker is not None:
         raise InputError(f"{MODEL_OUT.name} {out}: cannot write ({blocker} is a file, not a folder)")
+    check_replace(given)
     options = options_of(given)
     asked = True if masses_given(given) else None  # a mass flag asks for the mass model, even at its default values
     if not options.mass_model_on(asked):  # links too thin for the default wall and no mass flag: a model without the masses
@@ -83,6 +84,7 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
     rows = read_program(given.get("program"))
     anat = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), rows.summary.get("plan"), segments=given.get("segments"))
             if given.get("anatomy") else None)  # fmt: skip
+    check_replace(given, replay_path(out))
     try:
         check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
     except OSError as exc:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from arcube.cli.common import ENGINE, OUT, PLAN, masses_given, one_plan, options_of, plan_request, request_flags, with_help
+from arcube.cli.common import ENGINE, FORCE, OUT, PLAN, check_replace, masses_given, one_plan, options_of, plan_request, request_flags, with_help
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
 
@@ -15,7 +15,7 @@ __all__ = ["register"]
 
 CSV_OUT = with_help(OUT, "Output CSV file (written atomically).", required=True)
 SPEED = option("--speed", "Drilling speed along each trajectory, mm/s. [default: 1]", float, params=("speed",))
-FLAGS = [CSV_OUT, SPEED, *[f for f in PLAN if f is not ENGINE], *request_flags("clearances", "body", "loads", "masses")]
+FLAGS = [CSV_OUT, FORCE, SPEED, *[f for f in PLAN if f is not ENGINE], *request_flags("clearances", "body", "loads", "masses")]
 
 
 def joints(given: Given) -> None:
@@ -26,6 +26,7 @@ def joints(given: Given) -> None:
     out: Path = given.get("out")
     if out.exists() and out.is_dir():
         raise InputError(f"{CSV_OUT.name} {out}: is a folder; give a CSV file path")
+    check_replace(given)
     options = options_of(given)
     if masses_given(given):  # the columns of MODEL.md 18.2 (arcube.export.joints.MASS_COLUMNS)
         options = options.check_masses().replace(outputs=options.outputs.replace(holding_torque=True))

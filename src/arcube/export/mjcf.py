@@ -57,6 +57,8 @@ feed-forward (ctrl = q + tau / KP) it stays within ~0.01 mm.
 
 from __future__ import annotations
 
+import os
+
 import xml.etree.ElementTree as ET
 from typing import Any
 
@@ -174,7 +176,13 @@ def export_masses(options: Options, masses: bool | None) -> MassModel:
 def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
     ``mode`` None: the design's own; ``c_z`` None: the design's, else d_z."""
-    d = design if isinstance(design, Design) else Design.from_vector(design_vector(design))  # validates (InputError)
+    # a design file keeps its c_z and mode (a vector has neither): Design.coerce reads the file, not only its numbers
+    if isinstance(design, Design):
+        d = design
+    elif isinstance(design, (str, os.PathLike)):
+        d = Design.coerce(design)
+    else:
+        d = Design.from_vector(design_vector(design))  # validates (InputError)
     params = d.to_vector()
     signs = design_mode(d, mode)
     c_z = d.c_z if c_z is None else c_z
