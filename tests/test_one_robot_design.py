@@ -24,6 +24,7 @@ from arcube.evaluation.envelope import resolve_envelope
 from arcube.evaluation.standoff import standoff_points
 from arcube.io import select
 from arcube.model.design import PARAM_NAMES
+from harness import CHROMIUM_SKIP, start_chromium
 from harness import arcube as run_arcube
 
 # Both sides of the reference patient at C3 (one trajectory a side), 8 points per line, 16,000 evaluations, seed 2:
@@ -157,3 +158,37 @@ def test_a_killed_cohort_job_resumes_to_the_same_robot(job: Path, tmp_path: Path
     a, b = (json.loads((d / "summary.json").read_text()) for d in (cut, job))
     keys = ("meets_requirements", "mode", "seed", "eta_G", "requirements", "dockings", "missed_at")
     assert {k: a[k] for k in keys} == {k: b[k] for k in keys}
+
+
+@CHROMIUM_SKIP
+def test_the_overview_report_fits_a_1400_px_screen(job: Path, tmp_path: Path) -> None:
+    """Hardening III item 5, in a real browser at 1400 px: no table runs off the page (the robot's table hid L and c_z,
+    the dockings table its links), the 3D panels of the dockings do not overlap, the accuracy section is there, and
+    each docking's own report is titled with its patient and side."""
+    import time
+
+    html = (job / "report.html").read_text()
+    assert "What the robot drills as built" in html and "as built, p95 (mm)" in html
+    for label in ("reference_R", "reference_L"):
+        page = (job / "dockings" / label / "report.html").read_text()
+        assert f"<title>AR-CUBE docking: patient reference, side {label[-1]}</title>" in page
+    driver = start_chromium(tmp_path / "profile", "--disable-gpu", "--window-size=1400,900")
+    try:
+        driver.get((job / "report.html").resolve().as_uri())
+        for _ in range(100):
+            if driver.execute_script("return document.querySelectorAll('.js-plotly-plot .main-svg').length >= 2"):
+                break
+            time.sleep(0.1)
+        time.sleep(0.5)
+        overflow = driver.execute_script("""return [...document.querySelectorAll('table')].filter(
+            t => t.getBoundingClientRect().right > document.documentElement.clientWidth + 1).length""")
+        assert overflow == 0, "a table runs off the right of a 1400 px window"
+        assert driver.execute_script("return document.documentElement.scrollWidth <= document.documentElement.clientWidth + 1")
+        boxes = driver.execute_script("""return [...document.querySelectorAll('.grid > div')].map(d => {
+            const r = d.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; })""")
+        assert len(boxes) == 2
+        (l1, t1, r1, b1), (l2, t2, r2, b2) = boxes
+        assert r1 <= l2 + 1 or r2 <= l1 + 1 or b1 <= t2 + 1 or b2 <= t1 + 1, f"the 3D panels overlap: {boxes}"
+        assert "<a href='dockings/reference_R/report.html'>" in html
+    finally:
+        driver.quit()

@@ -148,7 +148,8 @@ def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: R
     outcome.extra["breach_probability"] = breach.get("breach_probability")
     program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
     mine = {"meets_requirements": outcome.met, "seed": seed, "mode": d.design.mode, "eta_G": outcome.eta_G, "accuracy": accuracy, "breach": breach}
-    write_report(ev, folder / "report.html", program=program, preface=design_preface(mine, outcome.rows, d.design, c_z=d.design.c_z, folder=folder))
+    write_report(ev, folder / "report.html", program=program, preface=design_preface(mine, outcome.rows, d.design, c_z=d.design.c_z, folder=folder),
+                 title=f"AR-CUBE docking: patient {outcome.patient}, side {outcome.side}")
 
 
 def solve_only(job: DockingJob) -> DockingOutcome:

@@ -316,7 +316,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
             program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
             mine = {**summary, "seed": seed, "meets_requirements": d.met, "accuracy": accuracies[-1], "breach": d.breach}
             preface = design_preface(mine, d.rows, d.design, c_z=d.design.c_z, folder=folder)
-            write_report(ev, folder / "report.html", program=program, preface=preface)
+            write_report(ev, folder / "report.html", program=program, preface=preface, title=f"AR-CUBE docking: patient {d.name}, side {d.side}")
     rows = merge_rows(dockings)
     robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
     # the accuracy as built of the docking where it is worst (each docking's own: in its folder's accuracy/)
@@ -345,7 +345,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     else:
         from arcube.report.dockings import write_dockings_report
 
-        write_dockings_report(out / "report.html", dockings, evaluations, rows, met, extra=coverage_html(result, held_out))
+        write_dockings_report(out / "report.html", dockings, evaluations, rows, met, extra=coverage_html(result, held_out), accuracies=accuracies)
     if held_out is not None:
         from arcube.report.coverage import write_coverage_report
 

@@ -75,7 +75,8 @@ def _check_writable(out: Path, name: str) -> None:
 
 
 def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLike[str] | None = None,
-                 program: str | os.PathLike[str] | None = None, preface: str | None = None, **run: Any) -> Path:  # fmt: skip
+                 program: str | os.PathLike[str] | None = None, preface: str | None = None, title: str | None = None,
+                 **run: Any) -> Path:  # fmt: skip
     """Write the self-contained HTML report of an evaluation (plots, 3D mechanism), or of an optimization
     run held in a folder, and its PNGs; returns the path.
 
@@ -86,7 +87,7 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
     design (program.csv, program.json) whose section (timeline, limits, motors, playback) the report
     adds; by default the ``program/`` beside a report written into an ``arcube design`` job's folder
     (one with design.toml). ``preface``: an HTML fragment put under the title (an ``arcube design`` job's
-    verdict, requirements and budget, :func:`arcube.report.design_job.design_preface`). Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
+    verdict, requirements and budget, :func:`arcube.report.design_job.design_preface`); ``title``: the page's title. Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
     PNGs beside it are named from its stem) or the program's files are unreadable.
     """
     from arcube.optimization.run_results import OptimizeResult
@@ -106,7 +107,7 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
 
     if program is None and (out.parent / "design.toml").is_file() and (out.parent / "program" / "program.json").is_file():
         program = out.parent / "program"
-    return write_evaluation_report(evaluation, out, program=program, preface=preface)
+    return write_evaluation_report(evaluation, out, program=program, preface=preface, title=title)
 
 
 def __getattr__(name: str) -> Any:

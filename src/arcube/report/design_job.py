@@ -112,6 +112,18 @@ def _breach(figures: Mapping[str, Any] | None, folder: Path | None) -> str:
     return html
 
 
+def _as_built(accuracy: Mapping[str, Any] | None, breach: Mapping[str, Any] | None) -> str:
+    """The verdict's second line: the lateral error requirement speaks of a perfect robot; beside it, what the robot
+    drills as built to its class (and the breach probability of its worst screw), so that neither stands alone."""
+    if not accuracy or "lateral_error_p95_mm" not in accuracy:
+        return ""
+    text = (f"Lateral error: {_num(accuracy.get('perfect_robot_lateral_error_mm'))} mm for a perfect robot (the requirement above), "
+            f"<b>{_num(accuracy['lateral_error_p95_mm'])} mm</b> (p95) for the robot as built to ISO 2768-{esc(accuracy.get('tolerance_class', 'm'))}")
+    if breach and isinstance(breach.get("breach_probability"), float):
+        text += f"; the worst screw breaches its pedicle with P = {100 * breach['breach_probability']:.0f} % as built (section below)"
+    return f"<p class='note'>{text}. A calibration (arcube calibrate) brings the robot close to the perfect one.</p>"
+
+
 def design_preface(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], design: Design, c_z: float | None = None,
                    folder: str | Path | None = None) -> str:  # fmt: skip
     """The HTML that opens a design job's report: verdict, requirements table (``rows``, as requirements.csv),
@@ -123,7 +135,7 @@ def design_preface(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]]
                + ", ".join(str(r["requirement"]) for r in missed) + ")")  # fmt: skip
     head = (f"<h2>Verdict</h2><p><b{'' if met else ' class=fail'}>The design {esc(verdict)}</b>: seed {esc(summary.get('seed'))}, "
             f"mode {esc(summary.get('mode'))}, η_G {_num(summary.get('eta_G'))}; {len(rows) - len(missed)} of {len(rows)} requirements met, "
-            "checked by the NumPy reference.</p>")  # fmt: skip
+            "checked by the NumPy reference.</p>" + _as_built(summary.get("accuracy"), summary.get("breach")))  # fmt: skip
     program = next((r for r in rows if r["requirement"] == "program"), None)
     prog = ""
     if program is not None:

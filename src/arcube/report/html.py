@@ -273,7 +273,7 @@ def write_evaluation_report(
     report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
     run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
     limits: dict[str, float] | None = None, best_known: float | None = None, program: str | os.PathLike[str] | None = None,
-    preface: str | None = None,
+    preface: str | None = None, title: str | None = None,
 ) -> Path:  # fmt: skip
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
@@ -284,7 +284,8 @@ def write_evaluation_report(
     ``best_known``: an eta_G drawn as a reference line on the convergence plots.
     ``program``: a program folder of this design (program.csv, program.json; ``arcube design``'s
     ``program/``): adds the program's section (:mod:`arcube.report.program_html`), read before any file is written.
-    ``preface``: an HTML fragment put right under the title (a design job's verdict and requirements).
+    ``preface``: an HTML fragment put right under the title (a design job's verdict and requirements); ``title``: the
+    page's title (default "AR-CUBE report: " and the plan's source; a docking's names its patient and side).
     Returns the HTML path. Every file is written atomically.
     """
     out = Path(path)
@@ -310,7 +311,7 @@ def write_evaluation_report(
     for k, (key, fig) in enumerate(figs):
         # plotly.js goes inline once, with the first figure; the others reuse it.
         divs[key] = plotly_div(fig, DIV_IDS[key], include_js=k == 0)
-    title = f"AR-CUBE report: {report.trajectories.source}"
+    title = title or f"AR-CUBE report: {report.trajectories.source}"
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
              f"<h1>{_esc(title)}</h1>"]  # fmt: skip
     if preface:
