@@ -1,5 +1,5 @@
-"""Speed and figures of calibration (MODEL.md 21) on the demo's design (bench_tolerance.DEMO_DESIGN, mode +,+,+,-)
-and the right side of the bundled reference plan (5 trajectories).
+"""Speed and figures of calibration (MODEL.md 21) on the demo's robot at its right docking (tests/data/one_robot.json, the
+one robot ``arcube design --trajectories reference`` finds) and the right side of the bundled reference plan (5 trajectories).
 
 Speed (targets of issue 32 on this 2-core machine): pose selection from a few thousand candidates in seconds,
 identification of 40-200 measurements in seconds. ``identify`` is timed twice: the fit alone (the budget's Monte
@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from bench_tolerance import DEMO_DESIGN, DEMO_MODE
+from pathlib import Path
 
 import arcube
 from arcube.calibrate import (
@@ -49,32 +49,35 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--robots", type=int, default=3, help="simulated robots of the figures (seeds 1..N)")
     args = ap.parse_args()
-    design = arcube.Design.from_dict(DEMO_DESIGN)
+    from arcube.pedicles.run import robot_dockings
+
+    design = robot_dockings(Path(__file__).resolve().parents[1] / "tests" / "data" / "one_robot.json")["R"]
+    mode = design.mode
     plan = arcube.select(arcube.load_trajectories("reference"), side="R")
     task = build_task(plan.entry, plan.target, 30)
 
     for points in (30, 60):
         s = PoseSettings(points=points)
-        sel = poses(design, plan, DEMO_MODE, s)
-        t = best_time(lambda s=s: poses(design, plan, DEMO_MODE, s), args.repeats)
+        sel = poses(design, plan, mode, s)
+        t = best_time(lambda s=s: poses(design, plan, mode, s), args.repeats)
         print(f"poses(): {sel.candidates} candidates reached of {sel.drawn} drawn, 40 chosen: {t:.2f} s; "
               f"O1 {sel.o1:.3f} (random {sel.o1_random:.3f}), condition {sel.condition_number:.0f} (random {sel.condition_number_random:.0f})")  # fmt: skip
-    big = poses(design, plan, DEMO_MODE, PoseSettings(count=200))
+    big = poses(design, plan, mode, PoseSettings(count=200))
     for n in (40, 100, 200):
         sim = simulate(design, big.measurements.take(np.arange(n)), SimulateSettings(seed=1))
         fit_only = IdentifySettings(samples=1)
-        t_fit = best_time(lambda m=sim.measurements, s=fit_only: identify(design, m, DEMO_MODE, s), args.repeats)
-        t_all = best_time(lambda m=sim.measurements: identify(design, m, DEMO_MODE, trajectories=plan), args.repeats)
+        t_fit = best_time(lambda m=sim.measurements, s=fit_only: identify(design, m, mode, s), args.repeats)
+        t_all = best_time(lambda m=sim.measurements: identify(design, m, mode, trajectories=plan), args.repeats)
         print(f"identify(), {n} measurements: fit {t_fit:.2f} s; with the budget (1000 robots x 150 plan points) {t_all:.2f} s")
 
-    chosen = poses(design, plan, DEMO_MODE)
+    chosen = poses(design, plan, mode)
     print(f"\nfigures: class m robots, 40 poses, tracker noise 0.15 mm / 0.1 deg, holdout 0.25; lateral error over the plan "
           f"({len(task)} points), max / p95 in mm")  # fmt: skip
     x = design.to_vector()
     for seed in range(1, args.robots + 1):
         for name, meas in (("D-optimal", chosen.measurements), ("random", chosen.random)):
             sim = simulate(design, meas, SimulateSettings(seed=seed))
-            res = identify(design, sim.measurements, DEMO_MODE, trajectories=plan)
+            res = identify(design, sim.measurements, mode, trajectories=plan)
             before = tip_errors(sim.design, sim.q0_deg, x, np.zeros(5), task.E, task.e, res.mode)["lateral_mm"]
             after = tip_errors(sim.design, sim.q0_deg, res.design, res.q0_deg, task.E, task.e, res.mode)["lateral_mm"]
             held = res.residual_rms()["held_out"]
