@@ -56,7 +56,8 @@ def test_unpack_converts_angles_to_radians() -> None:
         ({"set": ("f_y", "abc")}, "parameter f_y is not a number"),
         ({"set": ("alpha_x", 200.0)}, "alpha_x must lie in (0, 180)"),
         ({"set": ("L", -1.0)}, "tool offset L must be >= 0"),
-        ({"set": ("mount_ry", float("nan"))}, "mount_ry is not finite"),
+        ({"mount": (0.0, float("nan"), 0.0)}, "mount_ry is not finite"),
+        ({"mount": (None, 5.0, None)}, "missing mount_rx, mount_rz"),
         ({"add": ("mount_rw", 5.0)}, "unknown parameter 'mount_rw'"),
     ],
 )
@@ -68,6 +69,10 @@ def test_invalid_designs_are_refused(tmp_path: Path, change: dict, message: str)
         values[change["add"][0]] = change["add"][1]
     if "set" in change:
         values[change["set"][0]] = change["set"][1]
+    for name, value in zip(("mount_rx", "mount_ry", "mount_rz"), change.get("mount", ())):
+        values["L"] = 100.0  # a mounted design needs its tool offset
+        if value is not None:
+            values[name] = value
     path = tmp_path / "bad.json"
     path.write_text(json.dumps(values))
     with pytest.raises(InputError, match=None) as info:

@@ -139,7 +139,7 @@ def test_joints_command(tmp_path):
     assert float(rows[6]["t_s"]) == pytest.approx(ts_len := float(select(load_trajectories("reference"), side="R").lengths[0]) / 1.5)
     assert ts_len > 0
     for bad, needle in ((["--speed", "0"], "--speed"), (["--mode=+,+"], "--mode"), (["--side", "Q"], "side")):
-        res = CliRunner().invoke(_app(), [*args, *bad])
+        res = CliRunner().invoke(_app(), [*args, "--force", *bad])  # the CSV exists now: the bad flag, not the file, is refused
         assert isinstance(res.exception, InputError) and needle in flag_message(res.exception)  # what the CLI prints
         assert "\n" not in str(res.exception)
 

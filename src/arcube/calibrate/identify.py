@@ -145,7 +145,9 @@ def identify(
         )  # fmt: skip
 
     digest = design_digest(start.vector, start.q0_deg)
-    if meas.design is not None and meas.design != digest:
+    # A calibrated design refines itself from measurements taken at the poses of the design it was calibrated
+    # from (whose digest its file does not keep): only a plain design's poses must be its own.
+    if meas.design is not None and meas.design != digest and not start.calibrated:
         raise InputError(f"{meas.source}: measured at poses chosen for another design (digest {meas.design}, this design's is {digest}); "
                          "identify with the design the poses were chosen for")  # fmt: skip
     with np.errstate(invalid="ignore", divide="ignore"):
