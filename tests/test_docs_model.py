@@ -29,7 +29,7 @@ SPEC = next((d / "shared" / "spec" / "MODEL.md" for d in ROOT.parents if (d / "s
 
 _NUM = r"\d+(?:\.\d+)?"
 _REF = rf"{_NUM}(?:\s*[-–]\s*{_NUM})?"
-_CITATION = re.compile(rf"MODEL\.md`?\s*(?:\(\s*)?(?:sections?\s+)?(?P<refs>{_REF}(?:\s*(?:,|and)\s*{_REF})*)")
+_CITATION = re.compile(rf"(?:MODEL\.md`?\s*|model\s+§\s*|\[§)(?:\(\s*)?(?:sections?\s+)?(?P<refs>{_REF}(?:\s*(?:,|and)\s*{_REF})*)")
 _HEADING = re.compile(r"^(?P<hashes>#{1,6})\s+(?P<num>\d+(?:\.\d+)?)\.?\s+(?P<title>.*?)\s*(?:\{#(?P<id>[^}\s]+)\})?\s*$")
 
 
@@ -111,6 +111,10 @@ def _missing(citations: dict[str, list[str]]) -> list[str]:
         ("MODEL.md 16's grading; MODEL.md's text", ["16"]),
         ("MODEL.md 14.3-15.2", ["14.3", "15.2"]),
         ("no citation: model.md, MODEL.md.", []),
+        ("the guards of model §8.2 (crank angle)", ["8.2"]),
+        ("(model §16-17, 19.5)", ["16", "17", "19.5"]),
+        ("the masses of model\n    §18.1 (links)", ["18.1"]),
+        ("see [§19.6](../model/part4-one-robot.md#19.6).", ["19.6"]),
     ],
 )
 def test_cited_sections_reads_numbers_ranges_and_lists(text: str, expected: list[str]) -> None:
@@ -121,12 +125,20 @@ def test_cited_sections_reads_numbers_ranges_and_lists(text: str, expected: list
 
 
 def test_src_citations_are_headings_of_the_model_pages() -> None:
-    """Every 'MODEL.md X.Y' in src/ (docstrings, help texts, error messages, report text) is a heading."""
+    """Every 'model §X.Y' in src/ (docstrings, help texts, error messages, report text) is a heading."""
     citations = {str(p.relative_to(ROOT)): cited_sections(p.read_text(encoding="utf-8")) for p in _sources()}
     total = sum(len(v) for v in citations.values())
     assert total >= 100, f"only {total} citations found in src/: the collector no longer reads them"
     missing = _missing(citations)
     assert not missing, "cited in src/ but no heading in docs/model/:\n" + "\n".join(missing)
+
+
+def test_no_text_a_user_reads_cites_a_file_the_user_lacks() -> None:
+    """The specification is not in the repository: src/ (help texts, messages, reports, docstrings), the
+    README and the docs cite the docs' model pages ("model §X.Y", a link "[§X.Y](...)"), never "MODEL.md"."""
+    pages = [*_sources(), ROOT / "README.md", *sorted(DOCS.rglob("*.md"))]
+    naming = [str(p.relative_to(ROOT)) for p in pages if "MODEL.md" in p.read_text(encoding="utf-8")]
+    assert not naming, f"these cite MODEL.md, which a user does not have: {naming}"
 
 
 def test_readme_and_docs_citations_are_headings_of_the_model_pages() -> None:

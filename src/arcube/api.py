@@ -72,7 +72,7 @@ def evaluate(
     table_z: float | None = None,
     **changes: Any,
 ) -> Evaluation:
-    """Evaluate one design on a drilling plan (MODEL.md 8): reachability, seven condition numbers,
+    """Evaluate one design on a drilling plan (model §8): reachability, seven condition numbers,
     dexterity, clearances (14.3) and the drill-tip metrics (15).
 
     Args:
@@ -80,7 +80,7 @@ def evaluate(
         plan: a :class:`TrajectorySet` or what :func:`arcube.load_trajectories` reads
             (CSV, Slicer ``.mrk.json`` file or folder, ``"reference"``).
         options: the :class:`arcube.Options` of the evaluation (guards, body, loads, masses); None:
-            the paper's model, with the guards of MODEL.md 8.2 when ``guards``.
+            the paper's model, with the guards of model §8.2 when ``guards``.
         points: N samples per trajectory (>= 2), both ends included.
         mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``;
             None: the design's own (:attr:`Design.mode`), else ``+,+,+,+``.
@@ -88,10 +88,10 @@ def evaluate(
         transform: a JSON 4x4 rigid transform from the file's frame to the patient frame (file plans only).
         engine: ``auto`` (compiled kernel when available), ``numba`` or ``numpy`` (the reference).
         anatomy: an :class:`~arcube.evaluation.anatomy.Anatomy`, ``"default"`` (the plan's default
-            anatomy, MODEL.md 14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
+            anatomy, model §14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
             patient), or None: then no clearance to the anatomy is computed; or a segmentation
             (``.seg.nrrd``, ``.nii``, ``.nii.gz``), of which ``segments`` keeps some (names or label values).
-        envelope, table_z: the envelope of the whole patient and the table (MODEL.md 19.5): ``"default"`` (a
+        envelope, table_z: the envelope of the whole patient and the table (model §19.5): ``"default"`` (a
             coarse body on the plan's landmarks), skin mesh files, or None / ``"none"``; with one, the clearance to
             it at every point (and its guard, ``envelope_clearance=MM``).
         **changes: settings of ``options`` by name or short name (``clearance=5``, ``thrust=25``,
@@ -128,12 +128,12 @@ def _request(design: Any, plan: Any, options: Options | None, points: Any, mode:
     full = load_plan(plan, transform=transform)
     ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
     opts = request_options(options, guards, **changes)
-    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (MODEL.md 19.1)
+    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (model §19.1)
         opts = opts.replace(c_z=d.c_z)
     anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
     if opts.guards.clearance_mm is not None and anat is None:
         raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
-    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # MODEL.md 19.5: placed on the whole plan
+    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # model §19.5: placed on the whole plan
     if opts.guards.envelope_clearance_mm is not None and env is None:
         raise InputError.of("Guards.envelope_clearance_mm", "needs an envelope (envelope default or a skin mesh)")
     return _Request(d, ts, n, signs, opts, anat, env)
@@ -146,7 +146,7 @@ def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike =
            **changes: Any) -> JointTrajectory:  # fmt: skip
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory of a plan at ``speed`` mm/s
     (``arcube joints``); the other arguments as :func:`evaluate` takes them. With
-    ``options.outputs.holding_torque`` also the holding torque of MODEL.md 18.2 per row.
+    ``options.outputs.holding_torque`` also the holding torque of model §18.2 per row.
     ``.write_csv(path)`` writes the CSV."""
     import math
 
@@ -164,7 +164,7 @@ def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLik
               settings: ToleranceSettings | None = None, points: int = 30, mode: str | Sequence[float] | None = None,
               side: str | None = None, levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None,
               transform: PathLike | None = None, engine: str = "auto", **fields: Any) -> ToleranceResult:  # fmt: skip
-    """The accuracy budget of a robot built to tolerances (MODEL.md 20; ``arcube tolerance``): the first-order
+    """The accuracy budget of a robot built to tolerances (model §20; ``arcube tolerance``): the first-order
     worst case and RMS of the lateral, axial and axis errors at every point of the plan, each error
     source's share, and the Monte Carlo over built robots (p95 of each robot's largest lateral error).
 
@@ -196,7 +196,7 @@ def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLik
 
 
 def program(design: Any, plan: Any, out: PathLike | None = None, **kwargs: Any) -> Program:
-    """The drilling program of ``design`` for a plan (MODEL.md 17): :func:`arcube.motion.program`, and
+    """The drilling program of ``design`` for a plan (model §17): :func:`arcube.motion.program`, and
     with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json`` (the three
     written as one: all or none). Arguments: those of :func:`arcube.motion.program` (``options``,
     ``anatomy``, ``mode``, ``order``, ``limits``, ``masses``, ``feed=1.0``, ...)."""
@@ -229,7 +229,7 @@ def optimize(
     dask: str | None = None,
     **fields: Any,
 ) -> OptimizeResult:
-    """Optimize the design (MODEL.md 12): minimize eta_G subject to every point reachable.
+    """Optimize the design (model §12): minimize eta_G subject to every point reachable.
 
     Args:
         plan: one plan or several (a robust problem over patients); each a :class:`TrajectorySet`
@@ -253,7 +253,7 @@ def optimize(
     specs = _plans(plan)
     cfg = build_config(specs, s, workers=workers, dask=dask)
     if out is None:
-        # per entry of the config (a patient, or one of its dockings: MODEL.md 19), its plan's anatomy
+        # per entry of the config (a patient, or one of its dockings: model §19), its plan's anatomy
         by_plan = [resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) for spec in specs] if s.anatomy else []
         anatomies = tuple(by_plan[p.get("plan_index", i)] for i, p in enumerate(cfg["patients"])) if by_plan else ()
         for p, anatomy in zip(cfg["patients"], anatomies):
@@ -354,7 +354,7 @@ def design(
     on_stage: Callable[[str], None] | None = None,
     **fields: Any,
 ) -> DesignResult:
-    """Find one robot that meets every requirement at every docking (``arcube design``; MODEL.md 16-17, 19).
+    """Find one robot that meets every requirement at every docking (``arcube design``; model §16-17, 19).
 
     Args:
         plan: one plan or several (None: the bundled reference patient); each patient's R and L trajectories
@@ -373,7 +373,7 @@ def design(
             the design job's.
         progress, on_seed, on_stage: told each generation's history row, each finished seed's summary
             and each stage after the search (``"building the drilling program ..."``).
-        validate: a held-out cohort file, docked by the robot chosen into ``validation/`` (coverage: MODEL.md 19.6).
+        validate: a held-out cohort file, docked by the robot chosen into ``validation/`` (coverage: model §19.6).
 
     Returns:
         A :class:`~arcube.design_job.DesignResult` (``met``, ``summary``, ``rows``, ``design``).

@@ -1,9 +1,9 @@
 """One coercion module: the values a caller gives (Python values, or a file's or the command line's
 text) as the values the library computes with, each checked once, with one error naming the argument.
 
-* :func:`mode_signs` / :func:`mode_text`: a working mode (MODEL.md 4.3, 5.3), ``(1, 1, -1, 1)`` or
+* :func:`mode_signs` / :func:`mode_text`: a working mode (model §4.3, 5.3), ``(1, 1, -1, 1)`` or
   ``"+,+,-,+"``, as four signs ``(4,)`` or as its text;
-* :func:`points`: samples per trajectory (MODEL.md 1.4), an integer in ``[2, MAX_POINTS]``;
+* :func:`points`: samples per trajectory (model §1.4), an integer in ``[2, MAX_POINTS]``;
 * :func:`seeds`: ``"1-5"``, ``"1,3,7"``, ``"1-3,10"`` or a sequence of integers, as sorted distinct seeds;
 * :func:`limit_pairs`: limits ``NAME=VALUE`` (``--max torque=15``, repeatable) or a mapping, each name
   once, each value a finite number in plain decimal notation (``1_5`` is refused, not read as 15).

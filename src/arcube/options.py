@@ -3,10 +3,10 @@
 :class:`Options` is made of four groups, each a frozen pydantic model whose ``Field`` constraints
 are the only checks of its values:
 
-* :class:`Guards`: the guards of MODEL.md 8.2, 14.3 and 19.5 (all off by default);
-* :class:`Body`: the radii of the robot's body (MODEL.md 14.1);
-* :class:`Loads`: the encoder resolution, drilling loads and actuator stiffness (MODEL.md 15);
-* :class:`Masses`: the links' tubes, the actuators' and drill motor's masses, gravity (MODEL.md 18.1);
+* :class:`Guards`: the guards of model §8.2, 14.3 and 19.5 (all off by default);
+* :class:`Body`: the radii of the robot's body (model §14.1);
+* :class:`Loads`: the encoder resolution, drilling loads and actuator stiffness (model §15);
+* :class:`Masses`: the links' tubes, the actuators' and drill motor's masses, gravity (model §18.1);
 * :class:`Outputs`: what to compute beyond what the guards need (engine requests, not model).
 
 A bad value raises :class:`~arcube.errors.InputError` naming the field as the caller wrote it
@@ -58,13 +58,13 @@ PositiveMm = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
 class Guards(Settings):
-    """Reachability guards: MODEL.md 8.2 ([ADDITION]), the clearances of 14.3 and the envelope of 19.5. All off by default."""
+    """Reachability guards: model §8.2 ([ADDITION]), the clearances of 14.3 and the envelope of 19.5. All off by default."""
 
     SHORT: ClassVar[dict[str, str]] = {"clearance_mm": "clearance", "self_clearance_mm": "self_clearance",
                                        "envelope_clearance_mm": "envelope_clearance"}
 
     z_dyad: bool = False
-    """Check the z-leg dyad closure (MODEL.md 6)."""
+    """Check the z-leg dyad closure (model §6)."""
     c_z: float | None = Field(default=None, gt=0, allow_inf_nan=False)
     """Second link of the z dyad (mm); None means c_z = d_z."""
     rho_max_deg: float | None = Field(default=None, gt=0, le=90)
@@ -76,23 +76,23 @@ class Guards(Settings):
     single_assembly_mode: bool = False
     """sign H_x, sign H_y, sign det[x_b, y_b, e] equal at all task points (global)."""
     clearance_mm: Mm | None = None
-    """Guard: clearance to the anatomy >= this (mm); failure ``collision/patient`` (MODEL.md 14.3)."""
+    """Guard: clearance to the anatomy >= this (mm); failure ``collision/patient`` (model §14.3)."""
     self_clearance_mm: Mm | None = None
     """Guard: clearance between the robot's own parts >= this (mm); failure ``collision/self``."""
     envelope_clearance_mm: Mm | None = None
     """Guard: clearance to the envelope of the whole patient and the table >= this (mm); failure ``collision/envelope``
-    (MODEL.md 19.5; 10 mm is the design requirement's default)."""
+    (model §19.5; 10 mm is the design requirement's default)."""
 
 
 _RADII = BodyRadii()
-"""MODEL.md 14.1's default radii (mm), written once in the model layer."""
+"""model §14.1's default radii (mm), written once in the model layer."""
 
 
 class Body(Settings):
-    """Radii of the robot's body (MODEL.md 14.1), mm."""
+    """Radii of the robot's body (model §14.1), mm."""
 
     link_radius: PositiveMm = _RADII.link
-    """Radius of the links (MODEL.md 14.1), mm."""
+    """Radius of the links (model §14.1), mm."""
     actuator_radius: PositiveMm = _RADII.actuator
     """Radius of the actuators at P_u and D_u, mm."""
     motor_radius: PositiveMm = _RADII.motor
@@ -107,18 +107,18 @@ class Body(Settings):
 
 
 class Loads(Settings):
-    """Encoder resolution, drilling loads and actuator stiffness of MODEL.md 15."""
+    """Encoder resolution, drilling loads and actuator stiffness of model §15."""
 
     SHORT: ClassVar[dict[str, str]] = {"thrust_N": "thrust", "lateral_force_N": "lateral_force"}
 
     encoder_deg: PerActuator = (0.01,) * 5
-    """Position error bound of the actuators (MODEL.md 15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y)."""
+    """Position error bound of the actuators (model §15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y)."""
     thrust_N: float = Field(default=30.0, ge=0, le=1e5, allow_inf_nan=False)
-    """Drilling thrust along the drill axis (MODEL.md 15.3), N (at most 1e5: ten tonnes-force, beyond any drill)."""
+    """Drilling thrust along the drill axis (model §15.3), N (at most 1e5: ten tonnes-force, beyond any drill)."""
     lateral_force_N: float = Field(default=10.0, ge=0, le=1e5, allow_inf_nan=False)
-    """Largest lateral (skiving) force across the drill axis (MODEL.md 15.3), N (at most 1e5)."""
+    """Largest lateral (skiving) force across the drill axis (model §15.3), N (at most 1e5)."""
     actuator_stiffness: PerActuator = (1e4,) * 5
-    """Torsional stiffness of the actuators (MODEL.md 15.4), N·m/rad: one value or five."""
+    """Torsional stiffness of the actuators (model §15.4), N·m/rad: one value or five."""
 
 
 def _gravity(value: Any) -> tuple[float, float, float]:
@@ -140,13 +140,13 @@ MAX_GRAVITY = 1000.0
 
 
 class Masses(Settings):
-    """The mass model of MODEL.md 18.1: thin-walled aluminium tubes as links, the delta actuators
+    """The mass model of model §18.1: thin-walled aluminium tubes as links, the delta actuators
     riding on the cranks, the drill motor; gravity in the patient frame (prone: posterior up)."""
 
     SHORT: ClassVar[dict[str, str]] = {"wall_mm": "wall", "density_kg_m3": "density", "m_delta_kg": "m_delta", "m_motor_kg": "m_motor"}
 
     wall_mm: float = Field(default=2.0, gt=0, le=1000.0, allow_inf_nan=False)
-    """Wall of the links' tubes (MODEL.md 18.1), mm; < the link radius where the mass model is used."""
+    """Wall of the links' tubes (model §18.1), mm; < the link radius where the mass model is used."""
     density_kg_m3: float = Field(default=2700.0, gt=0, le=1e5, allow_inf_nan=False)
     """Density of the links' material, kg/m^3 (aluminium)."""
     m_delta_kg: float = Field(default=0.8, ge=0, le=1e4, allow_inf_nan=False)
@@ -162,20 +162,20 @@ class Outputs(Settings):
 
     clearances: bool = False
     """Every body clearance at every point, even with no clearance guard on: to the anatomy and between the
-    robot's parts (MODEL.md 14.3), and to the envelope of the whole patient when there is one (19.5)."""
+    robot's parts (model §14.3), and to the envelope of the whole patient when there is one (19.5)."""
     anatomy_clearance: bool = False
     """The clearance to the anatomy (when there is one) even without its guard (an optimizer objective)."""
     envelope_clearance: bool = False
-    """The clearance to the envelope of the whole patient (when there is one, MODEL.md 19.5) even without its
+    """The clearance to the envelope of the whole patient (when there is one, model §19.5) even without its
     guard (an optimizer objective or limit)."""
     clearance_min_exact: bool = True
     """With a clearance guard, whether summary-only kernel runs find the exact smallest clearance
     (False: they only decide the guard and its shortfall, and report the limit as the smallest
     clearance when every point clears it; what an optimizer that does not optimize it needs)."""
     tip_metrics: bool = True
-    """The drill-tip metrics of MODEL.md 15 (NaN when off: an optimizer that does not need them)."""
+    """The drill-tip metrics of model §15 (NaN when off: an optimizer that does not need them)."""
     holding_torque: bool = False
-    """With ``tip_metrics``, also the holding torque of MODEL.md 18.2 at each point, from :class:`Masses`
+    """With ``tip_metrics``, also the holding torque of model §18.2 at each point, from :class:`Masses`
     (off by default: every earlier result stays as it was, and thin links need no valid mass model)."""
 
 
@@ -226,7 +226,7 @@ class Options(Settings):
 
     @property
     def radii(self) -> BodyRadii:
-        """The body radii of MODEL.md 14.1."""
+        """The body radii of model §14.1."""
         return self.body.radii
 
     def flat(self) -> dict[str, Any]:
@@ -241,14 +241,14 @@ class Options(Settings):
 
     def check_masses(self) -> Options:
         """``self``, once the links' wall (``Masses.wall_mm``) is checked thinner than their radius
-        (``Body.link_radius``), which the mass model of MODEL.md 18.1 needs; else InputError naming the wall."""
+        (``Body.link_radius``), which the mass model of model §18.1 needs; else InputError naming the wall."""
         wall, radius = self.masses.wall_mm, self.body.link_radius
         if not wall < radius:
             raise InputError.of("Masses.wall_mm", f"must be < the link radius ({radius:g} mm), got {wall:g}")
         return self
 
     def mass_model_on(self, asked: bool | None = None) -> bool:
-        """Whether the mass model of MODEL.md 18.1 applies, checked (:meth:`check_masses`) when it does.
+        """Whether the mass model of model §18.1 applies, checked (:meth:`check_masses`) when it does.
 
         ``asked``: True (required), False (no masses: no torques, a massless export), or None: the mass
         model unless the masses are the defaults and the links are too thin for the default wall (then
@@ -273,7 +273,7 @@ class Options(Settings):
 
     @property
     def wants_envelope_clearance(self) -> bool:
-        """Whether the evaluation computes the clearance to the envelope (when there is one, MODEL.md 19.5)."""
+        """Whether the evaluation computes the clearance to the envelope (when there is one, model §19.5)."""
         o = self.outputs
         return o.clearances or o.envelope_clearance or self.guards.envelope_clearance_mm is not None
 
@@ -284,12 +284,12 @@ class Options(Settings):
 
 
 GUARDED_OPTIONS = Options(guards=Guards(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True))
-"""The guards of MODEL.md 8.2 but z_dyad (``guards=True`` in the API)."""
+"""The guards of model §8.2 but z_dyad (``guards=True`` in the API)."""
 
 
 def request_options(options: Options | None = None, guards: bool = False, **changes: Any) -> Options:
     """The options of one request (an evaluation, a program, an export, the explorer): ``options``
-    (else the paper's, with the guards of MODEL.md 8.2 when ``guards``), changed by flat keywords
+    (else the paper's, with the guards of model §8.2 when ``guards``), changed by flat keywords
     (a field's name or short name: ``thrust=25``, ``link_radius=6``, ``clearance=5``)."""
     if options is not None and not isinstance(options, Options):
         raise InputError.of("options", f"must be an arcube.Options, got {type(options).__name__}")

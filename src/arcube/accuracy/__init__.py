@@ -1,4 +1,4 @@
-"""The accuracy budget of a built robot (MODEL.md 20): what a robot made to tolerances really drills.
+"""The accuracy budget of a built robot (model §20): what a robot made to tolerances really drills.
 
 * :mod:`~arcube.accuracy.iso`: ISO 2768-1 general tolerances (linear, angular);
 * :mod:`~arcube.accuracy.sources`: the error sources of 20.1, their names, units and tolerances;

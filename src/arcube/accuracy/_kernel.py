@@ -1,9 +1,9 @@
 """Compiled first-order budget (Numba): :func:`first_order_numba` == :func:`arcube.accuracy.first_order.first_order`.
 
-Per point, in one pass: the IK of MODEL.md 3-5 (at the centre C, mechanism frame), the derivatives of
+Per point, in one pass: the IK of model §3-5 (at the centre C, mechanism frame), the derivatives of
 the FK with respect to the 27 parameters and 5 joints (the implicit differentiation of
 :mod:`arcube.model.sensitivity`, written out for one point), the source columns G_E, G_e, and the
-worst cases, RMS and shares of MODEL.md 20.3 (the zonogon's farthest vertex by an angle sort).
+worst cases, RMS and shares of model §20.3 (the zonogon's farthest vertex by an angle sort).
 Points run one after the other: 300 take ~7 ms, and a serial kernel compiles in a third less time
 than a ``prange`` one and loads from the cache without starting a thread pool.
 
@@ -100,7 +100,7 @@ def point_jacobians(geo, Cm0, Cm1, Cm2, em0, em1, em2, sr0, cr0, sr1, cr1, sr2, 
     :func:`source_map`; ``ctx`` ``(18,)`` and ``cols`` ``(2, 3, 32)`` are work buffers. Returns False where the
     derivatives do not exist (H_u = 0 or det[x_b, y_b, e] = 0: a singularity), G then NaN."""
     p, d, c, t = geo[_P:_P + 3], geo[_D:_D + 2], geo[_C:_C + 2], geo[_T:_T + 2]
-    # TMS coupler terms (MODEL.md 7.2): a_v = D, a_w = E
+    # TMS coupler terms (model §7.2): a_v = D, a_w = E
     av0 = Cm1 - d[0] * sd0 + t[0] * ss0
     aw0 = Cm2 + d[0] * cd0 - t[0] * cs0 - p[0] * cr0
     av1 = Cm2 - d[1] * sd1 + t[1] * ss1
@@ -202,7 +202,7 @@ def _zonogon(hx, hy, ang):
 
 @njit(cache=True, error_model="numpy")
 def point_budget(G, e0, e1, e2, T, sig, hx, hy, ang, share):
-    """MODEL.md 20.3 at one point from G ``(2, 3, n)`` (per source unit), the unit axis e in R_w, the tolerances T
+    """model §20.3 at one point from G ``(2, 3, n)`` (per source unit), the unit axis e in R_w, the tolerances T
     and sigmas ``(n,)``: returns (worst lateral mm, worst axis deg, worst axial mm, RMS lateral mm) and writes
     each source's share of the lateral variance to ``share`` ``(n,)``. hx, hy, ang ``(n,)``: work buffers."""
     n = T.shape[0]
@@ -243,7 +243,7 @@ def _harmonic(A, B, C, eps):
 
 @njit(cache=True, error_model="numpy")
 def _ik_point(geo, mode, E0, E1, E2, e0, e1, e2):
-    """IK of MODEL.md 3-5 at the pose (E, e) in R_w, mechanism frame at the centre C = E + L e:
+    """IK of model §3-5 at the pose (E, e) in R_w, mechanism frame at the centre C = E + L e:
     (ok, C_m (3), e_m (3), sin/cos of rho (6), of delta (4), of sigma (4))."""
     L = geo[_L]
     R = geo[_ROT:_ROT + 9]

@@ -1,4 +1,4 @@
-"""The accuracy budget of one design on a plan's points (MODEL.md 20): :func:`budget` -> :class:`ToleranceResult`.
+"""The accuracy budget of one design on a plan's points (model §20): :func:`budget` -> :class:`ToleranceResult`.
 
 The first order (20.3) runs in the compiled kernel (``engine="numba"``, default) or the NumPy
 reference (``"numpy"``); the Monte Carlo (20.4) runs the exact closed-form FK batched over
@@ -84,7 +84,7 @@ class ToleranceResult:
 
     @property
     def summary(self) -> dict[str, float]:
-        """The summaries of MODEL.md 20.3-20.4 (:data:`SUMMARY_KEYS`)."""
+        """The summaries of model §20.3-20.4 (:data:`SUMMARY_KEYS`)."""
         r = self.reachable
         f = self.first
         return {
@@ -147,7 +147,7 @@ def budget(
     design: Any, E: ArrayLike, e: ArrayLike, mode: ArrayLike | str = DEFAULT_MODE, settings: ToleranceSettings | None = None,
     trajectory_ids: Any = None, point_index: ArrayLike | None = None, engine: str = "numba",
 ) -> ToleranceResult:  # fmt: skip
-    """The accuracy budget (MODEL.md 20) of ``design`` at the plan points (E, e).
+    """The accuracy budget (model §20) of ``design`` at the plan points (E, e).
 
     Args:
         design: a :class:`~arcube.model.design.Design`, a design JSON path or preset, or 27 (23) numbers (mm, deg).

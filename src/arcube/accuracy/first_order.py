@@ -1,4 +1,4 @@
-"""First-order accuracy budget (MODEL.md 20.3): the NumPy reference of the compiled kernel.
+"""First-order accuracy budget (model §20.3): the NumPy reference of the compiled kernel.
 
 At a plan point the drill tip and axis of the built robot move, to first order, by G_E delta and
 G_e delta, where delta ``(n,)`` holds the deviation of every error source
@@ -82,7 +82,7 @@ def zonogon_radius(H: ArrayLike) -> NDArray[np.float64]:
 def budget_from_jacobians(
     G_E: ArrayLike, G_e: ArrayLike, e: ArrayLike, T: ArrayLike, sigma: ArrayLike, valid: ArrayLike | None = None
 ) -> FirstOrder:
-    """The budget of MODEL.md 20.3 from G_E, G_e ``(..., 3, n)``, unit axes ``e`` ``(..., 3)`` (R_w), tolerances
+    """The budget of model §20.3 from G_E, G_e ``(..., 3, n)``, unit axes ``e`` ``(..., 3)`` (R_w), tolerances
     ``T`` and standard deviations ``sigma`` ``(..., n)`` (mm or deg, as the columns of G)."""
     GE, Ge = np.asarray(G_E, dtype=float), np.asarray(G_e, dtype=float)
     ea = np.asarray(e, dtype=float)
@@ -117,7 +117,7 @@ def budget_from_jacobians(
 def first_order(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike, T: ArrayLike, sigma: ArrayLike
 ) -> FirstOrder:
-    """The first-order budget (MODEL.md 20.3) of designs ``(..., 27)`` at poses (E, e) ``(..., 3)`` in R_w reached
+    """The first-order budget (model §20.3) of designs ``(..., 27)`` at poses (E, e) ``(..., 3)`` in R_w reached
     in working mode ``mode``, with tolerances ``T`` and standard deviations ``sigma`` ``(..., n)`` (mm, deg)."""
     G_E, G_e, valid = source_jacobians(params, E, e, mode)
     return budget_from_jacobians(G_E, G_e, e, T, sigma, valid)

@@ -1,8 +1,8 @@
-"""ISO 2768-1 general tolerances, linear and angular, as MODEL.md 20.1 tables them.
+"""ISO 2768-1 general tolerances, linear and angular, as model §20.1 tables them.
 
 A nominal size on a row boundary takes the lower row (3 mm is in 0.5-3, 120 mm in 30-120).
 
-Where the table has no value [CHOICE, stated in MODEL.md's terms]:
+Where the table has no value [CHOICE, stated in the model's terms]:
 
 * a length below 0.5 mm (the tool offset L = 0 among them) takes the 0.5-3 row: ISO 2768-1 gives no
   general tolerance there, but the part still has to be made (L = 0 puts the drill tip at the centre

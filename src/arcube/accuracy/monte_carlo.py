@@ -1,4 +1,4 @@
-"""Monte Carlo of built robots (MODEL.md 20.2, 20.4), with the exact closed-form FK.
+"""Monte Carlo of built robots (model §20.2, 20.4), with the exact closed-form FK.
 
 The controller believes the nominal design p: at a plan pose X it commands q_cmd = IK_p(X) (in the
 design's working mode). A built robot has parameters p + dp and zero offsets dq0 (drawn once per
@@ -35,7 +35,7 @@ POSE_INDEX: np.ndarray = np.flatnonzero(~PER_ROBOT)
 
 
 def standard_draws(rng: np.random.Generator, shape: tuple[int, ...], distribution: str) -> NDArray[np.float64]:
-    """Deviations per unit of tolerance: uniform on [-1, 1], or normal with sigma 1/3 (MODEL.md 20.1)."""
+    """Deviations per unit of tolerance: uniform on [-1, 1], or normal with sigma 1/3 (model §20.1)."""
     if distribution == "uniform":
         return rng.uniform(-1.0, 1.0, shape)
     return rng.normal(0.0, 1.0 / 3.0, shape)
@@ -90,7 +90,7 @@ class Errors(NamedTuple):
 def exact_errors(
     params: ArrayLike, E: ArrayLike, e: ArrayLike, q_cmd: ArrayLike, assembly: ArrayLike, dp: ArrayLike, dq: ArrayLike
 ) -> Errors:
-    """Errors of MODEL.md 20.2 for robots p + dp at joints q_cmd + dq, with the exact FK.
+    """Errors of model §20.2 for robots p + dp at joints q_cmd + dq, with the exact FK.
 
     Args:
         params: the nominal design ``(27,)`` (mm, deg).

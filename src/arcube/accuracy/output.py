@@ -1,6 +1,6 @@
 """The output folder of an accuracy budget, written all or nothing.
 
-``DIR/tolerance.json`` (settings, design, mode, the summaries of MODEL.md 20.3-20.4, the Monte Carlo's
+``DIR/tolerance.json`` (settings, design, mode, the summaries of model §20.3-20.4, the Monte Carlo's
 percentiles, the sources ranked), ``tolerance_points.csv`` (one row per plan point, plan order),
 ``sensitivity.csv`` (one row per error source, by decreasing share), and the pictures a caller hands in
 (``figures``: :data:`arcube.report.accuracy.FIGURES`, which :func:`arcube.report.accuracy.write_budget`

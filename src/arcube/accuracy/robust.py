@@ -1,4 +1,4 @@
-"""Accuracy under manufacturing tolerances as a design figure (MODEL.md 20.3): robust objectives and limits.
+"""Accuracy under manufacturing tolerances as a design figure (model §20.3): robust objectives and limits.
 
 ``lateral_error_wc`` and ``lateral_error_rms`` are, per design, the largest over the plan's points of the
 first-order worst-case lateral error (the zonogon's farthest vertex) and of the RMS lateral error, under
@@ -24,7 +24,7 @@ from arcube.accuracy.settings import ToleranceSettings
 from arcube.accuracy.sources import sigmas
 
 ROBUST_NAMES: tuple[str, str] = ("lateral_error_wc", "lateral_error_rms")
-"""The robust figures, mm: worst case and RMS of the lateral error over the tolerance box (MODEL.md 20.3)."""
+"""The robust figures, mm: worst case and RMS of the lateral error over the tolerance box (model §20.3)."""
 
 
 def robust_errors(
@@ -36,7 +36,7 @@ def robust_errors(
 
     NaN for a design that misses a point (no first order there: the reach already makes it infeasible)
     and where ``want`` ``(D,)`` is False (not computed, to save time on designs already rejected).
-    ``settings``: the tolerances (default: class m and MODEL.md 20.1's joints); ``engine``: ``"numba"``
+    ``settings``: the tolerances (default: class m and model §20.1's joints); ``engine``: ``"numba"``
     (the compiled first order, one design at a time) or ``"numpy"`` (the reference, the batch at once).
     """
     s = ToleranceSettings() if settings is None else settings

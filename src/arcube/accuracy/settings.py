@@ -1,4 +1,4 @@
-"""The settings of an accuracy budget (MODEL.md 20): tolerances, their distribution, the Monte Carlo.
+"""The settings of an accuracy budget (model §20): tolerances, their distribution, the Monte Carlo.
 
 Field names follow the flags of ``arcube tolerance`` (``--q0-deg`` -> ``q0_deg``); the class flag
 ``--class`` is ``tolerance_class`` (``class`` is a Python keyword). A bad value raises
@@ -62,7 +62,7 @@ Tolerance = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
 
 class ToleranceSettings(Settings):
-    """The error sources' tolerances (MODEL.md 20.1), how they are distributed, and the Monte Carlo (20.4)."""
+    """The error sources' tolerances (model §20.1), how they are distributed, and the Monte Carlo (20.4)."""
 
     SHORT: ClassVar[dict[str, str]] = {"tolerance_class": "class"}
 

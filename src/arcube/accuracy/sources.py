@@ -1,4 +1,4 @@
-"""The error sources of MODEL.md 20.1: names, units, kinds, and each one's tolerance for a design.
+"""The error sources of model §20.1: names, units, kinds, and each one's tolerance for a design.
 
 The n = 41 sources, in :data:`SOURCE_NAMES` order (the order of every ``(..., n)`` array of
 :mod:`arcube.accuracy`):
@@ -24,7 +24,7 @@ from arcube.accuracy.iso import angular_tolerance, linear_tolerance
 from arcube.model.design import INDEX, PARAM_NAMES, full_params
 
 JOINTS: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
-"""The five actuated joints (the columns of J_E, MODEL.md 15.1)."""
+"""The five actuated joints (the columns of J_E, model §15.1)."""
 
 LENGTHS: tuple[str, ...] = ("f_x", "f_y", "f_z", "p_x", "p_y", "p_z", "d_x", "d_y", "c_x", "c_y", "t_x", "t_y", "r", "L")
 """The group ``lengths``: the 13 lengths that move the tip, and the tool offset L (ISO 2768-1 linear)."""
@@ -98,5 +98,5 @@ def tolerances(
 
 
 def sigmas(T: ArrayLike, distribution: str) -> NDArray[np.float64]:
-    """Standard deviations of the sources: T/sqrt(3) (``uniform`` on [-T, T]) or T/3 (``normal``), MODEL.md 20.1."""
+    """Standard deviations of the sources: T/sqrt(3) (``uniform`` on [-T, T]) or T/3 (``normal``), model §20.1."""
     return np.asarray(T, dtype=float) / (np.sqrt(3.0) if distribution == "uniform" else 3.0)

@@ -1,4 +1,4 @@
-"""Calibration of a built robot from tracker measurements (MODEL.md 21).
+"""Calibration of a built robot from tracker measurements (model §21).
 
 * :func:`poses`: which poses to measure (21.3): candidates around the plan, greedy D-optimal choice,
   O1 and condition number against a random choice -> :class:`PoseSelection` (and the poses CSV);

@@ -1,11 +1,11 @@
-"""The accuracy budget of a calibrated robot (MODEL.md 21.4 with 20.2-20.4).
+"""The accuracy budget of a calibrated robot (model §21.4 with 20.2-20.4).
 
 After calibration the controller believes the identified design p_id and zero offsets q0_id: at a
 pose X it commands q_read = IK_{p_id}(X) - q0_id. The robot's parameters and zero offsets are then
 off by the identification's errors, normal with its covariance Sigma_id (31 x 31, the unknowns of
 :mod:`arcube.calibrate.model`, which are the first 31 error sources of :mod:`arcube.accuracy.sources`;
 a non-identifiable unknown's error is 0: the identified ones have absorbed it); the encoders and the
-lost motion keep their MODEL.md 20.1 tolerances (uniform, drawn at every pose).
+lost motion keep their model §20.1 tolerances (uniform, drawn at every pose).
 
 * First order (20.3 with a full covariance): RMS lateral = sqrt(trace(P_perp G_E Sigma G_E^T P_perp)),
   Sigma the 41 x 41 covariance of every source (Sigma_id, then the encoders' and backlashes'

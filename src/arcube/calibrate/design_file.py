@@ -1,4 +1,4 @@
-"""A calibrated design's file (MODEL.md 21.4), read and written by :class:`arcube.Design` itself.
+"""A calibrated design's file (model §21.4), read and written by :class:`arcube.Design` itself.
 
 ``design.json`` of ``arcube calibrate identify``: one flat JSON object with
 

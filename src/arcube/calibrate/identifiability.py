@@ -1,4 +1,4 @@
-"""Which unknowns the measurements can tell apart (MODEL.md 21.2), and the observability of a pose set.
+"""Which unknowns the measurements can tell apart (model §21.2), and the observability of a pose set.
 
 QR decomposition with column pivoting of the scaled identification Jacobian J ``(m, n)`` (rows:
 every residual of the measured poses; columns: the unknowns, each per unit of its typical size):
@@ -27,7 +27,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 PIVOT_TOL = 1e-6
-"""|R_jj| / |R_11| below which an unknown is not identifiable (MODEL.md 21.2)."""
+"""|R_jj| / |R_11| below which an unknown is not identifiable (model §21.2)."""
 SHARE_TOL = 1e-3
 """|C_ik| |J_i| / |J_k| from which an identified unknown i is listed among those k is confounded with."""
 

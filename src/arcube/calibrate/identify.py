@@ -1,4 +1,4 @@
-"""Identification of a built robot from tracker measurements (MODEL.md 21.2, 21.4): :func:`identify`.
+"""Identification of a built robot from tracker measurements (model §21.2, 21.4): :func:`identify`.
 
 1. The robot's assembly mode: the one whose nominal FK at the joint readings is nearest the measured
    poses in most rows (:func:`arcube.calibrate.model.robot_assembly`); a row where the nominal FK does
@@ -109,7 +109,7 @@ def identify(
     design: Any, measurements: Measurements | str | os.PathLike[str], mode: ArrayLike | str | None = None,
     settings: IdentifySettings | None = None, trajectories: Any = None, out: str | os.PathLike[str] | None = None,
 ) -> Calibration:  # fmt: skip
-    """Identify the built robot's parameters and zero offsets from measurements (MODEL.md 21.2, 21.4).
+    """Identify the built robot's parameters and zero offsets from measurements (model §21.2, 21.4).
 
     Args:
         design: the nominal design: a :class:`~arcube.model.design.Design`, preset, design JSON (plain or

@@ -1,4 +1,4 @@
-"""The measurement file of a calibration (MODEL.md 21.1): joint readings and the tracker's tool poses.
+"""The measurement file of a calibration (model §21.1): joint readings and the tracker's tool poses.
 
 CSV, one measurement per row, a header naming the columns (case matters: ``E_x`` is the tip, ``e_x``
 the axis), in any order:

@@ -1,4 +1,4 @@
-"""The identification model of MODEL.md 21.2: unknowns, scales, weighted residuals and their Jacobian.
+"""The identification model of model §21.2: unknowns, scales, weighted residuals and their Jacobian.
 
 (E, e) = FK_p(q_read + dq0) (5.5 with 13.1-13.2), with the docking (m, mount) part of p. The n = 31
 unknowns, in :data:`UNKNOWNS` order (the first 31 error sources of :mod:`arcube.accuracy.sources`):
@@ -47,7 +47,7 @@ KINDS: tuple[str, ...] = tuple("docking" if n in DOCKING else "zero offset" if n
 DOF_PER_MEASUREMENT = 5
 """Independent residuals per measurement: 3 of the tip, 2 of the unit axis."""
 SCALE_CLASS = "m"
-"""ISO 2768-1 class whose tolerances are the typical sizes of the robot's unknowns (MODEL.md 21.2)."""
+"""ISO 2768-1 class whose tolerances are the typical sizes of the robot's unknowns (model §21.2)."""
 SCALE_DOCKING_MM, SCALE_DOCKING_DEG, SCALE_Q0_DEG = 10.0, 5.0, 0.1
 BAD_RESIDUAL = 1e4
 """Residual of a measurement whose FK does not assemble at trial parameters: the step is refused."""
@@ -104,7 +104,7 @@ def robot_assembly(design: ArrayLike, q0_deg: ArrayLike, q_read_deg: ArrayLike, 
 
     The measurements do not record how the robot was assembled, but a robot keeps one assembly mode: it
     cannot change it without passing through a singularity (the design job's single-assembly-mode guard,
-    MODEL.md 8.2, puts a whole plan in one). Per row, the mode whose nominal FK is nearest the measured
+    model §8.2, puts a whole plan in one). Per row, the mode whose nominal FK is nearest the measured
     pose (in the weighted norm of the residuals) is the robot's, except near the boundary between two
     modes, where the nominal FK of the wrong one can come nearer than the robot's errors; the mode most
     rows choose (ties: the first of :data:`ASSEMBLIES`) is taken for every row."""

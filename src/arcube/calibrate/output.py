@@ -4,7 +4,7 @@
 (:meth:`arcube.calibrate.result.Calibration.to_json`), ``residuals.csv`` (one row per measurement: its
 file row, pose id, fitted or held out, tip and axis residuals before and after), ``covariance.csv`` (the
 identified unknowns' covariance, 31 x 31 in mm and deg, what ``arcube breach --calibration`` draws the
-calibrated robot's errors from, MODEL.md 21.4 and 22.2), and the pages a caller
+calibrated robot's errors from, model §21.4 and 22.2), and the pages a caller
 hands in (``pages``: :func:`write_calibration` passes the HTML page that
 :func:`arcube.report.calibration.page_bytes` draws). Everything goes into a temporary folder beside DIR,
 then is renamed to DIR: a reader, or a failure, never sees half a calibration. DIR must be new or empty.

@@ -1,10 +1,10 @@
-"""Which poses to measure (MODEL.md 21.3): :func:`poses`.
+"""Which poses to measure (model §21.3): :func:`poses`.
 
 Candidates: the plan's points and its approach lines (:func:`arcube.evaluation.standoff.approach_lines`,
 ``PoseSettings.points`` per trajectory each), and around each of them ``around`` random poses: the tip
 moved uniformly in the box +-``radius_mm`` on each axis, the axis tilted by angles uniform in
 +-``radius_deg`` about the two directions perpendicular to it (:func:`~arcube.evaluation.performance.spin_free_basis`).
-A candidate is kept when the nominal design reaches it with the guards of MODEL.md 8.2
+A candidate is kept when the nominal design reaches it with the guards of model §8.2
 (:data:`arcube.options.GUARDED_OPTIONS`, whose single-assembly guard is taken over all the candidates
 together, so that every pose has the same assembly mode; with the z dyad guard too when the design file
 gives c_z, the length the z dyad was built with).
@@ -58,7 +58,7 @@ from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import GUARDED_OPTIONS, Options
 
 RIDGE = 1e-9
-"""The 1e-9 I of log det(J^T J + 1e-9 I) (MODEL.md 21.3)."""
+"""The 1e-9 I of log det(J^T J + 1e-9 I) (model §21.3)."""
 
 
 @dataclass(frozen=True)
@@ -161,7 +161,7 @@ def greedy_d_optimal(J: ArrayLike, count: int, ridge: float = RIDGE) -> NDArray[
 
 def poses(design: Any, trajectories: Any, mode: ArrayLike | str | None = None, settings: PoseSettings | None = None,
           anatomy: Any = None, out: str | os.PathLike[str] | None = None) -> PoseSelection:  # fmt: skip
-    """Choose the poses to measure (MODEL.md 21.3).
+    """Choose the poses to measure (model §21.3).
 
     Args:
         design: the nominal design (Design, preset, design JSON plain or calibrated, 27 numbers). For a calibrated

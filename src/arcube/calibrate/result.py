@@ -1,4 +1,4 @@
-"""The result of an identification (MODEL.md 21.4): :class:`Calibration`, and what it writes.
+"""The result of an identification (model §21.4): :class:`Calibration`, and what it writes.
 
 Residual figures: per measurement, the tip residual |E_meas - E_model| (mm, 3-D) and the axis residual
 angle(e_meas, e_model) (deg). Their RMS over a set of rows is sqrt(mean of the squares): at the noise

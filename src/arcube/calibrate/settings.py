@@ -1,4 +1,4 @@
-"""The settings of a calibration (MODEL.md 21): pose selection, identification, simulated robots.
+"""The settings of a calibration (model §21): pose selection, identification, simulated robots.
 
 Field names follow the flags of ``arcube calibrate poses|identify|simulate`` (``--count`` -> ``count``,
 ``--sigma-mm`` -> ``sigma_mm``, ``--holdout`` -> ``holdout``); the class flag ``--class`` is
@@ -27,7 +27,7 @@ MAX_CANDIDATES = 200_000
 
 
 class PoseSettings(Settings):
-    """Which poses to measure (MODEL.md 21.3): candidates around the plan, greedy D-optimal choice."""
+    """Which poses to measure (model §21.3): candidates around the plan, greedy D-optimal choice."""
 
     count: int = Field(default=40, ge=1, le=MAX_COUNT)
     """Poses to choose (K)."""
@@ -42,15 +42,15 @@ class PoseSettings(Settings):
     radius_deg: float = Field(default=10.0, ge=0, lt=90.0, allow_inf_nan=False)
     """Largest tilt of a random candidate's axis about each of two axes perpendicular to the plan's axis, deg."""
     standoff: float = Field(default=20.0, ge=0, le=1000.0, allow_inf_nan=False)
-    """s of MODEL.md 17.1: the approach line starts this far outside the anatomy along the axis, mm."""
+    """s of model §17.1: the approach line starts this far outside the anatomy along the axis, mm."""
     sigma_mm: SigmaMm = 0.15
-    """Tracker noise of the tip per axis, mm: the weight of the E rows of the Jacobian (MODEL.md 21.1)."""
+    """Tracker noise of the tip per axis, mm: the weight of the E rows of the Jacobian (model §21.1)."""
     sigma_deg: SigmaDeg = 0.1
     """Tracker noise of the axis, deg: the weight of the e rows of the Jacobian."""
 
 
 class IdentifySettings(Settings):
-    """Identification from measurements (MODEL.md 21.2, 21.4) and the calibrated robot's accuracy budget."""
+    """Identification from measurements (model §21.2, 21.4) and the calibrated robot's accuracy budget."""
 
     sigma_mm: SigmaMm = 0.15
     """Tracker noise of the tip per axis, mm (the weights of the E residuals)."""
@@ -65,9 +65,9 @@ class IdentifySettings(Settings):
     samples: int = Field(default=1000, ge=1, le=MAX_SAMPLES)
     """Robots the budget's Monte Carlo draws from the identification's covariance."""
     encoder_deg: float = Field(default=0.01, ge=0, le=10.0, allow_inf_nan=False)
-    """Encoder resolution of each actuator in the budget, at every pose, deg (MODEL.md 20.1)."""
+    """Encoder resolution of each actuator in the budget, at every pose, deg (model §20.1)."""
     backlash_arcmin: float = Field(default=1.0, ge=0, le=600.0, allow_inf_nan=False)
-    """Lost motion of each actuator's gear in the budget, at every pose, arcmin (MODEL.md 20.1)."""
+    """Lost motion of each actuator's gear in the budget, at every pose, arcmin (model §20.1)."""
 
 
 class SimulateSettings(Settings):
@@ -84,7 +84,7 @@ class SimulateSettings(Settings):
     sigma_deg: float = Field(default=0.1, ge=0, le=30.0, allow_inf_nan=False)
     """Tracker noise of the axis per axis, deg (0: noise-free)."""
     q0_deg: float = Field(default=0.1, ge=0, le=30.0, allow_inf_nan=False)
-    """Tolerance of each joint's zero offset, deg (MODEL.md 20.1)."""
+    """Tolerance of each joint's zero offset, deg (model §20.1)."""
     docking_mm: float = Field(default=0.0, ge=0, le=1000.0, allow_inf_nan=False)
     """Tolerance of the docking position m, mm (0: the robot stands where the design says)."""
     docking_deg: float = Field(default=0.0, ge=0, le=90.0, allow_inf_nan=False)

@@ -2,7 +2,7 @@
 controller's model makes a robot drill: :func:`tip_errors`.
 
 The robot: the design's parameters plus deviations dp and its zero offsets plus dq0, drawn once
-(:func:`arcube.accuracy.monte_carlo.robot_draws`, ISO 2768-1 class ``tolerance_class``, MODEL.md 20.1),
+(:func:`arcube.accuracy.monte_carlo.robot_draws`, ISO 2768-1 class ``tolerance_class``, model §20.1),
 seeded. At each pose of the poses file the encoders read q_cmd (the file's joint angles), the real
 joints are q_cmd + q0 + dq0 (q0: a calibrated design's zero offsets, else 0), and the tool is at
 FK_{p+dp}(q) in the robot's assembly mode (:func:`arcube.calibrate.model.robot_assembly`: the one

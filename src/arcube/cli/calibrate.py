@@ -1,5 +1,5 @@
 """``arcube calibrate poses | simulate | identify``: the built robot's real dimensions from tracker
-measurements (MODEL.md 21), one subcommand per step: choose the poses to measure, rehearse with a
+measurements (model §21), one subcommand per step: choose the poses to measure, rehearse with a
 simulated robot, identify the real dimensions and zero offsets."""
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def _plan(given: Given) -> object | None:
 
 
 def poses(given: Given) -> None:
-    """Choose the poses to measure (MODEL.md 21.3): greedy D-optimal among the plan's points, its approach lines
+    """Choose the poses to measure (model §21.3): greedy D-optimal among the plan's points, its approach lines
     and random poses around them; prints O1 and the condition number against a random choice of the same count."""
     from arcube.calibrate import poses as poses_api
     from arcube.evaluation.anatomy import resolve_anatomy
@@ -74,7 +74,7 @@ def simulate(given: Given) -> None:
 
 
 def identify(given: Given) -> None:
-    """Identify the robot's real dimensions, docking and joint zero offsets from the measurements (MODEL.md 21.2):
+    """Identify the robot's real dimensions, docking and joint zero offsets from the measurements (model §21.2):
     design.json (the calibrated design), calibration.json, residuals and the report page."""
     from arcube.calibrate import identify as identify_api
 

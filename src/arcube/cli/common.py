@@ -27,7 +27,7 @@ TRAJECTORIES = option("--trajectories", "Trajectories: a CSV, a Slicer .mrk.json
 POINTS = option("--points", "Points per trajectory (N >= 2), both ends included. [default: 30]", int, params=("points", "RunSettings.points"))
 MODE = option("--mode", "Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,- [default: the design file's mode, else +,+,+,+]",
               params=("mode", "RunSettings.mode"))  # fmt: skip
-GUARDS = option("--guards", "Turn on the guards of MODEL.md 8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards"))
+GUARDS = option("--guards", "Turn on the guards of model §8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards"))
 SIDE = option("--side", "Keep trajectories of one side: R or L.", params=("side", "RunSettings.side"))
 LEVELS = option("--levels", "Keep levels, e.g. C3-C5 or C3,C6.", params=("levels", "RunSettings.levels"))
 IDS = option("--ids", "Keep trajectory ids, e.g. 1,3,5.", params=("ids", "RunSettings.ids"))
@@ -35,7 +35,7 @@ TRANSFORM = option("--transform", "4x4 rigid transform (JSON) from the file's fr
                    params=("transform", "RunSettings.transform"))  # fmt: skip
 ENGINE = option("--engine", "Evaluation engine: auto (numba if available), numba or numpy. [default: auto]",
                 params=("engine", "RunSettings.engine"))  # fmt: skip
-ANATOMY = option("--anatomy", "Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: "
+ANATOMY = option("--anatomy", "Patient anatomy (model §14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: "
                  "meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz).", params=("anatomy", "RunSettings.anatomy"), spread=True)  # fmt: skip
 ANATOMY_FRAME = option("--anatomy-frame", "Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient. [default: LPS]",
                        params=("anatomy_frame", "RunSettings.anatomy_frame"))  # fmt: skip
@@ -43,7 +43,7 @@ SEGMENTS = replace(model_flags(SegmentSelection, only=("segments",))[0], params=
 """``--segments``: which segments of segmentation anatomy files to keep (names or label values)."""
 ENVELOPE = [replace(f, spread=f.multiple, params=(*f.params, f.key), help=f.help.replace("[default: default]", "[default: none]"))
             for f in model_flags(EnvelopeSettings)]  # fmt: skip
-"""``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (MODEL.md 19.5)."""
+"""``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (model §19.5)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
 SEED = option("--seed", "Random seed.", int, params=("seed",))
 WORKERS = option("--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",))
@@ -71,7 +71,7 @@ OPTION_FLAGS: dict[str, list[Flag]] = {
     "clearances": model_flags(Guards, "options.guards", only=("clearance_mm", "self_clearance_mm", "envelope_clearance_mm")),
     "guards": model_flags(Guards, "options.guards"),
     "c_z": [replace(f, params=(*f.params, "c_z")) for f in model_flags(Guards, "options.guards", only=("c_z",),
-                                                                      helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; MODEL.md 6)."})],
+                                                                      helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; model §6)."})],
     "body": model_flags(Body, "options.body"),
     "loads": model_flags(Loads, "options.loads"),
     "masses": model_flags(Masses, "options.masses"),
@@ -87,14 +87,14 @@ def request_flags(*groups: str) -> list[Flag]:
 
 def options_of(given: Given, guarded: bool | None = None, base: Options | None = None) -> Options:
     """The :class:`arcube.Options` of the flags given (``base``, else the paper's with the guards of
-    MODEL.md 8.2 when ``--guards``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
+    model §8.2 when ``--guards``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
     start = base if base is not None else (GUARDED_OPTIONS if (given.get("guards") if guarded is None else guarded) else Options())
     tree = given.tree("options")
     return start.merged(tree) if tree else start
 
 
 def masses_given(given: Given) -> bool:
-    """Whether any flag of the mass model (MODEL.md 18.1) was given."""
+    """Whether any flag of the mass model (model §18.1) was given."""
     return bool(given.tree("options.masses"))
 
 

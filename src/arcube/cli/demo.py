@@ -4,7 +4,7 @@
 2. Keep Table 2's links and search only the placement m for the right side.
 3. Run the paper's GA (population 400, up to 300 generations, tolerance 1e-5) with all 23
    parameters free on both sides.
-4. ``arcube design`` on both sides: one robot, docked once per side (MODEL.md 19), that clears the
+4. ``arcube design`` on both sides: one robot, docked once per side (model §19), that clears the
    patient, its whole body, the table and itself and meets every default requirement at both dockings,
    with a drilling program per docking (three seeds of 40,000 evaluations, two at a time).
 
@@ -45,7 +45,7 @@ def _optimize(out: Path, *, seed: int, engine: str, quick: bool, **flags: object
 
 
 def _design(out: Path, *, seed: int, engine: str, quick: bool) -> Path:
-    """``arcube design`` on both sides of the reference plan into ``out`` (one robot, a docking per side, MODEL.md 19);
+    """``arcube design`` on both sides of the reference plan into ``out`` (one robot, a docking per side, model §19);
     prints its requirement table, returns its report."""
     from arcube.api import design as design_api
     from arcube.cli.design import print_design

@@ -28,11 +28,11 @@ _RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "d
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
-    "standoff": "The drill waits this far outside the anatomy (MODEL.md 17.1), mm. [default: 20]",
-    "envelope": "The envelope of the whole patient and the table (MODEL.md 19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files. [default: default]",
+    "standoff": "The drill waits this far outside the anatomy (model §17.1), mm. [default: 20]",
+    "envelope": "The envelope of the whole patient and the table (model §19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files. [default: default]",
     "side": "Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).",
-    "setups": "1, or 2: one placement m per side, the mounting shared (before MODEL.md 19; dockings gives each docking its own). [default: 1]",
-    "dockings": "One robot, docked anew per patient and side (MODEL.md 19): per-side (each patient's R trajectories one docking, its L ones "
+    "setups": "1, or 2: one placement m per side, the mounting shared (before model §19; dockings gives each docking its own). [default: 1]",
+    "dockings": "One robot, docked anew per patient and side (model §19): per-side (each patient's R trajectories one docking, its L ones "
                 "another) or per-patient. [default: per-side]",
     "aggregate": "What the robot minimizes over its dockings: max (the worst docking's eta_G) or mean. [default: max]",
     "generations": "Generations (the budget is population x generations evaluations per seed). [default: 100]",
@@ -40,18 +40,18 @@ _HELPS = {
     "algorithm": "The optimizer. [default: mscmaes]",
     "engine": "Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference). [default: auto]",
     "tolerance_class": "ISO 2768-1 class (f, m, c, v) of the robot as built: the accuracy budget reported (accuracy/) and the "
-                       "lateral_error_wc / lateral_error_rms requirements (MODEL.md 20). [default: m]",
+                       "lateral_error_wc / lateral_error_rms requirements (model §20). [default: m]",
 }
 MINIMA = option("--min", "Change a lower limit: clearance=5, self_clearance=2 (mm).", key="minima", multiple=True, params=("requirements.min",))
 MAXIMA = option("--max", "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
-                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm), breach_probability (0-1, MODEL.md 22: checked on the robot chosen); "
+                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm), breach_probability (0-1, model §22: checked on the robot chosen); "
                 "on the program (none by default): torque_peak (N m), power_peak (W).", key="maxima", multiple=True, params=("requirements.max",))  # fmt: skip
 DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}")
                      for name in DEFAULTS]  # fmt: skip
 """``--no-<requirement>`` for each default requirement."""
 _OBJECTIVE = {"objectives": "--objective"}
 COHORT = option("--cohort", "A cohort file (TOML): [[patient]] tables with name, plan, anatomy, anatomy_frame (and segments, envelope, "
-                            "table_z), paths relative to the file; one robot for all of them (MODEL.md 19).", Path, params=("cohort",))  # fmt: skip
+                            "table_z), paths relative to the file; one robot for all of them (model §19).", Path, params=("cohort",))  # fmt: skip
 
 VALIDATE = option("--validate", "A held-out cohort file (as --cohort; no patient named as a training one): the robot chosen is docked on "
                                 "it as arcube dock does, and the job reports the training and held-out coverage side by side "
@@ -156,7 +156,7 @@ def _num(v: Any) -> str:
 
 
 def design(given: Given) -> None:
-    """Find a robot that meets every requirement for a plan and its anatomy (MODEL.md 16-17), checked by the NumPy reference."""
+    """Find a robot that meets every requirement for a plan and its anatomy (model §16-17), checked by the NumPy reference."""
     from arcube.api import design as design_api
     from arcube.cli.design_progress import DesignProgress
     from arcube.coerce import seeds as checked_seeds

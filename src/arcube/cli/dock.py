@@ -1,4 +1,4 @@
-"""The ``dock`` command: a built robot, docked on every side of a plan or a cohort, and its coverage (MODEL.md 19.6).
+"""The ``dock`` command: a built robot, docked on every side of a plan or a cohort, and its coverage (model §19.6).
 
 Exit codes: 0 when every side is served; 3 when some are not (the input was fine: the output names those sides and
 what binds there); 2 for bad input, 130 on Ctrl-C.
@@ -73,7 +73,7 @@ def print_dock(result: Any) -> None:
 
 
 def dock(given: Given) -> None:
-    """Dock a built robot on every patient side of a plan or a cohort, the robot unchanged: which sides it serves (MODEL.md 19.6)."""
+    """Dock a built robot on every patient side of a plan or a cohort, the robot unchanged: which sides it serves (model §19.6)."""
     from arcube.design_job.coverage import dock as dock_api
     from arcube.optimization.settings import RunSettings
 

@@ -20,7 +20,7 @@ FLAGS = [*PLAN, *ENVELOPE, JSON, REPORT, *request_flags("clearances", "body", "l
 
 def evaluate(given: Given) -> None:
     """Evaluate a design on drilling trajectories: reachability, condition numbers, dexterity, and the
-    holding torque of MODEL.md 18.2 with the robot's masses (the mass flags' defaults unless given)."""
+    holding torque of model §18.2 with the robot's masses (the mass flags' defaults unless given)."""
     from arcube.api import evaluate as evaluate_api
     from arcube.report import check_report_path, write_report
     from arcube.report.text import print_evaluation

@@ -48,7 +48,7 @@ def export(given: Given) -> None:
     asked = True if masses_given(given) else None  # a mass flag asks for the mass model, even at its default values
     if not options.mass_model_on(asked):  # links too thin for the default wall and no mass flag: a model without the masses
         sys.stderr.write(f"note: {request_flags('body')[0].name} {options.body.link_radius:g} mm is not above the default "
-                         f"{options.masses.wall_mm:g} mm wall: exported without the masses of MODEL.md 18.1 "
+                         f"{options.masses.wall_mm:g} mm wall: exported without the masses of model §18.1 "
                          f"(give {request_flags('masses')[0].name} to have them)\n")  # fmt: skip
     c_z = options.guards.c_z
     if "program" in given:
@@ -63,7 +63,7 @@ def export(given: Given) -> None:
     ts = load_plan(full, side=given.get("side"), levels=given.get("levels"), ids=given.get("ids"))
     from arcube.evaluation.envelope import resolve_envelope
 
-    env = resolve_envelope(given.get("envelope"), full, anat, given.get("table_z"), given.get("anatomy_frame", "LPS"))  # drawn (MODEL.md 19.5)
+    env = resolve_envelope(given.get("envelope"), full, anat, given.get("table_z"), given.get("anatomy_frame", "LPS"))  # drawn (model §19.5)
     text = export_mjcf(given.get("design", "paper"), ts, c_z=c_z, options=options, anatomy=anat, masses=asked, envelope=env, **kw)
     try:
         atomic_write_text(out, text)

@@ -20,7 +20,7 @@ FLAGS = [CSV_OUT, FORCE, SPEED, *[f for f in PLAN if f is not ENGINE], *request_
 
 def joints(given: Given) -> None:
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory at --speed mm/s, as CSV. With any
-    mass flag (e.g. --gravity 0,0,-9.81 for the defaults) also the holding torque of MODEL.md 18.2 per row."""
+    mass flag (e.g. --gravity 0,0,-9.81 for the defaults) also the holding torque of model §18.2 per row."""
     from arcube.api import joints as joints_api
 
     out: Path = given.get("out")
@@ -28,7 +28,7 @@ def joints(given: Given) -> None:
         raise InputError(f"{CSV_OUT.name} {out}: is a folder; give a CSV file path")
     check_replace(given)
     options = options_of(given)
-    if masses_given(given):  # the columns of MODEL.md 18.2 (arcube.export.joints.MASS_COLUMNS)
+    if masses_given(given):  # the columns of model §18.2 (arcube.export.joints.MASS_COLUMNS)
         options = options.check_masses().replace(outputs=options.outputs.replace(holding_torque=True))
     keys = ("speed", "points", "mode")
     jt = joints_api(given.get("design", "paper"), one_plan(given), options=options, **{k: given.get(k) for k in keys if k in given},

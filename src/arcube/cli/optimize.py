@@ -79,7 +79,7 @@ FLAGS = [PLANS, RUN_OUT, *RUN_FLAGS, WORKERS, DASK, QUIET]
 
 
 def optimize(given: Given) -> None:
-    """Optimize the design (MODEL.md 12): minimize eta_G with every task point reachable."""
+    """Optimize the design (model §12): minimize eta_G with every task point reachable."""
     from arcube.api import optimize as optimize_api
 
     settings = run_settings(given)

@@ -1,4 +1,4 @@
-"""``arcube program``: the drilling program of a design for a plan (MODEL.md 17), as program.csv and program.json."""
+"""``arcube program``: the drilling program of a design for a plan (model §17), as program.csv and program.json."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def _num(v: Any, unit: str = "") -> str:
 
 
 def program(given: Given) -> None:
-    """A timed, collision-free joint program that drills every trajectory (MODEL.md 17): program.csv and program.json."""
+    """A timed, collision-free joint program that drills every trajectory (model §17): program.csv and program.json."""
     from arcube.api import program as program_api
     from arcube.motion.motors import motor_table_text
 

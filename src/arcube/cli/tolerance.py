@@ -1,4 +1,4 @@
-"""``arcube tolerance``: the accuracy budget of a robot built to tolerances (MODEL.md 20), into a folder."""
+"""``arcube tolerance``: the accuracy budget of a robot built to tolerances (model §20), into a folder."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ FLAGS = [
 
 
 def tolerance(given: Given) -> None:
-    """The accuracy budget of the design built to tolerances (MODEL.md 20): the worst case and RMS of the first
+    """The accuracy budget of the design built to tolerances (model §20): the worst case and RMS of the first
     order and the Monte Carlo over built robots, each error source's share, and the pictures a manufacturer reads."""
     from arcube.api import tolerance as tolerance_api
 

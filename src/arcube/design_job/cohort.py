@@ -1,4 +1,4 @@
-"""A cohort file: the patients of one design job (``arcube design --cohort cohort.toml``, MODEL.md 19).
+"""A cohort file: the patients of one design job (``arcube design --cohort cohort.toml``, model §19).
 
 ::
 
@@ -8,7 +8,7 @@
     anatomy = ["patient_a/anatomy/C3.stl"]   # mesh or segmentation files, "default" or "none" [default: default]
     anatomy_frame = "LPS"                    # LPS (default), RAS or patient
     segments = ["C3", "C4"]                  # of segmentation files (names or label values) [default: all]
-    envelope = "default"                     # the whole patient (MODEL.md 19.5): default, none or skin files
+    envelope = "default"                     # the whole patient (model §19.5): default, none or skin files
     table_z = -180.0                         # the table's top, mm, patient frame [default: below the skin]
 
 Paths are relative to the cohort file. :func:`read_cohort` checks every entry before anything is
@@ -70,7 +70,7 @@ class CohortPatient(Settings):
     segments: Annotated[tuple[str, ...] | None, BeforeValidator(_segment_list)] = None
     """Segments of segmentation files to keep (names or label values); default every labelled segment."""
     envelope: Files | None = None
-    """The whole patient (MODEL.md 19.5): "default", "none" or skin files; default the run's."""
+    """The whole patient (model §19.5): "default", "none" or skin files; default the run's."""
     table_z: Annotated[float, Field(allow_inf_nan=False)] | None = None
     """The table's top, mm, patient frame; default below the skin."""
 
@@ -175,7 +175,7 @@ def read_cohort(path: str | os.PathLike[str], *, side: str | None = None, levels
 
 def plans_as_cohort(plans: Sequence[Any]) -> list[PatientPlan] | None:
     """Several ``--trajectories`` as a cohort of patients named after their files (None for one plan: it keeps the run's own
-    settings, as every job before MODEL.md 19)."""
+    settings, as every job before model §19)."""
     names = []
     for k, plan in enumerate(plans):
         stem = Path(os.fspath(plan)).name.split(".")[0] if isinstance(plan, (str, os.PathLike)) else getattr(plan, "source", "")

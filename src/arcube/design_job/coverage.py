@@ -1,4 +1,4 @@
-"""``arcube dock``: a built robot docked on every patient side of a plan or a cohort, and its coverage (MODEL.md 19.6).
+"""``arcube dock``: a built robot docked on every patient side of a plan or a cohort, and its coverage (model §19.6).
 
 One folder holds the job, written whole or not at all (it is made beside ``out`` and renamed into place at the end;
 a killed job leaves no ``out``, and the next job removes what it left)::
@@ -12,7 +12,7 @@ a killed job leaves no ``out``, and the next job removes what it left)::
                        design.json (the robot unchanged at that docking), requirements.csv, program/ (when the
                        requirements are met at the plan's points), report.html (with the accuracy as built)
 
-Each side is :func:`arcube.design_job.dock.solve_docking`'s problem, independent of the others (MODEL.md 19.3): they run
+Each side is :func:`arcube.design_job.dock.solve_docking`'s problem, independent of the others (model §19.3): they run
 one after another, over ``workers`` local processes, or as tasks on a dask.distributed cluster (whose workers must
 see the output's parent folder); the result does not depend on which.
 """
@@ -302,7 +302,7 @@ def dock(robot: str | os.PathLike[str], plan: Any = None, out: str | os.PathLike
          seed: int = 1, starts: int = 8, evaluations: int = DOCK_EVALUATIONS, minima: Any = None, maxima: Any = None,
          drop: Sequence[str] = (), settings: RunSettings | None = None, workers: int = 1, dask: str | None = None,
          on_docking: Callable[[DockingOutcome], None] | None = None, **fields: Any) -> DockResult:  # fmt: skip
-    """Dock a built robot on every side of a plan or a cohort (``arcube dock``, MODEL.md 19.6); the robot is not changed.
+    """Dock a built robot on every side of a plan or a cohort (``arcube dock``, model §19.6); the robot is not changed.
 
     Args:
         robot: a design.json of ``arcube design`` (the robot and its dockings) or any docking's design file; its

@@ -1,9 +1,9 @@
-"""Docking a built robot on one patient side (MODEL.md 19.6): the six-variable problem, its starts, its search, its check.
+"""Docking a built robot on one patient side (model §19.6): the six-variable problem, its starts, its search, its check.
 
 The robot is fixed (its 22 parameters, working mode and z-dyad elbow, :class:`~arcube.model.robot.BuiltRobot`); the
 variables are the placement m and the mounting angles. The problem is the design job's for one docking: the same
 settings (:func:`arcube.design_job.job.design_settings`: guards, z dyad with the robot's c_z, envelope, standoff and
-approach lines, the requirements as limits), so the violation is MODEL.md 16's over the plan's points and the approach
+approach lines, the requirements as limits), so the violation is model §16's over the plan's points and the approach
 lines, and the objective eta_G once it is 0.
 
 The search (:func:`search`): the warm starts (each of the robot's own dockings carried onto this plan by the rigid
@@ -257,7 +257,7 @@ def solve_docking(job: DockingJob) -> tuple[DockingOutcome, Docking, RunSettings
         if d.met:
             d.rows = [*d.rows, *build_program(folder, d, s, job.reqs)]
             built = x
-        if d.met and any(r.name == "breach_probability" for r in job.reqs):  # MODEL.md 22.4: on a docking that meets the rest
+        if d.met and any(r.name == "breach_probability" for r in job.reqs):  # model §22.4: on a docking that meets the rest
             d.breach, extra = breach_check(None, d, s, job.reqs)
             d.rows = [*d.rows, *extra]
         tried.append((f, x, how, d.rows))

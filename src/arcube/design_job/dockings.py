@@ -1,4 +1,4 @@
-"""One robot, several dockings (MODEL.md 19): each docking's design, its check, and the requirements over all of them.
+"""One robot, several dockings (model §19): each docking's design, its check, and the requirements over all of them.
 
 A design job's run holds one patient entry per docking (:func:`arcube.optimization.config.docking_groups`):
 a name (the patient's), a side (``R``, ``L`` or ``both``), its trajectories, and its own placement m and
@@ -6,7 +6,7 @@ mounting angles in the run's ``best_design_p<K>.json``. :func:`run_dockings` rea
 plans, anatomies and envelopes as the user gave them (not the run folder's copies: the check is
 independent of the optimizer's inputs); :func:`assess_dockings` re-checks each with the NumPy reference
 (:func:`arcube.design_job.requirements.assess`); :func:`merge_rows` keeps, per requirement, the docking
-where it is tightest (MODEL.md 19.4).
+where it is tightest (model §19.4).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ class Docking:
     redocked: bool = False
     """Docked anew with the robot fixed (:mod:`arcube.design_job.redock`): its placement is not the search's."""
     breach: dict[str, Any] = field(default_factory=dict)
-    """Its breach figures (MODEL.md 22, :func:`arcube.design_job.outputs.breach_check`), once checked."""
+    """Its breach figures (model §22, :func:`arcube.design_job.outputs.breach_check`), once checked."""
 
     @property
     def label(self) -> str:
@@ -82,7 +82,7 @@ def run_dockings(cfg: dict[str, Any], run: Any, mode: str) -> list[Docking]:
 
 def assess_dockings(dockings: Sequence[Docking], reqs: Sequence[Any], s: RunSettings) -> None:
     """Fill each docking's rows: every requirement re-checked by the NumPy reference on its own lines (the plan's,
-    and the approach lines from the standoffs), the z dyad closed with the design's c_z (MODEL.md 19.2)."""
+    and the approach lines from the standoffs), the z dyad closed with the design's c_z (model §19.2)."""
     from arcube.design_job.requirements import assess
 
     base = s.evaluation_options()
@@ -100,7 +100,7 @@ def assess_dockings(dockings: Sequence[Docking], reqs: Sequence[Any], s: RunSett
 
 
 def _z_dyad_row(rows: list[dict[str, Any]], d: Docking, options: Any, s: RunSettings) -> dict[str, Any]:
-    """The z dyad's row (MODEL.md 19.2): the points where it cannot close with the design's c_z, on the plan's lines and the
+    """The z dyad's row (model §19.2): the points where it cannot close with the design's c_z, on the plan's lines and the
     approach lines (failing points, as the guards of 8.2 are counted)."""
     import numpy as np
 
@@ -127,7 +127,7 @@ def _z_dyad_row(rows: list[dict[str, Any]], d: Docking, options: Any, s: RunSett
 
 def merge_rows(dockings: Sequence[Docking]) -> list[dict[str, Any]]:
     """Per requirement, the row of the docking where it is tightest (least margin; a failing or unmeasured one first),
-    with ``docking`` naming it (MODEL.md 19.4); the requirements in the first docking's order."""
+    with ``docking`` naming it (model §19.4); the requirements in the first docking's order."""
     out: dict[str, dict[str, Any]] = {}
     for d in dockings:
         for r in d.rows:
@@ -150,9 +150,9 @@ def _tighter(a: dict[str, Any], b: dict[str, Any]) -> bool:
 
 def docking_entry(d: Docking, points: bool = False) -> dict[str, Any]:
     """``{"patient", "side", "m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"}``: one entry of a robot's ``design.json``
-    ``dockings`` list (MODEL.md 19.1; its full design is ``dockings/<patient>_<side>/design.json``); with ``points``
+    ``dockings`` list (model §19.1; its full design is ``dockings/<patient>_<side>/design.json``); with ``points``
     also ``entry`` and ``target``, the docking's trajectories (mm, patient frame), which ``arcube dock`` carries onto
-    a new patient's plan to start its search there (MODEL.md 19.6)."""
+    a new patient's plan to start its search there (model §19.6)."""
     values = d.design.to_dict()
     out: dict[str, Any] = {"patient": d.name, "side": d.side, **{n: values[n] for n in PLACEMENT}}
     if points:

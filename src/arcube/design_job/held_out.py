@@ -1,4 +1,4 @@
-"""The design job's held-out cohort (MODEL.md 19.6): checked before the search, docked by the robot chosen after it,
+"""The design job's held-out cohort (model §19.6): checked before the search, docked by the robot chosen after it,
 and the coverage of the training and held-out dockings in summary.json and the report."""
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ def check_held_out(validate: str | os.PathLike[str], patients: Sequence[Any], se
 
 def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs: Sequence[Requirement], s: RunSettings,
               say: Callable[[str], None], workers: int, dask: str | None) -> dict[str, Any]:  # fmt: skip
-    """Dock the chosen robot on the held-out cohort (MODEL.md 19.6), which the search never saw, into ``validation/``
+    """Dock the chosen robot on the held-out cohort (model §19.6), which the search never saw, into ``validation/``
     (``arcube dock``'s folder); its summary."""
     from arcube.design_job.cohort import read_cohort
     from arcube.design_job.coverage import dock_patients
@@ -62,7 +62,7 @@ def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs:
 
 
 def coverage_fields(dockings: Sequence[Docking], held_out: dict[str, Any] | None) -> dict[str, Any]:
-    """summary.json's coverage (MODEL.md 19.6): ``training`` (the dockings the robot was designed on, met / all, with the
+    """summary.json's coverage (model §19.6): ``training`` (the dockings the robot was designed on, met / all, with the
     95 % Wilson interval) and, with a held-out cohort, ``held_out`` (its docking's figures)."""
     from arcube.design_job.coverage import wilson
 

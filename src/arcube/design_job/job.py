@@ -4,7 +4,7 @@ One folder holds the job::
 
     design.toml        the requirements, the seeds, the standoff (what resume needs beside the study)
     study/             one optimization per seed (arcube study): the robot's 22 parameters (c_z among them,
-                       MODEL.md 19.1), each docking's placement m and mounting angles, and the working mode free
+                       model §19.1), each docking's placement m and mounting angles, and the working mode free
     design.json        the robot: the first docking's complete design (27 parameters, c_z, mode: what every
                        command reads) and ``dockings``, each docking's patient, side, m and mounting angles
     dockings/<patient>_<side>/
@@ -14,13 +14,13 @@ One folder holds the job::
     requirements.csv   each requirement: limit, value, margin, pass/fail, the docking and where it is tightest
     report.html        one docking: the design on the plan with the anatomy (plotly), under the verdict and the
                        requirements; several: every docking of the robot side by side, with its patient
-    accuracy/          (one docking) the accuracy budget of the chosen design as built (MODEL.md 20, class m unless
+    accuracy/          (one docking) the accuracy budget of the chosen design as built (model §20, class m unless
                        --class): arcube tolerance's folder (tolerance.json, CSVs, pictures)
-    program/           (one docking) the drilling program of a design that meets everything (MODEL.md 17):
+    program/           (one docking) the drilling program of a design that meets everything (model §17):
                        program.csv, program.json; a design whose program is blocked does not meet the requirements
     design.xml         (one docking) the MuJoCo model (when the z dyad closes)
 
-The dockings (MODEL.md 19.1) are one per patient and side by default (``dockings per-side``: a plan's R
+The dockings (model §19.1) are one per patient and side by default (``dockings per-side``: a plan's R
 trajectories one docking, its L ones another), or one per patient. The best seed whose robot meets
 every requirement at every docking when **re-evaluated by the NumPy reference**, every docking's
 drilling program included (a seed whose program is blocked gives way to the next), is chosen; when
@@ -160,7 +160,7 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
     Seed by seed in the study's ranking, the robot is re-checked at every docking; where a docking falls short (at the
     plan's points, or its program blocked), the robot is docked there anew with its parameters fixed
     (:func:`arcube.design_job.redock.redock`). The robot chosen is the first that meets every requirement at every
-    docking; when there is none, the one that meets the most dockings (MODEL.md 19.6: coverage first, then the worst
+    docking; when there is none, the one that meets the most dockings (model §19.6: coverage first, then the worst
     met docking's eta_G), its programs built."""
     out = Path(out)
     say = on_stage or (lambda text: None)
@@ -191,7 +191,7 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
                 d.rows = [r for r in d.rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
             _programs(out, chosen, reqs, say, [d for d in dockings if d.met])
     row, run, s, summary, dockings = chosen
-    for d in dockings:  # MODEL.md 22.4: the breach Monte Carlo, on the chosen robot only
+    for d in dockings:  # model §22.4: the breach Monte Carlo, on the chosen robot only
         say(f"the breach probability of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
         d.breach, breach_rows = breach_check(_folder(out, d, dockings), d, s, reqs)
         d.rows = [*d.rows, *breach_rows]
@@ -241,12 +241,12 @@ def _worst_met_eta(summary: dict[str, Any], dockings: Sequence[Docking]) -> floa
 
 def _folder(out: Path, d: Docking, dockings: Sequence[Docking]) -> Path:
     """Where a docking's program, accuracy budget, report and MuJoCo model go: the job's folder when it is the only
-    docking (the layout of a one-docking job, as before MODEL.md 19), else ``dockings/<patient>_<side>``."""
+    docking (the layout of a one-docking job, as before model §19), else ``dockings/<patient>_<side>``."""
     return out if len(dockings) == 1 else out / DOCKINGS / d.label
 
 
 def _docking_summary(d: Docking) -> dict[str, Any]:
-    """One docking's line of summary.json: who, where, met, and the figures of MODEL.md 19.4's table."""
+    """One docking's line of summary.json: who, where, met, and the figures of model §19.4's table."""
     rows = {r["requirement"]: r for r in d.rows}
 
     def value(name: str) -> Any:
@@ -266,7 +266,7 @@ def _docking_summary(d: Docking) -> dict[str, Any]:
 
 
 def _worst_breach(dockings: Sequence[Docking]) -> dict[str, Any]:
-    """The breach figures (MODEL.md 22) of the docking where the breach probability is largest, with its name."""
+    """The breach figures (model §22) of the docking where the breach probability is largest, with its name."""
     judged = [d for d in dockings if isinstance(d.breach.get("breach_probability"), float)]
     if not judged:
         return dockings[0].breach
@@ -283,7 +283,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     first = dockings[0].design
     entries = [docking_entry(d, points=True) for d in dockings]
     full = first.to_file_dict()
-    # MODEL.md 19.1 / issue 30: one docking, its complete design (what every command reads, as before); several, the
+    # model §19.1 / issue 30: one docking, its complete design (what every command reads, as before); several, the
     # robot's 22 parameters, its mode and the dockings (each docking's complete design: dockings/<patient>_<side>/design.json)
     robot = full if len(dockings) == 1 else {k: v for k, v in full.items() if k not in PLACEMENT}
     robot = {**robot, "c_z": first.c_z_mm, "dockings": entries}

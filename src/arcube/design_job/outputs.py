@@ -1,5 +1,5 @@
-"""What a design job writes for each docking it checked, beside its requirement rows: the drilling program (MODEL.md 17)
-and its rows, the accuracy budget as built (MODEL.md 20), and a z-dyad link for a design without one. Shared by
+"""What a design job writes for each docking it checked, beside its requirement rows: the drilling program (model §17)
+and its rows, the accuracy budget as built (model §20), and a z-dyad link for a design without one. Shared by
 ``arcube design`` (:mod:`arcube.design_job.job`) and ``arcube dock`` (:mod:`arcube.design_job.dock`)."""
 
 from __future__ import annotations
@@ -23,13 +23,13 @@ PROGRAM = "program"
 ACCURACY = "accuracy"
 BREACH = "breach"
 BREACH_SAMPLES = 10_000
-"""Samples of a docking's breach Monte Carlo (MODEL.md 22.4's default)."""
+"""Samples of a docking's breach Monte Carlo (model §22.4's default)."""
 
 
 def build_program(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
-    """Build the drilling program of one docking (MODEL.md 17) into ``folder/program`` with the design's clearances,
+    """Build the drilling program of one docking (model §17) into ``folder/program`` with the design's clearances,
     standoff and z dyad; its requirement rows: the program (met, or the blocked segment named), then ``torque_peak`` /
-    ``power_peak`` when required (MODEL.md 18.3, from its motor figures)."""
+    ``power_peak`` when required (model §18.3, from its motor figures)."""
     from arcube.motion import program
     from arcube.report.program import timeline_png
 
@@ -52,9 +52,9 @@ def build_program(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requi
 
 
 def accuracy_budget(out: Path, design: Design, plan: Any, mode: str, s: RunSettings, perfect: Any) -> dict[str, Any]:
-    """The accuracy budget of one docking's design as built (MODEL.md 20, class ``s.tolerance_class``, m by default)
+    """The accuracy budget of one docking's design as built (model §20, class ``s.tolerance_class``, m by default)
     on its plan, written to ``out/accuracy`` (arcube tolerance's folder); its figures for summary.json,
-    beside the perfect robot's ``lateral_error`` (MODEL.md 15.2) so that figure never stands alone."""
+    beside the perfect robot's ``lateral_error`` (model §15.2) so that figure never stands alone."""
     from arcube.accuracy import budget
     from arcube.evaluation.task import build_task
     from arcube.report.accuracy import write_budget
@@ -89,7 +89,7 @@ def closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, An
 
 
 def breach_check(out: Path | None, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """The breach probability of one docking's screws (MODEL.md 22), the robot as built to ``s.tolerance_class`` with the
+    """The breach probability of one docking's screws (model §22), the robot as built to ``s.tolerance_class`` with the
     default registration and the run's thrust, written to ``out/breach`` when ``out`` is given: (its figures for
     summary.json, the ``breach_probability`` row when the requirement is set). A docking whose screws cannot be judged
     (no side, no level) has its reason instead of figures, and fails the requirement."""

@@ -1,4 +1,4 @@
-"""A design job's robot docked anew where its search's placement falls short (MODEL.md 19.3, 19.6).
+"""A design job's robot docked anew where its search's placement falls short (model §19.3, 19.6).
 
 The search gives each docking a placement, found together with the robot under one budget. When the re-check of a
 seed's robot misses a docking (a requirement at the plan's points, or its drilling program blocked between them), the

@@ -2,19 +2,19 @@
 
 A requirement is a limit on one figure over the points where it applies:
 
-* ``clearance`` >= 5 mm and ``self_clearance`` >= 2 mm (MODEL.md 14.3), and ``envelope_clearance`` >= 10 mm
-  (the envelope of the whole patient and the table, MODEL.md 19.5) over each trajectory's whole line, from
-  its standoff to its target (MODEL.md 17.1): the robot must pull the drill out;
+* ``clearance`` >= 5 mm and ``self_clearance`` >= 2 mm (model §14.3), and ``envelope_clearance`` >= 10 mm
+  (the envelope of the whole patient and the table, model §19.5) over each trajectory's whole line, from
+  its standoff to its target (model §17.1): the robot must pull the drill out;
 * ``lateral_error`` <= 0.5 mm, ``axis_error`` <= 0.25 deg (15.2), ``torque`` <= 20 N m (15.3) and
   ``holding_torque`` <= 20 N m (18.2: the robot's weight with the drilling loads, the masses of
   :class:`arcube.options.Masses`) where the drill works, from entry to target;
-* optional, the accuracy of the robot as built (MODEL.md 20.3, under ``--class`` and ``--tol``; not by default):
+* optional, the accuracy of the robot as built (model §20.3, under ``--class`` and ``--tol``; not by default):
   ``lateral_error_wc`` (first-order worst case) and ``lateral_error_rms`` (mm) where the drill works; the
   ``part`` of their row is the error source with the largest share at the tightest point;
-* optional, on the drilling program of the chosen design (MODEL.md 18.3; a program cannot be built
+* optional, on the drilling program of the chosen design (model §18.3; a program cannot be built
   inside the optimizer, so these are checked, not searched for): ``torque_peak`` (N m) and
   ``power_peak`` (W), the largest over the actuators of ``program.json``'s motor figures;
-* and always: every point of every line reachable with the guards of MODEL.md 8.2 (rho_max 75 deg,
+* and always: every point of every line reachable with the guards of model §8.2 (rho_max 75 deg,
   transmission 20 deg, kappa_max 100, a single assembly mode) in one working mode.
 
 :func:`assess` re-evaluates a design with the NumPy reference (not the kernel the optimizer ran)
@@ -54,7 +54,7 @@ PROGRAM_FIGURES: dict[str, str] = {"torque_peak": "torque_peak_Nm", "power_peak"
 """The requirements on the drilling program: their figure in each actuator's ``motors`` entry of program.json."""
 CHECKED_AFTER: tuple[str, ...] = (*PROGRAM_FIGURES, "breach_probability")
 """The requirements checked on the chosen robot only, not searched for: the program's figures, and the breach probability
-(MODEL.md 22.4: a Monte Carlo is too slow for every candidate; the search can bound it through lateral_error_rms)."""
+(model §22.4: a Monte Carlo is too slow for every candidate; the search can bound it through lateral_error_rms)."""
 DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "envelope_clearance": 10.0, "lateral_error": 0.5, "axis_error": 0.25,
                                "torque": 20.0, "holding_torque": 20.0}  # fmt: skip
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
@@ -120,11 +120,11 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
 
     ``designs``: per patient, a ``(27,)`` vector; ``plans``: per patient a TrajectorySet; ``anatomies``:
     per patient an :class:`~arcube.evaluation.anatomy.Anatomy` or None; ``mode``: four signs; ``envelopes``:
-    per patient the envelope of MODEL.md 19.5 (an :class:`~arcube.evaluation.envelope.Envelope`), or ();
+    per patient the envelope of model §19.5 (an :class:`~arcube.evaluation.envelope.Envelope`), or ();
     ``accuracy``: the :class:`~arcube.accuracy.settings.ToleranceSettings` of ``lateral_error_wc`` and
-    ``lateral_error_rms`` (default class m), computed by the NumPy first order of MODEL.md 20.3.
+    ``lateral_error_rms`` (default class m), computed by the NumPy first order of model §20.3.
     """
-    holding = any(r.name == "holding_torque" for r in reqs)  # MODEL.md 18.2 (needs a valid mass model)
+    holding = any(r.name == "holding_torque" for r in reqs)  # model §18.2 (needs a valid mass model)
     opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
     worst: dict[str, dict[str, Any]] = {}
     reach = {"requirement": "reach", "kind": "min", "limit": 1.0, "value": 1.0, "unit": "fraction", "where": {}, "part": ""}
@@ -201,7 +201,7 @@ def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, 
 
 
 ROBUST_FIGURES = ("lateral_error_wc", "lateral_error_rms")
-"""The requirements on the robot as built (MODEL.md 20.3), from the first order rather than a point result."""
+"""The requirements on the robot as built (model §20.3), from the first order rather than a point result."""
 
 
 def robust_figures(x: np.ndarray, E: np.ndarray, e: np.ndarray, mode: Any, accuracy: Any = None) -> dict[str, tuple[np.ndarray, Any]]:
@@ -247,7 +247,7 @@ def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tupl
 
 
 CSV_COLUMNS = ("requirement", "kind", "limit", "value", "unit", "margin", "passed", "docking", "patient", "trajectory", "segment", "point", "part")
-"""The columns of ``requirements.csv`` (``docking``: where the requirement is tightest, ``<patient>_<side>``, MODEL.md 19.4)."""
+"""The columns of ``requirements.csv`` (``docking``: where the requirement is tightest, ``<patient>_<side>``, model §19.4)."""
 
 
 def requirements_csv(rows: Sequence[Mapping[str, Any]]) -> str:
@@ -276,9 +276,9 @@ def write_requirements_csv(path: Any, rows: Sequence[Mapping[str, Any]]) -> None
 
 def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = None, **fields: Any) -> RunSettings:
     """The optimization a design job runs: ``settings`` (budget, engine, anatomy, objective ...) with
-    the robot's 22 parameters (c_z among them, MODEL.md 19.1), each docking's placement and the working mode
+    the robot's 22 parameters (c_z among them, model §19.1), each docking's placement and the working mode
     free, the guards of 8.2 and the z dyad (19.2), the clearance guards and the limits of ``reqs``, the standoff
-    lines of MODEL.md 17.1 (20 mm unless set), the envelope of the whole patient (19.5: ``default`` unless
+    lines of model §17.1 (20 mm unless set), the envelope of the whole patient (19.5: ``default`` unless
     set), one docking per side unless ``dockings`` is set, and the worst docking's eta_G unless ``aggregate`` is."""
     from arcube.optimization.config import run_settings
 

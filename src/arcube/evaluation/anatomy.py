@@ -1,4 +1,4 @@
-"""The patient's anatomy as the evaluation sees it (MODEL.md 14.2): meshes, their distance grids, a source.
+"""The patient's anatomy as the evaluation sees it (model §14.2): meshes, their distance grids, a source.
 
 ``--anatomy`` takes ``none``, ``default`` or files:
 
@@ -69,7 +69,7 @@ class Anatomy:
 
     @property
     def distance(self) -> AnatomyDistance:
-        """The signed distance grids (MODEL.md 14.3), built once."""
+        """The signed distance grids (model §14.3), built once."""
         from arcube.evaluation.sdf import AnatomyDistance
 
         if "d" not in self._cache:

@@ -1,4 +1,4 @@
-"""Clearance of the robot's body (MODEL.md 14.3): to the patient's anatomy and between its own parts.
+"""Clearance of the robot's body (model §14.3): to the patient's anatomy and between its own parts.
 
 NumPy reference (the compiled kernel computes the same with a branch-and-bound search):
 

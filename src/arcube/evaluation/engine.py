@@ -38,9 +38,9 @@ def evaluate_task(
 ) -> TaskResults:  # fmt: skip
     """Evaluate designs ``(..., 27)`` on a task's points ``(P, 3)``; see :func:`arcube.evaluation.reference.evaluate_task`.
 
-    ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of MODEL.md 14.3;
+    ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of model §14.3;
     ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5 (None: none);
-    ``c_z`` ``(...)``: each design's own z-dyad link, mm (MODEL.md 19.1; None or NaN: ``Guards.c_z``, else d_z).
+    ``c_z`` ``(...)``: each design's own z-dyad link, mm (model §19.1; None or NaN: ``Guards.c_z``, else d_z).
 
     ``want_points=False`` lets the compiled engine skip per-point outputs it does not need
     (the optimizer only reads the summaries); the summaries are the same either way.

@@ -1,4 +1,4 @@
-"""The envelope of the whole patient (MODEL.md 19.5): where the robot must not be besides the spine.
+"""The envelope of the whole patient (model §19.5): where the robot must not be besides the spine.
 
 The anatomy of 14.2 is the spine and the muscle over it. The **envelope** is the rest of the prone
 patient and the operating table, as forbidden solids in the patient frame (mm; x right, y superior,
@@ -57,22 +57,22 @@ if TYPE_CHECKING:  # trimesh and the grids load only when a mesh is used
 __all__ = ["BOX_TABLE", "ENVELOPE_SPECS", "Envelope", "EnvelopeSettings", "Landmarks", "TABLE_BELOW_SKIN_MM", "default_envelope", "envelope_from_boxes", "landmarks", "resolve_envelope", "rounded_box_distance"]  # fmt: skip
 
 SKIN_WITHOUT_ANATOMY_MM = 50.0
-"""z_s without anatomy: the largest entry z plus this (MODEL.md 19.5)."""
+"""z_s without anatomy: the largest entry z plus this (model §19.5)."""
 TABLE_BELOW_SKIN_MM = 240.0
-"""The table's top lies this far below the posterior skin z_s (MODEL.md 19.5)."""
+"""The table's top lies this far below the posterior skin z_s (model §19.5)."""
 BOX_TABLE: tuple[tuple[str, tuple[float, float, float], tuple[float, float, float], float], ...] = (
     ("neck", (0.0, 0.0, -60.0), (20.0, 15.0, 20.0), 40.0),
     ("head", (0.0, 110.0, -70.0), (35.0, 55.0, 50.0), 40.0),
     ("torso", (0.0, -315.0, -100.0), (180.0, 280.0, 100.0), 20.0),
 )
-"""The rounded boxes of MODEL.md 19.5 as (name, centre offsets, half extents, rho), mm: the centre is
+"""The rounded boxes of model §19.5 as (name, centre offsets, half extents, rho), mm: the centre is
 (x0, y_ref, z_s) + offsets with y_ref the middle of the entries (neck), y_top (head) or y_bot (torso);
 the neck's half extent along y is (y_top - y_bot) / 2 + its 15 mm (:func:`default_envelope`)."""
 ENVELOPE_SPECS = ("default", "none")
 """The words ``resolve_envelope`` takes besides mesh files."""
 @dataclass(frozen=True)
 class Landmarks:
-    """The landmarks of MODEL.md 19.5 (patient frame, mm).
+    """The landmarks of model §19.5 (patient frame, mm).
 
     ``x0``: mean x of the entry points (the midline); ``y_top``, ``y_bot``: largest and smallest entry
     y; ``z_s``: the posterior skin, the largest z at which a trajectory's axis leaves the anatomy (the
@@ -114,7 +114,7 @@ def landmarks(entry: ArrayLike, target: ArrayLike, anatomy: Any = None) -> Landm
 def rounded_box_distance(points: ArrayLike, centre: ArrayLike, half: ArrayLike, rho: ArrayLike) -> NDArray[np.float64]:
     """Signed distance ``(...)`` mm of ``points`` ``(..., 3)`` to the rounded box of ``centre`` and ``half``
     extents ``(..., 3)`` (broadcasting) and radius ``rho``: |max(q, 0)| + min(max_i q_i, 0) - rho,
-    q = |X - c| - a (MODEL.md 19.5). Written component by component, as the compiled kernel does."""
+    q = |X - c| - a (model §19.5). Written component by component, as the compiled kernel does."""
     p, c, a = (np.asarray(v, dtype=float) for v in (points, centre, half))
     q0 = np.abs(p[..., 0] - c[..., 0]) - a[..., 0]
     q1 = np.abs(p[..., 1] - c[..., 1]) - a[..., 1]
@@ -125,7 +125,7 @@ def rounded_box_distance(points: ArrayLike, centre: ArrayLike, half: ArrayLike, 
 
 @dataclass(frozen=True, eq=False)
 class Envelope:
-    """The envelope of MODEL.md 19.5: rounded boxes, a skin mesh, a table, each a region (forbidden solid).
+    """The envelope of model §19.5: rounded boxes, a skin mesh, a table, each a region (forbidden solid).
 
     ``boxes`` ``(B, 7)``: per rounded box its centre (3), half extents (3) and radius rho, mm, named by
     the first B ``names``; ``skin``: closed meshes with the patient inside (patient frame), or ();
@@ -212,7 +212,7 @@ class Envelope:
 
 
 def default_envelope(marks: Landmarks, table_z: float | None = None) -> Envelope:
-    """The envelope of MODEL.md 19.5 on ``marks``: neck, head, torso and the table at z_s - 240 (or ``table_z``)."""
+    """The envelope of model §19.5 on ``marks``: neck, head, torso and the table at z_s - 240 (or ``table_z``)."""
     x0, top, bot, z_s = marks.x0, marks.y_top, marks.y_bot, marks.z_s
     y_ref = {"neck": 0.5 * (top + bot), "head": top, "torso": bot}
     rows = []
@@ -220,7 +220,7 @@ def default_envelope(marks: Landmarks, table_z: float | None = None) -> Envelope
         ay = ay + 0.5 * (top - bot) if name == "neck" else ay
         rows.append([x0 + dx, y_ref[name] + dy, z_s + dz, ax, ay, az, rho])
     table = z_s - TABLE_BELOW_SKIN_MM if table_z is None else float(table_z)
-    source = f"default (MODEL.md 19.5; skin z_s = {z_s:.1f} mm, {marks.skin_from}; table z = {table:.1f} mm)"
+    source = f"default (model §19.5; skin z_s = {z_s:.1f} mm, {marks.skin_from}; table z = {table:.1f} mm)"
     return Envelope(np.array(rows), (*(b[0] for b in BOX_TABLE), "table"), table, (), source, marks)
 
 
@@ -271,7 +271,7 @@ def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: 
         if items != ["default"]:
             raise InputError.of("envelope", "'none' and 'default' stand alone (not with mesh files)")
         if plan is None:
-            raise InputError.of("envelope", "'default' needs the plan's entry points to place its landmarks (MODEL.md 19.5); give the trajectories, or 'none', or a skin mesh with table_z")  # fmt: skip
+            raise InputError.of("envelope", "'default' needs the plan's entry points to place its landmarks (model §19.5); give the trajectories, or 'none', or a skin mesh with table_z")  # fmt: skip
         return default_envelope(landmarks(plan.entry, plan.target, anatomy), table)
     from arcube.evaluation.anatomy import FRAMES
     from arcube.io.meshes import read_meshes
@@ -282,7 +282,7 @@ def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: 
     marks = None
     if table is None:
         if plan is None:
-            raise InputError.of("table_z", "is needed with a skin mesh envelope when no plan places the table of MODEL.md 19.5")
+            raise InputError.of("table_z", "is needed with a skin mesh envelope when no plan places the table of model §19.5")
         marks = landmarks(plan.entry, plan.target, anatomy)
         table = marks.z_s - TABLE_BELOW_SKIN_MM
     source = ", ".join(items) + f" ({anatomy_frame}); table z = {table:.1f} mm"
@@ -303,7 +303,7 @@ def envelope_spec(value: Any) -> tuple[str, ...]:
 
 
 class EnvelopeSettings(Settings):
-    """The envelope of the whole patient and the table (MODEL.md 19.5), as the flags will set them."""
+    """The envelope of the whole patient and the table (model §19.5), as the flags will set them."""
 
     envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("default",)
     """``default`` (a coarse body placed on the plan's landmarks), ``none``, or skin mesh files (closed surfaces with

@@ -1,4 +1,4 @@
-"""Clearance of the robot's body to the envelope of the whole patient (MODEL.md 19.5), NumPy reference.
+"""Clearance of the robot's body to the envelope of the whole patient (model §19.5), NumPy reference.
 
 ``envelope_clearance`` = the smallest signed distance from the body (14.1, every part but the tool:
 the primitives of :func:`arcube.model.body.body_parts`) to the envelope
@@ -22,7 +22,7 @@ How each pair is computed:
   on it (its ends exactly), each chord exact as above. Every arc point lies within the sag
   r (1 - cos(theta / 2N)) of its chord and every chord point within it of the arc, and a signed
   distance is 1-Lipschitz, so the value is within that sag of the arc's: for N = 24, at most
-  0.043 mm for r <= 80 mm and theta <= 90 deg (MODEL.md 12.1's default bounds), 0.5 mm for r up to
+  0.043 mm for r <= 80 mm and theta <= 90 deg (model §12.1's default bounds), 0.5 mm for r up to
   233 mm at any theta <= 180 deg;
 * **anything to a skin mesh**: the anatomy's method (:func:`arcube.evaluation.clearance.anatomy_clearance`:
   the axes sampled every 0.25 mm against the mesh's distance grids, within 0.125 mm plus the grids'
@@ -195,7 +195,7 @@ def pose_envelope_clearance(
     radii: Any = None, c_z: ArrayLike | None = None,
 ) -> EnvelopeClearance:  # fmt: skip
     """The envelope clearance of a design ``(..., 27)`` at poses (``E``, ``e`` ``(..., 3)``), e.g. the states of a
-    program (MODEL.md 17.2): the body of 14.1 from the IK in working ``mode``, then :func:`envelope_clearance`.
+    program (model §17.2): the body of 14.1 from the IK in working ``mode``, then :func:`envelope_clearance`.
 
     ``radii``: :class:`arcube.model.body.BodyRadii` (or anything with ``.radii``, e.g. ``Options().body``);
     ``c_z``: the z dyad's second link (None: d_z). NaN, -1, -1 at the poses the IK does not solve.

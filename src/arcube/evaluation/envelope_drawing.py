@@ -1,4 +1,4 @@
-"""Drawing the envelope of the whole patient and the table (MODEL.md 19.5): its regions as closed
+"""Drawing the envelope of the whole patient and the table (model §19.5): its regions as closed
 triangle meshes (rounded boxes as mapped cubes, the table as a slab), for
 reports, the explorer, ``arcube patients`` and a user who wants to see where the robot stands."""
 
@@ -35,7 +35,7 @@ _TABLE_BEYOND_MM = 150.0
 
 
 def _rounded_box_mesh(box: NDArray[np.float64], cells: int = ROUND_CELLS) -> trimesh.Trimesh:
-    """A closed, outward-oriented mesh of a rounded box ``(c, a, rho)`` (MODEL.md 19.5): a cube's surface cut into
+    """A closed, outward-oriented mesh of a rounded box ``(c, a, rho)`` (model §19.5): a cube's surface cut into
     ``cells`` x ``cells`` squares per face, each node v sent to ``c + sign(v) a + rho v/|v|`` (a point of the surface,
     whose outward normal is v/|v|). ``cells`` is odd, so no node lies on a symmetry plane: the squares that straddle
     one become the flat faces and the rounded edges, and every vertex lies on the surface."""
@@ -102,7 +102,7 @@ def write_envelope_mesh(envelope: Envelope, path: str | os.PathLike[str], frame:
 
 
 def write_plan_envelope(plan_csv: str | os.PathLike[str]) -> str:
-    """Write the default envelope (MODEL.md 19.5) of a plan CSV, placed on its landmarks with its default
+    """Write the default envelope (model §19.5) of a plan CSV, placed on its landmarks with its default
     anatomy, beside it as ``<stem>.envelope.stl`` (patient frame); returns a note naming the file."""
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.io.load import load_trajectories

@@ -1,4 +1,4 @@
-"""Condition numbers of the seven Jacobians and the local index eta_L (MODEL.md 8.1, Eq 13).
+"""Condition numbers of the seven Jacobians and the local index eta_L (model §8.1, Eq 13).
 
 kappa(J) = sigma_max / sigma_min with 2-norm singular values, +inf where the rank is short.
 Closed forms only (no SVD on the hot path):

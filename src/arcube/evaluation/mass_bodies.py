@@ -1,4 +1,4 @@
-"""The robot's moving bodies for MODEL.md 18.1: masses, end points and their joint Jacobians.
+"""The robot's moving bodies for model §18.1: masses, end points and their joint Jacobians.
 
 Every moving body is a uniform **rod** between two end points a, b (a point mass has a = b) plus, for
 the drill motor only, the extra inertia of its radius. In :data:`BODY_NAMES` order (65 bodies):
@@ -14,23 +14,23 @@ the drill motor only, the extra inertia of its radius. In :data:`BODY_NAMES` ord
 Links are thin-walled tubes (outer radius rho_l = ``Body.link_radius``, wall w): mass = lambda x
 length, lambda = rho_mat pi (rho_l^2 - (rho_l - w)^2), the radii converted mm -> m, so lambda is in
 kg/mm. Every length is fixed by the design: the cranks, four-bar links and dyad links are design
-parameters (c_z = ``Guards.c_z``, d_z when None, MODEL.md 6), each platform side is |r x̂ - r ŷ| = r sqrt 2,
+parameters (c_z = ``Guards.c_z``, d_z when None, model §6), each platform side is |r x̂ - r ŷ| = r sqrt 2,
 and each chord of a spherical link spans 1/12 of the arc angle alpha_u or beta_u (the IK puts u_beta
 exactly alpha_u from û and beta_u from e; 0 < alpha, beta < 180 deg assumed), so it is 2 r sin(phi/24).
 
 **Where the z dyad does not close** (the paper never checks it; ``z_dyad`` is off by default,
-MODEL.md 6) [resolution of an ambiguity]: both dyad rods become the straight segment D_z -> Q_z that
+model §6) [resolution of an ambiguity]: both dyad rods become the straight segment D_z -> Q_z that
 14.1 draws there, still with the masses lambda d_z and lambda c_z of the links one would build, so the
 dyad's mass sits at the midpoint of D_z Q_z. Where it closes, the elbow J_z is 14.1's (elbow sign +1).
 Exactly at the dyad's own singularity (J_z - D_z parallel to Q_z - J_z) the elbow's rate is infinite
 and the Jacobians there are NaN.
 
-Jacobians (the "exact route" of MODEL.md 18.2 for every body): from the forward Jacobian of 15.1 in
+Jacobians (the "exact route" of model §18.2 for every body): from the forward Jacobian of 15.1 in
 R_w, J_E and J_e ``(..., 3, 5)``, the centre moves with J_C = J_E + L J_e (C = E + L e). Every point
 then moves by a rule of its own body, with the actuator rates q_dot = (rho_x, rho_y, rho_z, delta_x,
 delta_y) and the passive RTS/TMS angle rate sigma_dot_u:
 
-* D_u: the crank turns about -v̂_u (MODEL.md 3.1): dD_u = rho_dot_u (-v̂_u) x (D_u - P_u); P_u is fixed;
+* D_u: the crank turns about -v̂_u (model §3.1): dD_u = rho_dot_u (-v̂_u) x (D_u - P_u); P_u is fixed;
 * K_u: the input link turns about û_u relative to the crank: dK_u = dD_u + delta_dot_u û_u x (K_u - D_u);
 * Q_u: the platform translates: dQ_u = dC;
 * T_u: the output link turns about û_u with sigma_u: dT_u = dC + sigma_dot_u û_u x (T_u - Q_u);
@@ -65,7 +65,7 @@ from arcube.model.mechanism import IKSolution
 from arcube.options import Body, Masses, Options
 
 N_CHORDS = 12
-"""Chords per spherical link (MODEL.md 18.1)."""
+"""Chords per spherical link (model §18.1)."""
 _LINKS = (
     "crank_x", "crank_y", "crank_z", "input_x", "input_y", "coupler_x", "coupler_y", "output_x", "output_y",
     "zdyad_d", "zdyad_c", "platform_xy", "platform_yz", "platform_zx",
@@ -78,12 +78,12 @@ MOTOR = N_BODIES - 1
 
 
 _BODY, _MASSES = Body(), Masses()
-"""The defaults of MODEL.md 14.1 and 18.1, as the settings declare them."""
+"""The defaults of model §14.1 and 18.1, as the settings declare them."""
 
 
 @dataclass(frozen=True)
 class MassModel:
-    """The plain-value mass model (MODEL.md 18.1) the functions take; :meth:`of` reads it from Options.
+    """The plain-value mass model (model §18.1) the functions take; :meth:`of` reads it from Options.
 
     Unlike :class:`arcube.options.Masses`, a zero density is allowed here (massless links, for tests
     and for isolating one kind of body). Gravity is in m/s^2 in the patient frame R_w.
@@ -97,7 +97,7 @@ class MassModel:
     motor_radius_mm: float = _BODY.motor_radius
     motor_length_mm: float = _BODY.motor_length
     gravity: tuple[float, float, float] = _MASSES.gravity
-    c_z_mm: float | None = None  # second z-dyad link; None: c_z = d_z (MODEL.md 6)
+    c_z_mm: float | None = None  # second z-dyad link; None: c_z = d_z (model §6)
     z_elbow: float = Z_ELBOW_SIGN
 
     def __post_init__(self) -> None:
@@ -206,7 +206,7 @@ def bodies_of_solution(
     sol: IKSolution, params: ArrayLike, options: Options | MassModel | None = None,
     jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
 ) -> Bodies:  # fmt: skip
-    """The moving bodies (MODEL.md 18.1) at the poses of an IK solution, with their Jacobians.
+    """The moving bodies (model §18.1) at the poses of an IK solution, with their Jacobians.
 
     ``jacobians`` = (J_E, J_e) of :func:`arcube.evaluation.performance.jacobians_of_solution` if at hand;
     ``c_z``: each design's own z-dyad link (mm, broadcasting as ``params[..., 0]``; None: the model's).

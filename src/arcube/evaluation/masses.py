@@ -1,4 +1,4 @@
-"""Masses, gravity and the holding torque (MODEL.md 18.1-18.2): the NumPy reference.
+"""Masses, gravity and the holding torque (model §18.1-18.2): the NumPy reference.
 
 * :func:`moving_mass_kg`: the moving mass per design ``(..., 27)`` -> ``(...)`` kg;
 * :func:`potential_energy_J`: V = -sum_b m_b g . c_b at poses ``(...)``, J (positions in R_w, so V
@@ -16,7 +16,7 @@ designs ``params[:, None, :]`` against the P points of a plan ``E[None, :, :]`` 
 an :class:`arcube.options.Options` (``masses``, ``body``, ``loads``, ``guards.c_z``) or a plain
 :class:`arcube.evaluation.mass_bodies.MassModel` (which may have zero density).
 
-**What is counted** (MODEL.md 18.1, :mod:`arcube.evaluation.mass_bodies`): the moving links of 14.1 as
+**What is counted** (model §18.1, :mod:`arcube.evaluation.mass_bodies`): the moving links of 14.1 as
 thin-walled tubes (cranks, four-bar input, coupler and output links, the z dyad, the platform
 triangle, the four spherical links as 12 chords each), the two delta actuators as point masses at
 D_x, D_y, the drill motor (solid cylinder, H -> H + L_m e). Not counted: frame_u, the rho actuators
@@ -34,7 +34,7 @@ link rotations about their own joint axes, and the passive RTS/TMS angle rate si
 -(u_beta . e_dot) / J_AS,u from differentiating Eq 4 (see :mod:`arcube.evaluation.mass_bodies`). Every
 body of the closed chain is thus moved exactly as the forward kinematics moves it. N mm -> N m: /1000.
 
-**Ambiguities of MODEL.md 18 resolved here:**
+**Ambiguities of model §18 resolved here:**
 
 * the z dyad where it does not close (the default, unchecked): both its rods lie on D_z -> Q_z as
   14.1 draws it, with the built links' masses lambda d_z, lambda c_z (not lambda |Q_z - D_z|); the
@@ -44,7 +44,7 @@ body of the closed chain is thus moved exactly as the forward kinematics moves i
   worst case over the directions across e (|a + F_l l^T P_perp J_E,i| <= |a| + F_l |P_perp J_E,i|);
 * units: gravity in m/s^2 in R_w, positions in mm -> V in J after /1000; torques in N m.
 
-With zero masses (or zero gravity) the holding torque is MODEL.md 15.3's ``torque``.
+With zero masses (or zero gravity) the holding torque is model §15.3's ``torque``.
 
 The evaluation computes it per point with ``Outputs.holding_torque`` (:func:`arcube.evaluation.reference.evaluate_task`:
 ``holding_torque_Nm``, ``holding_torque_actuator``, summary ``holding_torque_max``); the compiled kernel
@@ -73,7 +73,7 @@ __all__ = [
 
 
 def moving_mass_kg(params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None) -> NDArray[np.float64]:
-    """The moving mass (kg) of each design ``(..., 27)`` -> ``(...)`` (MODEL.md 18.1, 18.3 ``moving_mass``);
+    """The moving mass (kg) of each design ``(..., 27)`` -> ``(...)`` (model §18.1, 18.3 ``moving_mass``);
     ``c_z`` ``(...)``: each design's own z-dyad link (mm; None: the options')."""
     return np.sum(body_masses_kg(params, options, c_z), axis=-1)
 
@@ -116,7 +116,7 @@ def gravity_torque_Nm(
 
 
 class HoldingTorque(NamedTuple):
-    """MODEL.md 18.2 at each point; NaN (and -1 for the actuator) where the forward Jacobian is NaN."""
+    """model §18.2 at each point; NaN (and -1 for the actuator) where the forward Jacobian is NaN."""
 
     holding_torque_Nm: NDArray[np.float64]  # (...) max_i |tau_i|max
     holding_torque_actuator: NDArray[np.int64]  # (...) index into ACTUATOR_NAMES, -1 where NaN
@@ -128,7 +128,7 @@ def holding_torque_of_solution(
     sol: IKSolution, params: ArrayLike, options: Options | None = None, masses: MassModel | None = None,
     jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
 ) -> HoldingTorque:  # fmt: skip
-    """The holding torque (MODEL.md 18.2) at the poses of an IK solution.
+    """The holding torque (model §18.2) at the poses of an IK solution.
 
     ``options`` gives the loads (``Options.loads``: thrust F_t, lateral bound F_l) and, unless
     ``masses`` is given, the mass model. ``jacobians`` = (J_E, J_e) of 15.1 if at hand. ``c_z``: each

@@ -1,7 +1,7 @@
-"""Physical performance at the drill tip (MODEL.md 15): the NumPy reference.
+"""Physical performance at the drill tip (model §15): the NumPy reference.
 
 * :func:`forward_jacobian`: the drill tip's Jacobians J_E (mm/rad) and J_e (1/rad), ``(..., 3, 5)``,
-  in the patient frame R_w (MODEL.md 15.1), built from the velocity model of MODEL.md 7.4;
+  in the patient frame R_w (model §15.1), built from the velocity model of model §7.4;
 * :func:`tip_metrics`: accuracy (15.2), loads (15.3) and stiffness (15.4) from them.
 
 Joint order (columns of the Jacobians): :data:`ACTUATOR_NAMES` = (rho_x, rho_y, rho_z, delta_x,
@@ -31,7 +31,7 @@ ACTUATOR_NAMES: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_
 """The five actuated joints, in the order of the Jacobians' columns and of ``torque_actuator``."""
 
 _SIGNS: NDArray[np.float64] = np.array([(1.0, *s) for s in itertools.product((1.0, -1.0), repeat=4)])
-"""16 of the 32 sign vectors of MODEL.md 15.2, ``(16, 5)``: |M s| = |M (-s)|, so these give the same maximum."""
+"""16 of the 32 sign vectors of model §15.2, ``(16, 5)``: |M s| = |M (-s)|, so these give the same maximum."""
 
 """A' counts as singular where its 2-norm condition number exceeds 1/eps (or it is not finite)."""
 
@@ -63,7 +63,7 @@ def forward_jacobian(
     mode: ArrayLike = DEFAULT_MODE,
     basis: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Forward Jacobians of the drill tip (MODEL.md 15.1), in the patient frame R_w.
+    """Forward Jacobians of the drill tip (model §15.1), in the patient frame R_w.
 
     Args:
         params: designs ``(..., 27)`` or ``(..., 23)`` (mm, deg).
@@ -78,9 +78,9 @@ def forward_jacobian(
         (J_E, J_e), each ``(..., 3, 5)``: Ė = J_E q̇ (mm/rad) and ė = J_e q̇ (1/rad), columns in
         :data:`ACTUATOR_NAMES` order. NaN where the IK has no solution or A' is singular.
 
-    The velocity model A t = B q̇ (MODEL.md 7.4) lives in mechanism coordinates at the centre C of
+    The velocity model A t = B q̇ (model §7.4) lives in mechanism coordinates at the centre C of
     the spherical stage: A' = A blockdiag(I3, [b1 b2]), J' = A'^-1 B, J_C = J'[0:3],
-    J_ω = [b1 b2] J'[3:5]. Rotated to R_w by the mounting rotation R (MODEL.md 13.1), then, since
+    J_ω = [b1 b2] J'[3:5]. Rotated to R_w by the mounting rotation R (model §13.1), then, since
     E = C - L e and ė = ω x e: J_E = J_C + L [e]x J_ω, J_e = -[e]x J_ω.
     """
     return jacobians_of_solution(inverse_kinematics(params, E, e, mode), params, basis)
@@ -106,7 +106,7 @@ def jacobians_of_solution(
     eye = np.eye(5)
     A_safe = np.where(finite[..., None, None], A_p, eye)
     # an LU factorization, not an SVD: exact singularity is all that matters here, since a point
-    # where A' is near-singular has eta_L = inf and is unreachable anyway (MODEL.md 15.1)
+    # where A' is near-singular has eta_L = inf and is unreachable anyway (model §15.1)
     ok = finite & np.asarray(sol.reachable) & (np.abs(np.linalg.det(A_safe)) > 0.0)
     A_safe = np.where(ok[..., None, None], A_safe, eye)
     J_p = np.linalg.solve(A_safe, np.where(ok[..., None, None], B_b, 0.0))
@@ -126,7 +126,7 @@ def jacobians_of_solution(
 
 
 class TipMetrics(NamedTuple):
-    """Per-point physical performance at the drill tip (MODEL.md 15.2-15.4); each field ``(...)``
+    """Per-point physical performance at the drill tip (model §15.2-15.4); each field ``(...)``
     unless noted, NaN (and -1 for ``torque_actuator``) where the Jacobian is NaN."""
 
     tip_error_mm: NDArray[np.float64]  # max_s |J_E diag(eps) s|
@@ -178,7 +178,7 @@ def tip_metrics(
     lateral_N: float = 10.0,
     stiffness_Nm_per_rad: ArrayLike = 1e4,
 ) -> TipMetrics:
-    """Accuracy, loads and stiffness at the drill tip (MODEL.md 15.2-15.4).
+    """Accuracy, loads and stiffness at the drill tip (model §15.2-15.4).
 
     Args:
         J_E: tip Jacobians ``(..., 3, 5)`` (mm/rad), from :func:`forward_jacobian`.
@@ -254,10 +254,10 @@ def tip_metrics(
 PERFORMANCE_FIELDS: tuple[str, ...] = (
     "tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "deflection_mm",
 )  # fmt: skip
-"""The per-point metrics of MODEL.md 15.2-15.4 that have a per-design maximum (15.5)."""
+"""The per-point metrics of model §15.2-15.4 that have a per-design maximum (15.5)."""
 MAXIMUM_FIELDS: tuple[str, ...] = (*PERFORMANCE_FIELDS, "holding_torque_Nm")
 """Every per-point metric with a per-design maximum over the reachable points (``<name>_max``): those of
-MODEL.md 15 and the holding torque of 18.2 (:mod:`arcube.evaluation.masses`, with ``Outputs.holding_torque``)."""
+model §15 and the holding torque of 18.2 (:mod:`arcube.evaluation.masses`, with ``Outputs.holding_torque``)."""
 
 
 def metrics_of_solution(

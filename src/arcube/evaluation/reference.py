@@ -1,6 +1,6 @@
-"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (MODEL.md 8.2-8.3, 12.2, 16, 19.5).
+"""Judging a design on a task: reachability w_L, eta_L, guards, eta_G (model §8.2-8.3, 12.2, 16, 19.5).
 
-Long module: the one reference evaluation (MODEL.md 8, 12, 14-16, 19.5) reads top to bottom as the compiled
+Long module: the one reference evaluation (model §8, 12, 14-16, 19.5) reads top to bottom as the compiled
 kernel's oracle, with its result types, which are the kernel's contract.
 
 :func:`evaluate_task` is the one batch call the rest of the tool uses: designs ``(..., 27)``
@@ -8,18 +8,18 @@ against the P points of a task ``(P, 3)``; results have shape ``(..., P)`` per p
 ``(...)`` per design. No Python loop over designs or points. The settings it reads are
 :class:`arcube.options.Options` (re-exported here with :data:`GUARDED_OPTIONS`).
 
-The graded violation is MODEL.md 16's V = V_reach + V_fit: V_reach (12.2 over the inverse
+The graded violation is model §16's V = V_reach + V_fit: V_reach (12.2 over the inverse
 kinematics alone) counts the points where sections 3-5 have no solution or eta_L = inf, plus their
 domain excess; V_fit = G / (1 + G) / (2 P) < 1 / (2 P), G = (1/P) sum over the points that solve the
 IK of each active guard's min(s / S, 1) (:data:`GRADE_SCALES`). So a design that misses a point
 always ranks below one that solves the IK everywhere, and among those V grows with every shortfall.
 
-MODEL.md 16's amendment: for a design that carries its own z-dyad link c_z (19.1, 19.2; a ``c_z`` column that
+model §16's amendment: for a design that carries its own z-dyad link c_z (19.1, 19.2; a ``c_z`` column that
 is not NaN) and with the z-dyad guard on, the dyad's closure is part of the z leg's inverse kinematics: a
 point where it cannot close counts in V_reach (with the closure shortfall as its domain excess) and none of
 its guards count in V_fit. Its failure is still reported as ``guard/z_dyad``. Without an own c_z nothing changes.
 
-The anatomy (``anatomy``: its signed distance, MODEL.md 14.2) and the envelope of the whole patient
+The anatomy (``anatomy``: its signed distance, model §14.2) and the envelope of the whole patient
 (``envelope``: an :class:`arcube.evaluation.envelope.Envelope`, 19.5) are data, passed beside the options;
 without them (None) their clearances are NaN and their guards off, and every result is as before.
 """
@@ -59,13 +59,13 @@ FAILURES: tuple[str, ...] = (
     "collision/patient", "collision/self", "collision/envelope",
 )  # fmt: skip
 """Failure reasons; a point reports the first that applies, checked in this order except that the
-collision guards (MODEL.md 14.3, 19.5) come after the other local guards and before the global
+collision guards (model §14.3, 19.5) come after the other local guards and before the global
 ``guard/single_assembly_mode``. Code 0 in :attr:`PointResults.failure` means reachable; code
 k >= 1 means ``FAILURES[k - 1]``. ``collision/envelope`` came last, so every earlier code kept its number."""
 
 _CODE = {name: i + 1 for i, name in enumerate(FAILURES)}
 IK_FAILURES = _CODE["guard/z_dyad"] - 1
-"""Failure codes 1 .. IK_FAILURES are the inverse-kinematic failures of MODEL.md 16 (a stage has no
+"""Failure codes 1 .. IK_FAILURES are the inverse-kinematic failures of model §16 (a stage has no
 solution, or eta_L = inf); the codes above are guards, which a point fails only once the IK solves it."""
 GRADE_SCALES: dict[str, float] = {
     "z_dyad": 1.0,  # closure shortfall, already relative to d_z + c_z (8.2)
@@ -74,7 +74,7 @@ GRADE_SCALES: dict[str, float] = {
     "clearance": 10.0,  # mm, anatomy and self clearance (14.3)
     "envelope": 10.0,  # mm, clearance to the envelope of the whole patient (19.5)
 }
-"""The scales S of MODEL.md 16 by which a guard's shortfall s is graded, min(s / S, 1); ``kappa_max``'s
+"""The scales S of model §16 by which a guard's shortfall s is graded, min(s / S, 1); ``kappa_max``'s
 scale is kappa_max itself, ``single_assembly_mode`` counts 1 at each point outside the majority mode."""
 _EXCESS_CAP = 10.0
 """Cap on one argument's excess in the graded violation, so that a degenerate argument (C/0)
@@ -95,24 +95,24 @@ class PointResults(NamedTuple):
     eta_L: NDArray[np.float64]  # +inf where unreachable
     dexterity_pct: NDArray[np.float64]  # 100/eta_L, 0 where unreachable
     excess: NDArray[np.float64]  # IK domain excess of 12.2 (0 where the IK solves the point; guards not included)
-    guard_grade: NDArray[np.float64]  # MODEL.md 16: sum over the active guards of min(s/S, 1); 0 where the IK fails
+    guard_grade: NDArray[np.float64]  # model §16: sum over the active guards of min(s/S, 1); 0 where the IK fails
     rho: NDArray[np.float64]  # (..., P, 3) rad
     delta: NDArray[np.float64]  # (..., P, 2) rad
     sigma: NDArray[np.float64]  # (..., P, 2) rad
-    clearance_mm: NDArray[np.float64]  # body to anatomy, signed (MODEL.md 14.3); NaN when not computed or no IK
+    clearance_mm: NDArray[np.float64]  # body to anatomy, signed (model §14.3); NaN when not computed or no IK
     clearance_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the closest part, -1 if none
     self_clearance_mm: NDArray[np.float64]  # between the body's own parts; NaN when not computed or no IK
-    envelope_clearance_mm: NDArray[np.float64]  # body to the envelope of the whole patient, signed (MODEL.md 19.5); NaN when not computed or no IK
+    envelope_clearance_mm: NDArray[np.float64]  # body to the envelope of the whole patient, signed (model §19.5); NaN when not computed or no IK
     envelope_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the part closest to the envelope, -1 if none
     envelope_region: NDArray[np.intp]  # index into the envelope's names (neck, head, torso, table...) of the region it binds on, -1 if none
-    tip_error_mm: NDArray[np.float64]  # MODEL.md 15.2-15.4 from here on; NaN where unreachable
+    tip_error_mm: NDArray[np.float64]  # model §15.2-15.4 from here on; NaN where unreachable
     lateral_error_mm: NDArray[np.float64]
     axial_error_mm: NDArray[np.float64]
     axis_error_deg: NDArray[np.float64]
     torque_Nm: NDArray[np.float64]
     torque_actuator: NDArray[np.int64]  # index into ACTUATOR_NAMES of the largest torque, -1 where unreachable
     deflection_mm: NDArray[np.float64]
-    holding_torque_Nm: NDArray[np.float64]  # MODEL.md 18.2 (Outputs.holding_torque); NaN where off or unreachable
+    holding_torque_Nm: NDArray[np.float64]  # model §18.2 (Outputs.holding_torque); NaN where off or unreachable
     holding_torque_actuator: NDArray[np.int64]  # index into ACTUATOR_NAMES of the largest holding torque, -1 where none
 
 
@@ -123,7 +123,7 @@ class TaskResults(NamedTuple):
     w_G: NDArray[np.bool_]
     reachable_fraction: NDArray[np.float64]
     eta_G: NDArray[np.float64]  # mean eta_L if w_G else +inf
-    violation: NDArray[np.float64]  # MODEL.md 16: violation_reach + G/(1+G)/(2P), G = guard_grade/P; 0 iff w_G
+    violation: NDArray[np.float64]  # model §16: violation_reach + G/(1+G)/(2P), G = guard_grade/P; 0 iff w_G
     violation_reach: NDArray[np.float64]  # V_reach: fraction of IK failures + their excess; 0 iff the IK solves every point
     guard_grade: NDArray[np.float64]  # sum of points.guard_grade over the P points (not divided by P)
     dexterity_min: NDArray[np.float64]
@@ -132,17 +132,17 @@ class TaskResults(NamedTuple):
     clearance_min: NDArray[np.float64]  # min clearance_mm over reachable points (NaN if none)
     self_clearance_min: NDArray[np.float64]  # min self_clearance_mm over reachable points (NaN if none)
     envelope_clearance_min: NDArray[np.float64]  # min envelope_clearance_mm over reachable points (NaN if none or not computed)
-    tip_error_max: NDArray[np.float64]  # MODEL.md 15.5: maxima over the reachable points (NaN if none)
+    tip_error_max: NDArray[np.float64]  # model §15.5: maxima over the reachable points (NaN if none)
     lateral_error_max: NDArray[np.float64]
     axial_error_max: NDArray[np.float64]
     axis_error_max: NDArray[np.float64]
     torque_max: NDArray[np.float64]
     deflection_max: NDArray[np.float64]
-    holding_torque_max: NDArray[np.float64]  # MODEL.md 18.2 over the reachable points (NaN if none or not computed)
+    holding_torque_max: NDArray[np.float64]  # model §18.2 over the reachable points (NaN if none or not computed)
 
     @property
     def fitness(self) -> NDArray[np.float64]:
-        """GA fitness of MODEL.md 8.3 (shaping only): eta_G if w_G else 1e6 (1 + unreachable fraction)."""
+        """GA fitness of model §8.3 (shaping only): eta_G if w_G else 1e6 (1 + unreachable fraction)."""
         return np.where(self.w_G, self.eta_G, 1e6 * (2.0 - self.reachable_fraction))
 
 
@@ -161,14 +161,14 @@ def _first_failure(checks: list[tuple[str, NDArray[np.bool_]]], shape: tuple[int
 
 
 def _grade(short: ArrayLike, scale: ArrayLike) -> NDArray[np.float64]:
-    """One guard term of MODEL.md 16, min(s / S, 1) (NaN propagates)."""
+    """One guard term of model §16, min(s / S, 1) (NaN propagates)."""
     return np.minimum(np.asarray(short) / scale, 1.0)
 
 
 def _guard_checks(
     sol: IKSolution, params: ArrayLike, eta: NDArray[np.float64], options: Options, c_z: NDArray[np.float64] | None = None,
 ) -> list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]]:  # fmt: skip
-    """(reason, failed, grade) of each active local guard; ``grade`` is its MODEL.md 16 term(s) at each
+    """(reason, failed, grade) of each active local guard; ``grade`` is its model §16 term(s) at each
     point, sum of min(s / S, 1), 0 where undefined (NaN). Points without an IK solution are masked later.
     ``c_z``: each design's own z-dyad link (mm, :func:`design_c_z`), else the options' (d_z when None)."""
     g = unpack(params)
@@ -212,7 +212,7 @@ def _z_dyad_shortfall(sol: IKSolution, params: ArrayLike, options: Options, c_z:
 
 
 def dyad_in_reach(params: ArrayLike, options: Options, c_z: ArrayLike | None) -> NDArray[np.bool_]:
-    """Per design ``(...)``: True where the z dyad closes as part of the inverse kinematics (MODEL.md 16's
+    """Per design ``(...)``: True where the z dyad closes as part of the inverse kinematics (model §16's
     amendment): the z-dyad guard is on and the design has its own c_z (a ``c_z`` column, not NaN)."""
     shape = np.shape(unpack(params).d[..., 2])
     if c_z is None or not options.guards.z_dyad:
@@ -221,7 +221,7 @@ def dyad_in_reach(params: ArrayLike, options: Options, c_z: ArrayLike | None) ->
 
 
 def design_c_z(params: ArrayLike, options: Options, c_z: ArrayLike | None) -> NDArray[np.float64] | None:
-    """Each design's z-dyad link c_z (mm, MODEL.md 19.1) ``(...)`` from a per-design column ``c_z`` broadcasting
+    """Each design's z-dyad link c_z (mm, model §19.1) ``(...)`` from a per-design column ``c_z`` broadcasting
     as ``params[..., 0]``: its value, else (NaN) ``Options.guards.c_z``, else d_z; None when no column is given
     (every design then takes the options' c_z, as before c_z became a design parameter)."""
     if c_z is None:
@@ -273,7 +273,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
            envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None,
            dyad_ik: NDArray[np.bool_] | None = None) -> PointResults:  # fmt: skip
     """Every point's results; ``dyad_ik`` (broadcasting as the points): where an open z dyad is an IK failure
-    (:func:`dyad_in_reach`, MODEL.md 16's amendment)."""
+    (:func:`dyad_in_reach`, model §16's amendment)."""
     kappa = condition_numbers(sol, params)
     shape = kappa.shape[:-1]
     tls_bad = np.abs(sol.tls_arg) > 1.0
@@ -289,7 +289,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         *((f"singular/{name}", singular[..., i]) for i, name in enumerate(JACOBIAN_NAMES)),
     ]
     excess = _excess(sol.tls_arg) + _excess(sol.rts_arg) + _excess(sol.tms_arg)  # 0 where the stages solve the point
-    solved = stages_ok & ~np.any(singular, axis=-1)  # the IK solves the point (MODEL.md 16)
+    solved = stages_ok & ~np.any(singular, axis=-1)  # the IK solves the point (model §16)
     if dyad_ik is not None and np.any(dyad_ik):  # the amendment: an open z dyad is a point not reached
         short = _z_dyad_shortfall(sol, params, options, c_z)
         open_dyad = dyad_ik & stages_ok & (short > 0.0)
@@ -299,13 +299,13 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     guards = _guard_checks(sol, params, eta_raw, options, c_z)
     scale = GRADE_SCALES["clearance"]
     if options.guards.clearance_mm is not None and anatomy is not None:
-        short = np.maximum(options.guards.clearance_mm - clear, 0.0)  # mm, MODEL.md 14.3
+        short = np.maximum(options.guards.clearance_mm - clear, 0.0)  # mm, model §14.3
         guards.append(("collision/patient", short > 0.0, np.nan_to_num(_grade(short, scale), nan=0.0)))
     if options.guards.self_clearance_mm is not None:
         short = np.maximum(options.guards.self_clearance_mm - selfc, 0.0)
         guards.append(("collision/self", short > 0.0, np.nan_to_num(_grade(short, scale), nan=0.0)))
     if options.guards.envelope_clearance_mm is not None and envelope is not None:
-        short = np.maximum(options.guards.envelope_clearance_mm - env, 0.0)  # mm, MODEL.md 19.5
+        short = np.maximum(options.guards.envelope_clearance_mm - env, 0.0)  # mm, model §19.5
         guards.append(("collision/envelope", short > 0.0, np.nan_to_num(_grade(short, GRADE_SCALES["envelope"]), nan=0.0)))
     grade: NDArray[np.float64] | float = 0.0
     for name, failed, term in guards:
@@ -342,7 +342,7 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
 
 
 def _performance(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None = None) -> dict[str, Any] | None:
-    """The drill-tip metrics of MODEL.md 15 and, with ``Outputs.holding_torque``, the holding torque of
+    """The drill-tip metrics of model §15 and, with ``Outputs.holding_torque``, the holding torque of
     18.2 (NaN and -1 without it) at the points of ``sol``, by field name; None without ``Outputs.tip_metrics``.
     ``c_z``: each design's own z-dyad link (None: the options')."""
     if not options.outputs.tip_metrics:
@@ -359,7 +359,7 @@ def _performance(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDAr
 
 
 def _mask_performance(pts: PointResults) -> PointResults:
-    """NaN (and -1) for the metrics of MODEL.md 15 where a point is not reachable."""
+    """NaN (and -1) for the metrics of model §15 where a point is not reachable."""
     r = pts.reachable
     fields = {name: np.where(r, getattr(pts, name), np.nan) for name in MAXIMUM_FIELDS}
     return pts._replace(torque_actuator=np.where(r, pts.torque_actuator, -1),
@@ -372,8 +372,8 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults, ik_last: ArrayLike
     The reference triple is the most frequent (sign H_x, sign H_y, sign det) among the points
     that are reachable so far; ties go to the lowest code. The points that pass so far and differ
     from it fail; every point that the IK solves and that differs from it (whether or not it also
-    fails a local guard) adds 1 to its ``guard_grade`` (MODEL.md 16). ``ik_last`` ``(..., 1)``: the last failure
-    code that is an IK failure (IK_FAILURES, or the z dyad's code for a design under MODEL.md 16's amendment).
+    fails a local guard) adds 1 to its ``guard_grade`` (model §16). ``ik_last`` ``(..., 1)``: the last failure
+    code that is an IK failure (IK_FAILURES, or the z dyad's code for a design under model §16's amendment).
     """
     asm = sol.assembly
     code = ((asm[..., 0] > 0) * 4 + (asm[..., 1] > 0) * 2 + (asm[..., 2] > 0)).astype(np.int64)
@@ -401,11 +401,11 @@ def evaluate_task(
 
     ``mode`` broadcasts as ``(..., 4)`` (one working mode per design, or one for all).
     Per-point fields have shape ``(..., P)``; summaries ``(...)``. Dexterity statistics run
-    over all P points, counting 0 at unreachable points. ``violation`` is MODEL.md 16's V_reach + V_fit
+    over all P points, counting 0 at unreachable points. ``violation`` is model §16's V_reach + V_fit
     for this task alone (no --max/--min limits: the optimizer adds them, with several tasks, from
-    ``violation_reach`` and ``guard_grade``). ``anatomy``: the anatomy's signed distance (MODEL.md 14.3);
+    ``violation_reach`` and ``guard_grade``). ``anatomy``: the anatomy's signed distance (model §14.3);
     ``envelope``: the envelope of the whole patient (19.5), whose landmarks come from the whole plan.
-    ``c_z`` ``(...)``: each design's own z-dyad link c_z, mm (MODEL.md 19.1; a column beside the 27
+    ``c_z`` ``(...)``: each design's own z-dyad link c_z, mm (model §19.1; a column beside the 27
     parameters, broadcasting as ``params[..., 0]``; NaN or None: ``Options.guards.c_z``, else d_z).
     """
     p = np.asarray(params, dtype=float)[..., None, :]
@@ -444,7 +444,7 @@ def evaluate_task(
 
 
 def fit_violation(G: ArrayLike, n: int) -> NDArray[np.float64]:
-    """V_fit of MODEL.md 16, G / (1 + G) / (2 n), from G >= 0 (+inf gives 1 / (2 n)) and n points: < 1 / (2 n)
+    """V_fit of model §16, G / (1 + G) / (2 n), from G >= 0 (+inf gives 1 / (2 n)) and n points: < 1 / (2 n)
     for finite G (up to rounding), 0 exactly when G = 0."""
     G = np.asarray(G, dtype=float)
     with np.errstate(invalid="ignore"):

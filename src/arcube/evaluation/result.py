@@ -48,7 +48,7 @@ class Evaluation:
     engine: str
     anatomy: Anatomy | None = None
     envelope: Envelope | None = None
-    """The envelope of the whole patient (MODEL.md 19.5) the clearance was measured to, placed on the whole plan."""
+    """The envelope of the whole patient (model §19.5) the clearance was measured to, placed on the whole plan."""
 
     def per_trajectory(self) -> list[TrajectorySummary]:
         """Summaries per trajectory, in file order."""
@@ -71,11 +71,11 @@ class Evaluation:
     @cached_property
     def summary(self) -> dict[str, Any]:
         """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity, failures,
-        the maxima of MODEL.md 15 and 18.2 and (with ``Outputs.holding_torque``) the moving mass.
+        the maxima of model §15 and 18.2 and (with ``Outputs.holding_torque``) the moving mass.
 
         Computed on first access and kept (the evaluation is immutable); :meth:`summary_json` returns a copy."""
         mass = None
-        if self.options.outputs.holding_torque:  # MODEL.md 18.3's per-design moving mass, beside the holding torque
+        if self.options.outputs.holding_torque:  # model §18.3's per-design moving mass, beside the holding torque
             from arcube.evaluation.masses import moving_mass_kg
 
             mass = float(moving_mass_kg(self.design.to_vector(), self.options))
@@ -131,7 +131,7 @@ def evaluate_design(
     anatomy: Anatomy | None = None, envelope: Envelope | None = None,
 ) -> Evaluation:
     """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call. ``envelope``: the envelope of
-    the whole patient (MODEL.md 19.5), resolved on the whole plan (before any side or level is kept), not on ``ts`` alone."""
+    the whole patient (model §19.5), resolved on the whole plan (before any side or level is kept), not on ``ts`` alone."""
     task = build_task(ts.entry, ts.target, points, ids=ts.ids)
     distance = None if anatomy is None else anatomy.distance
     results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True, anatomy=distance,

@@ -1,4 +1,4 @@
-"""Where the drill can wait outside the patient: the standoff pose of each trajectory (MODEL.md 17.1).
+"""Where the drill can wait outside the patient: the standoff pose of each trajectory (model §17.1).
 
 For trajectory j (entry A_j, target B_j, axis e_j = (A_j - B_j)/|A_j - B_j|) the standoff puts the
 tip at S_j = A_j + (s + t_j) e_j, where t_j is the largest t >= 0 at which the ray A_j + t e_j is
@@ -20,7 +20,7 @@ from arcube.model.poses import sample_trajectories
 __all__ = ["DEFAULT_STANDOFF_MM", "exit_depths", "standoff_points", "approach_lines"]
 
 DEFAULT_STANDOFF_MM = 20.0
-"""s of MODEL.md 17.1: the tip waits this far outside the anatomy along its own axis."""
+"""s of model §17.1: the tip waits this far outside the anatomy along its own axis."""
 _CHUNK = 200_000
 """Ray-triangle pairs per batch (memory: about 20 float64 arrays of this size)."""
 

@@ -83,9 +83,9 @@ def failure_counts(pts: PointResults) -> dict[str, int]:
 def diagnosis(design: Design, task: Task) -> list[str]:
     """Where a stage cannot serve the task: what the task needs against what each leg offers.
 
-    In mechanism coordinates at the centre C = E + L e (MODEL.md 13; R_w shifted by m when the
-    design is not rotated): TLS leg u reaches u in [-f_u - r - p_u, -f_u - r + p_u] (MODEL.md 3.2);
-    RTS leg u reaches angle(e, +u) in [|alpha_u - beta_u|, alpha_u + beta_u] (MODEL.md 5.2).
+    In mechanism coordinates at the centre C = E + L e (model §13; R_w shifted by m when the
+    design is not rotated): TLS leg u reaches u in [-f_u - r - p_u, -f_u - r + p_u] (model §3.2);
+    RTS leg u reaches angle(e, +u) in [|alpha_u - beta_u|, alpha_u + beta_u] (model §5.2).
     """
     d = design
     g = unpack(d.to_vector())
@@ -119,8 +119,8 @@ def diagnosis(design: Design, task: Task) -> list[str]:
 def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = None, regions: tuple[str, ...] = ()) -> dict[str, Any]:
     """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity,
     failures, the smallest clearances, the largest tip errors, torque and deflection, and the largest
-    holding torque of MODEL.md 18.2 with the design's moving mass (None where not computed); ``regions``: the
-    envelope's region names (MODEL.md 19.5), for the part of the envelope its smallest clearance binds at."""
+    holding torque of model §18.2 with the design's moving mass (None where not computed); ``regions``: the
+    envelope's region names (model §19.5), for the part of the envelope its smallest clearance binds at."""
     r = results
     pts = r.points
     eta_G = float(r.eta_G)
@@ -135,7 +135,7 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
         "clearance_min_mm": _num(r.clearance_min),
         "clearance_min_part": _name_at(pts, pts.clearance_mm, pts.clearance_part, PART_NAMES),  # the closest part
         "self_clearance_min_mm": _num(r.self_clearance_min),
-        # MODEL.md 19.5: with an envelope (else None); the body part and the envelope's region where it binds
+        # model §19.5: with an envelope (else None); the body part and the envelope's region where it binds
         "envelope_clearance_min_mm": _num(r.envelope_clearance_min),
         "envelope_clearance_min_part": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_part, PART_NAMES),
         "envelope_clearance_min_region": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_region, regions) if regions else None,
@@ -144,10 +144,10 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
         "axial_error_max_mm": _num(r.axial_error_max),
         "axis_error_max_deg": _num(r.axis_error_max),
         "torque_max_Nm": _num(r.torque_max),
-        # the actuator that needs the largest torque over the reachable points (MODEL.md 15.3)
+        # the actuator that needs the largest torque over the reachable points (model §15.3)
         "torque_max_actuator": _name_at(pts, -pts.torque_Nm, pts.torque_actuator, ACTUATOR_NAMES),
         "deflection_max_mm": _num(r.deflection_max),
-        # MODEL.md 18: with Outputs.holding_torque (else None)
+        # model §18: with Outputs.holding_torque (else None)
         "holding_torque_max_Nm": _num(r.holding_torque_max),
         "holding_torque_max_actuator": _name_at(pts, -pts.holding_torque_Nm, pts.holding_torque_actuator, ACTUATOR_NAMES),
         "moving_mass_kg": None if moving_mass_kg is None else _num(moving_mass_kg),

@@ -1,4 +1,4 @@
-"""A task: the points a design must reach, built from trajectories (MODEL.md 1.4).
+"""A task: the points a design must reach, built from trajectories (model §1.4).
 
 The pipeline is trajectories (:mod:`arcube.io.trajectories`) -> task (this module) ->
 evaluation (:mod:`arcube.evaluation.reference`) -> optimization -> report.

@@ -47,7 +47,7 @@ def live_model(design: Any = "paper", plan: Any = "reference", *, options: Optio
     full = load_plan(plan)
     ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
     anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
-    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # MODEL.md 19.5, as arcube design checks it
+    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # model §19.5, as arcube design checks it
     return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards), envelope=env)
 
 

@@ -109,7 +109,7 @@ class ExplorerApp:
             verts, faces = m.anatomy.vertices_faces()
             sc.add_mesh_simple("/anatomy", verts * SCALE, faces, color=(232, 214, 170), opacity=0.5,
                                side="double", cast_shadow=False, receive_shadow=False)  # fmt: skip
-        if m.envelope is not None:  # MODEL.md 19.5: faint, so that the robot stays readable inside it
+        if m.envelope is not None:  # model §19.5: faint, so that the robot stays readable inside it
             from arcube.evaluation.envelope_drawing import envelope_meshes
 
             for name, mesh in envelope_meshes(m.envelope):
@@ -195,7 +195,7 @@ class ExplorerApp:
         with gui.add_folder("Working mode and guards"):
             self.mode = gui.add_dropdown("working mode", [format_mode(s) for s in ALL_MODES], initial_value=format_mode(m.mode))
             self.guards = gui.add_checkbox("guards of arcube design", m.guards,
-                                           hint="MODEL.md 8.2 and the clearance requirements as guards; off: the paper's model.")  # fmt: skip
+                                           hint="model §8.2 and the clearance requirements as guards; off: the paper's model.")  # fmt: skip
         with gui.add_folder("Body radii", expand_by_default=False):
             self.radii = {k: gui.add_slider(label, lo, max(hi, getattr(m.radii, k)), 0.5, float(getattr(m.radii, k))) for k, label, lo, hi in _RADII}
         self.params: dict[str, Any] = {}

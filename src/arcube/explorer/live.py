@@ -5,7 +5,7 @@ the guards) and what they do not (the plan, its approach lines, the anatomy, the
 :meth:`LiveModel.evaluate` runs the kernel (:func:`arcube.evaluation.engine.evaluate_task`) on the
 whole plan twice, as ``arcube design`` judges a design (:func:`arcube.design_job.requirements.assess`
 with the NumPy reference): on the drill points (entry -> target) and on the approach lines (standoff
--> entry, MODEL.md 17.1). It returns :class:`Figures`: the headline figures of the plan, the
+-> entry, model §17.1). It returns :class:`Figures`: the headline figures of the plan, the
 requirement rows with pass/fail against the limits of :func:`~arcube.design_job.requirements.requirements_from`,
 and per-point arrays along the *lines*: for each trajectory its approach points, then its drill points.
 :meth:`LiveModel.view` is the scene at one point of the lines (:mod:`arcube.explorer.scene`).
@@ -126,7 +126,7 @@ class LiveModel:
     standoff_mm: float = DEFAULT_STANDOFF_MM
     engine: str = "auto"
     envelope: Any = None
-    """The envelope of the whole patient and the table (MODEL.md 19.5), placed on the whole plan, or None."""
+    """The envelope of the whole patient and the table (model §19.5), placed on the whole plan, or None."""
 
     def __post_init__(self) -> None:
         self.x = self.design.to_vector().astype(float)
@@ -154,7 +154,7 @@ class LiveModel:
         self.x[PARAM_NAMES.index(name)] = v
 
     def current_design(self) -> Design:
-        """The design the sliders show, with the loaded design's c_z (MODEL.md 19.1) and the working mode shown."""
+        """The design the sliders show, with the loaded design's c_z (model §19.1) and the working mode shown."""
         return self.design.replace(**dict(zip(PARAM_NAMES, self.x.tolist(), strict=True))).with_extras(mode=format_mode(self.mode))
 
     def load(self, design: Design) -> None:
@@ -163,7 +163,7 @@ class LiveModel:
         self.x = design.to_vector().astype(float)
 
     def options(self) -> Options:
-        """The kernel's options: with guards, those of ``arcube design`` (MODEL.md 8.2 and the two
+        """The kernel's options: with guards, those of ``arcube design`` (model §8.2 and the two
         clearance guards at the requirements' limits; no clearance guard without anatomy); the radii."""
         r = self.radii
         if self.guards:
@@ -175,9 +175,9 @@ class LiveModel:
         else:
             base = Options()
         base = base.replace(link_radius=r.link, actuator_radius=r.actuator, motor_radius=r.motor, motor_length=r.motor_length)
-        if self.design.c_z is not None:  # the z dyad closed with the design's own c_z, and a guard when guarded (MODEL.md 19.2)
+        if self.design.c_z is not None:  # the z dyad closed with the design's own c_z, and a guard when guarded (model §19.2)
             base = base.replace(c_z=self.design.c_z, z_dyad=self.guards)
-        holding = any(q.name == "holding_torque" for q in self.requirements)  # MODEL.md 18.2, as arcube design's
+        holding = any(q.name == "holding_torque" for q in self.requirements)  # model §18.2, as arcube design's
         return base.replace(outputs=base.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
 
     # ------------------------------------------------------------------ figures
@@ -207,7 +207,7 @@ class LiveModel:
             "failures": {FAILURES[c - 1]: int(n) for c, n in zip(*np.unique(failure[failure > 0], return_counts=True))},
             "mode": format_mode(self.mode),
         }  # fmt: skip
-        holding = getattr(drill, "holding_torque_max", None)  # MODEL.md 18, when the kernel has it
+        holding = getattr(drill, "holding_torque_max", None)  # model §18, when the kernel has it
         if holding is not None:
             summary["holding_torque_max_Nm"] = float(np.asarray(holding))
         return Figures(summary, self._requirement_rows(drill, app), self._line_arrays(drill, app), drill, app, seconds)
@@ -217,7 +217,7 @@ class LiveModel:
         frac = min(float(drill.reachable_fraction), float(app.reachable_fraction))
         rows = [{"requirement": "reach", "kind": "min", "limit": 100.0, "unit": "%", "value": 100.0 * frac, "part": "",
                  "passed": frac >= 1.0}]  # fmt: skip
-        if self.design.c_z is not None and self.guards:  # as arcube design's z_dyad row (MODEL.md 19.2)
+        if self.design.c_z is not None and self.guards:  # as arcube design's z_dyad row (model §19.2)
             code = FAILURES.index("guard/z_dyad") + 1
             bad = sum(int(np.sum(np.asarray(res.points.failure) == code)) for res in (drill, app))
             rows.append({"requirement": "z_dyad", "kind": "max", "limit": 0.0, "unit": "failing points", "value": float(bad),

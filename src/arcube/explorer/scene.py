@@ -3,14 +3,14 @@
 Pure NumPy (no viser, no plotly), so the live app (:mod:`arcube.explorer.app`) and the static export
 (:mod:`arcube.explorer.static`) draw the same thing:
 
-* :func:`body_solids`: the parts of MODEL.md 14.1 (:func:`arcube.model.body.body_parts`) as solids
+* :func:`body_solids`: the parts of model §14.1 (:func:`arcube.model.body.body_parts`) as solids
   with their radii: each segment a cylinder with a sphere at both ends (a capsule), each actuator a
   sphere, each great-circle arc of the spherical stage the chords the self clearance uses
   (:func:`arcube.evaluation.clearance.arc_chords`), each a capsule;
 * :func:`anatomy_closest`: the clearance of every primitive to the anatomy (the axis sampled every
   ``step`` mm on the anatomy's distance grid, minus the radius, as the NumPy reference does) and the
   closest pair, robot surface -> anatomy surface (along the distance field's gradient);
-* :func:`self_closest`: the self clearance of MODEL.md 14.3 over :data:`arcube.model.body.SELF_PAIRS`
+* :func:`self_closest`: the self clearance of model §14.3 over :data:`arcube.model.body.SELF_PAIRS`
   (exact closest points of segments; arcs as chords) and the closest pair of surface points;
 * :func:`clearance_classes` / :func:`part_colours`: a colour per part from its clearances against the
   requirement limits (:data:`CLASSES`).
@@ -198,7 +198,7 @@ def closest_points(p1: NDArray[np.float64], q1: NDArray[np.float64], p2: NDArray
 
 def self_closest(parts: BodyParts) -> tuple[NDArray[np.float64], Closest]:
     """(each primitive's smallest self clearance over its pairs ``(27,)`` mm, the closest pair) at one
-    pose: MODEL.md 14.3 over SELF_PAIRS, arcs as chords, as :func:`arcube.evaluation.clearance.self_clearance`."""
+    pose: model §14.3 over SELF_PAIRS, arcs as chords, as :func:`arcube.evaluation.clearance.self_clearance`."""
     if not np.all(np.isfinite(parts.segments)):
         return np.full(N_PRIMITIVES, np.nan), _NONE
     n_lines = N_SEGMENTS + N_SPHERES

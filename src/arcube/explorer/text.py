@@ -14,7 +14,7 @@ __all__ = ["PASS", "FAIL", "figure_rows", "html_table", "markdown_table", "point
 PASS, FAIL, NA = "pass", "FAIL", "—"
 _LABELS = {"reach": "reach, whole lines", "clearance": "clearance to the anatomy", "self_clearance": "self clearance",
            "lateral_error": "lateral error", "axis_error": "axis error", "torque": "actuator torque",
-           "holding_torque": "holding torque (weight)", "z_dyad": "z leg closes (MODEL.md 19.2)"}  # fmt: skip
+           "holding_torque": "holding torque (weight)", "z_dyad": "z leg closes (model §19.2)"}  # fmt: skip
 
 
 def _num(v: Any, digits: int = 2, unit: str = "") -> str:

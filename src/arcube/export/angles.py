@@ -19,7 +19,7 @@ from arcube.model.mechanism import inverse_kinematics
 __all__ = ["ACTUATED", "JOINT_NAMES", "axes_world", "design_vector", "joint_values", "z_dyad_range"]
 
 ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
-"""The five actuated hinges (and their position actuators), in the order of MODEL.md 7.4."""
+"""The five actuated hinges (and their position actuators), in the order of model §7.4."""
 
 JOINT_NAMES: tuple[str, ...] = (
     "rho_x", "kappa_x", "delta_x", "gamma_x",
@@ -95,7 +95,7 @@ def joint_values(
 
 
 def z_dyad_range(L_z: ArrayLike, d_z: float) -> tuple[float, float]:
-    """The c_z range [lo, hi] (mm) that closes the z dyad at every span L_z = |Q_z - D_z| (MODEL.md 6):
+    """The c_z range [lo, hi] (mm) that closes the z dyad at every span L_z = |Q_z - D_z| (model §6):
     the intersection of [|L_z - d_z|, L_z + d_z]; empty (lo > hi) when no c_z can."""
     L = np.asarray(L_z, dtype=float).reshape(-1)
     return float(np.max(np.abs(L - d_z))), float(np.min(L + d_z))

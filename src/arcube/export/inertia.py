@@ -1,4 +1,4 @@
-"""Masses and inertias of the exported MuJoCo bodies, from the mass model of MODEL.md 18.1.
+"""Masses and inertias of the exported MuJoCo bodies, from the mass model of model §18.1.
 
 Each MuJoCo body of :mod:`arcube.export.mjcf` carries the sum of the 18.1 bodies
 (:data:`arcube.evaluation.mass_bodies.BODY_NAMES`) rigidly attached to it:

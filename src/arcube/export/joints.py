@@ -4,21 +4,21 @@ For drilling at a constant speed (mm/s) the tip moves from the entry toward the 
 
     v = speed * (P_tg - P_in)/|P_tg - P_in| = -speed * e,    omega = 0
 
-(the orientation is constant along a trajectory, MODEL.md 1.4), and reaches point k at
+(the orientation is constant along a trajectory, model §1.4), and reaches point k at
 t = s_k / speed, s_k = |E_k - E_0| the drilled length so far.
 
 * rho, delta, sigma come from the IK (:func:`arcube.model.mechanism.inverse_kinematics`);
-* (rho_dot, delta_dot) = B^-1 A (v, omega) (MODEL.md 7.4, :func:`arcube.model.mechanism.joint_rates`);
-* sigma_dot = J_AS^-1 J_AP omega (MODEL.md 7.3), which is exactly 0 here: sigma depends on e
-  only (RTS IK, MODEL.md 5.2) and e is constant. It is still computed from the general relation
+* (rho_dot, delta_dot) = B^-1 A (v, omega) (model §7.4, :func:`arcube.model.mechanism.joint_rates`);
+* sigma_dot = J_AS^-1 J_AP omega (model §7.3), which is exactly 0 here: sigma depends on e
+  only (RTS IK, model §5.2) and e is constant. It is still computed from the general relation
   so that the column means the same thing if a caller passes a path with omega != 0 later.
 
-Actuator torques for the drilling loads (MODEL.md 15.3, Options' thrust and lateral force): the
+Actuator torques for the drilling loads (model §15.3, Options' thrust and lateral force): the
 torque that holds the thrust F_t e alone, tau = -J_E^T (F_t e), signed, and the worst case of each
 actuator over the lateral directions, F_t |e^T J_E,i| + F_l |P_perp J_E,i|; N·m.
 
 With ``Options.outputs.holding_torque`` (``arcube joints`` with a mass flag) the rows also get the
-holding torque of MODEL.md 18.2, from the masses of ``Options.masses``: the signed torque that holds
+holding torque of model §18.2, from the masses of ``Options.masses``: the signed torque that holds
 the robot's weight, dV/dq (``tau_gravity_*_Nm``), each actuator's worst case with the drilling loads
 |dV/dq_i - F_t e^T J_E,i| + F_l |P_perp J_E,i| (``hold_*_max_Nm``), their maximum and its actuator
 (:data:`MASS_COLUMNS`, before ``reachable``).
@@ -61,7 +61,7 @@ MASS_COLUMNS: tuple[str, ...] = (
     *(f"tau_gravity_{n}_Nm" for n in ACTUATOR_NAMES), *(f"hold_{n}_max_Nm" for n in ACTUATOR_NAMES), "holding_torque_Nm",
     "holding_torque_actuator",
 )  # fmt: skip
-"""Columns of MODEL.md 18.2 inserted before ``reachable`` when the trajectory has the holding torque."""
+"""Columns of model §18.2 inserted before ``reachable`` when the trajectory has the holding torque."""
 
 
 @dataclass(frozen=True)
@@ -78,8 +78,8 @@ class JointTrajectory:
     reachable: NDArray[np.bool_]  # (P,)
     speed_mm_s: float
     tau_thrust_Nm: NDArray[np.float64]  # (P, 5) torques holding the thrust alone, ACTUATOR_NAMES order (NaN where unreachable)
-    tau_max_Nm: NDArray[np.float64]  # (P, 5) worst case with the lateral force (MODEL.md 15.3)
-    tau_gravity_Nm: NDArray[np.float64] | None = None  # (P, 5) dV/dq (MODEL.md 18.2), or None without masses
+    tau_max_Nm: NDArray[np.float64]  # (P, 5) worst case with the lateral force (model §15.3)
+    tau_gravity_Nm: NDArray[np.float64] | None = None  # (P, 5) dV/dq (model §18.2), or None without masses
     hold_max_Nm: NDArray[np.float64] | None = None  # (P, 5) |dV/dq_i - F_t e^T J_E,i| + F_l |P_perp J_E,i|, or None
 
     @property
@@ -129,14 +129,14 @@ def joint_trajectory(
     if not (math.isfinite(speed_mm_s) and speed_mm_s > 0.0):
         raise ValueError(f"speed must be a finite positive number of mm/s, got {speed_mm_s}")
     params = design.to_vector() if isinstance(design, Design) else np.asarray(design, dtype=float)
-    # MODEL.md 21.4: a calibrated design's controller commands the actuated angles less its zero offsets
+    # model §21.4: a calibrated design's controller commands the actuated angles less its zero offsets
     q0_deg = np.concatenate([design.q0, np.zeros(2)]) if isinstance(design, Design) else np.zeros(7)
     signs = np.asarray(mode, dtype=float)
     reachable = np.asarray(evaluate_task(params, task.E, task.e, signs, options, anatomy).points.reachable, dtype=bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, task.E, task.e, signs)
         # the tip moves against e (e points from the tip to the motor); with omega = 0 the centre C
-        # moves with it, and the velocity model takes the twist in mechanism coordinates (MODEL.md 13)
+        # moves with it, and the velocity model takes the twist in mechanism coordinates (model §13)
         v = frames.directions_to_mechanism(unpack(params), -speed_mm_s * task.e)
         omega = np.zeros_like(v)
         q_dot = joint_rates(velocity_model(sol, params), v, omega)  # (P, 5): rho_dot, delta_dot, rad/s

@@ -1,10 +1,10 @@
 """A simulation model of any design: the mechanism as MuJoCo MJCF (XML), assembled at one task point.
 
-:func:`export_mjcf` writes one body per rigid link of MODEL.md 3-6 and 14.1, joined by hinges at the
+:func:`export_mjcf` writes one body per rigid link of model §3-6 and 14.1, joined by hinges at the
 model's joint points and about the model's axes (mechanism axes turned into the patient frame by the
-mounting rotation R, MODEL.md 13), with the three loops of the mechanism closed by ``<connect>``
+mounting rotation R, model §13), with the three loops of the mechanism closed by ``<connect>``
 equality constraints. Lengths are in mm, angles in rad, masses in kg, inertias in kg mm^2, time in s,
-forces in kg mm/s^2 (1 N m of torque = 1e6 kg mm^2/s^2). Masses and inertias are those of MODEL.md 18.1
+forces in kg mm/s^2 (1 N m of torque = 1e6 kg mm^2/s^2). Masses and inertias are those of model §18.1
 (``masses``, :mod:`arcube.export.inertia`: each body carries the 18.1 parts rigidly attached to it; the
 geoms are drawn only); gravity is the mass model's, m/s^2 x 1000, in the patient frame, which is the
 model's world frame (default (0, 0, -9810) mm/s^2: posterior is up with the patient prone).
@@ -13,14 +13,14 @@ Body tree (every body frame is parallel to the patient frame in the assembled po
 the model's angle, thanks to each hinge's ``ref``)::
 
     base (static: frame links O -> P_u, actuators at P_u)
-    |- crank_u          hinge rho_u   at P_u about -v_u  (u = x, y, z; positive rho turns about -v, MODEL.md 3.1)
+    |- crank_u          hinge rho_u   at P_u about -v_u  (u = x, y, z; positive rho turns about -v, model §3.1)
     |  `- knee_u        hinge kappa_u at D_u about +v_u  (passive, kappa_u = rho_u: keeps the distal chain planar)
-    |     |- input_u    hinge delta_u at D_u about u     (u = x, y; n(delta) from -w toward +v, MODEL.md 4.1)
+    |     |- input_u    hinge delta_u at D_u about u     (u = x, y; n(delta) from -w toward +v, model §4.1)
     |     |  `- coupler_u  hinge gamma_u at K_u about u  (passive: coupler direction minus delta_u)
-    |     `- zdyad_d    hinge zdyad_D at D_z about z_m   (z leg only, MODEL.md 6; angle of J_z - D_z from x_m)
+    |     `- zdyad_d    hinge zdyad_D at D_z about z_m   (z leg only, model §6; angle of J_z - D_z from x_m)
     |        `- zdyad_c hinge zdyad_J at J_z about z_m   (relative angle of Q_z - J_z to J_z - D_z)
     |           `- platform  hinge zdyad_Q at Q_z about z_m  (carries Q_x, Q_y, Q_z and the centre C)
-    |              `- output_u  hinge sigma_u at Q_u about u  (four-bar output t_u, MODEL.md 4.1; u = x, y)
+    |              `- output_u  hinge sigma_u at Q_u about u  (four-bar output t_u, model §4.1; u = x, y)
     |                 `- alpha_u  (welded to output_u: the TMS output and the RTS input are one link, 5.1)
     |                    `- beta_u  hinge tau_u at B_u = C + r u_beta about u_beta (passive, dihedral angle)
     |                       `- drill (welded to beta_x only): sites ``tip`` at E and ``holder`` at H = C + r e
@@ -51,7 +51,7 @@ closures' Jacobian), which equals :func:`arcube.evaluation.masses.gravity_torque
 Accuracy (tests/test_mjcf.py): with every hinge set from the IK, MuJoCo's forward kinematics puts the
 tip on E and every closure at rest to ~1e-12 mm; driven by the five actuators with gravity off, the
 tip settles on E to ~1e-3 mm within 0.3 s per point. With gravity on, the position servos alone
-(100 N m/rad) let the tip sag by about a millimetre; with the gravity torques of MODEL.md 18.2 as a
+(100 N m/rad) let the tip sag by about a millimetre; with the gravity torques of model §18.2 as a
 feed-forward (ctrl = q + tau / KP) it stays within ~0.01 mm.
 """
 
@@ -121,18 +121,18 @@ def export_mjcf(
         None / ``"reference"`` (the bundled reference patient); sampled at ``points`` per trajectory.
     at : ``"ID:K"``, trajectory id and sample index k; default the first point of the plan that the
         design reaches (trajectory order, then k).
-    mode : working mode, ``"+,+,+,+"`` or four signs (MODEL.md 4.3, 5.3); None: the design's own, else ``+,+,+,+``.
-    c_z : second link of the z-leg dyad (mm); default the design's (:attr:`Design.c_z`), else d_z (MODEL.md 6). The dyad must close at every
+    mode : working mode, ``"+,+,+,+"`` or four signs (model §4.3, 5.3); None: the design's own, else ``+,+,+,+``.
+    c_z : second link of the z-leg dyad (mm); default the design's (:attr:`Design.c_z`), else d_z (model §6). The dyad must close at every
         point of the plan where the IK has a solution, else :class:`InputError` names the c_z range
         that would (the intersection of [|L_z - d_z|, L_z + d_z]) or says that none can.
-    options : the :class:`arcube.Options` of the robot: its body radii (MODEL.md 14.1) and its mass model
+    options : the :class:`arcube.Options` of the robot: its body radii (model §14.1) and its mass model
         (18.1: every body's mass and inertia and the model's gravity, :mod:`arcube.export.inertia`);
         ``**changes``: its settings by name (``link_radius=6``, ``wall=1.5``).
     anatomy : None, an :class:`~arcube.evaluation.anatomy.Anatomy` or trimesh meshes (patient frame, mm),
         written as static, non-colliding mesh geoms.
     masses : None: the mass model of ``options`` (a massless model when its links are too thin for the
         default wall and no masses were given); False: a massless model; True: required.
-    envelope : the envelope of the whole patient and the table (MODEL.md 19.5) to draw: an Envelope, or
+    envelope : the envelope of the whole patient and the table (model §19.5) to draw: an Envelope, or
         ``"default"`` / mesh files placed on ``plan`` (give the whole plan: its landmarks are the patient's).
 
     Raises :class:`InputError` for a bad ``at``, no IK solution at ``at``, or a z dyad that cannot close.
@@ -165,7 +165,7 @@ def export_mjcf(
 
 
 def export_masses(options: Options, masses: bool | None) -> MassModel:
-    """The mass model of an export: ``options``' (MODEL.md 18.1) when it applies
+    """The mass model of an export: ``options``' (model §18.1) when it applies
     (:meth:`arcube.Options.mass_model_on`), else a massless model (the links' geometry only)."""
     if options.mass_model_on(masses):
         return MassModel.of(options)
@@ -192,7 +192,7 @@ def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None, c_z
 
 
 def check_z_dyad(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float, what: str) -> None:
-    """InputError unless the z dyad (MODEL.md 6; D_z and Q_z lie in one plane z_m = const) closes with c_z (mm)
+    """InputError unless the z dyad (model §6; D_z and Q_z lie in one plane z_m = const) closes with c_z (mm)
     at every pose (E, e) ``(P, 3)``; the message names the c_z range that would, or says that none can."""
     d_z = float(unpack(params).d[2])
     mp_all = mechanism_points(params, E, e, signs, c_z=c_z)
@@ -214,14 +214,14 @@ def model_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np
 
     ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
     2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment; ``envelope``:
-    the envelope of the whole patient (MODEL.md 19.5), drawn (:func:`envelope_geoms`).
+    the envelope of the whole patient (model §19.5), drawn (:func:`envelope_geoms`).
     """
     model = mass_model_for(masses, radii, c_z)
     return _build_xml(params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note, envelope)
 
 
 def envelope_geoms(root: ET.Element, envelope: Any) -> None:
-    """Draw the envelope of MODEL.md 19.5 in the model's world (``root``), faint and not colliding (group 3): each
+    """Draw the envelope of model §19.5 in the model's world (``root``), faint and not colliding (group 3): each
     rounded box as the box of its half extents plus its radius (the rounded box's bounding box: a drawing,
     not the distance the design is checked with), the table as a slab under its plane, a skin mesh as meshes."""
     world, asset = root.find("worldbody"), root.find("asset")
@@ -388,7 +388,7 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
         f" arcube MJCF export: AR-CUBE assembled at {where}, mode {format_mode(signs)}, c_z = {c_z:.6g} mm.\n"
         "     Units: mm, rad, kg, s. Load the keyframe 'assembled' before simulating (MuJoCo starts with ctrl = 0).\n"
         f"     Design: {', '.join(f'{k}={v:.6g}' for k, v in d.items())}\n"
-        f"     Masses (MODEL.md 18.1): moving mass {sum(p.mass for p in inertials.values()):.6g} kg, gravity {gravity} mm/s^2. "
+        f"     Masses (model §18.1): moving mass {sum(p.mass for p in inertials.values()):.6g} kg, gravity {gravity} mm/s^2. "
         + (f"\n     {note} " if note else "")
     )
     return "<!--" + header + "-->\n" + ET.tostring(root, encoding="unicode") + "\n"

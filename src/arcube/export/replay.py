@@ -1,11 +1,11 @@
-"""A drilling program (MODEL.md 17) as a MuJoCo model and a replay of its joint targets.
+"""A drilling program (model §17) as a MuJoCo model and a replay of its joint targets.
 
 :func:`export_program` reads a program (the folder that ``arcube program`` writes, or a
 :class:`~arcube.motion.Program`) and returns
 
 * the MJCF of :mod:`arcube.export.mjcf` for the program's design, **assembled at the program's
-  first row** (its keyframe ``assembled`` is that state, ctrl included), with the masses of MODEL.md
-  18.1 (:mod:`arcube.export.inertia`);
+  first row** (its keyframe ``assembled`` is that state, ctrl included), with the masses of model
+  §18.1 (:mod:`arcube.export.inertia`);
 * the **replay**, a CSV with one row per row of ``program.csv`` (:data:`REPLAY_COLUMNS`):
 
   - ``t_s``, ``segment``, ``trajectory``: as in ``program.csv`` (s; approach, drill, retract, transit);
@@ -84,7 +84,7 @@ class ProgramExport:
 
 def read_program(folder: str | os.PathLike[str]) -> Program:
     """The program in ``folder``, read by :func:`arcube.io.program_files.read_program_files` (the one
-    reader of program folders: its limits and checks); columns beyond MODEL.md 17.3's, such as
+    reader of program folders: its limits and checks); columns beyond model §17.3's, such as
     ``tau_*_Nm``, are ignored. InputError naming ``program`` and the file for a missing, unreadable or
     damaged file, or a cell the replay cannot use (empty or not finite)."""
     path = Path(folder)
@@ -137,7 +137,7 @@ def recorded_design(rows: Program) -> Design | None:
 
 def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.float64], q0_deg: NDArray[np.float64]) -> None:
     """InputError unless the design's IK at every row, less a calibrated design's zero offsets ``q0_deg``
-    ``(5,)`` (MODEL.md 21.4: what the controller commands), gives the row's five angles (mod 2 pi)."""
+    ``(5,)`` (model §21.4: what the controller commands), gives the row's five angles (mod 2 pi)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, rows.E, rows.e, signs)
     ik = np.concatenate([sol.rho, sol.delta], axis=-1) - np.radians(q0_deg)  # (n, 5) rad

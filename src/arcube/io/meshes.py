@@ -1,4 +1,4 @@
-"""Triangle meshes of the anatomy (MODEL.md section 14.2): STL, OBJ and PLY in, binary STL out.
+"""Triangle meshes of the anatomy (model §14.2): STL, OBJ and PLY in, binary STL out.
 
 Each mesh is a set of closed surfaces, each bounding a forbidden solid, in millimetres.
 :func:`read_mesh` returns it in the patient frame R_w (x = patient's right, y = superior,

@@ -1,10 +1,10 @@
-"""A drilling program's folder (MODEL.md 17.3) read back from its files: the one reader under
+"""A drilling program's folder (model §17.3) read back from its files: the one reader under
 ``arcube report``, ``arcube export --program`` and the MuJoCo replay.
 
 ``program.csv``: columns ``t_s, segment, trajectory, E_x, E_y, E_z, e_x, e_y, e_z`` (s; patient
 frame, mm; unit axis), the five actuator angles ``rho_x ... delta_y`` (deg) and rates
 ``rho_x_dot ... delta_y_dot`` (deg/s); optionally the actuator torques ``tau_rho_x_Nm ...
-tau_delta_y_Nm`` (N m, MODEL.md 18.2); other columns are ignored. An empty cell (the writer's
+tau_delta_y_Nm`` (N m, model §18.2); other columns are ignored. An empty cell (the writer's
 non-finite value) reads as NaN, except in ``t_s``. ``program.json``: the summary (times, order,
 smallest clearances, limits, motors, design, ...).
 
@@ -46,11 +46,11 @@ JOINTS = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuators, in q's order."""
 POSE_COLUMNS = ("E_x", "E_y", "E_z", "e_x", "e_y", "e_z")
 CSV_COLUMNS: tuple[str, ...] = ("t_s", "segment", "trajectory", *POSE_COLUMNS, *JOINTS, *(f"{j}_dot" for j in JOINTS))
-"""Columns of ``program.csv`` (MODEL.md 17.3): s; patient frame, mm; deg; deg/s."""
+"""Columns of ``program.csv`` (model §17.3): s; patient frame, mm; deg; deg/s."""
 TORQUE_COLUMNS: tuple[str, ...] = tuple(f"tau_{j}_Nm" for j in JOINTS)
 """The optional actuator torque columns (N m), in :data:`JOINTS` order."""
 SEGMENTS = ("approach", "drill", "retract", "transit")
-"""What a row of a program does (MODEL.md 17.1)."""
+"""What a row of a program does (model §17.1)."""
 MAX_PROGRAM_ROWS = 500_000
 """Most rows a program may have (83 minutes at the default 0.01 s step): what ``arcube program``
 writes and what the readers take, so that every program written can be read back."""
@@ -99,7 +99,7 @@ class ProgramFiles:
 
     @property
     def motors(self) -> dict[str, dict[str, Any]] | None:
-        """program.json's ``motors``: per actuator name its sizing figures (MODEL.md 18.3), or None."""
+        """program.json's ``motors``: per actuator name its sizing figures (model §18.3), or None."""
         m = self.summary.get("motors")
         return {str(k): v for k, v in m.items() if isinstance(v, dict)} if isinstance(m, dict) and m else None
 

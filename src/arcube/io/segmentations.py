@@ -1,7 +1,7 @@
-"""Segmentations in (MODEL.md 14.2): 3D Slicer ``.seg.nrrd`` and NIfTI label maps as closed surfaces.
+"""Segmentations in (model §14.2): 3D Slicer ``.seg.nrrd`` and NIfTI label maps as closed surfaces.
 
 A segmentation is a grid of integer labels. Each kept segment (a label value in a layer) becomes a
-closed, outward-oriented triangle surface in the patient frame R_w of MODEL.md 1.1 (x = patient's
+closed, outward-oriented triangle surface in the patient frame R_w of model §1.1 (x = patient's
 right, y = superior, z = posterior; mm), which the anatomy then uses exactly like a mesh file.
 
 **Geometry.** Voxel index i = (i, j, k) (i along the fastest axis of the file) is the *centre* of

@@ -9,7 +9,7 @@ fields as the header, each column is named once: :mod:`arcube.io.tables`)::
     trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z
 
 ``level`` and ``side`` may be missing or empty (unknown); each column may appear once. Four optional
-columns describe each screw's pedicle (MODEL.md 22.1; an empty cell: the level's mean, or the default,
+columns describe each screw's pedicle (model §22.1; an empty cell: the level's mean, or the default,
 applies): ``pedicle_width_mm``, ``pedicle_height_mm`` (the isthmus, outer cortex to outer cortex),
 ``isthmus_depth_mm`` (from the entry along the drill) and ``screw_diameter_mm``. A column whose name is a
 near miss of a known one (``pedicle_widht_mm``) is refused, naming the one it resembles: a misspelt
@@ -57,7 +57,7 @@ CSV_COLUMNS = (
     "entry_x", "entry_y", "entry_z", "target_x", "target_y", "target_z",
 )
 PEDICLE_COLUMNS = ("pedicle_width_mm", "pedicle_height_mm", "isthmus_depth_mm", "screw_diameter_mm")
-"""The optional columns of a plan CSV that describe each screw's pedicle (MODEL.md 22.1), mm."""
+"""The optional columns of a plan CSV that describe each screw's pedicle (model §22.1), mm."""
 PEDICLE_LIMITS = {"pedicle_width_mm": 30.0, "pedicle_height_mm": 30.0, "isthmus_depth_mm": 200.0, "screw_diameter_mm": 20.0}
 """Each pedicle column's values lie in (0, limit) mm (a screw of 20 mm or more is no pedicle screw)."""
 _COORD_COLUMNS = CSV_COLUMNS[3:]

@@ -1,4 +1,4 @@
-"""The robot's body: joint positions at poses and the named parts of MODEL.md 14.1.
+"""The robot's body: joint positions at poses and the named parts of model §14.1.
 
 Everything is computed from the inverse kinematics (:func:`arcube.model.mechanism.inverse_kinematics`),
 arrays first: ``params`` ``(..., 27)`` (or the paper's ``(..., 23)``; mm, deg), drill tips ``E``
@@ -7,12 +7,12 @@ e.g. designs ``params[:, None, :]`` against points ``E[None, :, :]``. The leadin
 result is the broadcast shape ``(...)``; no Python loop runs over designs or points.
 
 All returned points are in R_w (mechanism coordinates mapped by the mounting rotation and m,
-MODEL.md 13). Where the IK has no solution the affected points are NaN.
+model §13). Where the IK has no solution the affected points are NaN.
 
 Per-leg arrays have a legs axis before the coordinates: 3 legs (x, y, z) for the TLS points,
 2 legs (x, y) for the four-bars and the spherical links.
 
-:func:`body_parts` turns the joints into the parts of MODEL.md 14.1 (segments, great-circle arcs
+:func:`body_parts` turns the joints into the parts of model §14.1 (segments, great-circle arcs
 and points, each with a radius), shared by the clearance code, the 3D report and the exports.
 """
 
@@ -34,7 +34,7 @@ from arcube.model.poses import LEG_PERM
 
 _I3 = np.eye(3)
 U_HAT: NDArray[np.float64] = _I3[LEG_PERM[:, 0]]
-"""(3 legs, 3): û of legs x, y, z in world axes (MODEL.md 1.2)."""
+"""(3 legs, 3): û of legs x, y, z in world axes (model §1.2)."""
 V_HAT: NDArray[np.float64] = _I3[LEG_PERM[:, 1]]
 W_HAT: NDArray[np.float64] = _I3[LEG_PERM[:, 2]]
 
@@ -56,7 +56,7 @@ class MechanismPoints(NamedTuple):
     J_z: NDArray[np.float64]  # (..., 3) z-dyad elbow, NaN where the dyad does not close
     z_closes: NDArray[np.bool_]  # (...) the z dyad (d_z, c_z) spans |Q_z - D_z|
     B: NDArray[np.float64]  # (..., 2, 3) intermediate spherical joints C + r u_beta
-    H: NDArray[np.float64]  # (..., 3) drill holder H = C + r e (MODEL.md 13.2)
+    H: NDArray[np.float64]  # (..., 3) drill holder H = C + r e (model §13.2)
     arc_alpha: NDArray[np.float64]  # (..., 2, S, 3) proximal links: great circle C + r û -> C + r u_beta
     arc_beta: NDArray[np.float64]  # (..., 2, S, 3) distal links: great circle C + r u_beta -> C + r e
     E: NDArray[np.float64]  # (..., 3) drill tip
@@ -69,7 +69,7 @@ class MechanismPoints(NamedTuple):
 
 
 def link_dir(phi: ArrayLike, v_hat: ArrayLike, w_hat: ArrayLike) -> NDArray[np.float64]:
-    """In-plane link direction n(phi) = sin(phi) v̂ - cos(phi) ŵ (MODEL.md 4.1), ``(..., 3)``."""
+    """In-plane link direction n(phi) = sin(phi) v̂ - cos(phi) ŵ (model §4.1), ``(..., 3)``."""
     ph = np.asarray(phi, dtype=float)[..., None]
     return np.sin(ph) * np.asarray(v_hat, float) - np.cos(ph) * np.asarray(w_hat, float)
 
@@ -127,9 +127,9 @@ def mechanism_points(
     params : ``(..., 27)`` (or ``(..., 23)``) designs (mm, deg).
     E, e : ``(..., 3)`` drill tips in R_w (mm) and unit drill axes.
     mode : ``(..., 4)`` working mode (eps_T_x, eps_T_y, eps_R_x, eps_R_y).
-    c_z : second z-dyad link (mm), ``Options.c_z``; None means c_z = d_z (MODEL.md 6).
+    c_z : second z-dyad link (mm), ``Options.c_z``; None means c_z = d_z (model §6).
     z_elbow : elbow sign of the z dyad (see :data:`Z_ELBOW_SIGN`).
-    motor_length : L_m (mm) of the drill motor beyond the holder H (MODEL.md 14.1); default 120.
+    motor_length : L_m (mm) of the drill motor beyond the holder H (model §14.1); default 120.
     arc_samples : S, points per spherical link arc (>= 2).
     sol : a precomputed IK solution of the same inputs (skips recomputing it).
     """
@@ -140,20 +140,20 @@ def mechanism_points(
     lead = sol.rho.shape[:-1]
     r = np.broadcast_to(g.r, lead)
     C_m = sol.E_m  # the stages work at the centre C, in R_m
-    # TLS (MODEL.md 3.1), in R_m: P_u = -f_u û, D_u = P_u + p_u (-sin rho û + cos rho ŵ), Q_u = C + r û.
+    # TLS (model §3.1), in R_m: P_u = -f_u û, D_u = P_u + p_u (-sin rho û + cos rho ŵ), Q_u = C + r û.
     P = -g.f[..., :, None] * U_HAT
     P = np.broadcast_to(P, lead + (3, 3))
     rho = sol.rho[..., :, None]
     D = P + g.p[..., :, None] * (-np.sin(rho) * U_HAT + np.cos(rho) * W_HAT)
     Q = C_m[..., None, :] + r[..., None, None] * U_HAT
-    # TMS four-bars of legs x, y (MODEL.md 4.1), in the plane u = u_C + r shared by D_u and Q_u.
+    # TMS four-bars of legs x, y (model §4.1), in the plane u = u_C + r shared by D_u and Q_u.
     K = D[..., :2, :] + g.d[..., :2, None] * link_dir(sol.delta, V_HAT[:2], W_HAT[:2])
     T = Q[..., :2, :] + g.t[..., :, None] * link_dir(sol.sigma, V_HAT[:2], W_HAT[:2])
-    # z dyad (MODEL.md 6): passive RRR from D_z to Q_z, axes along ẑ_m.
+    # z dyad (model §6): passive RRR from D_z to Q_z, axes along ẑ_m.
     d_z = g.d[..., 2]
     cz = np.broadcast_to(d_z if c_z is None else np.asarray(c_z, dtype=float), lead)
     J_z, z_closes = dyad_elbow(D[..., 2, :], Q[..., 2, :], U_HAT[2], np.broadcast_to(d_z, lead), cz, z_elbow)
-    # RTS (MODEL.md 5.1): sphere of radius r centred at C; arcs û -> u_beta (alpha) -> e (beta).
+    # RTS (model §5.1): sphere of radius r centred at C; arcs û -> u_beta (alpha) -> e (beta).
     ub = sol.u_beta
     e_b = np.broadcast_to(sol.e[..., None, :], ub.shape)
     u_b = np.broadcast_to(U_HAT[:2], ub.shape)
@@ -167,7 +167,7 @@ def mechanism_points(
     drill_end = H + Lm[..., None] * sol.e
     L = np.broadcast_to(g.L, lead)
     E_m = C_m - L[..., None] * sol.e
-    # Every point above is in R_m; map to the patient frame R_w once, at the end (MODEL.md 13.1).
+    # Every point above is in R_m; map to the patient frame R_w once, at the end (model §13.1).
     world = lambda X: frames.points_to_world(g, X)  # noqa: E731
     O = np.broadcast_to(g.m, lead + (3,)).copy()
     E_w = np.where(L[..., None] == 0.0, world(C_m), world(E_m))
@@ -179,14 +179,14 @@ def mechanism_points(
     )  # fmt: skip
 
 
-# ----------------------------------------------------------------------------- MODEL.md 14.1: parts
+# ----------------------------------------------------------------------------- model §14.1: parts
 
 PART_NAMES: tuple[str, ...] = (
     "frame_x", "frame_y", "frame_z", "actuator_P_x", "actuator_P_y", "actuator_P_z", "crank_x", "crank_y", "crank_z",
     "actuator_D_x", "actuator_D_y", "input_x", "input_y", "coupler_x", "coupler_y", "output_x", "output_y", "zdyad",
     "platform", "spherical_alpha_x", "spherical_alpha_y", "spherical_beta_x", "spherical_beta_y", "drill_motor",
 )  # fmt: skip
-"""The named parts of the robot's body (MODEL.md 14.1); the tool E -> H is exempt and not a part."""
+"""The named parts of the robot's body (model §14.1); the tool E -> H is exempt and not a part."""
 _PART = {name: i for i, name in enumerate(PART_NAMES)}
 
 
@@ -199,7 +199,7 @@ def _finite(value: float) -> bool:
 
 @dataclass(frozen=True)
 class BodyRadii:
-    """Radii of the body parts (MODEL.md 14.1), mm: links, actuators (spheres at P_u, D_u), drill motor."""
+    """Radii of the body parts (model §14.1), mm: links, actuators (spheres at P_u, D_u), drill motor."""
 
     link: float = 8.0
     actuator: float = 25.0
@@ -239,7 +239,7 @@ N_SEGMENTS, N_SPHERES, N_ARCS = len(_SEGMENTS), len(_SPHERES), len(_ARCS)
 
 
 def _self_pairs() -> NDArray[np.intp]:
-    """Primitive pairs checked by the self clearance (MODEL.md 14.3): parts of different legs or
+    """Primitive pairs checked by the self clearance (model §14.3): parts of different legs or
     stages that share no joint point; the spherical arcs are not checked against each other."""
     pairs = []
     for i, (_, ji, li, si) in enumerate(PRIMITIVES):
@@ -273,7 +273,7 @@ class BodyParts(NamedTuple):
 
 
 def body_parts(mp: MechanismPoints, radii: BodyRadii = BodyRadii()) -> BodyParts:
-    """The parts of MODEL.md 14.1 from joint positions (``mechanism_points``, whose ``drill_end`` must be
+    """The parts of model §14.1 from joint positions (``mechanism_points``, whose ``drill_end`` must be
     H + L_m e with L_m = ``radii.motor_length``)."""
     P, D, Q, K, T = mp.P, mp.D, mp.Q, mp.K, mp.T
     O = np.broadcast_to(mp.O[..., None, :], P.shape)

@@ -1,5 +1,5 @@
-"""The 27 design parameters of the AR-CUBE: the paper's 23 (MODEL.md 2), then the mounting
-rotation and the tool offset (MODEL.md 13.3): ``mount_rx, mount_ry, mount_rz`` (deg) and ``L`` (mm).
+"""The 27 design parameters of the AR-CUBE: the paper's 23 (model §2), then the mounting
+rotation and the tool offset (model §13.3): ``mount_rx, mount_ry, mount_rz`` (deg) and ``L`` (mm).
 
 Two layers, as in spatialmath:
 
@@ -44,7 +44,7 @@ PARAM_NAMES: tuple[str, ...] = (
     "mount_rx", "mount_ry", "mount_rz",
     "L",
 )  # fmt: skip
-"""Code order of the 27 parameters (MODEL.md 2 and 13.3)."""
+"""Code order of the 27 parameters (model §2 and 13.3)."""
 
 SLICES: dict[str, slice | int] = {
     "m": slice(0, 3), "f": slice(3, 6), "p": slice(6, 9), "d": slice(9, 12),
@@ -61,15 +61,15 @@ ANGLE_GROUPS: frozenset[str] = frozenset({"o", "alpha", "beta", "mount"})
 N_PARAMS = len(PARAM_NAMES)
 N_PAPER = 23
 PAPER_NAMES: tuple[str, ...] = PARAM_NAMES[:N_PAPER]
-"""The paper's 23 parameters (MODEL.md 2); ``--free all`` frees these."""
+"""The paper's 23 parameters (model §2); ``--free all`` frees these."""
 MOUNT_NAMES: tuple[str, ...] = ("mount_rx", "mount_ry", "mount_rz")
 ADDED_NAMES: tuple[str, ...] = (*MOUNT_NAMES, "L")
-"""The four additions of MODEL.md 13; 0 when a design file omits them (the paper)."""
+"""The four additions of model §13; 0 when a design file omits them (the paper)."""
 INDEX: dict[str, int] = {name: i for i, name in enumerate(PARAM_NAMES)}
 PLACEMENT: tuple[str, ...] = ("m_x", "m_y", "m_z", *MOUNT_NAMES)
-"""A docking's own parameters (MODEL.md 19.1): where the base is clamped and how it is turned."""
+"""A docking's own parameters (model §19.1): where the base is clamped and how it is turned."""
 ROBOT_NAMES: tuple[str, ...] = (*(n for n in PARAM_NAMES if n not in PLACEMENT), "c_z")
-"""The robot's 22 parameters (MODEL.md 19.1): the 27 but the docking's six, then c_z."""
+"""The robot's 22 parameters (model §19.1): the 27 but the docking's six, then c_z."""
 
 ANGLE_NAMES: frozenset[str] = frozenset({"o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y", *MOUNT_NAMES})
 POSITION_NAMES: frozenset[str] = frozenset({"m_x", "m_y", "m_z"})
@@ -114,8 +114,8 @@ class Geometry:
     o: NDArray[np.float64]  # (..., 2) rad, transmitting offsets
     alpha: NDArray[np.float64]  # (..., 2) rad, proximal spherical links
     beta: NDArray[np.float64]  # (..., 2) rad, distal spherical links
-    mount: NDArray[np.float64]  # (..., 3) rad, mounting rotation angles (rx, ry, rz), MODEL.md 13.1
-    L: NDArray[np.float64]  # (...,) mm, tool offset from the drill tip E to the centre C, MODEL.md 13.2
+    mount: NDArray[np.float64]  # (..., 3) rad, mounting rotation angles (rx, ry, rz), model §13.1
+    L: NDArray[np.float64]  # (...,) mm, tool offset from the drill tip E to the centre C, model §13.2
 
 
 def full_params(params: ArrayLike) -> NDArray[np.float64]:
@@ -136,7 +136,7 @@ def unpack(params: ArrayLike) -> Geometry:
 
 
 def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[str, float]:
-    """Check a name -> value mapping: the 23 names of MODEL.md 2 (the four of 13.3 are optional, 0 when absent; but the
+    """Check a name -> value mapping: the 23 names of model §2 (the four of 13.3 are optional, 0 when absent; but the
     three mounting angles come together, and with L), finite numbers, positive lengths, L >= 0.
 
     Returns the values as floats in :data:`PARAM_NAMES` order. Raises :class:`InputError` with
@@ -146,7 +146,7 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
         raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
     unknown = [k for k in values if k not in INDEX]
     if unknown:
-        raise InputError(f"{source}: unknown parameter {short_repr(unknown[0])} (expected the 27 names of MODEL.md 2 and 13.3: {', '.join(PARAM_NAMES)})")
+        raise InputError(f"{source}: unknown parameter {short_repr(unknown[0])} (expected the 27 names of model §2 and 13.3: {', '.join(PARAM_NAMES)})")
     mounted = [n for n in MOUNT_NAMES if n in values]
     if mounted and len(mounted) < len(MOUNT_NAMES):  # a partial group is a mistake, not a rotation about fewer axes
         raise InputError(f"{source}: the mounting rotation needs all of {', '.join(MOUNT_NAMES)}; missing "
@@ -181,7 +181,7 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
 ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated joints, in the order of joint vectors."""
 Q0_KEYS: tuple[str, ...] = tuple(f"q0_{j}" for j in ACTUATED)
-"""The keys of a calibrated design's joint zero offsets in a design file (deg, MODEL.md 21.4)."""
+"""The keys of a calibrated design's joint zero offsets in a design file (deg, model §21.4)."""
 EXTRA_KEYS: tuple[str, ...] = ("c_z", "mode", "zdyad_elbow", *Q0_KEYS)
 """What a design file may carry beside the 27 parameters (see :class:`Design`)."""
 _LISTS = ("placements", "dockings")
@@ -221,7 +221,7 @@ def check_extras(c_z: Any, mode: Any, q0_deg: Any, zdyad_elbow: Any, source: str
             raise InputError(f"{source}: a zero offset must lie within +-180 deg, got {list(q0)}")
         q0_deg = q0
     if zdyad_elbow is None or isinstance(zdyad_elbow, bool) or zdyad_elbow not in (1, -1, 1.0, -1.0):
-        raise InputError(f"{source}: zdyad_elbow must be +1 or -1 (the side of the z dyad's elbow, MODEL.md 19.1), got {short_repr(zdyad_elbow)}")
+        raise InputError(f"{source}: zdyad_elbow must be +1 or -1 (the side of the z dyad's elbow, model §19.1), got {short_repr(zdyad_elbow)}")
     return c_z, mode, q0_deg, float(zdyad_elbow)
 
 
@@ -230,13 +230,13 @@ class Design:
     """One validated design: 27 values in mm and degrees, in :data:`PARAM_NAMES` order, and what a
     design file records beside them:
 
-    * ``c_z``: the z dyad's second link (mm, MODEL.md 19.1); None: c_z = d_z (MODEL.md 6), as every
+    * ``c_z``: the z dyad's second link (mm, model §19.1); None: c_z = d_z (model §6), as every
       file written before c_z became a parameter;
     * ``mode``: the working mode the design was made for (``"+,+,-,+"``); commands use it when no mode
       is given; None: not recorded (``+,+,+,+`` then, the paper's);
-    * ``q0_deg``: a calibrated design's joint zero offsets (deg, MODEL.md 21.4), which the controller's
+    * ``q0_deg``: a calibrated design's joint zero offsets (deg, model §21.4), which the controller's
       joint angles subtract; None: not calibrated (all 0);
-    * ``zdyad_elbow``: the side of the z dyad's elbow, +1 (MODEL.md 14.1's) or -1 (19.1).
+    * ``zdyad_elbow``: the side of the z dyad's elbow, +1 (model §14.1's) or -1 (19.1).
     """
 
     values: tuple[float, ...]
@@ -262,7 +262,7 @@ class Design:
         if not isinstance(values, Mapping):
             raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
         params = {k: v for k, v in values.items() if k not in EXTRA_KEYS and k not in _LISTS}
-        if isinstance(values.get("dockings"), list) and "m_x" not in values:  # MODEL.md 19.1: a robot without its placements
+        if isinstance(values.get("dockings"), list) and "m_x" not in values:  # model §19.1: a robot without its placements
             raise InputError(f"{source}: one robot at {len(values['dockings'])} dockings, no placement of its own: give one docking's "
                              "design (dockings/<patient>_<side>/design.json beside it)")  # fmt: skip
         checked = validate_values(params, source)
@@ -346,7 +346,7 @@ class Design:
 
     @property
     def c_z_mm(self) -> float:
-        """The z dyad's second link in mm: ``c_z``, else d_z (MODEL.md 6)."""
+        """The z dyad's second link in mm: ``c_z``, else d_z (model §6)."""
         return float(self["d_z"]) if self.c_z is None else float(self.c_z)
 
     @property

@@ -1,9 +1,9 @@
-"""Mounting rotation and tool offset (MODEL.md 13): the patient frame R_w <-> the mechanism frame R_m.
+"""Mounting rotation and tool offset (model §13): the patient frame R_w <-> the mechanism frame R_m.
 
 The axes of R_m are the columns of R = R_z(rz) R_y(ry) R_x(rx) (rotations about the fixed axes
 of R_w: first x, then y, then z); its origin is m. A point X_w has mechanism coordinates
 X_m = R^T (X_w - m), a direction d_w has d_m = R^T d_w. The stages are evaluated at the centre
-C = E + L e of the spherical stage, not at the drill tip E (MODEL.md 13.2).
+C = E + L e of the spherical stage, not at the drill tip E (model §13.2).
 
 With the four additions at 0 nothing is rotated or offset, and the results are those of the
 paper's model bit for bit: where R = I or L = 0 the arrays pass through unchanged (``np.where``),

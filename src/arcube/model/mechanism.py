@@ -1,4 +1,4 @@
-"""The whole AR-CUBE: inverse and forward kinematics and the velocity model (MODEL.md 5.5, 7.4).
+"""The whole AR-CUBE: inverse and forward kinematics and the velocity model (model §5.5, 7.4).
 
 Inputs broadcast over leading axes: ``params`` ``(..., 27)`` or the paper's ``(..., 23)`` (mm, deg;
 see :mod:`arcube.model.design`), drill tips ``E`` ``(..., 3)`` in the patient frame R_w (mm), drill
@@ -6,7 +6,7 @@ axes ``e`` ``(..., 3)``, working modes ``mode`` ``(..., 4)`` = (eps_T_x, eps_T_y
 A typical batch is ``params[:, None, :]`` (designs) against ``E[None, :, :]`` (points).
 
 The stages work in mechanism coordinates at the centre C = E + L e of the spherical stage
-(MODEL.md 13, :mod:`arcube.model.frames`); with the mounting rotation and L at 0, C = E in R_w - m.
+(model §13, :mod:`arcube.model.frames`); with the mounting rotation and L at 0, C = E in R_w - m.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ def _tms_plane(E_m: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[n
 def inverse_kinematics(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE) -> IKSolution:
     """Full IK: pose (E in R_w, e) -> (rho, sigma, delta), stage by stage in the paper's order.
 
-    The pose goes to mechanism coordinates at C = E + L e (MODEL.md 13); TLS (Eq 1) gives rho
+    The pose goes to mechanism coordinates at C = E + L e (model §13); TLS (Eq 1) gives rho
     from the position; RTS (Eq 4) gives sigma from the direction; TMS (Eq 3) then finds delta
     that connects them.
     """
@@ -110,7 +110,7 @@ class FKSolution(NamedTuple):
 
 
 def forward_kinematics(params: ArrayLike, rho: ArrayLike, delta: ArrayLike, assembly: ArrayLike) -> FKSolution:
-    """Full FK (MODEL.md 5.5): TLS FK -> E; TMS FK -> sigma; RTS FK -> e.
+    """Full FK (model §5.5): TLS FK -> E; TMS FK -> sigma; RTS FK -> e.
 
     ``assembly`` ``(..., 3)`` = (eps_H_x, eps_H_y, eps_P), e.g. :attr:`IKSolution.assembly`.
     """
@@ -130,7 +130,7 @@ def forward_kinematics(params: ArrayLike, rho: ArrayLike, delta: ArrayLike, asse
 
 
 class VelocityModel(NamedTuple):
-    """A t = B q_dot (MODEL.md 7.4, Eq 11 corrected); t = (v, omega), q = (rho_x, rho_y, rho_z, delta_x, delta_y)."""
+    """A t = B q_dot (model §7.4, Eq 11 corrected); t = (v, omega), q = (rho_x, rho_y, rho_z, delta_x, delta_y)."""
 
     A: NDArray[np.float64]  # (..., 5, 6)
     B: NDArray[np.float64]  # (..., 5, 5)

@@ -1,4 +1,4 @@
-"""Working modes (MODEL.md 4.3, 5.3): the signs of the TMS x, TMS y, RTS x and RTS y branches of the
+"""Working modes (model §4.3, 5.3): the signs of the TMS x, TMS y, RTS x and RTS y branches of the
 inverse kinematics, as four numbers ``(4,)`` (+1.0 / -1.0) or as text (``"+,+,-,+"``)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = ["ALL_MODES", "DEFAULT_MODE", "format_mode", "parse_mode"]
 
 DEFAULT_MODE: NDArray[np.float64] = np.ones(4)
-"""Working mode (+,+,+,+): the upper sign of Eq 3 everywhere (MODEL.md 4.3, 5.3)."""
+"""Working mode (+,+,+,+): the upper sign of Eq 3 everywhere (model §4.3, 5.3)."""
 
 ALL_MODES: NDArray[np.float64] = np.array(list(itertools.product((1.0, -1.0), repeat=4)))
 """The 16 working modes, ``(16, 4)``, starting with (+,+,+,+)."""

@@ -1,4 +1,4 @@
-"""Poses, drill directions and leg frames (MODEL.md section 1).
+"""Poses, drill directions and leg frames (model §1).
 
 A pose is the drill tip E (mm) and the unit drill axis e, which points from the tip back
 toward the motor. Angles (psi, theta) are in radians here; user-facing code converts.
@@ -44,7 +44,7 @@ def omega_from_angle_rates(psi: ArrayLike, psi_dot: ArrayLike, theta_dot: ArrayL
 
 
 def sample_trajectories(entry: ArrayLike, target: ArrayLike, n_points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Sample trajectories at ``n_points`` equally spaced points, both ends included (MODEL.md 1.4).
+    """Sample trajectories at ``n_points`` equally spaced points, both ends included (model §1.4).
 
     Parameters
     ----------

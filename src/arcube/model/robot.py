@@ -1,4 +1,4 @@
-"""A built robot read from a file (MODEL.md 19.1, 19.6): its 22 parameters, working mode and z-dyad elbow, and its
+"""A built robot read from a file (model §19.1, 19.6): its 22 parameters, working mode and z-dyad elbow, and its
 own dockings as warm starts for docking it on a new patient.
 
 A robot file is ``design.json`` of ``arcube design`` (the robot's parameters, ``mode``, ``c_z`` and a ``dockings``
@@ -38,7 +38,7 @@ class WarmStart:
 @dataclass(frozen=True)
 class BuiltRobot:
     """The robot of a file: ``design`` is complete (its first docking's placement, or zeros without one), with
-    ``c_z``, ``mode`` and ``zdyad_elbow``; ``c_z_assumed`` when the file had no c_z (then d_z, MODEL.md 6)."""
+    ``c_z``, ``mode`` and ``zdyad_elbow``; ``c_z_assumed`` when the file had no c_z (then d_z, model §6)."""
 
     source: str
     design: Design
@@ -51,7 +51,7 @@ class BuiltRobot:
 
     @property
     def values(self) -> dict[str, float]:
-        """The robot's 22 parameters (MODEL.md 19.1) by name, c_z last."""
+        """The robot's 22 parameters (model §19.1) by name, c_z last."""
         d = self.design.to_dict()
         return {**{n: d[n] for n in ROBOT_NAMES if n != "c_z"}, "c_z": float(self.design.c_z_mm)}
 

@@ -1,4 +1,4 @@
-"""First-order derivatives of the closed-form forward kinematics (MODEL.md 5.5 with 13.1-13.2), analytic.
+"""First-order derivatives of the closed-form forward kinematics (model §5.5 with 13.1-13.2), analytic.
 
 The drill tip E and axis e of :func:`arcube.model.mechanism.forward_kinematics`, in the patient frame
 R_w, differentiated with respect to the 27 design parameters and the five joint angles, by implicit
@@ -6,7 +6,7 @@ differentiation of the constraints the FK solves, stage after stage:
 
 * TLS (Eq 1, 3.3): C_u = -f_u - r - p_u sin rho_u (mechanism coordinates of the centre C);
 * TMS (Eq 2): Phi_u(v, w, rho_u, delta_u, sigma_u; p_u, d_u, c_u, t_u) = 0, so with the Jacobian
-  terms of MODEL.md 7.2 (½ dPhi = D dv + E dw - F ddelta - G drho + H dsigma + direct parameter terms),
+  terms of model §7.2 (½ dPhi = D dv + E dw - F ddelta - G drho + H dsigma + direct parameter terms),
   dsigma_u = -(D dv + E dw - F ddelta - G drho + ½ dPhi/dp ...) / H;
 * RTS (Eq 4): Gamma_u = u_beta . e - cos beta_u = 0 and e . e = 1, so
   [x_b; y_b; e] de = (-(du_beta) . e - sin beta_u dbeta_u)_u, 0), solved with the rows
@@ -22,7 +22,7 @@ Shapes: inputs broadcast over leading axes ``(...)`` (designs x points), like th
 Units, per column: E in mm and e dimensionless, per **mm** for the lengths, m and L, and per
 **radian** for every angle (o, alpha, beta, the three mounting angles, and the joints), although
 design arrays hold angles in degrees: multiply an angle column by pi/180 for "per degree".
-The joint columns are J_E (mm/rad) and J_e (1/rad) of MODEL.md 15.1. The column of d_z is 0: the
+The joint columns are J_E (mm/rad) and J_e (1/rad) of model §15.1. The column of d_z is 0: the
 z leg's dyad does not move the tool.
 """
 
@@ -55,14 +55,14 @@ class FKDerivatives(NamedTuple):
     e: NDArray[np.float64]  # (..., 3) unit drill axis in R_w
     dE_dp: NDArray[np.float64]  # (..., 3, 27) mm per mm (lengths, m, L) or mm per rad (angles)
     de_dp: NDArray[np.float64]  # (..., 3, 27) per mm or per rad
-    dE_dq: NDArray[np.float64]  # (..., 3, 5) mm/rad: J_E of MODEL.md 15.1
-    de_dq: NDArray[np.float64]  # (..., 3, 5) 1/rad: J_e of MODEL.md 15.1
+    dE_dq: NDArray[np.float64]  # (..., 3, 5) mm/rad: J_E of model §15.1
+    de_dq: NDArray[np.float64]  # (..., 3, 5) 1/rad: J_e of model §15.1
     valid: NDArray[np.bool_]  # (...) the pose exists (FK assembles, or the IK reaches it)
 
 
 def mount_axes(g: Geometry) -> NDArray[np.float64]:
     """Rotation axes omega_k ``(..., 3, 3)`` in R_w of the mounting angles (rows: rx, ry, rz), per rad:
-    dR/d(angle_k) = [omega_k]x R for R = R_z R_y R_x (MODEL.md 13.1)."""
+    dR/d(angle_k) = [omega_k]x R for R = R_z R_y R_x (model §13.1)."""
     a = np.asarray(g.mount, dtype=float)
     cy, sy, cz, sz = np.cos(a[..., 1]), np.sin(a[..., 1]), np.cos(a[..., 2]), np.sin(a[..., 2])
     zero, one = np.zeros_like(cy), np.ones_like(cy)
@@ -85,7 +85,7 @@ def _derivatives(
     lc = leg_coords(C_m)[..., :2, :]
     v, w = lc[..., 1], lc[..., 2]  # (..., 2): leg x (y, z), leg y (z, x)
     p2, d2, t2, c2 = g.p[..., :2], g.d[..., :2], g.t, g.c
-    a_v = v - d2 * sd + t2 * ss  # D of MODEL.md 7.2
+    a_v = v - d2 * sd + t2 * ss  # D of model §7.2
     a_w = w + d2 * cd - t2 * cs - p2 * cr[..., :2]  # E
     F = d2 * (a_v * cd + a_w * sd)
     G = -p2 * a_w * sr[..., :2]

@@ -1,4 +1,4 @@
-"""The drilling program (MODEL.md 17): from a plan of poses to a timed, collision-free joint trajectory.
+"""The drilling program (model §17): from a plan of poses to a timed, collision-free joint trajectory.
 
 :func:`program` is the one call: a design, a plan (and its anatomy) in; the rows q(t) of every
 approach, drill, retract and transit out, checked everywhere along the way (17.2) and timed under
@@ -53,7 +53,7 @@ def program(
     envelope: Any = None, table_z: float | None = None, figures: Callable[[Program], dict[str, bytes]] | None = None,
     **changes: Any,
 ) -> Program:  # fmt: skip
-    """The drilling program of ``design`` for a plan (MODEL.md 17).
+    """The drilling program of ``design`` for a plan (model §17).
 
     Args:
         design: a :class:`~arcube.Design`, a preset name or a design JSON path.
@@ -63,7 +63,7 @@ def program(
         options: the :class:`arcube.Options` of the robot: its body (radii), loads (the drilling thrust
             and lateral bound of 15.3) and masses (18.1); None: the defaults.
         anatomy: None, ``"default"``, mesh paths or an :class:`~arcube.evaluation.anatomy.Anatomy`
-            (MODEL.md 14.2): the standoffs, body clearance and tool clearance use it.
+            (model §14.2): the standoffs, body clearance and tool clearance use it.
         mode: the working mode, ``"+,+,+,+"`` or four signs; None: the design's own, else ``+,+,+,+``.
         order: ``"shortest"`` (least total time) or ``"given"`` (the plan's order).
         limits: a :class:`ProgramLimits`; keyword ``changes`` override its fields by name or short
@@ -74,7 +74,7 @@ def program(
             figures of 18.3 (``motors``).
         engine: the continuous check's: ``numba`` (the compiled kernel's condition numbers and body
             clearances), ``numpy`` (the reference) or ``auto`` (numba when it imports).
-        envelope, table_z: the envelope of the whole patient and the table (MODEL.md 19.5: ``"default"``, ``"none"``
+        envelope, table_z: the envelope of the whole patient and the table (model §19.5: ``"default"``, ``"none"``
             or None, skin mesh files, or an Envelope), placed on the whole plan (before any selection); the body
             then clears it by ``envelope_clearance`` (ProgramLimits, 10 mm) everywhere.
         planner, seed: the transit planner's settings (``seed`` overrides ``planner.seed``).
@@ -113,7 +113,7 @@ def program(
     plan_settings = planner if planner is not None else Planner()
     if seed is not None:
         plan_settings = plan_settings.replace(seed=seed)
-    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (MODEL.md 19.2): its masses are the two real links
+    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (model §19.2): its masses are the two real links
         opts = opts.replace(c_z=d.c_z)
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
     full = load_plan(plan, transform=transform)

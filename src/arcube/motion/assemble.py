@@ -1,4 +1,4 @@
-"""Putting a program together (MODEL.md 17): lines, transits, order, rows and summary.
+"""Putting a program together (model §17): lines, transits, order, rows and summary.
 
 1. Every trajectory's line S_j -> A_j -> B_j is checked at 17.2's resolution (the tool exempt); a
    failing state is an error naming the segment (approach or drill) and the constraint.
@@ -199,12 +199,12 @@ def _extreme(values: list[tuple[NDArray[np.float64], str]], smallest: bool) -> t
 def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], order: str, limits: ProgramLimits,
                   body: Body, planner: Planner, log: Callable[[str], None] | None = None, masses: MassModel | None = None,
                   loads: Loads | None = None, engine: str = "numpy", envelope: Any = None) -> Program:  # fmt: skip
-    """The program of ``design`` for the plan ``ts`` (MODEL.md 17); InputError naming the segment if none exists.
+    """The program of ``design`` for the plan ``ts`` (model §17); InputError naming the segment if none exists.
 
-    With ``masses`` (MODEL.md 18.1) the rows get the actuator torques of 18.2 and the summary the motor
+    With ``masses`` (model §18.1) the rows get the actuator torques of 18.2 and the summary the motor
     figures of 18.3 (``loads``: the drilling thrust and lateral bound of 15.3, default :class:`Loads`).
     ``engine``: ``numpy`` or ``numba``, the continuous check's (:class:`~arcube.motion.check.Checker`).
-    ``envelope``: the envelope of the whole patient (MODEL.md 19.5) the body clears by ``limits.envelope_clearance``
+    ``envelope``: the envelope of the whole patient (model §19.5) the body clears by ``limits.envelope_clearance``
     everywhere, or None.
     """
     b = _Builder(design, ts, anatomy, mode, limits, body, planner, log or (lambda _: None), engine, envelope)
@@ -326,7 +326,7 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
         "design": b.design.to_file_dict(), "body": b.checker.body.model_dump(),
     }  # fmt: skip
     q_deg = np.degrees(q)
-    if b.design.q0_deg is not None:  # MODEL.md 21.4: a calibrated design commands IK - q0 (the encoders then read it)
+    if b.design.q0_deg is not None:  # model §21.4: a calibrated design commands IK - q0 (the encoders then read it)
         q_deg = q_deg - b.design.q0
         summary["q0_deg"] = dict(zip(JOINTS, b.design.q0.tolist()))
     return Program(t, seg, np.array(parts["traj"]), E, np.concatenate(parts["e"]), q_deg, np.degrees(qd), summary)

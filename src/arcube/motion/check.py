@@ -1,4 +1,4 @@
-"""The continuous check of MODEL.md 17.2, NumPy reference: is a state of the program allowed?
+"""The continuous check of model §17.2, NumPy reference: is a state of the program allowed?
 
 A state is a pose (E, e) on a line segment, or a joint vector q = (rho_x, rho_y, rho_z, delta_x,
 delta_y) (rad) in a transit, whose pose is the forward kinematics of q in the program's assembly
@@ -7,11 +7,11 @@ mode (the first state's signs of H_x, H_y and det[x_beta, y_beta, e]). At a stat
 1. the inverse kinematics solves the pose in the design's working mode (failures as
    :data:`arcube.evaluation.reference.FAILURES` names them: ``TLS/x``, ``TMS/y``, ``singular/...``);
    for a joint state, q also assembles (``FK/assembly``) and the IK of its pose gives q back
-   (``IK/working_mode``: else q is in another working mode); with the design's own c_z (MODEL.md 19.2)
+   (``IK/working_mode``: else q is in another working mode); with the design's own c_z (model §19.2)
    the z dyad closes (``guard/z_dyad``), and the body's ``zdyad`` is the closed dyad D_z -> J_z -> Q_z;
 2. the assembly signs are the program's (``guard/assembly_mode``): no Type-2 singularity is crossed;
 3. eta_L <= kappa_max (``guard/kappa_max``);
-4. the body (MODEL.md 14.1, without the tool) clears the anatomy by c_min (``collision/patient``)
+4. the body (model §14.1, without the tool) clears the anatomy by c_min (``collision/patient``)
    and itself by c_self (``collision/self``);
 5. in transit only, the tool (segment E -> H, radius rho_t) clears the anatomy by >= 0
    (``collision/tool``).
@@ -32,7 +32,7 @@ upper bound; the compiled check is the stricter, by at most both. Calls of fewer
 the reference (the kernel's per-call set-up costs more than it saves there).
 
 :func:`refine` samples a path so that no point of the body or the tool moves more than
-:data:`~arcube.motion.limits.RESOLUTION_MM` between two consecutive checked states (MODEL.md 17.2).
+:data:`~arcube.motion.limits.RESOLUTION_MM` between two consecutive checked states (model §17.2).
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ class StateChecks(NamedTuple):
     clearance: NDArray[np.float64]  # (n,) body to anatomy, mm (NaN without anatomy)
     tool_clearance: NDArray[np.float64]  # (n,) tool to anatomy, mm (NaN without anatomy or off the transits)
     self_clearance: NDArray[np.float64]  # (n,) mm
-    envelope_clearance: NDArray[np.float64]  # (n,) body to the envelope of MODEL.md 19.5, mm (NaN without an envelope)
+    envelope_clearance: NDArray[np.float64]  # (n,) body to the envelope of model §19.5, mm (NaN without an envelope)
     points: NDArray[np.float64]  # (n, K, 3) body and tool points, for the resolution of 17.2
 
     def take(self, index: ArrayLike) -> StateChecks:
@@ -110,7 +110,7 @@ def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 class Checker:
-    """The constraints of MODEL.md 17.2 for one design, working mode and anatomy.
+    """The constraints of model §17.2 for one design, working mode and anatomy.
 
     ``assembly`` (3,) is the program's assembly mode (None: not checked, and :meth:`joints` refuses
     to run; the caller fixes it from the program's first state). ``step`` and ``margin`` as in the
@@ -124,7 +124,7 @@ class Checker:
         if engine not in ("numpy", "numba"):
             raise ValueError(f"engine must be numpy or numba, got {engine!r}")
         self.engine = engine
-        self.c_z = None if c_z is None else float(c_z)  # the design's own z dyad (MODEL.md 19.2): closed at every state
+        self.c_z = None if c_z is None else float(c_z)  # the design's own z dyad (model §19.2): closed at every state
         self.params = np.asarray(params, dtype=float)
         self.mode = np.asarray(mode, dtype=float)
         self.limits, self.body, self.distance, self.envelope = limits, body, distance, envelope
@@ -188,14 +188,14 @@ class Checker:
             arg = getattr(sol, field)
             checks += [(f"{name}/{leg}", ~(np.abs(arg[..., i]) <= 1.0)) for i, leg in enumerate(legs)]
         checks += [(f"singular/{name}", ~np.isfinite(kappa[..., i])) for i, name in enumerate(JACOBIAN_NAMES)]
-        if self.c_z is not None:  # MODEL.md 19.2: a z leg that can be assembled, at every state
+        if self.c_z is not None:  # model §19.2: a z leg that can be assembled, at every state
             checks.append(("guard/z_dyad", ~np.asarray(mp.z_closes)))
         checks += [
             ("guard/assembly_mode", np.any(asm != self.assembly, axis=-1) if self.assembly is not None else np.zeros(n, bool)),
             ("guard/kappa_max", ~(eta <= lim.kappa_max)),
             ("collision/self", ~(selfc >= lim.self_clearance + m)),
         ]
-        if self.envelope is not None:  # MODEL.md 19.5, checked after the body's own clearances
+        if self.envelope is not None:  # model §19.5, checked after the body's own clearances
             checks.append(("collision/envelope", ~(env >= lim.envelope_clearance + m)))
         if self.distance is not None:
             checks.insert(-1, ("collision/patient", ~(clear >= lim.clearance + m)))

@@ -1,4 +1,4 @@
-"""Actuator torques along a program (MODEL.md 18.2): gravity + inertia + the drilling thrust, per row.
+"""Actuator torques along a program (model §18.2): gravity + inertia + the drilling thrust, per row.
 
     tau = dV/dq + M(q) q_ddot + c(q, q_dot) - J_E^T f
 

@@ -1,4 +1,4 @@
-"""The settings of a drilling program (MODEL.md 17): speeds, limits, clearances, and the planner's own.
+"""The settings of a drilling program (model §17): speeds, limits, clearances, and the planner's own.
 
 :class:`ProgramLimits` holds what 17.1-17.3 name, with their defaults; :class:`Planner` the sampling
 planner's reproducibility knobs (not model). Both are frozen pydantic groups whose ``Field``
@@ -18,20 +18,20 @@ from arcube.options import Settings
 __all__ = ["ORDERS", "Planner", "ProgramLimits", "RESOLUTION_MM"]
 
 ORDERS = ("shortest", "given")
-"""The trajectory orders of MODEL.md 17.1: the shortest total time, or the plan's own."""
+"""The trajectory orders of model §17.1: the shortest total time, or the plan's own."""
 
 RESOLUTION_MM = 0.5
-"""MODEL.md 17.2: no point of the body or tool moves more than this between two checked states."""
+"""model §17.2: no point of the body or tool moves more than this between two checked states."""
 
 _SPEED = dict(gt=0, le=1000.0, allow_inf_nan=False)  # mm/s: a metre per second is beyond any drilling robot
 
 class ProgramLimits(Settings):
-    """Speeds and limits of MODEL.md 17 (mm, s, deg)."""
+    """Speeds and limits of model §17 (mm, s, deg)."""
 
     SHORT: ClassVar[dict[str, str]] = {"standoff_mm": "standoff", "max_joint_speed_deg": "max_joint_speed", "max_joint_accel_deg": "max_joint_accel"}
 
     standoff_mm: float = Field(default=20.0, ge=0, le=1000.0, allow_inf_nan=False)
-    """The tip waits this far outside the anatomy along its axis (MODEL.md 17.1), mm (at most a metre: beyond the robot's reach)."""
+    """The tip waits this far outside the anatomy along its axis (model §17.1), mm (at most a metre: beyond the robot's reach)."""
     approach_speed: float = Field(default=10.0, **_SPEED)
     """Standoff -> entry, mm/s (at most 1000)."""
     feed: float = Field(default=1.5, **_SPEED)
@@ -55,7 +55,7 @@ class ProgramLimits(Settings):
     kappa_max: float = Field(default=100.0, ge=1, le=1e12, allow_inf_nan=False)
     """Largest eta_L everywhere."""
     envelope_clearance: float = Field(default=10.0, allow_inf_nan=False)
-    """Body to the envelope of the whole patient and the table everywhere, mm (with an envelope; MODEL.md 19.5)."""
+    """Body to the envelope of the whole patient and the table everywhere, mm (with an envelope; model §19.5)."""
 
     @property
     def qd_max(self) -> float:

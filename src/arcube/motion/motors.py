@@ -1,4 +1,4 @@
-"""Motor sizing along a program (MODEL.md 18.3): per actuator the figures a motor supplier asks for.
+"""Motor sizing along a program (model §18.3): per actuator the figures a motor supplier asks for.
 
 From the torques of :mod:`arcube.motion.dynamics` (gravity, inertia, thrust; N m) and the rates
 (rad/s) at the rows of a program on a uniform time grid, per actuator i:
@@ -11,7 +11,7 @@ From the torques of :mod:`arcube.motion.dynamics` (gravity, inertia, thrust; N m
 * ``energy_J``: the integral of max(tau_i q_dot_i + lateral_i |q_dot_i|, 0) dt (no regeneration;
   the lateral force taken in the direction that costs work);
 * ``torque_peak_gravity_Nm``: max |dV/dq_i| (what the weight alone asks);
-* ``torque_peak_loads_only_Nm``: max of |thrust_i| + lateral_i (MODEL.md 15.3's torque along the
+* ``torque_peak_loads_only_Nm``: max of |thrust_i| + lateral_i (model §15.3's torque along the
   program: what the motor would be sized for without masses).
 """
 
@@ -39,7 +39,7 @@ def _trapezoid(y: np.ndarray, t: np.ndarray) -> float:
 
 
 def motor_figures(t_s: ArrayLike, q_dot_rad_s: ArrayLike, torques: ProgramTorques, joints: tuple[str, ...]) -> dict[str, dict[str, float]]:
-    """Per actuator (``joints``, q's order) the figures of MODEL.md 18.3 (module docstring).
+    """Per actuator (``joints``, q's order) the figures of model §18.3 (module docstring).
 
     ``t_s`` ``(n,)`` s, ``q_dot_rad_s`` ``(n, 5)`` rad/s, ``torques`` per row ``(n, 5)`` N m.
     """
@@ -81,5 +81,5 @@ def motor_table_text(summary: dict[str, Any]) -> str:
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in rows]
     mass = summary.get("masses", {}).get("moving_mass_kg")
-    head = "motors (MODEL.md 18.3" + (f"; moving mass {mass:.3g} kg" if mass is not None else "") + "):"
+    head = "motors (model §18.3" + (f"; moving mass {mass:.3g} kg" if mass is not None else "") + "):"
     return "\n".join([head, *lines]) + "\n"

@@ -1,4 +1,4 @@
-"""The order of the trajectories (MODEL.md 17.1): the shortest total time, or the plan's own.
+"""The order of the trajectories (model §17.1): the shortest total time, or the plan's own.
 
 The approach, drill and retract of every trajectory take the same time in any order, so the
 shortest program is the shortest open path through the standoffs: a travelling-salesman path with

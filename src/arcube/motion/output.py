@@ -1,4 +1,4 @@
-"""The program's files (MODEL.md 17.3): ``program.csv`` (one row per time step) and ``program.json``
+"""The program's files (model §17.3): ``program.csv`` (one row per time step) and ``program.json``
 (and, through :func:`arcube.program`, the timeline ``program.png``).
 
 Numbers are written with ``repr`` (the shortest text that reads back to the same float64), so the
@@ -40,12 +40,12 @@ __all__ = ["CSV_COLUMNS", "JOINTS", "TORQUE_COLUMNS", "Program", "prepare_folder
 
 @dataclass(frozen=True, eq=False)
 class Program:
-    """A timed drilling program: its rows and its summary (MODEL.md 17.3).
+    """A timed drilling program: its rows and its summary (model §17.3).
 
     Rows ``(n, ...)``: ``t_s`` time, ``segment`` (approach, drill, retract, transit), ``trajectory``
     (the plan's id, or ``"a->b"`` in a transit), ``E`` tip and ``e`` axis (patient frame, mm),
     ``q_deg`` the five actuator angles and ``q_dot_deg`` their rates (deg, deg/s), in :data:`JOINTS` order;
-    ``tau_Nm`` the actuator torques (gravity, inertia, thrust; MODEL.md 18.2) when masses were given.
+    ``tau_Nm`` the actuator torques (gravity, inertia, thrust; model §18.2) when masses were given.
     """
 
     t_s: NDArray[np.float64]

@@ -1,4 +1,4 @@
-"""The program's pieces (MODEL.md 17.1): the line of each trajectory, and paths in joint space.
+"""The program's pieces (model §17.1): the line of each trajectory, and paths in joint space.
 
 Each trajectory j has one line, from its standoff S_j = A_j + s_j e_j through the entry A_j to the
 target B_j; E(s) = S_j - s e_j for s in [0, s_j + |A_j - B_j|] (s: mm travelled from S_j). The
@@ -9,7 +9,7 @@ A :class:`Piece` is one rest-to-rest motion: a path q(s) (rad) with its derivati
 checked states on it (toppra's grid too), the tip speed cap, and how its rows are made:
 
 * on a line, the row's E is the line's point at s(t), q is the IK of (E, e_j) and q_dot = B^-1 A t
-  for the twist t = (s_dot u, 0) (MODEL.md 7.4): E lies on the line, and the FK of q is E;
+  for the twist t = (s_dot u, 0) (model §7.4): E lies on the line, and the FK of q is E;
 * in joint space, q = q(s(t)), q_dot = q'(s) s_dot, and (E, e) is the FK of q in the program's
   assembly mode.
 
@@ -62,7 +62,7 @@ class Line:
         return self.S - np.asarray(s, dtype=float)[..., None] * self.e
 
     def check(self, checker: Checker) -> StateChecks:
-        """Check the whole line at the resolution of MODEL.md 17.2 (the tool exempt); keeps the states."""
+        """Check the whole line at the resolution of model §17.2 (the tool exempt); keeps the states."""
         self.s, self.checks = refine(lambda s: checker.poses(self.E(s), self.e), 0.0, self.total)
         return self.checks
 

@@ -1,4 +1,4 @@
-"""Time-optimal timing of a path under the limits of MODEL.md 17.2, with toppra (TOPP-RA).
+"""Time-optimal timing of a path under the limits of model §17.2, with toppra (TOPP-RA).
 
 A path is q(s), s in [0, S] (joint angles, rad), with its first and second derivatives; the time
 law s(t) starts and ends at rest and is the fastest one with, at every grid point,

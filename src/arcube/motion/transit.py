@@ -1,4 +1,4 @@
-"""Transits S_j -> S_k in joint space (MODEL.md 17.1): the straight move, else a sampling planner.
+"""Transits S_j -> S_k in joint space (model §17.1): the straight move, else a sampling planner.
 
 1. The straight move q(s) = q_j + s (q_k - q_j) / |q_k - q_j| is checked at 17.2's resolution
    (:func:`arcube.motion.segments.joint_piece`). If it passes, it is the transit.

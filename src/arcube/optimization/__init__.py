@@ -1,4 +1,4 @@
-"""Design optimization of the AR-CUBE (MODEL.md section 12) on top of pymoo.
+"""Design optimization of the AR-CUBE (model §12) on top of pymoo.
 
 * :mod:`arcube.optimization.problem`: variables, bounds, fixing, objectives and the graded constraint;
   one batch call of the core model per population (per task);

@@ -20,7 +20,7 @@
 * ``cmaes``: pymoo's CMA-ES (the ``cma`` package), no restarts, sigma 0.2 of the normalized box,
   started from the start design; it has no constraint handling, so it sees the penalized F.
 * ``nsga2``: NSGA-II (SBX, PM, rank and crowding, constrained domination) for eta vs compactness.
-* ``docked``: one robot at several dockings (MODEL.md 19.3), :mod:`arcube.optimization.docked`; ``mscmaes`` with one docking.
+* ``docked``: one robot at several dockings (model §19.3), :mod:`arcube.optimization.docked`; ``mscmaes`` with one docking.
 
 All random draws go through the algorithm's ``random_state`` (``np.random.default_rng(seed)``,
 made in ``Algorithm.setup``); CMA-ES also seeds numpy's global RNG through ``cma`` from a number

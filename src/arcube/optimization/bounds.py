@@ -1,4 +1,4 @@
-"""The optimizer's variables: the default bounds of MODEL.md 12.1 and 13.3, the free parameters
+"""The optimizer's variables: the default bounds of model §12.1 and 13.3, the free parameters
 (``free``: names and the groups ``all`` and ``mount``) and bound overrides (``bounds``), parsed and checked."""
 
 from __future__ import annotations
@@ -24,17 +24,17 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
     "alpha_x": _B_A, "alpha_y": _B_A, "beta_x": _B_A, "beta_y": _B_A,
     "mount_rx": (-180.0, 180.0), "mount_ry": (-180.0, 180.0), "mount_rz": (-180.0, 180.0), "L": (0.0, 200.0),
 }  # fmt: skip
-"""MODEL.md 12.1 and 13.3 default bounds (mm, deg)."""
+"""model §12.1 and 13.3 default bounds (mm, deg)."""
 C_Z = "c_z"
-"""The z dyad's second link (MODEL.md 19.1): a free parameter beside the 27 (``free=...,c_z``), in no design vector."""
+"""The z dyad's second link (model §19.1): a free parameter beside the 27 (``free=...,c_z``), in no design vector."""
 C_Z_BOUNDS: tuple[float, float] = (20.0, 500.0)
-"""Its default bounds, mm (MODEL.md 19.1)."""
+"""Its default bounds, mm (model §19.1)."""
 FREE_GROUPS: dict[str, tuple[str, ...]] = {"all": PAPER_NAMES, "mount": MOUNT_NAMES}
 """Group words of ``free``: ``all`` (the paper's 23) and ``mount`` (the three mounting angles)."""
 def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
     """Parameter names and group words (``all``: the paper's 23, ``mount``: the three mounting
     angles), as a list or comma-separated text (``"all,mount,L"``) -> names in PARAM_NAMES order,
-    then ``c_z`` (MODEL.md 19.1) when named."""
+    then ``c_z`` (model §19.1) when named."""
     text = spec if isinstance(spec, str) else ",".join(str(s) for s in spec)
     items = [s.strip() for s in text.strip().split(",")]
     if not items or any(not n for n in items):

@@ -31,12 +31,12 @@ def anatomy_file(i: int) -> str:
 
 
 def envelope_file(i: int) -> str:
-    """File name of patient i's skin-mesh envelope (MODEL.md 19.5) in a run folder."""
+    """File name of patient i's skin-mesh envelope (model §19.5) in a run folder."""
     return f"envelope_{i}.stl"
 
 
 def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ...] | None = None) -> tuple[Any, ...]:
-    """Per patient (or docking), the envelope of the whole patient (MODEL.md 19.5) its config records (() without one);
+    """Per patient (or docking), the envelope of the whole patient (model §19.5) its config records (() without one);
     a skin mesh is read from the run folder, or given as ``skins`` (one mesh list per patient)."""
     import json
 
@@ -66,7 +66,7 @@ def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ..
 
 def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
     """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy; None for a
-    patient without one, in a cohort, MODEL.md 19); the dockings of one plan share one file and one grid."""
+    patient without one, in a cohort, model §19); the dockings of one plan share one file and one grid."""
     s = cfg["settings"]
     if not s.get("anatomy") and not any(p.get("anatomy") for p in cfg["patients"]):
         return ()
@@ -121,7 +121,7 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
     s = cfg["settings"]
     rs = settings if settings is not None else RunSettings.from_config(cfg)
     mode = None if rs.mode == "free" else mode_signs(rs.mode)
-    # configs written before MODEL.md 13 have 23 parameters: the four additions are then 0
+    # configs written before model §13 have 23 parameters: the four additions are then 0
     bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
     base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
     # configs written before --docking existed shared one placement among patients
@@ -135,7 +135,7 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
             task = build_task(entry[keep], target[keep], rs.points)
             label = f"{pat['source']}{' ' + side if side else ''}" if "name" not in pat else f"{pat['name']} {pat['side']}"
             tasks.append(TaskData(i, setup, label, task.E, task.e))
-            if "standoff" in pat:  # MODEL.md 17.1: the line from each standoff S_j to its entry A_j
+            if "standoff" in pat:  # model §17.1: the line from each standoff S_j to its entry A_j
                 approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], rs.points)
                 direction = np.repeat(task.e.reshape(-1, rs.points, 3)[:, 0], rs.points, axis=0)
                 tasks.append(TaskData(i, setup, f"{label} approach", approach.E, direction, role="approach"))

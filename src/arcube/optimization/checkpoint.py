@@ -35,7 +35,7 @@ FORMAT_VERSION = 1
 Batch = dict[str, np.ndarray]
 LOG_KEYS = ("F", "VIOL", "ETA")
 EXTRA_KEYS = ("VIOL_D", "ETA_D")
-"""Logged too when every batch has them: each docking's violation and eta_G (``(n, K)``, a model over dockings, MODEL.md 19)."""
+"""Logged too when every batch has them: each docking's violation and eta_G (``(n, K)``, a model over dockings, model §19)."""
 
 
 class BatchFunction(Protocol):

@@ -1,4 +1,4 @@
-"""Size measures of a design over a task: the joints' skeleton and its bounding box (MODEL.md 12.1's
+"""Size measures of a design over a task: the joints' skeleton and its bounding box (model §12.1's
 compactness objectives ``links`` and ``bbox``)."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ def mechanism_points(params: Array, E: Array, e: Array) -> Array:
     In R_m: P_u = -f_u u (fixed pivots); D_u = (-f_u + p_u a_u) u + p_u sqrt(1 - a_u^2) w with
     a_u = (u + f_u + r)/p_u the Eq 1 argument (clipped to [-1, 1] where a leg cannot reach);
     Q_u = C + r u; the centre C = E + L e of the spherical stage and the drill holder C + r e
-    (MODEL.md 3.1, 5.1, 13); then mapped to R_w by the mounting rotation and m.
+    (model §3.1, 5.1, 13); then mapped to R_w by the mounting rotation and m.
     """
     params = full_params(np.atleast_2d(params))
     n, P = params.shape[0], E.shape[0]
@@ -31,7 +31,7 @@ def mechanism_points(params: Array, E: Array, e: Array) -> Array:
     E_m, e_m = frames.to_mechanism(g, E[None, :, :], e[None, :, :])  # (n, P, 3) each
     arg = np.clip(tls.ik_argument(E_m, f[:, None, :], p[:, None, :], r[:, None]), -1.0, 1.0)
     pts = np.zeros((n, P, 11, 3))
-    for leg, (u, _, w) in enumerate(LEG_PERM):  # world axes u, w of each leg (MODEL.md 1.2)
+    for leg, (u, _, w) in enumerate(LEG_PERM):  # world axes u, w of each leg (model §1.2)
         pts[:, :, leg, u] = -f[:, None, leg]
         pts[:, :, 3 + leg, u] = -f[:, None, leg] + p[:, None, leg] * arg[..., leg]
         pts[:, :, 3 + leg, w] = p[:, None, leg] * np.sqrt(1.0 - arg[..., leg] ** 2)

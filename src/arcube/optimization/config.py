@@ -30,7 +30,7 @@ __all__ = ["OWN", "PatientPlan", "build_config", "docking_groups", "own_settings
 
 @dataclass(frozen=True)
 class PatientPlan:
-    """One patient of a design problem over several (a cohort, MODEL.md 19): a name, a plan, and what of the
+    """One patient of a design problem over several (a cohort, model §19): a name, a plan, and what of the
     run's settings is this patient's own (None: the run's). Paths are as the caller resolved them."""
 
     name: str
@@ -61,7 +61,7 @@ def patient_settings(s: RunSettings, own: dict[str, Any]) -> RunSettings:
 
 
 def docking_groups(ts: TrajectorySet, dockings: str | None) -> list[tuple[str, TrajectorySet]]:
-    """The dockings of one plan (MODEL.md 19.1): ``per-side`` one per side present (R before L), ``per-patient``
+    """The dockings of one plan (model §19.1): ``per-side`` one per side present (R before L), ``per-patient``
     one for the whole plan (side ``both``, or its one side), None the plan as it is (side '')."""
     if dockings is None:
         return [("", ts)]
@@ -90,7 +90,7 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
                     raise InputError.of("RunSettings.setups", f"2 needs R and L trajectories; {spec} has no side {sd} (after the selection)")
         anatomy = resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
         envelope = None
-        if ps.envelope != ("none",):  # MODEL.md 19.5: placed once on the whole plan (both sides), kept in config.toml
+        if ps.envelope != ("none",):  # model §19.5: placed once on the whole plan (both sides), kept in config.toml
             envelope = json.dumps(resolve_envelope(list(ps.envelope), full, anatomy, ps.table_z, ps.anatomy_frame).to_record())
         name = pat.name if pat is not None else (f"patient_{index + 1}" if len(specs) > 1 else "patient")
         names.append(name)
@@ -100,10 +100,10 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
                 "sides": list(group.sides), "entry": [[float(v) for v in row] for row in group.entry],
                 "target": [[float(v) for v in row] for row in group.target],
             }  # fmt: skip
-            if s.dockings is not None or pat is not None:  # MODEL.md 19: whose docking this is (written only then)
+            if s.dockings is not None or pat is not None:  # model §19: whose docking this is (written only then)
                 patient.update(name=name, side=side or "both", plan_index=index)
             patient.update({OWN[k]: (list(v) if isinstance(v, tuple) else v) for k, v in own.items()})
-            if s.standoff is not None:  # MODEL.md 17.1: computed once, with the anatomy as given, and kept in config.toml
+            if s.standoff is not None:  # model §17.1: computed once, with the anatomy as given, and kept in config.toml
                 S, _ = standoff_points(group.entry, group.target, anatomy, s.standoff)
                 patient["standoff"] = [[float(v) for v in row] for row in S]
             if envelope is not None:
@@ -148,7 +148,7 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
     table = {**s.to_table(), "engine_resolved": engine_resolved,
              "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in plans]}  # fmt: skip
     cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
-    if design.c_z is not None:  # the start design's own z dyad (MODEL.md 19.1): fixed parameters keep it
+    if design.c_z is not None:  # the start design's own z dyad (model §19.1): fixed parameters keep it
         cfg["design"]["c_z"] = design.c_z
     cfg["rerun"] = _rerun_command(s, table["trajectories"])
     return cfg

@@ -1,4 +1,4 @@
-"""One robot at several dockings, solved with the problem's structure (``--algorithm docked``, MODEL.md 19.3).
+"""One robot at several dockings, solved with the problem's structure (``--algorithm docked``, model §19.3).
 
 Given the robot's parameters, the dockings are independent problems of six variables each (the placement m and
 the mounting angles). The algorithm uses that, over one budget of ``population x generations`` rows, in three phases:

@@ -1,8 +1,8 @@
-"""What the optimizer can minimize or bound (MODEL.md 15.5): names, parsing of ``--objectives``,
+"""What the optimizer can minimize or bound (model §15.5): names, parsing of ``--objectives``,
 ``--max NAME=VALUE`` and ``--min NAME=VALUE``, and the per-design values of a population.
 
 Every value is per design over all tasks of the run: the worst (largest) of the metrics of
-MODEL.md 15 and of the holding torque of 18.2 over the tasks' reachable points, the smallest
+model §15 and of the holding torque of 18.2 over the tasks' reachable points, the smallest
 clearance, eta_G as aggregated by the run, the sum of link lengths, the bounding-box volume and the
 moving mass of 18.1. ``clearance`` is maximized (its objective column is its negative). The holding
 torque is computed only when an objective or limit names it (:func:`needs_holding_torque`): every
@@ -20,7 +20,7 @@ from arcube.accuracy.robust import ROBUST_NAMES
 
 OBJECTIVES: dict[str, str] = {
     "eta_G": "the paper's global conditioning index (mean of the worst kappa), lower is better",
-    "tip_error": "largest drill-tip error over the plan, mm (MODEL.md 15.2)",
+    "tip_error": "largest drill-tip error over the plan, mm (model §15.2)",
     "lateral_error": "largest error across the drill axis, mm (15.2)",
     "axial_error": "largest error along the drill axis, mm (15.2)",
     "axis_error": "largest drill-direction error, deg (15.2)",
@@ -31,9 +31,9 @@ OBJECTIVES: dict[str, str] = {
     "links": "sum of the 14 link lengths, mm",
     "bbox": "largest bounding-box volume of the body over a task, litres",
     "clearance": "smallest clearance to the anatomy, mm (maximized; needs --anatomy)",
-    "envelope_clearance": "smallest clearance to the envelope of the whole patient and the table, mm (maximized; MODEL.md 19.5)",
-    "lateral_error_wc": "largest first-order worst-case lateral error of the robot as built to --class / --tol, mm (MODEL.md 20.3)",
-    "lateral_error_rms": "largest RMS lateral error of the robot as built to --class / --tol, mm (MODEL.md 20.3)",
+    "envelope_clearance": "smallest clearance to the envelope of the whole patient and the table, mm (maximized; model §19.5)",
+    "lateral_error_wc": "largest first-order worst-case lateral error of the robot as built to --class / --tol, mm (model §20.3)",
+    "lateral_error_rms": "largest RMS lateral error of the robot as built to --class / --tol, mm (model §20.3)",
 }
 """Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure."""
 
@@ -63,27 +63,27 @@ def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> boo
 
 
 def needs_envelope_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the clearance to the envelope (MODEL.md 19.5) must be computed for these objectives and limits."""
+    """Whether the clearance to the envelope (model §19.5) must be computed for these objectives and limits."""
     return "envelope_clearance" in objectives or any(n == "envelope_clearance" for n, _, _ in limits)
 
 
 def needs_robust(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the accuracy under tolerances (MODEL.md 20.3, :mod:`arcube.accuracy.robust`) must be computed."""
+    """Whether the accuracy under tolerances (model §20.3, :mod:`arcube.accuracy.robust`) must be computed."""
     return any(n in ROBUST_NAMES for n in (*objectives, *(n for n, _, _ in limits)))
 
 
 def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the metrics of MODEL.md 15 must be computed for these objectives and limits."""
+    """Whether the metrics of model §15 must be computed for these objectives and limits."""
     return any(n in _SUMMARY for n in objectives) or any(n in _SUMMARY for n, _, _ in limits)
 
 
 def needs_holding_torque(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the holding torque of MODEL.md 18.2 must be computed for these objectives and limits."""
+    """Whether the holding torque of model §18.2 must be computed for these objectives and limits."""
     return "holding_torque" in objectives or any(n == "holding_torque" for n, _, _ in limits)
 
 
 def needs_masses(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether these objectives and limits use the mass model of MODEL.md 18.1 (holding torque, moving mass)."""
+    """Whether these objectives and limits use the mass model of model §18.1 (holding torque, moving mass)."""
     return any(n in ("holding_torque", "mass") for n in (*objectives, *(n for n, _, _ in limits)))
 
 

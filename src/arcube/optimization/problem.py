@@ -1,4 +1,4 @@
-"""The optimization problem (MODEL.md 12): variables, bounds, fixing, objectives, constraint.
+"""The optimization problem (model §12): variables, bounds, fixing, objectives, constraint.
 
 Three layers, all picklable and free of pymoo except the last:
 
@@ -13,13 +13,13 @@ Three layers, all picklable and free of pymoo except the last:
   docking, a setup otherwise (every patient shares the placement: the paper's robust problem).
 * :class:`FitnessModel` evaluates a whole population: one batch call of
   :func:`arcube.evaluation.engine.evaluate_task` with params ``(pop, 27)`` per task (a task is one setup of
-  one patient). It returns F, the violation VIOL of MODEL.md 16 (0 exactly when every point of every
+  one patient). It returns F, the violation VIOL of model §16 (0 exactly when every point of every
   task is reachable, the orientation margin holds and every --max/--min is met; any design that misses
   a point ranks below every design that reaches them all) and the aggregate eta ETA (+inf when infeasible).
 * :class:`ArcubeProblem` is the pymoo Problem; it delegates the batch to a callable so that
   run.py can log, replay and distribute evaluations.
 
-Long module: the variable space, the fitness model with MODEL.md 16's combination over tasks and the pymoo Problem travel to workers together.
+Long module: the variable space, the fitness model with model §16's combination over tasks and the pymoo Problem travel to workers together.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ class TaskData:
     e: Array  # (P, 3)
     role: str = "plan"
     """``plan``: the plan's points (eta_G, accuracy, loads, reach, guards, clearances); ``approach``: the
-    lines from each trajectory's standoff to its entry (MODEL.md 17.1: reach, guards, clearances only)."""
+    lines from each trajectory's standoff to its entry (model §17.1: reach, guards, clearances only)."""
 
     @property
     def n_points(self) -> int:
@@ -95,7 +95,7 @@ class VariableSpace:
     mode: Array | None = None  # (4,) fixed working mode; None lets the optimizer choose
     patients: int = 1
     docking: str = "shared"  # "per-patient": each patient has its own placement (and mounting, when free)
-    base_c_z: float | None = None  # the start design's c_z (mm): a fixed c_z keeps it; None: d_z (MODEL.md 6)
+    base_c_z: float | None = None  # the start design's c_z (mm): a fixed c_z keeps it; None: d_z (model §6)
 
     def __post_init__(self) -> None:
         if self.setups not in (1, 2):
@@ -175,7 +175,7 @@ class VariableSpace:
         return out
 
     def c_z(self, X: Array) -> Array | None:
-        """Each design's z-dyad link c_z ``(n,)`` mm (MODEL.md 19.1): its gene when free, else the start design's;
+        """Each design's z-dyad link c_z ``(n,)`` mm (model §19.1): its gene when free, else the start design's;
         None when neither (c_z = d_z, or ``Guards.c_z``: every run before c_z became a parameter)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         if C_Z in self.free:
@@ -233,15 +233,15 @@ class FitnessModel:
     objectives: tuple[str, ...] = ("eta_G",)  # names of arcube.optimization.objectives.OBJECTIVES
     limits: tuple[tuple[str, str, float], ...] = ()  # (name, "max" | "min", value): --max / --min
     anatomies: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.sdf.AnatomyDistance, or None
-    envelopes: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.envelope.Envelope (MODEL.md 19.5), or None
+    envelopes: tuple[Any, ...] = ()  # per patient: an arcube.evaluation.envelope.Envelope (model §19.5), or None
     by_docking: bool = False
-    """MODEL.md 19.3: each patient entry is a docking, and the violation is the sum of each docking's V (its V_reach and
+    """model §19.3: each patient entry is a docking, and the violation is the sum of each docking's V (its V_reach and
     its own V_fit over its points and limits); False: one V_fit over every point (every run before 19). A batch then also
     returns each docking's violation and eta_G (``VIOL_D``, ``ETA_D`` ``(n, K)``), and a docking whose placement genes
     are NaN in the batch's first row is left out of it (NaN in its columns): :mod:`arcube.optimization.docked`."""
     docking_plans: tuple[tuple[Array, Array], ...] = ()
     """Per docking, its trajectories' entry and target points ``(T, 3)`` each (R_w, mm), for warm starts between dockings."""
-    accuracy: Any = None  # the ToleranceSettings of lateral_error_wc / lateral_error_rms (MODEL.md 20.3); None: class m
+    accuracy: Any = None  # the ToleranceSettings of lateral_error_wc / lateral_error_rms (model §20.3); None: class m
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
@@ -264,7 +264,7 @@ class FitnessModel:
         return sum(t.n_points for t in self.tasks if t.role == "plan")
 
     def margin_shortfall(self, params: Array) -> Array:
-        """Orientation-margin shortfall (rad, 0 when met) ``(n,)`` of MODEL.md 12.2 [ADDITION]."""
+        """Orientation-margin shortfall (rad, 0 when met) ``(n,)`` of model §12.2 [ADDITION]."""
         if self.margin_deg is None:
             return np.zeros(params.shape[0])
         a, b = params[:, SLICES["alpha"]], params[:, SLICES["beta"]]
@@ -316,7 +316,7 @@ class FitnessModel:
         return links, vol
 
     def moving_mass(self, params: list[Array], c_z: Array | None = None) -> Array:
-        """The moving mass (kg, MODEL.md 18.1) of each design ``(n,)``: the links are shared by every slot."""
+        """The moving mass (kg, model §18.1) of each design ``(n,)``: the links are shared by every slot."""
         from arcube.evaluation.masses import moving_mass_kg
 
         return moving_mass_kg(params[0], self.options, c_z)
@@ -346,7 +346,7 @@ class FitnessModel:
         return tuple(not (cols and bool(np.isnan(row[cols]).any())) for cols in columns)
 
     def robust_values(self, params: list[Array], modes: Array, want: Array, patient: int | None = None) -> dict[str, Array]:
-        """lateral_error_wc and lateral_error_rms (mm, MODEL.md 20.3) ``(n,)``: the largest over the plan's tasks
+        """lateral_error_wc and lateral_error_rms (mm, model §20.3) ``(n,)``: the largest over the plan's tasks
         (of one ``patient`` entry, a docking, when given), computed only where ``want`` (the designs that reach
         every point; NaN elsewhere)."""
         from arcube.accuracy.robust import robust_errors
@@ -362,10 +362,10 @@ class FitnessModel:
         return {"lateral_error_wc": np.where(np.isfinite(wc), wc, np.nan), "lateral_error_rms": np.where(np.isfinite(rms), rms, np.nan)}
 
     def _judge(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None = None) -> tuple[Array, Array, dict[str, Array]]:
-        """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is MODEL.md 16's:
+        """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is model §16's:
         margin shortfall + sum of the tasks' V_reach + G / (1 + G) / (2n), n = the points of all tasks (approach
         lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible. With
-        ``by_docking`` (MODEL.md 19.3) it is :meth:`_judge_dockings`'s, every docking evaluated."""
+        ``by_docking`` (model §19.3) it is :meth:`_judge_dockings`'s, every docking evaluated."""
         if self.by_docking:
             return self._judge_dockings(results, params, modes, c_z, (True,) * self.n_patients)[:3]
         eta, reach, grade, all_w = self._combine(results, params)
@@ -394,7 +394,7 @@ class FitnessModel:
 
     def _judge_dockings(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None,
                         active: tuple[bool, ...]) -> tuple[Array, Array, dict[str, Array], Array, Array]:  # fmt: skip
-        """MODEL.md 19.3 over the ``active`` dockings: (eta, violation, values, each docking's violation ``(n, K)``, each
+        """model §19.3 over the ``active`` dockings: (eta, violation, values, each docking's violation ``(n, K)``, each
         docking's eta_G ``(n, K)``). Docking k's V_k is its tasks' V_reach plus its own V_fit, G_k / (1 + G_k) / (2 n_k)
         with n_k its points (approach lines too) and G_k its guard grades / n_k plus its own --max/--min shortfalls (the
         values over its tasks); its eta_G is over its plan's points (+inf unless every task of it is w_G). The violation is
@@ -494,9 +494,9 @@ class FitnessModel:
 
 
 _METRICS = {"tip_error": "mm", "lateral_error": "mm", "axial_error": "mm", "axis_error": "deg", "torque": "Nm", "deflection": "mm"}
-"""The summary maxima of MODEL.md 15.5 (TaskResults fields ``<name>_max``) and their units."""
+"""The summary maxima of model §15.5 (TaskResults fields ``<name>_max``) and their units."""
 _MASS_METRICS = {"holding_torque": "Nm"}
-"""The maximum of MODEL.md 18.2, in a report when an objective or limit uses the masses (with ``moving_mass_kg``)."""
+"""The maximum of model §18.2, in a report when an objective or limit uses the masses (with ``moving_mass_kg``)."""
 
 
 def _max_num(values: list[float | None]) -> float | None:
@@ -557,7 +557,7 @@ class ArcubeProblem(Problem):
             out["CV"] = np.maximum(r["VIOL"], 0.0)[:, None] + 0.0  # pymoo's calc_cv of one inequality
         out["ETA"] = r["ETA"]
         out["VIOL"] = r["VIOL"]
-        for key in DOCKING_KEYS:  # one robot, several dockings (MODEL.md 19): each docking's own
+        for key in DOCKING_KEYS:  # one robot, several dockings (model §19): each docking's own
             if key in r:
                 out[key] = r[key]
 

@@ -88,7 +88,7 @@ def front_csv(rows: list[dict[str, Any]]) -> str:
 
 
 def run_design(vector: np.ndarray, summary: dict[str, Any]) -> Design:
-    """The design of one slot ``(27,)`` with the run's c_z when it has one (MODEL.md 19.1)."""
+    """The design of one slot ``(27,)`` with the run's c_z when it has one (model §19.1)."""
     d = Design.from_vector(vector)
     return d.with_extras(c_z=summary["c_z"]) if summary.get("c_z") is not None else d
 
@@ -96,7 +96,7 @@ def run_design(vector: np.ndarray, summary: dict[str, Any]) -> Design:
 def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None) -> dict[str, str]:
     """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
     design (placed for the first patient) with a ``placements`` list: each patient's m and mounting.
-    ``c_z``: the run's (MODEL.md 19.1), in every file when given."""
+    ``c_z``: the run's (model §19.1), in every file when given."""
     space, placements, files = model.space, [], {"best_design": "best_design.json"}
     own = [n for n in PARAM_NAMES if n in (*space.docked, *space.free_m)] or ["m_x", "m_y", "m_z"]
     extra = {} if c_z is None else {"c_z": c_z}
@@ -107,7 +107,7 @@ def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, de
             atomic_write_text(run_dir / name, json.dumps({**values, **extra}, indent=2) + "\n")
             files[name.removesuffix(".json")] = name
             entry = {"patient": p + 1, "trajectories": patient["source"], "file": name, **{n: values[n] for n in own}}
-            if "name" in patient:  # a docking of one robot (MODEL.md 19)
+            if "name" in patient:  # a docking of one robot (model §19)
                 entry = {**entry, "name": patient["name"], "side": patient["side"]}
             placements.append(entry if space.setups == 1 else {**entry, "side": "L" if setup else "R"})
     shared = {**Design.from_vector(designs[0]).to_dict(), **extra, "placements": placements}
@@ -251,7 +251,7 @@ def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, floa
 
 def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
     """Copy each patient's anatomy into the run folder (patient frame), so that resume and report need nothing else.
-    A patient's own anatomy (a cohort's, MODEL.md 19) is that entry's; the dockings of one plan share one file."""
+    A patient's own anatomy (a cohort's, model §19) is that entry's; the dockings of one plan share one file."""
     from arcube.evaluation.anatomy import resolve_anatomy
 
     s = cfg["settings"]
@@ -274,7 +274,7 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
 
 
 def write_envelopes(run_dir: Path, cfg: dict[str, Any]) -> None:
-    """Copy a skin-mesh envelope (MODEL.md 19.5) into the run folder (patient frame), beside its record in config.toml."""
+    """Copy a skin-mesh envelope (model §19.5) into the run folder (patient frame), beside its record in config.toml."""
     s = cfg["settings"]
     if not any(json.loads(p["envelope"]).get("skin") for p in cfg["patients"] if "envelope" in p):
         return

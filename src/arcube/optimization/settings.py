@@ -117,7 +117,7 @@ class RunSettings(Settings):
     SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min", "tolerance_class": "class"}
 
     algorithm: str = DEFAULT_ALGORITHM
-    """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, nsga2 / nsga3 (several objectives), or docked (with dockings: the robot at its first docking, then every other docking's placement, then all together; MODEL.md 19.3)."""
+    """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, nsga2 / nsga3 (several objectives), or docked (with dockings: the robot at its first docking, then every other docking's placement, then all together; model §19.3)."""
     population: int = Field(default=400, ge=1, le=MAX_POPULATION)
     """Population size (at most 10,000: each generation is evaluated as one batch)."""
     generations: int = Field(default=300, ge=1)
@@ -133,9 +133,9 @@ class RunSettings(Settings):
     setups: Literal[1, 2] = 1
     """1, or 2: shared links, one placement per side (R and L)."""
     guards: bool = False
-    """Turn on the guards of MODEL.md 8.2 (the z dyad's too when c_z is free, MODEL.md 19.2)."""
+    """Turn on the guards of model §8.2 (the z dyad's too when c_z is free, model §19.2)."""
     margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
-    """Orientation margin mu (deg) of the spherical stage's cone (MODEL.md 12.2)."""
+    """Orientation margin mu (deg) of the spherical stage's cone (model §12.2)."""
     seed: int | None = Field(default=None, ge=0, lt=2**63)
     """Random seed (drawn and recorded when omitted)."""
     engine: str = "auto"
@@ -163,15 +163,15 @@ class RunSettings(Settings):
     transform: str | None = None
     """4x4 rigid transform (JSON) applied to every trajectory set."""
     anatomy: Annotated[tuple[str, ...], BeforeValidator(_anatomy)] = ()
-    """Patient anatomy (MODEL.md 14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz)."""
+    """Patient anatomy (model §14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz)."""
     anatomy_frame: Literal["LPS", "RAS", "patient"] = "LPS"
     """Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient."""
     segments: Segments = None
     """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("none",)
-    """The envelope of the whole patient and the table (MODEL.md 19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files (closed, the patient inside, in the anatomy's frame)."""
+    """The envelope of the whole patient and the table (model §19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files (closed, the patient inside, in the anatomy's frame)."""
     table_z: float | None = Field(default=None, allow_inf_nan=False)
-    """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (MODEL.md 19.5)."""
+    """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (model §19.5)."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
     """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance and envelope_clearance (maximized), lateral_error_wc and lateral_error_rms (as built to --class / --tol). Two or three: nsga2; more: nsga3."""
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
@@ -179,15 +179,15 @@ class RunSettings(Settings):
     minima: Annotated[dict[str, float], _limits("minima")] = {}
     """Lower limit NAME=VALUE (repeatable), e.g. --min clearance=5."""
     tolerance_class: Literal["f", "m", "c", "v"] = "m"
-    """ISO 2768-1 class of the lengths and angles under which lateral_error_wc and lateral_error_rms are computed (MODEL.md 20.1): f, m, c or v."""
+    """ISO 2768-1 class of the lengths and angles under which lateral_error_wc and lateral_error_rms are computed (model §20.1): f, m, c or v."""
     tol: Annotated[dict[str, float], BeforeValidator(lambda v: parse_tol(v, "RunSettings.tol"))] = {}
     """Tolerances set by hand for lateral_error_wc and lateral_error_rms, NAME=T (mm or deg): a source (r=0.02) or a group (lengths=0.05, angles=0.01, q0=0.05)."""
     docking: Literal["per-patient", "shared"] = "per-patient"
     """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
     dockings: Literal["per-side", "per-patient"] | None = None
-    """One robot, several dockings (MODEL.md 19): per-side (each plan's R trajectories one docking, its L ones another) or per-patient; each docking its own placement m and mounting angles, the rest shared; the violation the sum over dockings."""
+    """One robot, several dockings (model §19): per-side (each plan's R trajectories one docking, its L ones another) or per-patient; each docking its own placement m and mounting angles, the rest shared; the violation the sum over dockings."""
     standoff: float | None = Field(default=None, ge=0, le=MAX_STANDOFF_MM, allow_inf_nan=False)
-    """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (MODEL.md 17.1)."""
+    """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (model §17.1)."""
     options: Options = Options()
     """Clearance guards, body radii, loads and masses (the guards of ``guards`` are added on top)."""
 
@@ -203,7 +203,7 @@ class RunSettings(Settings):
             data["docking"] = data["docking"].strip().lower()
         _route_flat(data)
         names = _objectives(data.get("objectives"))
-        if len(names) > 1:  # MODEL.md 15.5: two or three objectives -> NSGA-II, more -> NSGA-III
+        if len(names) > 1:  # model §15.5: two or three objectives -> NSGA-II, more -> NSGA-III
             data["algorithm"] = "nsga2" if len(names) <= 3 else "nsga3"
         return data
 
@@ -228,7 +228,7 @@ class RunSettings(Settings):
         if needs_masses(self.objectives, self.limits):
             self.options.check_masses()
         if self.envelope == ("none",) and (self.options.guards.envelope_clearance_mm is not None or needs_envelope_clearance(self.objectives, self.limits)):
-            raise InputError.of("RunSettings.envelope", "is none, but the clearance to the envelope is required (MODEL.md 19.5): give envelope default or a skin mesh")
+            raise InputError.of("RunSettings.envelope", "is none, but the clearance to the envelope is required (model §19.5): give envelope default or a skin mesh")
         return self
 
     @property
@@ -260,7 +260,7 @@ class RunSettings(Settings):
             on = GUARDED_OPTIONS.guards
             guards = guards.replace(rho_max_deg=on.rho_max_deg, min_transmission_deg=on.min_transmission_deg,
                                     kappa_max=on.kappa_max, single_assembly_mode=True)  # fmt: skip
-            if "c_z" in self.free:  # MODEL.md 19.2: a design with a z-dyad link of its own has a z leg that can be assembled
+            if "c_z" in self.free:  # model §19.2: a design with a z-dyad link of its own has a z leg that can be assembled
                 guards = guards.replace(z_dyad=True)
         clearance = needs_clearance(self.run_objectives, self.limits)
         outputs = self.options.outputs.replace(
@@ -291,23 +291,23 @@ class RunSettings(Settings):
         for name in _TABLE_GUARDS:
             if getattr(g, name) not in (None, False):
                 table[name] = getattr(g, name)
-        if self.dockings is not None:  # MODEL.md 19: written only when set
+        if self.dockings is not None:  # model §19: written only when set
             table["dockings"] = self.dockings
         if self.standoff is not None:  # written only when set: earlier tables stay as they were
             table["standoff"] = self.standoff
         if self.segments is not None:
             table["segments"] = list(self.segments)
-        if self.envelope != ("none",):  # MODEL.md 19.5: written only when on, as runs before the envelope read it
+        if self.envelope != ("none",):  # model §19.5: written only when on, as runs before the envelope read it
             table["envelope"] = list(self.envelope)
         if self.table_z is not None:
             table["table_z"] = self.table_z
-        if self.tolerance_class != "m" or self.tol:  # MODEL.md 20: written only when not the defaults
+        if self.tolerance_class != "m" or self.tol:  # model §20: written only when not the defaults
             table["tolerance_class"] = self.tolerance_class
         if self.tol:
             table["tol"] = dict(self.tol)
-        if g.envelope_clearance_mm is not None:  # its guard (MODEL.md 19.5): written only when on
+        if g.envelope_clearance_mm is not None:  # its guard (model §19.5): written only when on
             table["envelope_clearance"] = g.envelope_clearance_mm
-        for key, (_, name) in FLAT_OPTIONS.items():  # the masses of MODEL.md 18.1: likewise, only when not the defaults
+        for key, (_, name) in FLAT_OPTIONS.items():  # the masses of model §18.1: likewise, only when not the defaults
             value = getattr(self.options.masses, name) if name in Masses.model_fields else None
             if value is not None and value != getattr(_MASSES, name):
                 table[key] = list(value) if isinstance(value, tuple) else value

@@ -1,4 +1,4 @@
-"""The default anatomy of a patient (MODEL.md section 14.2): boxes of bone and soft tissue.
+"""The default anatomy of a patient (model §14.2): boxes of bone and soft tissue.
 
 **Status: [CHOICE] of the tool**, not measured anatomy. It is built from the same parameters as
 the patient's trajectories (:func:`arcube.patients.virtual.draw_parameters`: level frames,
@@ -55,7 +55,7 @@ internal seam, and no two boxes share a vertex, so the connected shells of the w
 are exactly the boxes.
 
 The drill paths (entry to target) pass through bone by design (the tool is exempt from the
-clearance, MODEL.md 14.1); the pedicle targets lie inside the body block (all of the mean
+clearance, model §14.1); the pedicle targets lie inside the body block (all of the mean
 patient's; of 4000 random pedicle screws, 11 end up to 0.85 mm beyond the inferior endplate,
 where a drawn SIP exceeds a drawn body height). Limits: no head,
 shoulders or anterior neck organs, no curved skin, no canal or foramina, flat posterior bone

@@ -34,7 +34,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
             K > 1: a folder (created) receiving ``patient_000.csv`` ... ``patient_{K-1}.csv``, and ``cohort.toml``
             (every patient of the folder, for ``arcube design --cohort``, named by :func:`patient_name`: ``seed7`` ...).
             Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
-            anatomy (MODEL.md 14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
+            anatomy (model §14.2, :mod:`arcube.patients.anatomy`) as ``<stem>.anatomy.stl``
             (binary STL, patient frame, one closed shell per box). All of these files are written, or
             none (they are made in a staging folder and put in place together; a file of the same name is
             replaced, a folder or device where one goes is refused before anything is written).
@@ -77,7 +77,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
     stage = Path(tempfile.mkdtemp(prefix=f".{parent.name or 'patients'}.", suffix=".tmp", dir=parent))
     try:
         texts, entries = _stage_patients(paths, stage, mean, seed, technique, anatomy_format, anatomy_spacing_mm, beside)
-        if paths[0].parent == out:  # a folder of patients: the cohort file of one design job for all of them (MODEL.md 19)
+        if paths[0].parent == out:  # a folder of patients: the cohort file of one design job for all of them (model §19)
             (stage / COHORT_FILE).write_text(cohort_toml(entries))
             texts.append(f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}")
         staged = sorted(stage.iterdir(), key=lambda f: f.stat().st_mtime_ns)  # the order they were made in
@@ -123,7 +123,7 @@ def _stage_patients(paths: list[Path], stage: Path, mean: bool, seed: int | None
 def patient_name(params: dict[str, Any]) -> str:
     """A virtual patient's name in a cohort file: what makes it the patient it is, ``seed<S>`` (``mean`` for the mean
     patient), after its technique when that is not the pedicle screw (``magerl_seed<S>``). Two cohorts that share a
-    name share that patient: a design job refuses such a held-out cohort (MODEL.md 19.6)."""
+    name share that patient: a design job refuses such a held-out cohort (model §19.6)."""
     base = "mean" if params.get("seed") is None else f"seed{params['seed']}"
     return base if params.get("technique", "pedicle") == "pedicle" else f"{params['technique']}_{base}"
 

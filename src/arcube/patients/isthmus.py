@@ -1,4 +1,4 @@
-"""The pedicle's isthmus of a virtual patient (MORPHOMETRY.md section 6, MODEL.md 22.1): its width and height per level.
+"""The pedicle's isthmus of a virtual patient (MORPHOMETRY.md section 6, model §22.1): its width and height per level.
 
 The isthmus, outer cortex to outer cortex, measured on CT perpendicular to the pedicle's axis: width W (medio-lateral)
 and height H (cranio-caudal), mm. Drawn per level and side like the angles of section 1: a right/left pair of

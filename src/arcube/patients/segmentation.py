@@ -1,4 +1,4 @@
-"""A virtual patient's default anatomy (MODEL.md 14.2) as a segmentation: one segment per vertebra, one for soft tissue.
+"""A virtual patient's default anatomy (model §14.2) as a segmentation: one segment per vertebra, one for soft tissue.
 
 The boxes of :mod:`arcube.patients.anatomy` grouped as a spine segmentation would be: segment
 ``C3`` ... ``C7`` (label values 3 ... 7, VerSe's numbering of the cervical vertebrae) holds the level's

@@ -39,7 +39,7 @@ class SegmentSelection(Settings):
 
 
 class PatientAnatomyFormat(Settings):
-    """The file format of each virtual patient's default anatomy (MODEL.md 14.2)."""
+    """The file format of each virtual patient's default anatomy (model §14.2)."""
 
     anatomy_format: Literal["stl", "seg.nrrd", "nii.gz"] = "stl"
     """Default anatomy file: stl (patient frame), seg.nrrd (3D Slicer segmentation, LPS) or nii.gz (NIfTI label map, RAS)."""

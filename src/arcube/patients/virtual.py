@@ -236,7 +236,7 @@ def build_patient(params: dict[str, Any]) -> TrajectorySet:
             target.append(c + rot @ t)
     tag = "mean" if params["seed"] is None else f"seed={params['seed']}"
     ids = tuple(str(i) for i in range(1, len(levels) + 1))
-    # a drawn patient's pedicle screws carry their isthmus (MODEL.md 22.1); the mean patient's are the levels' means,
+    # a drawn patient's pedicle screws carry their isthmus (model §22.1); the mean patient's are the levels' means,
     # which a plan without the columns gets anyway (its CSV stays the bundled reference's)
     isthmus = params.get("isthmus")
     pedicle = None

@@ -1,4 +1,4 @@
-"""From the drill tip to the pedicle: the probability that a screw breaches (MODEL.md 22).
+"""From the drill tip to the pedicle: the probability that a screw breaches (model §22).
 
 * :mod:`~arcube.pedicles.geometry`: each screw's pedicle at its isthmus (22.1) and the breach test, its direction and
   grade (22.3);

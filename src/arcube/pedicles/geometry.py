@@ -1,4 +1,4 @@
-"""The pedicle of each screw (MODEL.md 22.1) and the breach test at its isthmus (22.3).
+"""The pedicle of each screw (model §22.1) and the breach test at its isthmus (22.3).
 
 Screw j of a plan: entry A, target B, u = (B - A)/|B - A| (into the bone). Its isthmus is the plane
 perpendicular to u through I = A + s u (s the isthmus depth); there the bone is an ellipse centred on
@@ -32,7 +32,7 @@ __all__ = [
 ]  # fmt: skip
 
 DEFAULT_ISTHMUS_DEPTH_MM = 12.0
-"""s where the plan does not give ``isthmus_depth_mm`` (MODEL.md 22.1), mm."""
+"""s where the plan does not give ``isthmus_depth_mm`` (model §22.1), mm."""
 DEFAULT_SCREW_MM = 3.5
 """d where the plan does not give ``screw_diameter_mm`` and ``--screw`` is not set, mm."""
 DIRECTIONS = ("medial", "lateral", "cranial", "caudal")
@@ -120,7 +120,7 @@ def breach_depth(delta: ArrayLike, room: ArrayLike) -> NDArray[np.float64]:
 
 
 def classify(delta: ArrayLike, p: Pedicles) -> tuple[NDArray[np.bool_], NDArray[np.int8], NDArray[np.bool_]]:
-    """(breach, direction, major), each ``(..., J)``, for offsets ``(..., J, 2)`` at the J isthmuses (MODEL.md 22.3).
+    """(breach, direction, major), each ``(..., J)``, for offsets ``(..., J, 2)`` at the J isthmuses (model §22.3).
 
     ``direction`` indexes :data:`DIRECTIONS` (-1 where there is no breach). A too-wide screw breaches in every
     sample; its direction is -1 and its grade not defined (``major`` False): it is reported apart. A non-finite

@@ -1,4 +1,4 @@
-"""The Monte Carlo of breaches (MODEL.md 22.4): N samples, each a built robot, a registration and the deflection.
+"""The Monte Carlo of breaches (model §22.4): N samples, each a built robot, a registration and the deflection.
 
 Per screw: P(breach) with its 95 % Wilson interval, P by direction (medial, lateral, cranial, caudal), P(major), the
 p95 of the offset |delta| at the isthmus, and P(breach) with each source alone (the other two at 0), computed on the

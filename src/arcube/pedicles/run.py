@@ -1,4 +1,4 @@
-"""``arcube breach``: the probability that each screw of a plan leaves its pedicle (MODEL.md 22), and its folder.
+"""``arcube breach``: the probability that each screw of a plan leaves its pedicle (model §22), and its folder.
 
 The robot is a design file (one docking), a design job's ``design.json`` (the robot and its dockings: each side's
 screws are drilled from that side's docking, the same built robot in every sample), or the folder of
@@ -70,7 +70,7 @@ def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:
 def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[str] | None = None, *, calibration: Any = None,
            side: str | None = None, levels: Any = None, ids: Any = None, mode: Any = None, transform: Any = None,
            tolerances: Any = None, settings: BreachSettings | None = None, loads: Any = None, **fields: Any) -> BreachResult:  # fmt: skip
-    """The breach probability of every screw of ``plan`` (MODEL.md 22; ``arcube breach``).
+    """The breach probability of every screw of ``plan`` (model §22; ``arcube breach``).
 
     Args:
         design: a design file (or a design job's ``design.json``: each side from its docking), a Design, or a preset.

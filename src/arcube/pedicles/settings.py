@@ -1,4 +1,4 @@
-"""The settings of a breach Monte Carlo (MODEL.md 22): the registration, the screw, the samples.
+"""The settings of a breach Monte Carlo (model §22): the registration, the screw, the samples.
 
 The robot's own errors are those of :class:`arcube.accuracy.ToleranceSettings` (class, tolerances by hand, encoders,
 lost motion) or of a calibration; the thrust and the actuators' stiffness those of :class:`arcube.options.Loads`.
@@ -19,7 +19,7 @@ MAX_BREACH_SAMPLES = 1_000_000
 
 
 class BreachSettings(Settings):
-    """What moves the screw besides the robot, the screw itself, and the Monte Carlo (MODEL.md 22.2-22.4)."""
+    """What moves the screw besides the robot, the screw itself, and the Monte Carlo (model §22.2-22.4)."""
 
     SHORT: ClassVar[dict[str, str]] = {"registration_mm": "registration", "screw_mm": "screw"}
 

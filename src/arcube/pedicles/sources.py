@@ -1,9 +1,9 @@
-"""What moves the screw at the isthmus (MODEL.md 22.2): the built robot, the registration, the deflection.
+"""What moves the screw at the isthmus (model §22.2): the built robot, the registration, the deflection.
 
 The tool's tip is commanded to each isthmus I_j along e_j = -u_j. Per sample (22.4) the hole passes I_j + D_j with
 D = D_robot + D_registration + D_deflection:
 
-* **robot**: a built robot (MODEL.md 20.2): its parameters and zero offsets off by deviations drawn once per sample
+* **robot**: a built robot (model §20.2): its parameters and zero offsets off by deviations drawn once per sample
   (uniform on [-T, T] by default, T of 20.1; or, calibrated, normal with the identification's covariance, 21.4), its
   encoders and lost motion drawn afresh at every screw; the tip of the exact FK at the commanded joints, minus I_j;
 * **registration**: the navigation's error of the patient frame, one rigid motion per docking and sample:
@@ -128,7 +128,7 @@ def registration(draws: Draws, I: ArrayLike, docking: ArrayLike, centres: ArrayL
 
 
 def deflection(robot: RobotModel, I: ArrayLike, e: ArrayLike, thrust_N: float, stiffness_Nm_per_rad: ArrayLike) -> NDArray[np.float64]:
-    """D_deflection ``(J, 3)`` mm: F_t C_E e_j with C_E = J_E K^-1 J_E^T (MODEL.md 15.4; K in N mm/rad), at the
+    """D_deflection ``(J, 3)`` mm: F_t C_E e_j with C_E = J_E K^-1 J_E^T (model §15.4; K in N mm/rad), at the
     nominal design; NaN where it does not reach the screw."""
     from arcube.evaluation.performance import forward_jacobian
 

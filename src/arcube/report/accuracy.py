@@ -1,4 +1,4 @@
-"""Pictures of an accuracy budget (MODEL.md 20) a manufacturer reads at a glance, as PNG bytes (matplotlib).
+"""Pictures of an accuracy budget (model §20) a manufacturer reads at a glance, as PNG bytes (matplotlib).
 
 * :func:`sources_png`: the error sources ranked by their share of the lateral variance;
 * :func:`histogram_png`: each built robot's largest lateral error over the plan, with the 95th percentile marked;

@@ -1,4 +1,4 @@
-"""Pictures of a breach Monte Carlo (MODEL.md 22) a surgeon reads at a glance, as PNG bytes (matplotlib).
+"""Pictures of a breach Monte Carlo (model §22) a surgeon reads at a glance, as PNG bytes (matplotlib).
 
 * :func:`breach_bars_png`: P(breach) per screw (with its Wilson interval), and beside it P(breach) with each source
   alone: which of the robot, the registration and the deflection decides the screw;

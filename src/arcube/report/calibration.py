@@ -1,4 +1,4 @@
-"""The report page of a calibration (MODEL.md 21.4): one self-contained HTML file (plotly.js inline).
+"""The report page of a calibration (model §21.4): one self-contained HTML file (plotly.js inline).
 
 * the residuals per measurement, before (nominal model) and after (identified), fitted and held out,
   beside the tracker's noise level (div ``fig-residuals``);
@@ -144,7 +144,7 @@ def page_html(result: Any) -> str:
         where = "the plan's points" if result.budget.where == "plan" else "the measured poses"
         parts += [
             (f"<h2>Accuracy of the calibrated robot</h2><p class='note'>On {esc(where)}: the parameters' and zero offsets' errors are "
-             "the identification's (normal, its covariance); encoders and lost motion as MODEL.md 20.1. First-order RMS (maximum over "
+             "the identification's (normal, its covariance); encoders and lost motion as model §20.1. First-order RMS (maximum over "
              f"the points) and the Monte Carlo's 95th percentile over {result.budget.robot_lateral_max_mm.size} robots of each robot's "
              "largest error.</p>"),
             _table([[k, v] for k, v in s.items()], ["figure", "value"]), divs["budget"],

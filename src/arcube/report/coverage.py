@@ -1,5 +1,5 @@
 """The report of a robot's coverage (``arcube dock``'s ``report.html``, and a design job's with held-out patients;
-MODEL.md 19.6): which patient sides the built robot serves, what binds on the others, with a picture of it.
+model §19.6): which patient sides the built robot serves, what binds on the others, with a picture of it.
 
 One self-contained page: the verdict and the coverage with its 95 % Wilson interval (training and held-out side by side
 when both are given), a map of the sides (a cell per patient and side: served in green, not in red, labelled with the

@@ -1,5 +1,5 @@
 """The opening of an ``arcube design`` job's report: the verdict, the requirements, the whole design, and
-what the robot drills as built (MODEL.md 20), before the evaluation's plots.
+what the robot drills as built (model §20), before the evaluation's plots.
 
 :func:`design_preface` returns an HTML fragment that :func:`arcube.report.write_report` puts right under
 the title. Its requirement rows are the ones the terminal prints and requirements.csv holds (the same
@@ -70,14 +70,14 @@ def _accuracy(accuracy: Mapping[str, Any] | None, folder: Path | None) -> str:
         return f"<h2>Accuracy as built (ISO 2768-{esc(cls)})</h2><p>Not computed: {esc(accuracy['not_computed'])}</p>"
     top = ", ".join(f"{t['source']} {100 * t['share']:.0f} % (T {t['tolerance']:g} {t['unit']})" for t in accuracy.get("tighten_first", []))
     items = [
-        ("perfect robot: largest lateral error (encoders only, MODEL.md 15.2)", f"{_num(accuracy.get('perfect_robot_lateral_error_mm'))} mm"),
+        ("perfect robot: largest lateral error (encoders only, model §15.2)", f"{_num(accuracy.get('perfect_robot_lateral_error_mm'))} mm"),
         (f"built to ISO 2768-{cls}: lateral error p95 over {accuracy.get('robots')} robots", f"{_num(accuracy.get('lateral_error_p95_mm'))} mm"),
         ("first-order worst case / RMS lateral error", f"{_num(accuracy.get('lateral_error_wc_mm'))} / {_num(accuracy.get('lateral_error_rms_mm'))} mm"),
         ("axis error p95 / worst case", f"{_num(accuracy.get('axis_error_p95_deg'))} / {_num(accuracy.get('axis_error_wc_deg'))} deg"),
         ("tighten first", top or "—"),
     ]  # fmt: skip
     html = (f"<h2>Accuracy as built (ISO 2768-{esc(cls)})</h2><p class='note'>What robots machined to these tolerances drill "
-            "(MODEL.md 20: the first order's exact worst case over the tolerance box, and a Monte Carlo of built robots "
+            "(model §20: the first order's exact worst case over the tolerance box, and a Monte Carlo of built robots "
             "commanded by the nominal model). A calibration (arcube calibrate) removes the part it can identify. Files: accuracy/.</p><table>")  # fmt: skip
     html += "".join(f"<tr><th style='text-align:left'>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in items) + "</table>"
     if folder is not None:
@@ -86,7 +86,7 @@ def _accuracy(accuracy: Mapping[str, Any] | None, folder: Path | None) -> str:
 
 
 def _breach(figures: Mapping[str, Any] | None, folder: Path | None) -> str:
-    """The breach section (MODEL.md 22): per screw P(breach), its interval, the major ones, each source alone."""
+    """The breach section (model §22): per screw P(breach), its interval, the major ones, each source alone."""
     if not figures:
         return ""
     if "not_computed" in figures:
@@ -95,7 +95,7 @@ def _breach(figures: Mapping[str, Any] | None, folder: Path | None) -> str:
     def pct(v: Any) -> str:
         return "—" if v is None or (isinstance(v, float) and v != v) else f"{100 * v:.1f} %"
 
-    head = ("<h2>Breach probability (MODEL.md 22)</h2><p class='note'>How likely each screw is to leave its pedicle with this robot as "
+    head = ("<h2>Breach probability (model §22)</h2><p class='note'>How likely each screw is to leave its pedicle with this robot as "
             "built (the accuracy section's tolerances), a registration of 0.5 mm / 0.5° RMS and the drilling thrust, and what decides it: "
             f"each source alone. Largest: {pct(figures.get('breach_probability'))} (screw {esc(figures.get('worst_screw'))}); expected "
             f"breached screws {_num(figures.get('expected_breaches'))}. Files: breach/.</p>")  # fmt: skip

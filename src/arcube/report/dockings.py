@@ -1,4 +1,4 @@
-"""The report of one robot at several dockings (``arcube design``'s ``report.html``, MODEL.md 19.4).
+"""The report of one robot at several dockings (``arcube design``'s ``report.html``, model §19.4).
 
 One self-contained page: the verdict, the robot's 22 parameters and working mode, each requirement at the
 docking where it is tightest, a table of the dockings (patient, side, placement, the figures that bind), and
@@ -34,7 +34,7 @@ def _value(rows: Sequence[dict[str, Any]], name: str) -> str:
 
 
 def _accuracy(dockings: Sequence[Any], accuracies: Sequence[dict[str, Any]]) -> str:
-    """Per docking, what the robot drills as built (MODEL.md 20) and how likely its worst screw breaches (22)."""
+    """Per docking, what the robot drills as built (model §20) and how likely its worst screw breaches (22)."""
     if not accuracies:
         return ""
     rows = ["<h2>What the robot drills as built</h2><p class='note'>The lateral error requirement speaks of a perfect robot; as built "
@@ -67,14 +67,14 @@ def write_dockings_report(path: str | os.PathLike[str], dockings: Sequence[Any],
              "td,th{white-space:normal}</style></head><body>",
              f"<h1>One robot, {len(dockings)} docking{'s' if len(dockings) > 1 else ''}</h1>",
              f"<p>The robot {esc(verdict)}; working mode {esc(first.mode or '+,+,+,+')}.</p>", extra,
-             "<h2>The robot (MODEL.md 19.1)</h2><table><tr>"]  # fmt: skip
+             "<h2>The robot (model §19.1)</h2><table><tr>"]  # fmt: skip
     # the robot's 22 values in rows of 8 name / value pairs: one row of 22 columns ran off a 1400 px screen (L and c_z hidden)
     for i in range(0, len(robot), 8):
         names = robot[i : i + 8]
         parts.append(("</tr><tr>" if i else "") + "".join(f"<th>{esc(n)}</th>" for n in names) + "</tr><tr>"
                      + "".join(f"<td>{values[n]:.2f}</td>" for n in names))  # fmt: skip
     parts.append("</tr></table>")
-    parts.append("<h2>Requirements, where each is tightest (MODEL.md 19.4)</h2><table><tr><th>requirement</th><th>limit</th><th>value</th>"
+    parts.append("<h2>Requirements, where each is tightest (model §19.4)</h2><table><tr><th>requirement</th><th>limit</th><th>value</th>"
                  "<th>margin</th><th>docking</th><th>where</th></tr>")  # fmt: skip
     for r in rows:
         w = r.get("where") or {}

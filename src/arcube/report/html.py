@@ -216,7 +216,7 @@ def summary_html(report: Evaluation) -> str:
         out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
     out += "</table>"
     segments = None if report.anatomy is None else report.anatomy.segments
-    if segments:  # an anatomy read from a segmentation: which segments, how big, where (MODEL.md 14.2)
+    if segments:  # an anatomy read from a segmentation: which segments, how big, where (model §14.2)
         out += "<h3>Anatomy segments</h3><table><tr><th>segment</th><th>label</th><th>layer</th><th>voxels</th><th>bounds min (mm)</th><th>bounds max (mm)</th><th>file</th></tr>"
         for seg in segments:
             cells = (seg.name, seg.label, seg.layer, f"{seg.voxels:,}", ", ".join(f"{v:.1f}" for v in seg.lo), ", ".join(f"{v:.1f}" for v in seg.hi),
@@ -324,12 +324,12 @@ def write_evaluation_report(
     if "pareto" in divs:
         parts += ["<h2>Pareto front</h2>", divs["pareto"]]
     parts += ["<h2>At the drill tip</h2><p class='note'>Worst-case tip and axis errors for the encoder resolution, the largest "
-              "actuator torque and the lateral deflection under the drilling loads (MODEL.md 15), and the clearance of the robot's "
-              "body to the anatomy (MODEL.md 14) when an anatomy is given; unreachable points are gaps.</p>", divs["tip"]]
+              "actuator torque and the lateral deflection under the drilling loads (model §15), and the clearance of the robot's "
+              "body to the anatomy (model §14) when an anatomy is given; unreachable points are gaps.</p>", divs["tip"]]
     parts += [
         "<h2>Mechanism</h2><p class='note'>Patient frame R_w (x right, y superior, z posterior). Spherical links are drawn as "
         "great-circle arcs on the sphere of radius r around the drill tip E; a dashed z dyad means (d_z, c_z) cannot span "
-        "D_z–Q_z at that point (MODEL.md 6, not checked by the paper).</p>", divs["scene"],
+        "D_z–Q_z at that point (model §6, not checked by the paper).</p>", divs["scene"],
     ]  # fmt: skip
     if prog is not None:
         from arcube.report.program_html import program_section

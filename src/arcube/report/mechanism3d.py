@@ -78,7 +78,7 @@ def mechanism_extent(mp: MechanismPoints, rows: NDArray[np.intp]) -> NDArray[np.
 
 
 ENVELOPE_COLOR = "#8fa8c8"
-"""The envelope of the whole patient and the table (MODEL.md 19.5), drawn faint and blue-grey behind the anatomy."""
+"""The envelope of the whole patient and the table (model §19.5), drawn faint and blue-grey behind the anatomy."""
 
 
 def envelope_trace(envelope: Any) -> Any:

@@ -1,4 +1,4 @@
-"""The drilling program's timeline (MODEL.md 17) as a figure: segments, joint rates and joint
+"""The drilling program's timeline (model §17) as a figure: segments, joint rates and joint
 accelerations against their limits, over time. ``arcube program`` and ``arcube design`` write it as
 ``program.png`` beside ``program.csv``."""
 

@@ -1,4 +1,4 @@
-"""A drilling program (MODEL.md 17.3) as the report reads it back from its files, ``program.csv`` and
+"""A drilling program (model §17.3) as the report reads it back from its files, ``program.csv`` and
 ``program.json``, so that a report never recomputes the program (and never imports :mod:`arcube.motion`).
 
 The reading itself is :mod:`arcube.io.program_files`, the one reader of program folders (shared with

@@ -1,4 +1,4 @@
-"""The drilling program in the HTML report (MODEL.md 17-18), read from its files (program.csv,
+"""The drilling program in the HTML report (model §17-18), read from its files (program.csv,
 program.json: :mod:`arcube.report.program_data`), never recomputed:
 
 * a summary and the per-trajectory times (program.json);
@@ -9,7 +9,7 @@ program.json: :mod:`arcube.report.program_data`), never recomputed:
   (program.json records only the extremes over the program, not a clearance per row);
 * div ``fig-program-motors``, when the CSV has the torque columns: per actuator its operating points
   (speed |q_dot|, torque |tau|) as on a motor datasheet, the peak and the RMS torque marked; and the
-  table of program.json's ``motors`` figures (MODEL.md 18.3) when it has them;
+  table of program.json's ``motors`` figures (model §18.3) when it has them;
 * div ``fig-program-playback``: the robot with the anatomy along the program
   (:mod:`arcube.report.program_scene`), when the design is known.
 
@@ -131,7 +131,7 @@ def _operating_points(speed: np.ndarray, torque: np.ndarray) -> np.ndarray:
 def motors_figure(prog: ProgramFiles) -> go.Figure | None:
     """Per actuator the program's operating points, torque |tau| (N m) against speed |q_dot| (deg/s), as
     on a motor datasheet; the peak (star: the row of the largest |tau|) and the RMS torque over time
-    (dashed) of the CSV's torques; program.json's sizing peak (with the lateral force, MODEL.md 18.2)
+    (dashed) of the CSV's torques; program.json's sizing peak (with the lateral force, model §18.2)
     dotted when it has one. None when the CSV has no torque columns."""
     if prog.tau_Nm is None:
         return None
@@ -226,7 +226,7 @@ MOTOR_COLUMNS = (("torque_peak_Nm", "peak |τ| (N·m)"), ("torque_rms_Nm", "RMS 
 
 
 def motors_table(prog: ProgramFiles) -> str:
-    """program.json's ``motors`` figures per actuator (MODEL.md 18.3) and the peak speed in rpm; "" when it has none."""
+    """program.json's ``motors`` figures per actuator (model §18.3) and the peak speed in rpm; "" when it has none."""
     motors = prog.motors
     if not motors:
         return ""
@@ -236,7 +236,7 @@ def motors_table(prog: ProgramFiles) -> str:
         speed = _num(m.get("speed_peak_deg_s"))
         rows.append((name, *(_num(m.get(key)) for key, _ in cols), None if speed is None else speed / 6.0))
     return ("<h3>Motor sizing (program.json)</h3><p class='note'>Peak and RMS torques here include each actuator's worst lateral-force "
-            "term (MODEL.md 18.2-18.3); the plot's marks are those of the CSV's torques (gravity, inertia, thrust).</p>"
+            "term (model §18.2-18.3); the plot's marks are those of the CSV's torques (gravity, inertia, thrust).</p>"
             + _table(("actuator", *(h for _, h in cols), "peak speed (rpm)"), rows))  # fmt: skip
 
 
@@ -266,11 +266,11 @@ def program_section(prog: ProgramFiles, params: Any = None, anatomy_meshes: Any 
     (the page's first figure); ``note``: a line shown above the playback (e.g. why the anatomy is missing)."""
     from arcube.report.program_scene import playback_figure
 
-    parts = ["<h2>Drilling program</h2><p class='note'>Read from the program's files (program.csv, program.json; MODEL.md 17): "
+    parts = ["<h2>Drilling program</h2><p class='note'>Read from the program's files (program.csv, program.json; model §17): "
              "the robot runs these rows in its working mode.</p>", summary_table(prog)]  # fmt: skip
     parts += ["<h3>Timeline</h3>", plotly_div(timeline_figure(prog), DIV_IDS["timeline"], include_js)]
     parts += ["<h3>Limits along the program</h3>", limits_table(prog),
-              "<p class='note'>The smallest clearances are over every state the program was checked at (MODEL.md 17.2, "
+              "<p class='note'>The smallest clearances are over every state the program was checked at (model §17.2, "
               "no part moving more than 0.5 mm between two); the timeline's clearances are at up to 2000 of the rows. "
               "Accelerations in the timeline are central differences of the CSV's rates; the table's are program.json's.</p>"]  # fmt: skip
     motors = motors_figure(prog)

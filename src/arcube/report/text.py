@@ -71,7 +71,7 @@ def print_evaluation(report: Evaluation, console: Console | None = None) -> None
 
 
 def print_tip_performance(report: Evaluation, console: Console | None = None, summary: dict | None = None) -> None:
-    """The compact second table (MODEL.md 15): what a surgeon and a motor supplier need, worst case over
+    """The compact second table (model §15): what a surgeon and a motor supplier need, worst case over
     the reachable points of each trajectory and of the plan."""
     out = console or _console()
     o = report.options.loads

@@ -1,4 +1,4 @@
-"""The drill-tip figures of the HTML report (MODEL.md 14-15): each metric along the plan, like the
+"""The drill-tip figures of the HTML report (model §14-15): each metric along the plan, like the
 paper's Fig 4, with the requirement line where a limit is set, and the anatomy in the 3D scene."""
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def tip_figure(report: Evaluation, limits: dict[str, float] | None = None) -> go
     enc = ", ".join(f"{v:g}" for v in sorted(set(o.encoder_deg)))
     fig.update_layout(
         title={"text": f"At the drill tip, per reachable point (encoders {enc} deg, thrust {o.thrust_N:g} N, lateral force "
-                       f"{o.lateral_force_N:g} N; MODEL.md 15)", "font": {"size": 13}},
+                       f"{o.lateral_force_N:g} N; model §15)", "font": {"size": 13}},
         height=300 * rows, margin={"t": 80, "b": 40},
     )  # fmt: skip
     return fig

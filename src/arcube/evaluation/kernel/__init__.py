@@ -1,11 +1,11 @@
 """Compiled evaluation kernel (Numba): :func:`evaluate_task_numba` == :func:`arcube.evaluation.reference.evaluate_task`.
 
-One fused pass per (design, point): TLS IK (Eq 1), RTS IK (MODEL.md 5.2), TMS IK (4.2), the
+One fused pass per (design, point): TLS IK (Eq 1), RTS IK (model §5.2), TMS IK (4.2), the
 seven condition numbers by the closed forms of 8.1, the local guards of 8.2, the IK domain
 excess of 12.2 and the guard grade of 16; with the options' outputs, the body clearances of 14.3
 (``_clearance``, ``_self``) and 19.5 (``_envelope``), the drill-tip metrics of 15 (``_performance``)
 and the holding torque of 18.2 (``_masses``, only with ``Outputs.holding_torque``). A design's points then get the global
-``single_assembly_mode`` guard and the summaries (w_G, eta_G, the violation of MODEL.md 16 and its
+``single_assembly_mode`` guard and the summaries (w_G, eta_G, the violation of model §16 and its
 parts violation_reach and guard_grade, dexterity statistics). Designs run in parallel (``prange``,
 Numba's default thread count); when there are fewer than two designs per thread, the points
 are split into chunks instead. With ``want_points=False`` no designs x points array exists.
@@ -86,7 +86,7 @@ def _geometry(params: np.ndarray, c_z: np.ndarray | None = None) -> np.ndarray:
     the fields of :func:`arcube.model.design.unpack` (mm, rad), the trig of alpha and beta, the mounting
     rotation and whether it is I, computed with the same NumPy operations as the stage modules and
     arcube.model.frames; the spherical links' chords (``kernel._masses``); and each design's own z-dyad link
-    ``c_z`` ``(D,)`` mm (MODEL.md 19.1; NaN or None: the option's, else d_z: ``_scalar.z_link``)."""
+    ``c_z`` ``(D,)`` mm (model §19.1; NaN or None: the option's, else d_z: ``_scalar.z_link``)."""
     g = unpack(params)
     phi = np.concatenate([g.alpha, g.beta], axis=-1)  # (D, 4): alpha_x, alpha_y, beta_x, beta_y
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate arcs (phi = 0): NaN, as in the reference
@@ -113,7 +113,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False,
     here and one in ``_layout.OPTIONS``; the two must name the same blocks."""
     guards, body, loads, masses, outputs = options.guards, options.body, options.loads, options.masses, options.outputs
     values: dict[str, Any] = {
-        # Guards (MODEL.md 8.2, 14.3)
+        # Guards (model §8.2, 14.3)
         "z_dyad": guards.z_dyad,
         "c_z": np.nan if guards.c_z is None else float(guards.c_z),
         **_optional("rho_max", guards.rho_max_deg, np.deg2rad),
@@ -123,14 +123,14 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False,
         **_optional("clearance", guards.clearance_mm, float),
         **_optional("self_clearance", guards.self_clearance_mm, float),
         **_optional("envelope", guards.envelope_clearance_mm, float),
-        # Body (MODEL.md 14.1)
+        # Body (model §14.1)
         "motor_length": body.motor_length,
-        # Loads (MODEL.md 15): rad, N, N·mm/rad
+        # Loads (model §15): rad, N, N·mm/rad
         "encoder": np.radians(np.asarray(loads.encoder_deg, dtype=float)),
         "thrust": float(loads.thrust_N),
         "lateral_force": float(loads.lateral_force_N),
         "stiffness": 1000.0 * np.asarray(loads.actuator_stiffness, dtype=float),
-        # Masses (MODEL.md 18.1): kg/mm, kg, m/s^2 (unchecked against the link radius unless the holding torque is on)
+        # Masses (model §18.1): kg/mm, kg, m/s^2 (unchecked against the link radius unless the holding torque is on)
         "link_mass": _link_mass(options),
         "m_delta": masses.m_delta_kg,
         "m_motor": masses.m_motor_kg,
@@ -150,7 +150,7 @@ def _option_vector(options: Options, exact: bool = False, anatomy: bool = False,
 
 
 def _link_mass(options: Options) -> float:
-    """lambda (kg/mm) of MODEL.md 18.1, from :class:`arcube.evaluation.mass_bodies.MassModel` (which checks the wall
+    """lambda (kg/mm) of model §18.1, from :class:`arcube.evaluation.mass_bodies.MassModel` (which checks the wall
     against the link radius) when the holding torque is on; the same formula, unchecked, otherwise."""
     if options.outputs.tip_metrics and options.outputs.holding_torque:
         return MassModel.of(options).lambda_kg_per_mm
@@ -191,7 +191,7 @@ def _body_context(options: Options, anatomy: Any) -> tuple[tuple[Any, ...], tupl
 
 
 def _envelope_context(envelope: Any) -> tuple[Any, ...]:
-    """The envelope of MODEL.md 19.5 as the compiled code reads it (``_envelope._envelope_clearance``): (boxes (B, 7)
+    """The envelope of model §19.5 as the compiled code reads it (``_envelope._envelope_clearance``): (boxes (B, 7)
     mm, table z (NaN: none), whether there is a skin mesh, then the skin's grids (:func:`_grids`), flat: a tuple
     inside a tuple does not pass Numba's parallel loops); an empty one for None."""
     if envelope is None:
@@ -213,7 +213,7 @@ def evaluate_task_numba(
     With ``want_points=False`` the result's ``points`` is None (only the summaries are computed,
     with no designs x points arrays); the summaries are identical either way.
     ``exact=True`` evaluates every trigonometric function as the reference does (slower).
-    ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of MODEL.md 14.3;
+    ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of model §14.3;
     ``envelope``: an :class:`arcube.evaluation.envelope.Envelope` for the clearance of 19.5;
     ``c_z``: each design's own z-dyad link (mm, broadcasting as the batch; NaN or None: ``Guards.c_z``, else d_z).
     E or e not 2-D, no points or no designs: handed to the NumPy reference.

@@ -1,9 +1,9 @@
-"""The body of one design at one point (MODEL.md 14.1), as primitives in the patient frame.
+"""The body of one design at one point (model §14.1), as primitives in the patient frame.
 
 Fills ``lines`` (23, 2, 3): the 18 segments then the 5 actuator points (zero-length segments), in
 the order of :data:`arcube.model.body.PRIMITIVES`, and ``arcs`` (4, 2, 3): unit start and end
 directions of the spherical links about the centre ``arc_c`` (3,), from the joint values of the
-per-point pass (mechanism coordinates, MODEL.md 3-6), mapped by the mounting rotation and m.
+per-point pass (mechanism coordinates, model §3-6), mapped by the mounting rotation and m.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from arcube.evaluation.kernel._scalar import rot
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _put(g, out, i, j, x0, x1, x2):
-    """out[i, j] = m + R x: a point from mechanism to patient coordinates (MODEL.md 13.1)."""
+    """out[i, j] = m + R x: a point from mechanism to patient coordinates (model §13.1)."""
     y0, y1, y2 = rot(g, x0, x1, x2)
     out[i, j, 0] = y0 + g[G_M]
     out[i, j, 1] = y1 + g[G_M + 1]
@@ -65,7 +65,7 @@ def _body_world(g, c_z, motor_length, C0, C1, C2, e0, e1, e2, cr0, sr0, cr1, sr1
     Ky0, Ky1, Ky2 = Dy0 - d1 * cd1, Dy1, Dy2 + d1 * sd1
     Tx0, Tx1, Tx2 = Qx0, Qx1 + t0 * ss0, Qx2 - t0 * cs0
     Ty0, Ty1, Ty2 = Qy0 - t1 * cs1, Qy1, Qy2 + t1 * ss1
-    # z dyad elbow (MODEL.md 6 and 14.1: on the z_m x (Q_z - D_z) side); open: D_z -> Q_z
+    # z dyad elbow (model §6 and 14.1: on the z_m x (Q_z - D_z) side); open: D_z -> Q_z
     q0 = Qz0 - Dz0
     q1 = Qz1 - Dz1
     q2 = Qz2 - Dz2

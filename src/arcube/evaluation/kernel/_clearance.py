@@ -1,4 +1,4 @@
-"""Body clearances for one point (MODEL.md 14.3): to the anatomy's distance grids, and between parts.
+"""Body clearances for one point (model §14.3): to the anatomy's distance grids, and between parts.
 
 * ``_lookup``: the anatomy's signed distance at a point, exactly as
   :class:`arcube.evaluation.sdf.AnatomyDistance` computes it (trilinear in the fine grid inside
@@ -227,7 +227,7 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
     bound cannot beat the best so far is not searched; the others' entries are set to the bound their
     search proves (the caller carries them to the next point, less how far the primitive moved).
     ``enough``: a value below which the caller needs no more (a guard's shortfall past its grading scale,
-    MODEL.md 16; -inf: none): the search stops at the first body point found at or below it."""
+    model §16; -inf: none): the search stops at the first body point found at or below it."""
     stack_lo = work[0]
     stack_hi = work[1]
     pt = work[2, :3]

@@ -28,7 +28,7 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
     # the point range as plain int64 in all three calls (not the constant 0 nor prange's uint64): one compiled
     # _design_points instead of three (numba specializes a callee on each constant argument and each integer type)
     single_assembly_mode = opt[_O_SAM] != 0.0
-    # the last IK failure code per design: the z dyad's too for a design with its own c_z (MODEL.md 16's amendment)
+    # the last IK failure code per design: the z dyad's too for a design with its own c_z (model §16's amendment)
     ik_last = np.empty(n_des, np.int64)
     for i in range(n_des):
         own = opt[_O_Z_DYAD] != 0.0 and geometry[i, _G_C_Z] == geometry[i, _G_C_Z]

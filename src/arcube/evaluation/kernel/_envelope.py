@@ -1,4 +1,4 @@
-"""The body's clearance to the envelope of the whole patient (MODEL.md 19.5) at one point, compiled.
+"""The body's clearance to the envelope of the whole patient (model §19.5) at one point, compiled.
 
 The same quantity as :func:`arcube.evaluation.envelope_clearance.envelope_clearance` (its doc gives the
 definition, the tie rule and the arcs' chords), each pair minimised exactly by ``_envelope_exact``.

@@ -1,4 +1,4 @@
-"""Exact pieces of the envelope clearance (MODEL.md 19.5), compiled, scalars only: the signed distance to an
+"""Exact pieces of the envelope clearance (model §19.5), compiled, scalars only: the signed distance to an
 axis-aligned box, its exact least along a segment, the lowest point of a great-circle arc, and lower bounds of
 the box distance along a segment and over a piece of an arc (``_envelope`` prunes with them).
 

@@ -35,7 +35,7 @@ BIG = float(np.finfo(np.float64).max)
 INF = math.inf
 NAN = math.nan
 EXCESS_CAP = 10.0
-"""Cap on one argument's excess in the graded violation (MODEL.md 12.2), as the reference's
+"""Cap on one argument's excess in the graded violation (model §12.2), as the reference's
 ``_EXCESS_CAP`` (tests/test_kernel_layout.py holds the two equal)."""
 
 GRADE_Z_DYAD = GRADE_SCALES["z_dyad"]
@@ -43,9 +43,9 @@ GRADE_RHO = GRADE_SCALES["rho_max"]  # rad
 GRADE_SINE = GRADE_SCALES["transmission"]
 GRADE_CLEARANCE = GRADE_SCALES["clearance"]  # mm
 GRADE_ENVELOPE = GRADE_SCALES["envelope"]  # mm
-"""The scales S of MODEL.md 16's guard terms min(s / S, 1), the reference's ``GRADE_SCALES``."""
+"""The scales S of model §16's guard terms min(s / S, 1), the reference's ``GRADE_SCALES``."""
 CODE_IK_LAST = IK_FAILURES
-"""Failure codes 1 .. CODE_IK_LAST: the inverse kinematics fails (a stage, or eta_L = inf; MODEL.md 16)."""
+"""Failure codes 1 .. CODE_IK_LAST: the inverse kinematics fails (a stage, or eta_L = inf; model §16)."""
 
 CODE_SINGULAR = FAILURES.index("singular/J_LV") + 1  # 8 .. 14 in JACOBIAN_NAMES order
 CODE_Z_DYAD = FAILURES.index("guard/z_dyad") + 1
@@ -102,18 +102,18 @@ GEOMETRY = Layout("G", (
     ("o", _width(SLICES["o"])),  # transmitting offsets, rad
     ("sin_alpha", _width(SLICES["alpha"])), ("cos_alpha", _width(SLICES["alpha"])),
     ("cos_beta", _width(SLICES["beta"])), ("sin_beta", _width(SLICES["beta"])),
-    ("rot", 9),  # the mounting rotation R, row-major (MODEL.md 13.1)
-    ("L", 1),  # tool offset, mm (MODEL.md 13.2)
+    ("rot", 9),  # the mounting rotation R, row-major (model §13.1)
+    ("L", 1),  # tool offset, mm (model §13.2)
     ("flat", 1),  # 1.0 where R = I exactly (the stages then see E - m unrotated, bit for bit)
-    # the spherical links as 12 chords each (MODEL.md 18.1), in the order alpha_x, alpha_y, beta_x, beta_y:
+    # the spherical links as 12 chords each (model §18.1), in the order alpha_x, alpha_y, beta_x, beta_y:
     ("arc_chord", 4),  # sin(phi / 24): a chord is 2 r sin(phi / 24) long
     ("arc_a", 4), ("arc_b", 4),  # sum over the chords of the slerp coefficients of their midpoints (kernel._masses)
-    ("c_z", 1),  # the z dyad's second link, mm: the design's own (MODEL.md 19.1); NaN: Guards.c_z's, else d_z
+    ("c_z", 1),  # the z dyad's second link, mm: the design's own (model §19.1); NaN: Guards.c_z's, else d_z
 ))  # fmt: skip
 """One design's geometry row ``(N_GEO,)``: mm, rad and the trig of the spherical angles."""
 
 OPTIONS = Layout("O", (
-    # guards (MODEL.md 8.2, 14.3); an optional threshold is a pair <name>_on (1.0: active), <name>
+    # guards (model §8.2, 14.3); an optional threshold is a pair <name>_on (1.0: active), <name>
     ("z_dyad", 1), ("c_z", 1),  # c_z in mm, NaN: c_z = d_z (a design's own c_z, in its geometry row, comes first)
     ("rho_max_on", 1), ("rho_max", 1),  # rad
     ("transmission_on", 1), ("transmission", 1),  # sine of the smallest transmission angle
@@ -121,21 +121,21 @@ OPTIONS = Layout("O", (
     ("single_assembly_mode", 1),
     ("clearance_on", 1), ("clearance", 1),  # mm
     ("self_clearance_on", 1), ("self_clearance", 1),  # mm
-    ("envelope_on", 1), ("envelope", 1),  # mm, the clearance to the envelope of the whole patient (MODEL.md 19.5)
-    # body (MODEL.md 14.1)
+    ("envelope_on", 1), ("envelope", 1),  # mm, the clearance to the envelope of the whole patient (model §19.5)
+    # body (model §14.1)
     ("motor_length", 1),  # mm
-    # loads (MODEL.md 15)
+    # loads (model §15)
     ("encoder", 5),  # rad, per actuator
     ("thrust", 1), ("lateral_force", 1),  # N
     ("stiffness", 5),  # N·mm/rad, per actuator
-    # masses (MODEL.md 18.1)
+    # masses (model §18.1)
     ("link_mass", 1),  # kg/mm, lambda of a link's tube
     ("m_delta", 1), ("m_motor", 1),  # kg
     ("gravity", 3),  # m/s^2, patient frame
     # what to compute (1.0: yes)
     ("exact", 1), ("do_clearance", 1), ("do_self_clearance", 1), ("tip_metrics", 1), ("clearance_min_exact", 1),
-    ("holding_torque", 1),  # with tip_metrics: the holding torque of MODEL.md 18.2
-    ("do_envelope", 1),  # the clearance to the envelope (MODEL.md 19.5), given one
+    ("holding_torque", 1),  # with tip_metrics: the holding torque of model §18.2
+    ("do_envelope", 1),  # the clearance to the envelope (model §19.5), given one
 ))  # fmt: skip
 """The option vector ``(N_OPT,)``: the settings as numbers, thresholds as the reference compares them."""
 
@@ -148,7 +148,7 @@ SUMMARY = Layout("S", ((name, 1) for name in SUMMARY_FIELDS))
 POINT_ARRAYS: tuple[str, ...] = ("reachable", "failure", "kappa", "eta_L", "dexterity_pct", "excess", "rho", "delta", "sigma")
 """PointResults fields with arrays of their own in the kernel (``reachable`` is failure == 0)."""
 EXTRA_FIELDS: tuple[str, ...] = tuple(name for name in PointResults._fields if name not in POINT_ARRAYS)
-"""Columns of an extra row: every other PointResults field (the guard grade, MODEL.md 16; body clearances, 14.3;
+"""Columns of an extra row: every other PointResults field (the guard grade, model §16; body clearances, 14.3;
 tip metrics, 15)."""
 EXTRA = Layout("X", ((name, 1) for name in EXTRA_FIELDS))
 """One point's extra row ``(N_EXTRA,)``; integer fields (parts, actuators) held as floats."""
@@ -159,7 +159,7 @@ del _row
 N_GEO, N_OPT, N_SUMM, N_EXTRA = GEOMETRY.size, OPTIONS.size, SUMMARY.size, EXTRA.size
 
 METRIC_COLUMNS = np.array([EXTRA.offset[name] for name in MAXIMUM_FIELDS], dtype=np.int64)
-"""Extra columns of the tip metrics of MODEL.md 15 and the holding torque of 18.2 that have a maximum (all but
+"""Extra columns of the tip metrics of model §15 and the holding torque of 18.2 that have a maximum (all but
 the actuators)."""
 MAXIMA = np.array([(SUMMARY.offset[name.rsplit("_", 1)[0] + "_max"], EXTRA.offset[name]) for name in MAXIMUM_FIELDS], dtype=np.int64)
-"""(summary column, extra column) of each maximum over the reachable points (MODEL.md 15.5, 18.2), ``(7, 2)``."""
+"""(summary column, extra column) of each maximum over the reachable points (model §15.5, 18.2), ``(7, 2)``."""

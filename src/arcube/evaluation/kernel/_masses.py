@@ -1,9 +1,9 @@
-"""The holding torque of MODEL.md 18.2 at one point, from the kernel's stage terms and the forward Jacobian.
+"""The holding torque of model §18.2 at one point, from the kernel's stage terms and the forward Jacobian.
 
 dV/dq = -(1/1000) sum_b m_b g^T J_b, J_b the Jacobian (mm/rad) of body b's centre of mass
 (:mod:`arcube.evaluation.mass_bodies`, the NumPy reference, builds all 65 bodies' Jacobians). g is constant,
 so the sum collapses by how the bodies move; in mechanism coordinates (G = R^T g), with the rates of
-the centre J_C = diag(-p_u cos rho_u) (its only columns are the rho columns: the TLS of MODEL.md 7.1)
+the centre J_C = diag(-p_u cos rho_u) (its only columns are the rho columns: the TLS of model §7.1)
 and of the drill axis J_e (from ``_performance``'s J_e, turned by R^T), column j of g^T sum m J is
 
     W_j = M_C G.J_C,j + M_e G.J_e,j + sum_u s_u sigma_dot_u,j + [j = rho_u] c_D,u G.dD_u

@@ -1,4 +1,4 @@
-"""Physical performance at the drill tip for one point (MODEL.md 15), from the kernel's stage terms.
+"""Physical performance at the drill tip for one point (model §15), from the kernel's stage terms.
 
 The velocity model A t = B q̇ (7.4) is solved in closed form instead of by a 5x5 solve: its first
 three rows give v_C = J_LV ρ̇; the last two give diag(H/J_AS) J_AP ω = M q̇ with

@@ -1,6 +1,6 @@
 """The per-point pass of one design: TLS, RTS and TMS inverse kinematics, the seven condition
-numbers, the local guards, the IK domain excess (MODEL.md 3-8, 12.2) and each point's guard grade
-(MODEL.md 16), in the reference's order.
+numbers, the local guards, the IK domain excess (model §3-8, 12.2) and each point's guard grade
+(model §16), in the reference's order.
 
 Long module: one scalarized pass per point (IK, guards, clearances, the envelope of 19.5, the tip metrics' hand-off)
 that Numba compiles as one unit; splitting it would pass dozens of scalars between functions."""
@@ -41,7 +41,7 @@ PRIM_PART = PRIMITIVE_PART.astype(np.int64)
 
 @njit(cache=True, error_model="numpy")
 def _rts_direction(e0, e1, e2, sa0, ca0, cb0, o0, epsR0, sa1, ca1, cb1, o1, epsR1):
-    """RTS IK (MODEL.md 5.2) and its Jacobian invariants for one drill direction (mechanism axes).
+    """RTS IK (model §5.2) and its Jacobian invariants for one drill direction (mechanism axes).
 
     Returns sigma_x, sigma_y, their arguments, sin/cos of both sigmas, the J_AS diagonal, det[x_b, y_b, e],
     kappa(J_AS), kappa(J_AP) and the axes x_beta, y_beta (world components of R_m).
@@ -90,7 +90,7 @@ def _rts_direction(e0, e1, e2, sa0, ca0, cb0, o0, epsR0, sa1, ca1, cb1, o1, epsR
 
 @njit(cache=True, error_model="numpy")
 def _centre_m(g, E0, E1, E2, e0, e1, e2):
-    """Mechanism coordinates of the centre C = E + L e of the spherical stage: R^T (C - m) (MODEL.md 13)."""
+    """Mechanism coordinates of the centre C = E + L e of the spherical stage: R^T (C - m) (model §13)."""
     L = g[G_L]
     if L != 0.0:
         E0 = E0 + L * e0
@@ -163,8 +163,8 @@ def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, ful
 
 @njit(cache=True, error_model="numpy")
 def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det):
-    """The active local guards of MODEL.md 8.2 in FAILURES order: (failure code, grade, z-dyad shortfall), the
-    grade being the sum of their MODEL.md 16 terms min(s / S, 1) (a guard's NaN counts 0), as
+    """The active local guards of model §8.2 in FAILURES order: (failure code, grade, z-dyad shortfall), the
+    grade being the sum of their model §16 terms min(s / S, 1) (a guard's NaN counts 0), as
     ``reference._guard_checks``; the z dyad's closure shortfall is 0 when its guard is off."""
     gr = 0.0
     zs = 0.0
@@ -228,11 +228,11 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     ``e`` (P, 3) unit, ``same_e`` (P,) true where e[k] equals e[k - 1] bitwise; the option vector ``opt``;
     ``grids``: the anatomy's fine and coarse grids (origin (3,) mm, spacing mm, values (nx, ny, nz) mm, for
     each), then their block gradient bounds (kernel._clearance); ``body``: the primitives' radii (27,) mm,
-    their search order and the self-clearance pairs (MODEL.md 14.1-14.3); ``envelope``: the envelope of the whole
-    patient (MODEL.md 19.5) as ``_envelope._envelope_clearance`` takes it.
+    their search order and the self-clearance pairs (model §14.1-14.3); ``envelope``: the envelope of the whole
+    patient (model §19.5) as ``_envelope._envelope_clearance`` takes it.
     Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
     ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0])
-    and ``extra`` (P, N_EXTRA: the guard grade of MODEL.md 16 before the global guard, the clearances, the
+    and ``extra`` (P, N_EXTRA: the guard grade of model §16 before the global guard, the clearances, the
     tip metrics and the holding torque of 18.2); with
     ``full`` also row i of ``detail`` = (kappa (D, P, 7), rho (D, P, 3), delta (D, P, 2), sigma (D, P, 2)), rad.
     """
@@ -265,7 +265,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     epsT0, epsT1, epsR0, epsR1 = modes[i, 0], modes[i, 1], modes[i, 2], modes[i, 3]
     exact = opt[O_EXACT] != 0.0
     need_rho = full or opt[O_RHO_MAX_ON] != 0.0
-    dyad_ik = opt[O_Z_DYAD] != 0.0 and g[G_C_Z] == g[G_C_Z]  # MODEL.md 16's amendment: the design's own c_z
+    dyad_ik = opt[O_Z_DYAD] != 0.0 and g[G_C_Z] == g[G_C_Z]  # model §16's amendment: the design's own c_z
 
     # RTS cache (depends on the direction only)
     have = False
@@ -321,7 +321,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
         eta_raw = _INF
         if fc == 0:
             eta_raw, fc = _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_o[i, k] if full else kappa_o[0, 0])
-            solved = fc == 0  # the IK solves the point: its guards are graded (MODEL.md 16)
+            solved = fc == 0  # the IK solves the point: its guards are graded (model §16)
             fc, gr, zs = _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
             if dyad_ik and zs > 0.0:  # an open z dyad is a point the IK does not reach: its excess, no guard grade
                 ex = ex + zs
@@ -356,7 +356,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                     if short > 0.0 and fc == 0:
                         fc = CODE_SELF
                     gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
-                if do_env:  # MODEL.md 19.5
+                if do_env:  # model §19.5
                     least = _envelope_regions(lines, arc_c, arc_r, arcs, radius, env_boxes, env_table, env_skin, have_prev_env, env_state)
                     have_prev_env = not math.isnan(least)  # a finite body: the next point carries its bounds
                     if env_skin and have_prev_env:
@@ -385,7 +385,7 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
             if fc == 0 and do_perf:
                 _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
                              xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, jbuf, extra[k])  # fmt: skip
-                if do_hold:  # MODEL.md 18.2
+                if do_hold:  # model §18.2
                     _holding_torque(g, opt, Em0, Em1, Em2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1,
                                     xb0, xb1, xb2, yb0, yb1, yb2, jas0, jas1, em0, em1, em2, jbuf, extra[k])  # fmt: skip
             else:

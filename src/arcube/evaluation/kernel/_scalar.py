@@ -1,5 +1,5 @@
 """Scalar helpers of the kernel: the stage modules' closed forms for one value, NumPy's summation order,
-and the mounting rotation of MODEL.md 13.1 in its two summation orders (:func:`rot`, :func:`rot_t`)."""
+and the mounting rotation of model §13.1 in its two summation orders (:func:`rot`, :func:`rot_t`)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from arcube.evaluation.kernel._layout import TWO_PI as _TWO_PI
 
 @njit(cache=True, error_model="numpy")
 def rot(g, x0, x1, x2):
-    """R x, R the mounting rotation of the geometry row ``g`` (MODEL.md 13.1): mechanism to patient
+    """R x, R the mounting rotation of the geometry row ``g`` (model §13.1): mechanism to patient
     axes. Each component is summed left to right, (R_i0 x0 + R_i1 x1) + R_i2 x2, as the body and the
     tip metrics always have; x itself where R = I exactly (``G_FLAT``)."""
     if g[G_FLAT] != 0.0:
@@ -32,7 +32,7 @@ def rot(g, x0, x1, x2):
 
 @njit(cache=True, error_model="numpy")
 def rot_t(g, a0, a1, a2):
-    """R^T a (patient to mechanism axes, MODEL.md 13.1), each component summed (p0 + p2) + p1: the order
+    """R^T a (patient to mechanism axes, model §13.1), each component summed (p0 + p2) + p1: the order
     of NumPy's einsum in :func:`arcube.model.frames.to_mechanism` on the build the kernel was written
     against (einsum's order depends on the build: NumPy 2.4 sums left to right there, one ulp away at
     times, within the tests' tolerance). Kept, so that the kernel's results stay the same bits; a itself
@@ -136,7 +136,7 @@ def _clip_excess(a):
 
 @njit(cache=True, error_model="numpy")
 def _term(short, scale):
-    """One guard term of MODEL.md 16: np.minimum(short / scale, 1.0) (NaN propagates)."""
+    """One guard term of model §16: np.minimum(short / scale, 1.0) (NaN propagates)."""
     x = short / scale
     if x > 1.0:
         return 1.0
@@ -256,7 +256,7 @@ def _pairwise_sum(a):
 
 @njit(cache=True, error_model="numpy")
 def z_link(g, opt):
-    """The z dyad's second link c_z (mm) of the geometry row ``g``: the design's own (MODEL.md 19.1), else
+    """The z dyad's second link c_z (mm) of the geometry row ``g``: the design's own (model §19.1), else
     (NaN) the option's ``Guards.c_z``, else (NaN) d_z, as ``reference.design_c_z``."""
     cz = g[G_C_Z]
     if cz != cz:

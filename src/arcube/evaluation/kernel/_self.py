@@ -1,4 +1,4 @@
-"""Self clearance for one point (MODEL.md 14.3): the pairs of :data:`arcube.model.body.SELF_PAIRS`,
+"""Self clearance for one point (model §14.3): the pairs of :data:`arcube.model.body.SELF_PAIRS`,
 segments and points by the closest-point formula (Ericson 5.1.9), arcs as the same chord polylines as
 :mod:`arcube.evaluation.clearance`. Straight pairs carry a lower bound from point to point (less both
 parts' moves), so a pair that stays far apart is not measured again while the guard only decides."""

@@ -1,5 +1,5 @@
 """Per-design summaries: the global single-assembly-mode guard, eta_L, dexterity, eta_G, the violation
-of MODEL.md 16 (V_reach, the guard grade, V = V_reach + V_fit)."""
+of model §16 (V_reach, the guard grade, V = V_reach + V_fit)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def _finalize(single_assembly_mode, ik_last, failure, eta, excess, assembly, dex
     100 / eta_L (%, 0 where unreachable); ``extra`` (P, N_EXTRA) loses the tip metrics of the points that
     fail and its guard grade gains 1 at each point the IK solves outside the majority assembly mode (as
     ``reference._single_assembly_mode``); ``summary`` (N_SUMM,) gets the ``S_*`` columns. Failure codes
-    1 .. ``ik_last`` are IK failures (CODE_IK_LAST, or CODE_Z_DYAD under MODEL.md 16's amendment).
+    1 .. ``ik_last`` are IK failures (CODE_IK_LAST, or CODE_Z_DYAD under model §16's amendment).
     """
     n = failure.shape[0]
     if single_assembly_mode:
@@ -86,7 +86,7 @@ def _finalize(single_assembly_mode, ik_last, failure, eta, excess, assembly, dex
                 emin = extra[k, X_ENVELOPE_CLEARANCE_MM]
         else:
             _no_metrics(extra[k])
-    # MODEL.md 16: V = V_reach + G / (1 + G) / (2n), G = (guard grades summed over the points) / n; the sum is
+    # model §16: V = V_reach + G / (1 + G) / (2n), G = (guard grades summed over the points) / n; the sum is
     # skipped where every grade is 0 (no guard, or all passed: a sum of zeros is 0.0)
     reach = 0.0 if n_ik == 0 else n_ik / n + _pairwise_sum(excess)
     grade = _pairwise_sum(extra[:, X_GUARD_GRADE]) if graded else 0.0
@@ -97,7 +97,7 @@ def _finalize(single_assembly_mode, ik_last, failure, eta, excess, assembly, dex
     summary[S_CLEARANCE_MIN] = cmin if cmin < _INF else _NAN
     summary[S_SELF_CLEARANCE_MIN] = smin if smin < _INF else _NAN
     summary[S_ENVELOPE_CLEARANCE_MIN] = emin if emin < _INF else _NAN
-    # the maxima of MODEL.md 15.5 over the reachable points
+    # the maxima of model §15.5 over the reachable points
     for j in range(MAXIMA.shape[0]):
         col = MAXIMA[j, 1]
         vmax = -_INF

@@ -1,4 +1,4 @@
-"""Signed distance to the anatomy on grids, for the clearance of MODEL.md section 14.3.
+"""Signed distance to the anatomy on grids, for the clearance of model §14.3.
 
 Modules: :mod:`~arcube.evaluation.sdf.grid` (the public :class:`DistanceGrid`, :func:`grid_for_bounds` and
 :class:`AnatomyDistance`), ``_boxes`` (exact box distances, compiled grid fill) and ``_mesh`` (triangle BVH,

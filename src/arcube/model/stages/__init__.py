@@ -3,7 +3,7 @@
 * :mod:`arcube.model.stages.tls`: translational stage (cranks, Eq 1, J_LV);
 * :mod:`arcube.model.stages.tms`: transmitting four-bars of legs x and y (Eq 2-3, J_rho, J_delta, J_AV, J_sigma);
 * :mod:`arcube.model.stages.rts`: spherical five-bar (Eq 4, J_AS, J_AP);
-* :mod:`arcube.model.stages.zleg`: closure of the z leg's passive planar dyad (MODEL.md 6).
+* :mod:`arcube.model.stages.zleg`: closure of the z leg's passive planar dyad (model §6).
 
 Conventions shared by all: lengths in mm, angles in rad, leading axes broadcast (designs,
 points), per-leg values stacked on the last axis (x, y[, z]).

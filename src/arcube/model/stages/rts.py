@@ -1,4 +1,4 @@
-"""Rotational stage (RTS): the spherical five-bar centred at the drill tip E (MODEL.md 5, 7.3).
+"""Rotational stage (RTS): the spherical five-bar centred at the drill tip E (model §5, 7.3).
 
 Leg u (x or y) has its proximal axis along +u through E; its proximal link (arc alpha_u)
 turns with lambda_u = sigma_u + o_u, giving the intermediate axis
@@ -27,7 +27,7 @@ _AXES: NDArray[np.float64] = np.eye(3)[:2]
 
 
 def ik(e: ArrayLike, alpha: ArrayLike, beta: ArrayLike, o: ArrayLike, eps_R: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Input angles sigma_u reaching drill axis ``e`` (MODEL.md 5.2), working mode eps_R = -sign J_AS,u.
+    """Input angles sigma_u reaching drill axis ``e`` (model §5.2), working mode eps_R = -sign J_AS,u.
 
     Parameters: ``e`` ``(..., 3)`` unit; ``alpha``, ``beta``, ``o``, ``eps_R`` ``(..., 2)`` (rad, signs).
     Returns ``(sigma, arg)`` ``(..., 2)``: sigma wrapped to [-pi, pi) (NaN where unreachable) and
@@ -75,7 +75,7 @@ def det_beta(e: ArrayLike, ub: ArrayLike) -> NDArray[np.float64]:
 
 
 def fk(sigma: ArrayLike, alpha: ArrayLike, beta: ArrayLike, o: ArrayLike, eps_P: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Drill axis e given the inputs sigma (MODEL.md 5.4), assembly mode eps_P = sign det[x_b, y_b, e].
+    """Drill axis e given the inputs sigma (model §5.4), assembly mode eps_P = sign det[x_b, y_b, e].
 
     Returns ``(e, radicand)``: ``e`` ``(..., 3)`` (NaN where it does not assemble) and the
     radicand (1 - a^2 - b^2 - 2abg)/(1 - g^2), which must be >= 0.

@@ -1,4 +1,4 @@
-"""Translational stage (TLS): three cranks on the negative axes of R_m (MODEL.md section 3).
+"""Translational stage (TLS): three cranks on the negative axes of R_m (model §3).
 
 Leg u has its proximal active pivot at P_u = -f_u u, a crank p_u whose tip D_u is at
 P_u + p_u (-sin rho_u u + cos rho_u w), and a planar distal chain with axes along u that

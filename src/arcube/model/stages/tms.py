@@ -1,4 +1,4 @@
-"""Transmitting stage (TMS): the planar four-bars of legs x and y (MODEL.md section 4, 7.2).
+"""Transmitting stage (TMS): the planar four-bars of legs x and y (model §4, 7.2).
 
 In the plane u = u_E + r of leg u, with leg coordinates (v, w) and link directions
 n(phi) = sin(phi) v - cos(phi) w:
@@ -44,7 +44,7 @@ def fk(
     v: ArrayLike, w: ArrayLike, rho: ArrayLike, delta: ArrayLike,
     p: ArrayLike, d: ArrayLike, c: ArrayLike, t: ArrayLike, eps_H: ArrayLike,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
-    """Output angle sigma_u given the input delta_u (MODEL.md 4.4), assembly mode eps_H = sign H_u.
+    """Output angle sigma_u given the input delta_u (model §4.4), assembly mode eps_H = sign H_u.
 
     Shapes ``(..., 2)``. Returns ``(sigma, arg)``; assembled iff |arg| <= 1.
     """
@@ -73,7 +73,7 @@ def jacobian_terms(
     v: ArrayLike, w: ArrayLike, rho: ArrayLike, delta: ArrayLike, sigma: ArrayLike,
     p: ArrayLike, d: ArrayLike, t: ArrayLike,
 ) -> TMSJacobianTerms:  # fmt: skip
-    """F, G, D, E, H of MODEL.md 7.2 from the coupler vector T_u - K_u = (a_v, a_w)."""
+    """F, G, D, E, H of model §7.2 from the coupler vector T_u - K_u = (a_v, a_w)."""
     d_ = np.asarray(d, dtype=float)
     t_ = np.asarray(t, dtype=float)
     p_ = np.asarray(p, dtype=float)

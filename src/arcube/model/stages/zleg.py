@@ -1,4 +1,4 @@
-"""The z leg's passive planar RRR dyad (MODEL.md section 6) [CHOICE + ADDITION].
+"""The z leg's passive planar RRR dyad (model §6) [CHOICE + ADDITION].
 
 The dyad (links d_z, c_z, axes along z) runs in the plane z = z_E + r from the crank tip
 D_z, at (x, y) = (0, p_z cos rho_z), to Q_z = E + r z. It closes iff
