@@ -160,7 +160,7 @@ def _point_cloud(path: Path) -> Path:
     (lambda d: _nan_box(d / "nan.stl"), "LPS", "NaN"),
     (lambda d: _inverted_box(d / "inverted.obj"), "RAS", "oriented inward"),
     (lambda d: _open_box(d / "ok_but.stl"), "XYZ", "unknown frame"),
-    (lambda d: _write_text(d / "mesh.vtk", "x"), "LPS", "unknown mesh format"),
+    (lambda d: _write_text(d / "mesh.vtk", "x"), "LPS", "or a segmentation .seg.nrrd, .nrrd, .nii or .nii.gz"),
 ])
 def test_bad_mesh_inputs_raise_one_line_input_error(tmp_path: Path, make, frame, needle) -> None:
     path = make(tmp_path)

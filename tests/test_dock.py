@@ -62,6 +62,7 @@ def test_every_docking_file_holds_the_given_robot_unchanged(docked: Path) -> Non
         design = json.loads((docked / d["folder"] / "design.json").read_text())
         assert {n: design[n] for n in ROBOT_NAMES} == {n: given[n] for n in ROBOT_NAMES}
         assert design["mode"] == given["mode"] and {n: design[n] for n in PLACEMENT} == {n: d[n] for n in PLACEMENT}
+        assert (design["patient"], design["side"]) == (d["patient"], d["side"])  # the docking file says whose and which side
 
 
 def test_the_summary_and_coverage_csv_agree_and_read_back(docked: Path) -> None:

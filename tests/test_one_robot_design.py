@@ -68,6 +68,8 @@ def test_design_json_is_the_robot_and_its_dockings(job: Path) -> None:
         assert {n: values[n] for n in PLACEMENT} == {n: entry[n] for n in PLACEMENT}
         assert {n: values[n] for n in PARAM_NAMES if n not in PLACEMENT} == {n: robot[n] for n in ROBOT_NAMES if n != "c_z"}
         assert d.c_z == robot["c_z"] and d.mode == robot["mode"]
+        raw = json.loads(file.read_text())
+        assert (raw["patient"], raw["side"]) == (entry["patient"], entry["side"])  # whose docking, which side
     with pytest.raises(arcube.InputError, match=r"one robot at 2 dockings.*dockings/<patient>_<side>/design.json"):
         arcube.Design.load(job / "design.json")  # no placement of its own: the message says which file to give
 

@@ -117,6 +117,11 @@ def test_write_patients_in_each_format_and_default_finds_the_newest(tmp_path: Pa
     write_patients(True, None, "pedicle", 1, csv, anatomy_format="seg.nrrd", anatomy_spacing_mm=2.0)
     c = resolve_anatomy("default", plan=str(csv), segments="C3,C4")
     assert c.source.endswith("p.anatomy.seg.nrrd)") and [s.name for s in c.segments] == ["C3", "C4"]
+    # given by name, each file says its own frame: the NIfTI's RAS and the .seg.nrrd's LPS, whatever --anatomy-frame (the meshes') says
+    d = resolve_anatomy([str(tmp_path / "p.anatomy.nii.gz"), str(tmp_path / "p.anatomy.stl")], "patient", plan=str(csv))
+    assert d.source == f"{tmp_path / 'p.anatomy.nii.gz'} (RAS, the file's own), {tmp_path / 'p.anatomy.stl'} (patient)"
+    e = resolve_anatomy(str(tmp_path / "p.anatomy.seg.nrrd"), "RAS", plan=str(csv))
+    assert e.source == f"{tmp_path / 'p.anatomy.seg.nrrd'} (LPS, the file's own)"
     with pytest.raises(InputError, match="^anatomy_format 'stl.gz'"):
         write_patients(True, None, "pedicle", 1, csv, anatomy_format="stl.gz")
 

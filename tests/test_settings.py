@@ -58,6 +58,9 @@ def test_the_cli_names_the_flag_of_the_field() -> None:
     err = InputError.of("Loads.thrust_N", "must be >= 0, got -3.0")
     assert flag_message(err) == "--thrust must be >= 0, got -3.0"
     assert flag_message(InputError("plain message")) == "plain message"
+    inside = InputError("m.csv: 6 fitted measurements are too few; fit at least 7 (IdentifySettings.holdout sets how many are held out)")
+    assert flag_message(inside).endswith("(--holdout sets how many are held out)")  # a setting named inside the message too
+    assert flag_message(InputError("XIdentifySettings.holdouts stays")) == "XIdentifySettings.holdouts stays"  # whole names only
 
 
 # --------------------------------------------------------------------------- RunSettings: Python values

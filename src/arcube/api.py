@@ -122,7 +122,9 @@ class _Request(NamedTuple):
 def _request(design: Any, plan: Any, options: Options | None, points: Any, mode: Any, guards: bool, side: Any, levels: Any, ids: Any,
              transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any], segments: Any = None, envelope: Any = None,
              table_z: Any = None) -> _Request:  # fmt: skip
-    d = Design.coerce(design)
+    from arcube.model.robot import design_at_side
+
+    d = Design.coerce(design_at_side(design, side))
     signs = design_mode(d, mode)
     n = checked_points(points)
     full = load_plan(plan, transform=transform)

@@ -64,7 +64,9 @@ def export(given: Given) -> None:
     from arcube.evaluation.envelope import resolve_envelope
 
     env = resolve_envelope(given.get("envelope"), full, anat, given.get("table_z"), given.get("anatomy_frame", "LPS"))  # drawn (model §19.5)
-    text = export_mjcf(given.get("design", "paper"), ts, c_z=c_z, options=options, anatomy=anat, masses=asked, envelope=env, **kw)
+    from arcube.model.robot import design_at_side
+
+    text = export_mjcf(design_at_side(given.get("design", "paper"), given.get("side")), ts, c_z=c_z, options=options, anatomy=anat, masses=asked, envelope=env, **kw)
     try:
         atomic_write_text(out, text)
     except OSError as exc:

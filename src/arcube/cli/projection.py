@@ -15,6 +15,8 @@ flags. :data:`REGISTRY` holds every command's flags, for the multi-value and pat
 
 from __future__ import annotations
 
+import re
+
 import inspect
 import keyword
 import types
@@ -227,9 +229,14 @@ def flag_message(exc: InputError) -> str:
     """What the CLI prints for ``exc``: its message with the setting it names replaced by its flag
     (unchanged if none); a command's own flags take precedence (:func:`command`)."""
     param = exc.param
-    flag = flag_table().get(param) if param else None
+    table = flag_table()
+    flag = table.get(param) if param else None
     text = str(exc)
-    return flag + text[len(param):] if flag is not None and param is not None and text.startswith(param) else text
+    text = flag + text[len(param):] if flag is not None and param is not None and text.startswith(param) else text
+    # a setting named inside the message ("IdentifySettings.holdout sets how many") is the user's flag too
+    for key in sorted((k for k in table if "." in k and k in text), key=len, reverse=True):
+        text = re.sub(rf"(?<![\w.]){re.escape(key)}(?![\w])", table[key], text)
+    return text
 
 
 def _parameter(f: Flag) -> inspect.Parameter:

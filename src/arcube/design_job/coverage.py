@@ -34,7 +34,7 @@ from typing import Any
 from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob, DockingOutcome, solve_docking
 from arcube.design_job.dockings import PLACEMENT, Docking
 from arcube.design_job.requirements import REQUIREMENTS, Requirement, write_requirements_csv
-from arcube.model.robot import BuiltRobot, read_robot
+from arcube.model.robot import BuiltRobot, read_robot, write_docking
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.io.json_values import finite
@@ -135,7 +135,7 @@ def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: R
     from arcube.report.design_job import design_preface
 
     folder.mkdir(parents=True, exist_ok=True)
-    outcome.design.to_json(folder / "design.json")
+    write_docking(outcome.design, folder / "design.json", outcome.patient, outcome.side)
     write_requirements_csv(folder / "requirements.csv", [{**r, "docking": outcome.label} for r in outcome.rows])
     options = s.evaluation_options()
     options = options.replace(z_dyad=True, c_z=outcome.design.c_z_mm,

@@ -48,6 +48,7 @@ from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
+from arcube.model.robot import write_docking
 from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
@@ -297,7 +298,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     for d in dockings:
         folder = _folder(out, d, dockings)
         (out / DOCKINGS / d.label).mkdir(parents=True, exist_ok=True)
-        d.design.to_json(out / DOCKINGS / d.label / "design.json")
+        write_docking(d.design, out / DOCKINGS / d.label / "design.json", d.name, d.side)
         write_requirements_csv(out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
         opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
         ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode or "+,+,+,+"), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)

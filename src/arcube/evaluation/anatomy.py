@@ -120,7 +120,8 @@ def _cached(key: tuple[Any, ...], build: Any) -> Anatomy:
     return anatomy
 
 
-def _from_files(items: Sequence[str], frame: str, segments: tuple[str, ...] | None, source: str) -> Anatomy:
+def _from_files(items: Sequence[str], frame: str, segments: tuple[str, ...] | None, source: str | None = None) -> Anatomy:
+    """The anatomy of mesh and segmentation files; ``source`` None: the files named, each with its frame."""
     from arcube.io.meshes import read_mesh
     from arcube.io.segmentations import is_segmentation, read_segmentations
 
@@ -130,13 +131,18 @@ def _from_files(items: Sequence[str], frame: str, segments: tuple[str, ...] | No
     read = iter(read_segmentations(seg_files, segments) if seg_files else [])
     meshes: list[trimesh.Trimesh] = []
     infos: list[SegmentInfo] = []
+    labels: list[str] = []  # each file with its frame: a mesh's is --anatomy-frame, a segmentation's its own space
     for item in items:
         if is_segmentation(item):
             seg = next(read)
             meshes += seg.meshes
             infos += seg.segments
+            labels.append(f"{item} ({seg.space}, the file's own)")
         else:
             meshes.append(read_mesh(item, frame))
+            labels.append(f"{item} ({frame})")
+    if source is None:
+        source = ", ".join(labels) + (f" segments {','.join(segments)}" if segments is not None else "")
     return Anatomy(tuple(meshes), source, segments=tuple(infos) if seg_files else None)
 
 
@@ -190,11 +196,8 @@ def load_anatomy(spec: Sequence[str] | str | None, frame: str = "LPS", plan: str
         if items != ["default"]:
             raise InputError.of("anatomy", "'none' and 'default' stand alone (not with mesh files)")
         return _default_for(plan, selection)
-    source = ", ".join(os.fspath(i) for i in items) + f" ({frame})"
-    if selection is not None:
-        source += f" segments {','.join(selection)}"
     key = ("files", tuple(_file_key(os.fspath(i)) for i in items), frame, selection)
-    return _cached(key, lambda: _from_files([os.fspath(i) for i in items], frame, selection, source))
+    return _cached(key, lambda: _from_files([os.fspath(i) for i in items], frame, selection))
 
 
 def resolve_anatomy(anatomy: Any, frame: str = "LPS", plan: Any = None, *,

@@ -41,7 +41,9 @@ def live_model(design: Any = "paper", plan: Any = "reference", *, options: Optio
     from arcube.options import request_options
 
     n = checked_points(points)
-    d = Design.coerce(design)
+    from arcube.model.robot import design_at_side
+
+    d = Design.coerce(design_at_side(design, side))
     signs = design_mode(d, mode)
     opts = request_options(options, **changes)
     full = load_plan(plan)

@@ -136,7 +136,7 @@ def read_mesh(path: str | os.PathLike[str], frame: str) -> trimesh.Trimesh:
     frame = _check_frame(frame, str(p))
     suffix = p.suffix.lower()
     if suffix not in MESH_SUFFIXES:
-        raise InputError(f"{p}: unknown mesh format {p.suffix!r} (expected .stl, .obj or .ply)")
+        raise InputError(f"{p}: unknown anatomy format {p.suffix!r} (expected a mesh .stl, .obj or .ply, or a segmentation .seg.nrrd, .nrrd, .nii or .nii.gz)")
     data = read_bytes(p, MAX_MESH_BYTES)  # a regular file of at most 1 GiB, else InputError
     binary_stl = suffix == ".stl" and _sniff_stl(p, data)
     declared = _declared_frame(data[:80] if binary_stl else data[:_HEADER_BYTES])

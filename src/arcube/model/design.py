@@ -186,6 +186,17 @@ EXTRA_KEYS: tuple[str, ...] = ("c_z", "mode", "zdyad_elbow", *Q0_KEYS)
 """What a design file may carry beside the 27 parameters (see :class:`Design`)."""
 _LISTS = ("placements", "dockings")
 """Lists a run or design job writes beside a design (each patient's or docking's placement): not part of it."""
+LABEL_KEYS: tuple[str, ...] = ("patient", "side")
+"""What a docking file says about itself (whose docking, which side): checked, not part of the design."""
+
+
+def check_labels(values: Mapping[str, Any], source: str) -> None:
+    """InputError unless a docking file's ``patient`` is text and its ``side`` R or L (both optional)."""
+    patient, side = values.get("patient"), values.get("side")
+    if patient is not None and (not isinstance(patient, str) or not patient.strip()):
+        raise InputError(f"{source}: patient must be the docking's patient name (text), got {short_repr(patient)}")
+    if side is not None and side not in ("R", "L"):
+        raise InputError(f"{source}: side must be \"R\" or \"L\", got {short_repr(side)}")
 
 
 def _extra_number(value: Any, key: str, source: str) -> float:
@@ -261,10 +272,11 @@ class Design:
         :data:`EXTRA_KEYS` when present (lists of placements or dockings beside them are skipped)."""
         if not isinstance(values, Mapping):
             raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
-        params = {k: v for k, v in values.items() if k not in EXTRA_KEYS and k not in _LISTS}
+        params = {k: v for k, v in values.items() if k not in EXTRA_KEYS and k not in _LISTS and k not in LABEL_KEYS}
         if isinstance(values.get("dockings"), list) and "m_x" not in values:  # model §19.1: a robot without its placements
             raise InputError(f"{source}: one robot at {len(values['dockings'])} dockings, no placement of its own: give one docking's "
-                             "design (dockings/<patient>_<side>/design.json beside it)")  # fmt: skip
+                             "design (dockings/<patient>_<side>/design.json beside it), or the side whose docking to use")  # fmt: skip
+        check_labels(values, source)
         checked = validate_values(params, source)
         present = [k for k in Q0_KEYS if k in values]
         if present and len(present) != len(Q0_KEYS):

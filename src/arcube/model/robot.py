@@ -5,6 +5,9 @@ A robot file is ``design.json`` of ``arcube design`` (the robot's parameters, ``
 list: each docking's patient, side, placement m and mounting angles, and, from this version on, the entry and target
 points of that docking's trajectories), or any docking file (a complete design: its own placement is its one docking).
 The robot is used as it is; its dockings only say where to start looking.
+
+A docking file says whose docking it is and which side (``patient``, ``side``): :func:`write_docking` writes them and
+:func:`design_at_side` holds a command's side to them (a robot's ``design.json`` and a side give that side's docking).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from arcube.errors import InputError
 from arcube.io.inputs import load_json, short_repr
 from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
 
-__all__ = ["BuiltRobot", "WarmStart", "read_robot"]
+__all__ = ["BuiltRobot", "WarmStart", "design_at_side", "read_robot", "write_docking"]
 
 
 @dataclass(frozen=True)
@@ -122,3 +125,47 @@ def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
     if assumed:
         design = design.with_extras(c_z=float(design["d_z"]))
     return BuiltRobot(str(p), design, tuple(starts), assumed)
+
+
+def write_docking(design: Design, path: str | os.PathLike[str], patient: str, side: str) -> None:
+    """Write one docking's complete design (atomically): the design file's keys, then ``patient`` and ``side``."""
+    import json
+
+    from arcube.io.files import atomic_write_text
+
+    atomic_write_text(path, json.dumps({**design.to_file_dict(), "patient": patient, "side": side}, indent=2) + "\n")
+
+
+def design_at_side(design: Any, side: str | None) -> Any:
+    """The design a command uses on ``side`` (R or L): a docking file whose ``side`` contradicts it is refused; a
+    robot's ``design.json`` (robot and dockings) gives its docking on that side, when it has exactly one there.
+    Anything else (a Design, a preset, a plain design file, no side) is returned as given."""
+    s = side.strip().upper() if isinstance(side, str) else None
+    if s not in ("R", "L") or not isinstance(design, (str, os.PathLike)):
+        return design
+    p = Path(design)
+    if p.suffix.lower() != ".json" or not p.is_file():
+        return design
+    data = load_json(p)
+    if not isinstance(data, dict):
+        return design
+    own = data.get("side")
+    if own in ("R", "L") and own != s:
+        other = p.parent.parent / f"{data.get('patient', '<patient>')}_{s}" / "design.json"
+        hint = f"; its side-{s} docking is {other}" if other.is_file() else ""
+        raise InputError.of("side", f"{s}: {p} is the docking of side {own} (patient {data.get('patient', '?')}){hint}")
+    dockings = data.get("dockings")
+    if own is not None or not isinstance(dockings, list):
+        return design
+    sides = {e.get("side") for e in dockings if isinstance(e, dict)}
+    if "m_x" in data:  # a design job of one docking: its design.json is that docking's complete design
+        if sides and s not in sides:
+            raise InputError.of("side", f"{s}: {p} is the robot's one docking, on side {'/'.join(sorted(map(str, sides)))}")
+        return design
+    robot = read_robot(p)
+    here = [(w, k) for k, w in enumerate(robot.starts) if isinstance(dockings[k], dict) and dockings[k].get("side") == s]
+    if len(here) == 1:
+        return robot.placed(here[0][0].placement)
+    names = ", ".join(str(p.parent / "dockings" / w.label / "design.json") for w, _ in here)
+    problem = f"docks it {len(here)} times on side {s}; give one docking's file: {names}" if here else f"has no docking on side {s}"
+    raise InputError.of("side", f"{s}: the robot of {p} {problem}")

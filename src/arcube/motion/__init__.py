@@ -108,7 +108,9 @@ def program(
     engine = engine_name(engine)
     if order not in ORDERS:
         raise InputError.of("order", f"must be one of {', '.join(ORDERS)}, got {order!r}")
-    d = Design.coerce(design)
+    from arcube.model.robot import design_at_side
+
+    d = Design.coerce(design_at_side(design, side))
     signs = design_mode(d, mode)
     plan_settings = planner if planner is not None else Planner()
     if seed is not None:

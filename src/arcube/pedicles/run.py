@@ -62,7 +62,10 @@ def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:
         out: dict[str, Any] = {}
         for w in robot.starts:
             side = w.label.rsplit("_", 1)[-1]
-            out.setdefault(side, robot.placed(w.placement))
+            if side in out:  # a robot of a cohort: which patient's docking the plan is for is the user's to say
+                raise InputError.of("design", f"{path}: the robot docks {sum(s.label.endswith('_' + side) for s in robot.starts)} times on side "
+                                              f"{side}; give the docking of this plan's patient (dockings/<patient>_<side>/design.json)")  # fmt: skip
+            out[side] = robot.placed(w.placement)
         return out
     return {"": Design.load(path)}
 
@@ -104,7 +107,10 @@ def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[s
     elif design is None:
         raise InputError.of("design", "is required (a design file, a design job's design.json), or give calibration")
     elif isinstance(design, (str, os.PathLike)) and not (isinstance(design, str) and design in ("paper",)):
-        by_side = robot_dockings(design)
+        from arcube.model.robot import design_at_side
+
+        chosen = design_at_side(design, side)  # a docking of the other side is refused; a robot's design.json gives this side's
+        by_side = robot_dockings(design) if chosen is design else {"": chosen}
     else:
         by_side = {"": Design.coerce(design)}
     from arcube.io import TrajectorySet
