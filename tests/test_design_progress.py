@@ -114,3 +114,19 @@ def test_seeds_in_other_processes_are_read_from_their_history(tmp_path: Path, mo
         while "2 seeds running" not in out2.getvalue() and time.monotonic() < deadline:
             time.sleep(0.02)
     assert "seed 1 generation 2, 200 evaluations" in out2.getvalue() and not watched.watcher.is_alive()
+
+
+def test_the_time_left_of_a_docked_run_weighs_its_dearer_last_phases() -> None:
+    """A simulated docked run over 4 dockings evaluating 100 dockings per second: phase A's rows (85 % of the budget)
+    evaluate one docking, phase B's three, phase C's four. A seed of 1,000 rows is 850 + 50 x 3 + 100 x 4 = 1,400
+    docking evaluations. At row 400 (in phase A, 3 s after row 100) the seed has 1,000 evaluations left and the next
+    seed 1,400: 24 s, not the 16 s the row rate alone gives."""
+    out, clock = io.StringIO(), Clock()
+    p = DesignProgress([1, 2], budget=1000, stream=out, clock=clock, dockings=4)
+    assert p.work(1000) == 850 + 50 * 3 + 100 * 4
+    p.generation(_row(1, 100, 1.0))
+    clock.t = LOG_EVERY_S
+    p.generation(_row(4, 400, 4.0))
+    assert out.getvalue().splitlines()[-1].endswith("about 24 s left")
+    one = DesignProgress([1, 2], budget=1000, stream=io.StringIO(), clock=Clock())
+    assert [one.work(r) for r in (0, 400, 1000)] == [0, 400, 1000]  # one docking: a row is a row

@@ -58,7 +58,7 @@ def _design(out: Path, *, seed: int, engine: str, quick: bool) -> Path:
     # robot meets every requirement at both dockings, programs included
     seeds = [seed, seed + 1, seed + 2]
     budget = sizes.get("population", RunSettings().population) * sizes.get("generations", DESIGN_GENERATIONS)
-    with DesignProgress(seeds, budget) as bar:  # eight minutes of search: the seeds' progress on stderr
+    with DesignProgress(seeds, budget, dockings=2) as bar:  # the reference patient's two sides  # eight minutes of search: the seeds' progress on stderr
         bar.watch(out / STUDY)
         result = design_api(REFERENCE, out, seeds=seeds, anatomy="default", engine=engine, workers=1 if quick else 2,
                             on_seed=bar.seed, progress=bar.generation, on_stage=bar.stage, **sizes)  # type: ignore[arg-type]  # fmt: skip

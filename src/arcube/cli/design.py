@@ -178,7 +178,11 @@ def design(given: Given) -> None:
         raise InputError(f"{PLANS.name} or {COHORT.name} is required")
     if plans is not None and cohort is not None:
         raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")
-    with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
+    from arcube.design_job.cohort import docking_count
+
+    n = docking_count(plans if isinstance(plans, (list, tuple)) or plans is None else [plans], cohort, run.get("side"),
+                      str(run.get("dockings", "per-side")) == "per-patient")  # fmt: skip
+    with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet"), dockings=n) as bar:
         bar.watch(Path(given.get("out")) / STUDY)  # seeds in other processes (--workers, --dask) report through their history
         result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=given.get("minima"),
                             maxima=given.get("maxima"), drop=drop, on_seed=bar.seed, progress=bar.generation,

@@ -73,12 +73,14 @@ class DesignProgress:
     :meth:`stage` as ``on_stage`` to :func:`arcube.design` / :func:`arcube.resume`; use as a context manager.
 
     ``seeds``: the job's seeds in run order; ``budget``: evaluations per seed (population x generations);
-    ``enabled``: False for ``--quiet``; ``stream``: stderr (tests give their own).
+    ``dockings``: the job's dockings (the time left weighs each row by what it evaluates:
+    :func:`arcube.optimization.docked.row_work`); ``enabled``: False for ``--quiet``; ``stream``: stderr (tests give their own).
     """
 
     def __init__(self, seeds: list[int], budget: int, enabled: bool = True, stream: TextIO | None = None,
-                 clock: Any = time.monotonic) -> None:  # fmt: skip
+                 clock: Any = time.monotonic, dockings: int = 1) -> None:  # fmt: skip
         self.seeds, self.budget, self.enabled = list(seeds), max(int(budget), 1), enabled
+        self.dockings = max(int(dockings), 1)
         self.stream = sys.stderr if stream is None else stream
         self.clock = clock
         self.done: dict[int, dict[str, Any]] = {}
@@ -130,6 +132,12 @@ class DesignProgress:
             if rows:
                 self.running(rows)
 
+    def work(self, rows: float) -> float:
+        """The work of a seed's first ``rows`` rows (docking evaluations; rows with one docking)."""
+        from arcube.optimization.docked import row_work
+
+        return row_work(rows, self.budget, self.dockings)
+
     def running(self, rows: dict[int, dict[str, Any]]) -> None:
         """The seeds running in other processes, each with its last history row."""
         parts, evals = [], 0.0
@@ -139,9 +147,12 @@ class DesignProgress:
             evals += e
             parts.append(f"seed {seed} generation {int(row.get('generation', 0))}, {int(e):,} evaluations, {_best(row)}")
         done = sum(min(float(v.get("evaluations", self.budget)), float(self.budget)) for v in self.done.values())
-        total = len(self.seeds) * self.budget
-        ran, took = evals - sum(self.seen[s] for s in rows), self.clock() - self.started
-        left = (total - done - evals) / (ran / took) if ran > 0 and took > 0 else math.nan
+        full = self.work(self.budget)
+        ran = sum(self.work(min(float(r.get("evaluations", 0.0)), float(self.budget))) - self.work(self.seen[s]) for s, r in rows.items())
+        took = self.clock() - self.started
+        left_work = (len(self.seeds) - len(self.done)) * full - sum(self.work(min(float(r.get("evaluations", 0.0)), float(self.budget)))
+                                                                    for r in rows.values())  # fmt: skip
+        left = left_work / (ran / took) if ran > 0 and took > 0 else math.nan
         text = (f"{len(rows)} seeds running ({len(self.done)} of {len(self.seeds)} done): " + "; ".join(parts)
                 + (f"; about {duration(left)} left" if math.isfinite(left) else ""))  # fmt: skip
         if self.bar is not None:
@@ -177,9 +188,10 @@ class DesignProgress:
         session = float(row.get("session_s", 0.0))
         if self.first is None or self.first[0] != seed:  # a resumed seed starts with its earlier evaluations done
             self.first = (seed, evals, session)
-        ran, took = evals - self.first[1], session - self.first[2]
-        rate = ran / took if took > 0 and ran > 0 else math.nan
-        left = (self.budget - evals + (len(self.seeds) - k - 1) * self.budget) / rate if rate == rate else math.nan
+        ran, took = self.work(evals) - self.work(self.first[1]), session - self.first[2]
+        rate = ran / took if took > 0 and ran > 0 else math.nan  # docking evaluations per second
+        full = self.work(self.budget)
+        left = (full - self.work(evals) + (len(self.seeds) - k - 1) * full) / rate if rate == rate else math.nan
         text = (f"seed {seed} ({k + 1} of {len(self.seeds)}): generation {row.get('generation')}, {evals:,} of {self.budget:,} evaluations, "
                 f"{_best(row)}" + (f"; about {duration(left)} left" if math.isfinite(left) else ""))  # fmt: skip
         if self.bar is not None:

@@ -184,3 +184,17 @@ def plans_as_cohort(plans: Sequence[Any]) -> list[PatientPlan] | None:
     if len(set(names)) != len(names):
         names = [f"patient_{k + 1}" for k in range(len(plans))]
     return [PatientPlan(n, p) for n, p in zip(names, plans)]
+
+
+def docking_count(plans: Sequence[Any] | None, cohort: Any, side: str | None = None, per_patient: bool = False) -> int:
+    """How many dockings a design job of ``plans`` (or a ``cohort`` file) makes: each patient's sides (one per patient
+    ``per_patient``), after ``side``. For a progress line's time left only: 1 where a plan cannot be read (the job
+    itself then says why)."""
+    from arcube.io import load_trajectories, select
+
+    try:
+        entries = read_cohort(cohort, side=side) if cohort is not None else [PatientPlan("", p) for p in plans or []]
+        sides = [set(select(load_trajectories(e.plan), side=side).sides) if side else set(load_trajectories(e.plan).sides) for e in entries]
+    except InputError:
+        return 1
+    return max(sum(1 if per_patient else len(s) for s in sides if s), 1)

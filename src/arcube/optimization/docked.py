@@ -42,7 +42,7 @@ from arcube.optimization.batch_cma import BatchCMA
 from arcube.optimization.lean import LeanEvaluator, column, new_population
 from arcube.optimization.multistart import AskTell, POLISH_RUNS, POLISH_SIGMA, POLISH_TOL, RUNS, SIGMA, TOL, default_popsize, into_box, make_multistart
 
-__all__ = ["A_SHARE", "B_SHARE", "RESCUE_AT", "DockedCMA", "DockingStructure", "make_docked", "peer_starts", "task_motions"]
+__all__ = ["A_SHARE", "B_SHARE", "RESCUE_AT", "DockedCMA", "DockingStructure", "make_docked", "peer_starts", "row_work", "task_motions"]
 
 A_SHARE = 0.85
 """Share of the rows for phase A (the robot at its first docking)."""
@@ -56,6 +56,18 @@ RESCUE_AT = 0.5
 """Share of phase B's rows after which an infeasible docking is offered its feasible peers' placements (:func:`peer_starts`)."""
 PENALTY = 1e6
 """As :data:`arcube.optimization.problem.PENALTY`."""
+
+
+def row_work(rows: float, budget: float, dockings: int) -> float:
+    """The work of the first ``rows`` rows of a docked run of ``budget`` rows over ``dockings`` dockings, in
+    docking evaluations: a phase-A row evaluates one docking, a phase-B row every other one, a phase-C row all of
+    them (the module docstring). One docking (or a run of another algorithm): ``rows``. What a progress line's
+    time left extrapolates: phase A's rows are the cheap 85 % of the budget."""
+    if dockings <= 1:
+        return float(rows)
+    a, b = A_SHARE * budget, (A_SHARE + B_SHARE) * budget
+    r = min(max(float(rows), 0.0), float(budget))
+    return min(r, a) + min(max(r - a, 0.0), b - a) * (dockings - 1) + max(r - b, 0.0) * dockings
 
 
 @dataclass(frozen=True)
