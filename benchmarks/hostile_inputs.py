@@ -208,6 +208,123 @@ def message_cases() -> list[Case]:
             ("messages naming the culprit", "a mesh 5 m across", big_mesh, "error")]  # fmt: skip
 
 
+ROBOT = ROOT / "tests" / "data" / "one_robot.json"
+"""The demo's one robot (a design job's design.json: the robot and its two dockings)."""
+NEW = "commands of this round (calibrate, tolerance, dock, breach)"
+FILES = "files a user trusts (docking files, design files, single-file outputs)"
+
+
+def docking_file(base: Path, side: str = "R") -> Path:
+    """The demo robot's docking on ``side`` as a docking file (patient and side recorded), in ``base``."""
+    from arcube.model.robot import design_at_side, write_docking
+
+    path = base / f"reference_{side}" / "design.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_docking(design_at_side(ROBOT, side), path, "reference", side)
+    return path
+
+
+def poses_file(base: Path) -> Path:
+    """The nominal poses of the right-side docking (``calibrate poses``): what is to be measured, not measurements."""
+    d = docking_file(base)
+    code, err = run(["calibrate", "poses", "--design", str(d), "--trajectories", "reference", "--side", "R", "--count", "12",
+                     "--out", str(base / "poses.csv")], base)  # fmt: skip
+    assert code == 0, err
+    return base / "poses.csv"
+
+
+def new_command_cases() -> list[Case]:
+    def nominal_as_measured(base: Path) -> list[str]:
+        poses = poses_file(base)
+        return ["calibrate", "identify", "--design", str(base / "reference_R" / "design.json"), "--measurements", str(poses),
+                "--out", str(base / "cal")]  # fmt: skip
+
+    def other_designs_poses(base: Path) -> list[str]:
+        poses_file(base)
+        other = docking_file(base, "L")
+        return ["calibrate", "identify", "--design", str(other), "--measurements", str(base / "poses.csv"), "--out", str(base / "cal")]
+
+    def robot_without_parameters(base: Path) -> list[str]:
+        (base / "robot.json").write_text(json.dumps({"m_x": 1.0, "mode": "+,+,+,+"}))
+        return ["dock", "--robot", str(base / "robot.json"), "--trajectories", "reference", "--out", str(base / "out")]
+
+    def cohort_error(base: Path) -> list[str]:
+        (base / "cohort.toml").write_text('[[patient]]\nname = "a"\nplan = "missing.csv"\n')
+        return ["dock", "--robot", str(ROBOT), "--cohort", str(base / "cohort.toml"), "--out", str(base / "out")]
+
+    def shared_patient(base: Path) -> list[str]:
+        (base / "plan.csv").write_text(HEADER + "1,C3,R,1,2,3,40,50,60\n")
+        for name in ("train", "held"):
+            (base / f"{name}.toml").write_text('[[patient]]\nname = "seed7"\nplan = "plan.csv"\nanatomy = "none"\n')
+        return ["design", "--cohort", str(base / "train.toml"), "--validate", str(base / "held.toml"), "--out", str(base / "out")]
+
+    def misspelt_pedicle_column(base: Path) -> list[str]:
+        (base / "plan.csv").write_text(HEADER.rstrip("\n") + ",pedicle_widht_mm\n" + "1,C3,R,1,2,3,40,50,60,4.5\n")
+        return ["breach", "--design", str(docking_file(base)), "--trajectories", str(base / "plan.csv"), "--out", str(base / "b")]
+
+    breach = lambda b, *more: ["breach", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", *more,
+                                "--out", str(b / "b")]  # fmt: skip
+    tol = lambda b, *more: ["tolerance", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", *more,
+                             "--out", str(b / "t")]  # fmt: skip
+    return [
+        (NEW, "calibrate poses --count 3 (below the identifiable minimum)",
+         lambda b: ["calibrate", "poses", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", "--count", "3",
+                    "--out", str(b / "p.csv")], "error"),
+        (NEW, "identify on the nominal poses", nominal_as_measured, "error"),
+        (NEW, "identify on another design's poses", other_designs_poses, "error"),
+        (NEW, "tolerance --class x", lambda b: tol(b, "--class", "x"), "error"),
+        (NEW, "tolerance --tol nosuch=1", lambda b: tol(b, "--tol", "nosuch=1"), "error"),
+        (NEW, "dock: a robot file without robot parameters", robot_without_parameters, "error"),
+        (NEW, "dock --starts 0", lambda b: ["dock", "--robot", str(ROBOT), "--trajectories", "reference", "--starts", "0", "--out", str(b / "o")], "error"),
+        (NEW, "dock: a cohort whose plan is missing", cohort_error, "error"),
+        (NEW, "design --validate sharing a patient name", shared_patient, "error"),
+        (NEW, "breach --registration -1", lambda b: breach(b, "--registration", "-1"), "error"),
+        (NEW, "breach --samples 0", lambda b: breach(b, "--samples", "0"), "error"),
+        (NEW, "breach --calibration on a folder that is not one", lambda b: ["breach", "--calibration", str(b), "--trajectories", "reference",
+                                                                              "--out", str(b / "o")], "error"),
+        (NEW, "breach: a misspelt pedicle column", misspelt_pedicle_column, "error"),
+    ]  # fmt: skip
+
+
+def written(path: Path, text: str) -> list[str]:
+    """Write ``text`` to ``path``; no arguments (a setup's first step, inside its argv list)."""
+    path.write_text(text)
+    return []
+
+
+def file_cases() -> list[Case]:
+    def partial_mount(base: Path) -> list[str]:
+        d = json.loads(docking_file(base).read_text())
+        del d["mount_rx"]
+        (base / "d.json").write_text(json.dumps(d))
+        return ["evaluate", "--design", str(base / "d.json"), "--trajectories", "reference", "--points", "3"]
+
+    def existing(base: Path, argv: list[str], name: str) -> list[str]:
+        (base / name).write_text("measured by hand")
+        return argv
+
+    return [
+        (FILES, "--side L on a right-side docking file",
+         lambda b: ["evaluate", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "L", "--points", "3"], "error"),
+        (FILES, "a robot's design.json without --side", lambda b: ["evaluate", "--design", str(ROBOT), "--trajectories", "reference", "--points", "3"], "error"),
+        (FILES, "a design file with a partial mounting group", partial_mount, "error"),
+        (FILES, "calibrate poses onto an existing file",
+         lambda b: existing(b, ["calibrate", "poses", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R",
+                                "--out", str(b / "m.csv")], "m.csv"), "error"),
+        (FILES, "joints onto an existing file",
+         lambda b: existing(b, ["joints", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", "--out", str(b / "j.csv")],
+                            "j.csv"), "error"),
+        (FILES, "export onto an existing file",
+         lambda b: existing(b, ["export", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", "--out", str(b / "r.xml")],
+                            "r.xml"), "error"),
+        (FILES, "a semicolon-separated plan",
+         lambda b: [*written(b / "p.csv", HEADER.replace(",", ";") + "1;C3;R;1;2;3;40;50;60\n"), "evaluate", "--trajectories", str(b / "p.csv")],
+         "error"),
+        (FILES, "an anatomy in an unknown format",
+         lambda b: [*written(b / "a.vtk", "x"), "evaluate", "--points", "3", "--anatomy", str(b / "a.vtk")], "error"),
+    ]  # fmt: skip
+
+
 class Hung(Exception):
     """A case that did not end within :data:`CASE_TIMEOUT_S` (e.g. a read blocked on a FIFO)."""
 
@@ -270,7 +387,7 @@ def main_() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-interrupts", action="store_true")
     args = parser.parse_args()
-    cases = [*program_cases(), *plan_cases(), *limit_cases(), *write_cases(), *message_cases()]
+    cases = [*program_cases(), *plan_cases(), *limit_cases(), *write_cases(), *message_cases(), *new_command_cases(), *file_cases()]
     table: dict[str, list[int]] = {}
     failures: list[str] = []
     for case in cases:

@@ -143,5 +143,8 @@ def design_preface(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]]
                 " (its section is at the end of this page; files: program/).</p>")  # fmt: skip
     base = None if folder is None else Path(folder) / "accuracy"
     return (head + prog + "<h2>Requirements</h2>" + _requirements_table(rows)
+            + "<p class=note>Each requirement is checked at the plan's points and, for the clearances, along the approach "
+              "lines too (from the standoff to the entry point, model §17.1): a figure here can be smaller than "
+              "<code>arcube evaluate</code>'s, which checks the plan's points only.</p>"
             + "<h2>The design: every parameter</h2>" + _parameters_table(design, str(summary.get("mode", "")), c_z)
             + _accuracy(summary.get("accuracy"), base) + _breach(summary.get("breach"), None if folder is None else Path(folder) / "breach"))  # fmt: skip
