@@ -34,6 +34,7 @@ from bench_clearance import best_time, designs  # noqa: E402
 from numba import set_num_threads  # noqa: E402
 
 import arcube  # noqa: E402
+from arcube.options import Outputs
 from arcube.evaluation.anatomy import load_anatomy  # noqa: E402
 from arcube.evaluation.envelope import resolve_envelope  # noqa: E402
 from arcube.evaluation.kernel import evaluate_task_numba, warm_up  # noqa: E402
@@ -75,7 +76,7 @@ def main() -> None:
         for o in (opts, with_envelope(opts)):
             evaluate_task_numba(X[:2], task.E, task.e, ALL_MODES[0], o, want_points=False, anatomy=d, envelope=env)
     print(f"{X.shape[0]} designs x {len(task.E)} points; {count.mean() / len(task.E):.0%} of the points reachable on average")
-    share = evaluate_task_numba(X, task.E, task.e, ALL_MODES[0], Options(envelope_clearance=True), envelope=env).points
+    share = evaluate_task_numba(X, task.E, task.e, ALL_MODES[0], Options(outputs=Outputs(envelope_clearance=True)), envelope=env).points
     solved = np.isfinite(share.envelope_clearance_mm)
     print(f"envelope clearance at the {solved.mean():.0%} of points the stages solve: median {np.nanmedian(share.envelope_clearance_mm):.1f} mm, "
           f"{np.mean(share.envelope_clearance_mm[solved] < 10.0):.0%} below 10 mm")  # fmt: skip
@@ -90,7 +91,7 @@ def main() -> None:
         a, b = 1e9 * best[False] / n_pts, 1e9 * best[True] / n_pts
         print(f"kernel, summaries only, {name:44s} {a:7.0f} ns/point, with --envelope-clearance 10: {b:7.0f} ns/point ({b / a:4.2f}x)")
     k = 4
-    t = best_time(lambda: evaluate_task(X[:k], task.E, task.e, ALL_MODES[0], Options(envelope_clearance=True), envelope=env), 1)
+    t = best_time(lambda: evaluate_task(X[:k], task.E, task.e, ALL_MODES[0], Options(outputs=Outputs(envelope_clearance=True)), envelope=env), 1)
     print(f"NumPy reference, envelope clearance only, {k} designs: {1e9 * t / (k * len(task.E)):,.0f} ns/point")
     print("rerun: .venv/bin/python benchmarks/bench_envelope.py")
 

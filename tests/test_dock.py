@@ -108,7 +108,7 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
         for what, entry, target in (("plan", side.entry, side.target), ("approach", S, side.entry)):
             lines = dataclasses.replace(side, entry=np.asarray(entry), target=np.asarray(target), source=what)
             s = arcube.evaluate(design, lines, points=12, guards=True, engine="numpy", anatomy=anatomy, envelope=envelope, clearance=5.0,
-                                self_clearance=2.0, envelope_clearance=10.0, z_dyad=True, c_z=design.c_z).summary  # fmt: skip
+                                self_clearance=2.0, envelope_clearance_mm=10.0, z_dyad=True, c_z=design.c_z).summary  # fmt: skip
             assert s["reachable_fraction"] == 1.0 and s["failures"] == {}, (d["label"], what, s["failures"])
             assert s["clearance_min_mm"] >= 5.0 and s["self_clearance_min_mm"] >= 2.0 and s["envelope_clearance_min_mm"] >= 10.0
             if what == "plan":

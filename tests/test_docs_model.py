@@ -196,3 +196,17 @@ def test_every_section_of_the_specification_has_a_heading_with_its_title() -> No
     assert not missing, f"sections of {SPEC} without a heading in docs/model/: {missing}"
     renamed = [f"{n}: spec {spec[n]!r}, docs {HEADINGS[n][1]!r}" for n in spec if spec[n] != HEADINGS[n][1]]
     assert not renamed, "headings whose title differs from the specification's:\n" + "\n".join(renamed)
+
+
+def test_the_default_mode_is_written_once() -> None:
+    """House II: the default working mode has one home (arcube.model.modes.DEFAULT_MODE_TEXT); no other code
+    spells the literal "+,+,+,+" (docstrings and messages may say it inside their text)."""
+    import io
+    import tokenize
+
+    spelled = []
+    for path in (ROOT / "src").rglob("*.py"):
+        for tok in tokenize.generate_tokens(io.StringIO(path.read_text(encoding="utf-8")).readline):
+            if tok.type == tokenize.STRING and tok.string.strip("'\"") == "+,+,+,+":
+                spelled.append(f"{path.relative_to(ROOT)}:{tok.start[0]}")
+    assert spelled == ["src/arcube/model/modes.py:15"], spelled

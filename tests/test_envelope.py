@@ -18,6 +18,7 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
+from arcube.options import Outputs
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.envelope_drawing import ROUND_CELLS, envelope_meshes, write_envelope_mesh
@@ -296,7 +297,7 @@ def test_the_evaluation_path_keeps_the_whole_plan_for_the_envelope() -> None:
     assert abs(env.landmarks.x0) < 1e-9  # the midline of the whole plan, not the right side's mean
     assert env.landmarks == resolve_envelope("default", full, None).landmarks
     task = build_task(right.entry, right.target, 6)
-    want = evaluate_task(design.to_vector(), task.E, task.e, np.ones(4), Options(envelope_clearance=True), envelope=env)
+    want = evaluate_task(design.to_vector(), task.E, task.e, np.ones(4), Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
     np.testing.assert_array_equal(ev.points.envelope_clearance_mm, want.points.envelope_clearance_mm)
     assert np.all(np.isfinite(ev.points.envelope_clearance_mm))
 

@@ -21,6 +21,7 @@ from scipy.optimize import minimize_scalar
 
 from compare import assert_matches, point_rtol as _point_rtol
 
+from arcube.options import Outputs
 from arcube.evaluation import kernel  # noqa: E402
 from arcube.evaluation.anatomy import resolve_anatomy  # noqa: E402
 from arcube.evaluation.envelope import Envelope, envelope_from_boxes, resolve_envelope  # noqa: E402
@@ -218,7 +219,7 @@ def test_clearance_equals_brute_force_over_the_body(task, near, envelopes) -> No
 def test_kernel_equals_reference_field_by_field(task, near, envelopes) -> None:
     modes = ALL_MODES[np.random.default_rng(6).integers(0, 16, len(near))]
     seen_regions, seen_parts = set(), set()
-    variants = (Options(envelope_clearance_mm=10.0), Options(envelope_clearance=True), Options(clearances=True),
+    variants = (Options(envelope_clearance_mm=10.0), Options(outputs=Outputs(envelope_clearance=True)), Options(clearances=True),
                 GUARDED_OPTIONS.replace(guards=GUARDED_OPTIONS.guards.replace(envelope_clearance_mm=20.0, self_clearance_mm=2.0)))
     for env, option_set in ((envelopes["default"], variants[:1]), (envelopes["high table"], variants)):
         for options in option_set:
@@ -249,8 +250,8 @@ def test_the_kernels_carried_bounds_along_dense_paths(task, near, envelopes) -> 
                         task.E[rng.integers(0, len(task), 30)]])  # fmt: skip
     e = np.concatenate([np.repeat(task.e[[0]], 150, axis=0), np.repeat(task.e[[20]], 150, axis=0), task.e[rng.integers(0, len(task), 30)]])
     X, env = near[:8], envelopes["high table"]
-    ref = evaluate_task(X, E, e, MODE, Options(envelope_clearance=True), envelope=env)
-    got = kernel.evaluate_task_numba(X, E, e, MODE, Options(envelope_clearance=True), envelope=env)
+    ref = evaluate_task(X, E, e, MODE, Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
+    got = kernel.evaluate_task_numba(X, E, e, MODE, Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
     assert_matches(got, ref, _point_rtol(X, E, e, MODE, ref))
     assert np.sum(np.isfinite(ref.points.envelope_clearance_mm)) > 1000 and len(set(ref.points.envelope_region.ravel().tolist())) >= 3
 
@@ -399,7 +400,7 @@ def test_program_states_batch_equals_loop_and_the_evaluation(task, near, envelop
     loop = [pose_envelope_clearance(X, E[i], e[i], env, MODE) for i in range(len(E))]
     np.testing.assert_array_equal(batch.clearance, [v.clearance for v in loop])
     np.testing.assert_array_equal(batch.region, [v.region for v in loop])
-    pts = evaluate_points(X, E, e, MODE, Options(envelope_clearance=True), envelope=env)
+    pts = evaluate_points(X, E, e, MODE, Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
     np.testing.assert_array_equal(batch.clearance, pts.envelope_clearance_mm)
     np.testing.assert_array_equal(batch.part, pts.envelope_part)
     assert np.all(np.isfinite(batch.clearance)) and ENVELOPE_ARC_CHORDS == 24

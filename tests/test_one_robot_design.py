@@ -124,7 +124,7 @@ def test_a_docking_the_job_reports_as_met_is_met_by_the_numpy_reference(job: Pat
         for what, entry, target in (("plan", side.entry, side.target), ("approach", S, side.entry)):
             lines = dataclasses.replace(side, entry=np.asarray(entry), target=np.asarray(target), source="approach")
             res = arcube.evaluate(design, lines, points=8, guards=True, engine="numpy", anatomy=anatomy, envelope=envelope,
-                                  clearance=5.0, self_clearance=2.0, envelope_clearance=10.0, z_dyad=True, c_z=design.c_z)  # fmt: skip
+                                  clearance=5.0, self_clearance=2.0, envelope_clearance_mm=10.0, z_dyad=True, c_z=design.c_z)  # fmt: skip
             s = res.summary
             assert s["reachable_fraction"] == 1.0 and s["failures"] == {}, (what, s["failures"])
             assert s["clearance_min_mm"] >= 5.0 and s["self_clearance_min_mm"] >= 2.0 and s["envelope_clearance_min_mm"] >= 10.0, what

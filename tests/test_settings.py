@@ -54,6 +54,22 @@ def test_a_bad_value_names_its_field_in_one_line(make, param: str) -> None:
     assert "--" not in str(info.value)
 
 
+def test_a_flat_name_two_groups_share_is_refused_naming_both() -> None:
+    """``envelope_clearance`` is the guard's short name (guards.envelope_clearance_mm, mm) and a field of outputs (a
+    bool): Options(envelope_clearance=True) once set a 1 mm guard. Now refused, both named; the full names work."""
+    with pytest.raises(InputError) as info:
+        Options(envelope_clearance=True)
+    text = str(info.value)
+    assert text.startswith("envelope_clearance names two settings") and "guards.envelope_clearance_mm" in text and "outputs.envelope_clearance" in text
+    with pytest.raises(InputError, match="names two settings"):
+        arcube.evaluate("paper", "reference", points=3, envelope_clearance=10.0)
+    assert Options(envelope_clearance_mm=10.0).guards.envelope_clearance_mm == 10.0
+    with pytest.raises(InputError, match=r"^Guards.envelope_clearance_mm must be a number, got True$"):
+        Guards(envelope_clearance_mm=True)  # pydantic alone reads True as 1.0
+    assert RunSettings(envelope_clearance=10.0, anatomy="default", envelope="default").options.guards.envelope_clearance_mm == 10.0  # a table's name
+    assert Options(outputs={"envelope_clearance": True}).guards.envelope_clearance_mm is None
+
+
 def test_the_cli_names_the_flag_of_the_field() -> None:
     err = InputError.of("Loads.thrust_N", "must be >= 0, got -3.0")
     assert flag_message(err) == "--thrust must be >= 0, got -3.0"

@@ -93,7 +93,7 @@ def evaluate(
             (``.seg.nrrd``, ``.nii``, ``.nii.gz``), of which ``segments`` keeps some (names or label values).
         envelope, table_z: the envelope of the whole patient and the table (model §19.5): ``"default"`` (a
             coarse body on the plan's landmarks), skin mesh files, or None / ``"none"``; with one, the clearance to
-            it at every point (and its guard, ``envelope_clearance=MM``).
+            it at every point (and its guard, ``envelope_clearance_mm=MM``).
         **changes: settings of ``options`` by name or short name (``clearance=5``, ``thrust=25``,
             ``link_radius=6``, ``encoder_deg=0.02``; see :data:`arcube.options.FLAT`).
 

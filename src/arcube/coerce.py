@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
 from arcube.io.inputs import parse_decimal, short_repr
 from arcube.evaluation.task import MAX_POINTS
@@ -54,7 +55,7 @@ def design_mode(design: Any, mode: Any = None, *, param: str = "mode") -> NDArra
     """The working mode a request runs in: ``mode`` when given, else the one the design records
     (:attr:`arcube.Design.mode`), else ``+,+,+,+`` (the paper's); as :func:`mode_signs`."""
     if mode is None:
-        mode = getattr(design, "mode", None) or "+,+,+,+"
+        mode = getattr(design, "mode", None) or DEFAULT_MODE_TEXT
     return mode_signs(mode, param=param)
 
 

@@ -188,6 +188,13 @@ FLAT: dict[str, tuple[str, str]] = {
 }  # fmt: skip
 """Each flat keyword -> (group, field): a field's name or short name (``Options(thrust_N=25)``,
 ``Options(thrust=25)`` and ``arcube.optimize(..., thrust=25)`` mean ``Options(loads=Loads(thrust_N=25))``)."""
+AMBIGUOUS: dict[str, list[str]] = {}
+"""Flat keywords that two groups share (a field of one, a short name of another): refused, naming both, never guessed."""
+for _group, _cls in _GROUPS.items():
+    for _name in (*_cls.model_fields, *(_cls.short(n) for n in _cls.SHORT)):
+        _field = _name if _name in _cls.model_fields else next(n for n in _cls.SHORT if _cls.short(n) == _name)
+        AMBIGUOUS.setdefault(_name, []).append(f"{_group}.{_field}")
+AMBIGUOUS = {k: v for k, v in AMBIGUOUS.items() if len(v) > 1}
 
 
 def route_flat(data: dict[str, Any], options: Any = None) -> dict[str, Any]:
@@ -196,6 +203,9 @@ def route_flat(data: dict[str, Any], options: Any = None) -> dict[str, Any]:
     base = options.model_dump() if isinstance(options, BaseModel) else dict(options or {})
     out = {k: (v.model_dump() if isinstance(v, BaseModel) else dict(v)) if isinstance(v, (BaseModel, dict)) else v for k, v in base.items()}
     for key in [k for k in data if k in FLAT and not (k == "body" and not isinstance(data[k], bool))]:
+        if key in AMBIGUOUS:
+            ways = " or ".join(f"Options({g}={_GROUPS[g].__name__}({f}=...))" for g, f in (a.split(".") for a in AMBIGUOUS[key]))
+            raise InputError.of(key, f"names two settings, {' and '.join(AMBIGUOUS[key])}: give the one meant by its group, {ways}")
         group, name = FLAT[key]
         current = out.get(group, {})
         out[group] = {**(current if isinstance(current, dict) else dict(current)), name: data.pop(key)}

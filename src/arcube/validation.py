@@ -5,13 +5,27 @@
 
 from __future__ import annotations
 
+import types
+import typing
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator
 
 from arcube.errors import InputError
 
 __all__ = ["Settings", "settings_error", "validated"]
+
+
+def _admits_bool(annotation: Any) -> bool:
+    """Whether a field's annotation takes a bool (bool itself, Any, or a union or Annotated with one of them)."""
+    if annotation is bool or annotation is Any:
+        return True
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _admits_bool(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        return any(_admits_bool(a) for a in typing.get_args(annotation))
+    return origin is None and not isinstance(annotation, type)  # a forward reference or an alias: not ours to judge
 
 
 class Settings(BaseModel):
@@ -24,6 +38,14 @@ class Settings(BaseModel):
     """Field -> its short name, where the field's name carries a unit the user does not write
     (``thrust_N`` -> ``thrust``): the flat keyword of the Python API, the key of a run's config table,
     and (with dashes) the command-line flag. A field not listed is its own short name."""
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_bool_for_a_number(cls, value: Any, info: ValidationInfo) -> Any:
+        # pydantic reads True as 1.0: Guards(envelope_clearance_mm=True) was a silent 1 mm guard
+        if isinstance(value, bool) and info.field_name is not None and not _admits_bool(cls.model_fields[info.field_name].annotation):
+            raise ValueError("must be a number")
+        return value
 
     @classmethod
     def short(cls, name: str) -> str:

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.coerce import mode_signs
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Q0_KEYS, Design
@@ -88,7 +89,7 @@ def design_digest(design: ArrayLike, q0_deg: ArrayLike) -> str:
 
 def signs_of(mode: Any, fallback: str | None = None) -> NDArray[np.float64]:
     """Four signs ``(4,)`` from ``"+,+,+,-"``, four numbers +-1, or None (``fallback``, else +,+,+,+)."""
-    return mode_signs(fallback or "+,+,+,+" if mode is None else mode)
+    return mode_signs(fallback or DEFAULT_MODE_TEXT if mode is None else mode)
 
 
 __all__ = ["Q0_KEYS", "StartDesign", "calibrated_dict", "design_digest", "load_design", "read_calibrated", "signs_of", "write_calibrated"]

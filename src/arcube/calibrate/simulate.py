@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.accuracy.monte_carlo import robot_draws, split
 from arcube.accuracy.settings import ToleranceSettings
 from arcube.calibrate.design_file import StartDesign, calibrated_dict, design_digest, load_design
@@ -104,7 +105,7 @@ def simulate(design: Any, poses: Measurements | str | os.PathLike[str], settings
     if out is not None:  # the measurements and, beside them, the robot they were taken on (a rehearsal's ground truth)
         from arcube.io.files import atomic_write_files
 
-        truth = calibrated_dict(x_real, q0_real, start.mode or "+,+,+,+", start.c_z)
+        truth = calibrated_dict(x_real, q0_real, start.mode or DEFAULT_MODE_TEXT, start.c_z)
         atomic_write_files({out: measurements_csv(meas).encode(), truth_path(out): (json.dumps(truth, indent=2) + "\n").encode()})
     return Simulation(meas, x_real, q0_real, start, asm[good], dropped, settings)
 

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.io import load_trajectories, select
 from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
@@ -88,7 +89,7 @@ def assess_dockings(dockings: Sequence[Docking], reqs: Sequence[Any], s: RunSett
     base = s.evaluation_options()
     for d in dockings:
         options = base if d.design.c_z is None else base.replace(z_dyad=True, c_z=d.design.c_z)
-        rows = assess([d.design.to_vector()], parse_mode(d.design.mode or "+,+,+,+"), [d.plan], [d.anatomy], reqs, options=options,
+        rows = assess([d.design.to_vector()], parse_mode(d.design.mode or DEFAULT_MODE_TEXT), [d.plan], [d.anatomy], reqs, options=options,
                       envelopes=[d.envelope] if d.envelope is not None else (), points=s.points, standoff_mm=float(s.standoff or 0.0),
                       accuracy=s.accuracy_settings())  # fmt: skip
         if d.design.c_z is not None:
@@ -116,7 +117,7 @@ def _z_dyad_row(rows: list[dict[str, Any]], d: Docking, options: Any, s: RunSett
     only = options.replace(rho_max_deg=None, min_transmission_deg=None, kappa_max=None, single_assembly_mode=False, clearance_mm=None,
                            self_clearance_mm=None, envelope_clearance_mm=None, outputs=options.outputs.replace(tip_metrics=False))  # fmt: skip
     for E, e in ((drill.E, drill.e), (E_a, e_a)):
-        res = evaluate_task(d.design.to_vector(), E, e, parse_mode(d.design.mode or "+,+,+,+"), only, engine="numpy")
+        res = evaluate_task(d.design.to_vector(), E, e, parse_mode(d.design.mode or DEFAULT_MODE_TEXT), only, engine="numpy")
         bad += int(np.sum(np.asarray(res.points.failure) == code))
     row = {"requirement": "z_dyad", "kind": "max", "limit": 0.0, "value": float(bad), "unit": "failing points", "where": {},
            "part": f"c_z {d.design.c_z:.1f} mm, d_z {d.design['d_z']:.1f} mm"}  # fmt: skip

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.coerce import mode_signs
 from arcube.model import frames
 from arcube.model.body import U_HAT, V_HAT, W_HAT, mechanism_points
@@ -51,7 +52,7 @@ def axes_world(params: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArra
 
 
 def joint_values(
-    design: Design | ArrayLike, E: ArrayLike, e: ArrayLike, mode: str | ArrayLike = "+,+,+,+", *, c_z: float | None = None,
+    design: Design | ArrayLike, E: ArrayLike, e: ArrayLike, mode: str | ArrayLike = DEFAULT_MODE_TEXT, *, c_z: float | None = None,
 ) -> dict[str, NDArray[np.float64]]:  # fmt: skip
     """Every hinge angle of the exported model (rad) at poses (E, e) in R_w, from the IK; each ``(...)``.
 

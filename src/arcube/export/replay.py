@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
 from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
 from arcube.export.mjcf import check_z_dyad, checked_inputs, export_masses, model_xml
@@ -179,8 +180,8 @@ def export_program(
         if design is None:
             raise InputError.of("design", "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)")
     d = Design.coerce(design)
-    mode = rows.summary.get("mode", "+,+,+,+")
-    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else "+,+,+,+", c_z)
+    mode = rows.summary.get("mode", DEFAULT_MODE_TEXT)
+    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT, c_z)
     _check_angles(params, rows, signs, d.q0)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
     real_deg = rows.q_deg + d.q0  # the joints' real angles: the commanded ones plus a calibrated design's zero offsets

@@ -8,10 +8,12 @@ import itertools
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["ALL_MODES", "DEFAULT_MODE", "format_mode", "parse_mode"]
+__all__ = ["ALL_MODES", "DEFAULT_MODE", "DEFAULT_MODE_TEXT", "format_mode", "parse_mode"]
 
 DEFAULT_MODE: NDArray[np.float64] = np.ones(4)
 """Working mode (+,+,+,+): the upper sign of Eq 3 everywhere (model §4.3, 5.3)."""
+DEFAULT_MODE_TEXT = "+,+,+,+"
+"""The default working mode as text (every branch +): where a design or a file names none."""
 
 ALL_MODES: NDArray[np.float64] = np.array(list(itertools.product((1.0, -1.0), repeat=4)))
 """The 16 working modes, ``(16, 4)``, starting with (+,+,+,+)."""

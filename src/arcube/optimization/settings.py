@@ -20,6 +20,7 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.accuracy.settings import ToleranceSettings, parse_tol
 from arcube.errors import InputError
 from arcube.evaluation.task import MAX_POINTS
@@ -128,7 +129,7 @@ class RunSettings(Settings):
     """Generations over which the ftol criterion must hold (pymoo's period)."""
     points: int = Field(default=30, ge=2, le=MAX_POINTS)
     """Points per trajectory."""
-    mode: Annotated[str, BeforeValidator(_mode)] = "+,+,+,+"
+    mode: Annotated[str, BeforeValidator(_mode)] = DEFAULT_MODE_TEXT
     """Working mode '+,+,+,+' (signs TMS x, TMS y, RTS x, RTS y) or 'free' (optimized)."""
     setups: Literal[1, 2] = 1
     """1, or 2: shared links, one placement per side (R and L)."""
@@ -344,7 +345,8 @@ _MASSES = Masses()
 def _route_flat(data: dict[str, Any]) -> None:
     """In place: flat option keys (the table's and the keywords' short names, :data:`FLAT_OPTIONS`) into
     ``options``, a table's ``limits`` into ``maxima``/``minima``."""
-    flat = {key: data.pop(key) for key in FLAT_OPTIONS if data.get(key) is not None}
+    # by their full field names: a table's envelope_clearance is the guard's (mm), never outputs.envelope_clearance
+    flat = {FLAT_OPTIONS[key][1]: data.pop(key) for key in FLAT_OPTIONS if data.get(key) is not None}
     for key in FLAT_OPTIONS:
         data.pop(key, None)  # None: the table's "not set"
     if flat:

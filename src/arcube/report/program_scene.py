@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
 from arcube.model.body import mechanism_points
 from arcube.model.mechanism import inverse_kinematics, parse_mode
@@ -88,7 +89,7 @@ def playback_figure(prog: ProgramFiles, params: ArrayLike, anatomy_meshes: Any =
     ``c_z``: the z dyad's second link (mm; None: c_z = d_z), as the evaluation's scene draws it."""
     import plotly.graph_objects as go
 
-    mode_text = str(prog.summary.get("mode", "+,+,+,+"))
+    mode_text = str(prog.summary.get("mode", DEFAULT_MODE_TEXT))
     try:
         mode = parse_mode(mode_text)
     except ValueError as exc:

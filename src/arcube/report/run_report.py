@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.model.design import Design
 from arcube.errors import InputError
 from arcube.evaluation.result import evaluate_design
@@ -89,9 +90,9 @@ def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path, in
 
 
 def _mode(settings: dict[str, Any], summary: dict[str, Any], where: Path) -> np.ndarray:
-    text = str(settings.get("mode", "+,+,+,+"))
+    text = str(settings.get("mode", DEFAULT_MODE_TEXT))
     if text.strip().lower() == "free":
-        text = str(summary.get("mode") or "+,+,+,+")  # the mode the optimizer chose
+        text = str(summary.get("mode") or DEFAULT_MODE_TEXT)  # the mode the optimizer chose
     try:
         return parse_mode(text)
     except ValueError as exc:
