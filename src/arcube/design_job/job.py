@@ -185,7 +185,7 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
             break
         # a docking missed even when docked anew: the next seed's robot may serve every docking
     if chosen is None:
-        chosen = max(seen, key=lambda e: (sum(d.met for d in e[4]), -_worst_met_eta(e[3], e[4])))
+        chosen, built = _most_served(out, seen, reqs, say, built)
         row, s, dockings = chosen[0], chosen[2], chosen[4]
         if built != row["seed"] and s.setups == 1:  # the programs in the folders are another seed's
             for d in dockings:
@@ -223,6 +223,32 @@ def _settle(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say:
     for k, rows in blocked.items():
         if k not in redone:
             dockings[k].rows = rows  # its own placement: met at the plan's points, its program blocked
+
+
+def _most_served(out: Path, seen: list[tuple[Any, ...]], reqs: Sequence[Requirement], say: Callable[[str], None],
+                 built: Any) -> tuple[tuple[Any, ...], Any]:  # fmt: skip
+    """Coverage first (model §19.6) among seeds none of which serves every docking, a docking served only with its
+    program built: the seeds in the order of the dockings they meet at the plan's points (a bound on what they serve
+    once programmed), each one's programs built until no seed left can serve more than the best so far. Returns the
+    seed's entry and the seed whose programs the folders now hold."""
+
+    def key(e: tuple[Any, ...]) -> tuple[int, float]:
+        return sum(d.met for d in e[4]), -_worst_met_eta(e[3], e[4])
+
+    best = None
+    for e in sorted(seen, key=key, reverse=True):
+        if best is not None and key(e)[0] <= key(best)[0]:
+            break
+        programmed = any(r["requirement"] == "program" for d in e[4] for r in d.rows)
+        if e[2].setups == 1 and not programmed:
+            for d in e[4]:
+                shutil.rmtree(_folder(out, d, e[4]) / PROGRAM, ignore_errors=True)
+            _programs(out, e, reqs, say, [d for d in e[4] if d.met])
+            built = e[0]["seed"]
+        if best is None or key(e) > key(best):
+            best = e
+    assert best is not None, "a study has at least one seed"
+    return best, built
 
 
 def _programs(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], which: Sequence[Docking]) -> None:
