@@ -387,3 +387,13 @@ def test_a_cohort_that_fails_midway_leaves_nothing_behind(tmp_path: Path) -> Non
         write_patients(False, 1, "pedicle", 3, kept, beside=envelope_that_fails_on_the_second)
     assert sorted(f.name for f in kept.iterdir()) == ["notes.txt", "patient_000.csv"]
     assert (kept / "patient_000.csv").read_text() == "old"
+
+
+def test_one_patient_into_a_folder_path(tmp_path: Path) -> None:
+    """``--count 1 --out next``: a path that is not a CSV is a folder (created) with patient_000.csv and the cohort
+    file, as for several patients (it once became a CSV named ``next`` whose envelope looked for ``next/anatomy``)."""
+    from arcube.patients.cohort import write_patients
+
+    texts = write_patients(False, 17, "pedicle", 1, tmp_path / "next")
+    assert sorted(p.name for p in (tmp_path / "next").iterdir()) == ["cohort.toml", "patient_000.anatomy.stl", "patient_000.csv", "patient_000.json"]
+    assert 'name = "seed17"' in (tmp_path / "next" / "cohort.toml").read_text() and len(texts) == 2

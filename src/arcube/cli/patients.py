@@ -12,7 +12,7 @@ from arcube.patients.settings import PatientAnatomyFormat
 __all__ = ["register"]
 
 FLAGS = [
-    with_help(OUT, "CSV path (K = 1) or folder (K > 1).", required=True),
+    with_help(OUT, "A CSV path (*.csv, one patient), or a folder (created) that receives patient_000.csv ... and cohort.toml.", required=True),
     option("--mean", "The mean patient (all parameters at their means).", bool, params=("mean",)),
     with_help(SEED, "Random seed S; patient k uses S + k."),
     option("--technique", "pedicle, roy-camille, magerl or an. [default: pedicle]", params=("technique",)),

@@ -30,7 +30,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
             on its own from the seed stored in its JSON.
         technique: pedicle, roy-camille, magerl or an.
         count: number of patients K (>= 1).
-        out: K = 1: the CSV path (an existing folder receives ``patient_000.csv``);
+        out: K = 1: the CSV path (``*.csv``; any other path is a folder, created, that receives ``patient_000.csv``);
             K > 1: a folder (created) receiving ``patient_000.csv`` ... ``patient_{K-1}.csv``, and ``cohort.toml``
             (every patient of the folder, for ``arcube design --cohort``, named by :func:`patient_name`: ``seed7`` ...).
             Each CSV gets its drawn parameters beside it as ``<stem>.json`` and its default
@@ -61,7 +61,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
     if seed is not None and seed < 0:
         raise InputError.of("seed", f"{seed}: expected a non-negative integer")
     width = max(3, len(str(count - 1)))
-    if count == 1 and not out.is_dir():
+    if count == 1 and not out.is_dir() and out.suffix.lower() == ".csv":
         paths = [out]
     else:
         if out.exists() and not out.is_dir():
