@@ -27,9 +27,10 @@ from arcube.model.design import PARAM_NAMES
 from harness import CHROMIUM_SKIP, start_chromium
 from harness import arcube as run_arcube
 
-# Both sides of the reference patient at C3 (one trajectory a side), 8 points per line, 16,000 evaluations, seed 2:
-# about 50 s; the robot it finds meets every sampled requirement at docking reference_R (reference_L misses some).
-_BUDGET = ["--levels", "C3", "--points", "8", "--generations", "40", "--seeds", "2", "--quiet"]
+# Both sides of the reference patient at C3 (one trajectory a side), 8 points per line, 16,000 evaluations, seed 1:
+# about 50 s; the robot it finds meets every requirement at docking reference_R, its program built (reference_L misses
+# some). (Seed 2's robot meets reference_R at the plan's points, but its program is blocked between them: not served.)
+_BUDGET = ["--levels", "C3", "--points", "8", "--generations", "40", "--seeds", "1", "--quiet"]
 _JOB = ["design", "--trajectories", "reference", "--anatomy", "default", *_BUDGET, "--out", "d"]
 _ENTRY_KEYS = ["patient", "side", "m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"]
 
@@ -84,7 +85,10 @@ def test_requirements_name_the_docking_where_each_is_tightest(job: Path) -> None
         mine = per[r["docking"]][r["requirement"]]
         assert mine["value"] == r["value"] and mine["passed"] == r["passed"]
         for other in per.values():
-            o = other[r["requirement"]]
+            o = other.get(r["requirement"])
+            if o is None:
+                assert r["requirement"] == "program"  # a docking missed at the plan's points gets no program
+                continue
             if r["passed"] == "pass":
                 assert o["passed"] == "pass" and float(o["margin"]) >= float(r["margin"])
 
@@ -145,7 +149,7 @@ def test_a_killed_cohort_job_resumes_to_the_same_robot(job: Path, tmp_path: Path
     (tmp_path / "cohort.toml").write_text('[[patient]]\nname = "reference"\nplan = "reference"\nanatomy = "default"\n')
     flags = ["design", "--cohort", "cohort.toml", *_BUDGET, "--out", "cut"]  # the fixture's job, its patient from the file
     proc = subprocess.Popen([sys.executable, "-m", "arcube", *flags], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    mark, deadline = tmp_path / "cut" / "study" / "seed_2" / "checkpoint" / "evals_000010.npz", time.monotonic() + 300
+    mark, deadline = tmp_path / "cut" / "study" / "seed_1" / "checkpoint" / "evals_000010.npz", time.monotonic() + 300
     while time.monotonic() < deadline and proc.poll() is None and not mark.exists():
         time.sleep(0.005)
     proc.send_signal(signal.SIGKILL)
@@ -159,7 +163,17 @@ def test_a_killed_cohort_job_resumes_to_the_same_robot(job: Path, tmp_path: Path
         assert (cut / "dockings" / label / "design.json").read_text() == (job / "dockings" / label / "design.json").read_text(), label
     a, b = (json.loads((d / "summary.json").read_text()) for d in (cut, job))
     keys = ("meets_requirements", "mode", "seed", "eta_G", "requirements", "dockings", "missed_at")
-    assert {k: a[k] for k in keys} == {k: b[k] for k in keys}
+    assert _untimed({k: a[k] for k in keys}) == _untimed({k: b[k] for k in keys})
+
+
+def _untimed(value: object) -> object:
+    """``value`` with the wall time a program row reports ("total 38.7 s, built in 2 s") cut to its program's own
+    duration: how long the build took is the machine's, not the result."""
+    if isinstance(value, dict):
+        return {k: _untimed(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_untimed(v) for v in value]
+    return value.split(", built in")[0] if isinstance(value, str) else value
 
 
 @CHROMIUM_SKIP
