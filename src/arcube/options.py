@@ -188,13 +188,18 @@ FLAT: dict[str, tuple[str, str]] = {
 }  # fmt: skip
 """Each flat keyword -> (group, field): a field's name or short name (``Options(thrust_N=25)``,
 ``Options(thrust=25)`` and ``arcube.optimize(..., thrust=25)`` mean ``Options(loads=Loads(thrust_N=25))``)."""
-AMBIGUOUS: dict[str, list[str]] = {}
+
+
+def _shared_names() -> dict[str, list[str]]:
+    meanings: dict[str, list[str]] = {}
+    for group, cls in _GROUPS.items():
+        for name in (*cls.model_fields, *(cls.short(n) for n in cls.SHORT)):
+            meanings.setdefault(name, []).append(f"{group}.{cls.field_of(name)}")
+    return {name: where for name, where in meanings.items() if len(where) > 1}
+
+
+AMBIGUOUS: dict[str, list[str]] = _shared_names()
 """Flat keywords that two groups share (a field of one, a short name of another): refused, naming both, never guessed."""
-for _group, _cls in _GROUPS.items():
-    for _name in (*_cls.model_fields, *(_cls.short(n) for n in _cls.SHORT)):
-        _field = _name if _name in _cls.model_fields else next(n for n in _cls.SHORT if _cls.short(n) == _name)
-        AMBIGUOUS.setdefault(_name, []).append(f"{_group}.{_field}")
-AMBIGUOUS = {k: v for k, v in AMBIGUOUS.items() if len(v) > 1}
 
 
 def route_flat(data: dict[str, Any], options: Any = None) -> dict[str, Any]:

@@ -16,16 +16,20 @@ from arcube.errors import InputError
 __all__ = ["Settings", "settings_error", "validated"]
 
 
-def _admits_bool(annotation: Any) -> bool:
-    """Whether a field's annotation takes a bool (bool itself, Any, or a union or Annotated with one of them)."""
-    if annotation is bool or annotation is Any:
-        return True
+def _leaves(annotation: Any) -> list[Any]:
+    """The types an annotation admits, through ``Annotated``, ``Optional`` and unions."""
     origin = typing.get_origin(annotation)
     if origin is typing.Annotated:
-        return _admits_bool(typing.get_args(annotation)[0])
+        return _leaves(typing.get_args(annotation)[0])
     if origin in (typing.Union, types.UnionType):
-        return any(_admits_bool(a) for a in typing.get_args(annotation))
-    return origin is None and not isinstance(annotation, type)  # a forward reference or an alias: not ours to judge
+        return [leaf for a in typing.get_args(annotation) for leaf in _leaves(a)]
+    return [annotation]
+
+
+def _number_not_bool(annotation: Any) -> bool:
+    """Whether a field takes a number (int or float) and not a bool: pydantic would read True there as 1."""
+    leaves = _leaves(annotation)
+    return any(leaf in (int, float) for leaf in leaves) and not any(leaf is bool or leaf is Any for leaf in leaves)
 
 
 class Settings(BaseModel):
@@ -43,7 +47,7 @@ class Settings(BaseModel):
     @classmethod
     def _no_bool_for_a_number(cls, value: Any, info: ValidationInfo) -> Any:
         # pydantic reads True as 1.0: Guards(envelope_clearance_mm=True) was a silent 1 mm guard
-        if isinstance(value, bool) and info.field_name is not None and not _admits_bool(cls.model_fields[info.field_name].annotation):
+        if isinstance(value, bool) and info.field_name is not None and _number_not_bool(cls.model_fields[info.field_name].annotation):
             raise ValueError("must be a number")
         return value
 

@@ -140,23 +140,22 @@ class DesignProgress:
 
     def running(self, rows: dict[int, dict[str, Any]]) -> None:
         """The seeds running in other processes, each with its last history row."""
-        parts, evals = [], 0.0
+        parts, worked, ran = [], 0.0, 0.0
+        evals = {seed: min(float(row.get("evaluations", 0.0)), float(self.budget)) for seed, row in rows.items()}
         for seed, row in sorted(rows.items()):
-            e = min(float(row.get("evaluations", 0.0)), float(self.budget))
+            e = evals[seed]
             self.seen.setdefault(seed, e)
-            evals += e
+            w = self.work(e)
+            worked, ran = worked + w, ran + w - self.work(self.seen[seed])
             parts.append(f"seed {seed} generation {int(row.get('generation', 0))}, {int(e):,} evaluations, {_best(row)}")
         done = sum(min(float(v.get("evaluations", self.budget)), float(self.budget)) for v in self.done.values())
-        full = self.work(self.budget)
-        ran = sum(self.work(min(float(r.get("evaluations", 0.0)), float(self.budget))) - self.work(self.seen[s]) for s, r in rows.items())
         took = self.clock() - self.started
-        left_work = (len(self.seeds) - len(self.done)) * full - sum(self.work(min(float(r.get("evaluations", 0.0)), float(self.budget)))
-                                                                    for r in rows.values())  # fmt: skip
+        left_work = (len(self.seeds) - len(self.done)) * self.work(self.budget) - worked  # docking evaluations left
         left = left_work / (ran / took) if ran > 0 and took > 0 else math.nan
         text = (f"{len(rows)} seeds running ({len(self.done)} of {len(self.seeds)} done): " + "; ".join(parts)
                 + (f"; about {duration(left)} left" if math.isfinite(left) else ""))  # fmt: skip
         if self.bar is not None:
-            self.bar.update(self.task, completed=done + evals)
+            self.bar.update(self.task, completed=done + sum(evals.values()))
         self._say(text, force=True)
 
     @property

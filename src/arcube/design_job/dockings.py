@@ -16,15 +16,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from arcube.model.modes import DEFAULT_MODE_TEXT
+import numpy as np
+
+from arcube.coerce import design_mode
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.io import load_trajectories, select
 from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
-from arcube.model.mechanism import parse_mode
 from arcube.optimization.config import own_settings, patient_settings
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["Docking", "PLACEMENT", "ROBOT_NAMES", "assess_dockings", "docking_entry", "merge_rows", "run_dockings"]
+__all__ = ["Docking", "PLACEMENT", "ROBOT_NAMES", "assess_dockings", "docking_entry", "merge_rows", "run_dockings", "warm_starts"]
 
 
 
@@ -89,7 +90,7 @@ def assess_dockings(dockings: Sequence[Docking], reqs: Sequence[Any], s: RunSett
     base = s.evaluation_options()
     for d in dockings:
         options = base if d.design.c_z is None else base.replace(z_dyad=True, c_z=d.design.c_z)
-        rows = assess([d.design.to_vector()], parse_mode(d.design.mode or DEFAULT_MODE_TEXT), [d.plan], [d.anatomy], reqs, options=options,
+        rows = assess([d.design.to_vector()], design_mode(d.design), [d.plan], [d.anatomy], reqs, options=options,
                       envelopes=[d.envelope] if d.envelope is not None else (), points=s.points, standoff_mm=float(s.standoff or 0.0),
                       accuracy=s.accuracy_settings())  # fmt: skip
         if d.design.c_z is not None:
@@ -117,7 +118,7 @@ def _z_dyad_row(rows: list[dict[str, Any]], d: Docking, options: Any, s: RunSett
     only = options.replace(rho_max_deg=None, min_transmission_deg=None, kappa_max=None, single_assembly_mode=False, clearance_mm=None,
                            self_clearance_mm=None, envelope_clearance_mm=None, outputs=options.outputs.replace(tip_metrics=False))  # fmt: skip
     for E, e in ((drill.E, drill.e), (E_a, e_a)):
-        res = evaluate_task(d.design.to_vector(), E, e, parse_mode(d.design.mode or DEFAULT_MODE_TEXT), only, engine="numpy")
+        res = evaluate_task(d.design.to_vector(), E, e, design_mode(d.design), only, engine="numpy")
         bad += int(np.sum(np.asarray(res.points.failure) == code))
     row = {"requirement": "z_dyad", "kind": "max", "limit": 0.0, "value": float(bad), "unit": "failing points", "where": {},
            "part": f"c_z {d.design.c_z:.1f} mm, d_z {d.design['d_z']:.1f} mm"}  # fmt: skip
@@ -160,3 +161,11 @@ def docking_entry(d: Docking, points: bool = False) -> dict[str, Any]:
         out["entry"] = [[round(float(v), 4) for v in row] for row in d.plan.entry]
         out["target"] = [[round(float(v), 4) for v in row] for row in d.plan.target]
     return out
+
+
+def warm_starts(dockings: Sequence[Docking]) -> tuple[Any, ...]:
+    """Each docking as a :class:`~arcube.model.robot.WarmStart` (its placement, its trajectories' entry and target
+    points, its side): where docking the robot anew starts looking."""
+    from arcube.model.robot import WarmStart
+
+    return tuple(WarmStart(d.label, np.array([d.design[n] for n in PLACEMENT]), d.plan.entry, d.plan.target, d.side) for d in dockings)

@@ -9,9 +9,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from arcube.design_job.dockings import PLACEMENT, Docking
+from arcube.design_job.dockings import Docking, warm_starts
 from arcube.design_job.requirements import Requirement
 from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
@@ -43,11 +41,10 @@ def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs:
     from arcube.design_job.cohort import read_cohort
     from arcube.design_job.coverage import dock_patients
     from arcube.design_job.dock import DOCK_EVALUATIONS
-    from arcube.model.robot import BuiltRobot, WarmStart
+    from arcube.model.robot import BuiltRobot
 
     patients = read_cohort(meta["validate"], side=s.side, levels=s.levels, ids=s.ids, transform=s.transform)
-    robot = BuiltRobot(str(out / "design.json"), dockings[0].design,
-                       tuple(WarmStart(d.label, np.array([d.design[n] for n in PLACEMENT]), d.plan.entry, d.plan.target) for d in dockings))  # fmt: skip
+    robot = BuiltRobot(str(out / "design.json"), dockings[0].design, warm_starts(dockings))
     folder = out / VALIDATION
     shutil.rmtree(folder, ignore_errors=True)  # ours: a resumed job docks again
     say(f"docking the robot on the {len(patients)} held-out patients (never seen by the search)")

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from arcube.model.modes import DEFAULT_MODE_TEXT
+from arcube.coerce import design_mode
 from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, breach_check, build_program, closing_c_z
 from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
 from arcube.design_job.folder import DESIGN_FORMAT, STUDY, is_design, read_design, read_study_summary
@@ -50,7 +50,6 @@ from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
 from arcube.model.robot import write_docking
-from arcube.model.mechanism import parse_mode
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
@@ -328,7 +327,7 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         write_docking(d.design, out / DOCKINGS / d.label / "design.json", d.name, d.side)
         write_requirements_csv(out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
         opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
-        ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode or DEFAULT_MODE_TEXT), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
+        ev = evaluate_design(d.design, d.plan, s.points, design_mode(d.design), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
         evaluations.append(ev)
         # the perfect robot's lateral error beside it: the run's figure (one docking), else this docking's requirement row
         perfect = summary.get("lateral_error_max_mm") if one else next((r["value"] for r in d.rows if r["requirement"] == "lateral_error"), None)

@@ -15,13 +15,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob
-from arcube.design_job.dockings import PLACEMENT, Docking
+from arcube.design_job.dockings import Docking, warm_starts
 from arcube.design_job.outputs import PROGRAM
 from arcube.design_job.requirements import Requirement
-from arcube.model.robot import BuiltRobot, WarmStart
+from arcube.model.robot import BuiltRobot
 from arcube.optimization.config import PatientPlan, own_settings
 from arcube.optimization.settings import RunSettings
 
@@ -57,7 +55,7 @@ def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], f
 
     if not which or redock_budget(s) == 0:
         return []
-    starts = tuple(WarmStart(d.label, np.array([d.design[n] for n in PLACEMENT]), d.plan.entry, d.plan.target) for d in dockings)
+    starts = warm_starts(dockings)
     jobs = []
     for k in which:
         d = dockings[k]

@@ -57,8 +57,6 @@ feed-forward (ctrl = q + tau / KP) it stays within ~0.01 mm.
 
 from __future__ import annotations
 
-import os
-
 import xml.etree.ElementTree as ET
 from typing import Any
 
@@ -68,7 +66,7 @@ from numpy.typing import ArrayLike, NDArray
 from arcube.errors import InputError
 from arcube.evaluation.mass_bodies import MassModel
 from arcube.coerce import design_mode
-from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, design_vector, joint_values, z_dyad_range
+from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, joint_values, z_dyad_range
 from arcube.export.inertia import INERTIA_FLOOR_KG_MM2, MASS_FLOOR_KG, body_inertials, mass_model_for
 from arcube.export.plan_point import no_ik_reason, plan_points, resolve_point
 from arcube.export.xmltree import COLORS, XmlBody, mesh_items, num, vec
@@ -176,13 +174,7 @@ def export_masses(options: Options, masses: bool | None) -> MassModel:
 def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
     ``mode`` None: the design's own; ``c_z`` None: the design's, else d_z."""
-    # a design file keeps its c_z and mode (a vector has neither): Design.coerce reads the file, not only its numbers
-    if isinstance(design, Design):
-        d = design
-    elif isinstance(design, (str, os.PathLike)):
-        d = Design.coerce(design)
-    else:
-        d = Design.from_vector(design_vector(design))  # validates (InputError)
+    d = Design.coerce(design)  # a design file keeps its c_z and mode (a vector has neither); validates (InputError)
     params = d.to_vector()
     signs = design_mode(d, mode)
     c_z = d.c_z if c_z is None else c_z

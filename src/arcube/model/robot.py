@@ -36,6 +36,7 @@ class WarmStart:
     placement: np.ndarray
     entry: np.ndarray | None = None
     target: np.ndarray | None = None
+    side: str | None = None  # R or L, when the file says
 
 
 @dataclass(frozen=True)
@@ -110,12 +111,12 @@ def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
         entry_pts, target_pts = _points(entry.get("entry"), "entry", where), _points(entry.get("target"), "target", where)
         if (entry_pts is None) != (target_pts is None) or (entry_pts is not None and entry_pts.shape != target_pts.shape):
             raise InputError(f"{where}: entry and target must be given together, one point each per trajectory")
-        starts.append(WarmStart(label, placement, entry_pts, target_pts))
+        starts.append(WarmStart(label, placement, entry_pts, target_pts, entry.get("side")))
     values = {n: data[n] for n in ROBOT_NAMES if n != "c_z"}
     if all(n in data for n in PLACEMENT):
         own = _placement(data, str(p))
         if not starts:  # a docking file: its own placement is its one docking
-            starts.append(WarmStart(str(data.get("patient", "own")) + (f"_{data['side']}" if data.get("side") else ""), own))
+            starts.append(WarmStart(str(data.get("patient", "own")) + (f"_{data['side']}" if data.get("side") else ""), own, side=data.get("side")))
     else:
         own = starts[0].placement if starts else np.zeros(len(PLACEMENT))
     values.update(zip(PLACEMENT, (float(v) for v in own)))
@@ -163,9 +164,9 @@ def design_at_side(design: Any, side: str | None) -> Any:
             raise InputError.of("side", f"{s}: {p} is the robot's one docking, on side {'/'.join(sorted(map(str, sides)))}")
         return design
     robot = read_robot(p)
-    here = [(w, k) for k, w in enumerate(robot.starts) if isinstance(dockings[k], dict) and dockings[k].get("side") == s]
+    here = [w for w in robot.starts if w.side == s]
     if len(here) == 1:
-        return robot.placed(here[0][0].placement)
-    names = ", ".join(str(p.parent / "dockings" / w.label / "design.json") for w, _ in here)
+        return robot.placed(here[0].placement)
+    names = ", ".join(str(p.parent / "dockings" / w.label / "design.json") for w in here)
     problem = f"docks it {len(here)} times on side {s}; give one docking's file: {names}" if here else f"has no docking on side {s}"
     raise InputError.of("side", f"{s}: the robot of {p} {problem}")

@@ -67,7 +67,7 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         if out.exists() and not out.is_dir():
             raise InputError.of("out", f"{out}: exists and is not a folder (needed for more than one patient)")
         paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
-    if out.suffix.lower() == ".json" or any(p.suffix.lower() == ".json" for p in paths):
+    if out.suffix.lower() == ".json":  # the parameters go to <stem>.json; a folder so named is a mistake too
         raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")
     # Every file is made in a staging folder beside the output first; only when every patient is written
     # (and its anatomy read back by the envelope's writer) do they all go into place, as one output.

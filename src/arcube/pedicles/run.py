@@ -61,7 +61,7 @@ def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:
         robot = read_robot(path)
         out: dict[str, Any] = {}
         for w in robot.starts:
-            side = w.label.rsplit("_", 1)[-1]
+            side = w.side or ""
             if side in out:  # a robot of a cohort: which patient's docking the plan is for is the user's to say
                 raise InputError.of("design", f"{path}: the robot docks {sum(s.label.endswith('_' + side) for s in robot.starts)} times on side "
                                               f"{side}; give the docking of this plan's patient (dockings/<patient>_<side>/design.json)")  # fmt: skip
