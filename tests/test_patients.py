@@ -184,12 +184,13 @@ TABLE = {
 }
 
 
-def test_cohort_pedicle_parameters_and_correlation(pedicle_cohort: list[dict]) -> None:
-    for name, (means, sd, clip) in TABLE.items():
+def _bilateral_draws_match(cohort: list[dict], section: str, table: dict) -> None:
+    """Each level's right and left draws of ``section`` against the table's (means, SD, clip), and their correlation."""
+    for name, (means, sd, clip) in table.items():
         for k, lv in enumerate(LEVELS):
             lo, hi = clip if clip else (means[k] - 3 * sd, means[k] + 3 * sd)
-            right = [p["pedicle"][lv]["R"][name] for p in pedicle_cohort]
-            left = [p["pedicle"][lv]["L"][name] for p in pedicle_cohort]
+            right = [p[section][lv]["R"][name] for p in cohort]
+            left = [p[section][lv]["L"][name] for p in cohort]
             assert_sample_matches(right, means[k], sd, lo, hi, f"{name} {lv} R")
             assert_sample_matches(left, means[k], sd, lo, hi, f"{name} {lv} L")
             # rho = 0.7; SE of r is about (1 - rho^2)/sqrt(n) = 0.016. Clipping lowers it a little.
@@ -197,19 +198,16 @@ def test_cohort_pedicle_parameters_and_correlation(pedicle_cohort: list[dict]) -
             assert abs(r - 0.7) < 4.5 * 0.51 / math.sqrt(N_COHORT), f"{name} {lv}: r = {r:.3f}"
 
 
+def test_cohort_pedicle_parameters_and_correlation(pedicle_cohort: list[dict]) -> None:
+    _bilateral_draws_match(pedicle_cohort, "pedicle", TABLE)
+
+
 # Section 6, typed from MORPHOMETRY.md: the isthmus, means C3..C7, SD, range (mm)
 ISTHMUS_TABLE = {"width_mm": ((4.7, 4.9, 5.4, 5.8, 6.4), 0.8, (2.5, 9.0)), "height_mm": ((6.4, 6.5, 6.6, 6.7, 6.9), 0.8, (4.0, 10.0))}
 
 
 def test_cohort_isthmus_matches_section_6_and_leaves_every_other_draw_alone(pedicle_cohort: list[dict]) -> None:
-    for name, (means, sd, (lo, hi)) in ISTHMUS_TABLE.items():
-        for k, lv in enumerate(LEVELS):
-            right = [p["isthmus"][lv]["R"][name] for p in pedicle_cohort]
-            left = [p["isthmus"][lv]["L"][name] for p in pedicle_cohort]
-            assert_sample_matches(right, means[k], sd, lo, hi, f"{name} {lv} R")
-            assert_sample_matches(left, means[k], sd, lo, hi, f"{name} {lv} L")
-            r = np.corrcoef(right, left)[0, 1]
-            assert abs(r - 0.7) < 4.5 * 0.51 / math.sqrt(N_COHORT), f"{name} {lv}: r = {r:.3f}"
+    _bilateral_draws_match(pedicle_cohort, "isthmus", ISTHMUS_TABLE)
     # its own stream: a technique's draws of the same seed share the isthmus, and the pedicle draws do not depend on it
     a, b = draw_parameters(12, "pedicle"), draw_parameters(12, "magerl")
     assert a["isthmus"] == b["isthmus"] and a["pedicle"] == b["pedicle"]
