@@ -62,7 +62,7 @@ CLI_ALLOWED_PREFIXES = ("arcube.cli",)
 CLI_ALLOWED_MODULES = {"arcube.__main__"}
 
 LAYERS = (
-    "arcube.caches", "arcube.interrupts", "arcube.errors", "arcube.io", "arcube.model", "arcube.validation", "arcube.options", "arcube.patients",
+    "arcube.caches", "arcube.interrupts", "arcube.progress", "arcube.errors", "arcube.io", "arcube.model", "arcube.validation", "arcube.options", "arcube.patients",
     "arcube.evaluation", "arcube.coerce",
     "arcube.accuracy", "arcube.optimization", "arcube.motion", "arcube.report", "arcube.calibrate", "arcube.pedicles", "arcube.export",
     "arcube.design_job", "arcube.api", "arcube.explorer", "arcube.cli",

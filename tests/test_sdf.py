@@ -268,3 +268,21 @@ def test_from_meshes_of_the_bundled_stl_agrees_with_from_boxes(reference_distanc
     # the STL stores float32 coordinates (~4e-6 mm here)
     assert np.abs(ad.fine.values - reference_distance.fine.values).max() <= 1e-4
     assert np.abs(ad.coarse.values - reference_distance.coarse.values).max() <= 1e-4
+
+
+def test_grid_progress_counts_every_shell_of_both_grids_once() -> None:
+    from arcube.progress import GRIDS, listening
+
+    boxes = [trimesh.creation.box(extents=(4.0, 5.0, 6.0)), trimesh.creation.box(extents=(3.0, 3.0, 3.0), transform=translation(20.0))]
+    heard: list[tuple[int, int]] = []
+    with listening(GRIDS, lambda done, total: heard.append((done, total))):
+        AnatomyDistance.from_meshes(boxes, coarse_margin=40.0)
+    AnatomyDistance.from_meshes(boxes, coarse_margin=40.0)  # outside the block: nobody hears it
+    # two shells and the nodes outside both, on each of the two grids: 6 parts, told 0 then 1..6
+    assert heard == [(k, 6) for k in range(7)]
+
+
+def translation(x: float) -> np.ndarray:
+    t = np.eye(4)
+    t[0, 3] = x
+    return t

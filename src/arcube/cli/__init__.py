@@ -11,6 +11,7 @@ import os
 import re
 import sys
 import warnings
+from typing import Any
 
 import typer
 
@@ -100,6 +101,19 @@ def _interrupted() -> None:
     sys.exit(130)
 
 
+def _main_with_grid_bar(command: Any, args: list[str]) -> Any:
+    """The command, with a bar while an anatomy's distance grids are built (:class:`arcube.cli.common.GridBar`)."""
+    from arcube.cli.common import GridBar
+    from arcube.progress import GRIDS, listening
+
+    bar = GridBar()
+    try:
+        with listening(GRIDS, bar):
+            return command.main(args=args, prog_name="arcube", standalone_mode=False)
+    finally:
+        bar.close()
+
+
 def _run(argv: list[str] | None) -> None:
     command = typer.main.get_command(app)
     args = expand_multi_value(list(sys.argv[1:] if argv is None else argv))
@@ -110,7 +124,7 @@ def _run(argv: list[str] | None) -> None:
                 # numbers are checked where they matter (finite, in range); NumPy's and matplotlib's overflow
                 # warnings on extreme values would only precede the one line that says what is wrong
                 warnings.simplefilter("ignore", RuntimeWarning)
-            code = command.main(args=args, prog_name="arcube", standalone_mode=False)
+            code = _main_with_grid_bar(command, args)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except typer.Abort:

@@ -103,7 +103,10 @@ class DesignProgress:
 
     def __enter__(self) -> DesignProgress:
         if self.bar is not None:
+            from arcube.cli.common import LIVE_BARS
+
             self.bar.__enter__()
+            LIVE_BARS[0] += 1
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -111,6 +114,9 @@ class DesignProgress:
         if self.watcher is not None:
             self.watcher.join(timeout=5.0)
         if self.bar is not None:
+            from arcube.cli.common import LIVE_BARS
+
+            LIVE_BARS[0] -= 1
             self.bar.__exit__(*exc)
 
     def watch(self, study: str | Path) -> None:

@@ -196,8 +196,9 @@ class _Shells:
         self.hi = np.max([s[4] for s in self.shells], axis=0)
         self.bvh = _bvh(self.tri)
 
-    def on_grid(self, origin: np.ndarray, shape: tuple[int, int, int], spacing: float) -> np.ndarray:
-        """Exact signed distance of the union at the nodes of a grid.
+    def on_grid(self, origin: np.ndarray, shape: tuple[int, int, int], spacing: float, tick: Any = None) -> np.ndarray:
+        """Exact signed distance of the union at the nodes of a grid; ``tick()`` (if given) is called after each shell
+        and after the nodes outside every shell.
 
         Per shell, at the nodes of its bounding box: the exact distance d_s to the shell
         (BVH). Two neighbouring nodes both farther than h/2 from the shell cannot have its
@@ -216,6 +217,8 @@ class _Shells:
                              int(np.searchsorted(axes[a], hi[a], side="right"))) for a in range(3))
             sub_shape = tuple(s.stop - s.start for s in sl)
             if min(sub_shape) <= 0:
+                if tick is not None:
+                    tick()
                 continue  # no node inside the shell's bounding box
             sub_origin = origin + spacing * np.array([s.start for s in sl], dtype=np.float64)
             d = np.empty(sub_shape)
@@ -242,8 +245,12 @@ class _Shells:
             if ins.any():
                 depth[sl] = np.where(ins, np.maximum(depth[sl], d), depth[sl])
                 inside[sl] |= ins
+            if tick is not None:
+                tick()
         out = np.empty(shape)
         _mesh_grid_unsigned(origin, float(spacing), shape[0], shape[1], shape[2], inside, self.tri, *self.bvh, out)
         out[inside] = -depth[inside]
+        if tick is not None:
+            tick()
         return out
 

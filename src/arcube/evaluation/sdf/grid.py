@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
+from arcube.progress import GRIDS, tell
 
 from arcube.evaluation.sdf._boxes import _box_arrays, _boxes_bounds, _boxes_on_grid
 from arcube.evaluation.sdf._mesh import _Shells
@@ -155,7 +156,14 @@ class AnatomyDistance:
         if not isinstance(meshes, (list, tuple)):
             meshes = [meshes]
         shells = _Shells(meshes)
-        return cls._build(shells.lo, shells.hi, shells.on_grid, fine_spacing, fine_margin,
+        total, done = 2 * (len(shells.shells) + 1), [0]
+
+        def tick() -> None:
+            done[0] += 1
+            tell(GRIDS, done[0], total)
+
+        tell(GRIDS, 0, total)
+        return cls._build(shells.lo, shells.hi, lambda o, sh, h: shells.on_grid(o, sh, h, tick), fine_spacing, fine_margin,
                           coarse_spacing, coarse_margin)
 
     @classmethod
