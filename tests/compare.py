@@ -77,24 +77,54 @@ GRADE = Tol(floor=1.0)
 come from the same shortfalls the failure codes (compared exactly) are decided by."""
 
 POINT_TOL: dict[str, Tol] = {
-    "reachable": EXACT, "failure": EXACT,
-    "kappa": Tol(), "eta_L": Tol(), "dexterity_pct": Tol(), "excess": Tol(floor=1.0), "guard_grade": GRADE,
-    "rho": Tol(floor=1.0), "delta": Tol(floor=1.0), "sigma": Tol(floor=1.0),
-    "clearance_mm": CLEARANCE, "clearance_part": EXACT, "self_clearance_mm": SELF_CLEARANCE,
-    "envelope_clearance_mm": ENVELOPE, "envelope_part": EXACT, "envelope_region": EXACT,
-    "tip_error_mm": TIP, "lateral_error_mm": TIP, "axial_error_mm": TIP, "axis_error_deg": TIP,
-    "torque_Nm": TIP, "torque_actuator": ACTUATOR, "deflection_mm": TIP,
-    "holding_torque_Nm": TIP, "holding_torque_actuator": HOLDING_ACTUATOR,
-}  # fmt: skip
+    "reachable": EXACT,
+    "failure": EXACT,
+    "kappa": Tol(),
+    "eta_L": Tol(),
+    "dexterity_pct": Tol(),
+    "excess": Tol(floor=1.0),
+    "guard_grade": GRADE,
+    "rho": Tol(floor=1.0),
+    "delta": Tol(floor=1.0),
+    "sigma": Tol(floor=1.0),
+    "clearance_mm": CLEARANCE,
+    "clearance_part": EXACT,
+    "self_clearance_mm": SELF_CLEARANCE,
+    "envelope_clearance_mm": ENVELOPE,
+    "envelope_part": EXACT,
+    "envelope_region": EXACT,
+    "tip_error_mm": TIP,
+    "lateral_error_mm": TIP,
+    "axial_error_mm": TIP,
+    "axis_error_deg": TIP,
+    "torque_Nm": TIP,
+    "torque_actuator": ACTUATOR,
+    "deflection_mm": TIP,
+    "holding_torque_Nm": TIP,
+    "holding_torque_actuator": HOLDING_ACTUATOR,
+}
 """Every PointResults field: how the kernel's must equal the reference's (a field missing here fails)."""
 SUMMARY_TOL: dict[str, Tol] = {
-    "w_G": EXACT, "reachable_fraction": EXACT,
-    "eta_G": Tol(), "violation": Tol(floor=1.0), "violation_reach": Tol(floor=1.0), "guard_grade": GRADE,
-    "dexterity_min": Tol(), "dexterity_mean": Tol(), "dexterity_max": Tol(),
-    "clearance_min": CLEARANCE, "self_clearance_min": SELF_CLEARANCE, "envelope_clearance_min": ENVELOPE,
-    "tip_error_max": TIP, "lateral_error_max": TIP, "axial_error_max": TIP, "axis_error_max": TIP,
-    "torque_max": TIP, "deflection_max": TIP, "holding_torque_max": TIP,
-}  # fmt: skip
+    "w_G": EXACT,
+    "reachable_fraction": EXACT,
+    "eta_G": Tol(),
+    "violation": Tol(floor=1.0),
+    "violation_reach": Tol(floor=1.0),
+    "guard_grade": GRADE,
+    "dexterity_min": Tol(),
+    "dexterity_mean": Tol(),
+    "dexterity_max": Tol(),
+    "clearance_min": CLEARANCE,
+    "self_clearance_min": SELF_CLEARANCE,
+    "envelope_clearance_min": ENVELOPE,
+    "tip_error_max": TIP,
+    "lateral_error_max": TIP,
+    "axial_error_max": TIP,
+    "axis_error_max": TIP,
+    "torque_max": TIP,
+    "deflection_max": TIP,
+    "holding_torque_max": TIP,
+}
 """Every TaskResults summary field (all but ``points``), as :data:`POINT_TOL`."""
 
 BODY_CLEARANCE_GAP = 0.225
@@ -105,11 +135,19 @@ STATE_RTOL = 1e-9
 """The relative tolerance :data:`STATE_TOL` is applied with (eta_L: the kernel's condition numbers)."""
 _NEAR_LIMIT = ("clearance", ProgramLimits().clearance, ProgramLimits().clearance + BODY_CLEARANCE_GAP)
 STATE_TOL: dict[str, Tol] = {
-    "ok": Tol(exact=True, skip=_NEAR_LIMIT), "reason": Tol(exact=True, skip=_NEAR_LIMIT),
-    "E": EXACT, "e": EXACT, "q": EXACT, "assembly": EXACT, "tool_clearance": EXACT, "points": EXACT,
-    "eta": Tol(), "self_clearance": SELF_CLEARANCE, "clearance": Tol(rel=0.0, abs=1e-9, below=BODY_CLEARANCE_GAP),
+    "ok": Tol(exact=True, skip=_NEAR_LIMIT),
+    "reason": Tol(exact=True, skip=_NEAR_LIMIT),
+    "E": EXACT,
+    "e": EXACT,
+    "q": EXACT,
+    "assembly": EXACT,
+    "tool_clearance": EXACT,
+    "points": EXACT,
+    "eta": Tol(),
+    "self_clearance": SELF_CLEARANCE,
+    "clearance": Tol(rel=0.0, abs=1e-9, below=BODY_CLEARANCE_GAP),
     "envelope_clearance": ENVELOPE,
-}  # fmt: skip
+}
 """Every :class:`arcube.motion.check.StateChecks` field: how the compiled check's (``engine="numba"``) must
 equal the reference's, applied with rtol :data:`STATE_RTOL`, with the default limits
 (:class:`~arcube.motion.limits.ProgramLimits`). The pose, the IK's joints and assembly signs, the tool
@@ -143,11 +181,15 @@ def _same_float(name: str, a, b, rtol, scale_floor: float = 0.0, atol: float = 0
     if below is not None:  # one-sided: a - b in [-below, tol]
         diff = np.where(fin, a, 0.0) - np.where(fin, b, 0.0)
         bad = (diff > np.where(fin, tol, 0.0)) | (diff < -below)
-        assert not bad.any(), f"{name}: {bad.sum()} values off, {name} - reference in [{diff.min():.3g}, {diff.max():.3g}], not [-{below:g}, tol]"
+        assert not bad.any(), (
+            f"{name}: {bad.sum()} values off, {name} - reference in [{diff.min():.3g}, {diff.max():.3g}], not [-{below:g}, tol]"
+        )
         return
     err = np.abs(np.where(fin, a, 0.0) - np.where(fin, b, 0.0))
     bad = err > np.where(fin, tol, 0.0)
-    assert not bad.any(), f"{name}: {bad.sum()} values off, worst rel {np.max(err / np.maximum(tol, 1e-300) * RTOL):.3g}"
+    assert not bad.any(), (
+        f"{name}: {bad.sum()} values off, worst rel {np.max(err / np.maximum(tol, 1e-300) * RTOL):.3g}"
+    )
 
 
 def _same(name: str, got_all, ref_all, tol: Tol, rtol: np.ndarray) -> None:
@@ -183,7 +225,9 @@ def tolerances(table: dict[str, Tol], fields: tuple[str, ...], kind: str) -> dic
     return table
 
 
-def assert_fields_match(got, ref, table: dict[str, Tol], rtol, kind: str, fields: tuple[str, ...] | None = None) -> None:
+def assert_fields_match(
+    got, ref, table: dict[str, Tol], rtol, kind: str, fields: tuple[str, ...] | None = None
+) -> None:
     """Every field of the named tuple ``got`` equals the reference ``ref``'s as ``table`` says (``fields``:
     the fields compared, default all of ``ref``'s); ``rtol`` a scalar or an array of the fields' leading axes."""
     for name, tol in tolerances(table, ref._fields if fields is None else fields, kind).items():
@@ -204,5 +248,10 @@ def check(params, E, e, mode=ALL_MODES[0], options=Options(), **kw):
     ref = evaluate_task(params, E, e, mode, options)
     rtol_pt = point_rtol(params, E, e, mode, ref)
     assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options, **kw), ref, rtol_pt)
-    assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options, want_points=False, **kw), ref, rtol_pt, want_points=False)  # fmt: skip
+    assert_matches(
+        kernel.evaluate_task_numba(params, E, e, mode, options, want_points=False, **kw),
+        ref,
+        rtol_pt,
+        want_points=False,
+    )
     return ref

@@ -69,9 +69,25 @@ def right_side_design(tmp_path_factory: pytest.TempPathFactory):
     return path
 
 
-SLOW_FIRST = ("test_one_robot_design.py", "test_design_job.py", "test_dock.py", "test_explore.py", "test_docs.py", "test_demo.py", "test_study.py",
-              "test_paper_check.py", "test_envelope_clearance.py", "test_clearance.py", "test_segmentations.py", "test_report_browser.py",
-              "test_interrupts.py", "test_program.py", "test_design_progress.py", "test_optimize.py", "test_hardening.py")  # fmt: skip
+SLOW_FIRST = (
+    "test_one_robot_design.py",
+    "test_design_job.py",
+    "test_dock.py",
+    "test_explore.py",
+    "test_docs.py",
+    "test_demo.py",
+    "test_study.py",
+    "test_paper_check.py",
+    "test_envelope_clearance.py",
+    "test_clearance.py",
+    "test_segmentations.py",
+    "test_report_browser.py",
+    "test_interrupts.py",
+    "test_program.py",
+    "test_design_progress.py",
+    "test_optimize.py",
+    "test_hardening.py",
+)
 """The files whose tests take longest (benchmarks of the suite: ``pytest --durations``), in that order."""
 
 
@@ -116,6 +132,9 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     import subprocess
     import sys
 
-    procs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for code in _COMPILE]
+    procs = [
+        subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        for code in _COMPILE
+    ]
     for p in procs:
         p.wait()

@@ -37,17 +37,30 @@ REFERENCE_CSV = REPO / "src" / "arcube" / "data" / "reference_patient.csv"
 # Designs.
 
 PAPER = {
-    "m_x": 31.8694, "m_y": 11.9589, "m_z": 192.0769,
-    "f_x": 123.1147, "f_y": 116.9719, "f_z": 56.7787,
-    "p_x": 134.099, "p_y": 149.9886, "p_z": 99.8766,
-    "d_x": 79.2596, "d_y": 99.9402, "d_z": 53.5671,
-    "c_x": 139.8911, "c_y": 106.8319,
-    "t_x": 70.9301, "t_y": 65.3946,
+    "m_x": 31.8694,
+    "m_y": 11.9589,
+    "m_z": 192.0769,
+    "f_x": 123.1147,
+    "f_y": 116.9719,
+    "f_z": 56.7787,
+    "p_x": 134.099,
+    "p_y": 149.9886,
+    "p_z": 99.8766,
+    "d_x": 79.2596,
+    "d_y": 99.9402,
+    "d_z": 53.5671,
+    "c_x": 139.8911,
+    "c_y": 106.8319,
+    "t_x": 70.9301,
+    "t_y": 65.3946,
     "r": 70.4466,
-    "o_x": -19.2229, "o_y": 43.2917,
-    "alpha_x": 52.6402, "alpha_y": 66.446,
-    "beta_x": 50.0038, "beta_y": 62.1208,
-}  # fmt: skip
+    "o_x": -19.2229,
+    "o_y": 43.2917,
+    "alpha_x": 52.6402,
+    "alpha_y": 66.446,
+    "beta_x": 50.0038,
+    "beta_y": 62.1208,
+}
 """Table 2 of the paper, copied from MODEL.md section 2 (not from arcube.model.design)."""
 
 RIGHT_SIDE_M = {"m_x": 88.23, "m_y": 79.40, "m_z": 56.89}
@@ -199,19 +212,58 @@ def reaching_design(mount, L: float, seed: int = 0, n: int = 600, mode: int = 0,
 # The drilling program (MODEL.md 17).
 
 PROGRAM_DESIGN = {
-    "m_x": -180.76484476919862, "m_y": -157.46908828300167, "m_z": 200.6853946773747, "f_x": 38.47157725834808,
-    "f_y": 37.58585578457374, "f_z": 70.96024445457583, "p_x": 176.01413818196406, "p_y": 167.62615240420683,
-    "p_z": 163.81424854234908, "d_x": 199.83721867879663, "d_y": 187.76627761622083, "d_z": 90.91341698557332,
-    "c_x": 167.91480388710127, "c_y": 176.66383953444745, "t_x": 101.49967571608708, "t_y": 94.1648183036713,
-    "r": 69.62303755883808, "o_x": -84.00550363847071, "o_y": 174.95584389467882, "alpha_x": 69.35973817628876,
-    "alpha_y": 75.66975313644457, "beta_x": 66.76323145703799, "beta_y": 69.57808592269254, "mount_rx": 132.26627118962273,
-    "mount_ry": -26.77890980359885, "mount_rz": -93.65404350391357, "L": 129.15885510671012,
-}  # fmt: skip
+    "m_x": -180.76484476919862,
+    "m_y": -157.46908828300167,
+    "m_z": 200.6853946773747,
+    "f_x": 38.47157725834808,
+    "f_y": 37.58585578457374,
+    "f_z": 70.96024445457583,
+    "p_x": 176.01413818196406,
+    "p_y": 167.62615240420683,
+    "p_z": 163.81424854234908,
+    "d_x": 199.83721867879663,
+    "d_y": 187.76627761622083,
+    "d_z": 90.91341698557332,
+    "c_x": 167.91480388710127,
+    "c_y": 176.66383953444745,
+    "t_x": 101.49967571608708,
+    "t_y": 94.1648183036713,
+    "r": 69.62303755883808,
+    "o_x": -84.00550363847071,
+    "o_y": 174.95584389467882,
+    "alpha_x": 69.35973817628876,
+    "alpha_y": 75.66975313644457,
+    "beta_x": 66.76323145703799,
+    "beta_y": 69.57808592269254,
+    "mount_rx": 132.26627118962273,
+    "mount_ry": -26.77890980359885,
+    "mount_rz": -93.65404350391357,
+    "L": 129.15885510671012,
+}
 """A design an optimizer found for the right side of the reference plan with its lines from 25 mm outside the
 entry (``arcube optimize --free all,mount,L --self-clearance 3 --guards``, seed 4): one the program's default
 limits accept without anatomy, in mode +,+,+,+."""
-PROGRAM_COLUMNS = ["t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", "rho_x", "rho_y", "rho_z", "delta_x",
-                   "delta_y", "rho_x_dot", "rho_y_dot", "rho_z_dot", "delta_x_dot", "delta_y_dot"]  # fmt: skip
+PROGRAM_COLUMNS = [
+    "t_s",
+    "segment",
+    "trajectory",
+    "E_x",
+    "E_y",
+    "E_z",
+    "e_x",
+    "e_y",
+    "e_z",
+    "rho_x",
+    "rho_y",
+    "rho_z",
+    "delta_x",
+    "delta_y",
+    "rho_x_dot",
+    "rho_y_dot",
+    "rho_z_dot",
+    "delta_x_dot",
+    "delta_y_dot",
+]
 """program.csv's columns (MODEL.md 17.4), written out."""
 PROGRAM_TORQUES = ["tau_rho_x_Nm", "tau_rho_y_Nm", "tau_rho_z_Nm", "tau_delta_x_Nm", "tau_delta_y_Nm"]
 """The torque columns that follow when masses are on (MODEL.md 18.2)."""
@@ -231,12 +283,29 @@ JOINTS = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated joints, in program.csv's order."""
 SYNTHETIC_DT = 0.05
 """s between the rows of :func:`synthetic_program`."""
-SYNTHETIC_LIMITS = {"max_joint_speed_deg": 30.0, "max_joint_accel_deg": 120.0, "max_tip_speed": 50.0, "clearance": 5.0,
-                    "self_clearance": 2.0, "kappa_max": 100.0, "tool_radius": 1.5, "dt": SYNTHETIC_DT}  # fmt: skip
+SYNTHETIC_LIMITS = {
+    "max_joint_speed_deg": 30.0,
+    "max_joint_accel_deg": 120.0,
+    "max_tip_speed": 50.0,
+    "clearance": 5.0,
+    "self_clearance": 2.0,
+    "kappa_max": 100.0,
+    "tool_radius": 1.5,
+    "dt": SYNTHETIC_DT,
+}
 """program.json's ``limits`` in :func:`synthetic_program`."""
-SYNTHETIC_MOTORS = {j: {"torque_peak_Nm": 3.5 + k, "torque_rms_Nm": 1.25 + k, "speed_peak_deg_s": 20.0 + k, "power_peak_W": 0.75 + k,
-                        "energy_J": 9.5 + k, "torque_peak_gravity_Nm": 0.5 + k, "torque_peak_loads_only_Nm": 2.25 + k}
-                    for k, j in enumerate(JOINTS)}  # fmt: skip
+SYNTHETIC_MOTORS = {
+    j: {
+        "torque_peak_Nm": 3.5 + k,
+        "torque_rms_Nm": 1.25 + k,
+        "speed_peak_deg_s": 20.0 + k,
+        "power_peak_W": 0.75 + k,
+        "energy_J": 9.5 + k,
+        "torque_peak_gravity_Nm": 0.5 + k,
+        "torque_peak_loads_only_Nm": 2.25 + k,
+    }
+    for k, j in enumerate(JOINTS)
+}
 """program.json's ``motors`` in :func:`synthetic_program`."""
 
 
@@ -265,10 +334,20 @@ def synthetic_program(folder: Path, torques: bool = True, motors: bool = True) -
         for seg, a, b, n in (("approach", S, A, 9), ("drill", A, B, 21), ("retract", B, S, 7)):
             blocks.append((seg, tid, _line(a, b, n), np.repeat(e[None], n, axis=0)))
         if j == 0:
-            (S0, e0), S1 = standoffs[0], ts.entry[1] + 20.0 * (ts.entry[1] - ts.target[1]) / np.linalg.norm(ts.entry[1] - ts.target[1])
+            (S0, e0), S1 = (
+                standoffs[0],
+                ts.entry[1] + 20.0 * (ts.entry[1] - ts.target[1]) / np.linalg.norm(ts.entry[1] - ts.target[1]),
+            )
             e1 = (ts.entry[1] - ts.target[1]) / np.linalg.norm(ts.entry[1] - ts.target[1])
             axes = _line(e0, e1, 12)
-            blocks.append(("transit", f"{ts.ids[0]}->{ts.ids[1]}", _line(S0, S1, 12), axes / np.linalg.norm(axes, axis=1, keepdims=True)))
+            blocks.append(
+                (
+                    "transit",
+                    f"{ts.ids[0]}->{ts.ids[1]}",
+                    _line(S0, S1, 12),
+                    axes / np.linalg.norm(axes, axis=1, keepdims=True),
+                )
+            )
     seg = [b[0] for b in blocks for _ in range(len(b[2]))]
     traj = [b[1] for b in blocks for _ in range(len(b[2]))]
     E = np.concatenate([b[2] for b in blocks])
@@ -278,7 +357,19 @@ def synthetic_program(folder: Path, torques: bool = True, motors: bool = True) -
     assert np.isfinite(q).all(), "the synthetic program must be reachable"
     t = np.arange(len(E)) * SYNTHETIC_DT
     qd = np.gradient(q, t, axis=0)
-    header = ["t_s", "segment", "trajectory", "E_x", "E_y", "E_z", "e_x", "e_y", "e_z", *JOINTS, *(f"{j}_dot" for j in JOINTS)]
+    header = [
+        "t_s",
+        "segment",
+        "trajectory",
+        "E_x",
+        "E_y",
+        "E_z",
+        "e_x",
+        "e_y",
+        "e_z",
+        *JOINTS,
+        *(f"{j}_dot" for j in JOINTS),
+    ]
     cols = [E, e, q, qd]
     if torques:
         header += [f"tau_{j}_Nm" for j in JOINTS]
@@ -290,14 +381,29 @@ def synthetic_program(folder: Path, torques: bool = True, motors: bool = True) -
         for i in range(len(t)):
             w.writerow([repr(float(t[i])), seg[i], traj[i], *(repr(float(v)) for c in cols for v in c[i])])
     summary = {
-        "order": [str(ts.ids[0]), str(ts.ids[1])], "total_s": float(t[-1]), "drilling_s": 2.0, "rows": len(t), "dt_s": SYNTHETIC_DT,
-        "mode": "+,+,+,+", "clearance_min_mm": 7.5, "clearance_min_at": str(ts.ids[0]), "tool_clearance_min_mm": 3.25,
-        "tool_clearance_min_at": traj[40], "self_clearance_min_mm": 1.5, "self_clearance_min_at": str(ts.ids[1]), "eta_L_max": 4.5,
-        "eta_L_max_at": str(ts.ids[1]), "joint_speed_max_deg_s": {j: 10.0 + k for k, j in enumerate(JOINTS)},
-        "joint_accel_max_deg_s2": {j: 50.0 for j in JOINTS}, "tip_speed_max_transit_mm_s": 20.0, "limits": SYNTHETIC_LIMITS,
-        "anatomy": None, "plan": "reference", "trajectories": [{"trajectory": str(ts.ids[0]), "level": "C3", "side": "R", "start_s": 0.0}],
+        "order": [str(ts.ids[0]), str(ts.ids[1])],
+        "total_s": float(t[-1]),
+        "drilling_s": 2.0,
+        "rows": len(t),
+        "dt_s": SYNTHETIC_DT,
+        "mode": "+,+,+,+",
+        "clearance_min_mm": 7.5,
+        "clearance_min_at": str(ts.ids[0]),
+        "tool_clearance_min_mm": 3.25,
+        "tool_clearance_min_at": traj[40],
+        "self_clearance_min_mm": 1.5,
+        "self_clearance_min_at": str(ts.ids[1]),
+        "eta_L_max": 4.5,
+        "eta_L_max_at": str(ts.ids[1]),
+        "joint_speed_max_deg_s": {j: 10.0 + k for k, j in enumerate(JOINTS)},
+        "joint_accel_max_deg_s2": {j: 50.0 for j in JOINTS},
+        "tip_speed_max_transit_mm_s": 20.0,
+        "limits": SYNTHETIC_LIMITS,
+        "anatomy": None,
+        "plan": "reference",
+        "trajectories": [{"trajectory": str(ts.ids[0]), "level": "C3", "side": "R", "start_s": 0.0}],
         "transits": [],
-    }  # fmt: skip
+    }
     if motors:
         summary["motors"] = SYNTHETIC_MOTORS
     (folder / "program.json").write_text(json.dumps(summary, indent=1))
@@ -344,9 +450,20 @@ def program_object(n: int = 6, torques: bool = True) -> Program:
     e /= np.linalg.norm(e, axis=1, keepdims=True)
     segments = np.array((["approach", "drill", "retract", "transit"] * n)[:n])
     return Program(
-        t_s=np.arange(n) * 0.01, segment=segments, trajectory=np.array(["1"] * (n - 1) + ["1->2"]), E=rng.uniform(-80, 80, (n, 3)), e=e,
-        q_deg=rng.uniform(-170, 170, (n, 5)), q_dot_deg=rng.uniform(-30, 30, (n, 5)),
-        summary={"order": ["1", "2"], "total_s": 0.05, "transits": [{"from": "1", "to": "2"}], "limits": {"feed": 1.5, "dt": 0.01},
-                 "mode": "+,+,+,+", "motors": {"rho_x": {"torque_peak_Nm": 3.0}}},
+        t_s=np.arange(n) * 0.01,
+        segment=segments,
+        trajectory=np.array(["1"] * (n - 1) + ["1->2"]),
+        E=rng.uniform(-80, 80, (n, 3)),
+        e=e,
+        q_deg=rng.uniform(-170, 170, (n, 5)),
+        q_dot_deg=rng.uniform(-30, 30, (n, 5)),
+        summary={
+            "order": ["1", "2"],
+            "total_s": 0.05,
+            "transits": [{"from": "1", "to": "2"}],
+            "limits": {"feed": 1.5, "dt": 0.01},
+            "mode": "+,+,+,+",
+            "motors": {"rho_x": {"torque_peak_Nm": 3.0}},
+        },
         tau_Nm=rng.uniform(-5, 5, (n, 5)) if torques else None,
-    )  # fmt: skip
+    )

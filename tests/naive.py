@@ -33,8 +33,7 @@ from arcube.model.mechanism import inverse_kinematics, jacobians
 # ---------------------------------------------------------------------------------------------
 # MODEL.md section 2, restated: name -> index, angles in degrees.
 NAMES = (
-    "m_x m_y m_z f_x f_y f_z p_x p_y p_z d_x d_y d_z c_x c_y t_x t_y r "
-    "o_x o_y alpha_x alpha_y beta_x beta_y"
+    "m_x m_y m_z f_x f_y f_z p_x p_y p_z d_x d_y d_z c_x c_y t_x t_y r o_x o_y alpha_x alpha_y beta_x beta_y"
 ).split()
 IDX = {n: i for i, n in enumerate(NAMES)}
 ANGLES = {"o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y"}
@@ -49,7 +48,9 @@ TRIADS = np.array(
     ]
 )
 
-ALL_MODES_ORACLE = np.array([[a, b, c, d] for a in (1.0, -1.0) for b in (1.0, -1.0) for c in (1.0, -1.0) for d in (1.0, -1.0)])
+ALL_MODES_ORACLE = np.array(
+    [[a, b, c, d] for a in (1.0, -1.0) for b in (1.0, -1.0) for c in (1.0, -1.0) for d in (1.0, -1.0)]
+)
 """The 16 working modes (4 signs each), written out (not from ``mechanism.ALL_MODES``)."""
 
 
@@ -220,11 +221,19 @@ LAMBDA = DENSITY * math.pi * ((RHO_L / 1000) ** 2 - ((RHO_L - WALL) / 1000) ** 2
 def mass_by_hand(x23, c_z=None):
     """The whole moving mass (kg) of design ``x23`` (23,): every link's length times LAMBDA, plus the two
     delta actuators and the drill motor; ``c_z`` (mm) the z dyad's coupler (None: d_z)."""
-    f, p, d = x23[3:6], x23[6:9], x23[9:12]
+    p, d = x23[6:9], x23[9:12]
     c, t, r = x23[12:14], x23[14:16], x23[16]
     al, be = np.radians(x23[19:21]), np.radians(x23[21:23])
     cz = d[2] if c_z is None else c_z
-    length = p.sum() + d.sum() + cz + c.sum() + t.sum() + 3 * math.sqrt(2) * r + 24 * r * np.sum(np.sin(al / 24) + np.sin(be / 24))
+    length = (
+        p.sum()
+        + d.sum()
+        + cz
+        + c.sum()
+        + t.sum()
+        + 3 * math.sqrt(2) * r
+        + 24 * r * np.sum(np.sin(al / 24) + np.sin(be / 24))
+    )
     return LAMBDA * length + 2 * M_DELTA + M_MOTOR
 
 
@@ -236,4 +245,7 @@ def read_program_csv(folder: Path) -> dict[str, np.ndarray]:
     """program.csv as the test reads it: text columns as str arrays, the others as float."""
     with open(folder / "program.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    return {k: np.array([r[k] for r in rows]) if k in ("segment", "trajectory") else np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return {
+        k: np.array([r[k] for r in rows]) if k in ("segment", "trajectory") else np.array([float(r[k]) for r in rows])
+        for k in rows[0]
+    }

@@ -42,14 +42,36 @@ def _plan(points: int = 5):
 @pytest.mark.parametrize(
     ("cls", "size", "expected"),
     [
-        ("m", 0.5, 0.1), ("m", 3.0, 0.1), ("c", 3.0, 0.2), ("c", 3.01, 0.3), ("c", 6.0, 0.3), ("c", 6.5, 0.5),
-        ("c", 30.0, 0.5), ("c", 30.5, 0.8), ("c", 120.0, 0.8), ("c", 120.5, 1.2), ("c", 400.0, 1.2), ("c", 401.0, 2.0),
-        ("c", 1000.0, 2.0), ("c", 1500.0, 3.0), ("f", 120.0, 0.15), ("f", 121.0, 0.2), ("f", 2.0, 0.05), ("m", 70.4, 0.3),
-        ("m", 165.8, 0.5), ("v", 6.0, 0.5), ("v", 7.0, 1.0), ("v", 700.0, 4.0),
+        ("m", 0.5, 0.1),
+        ("m", 3.0, 0.1),
+        ("c", 3.0, 0.2),
+        ("c", 3.01, 0.3),
+        ("c", 6.0, 0.3),
+        ("c", 6.5, 0.5),
+        ("c", 30.0, 0.5),
+        ("c", 30.5, 0.8),
+        ("c", 120.0, 0.8),
+        ("c", 120.5, 1.2),
+        ("c", 400.0, 1.2),
+        ("c", 401.0, 2.0),
+        ("c", 1000.0, 2.0),
+        ("c", 1500.0, 3.0),
+        ("f", 120.0, 0.15),
+        ("f", 121.0, 0.2),
+        ("f", 2.0, 0.05),
+        ("m", 70.4, 0.3),
+        ("m", 165.8, 0.5),
+        ("v", 6.0, 0.5),
+        ("v", 7.0, 1.0),
+        ("v", 700.0, 4.0),
         # no ISO value: below 0.5 mm (L = 0) the 0.5-3 row; class v up to 3 mm its 3-6 value; above 2000 the last row
-        ("m", 0.0, 0.1), ("f", 0.2, 0.05), ("v", 1.0, 0.5), ("v", 0.0, 0.5), ("m", 2500.0, 1.2),
+        ("m", 0.0, 0.1),
+        ("f", 0.2, 0.05),
+        ("v", 1.0, 0.5),
+        ("v", 0.0, 0.5),
+        ("m", 2500.0, 1.2),
     ],
-)  # fmt: skip
+)
 def test_linear_table(cls, size, expected):
     assert linear_tolerance(size, cls) == pytest.approx(expected, abs=1e-15)
 
@@ -57,12 +79,28 @@ def test_linear_table(cls, size, expected):
 @pytest.mark.parametrize(
     ("cls", "leg", "arcmin"),
     [
-        ("m", 5.0, 60), ("m", 10.0, 60), ("m", 10.5, 30), ("m", 50.0, 30), ("m", 51.0, 20), ("m", 120.0, 20),
-        ("m", 121.0, 10), ("m", 400.0, 10), ("m", 401.0, 5), ("f", 70.0, 20), ("c", 5.0, 90), ("c", 30.0, 60),
-        ("c", 70.0, 30), ("c", 200.0, 15), ("c", 500.0, 10), ("v", 5.0, 180), ("v", 30.0, 120), ("v", 70.0, 60),
-        ("v", 200.0, 30), ("v", 500.0, 20),
+        ("m", 5.0, 60),
+        ("m", 10.0, 60),
+        ("m", 10.5, 30),
+        ("m", 50.0, 30),
+        ("m", 51.0, 20),
+        ("m", 120.0, 20),
+        ("m", 121.0, 10),
+        ("m", 400.0, 10),
+        ("m", 401.0, 5),
+        ("f", 70.0, 20),
+        ("c", 5.0, 90),
+        ("c", 30.0, 60),
+        ("c", 70.0, 30),
+        ("c", 200.0, 15),
+        ("c", 500.0, 10),
+        ("v", 5.0, 180),
+        ("v", 30.0, 120),
+        ("v", 70.0, 60),
+        ("v", 200.0, 30),
+        ("v", 500.0, 20),
     ],
-)  # fmt: skip
+)
 def test_angular_table(cls, leg, arcmin):
     assert angular_tolerance(leg, cls) == pytest.approx(arcmin / 60.0, abs=1e-15)
 
@@ -75,7 +113,9 @@ def test_tolerances_of_a_design_by_source():
     assert T["m_x"] == T["mount_rz"] == 0.0 and T["q0_delta_y"] == 0.1 and T["encoder_rho_x"] == 0.01
     assert T["backlash_rho_z"] == pytest.approx(1 / 60)
     assert len(T) == 41 and "d_z" not in T
-    s = ToleranceSettings(tolerance_class="c", tol=["r=0.02", "lengths=0.05", "q0_rho_x=0.3"], backlash_arcmin=3, docking_mm=1.5)
+    s = ToleranceSettings(
+        tolerance_class="c", tol=["r=0.02", "lengths=0.05", "q0_rho_x=0.3"], backlash_arcmin=3, docking_mm=1.5
+    )
     T = dict(zip(SOURCE_NAMES, s.tolerances(x)))
     assert T["r"] == 0.02 and T["f_x"] == T["L"] == 0.05  # a name beats its group, whatever the order
     assert T["beta_y"] == 0.5 and T["q0_rho_x"] == 0.3 and T["q0_rho_y"] == 0.1 and T["backlash_delta_x"] == 0.05
@@ -113,7 +153,13 @@ def test_bad_budget_input_raises_naming_it():
         budget(DESIGN_OBJ, far, task.e, PROGRAM_MODE, ToleranceSettings(samples=5))
     assert info.value.param == "design"
     with pytest.raises(InputError) as info:  # 100,000 robots x 60 points: over the memory cap
-        budget(DESIGN_OBJ, np.tile(task.E, (4, 1)), np.tile(task.e, (4, 1)), PROGRAM_MODE, ToleranceSettings(samples=100_000))
+        budget(
+            DESIGN_OBJ,
+            np.tile(task.E, (4, 1)),
+            np.tile(task.e, (4, 1)),
+            PROGRAM_MODE,
+            ToleranceSettings(samples=100_000),
+        )
     assert info.value.param == "ToleranceSettings.samples"
     with pytest.raises(InputError) as info:
         budget(DESIGN_OBJ, task.E, task.e, "+,+,x,+")
@@ -258,21 +304,49 @@ def test_output_folder_files_columns_and_order(tmp_path):
     r = budget(DESIGN_OBJ, E, task.e, PROGRAM_MODE, ToleranceSettings(samples=50), ids, task.k)
     out = write_budget(r, tmp_path / "a" / "budget")
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["tolerance.json", "tolerance_points.csv", "sensitivity.csv", "sources.png", "lateral_histogram.png", "trajectories.png"]
+        [
+            "tolerance.json",
+            "tolerance_points.csv",
+            "sensitivity.csv",
+            "sources.png",
+            "lateral_histogram.png",
+            "trajectories.png",
+        ]
     )
     data = json.loads((out / "tolerance.json").read_text())
-    assert list(data["summary"]) == ["lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm",
-                                     "lateral_error_p95_mm", "axis_error_p95_deg"]  # fmt: skip
+    assert list(data["summary"]) == [
+        "lateral_error_wc_mm",
+        "axis_error_wc_deg",
+        "axial_error_wc_mm",
+        "lateral_error_rms_mm",
+        "lateral_error_p95_mm",
+        "axis_error_p95_deg",
+    ]
     assert data["settings"]["samples"] == 50 and data["mode"] == "+,+,+,+" and data["reachable_points"] == len(task) - 1
     assert data["summary"]["lateral_error_wc_mm"] == pytest.approx(np.nanmax(r.first.lateral_wc_mm))
     rows = list(csv.reader(io.StringIO((out / "tolerance_points.csv").read_text())))
-    assert rows[0] == ["trajectory", "point", "lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm",
-                       "lateral_error_p50_mm", "lateral_error_p95_mm", "lateral_error_p99_mm", "lateral_error_max_mm"]  # fmt: skip
+    assert rows[0] == [
+        "trajectory",
+        "point",
+        "lateral_error_wc_mm",
+        "axis_error_wc_deg",
+        "axial_error_wc_mm",
+        "lateral_error_rms_mm",
+        "lateral_error_p50_mm",
+        "lateral_error_p95_mm",
+        "lateral_error_p99_mm",
+        "lateral_error_max_mm",
+    ]
     assert [(row[0], int(row[1])) for row in rows[1:]] == list(zip(ids, task.k.tolist()))
     assert rows[6][2:] == [""] * 8  # the unreached point: no values
     assert float(rows[1][2]) == r.first.lateral_wc_mm[0] and float(rows[1][7]) == r.lateral_mm[0, 1]
     sens = list(csv.DictReader(io.StringIO((out / "sensitivity.csv").read_text())))
-    assert sorted(row["source"] for row in sens) == sorted(SOURCE_NAMES) and list(sens[0]) == ["source", "tolerance", "unit", "share"]
+    assert sorted(row["source"] for row in sens) == sorted(SOURCE_NAMES) and list(sens[0]) == [
+        "source",
+        "tolerance",
+        "unit",
+        "share",
+    ]
     shares = [float(row["share"]) for row in sens]
     assert shares == sorted(shares, reverse=True) and sum(shares) == pytest.approx(1.0)
     assert {row["source"]: row["unit"] for row in sens}["backlash_rho_x"] == "deg"
@@ -300,5 +374,9 @@ def test_output_is_all_or_nothing(tmp_path, monkeypatch):
     monkeypatch.undo()
     empty = tmp_path / "empty"
     empty.mkdir()
-    assert sorted(p.name for p in write(r, empty).iterdir()) == ["sensitivity.csv", "tolerance.json", "tolerance_points.csv"]
+    assert sorted(p.name for p in write(r, empty).iterdir()) == [
+        "sensitivity.csv",
+        "tolerance.json",
+        "tolerance_points.csv",
+    ]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["empty", "full"]  # no temporary folder either

@@ -46,7 +46,13 @@ def test_kernel_equals_numpy_field_by_field(seed, mount, L, mode_index, settings
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=field)
         # shares are fractions of 1 (a source along e, like L, has a share of rounding noise: compare absolutely);
         # every other field relative to its own column's largest value
-        scale = 1.0 if field == "share" else np.nanmax(np.abs(b), axis=0, keepdims=True) if b.ndim > 1 else np.nanmax(np.abs(b))
+        scale = (
+            1.0
+            if field == "share"
+            else np.nanmax(np.abs(b), axis=0, keepdims=True)
+            if b.ndim > 1
+            else np.nanmax(np.abs(b))
+        )
         assert np.nanmax(np.abs(a - b) / np.maximum(scale, 1e-300)) <= 1e-11, field
 
 

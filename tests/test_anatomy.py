@@ -20,7 +20,11 @@ from typer.testing import CliRunner
 from arcube.errors import InputError
 from arcube.io.meshes import read_mesh, read_meshes, split_shells, write_stl
 from arcube.patients.anatomy import (
-    default_anatomy, default_anatomy_boxes, default_anatomy_layout, reference_anatomy, reference_anatomy_boxes,
+    default_anatomy,
+    default_anatomy_boxes,
+    default_anatomy_layout,
+    reference_anatomy,
+    reference_anatomy_boxes,
     reference_anatomy_path,
 )
 from arcube.patients.virtual import build_patient, draw_parameters
@@ -29,6 +33,7 @@ from designs import REFERENCE_CSV
 
 
 # ------------------------------------------------------------ independent helpers
+
 
 def lps_from_patient(v: np.ndarray) -> np.ndarray:
     """x = -l, y = s, z = p  =>  (l, p, s) = (-x, z, y)."""
@@ -43,7 +48,7 @@ def ras_from_patient(v: np.ndarray) -> np.ndarray:
 def box_sd(points, centre, half, rot) -> np.ndarray:
     """Signed distance to a box by projection: outside |p - closest point|, inside -(distance to the nearest face)."""
     p = np.atleast_2d(np.asarray(points, dtype=float))
-    local = (p - centre) @ rot                     # coordinates along the box axes (rot columns)
+    local = (p - centre) @ rot  # coordinates along the box axes (rot columns)
     closest = np.clip(local, -half, half)
     outside = np.linalg.norm(local - closest, axis=1)
     inside = np.all(np.abs(local) <= half, axis=1)
@@ -71,8 +76,10 @@ def reference_rows() -> list[dict[str, str]]:
 
 # ------------------------------------------------------------ read_mesh / write_stl
 
-@pytest.mark.parametrize("frame, to_file", [("LPS", lps_from_patient), ("RAS", ras_from_patient),
-                                            ("patient", lambda v: v)])
+
+@pytest.mark.parametrize(
+    "frame, to_file", [("LPS", lps_from_patient), ("RAS", ras_from_patient), ("patient", lambda v: v)]
+)
 @pytest.mark.parametrize("suffix", [".stl", ".obj", ".ply"])
 def test_read_mesh_converts_to_patient_frame(tmp_path: Path, frame, to_file, suffix) -> None:
     box = asym_box()
@@ -145,23 +152,29 @@ def _empty_stl(path: Path) -> Path:
 
 
 def _point_cloud(path: Path) -> Path:
-    return _write_text(path, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                             "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n")
+    return _write_text(
+        path,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n",
+    )
 
 
-@pytest.mark.parametrize("make, frame, needle", [
-    (lambda d: d / "missing.stl", "LPS", "no such file"),
-    (lambda d: _write_text(d / "notes.stl", "these are my notes\nnot a mesh\n"), "LPS", "not an STL file"),
-    (lambda d: _write_text(d / "notes.obj", "these are my notes\n"), "LPS", "no triangles"),
-    (lambda d: _write_text(d / "notes.ply", "these are my notes\n"), "LPS", "cannot read"),
-    (_empty_stl_name := (lambda d: _empty_stl(d / "empty.stl")), "LPS", "no triangles"),
-    (lambda d: _point_cloud(d / "cloud.ply"), "LPS", "point cloud"),
-    (lambda d: _open_box(d / "open.stl"), "LPS", "not closed"),
-    (lambda d: _nan_box(d / "nan.stl"), "LPS", "NaN"),
-    (lambda d: _inverted_box(d / "inverted.obj"), "RAS", "oriented inward"),
-    (lambda d: _open_box(d / "ok_but.stl"), "XYZ", "unknown frame"),
-    (lambda d: _write_text(d / "mesh.vtk", "x"), "LPS", "or a segmentation .seg.nrrd, .nrrd, .nii or .nii.gz"),
-])
+@pytest.mark.parametrize(
+    "make, frame, needle",
+    [
+        (lambda d: d / "missing.stl", "LPS", "no such file"),
+        (lambda d: _write_text(d / "notes.stl", "these are my notes\nnot a mesh\n"), "LPS", "not an STL file"),
+        (lambda d: _write_text(d / "notes.obj", "these are my notes\n"), "LPS", "no triangles"),
+        (lambda d: _write_text(d / "notes.ply", "these are my notes\n"), "LPS", "cannot read"),
+        (_empty_stl_name := (lambda d: _empty_stl(d / "empty.stl")), "LPS", "no triangles"),
+        (lambda d: _point_cloud(d / "cloud.ply"), "LPS", "point cloud"),
+        (lambda d: _open_box(d / "open.stl"), "LPS", "not closed"),
+        (lambda d: _nan_box(d / "nan.stl"), "LPS", "NaN"),
+        (lambda d: _inverted_box(d / "inverted.obj"), "RAS", "oriented inward"),
+        (lambda d: _open_box(d / "ok_but.stl"), "XYZ", "unknown frame"),
+        (lambda d: _write_text(d / "mesh.vtk", "x"), "LPS", "or a segmentation .seg.nrrd, .nrrd, .nii or .nii.gz"),
+    ],
+)
 def test_bad_mesh_inputs_raise_one_line_input_error(tmp_path: Path, make, frame, needle) -> None:
     path = make(tmp_path)
     with pytest.raises(InputError) as info:
@@ -182,6 +195,7 @@ def test_touching_shells_are_closed(tmp_path: Path) -> None:
 
 
 # ------------------------------------------------------------ default anatomy
+
 
 @pytest.fixture(scope="module")
 def mean_params() -> dict:
@@ -284,6 +298,7 @@ def test_skin_corridor_and_slab_dimensions(mean_boxes) -> None:
     # highest bone point: C3 body's superior-anterior edge, c_y + (H/2) cos φ + (D/2) sin φ
     phi = math.radians(2 * 18.6 / 5)
     top = next(b for b in mean_boxes if b.name == "C3 body").centre[1] + 6.25 * math.cos(phi) + 8.25 * math.sin(phi)
+
     # probes (hand-placed): in the corridor above each arch it is open; beside and beyond it, tissue
     def inside_any(p) -> bool:
         return min(box_sd(p, *b)[0] for b in mean_boxes) < 0
@@ -291,7 +306,7 @@ def test_skin_corridor_and_slab_dimensions(mean_boxes) -> None:
     for y in (-40.0, -20.0, 0.0, 20.0, 40.0):
         assert not inside_any([0.0, y, 25.0]) and not inside_any([39.0, y, max_entry_z + 39.0])
         assert inside_any([41.0, y, 25.0]) and inside_any([-41.0, y, 25.0])
-        assert inside_any([60.0, y, 5.0]) and inside_any([0.0, y, -5.0])   # one solid neck below the floor
+        assert inside_any([60.0, y, 5.0]) and inside_any([0.0, y, -5.0])  # one solid neck below the floor
     assert not inside_any([0.0, top + 9.5, 30.0]) and inside_any([0.0, top + 10.5, 30.0])
     assert not inside_any([0.0, -top - 9.5, 30.0]) and inside_any([0.0, -top - 10.5, 30.0])
     assert not inside_any([0.0, 0.0, max_entry_z + 40.5]) and inside_any([70.0, 0.0, max_entry_z + 39.5])

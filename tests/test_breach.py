@@ -50,8 +50,16 @@ def test_registration_translation_alone_gives_the_closed_form() -> None:
     room = 0.75  # W = H = 5, d = 3.5: a circular room
     sigma_t = 0.85
     n = 20_000
-    r = breach(_docking(), _right(), tolerances=PERFECT, registration_mm=sigma_t, registration_deg=0.0, samples=n, seed=4,
-               loads=Loads(thrust_N=0.0))  # fmt: skip
+    r = breach(
+        _docking(),
+        _right(),
+        tolerances=PERFECT,
+        registration_mm=sigma_t,
+        registration_deg=0.0,
+        samples=n,
+        seed=4,
+        loads=Loads(thrust_N=0.0),
+    )
     s2 = sigma_t**2 / 3.0
     expected = math.exp(-(room**2) / (2.0 * s2))
     low, high = r.interval
@@ -62,7 +70,15 @@ def test_registration_translation_alone_gives_the_closed_form() -> None:
 
 def test_a_screw_wider_than_its_pedicle_always_breaches() -> None:
     plan = _right(width=3.0, height=6.0, screw=3.5)
-    r = breach(_docking(), plan, tolerances=PERFECT, registration_mm=0.0, registration_deg=0.0, samples=50, loads=Loads(thrust_N=0.0))
+    r = breach(
+        _docking(),
+        plan,
+        tolerances=PERFECT,
+        registration_mm=0.0,
+        registration_deg=0.0,
+        samples=50,
+        loads=Loads(thrust_N=0.0),
+    )
     rows = r.rows()
     assert all(row["too_wide"] and row["p_breach"] == 1.0 for row in rows)
     assert r.summary()["too_wide"] == list(plan.ids) and r.summary()["breach_probability"] is None
@@ -72,7 +88,14 @@ def test_a_screw_wider_than_its_pedicle_always_breaches() -> None:
 def test_medial_and_lateral_follow_the_plans_side() -> None:
     """A right screw and its mirror image on the left, both moved 2 mm toward -x: medial on the right (toward the
     midline), lateral on the left; moved toward +x, the other way round. Moved up (+y): cranial on both."""
-    plan = TrajectorySet(("r", "l"), ("C4", "C4"), ("R", "L"), [[20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], [[2.0, 2.0, 0.0], [-2.0, 2.0, 0.0]], "mirror")
+    plan = TrajectorySet(
+        ("r", "l"),
+        ("C4", "C4"),
+        ("R", "L"),
+        [[20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]],
+        [[2.0, 2.0, 0.0], [-2.0, 2.0, 0.0]],
+        "mirror",
+    )
     p = pedicles(plan)
     for dx, right, left in ((-2.0, "medial", "lateral"), (2.0, "lateral", "medial")):
         breach_, direction, _ = classify(p.offsets(np.array([[dx, 0.0, 0.0]] * 2)), p)
@@ -88,11 +111,21 @@ def test_the_deflection_alone_breaches_or_not_as_its_one_offset_lies() -> None:
     model = RobotModel(design.to_vector(), mode_signs(design.mode), np.zeros(41))
     d30 = deflection(model, p.isthmus, -p.u, 30.0, 1e4)
     q30 = np.sum((p.offsets(d30) / p.room) ** 2, axis=-1)  # (J,) where the one offset lies, relative to the room
-    np.testing.assert_allclose(deflection(model, p.isthmus, -p.u, 60.0, 1e4), 2.0 * d30, rtol=1e-12)  # linear in the thrust
+    np.testing.assert_allclose(
+        deflection(model, p.isthmus, -p.u, 60.0, 1e4), 2.0 * d30, rtol=1e-12
+    )  # linear in the thrust
     j = int(np.argmax(q30))
     for q, inside in ((0.8, True), (1.25, False)):
         thrust = 30.0 * math.sqrt(q / q30[j])
-        r = breach(design, plan, tolerances=PERFECT, registration_mm=0.0, registration_deg=0.0, samples=200, loads=Loads(thrust_N=thrust))
+        r = breach(
+            design,
+            plan,
+            tolerances=PERFECT,
+            registration_mm=0.0,
+            registration_deg=0.0,
+            samples=200,
+            loads=Loads(thrust_N=thrust),
+        )
         assert set(np.unique(r.p_breach)) <= {0.0, 1.0}
         assert r.p_breach[j] == (0.0 if inside else 1.0) and r.p_alone[j, 2] == r.p_breach[j]
 
@@ -128,7 +161,9 @@ def test_the_same_seed_gives_the_same_table(tmp_path: Path, capsys) -> None:
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["breach_probability"] == pytest.approx(p.max(), rel=1e-6)
     assert {"C3 R", "C7 L"} <= set(summary["per_level_side"]) and set(summary["per_docking"]) == {"R", "L"}
-    assert (tmp_path / "a" / "breach_by_screw.png").read_bytes()[:4] == b"\x89PNG" and (tmp_path / "a" / "worst_screw.png").exists()
+    assert (tmp_path / "a" / "breach_by_screw.png").read_bytes()[:4] == b"\x89PNG" and (
+        tmp_path / "a" / "worst_screw.png"
+    ).exists()
 
 
 def _calibration(folder: Path, scale: float) -> Path:
@@ -149,19 +184,24 @@ def test_a_calibration_draws_the_robot_from_its_covariance(tmp_path: Path) -> No
     assert np.all(wide.p_alone[:, 0] > 0.0) and np.all(wide.offset_p95_mm > 0.1)
 
 
-@pytest.mark.parametrize("cells, args, needle", [
-    ({"pedicle_width_mm": "-4"}, [], "pedicle_width_mm must be a number of mm in (0, 30)"),
-    ({"pedicle_width_mm": "nan"}, [], "row 2: pedicle_width_mm is not finite"),
-    ({"screw_diameter_mm": "0"}, [], "screw_diameter_mm must be a number of mm in (0, 20)"),
-    ({"screw_diameter_mm": "20"}, [], "screw_diameter_mm must be a number of mm in (0, 20)"),
-    ({"pedicle_widht_mm": "5"}, [], "did you mean pedicle_width_mm"),
-    ({}, ["--screw", "0"], "--screw"),
-    ({}, ["--samples", "0"], "--samples"),
-    ({}, ["--registration", "-1"], "--registration"),
-    ({}, ["--calibration", "cal"], "and design"),
-    ({}, ["--calibration", "nocov"], "has no covariance.csv"),
-])  # fmt: skip
-def test_bad_breach_input_is_one_line_exit_2_and_leaves_nothing(tmp_path: Path, monkeypatch, capsys, cells, args, needle) -> None:
+@pytest.mark.parametrize(
+    "cells, args, needle",
+    [
+        ({"pedicle_width_mm": "-4"}, [], "pedicle_width_mm must be a number of mm in (0, 30)"),
+        ({"pedicle_width_mm": "nan"}, [], "row 2: pedicle_width_mm is not finite"),
+        ({"screw_diameter_mm": "0"}, [], "screw_diameter_mm must be a number of mm in (0, 20)"),
+        ({"screw_diameter_mm": "20"}, [], "screw_diameter_mm must be a number of mm in (0, 20)"),
+        ({"pedicle_widht_mm": "5"}, [], "did you mean pedicle_width_mm"),
+        ({}, ["--screw", "0"], "--screw"),
+        ({}, ["--samples", "0"], "--samples"),
+        ({}, ["--registration", "-1"], "--registration"),
+        ({}, ["--calibration", "cal"], "and design"),
+        ({}, ["--calibration", "nocov"], "has no covariance.csv"),
+    ],
+)
+def test_bad_breach_input_is_one_line_exit_2_and_leaves_nothing(
+    tmp_path: Path, monkeypatch, capsys, cells, args, needle
+) -> None:
     monkeypatch.chdir(tmp_path)
     plan = select(load_trajectories("reference"), side="R")
     write_csv(plan, tmp_path / "plan.csv")
@@ -174,6 +214,8 @@ def test_bad_breach_input_is_one_line_exit_2_and_leaves_nothing(tmp_path: Path, 
     _calibration(tmp_path / "nocov", 0.1)
     (tmp_path / "nocov" / "covariance.csv").unlink()
     design = [] if "nocov" in args else ["--design", str(ROBOT)]
-    code, err = cli_error(["breach", *design, "--trajectories", "plan.csv", "--samples", "50", "--out", "out", *args], capsys)
+    code, err = cli_error(
+        ["breach", *design, "--trajectories", "plan.csv", "--samples", "50", "--out", "out", *args], capsys
+    )
     assert code == 2 and err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
     assert not (tmp_path / "out").exists()

@@ -58,7 +58,9 @@ def _drive(real_x, real_q0, model_x, model_q0, task):
 
 
 def test_noise_free_measurements_recover_every_identifiable_unknown_and_the_plan(plan, chosen):
-    sim = simulate(DEMO, chosen.measurements, SimulateSettings(tolerance_class="m", seed=1, sigma_mm=0.0, sigma_deg=0.0))
+    sim = simulate(
+        DEMO, chosen.measurements, SimulateSettings(tolerance_class="m", seed=1, sigma_mm=0.0, sigma_deg=0.0)
+    )
     res = identify(DEMO, sim.measurements, DEMO_MODE, IdentifySettings(**FAST))
     ident = res.identifiability
     z_true = sim.deviations / res.scale
@@ -95,7 +97,9 @@ def test_held_out_residuals_at_the_tracker_noise_level():
     assert sol.reachable.all()
     meas = Measurements(np.rad2deg(np.concatenate([sol.rho, sol.delta], axis=-1)), E, e)
     sim = simulate(DEMO, meas, SimulateSettings(seed=2, sigma_mm=0.15, sigma_deg=0.1))
-    res = identify(DEMO, sim.measurements, DEMO_MODE, IdentifySettings(holdout=0.5, sigma_mm=0.15, sigma_deg=0.1, **FAST))
+    res = identify(
+        DEMO, sim.measurements, DEMO_MODE, IdentifySettings(holdout=0.5, sigma_mm=0.15, sigma_deg=0.1, **FAST)
+    )
     r = res.residual_rms()
     held = r["held_out"]
     assert held["rows"] == 150
@@ -134,12 +138,21 @@ def test_calibrated_design_file_and_the_ik_minus_q0_of_its_poses(tmp_path, plan,
     (tmp_path / "nominal.json").write_text(json.dumps(data))
     sim = simulate(tmp_path / "nominal.json", chosen.measurements, SimulateSettings(seed=4))
     write_measurements(tmp_path / "meas.csv", sim.measurements)
-    res = identify(tmp_path / "nominal.json", tmp_path / "meas.csv", DEMO_MODE, IdentifySettings(**FAST), plan[0], out=tmp_path / "cal")
+    res = identify(
+        tmp_path / "nominal.json",
+        tmp_path / "meas.csv",
+        DEMO_MODE,
+        IdentifySettings(**FAST),
+        plan[0],
+        out=tmp_path / "cal",
+    )
     files = sorted(p.name for p in (tmp_path / "cal").iterdir())
     assert files == ["calibration.html", "calibration.json", "covariance.csv", "design.json", "residuals.csv"]
     from arcube.calibrate.output import read_covariance
 
-    np.testing.assert_array_equal(read_covariance(tmp_path / "cal" / "covariance.csv"), res.covariance)  # exact round trip
+    np.testing.assert_array_equal(
+        read_covariance(tmp_path / "cal" / "covariance.csv"), res.covariance
+    )  # exact round trip
     written = json.loads((tmp_path / "cal" / "design.json").read_text())
     assert written["c_z"] == 300.0 and written["mode"] == DEMO_MODE and written["d_z"] == DEMO["d_z"]
     design, q0 = read_calibrated(tmp_path / "cal" / "design.json")
@@ -149,7 +162,9 @@ def test_calibrated_design_file_and_the_ik_minus_q0_of_its_poses(tmp_path, plan,
     assert report["budget"]["points"] == "plan" and report["budget"]["count"] == 150
     assert [u["name"] for u in report["unknowns"]] == list(UNKNOWNS)
     # poses of the calibrated design command IK_calibrated - q0: the real joint (reading + q0) is the IK's
-    again = poses(tmp_path / "cal" / "design.json", plan[0], None, PoseSettings(count=7, around=2))  # 7: the fewest the 30 identifiable unknowns allow
+    again = poses(
+        tmp_path / "cal" / "design.json", plan[0], None, PoseSettings(count=7, around=2)
+    )  # 7: the fewest the 30 identifiable unknowns allow
     sol = inverse_kinematics(res.design, again.measurements.E, again.measurements.e, parse_mode(DEMO_MODE))
     ik = np.rad2deg(np.concatenate([sol.rho, sol.delta], axis=-1))
     np.testing.assert_allclose(again.measurements.q_deg, ik - res.q0_deg, atol=1e-9)
@@ -186,16 +201,35 @@ def test_bad_input_one_line_and_nothing_written(tmp_path, chosen):
 
     bad = rows[3].split(",")
     bad[6] = "nan"
-    _expect_refused(run("\n".join([HEADER, *rows[:3], ",".join(bad), *rows[4:]]) + "\n"), out, "m.csv row 5", "E_y", "not finite")
+    _expect_refused(
+        run("\n".join([HEADER, *rows[:3], ",".join(bad), *rows[4:]]) + "\n"), out, "m.csv row 5", "E_y", "not finite"
+    )
     bad = rows[0].split(",")
     bad[8:11] = ["0", "0", "0"]
     _expect_refused(run("\n".join([HEADER, ",".join(bad), *rows[1:]]) + "\n"), out, "row 2", "(0, 0, 0)")
-    _expect_refused(run("\n".join([HEADER.replace(",rho_z", ""), *[",".join(r.split(",")[:2] + r.split(",")[3:]) for r in rows]]) + "\n"),
-                    out, "m.csv", "missing column", "rho_z")  # fmt: skip
+    _expect_refused(
+        run(
+            "\n".join([HEADER.replace(",rho_z", ""), *[",".join(r.split(",")[:2] + r.split(",")[3:]) for r in rows]])
+            + "\n"
+        ),
+        out,
+        "m.csv",
+        "missing column",
+        "rho_z",
+    )
     # fewer fitted rows than the 30 identifiable unknowns / 5 (+1 for sigma_hat): 6 refused, 7 accepted
-    _expect_refused(run("\n".join([HEADER, *rows[:6]]) + "\n", settings=IdentifySettings(holdout=0.0, **FAST)), out, "too few", "30 unknowns")
-    identify(DEMO, Measurements(sim.measurements.q_deg[:7], sim.measurements.E[:7], sim.measurements.e[:7]), DEMO_MODE,
-             IdentifySettings(holdout=0.0, **FAST))  # fmt: skip
+    _expect_refused(
+        run("\n".join([HEADER, *rows[:6]]) + "\n", settings=IdentifySettings(holdout=0.0, **FAST)),
+        out,
+        "too few",
+        "30 unknowns",
+    )
+    identify(
+        DEMO,
+        Measurements(sim.measurements.q_deg[:7], sim.measurements.E[:7], sim.measurements.e[:7]),
+        DEMO_MODE,
+        IdentifySettings(holdout=0.0, **FAST),
+    )
     # joint angles the design cannot take: the nominal FK does not close in the robot's assembly mode
     x = DEMO.to_vector()
     sol = inverse_kinematics(x, chosen.measurements.E, chosen.measurements.e, parse_mode(DEMO_MODE))
@@ -209,8 +243,12 @@ def test_bad_input_one_line_and_nothing_written(tmp_path, chosen):
         pytest.fail("no delta_x the demo cannot take")
     far = Measurements(q, sim.measurements.E, sim.measurements.e)
     write_measurements(tmp_path / "far.csv", far)
-    _expect_refused(lambda: identify(DEMO, tmp_path / "far.csv", DEMO_MODE, IdentifySettings(**FAST), out=out), out, "far.csv row 4",
-                    "cannot take these joint angles")  # fmt: skip
+    _expect_refused(
+        lambda: identify(DEMO, tmp_path / "far.csv", DEMO_MODE, IdentifySettings(**FAST), out=out),
+        out,
+        "far.csv row 4",
+        "cannot take these joint angles",
+    )
 
 
 def test_a_poses_file_for_another_design_is_refused_a_plain_one_accepted(tmp_path, chosen):
@@ -221,7 +259,9 @@ def test_a_poses_file_for_another_design_is_refused_a_plain_one_accepted(tmp_pat
     simulate(DEMO, tmp_path / "poses.csv", out=out)
     assert read_measurements(out).design == chosen.measurements.design
     plain = tmp_path / "plain.csv"
-    plain.write_text("\n".join([HEADER, *_rows(chosen.measurements)]) + "\n")  # no design column: cannot be checked, accepted
+    plain.write_text(
+        "\n".join([HEADER, *_rows(chosen.measurements)]) + "\n"
+    )  # no design column: cannot be checked, accepted
     sim = simulate(other, plain)
     assert len(sim.measurements) == 40 and sim.measurements.design is None
 

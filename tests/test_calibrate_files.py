@@ -57,23 +57,26 @@ def test_round_trip_and_normalisation(tmp_path):
     assert np.array_equal(again.q_deg, plain.q_deg) and np.array_equal(again.E, plain.E)
 
 
-@pytest.mark.parametrize(("text", "words"), [
-    ("", ["empty file"]),
-    (f"{HEAD}\n", ["no measurements"]),
-    (f"{HEAD}\n1,2,3,4,5,10,20,nan,0,0,1\n", ["row 2", "E_z", "not finite"]),
-    (f"{HEAD}\n{ROW}\n1,2,inf,4,5,10,20,30,0,0,1\n", ["row 3", "rho_z", "not finite"]),
-    (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0,0\n", ["row 2", "(0, 0, 0)"]),
-    (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0,abc\n", ["row 2", "e_z", "not a number"]),
-    (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0,\n", ["row 2", "e_z", "empty"]),
-    (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0\n", ["row 2", "10 fields", "header has 11"]),
-    (f"{HEAD}\n{ROW},7\n", ["row 2", "12 fields"]),
-    (HEAD.replace(",e_z", "") + "\n1,2,3,4,5,10,20,30,0,0\n", ["missing column", "e_z"]),
-    (HEAD + ",E_x\n" + ROW + ",1\n", ["E_x", "more than once"]),
-    (HEAD + ",temperature\n" + ROW + ",1\n", ["unknown column", "temperature"]),
-    (HEAD.replace("E_x", "e_X") + "\n" + ROW + "\n", ["unknown column", "case-sensitive"]),
-    ("pose,design," + HEAD + "\n1,aaaa," + ROW + "\n2,bbbb," + ROW + "\n", ["2 different digests"]),
-    (f"{HEAD}\n1,2,3,4,500,10,20,30,0,0,1\n", ["row 2", "delta_y", "360"]),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("", ["empty file"]),
+        (f"{HEAD}\n", ["no measurements"]),
+        (f"{HEAD}\n1,2,3,4,5,10,20,nan,0,0,1\n", ["row 2", "E_z", "not finite"]),
+        (f"{HEAD}\n{ROW}\n1,2,inf,4,5,10,20,30,0,0,1\n", ["row 3", "rho_z", "not finite"]),
+        (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0,0\n", ["row 2", "(0, 0, 0)"]),
+        (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0,abc\n", ["row 2", "e_z", "not a number"]),
+        (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0,\n", ["row 2", "e_z", "empty"]),
+        (f"{HEAD}\n1,2,3,4,5,10,20,30,0,0\n", ["row 2", "10 fields", "header has 11"]),
+        (f"{HEAD}\n{ROW},7\n", ["row 2", "12 fields"]),
+        (HEAD.replace(",e_z", "") + "\n1,2,3,4,5,10,20,30,0,0\n", ["missing column", "e_z"]),
+        (HEAD + ",E_x\n" + ROW + ",1\n", ["E_x", "more than once"]),
+        (HEAD + ",temperature\n" + ROW + ",1\n", ["unknown column", "temperature"]),
+        (HEAD.replace("E_x", "e_X") + "\n" + ROW + "\n", ["unknown column", "case-sensitive"]),
+        ("pose,design," + HEAD + "\n1,aaaa," + ROW + "\n2,bbbb," + ROW + "\n", ["2 different digests"]),
+        (f"{HEAD}\n1,2,3,4,500,10,20,30,0,0,1\n", ["row 2", "delta_y", "360"]),
+    ],
+)
 def test_bad_files_one_line_naming_file_row_problem(tmp_path, text, words):
     p = _file(tmp_path, text)
     with pytest.raises(InputError) as info:
@@ -103,11 +106,19 @@ def test_calibrated_design_file_round_trip_and_keys(tmp_path):
         load_design(tmp_path / "e.json")
 
 
-@pytest.mark.parametrize(("cls", "field", "value"), [
-    (IdentifySettings, "holdout", 0.95), (IdentifySettings, "sigma_mm", 0.0), (IdentifySettings, "sigma_deg", float("nan")),
-    (PoseSettings, "count", 0), (PoseSettings, "radius_deg", 90.0), (SimulateSettings, "tolerance_class", "x"),
-    (SimulateSettings, "sigma_mm", -1.0), (IdentifySettings, "seed", -1),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("cls", "field", "value"),
+    [
+        (IdentifySettings, "holdout", 0.95),
+        (IdentifySettings, "sigma_mm", 0.0),
+        (IdentifySettings, "sigma_deg", float("nan")),
+        (PoseSettings, "count", 0),
+        (PoseSettings, "radius_deg", 90.0),
+        (SimulateSettings, "tolerance_class", "x"),
+        (SimulateSettings, "sigma_mm", -1.0),
+        (IdentifySettings, "seed", -1),
+    ],
+)
 def test_settings_errors_name_the_field(cls, field, value):
     with pytest.raises(InputError) as info:
         cls(**{field: value})

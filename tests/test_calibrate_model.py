@@ -62,7 +62,9 @@ def test_residual_jacobian_equals_central_differences(spread):
     # sigma_e converted to radians: the axis rows of a zero offset equal its J_e column / (0.1 deg in rad)
     x, q0 = p.state(z)
     pose = model_pose(x, q0, p.q_read, p.assembly)
-    np.testing.assert_allclose(J[:, 3:, U["q0_rho_x"]], -pose.de[..., U["q0_rho_x"]] * p.scale[U["q0_rho_x"]] / np.deg2rad(0.1))
+    np.testing.assert_allclose(
+        J[:, 3:, U["q0_rho_x"]], -pose.de[..., U["q0_rho_x"]] * p.scale[U["q0_rho_x"]] / np.deg2rad(0.1)
+    )
 
 
 def test_identifiability_of_a_built_matrix():
@@ -97,7 +99,9 @@ def test_radius_and_frame_links_enter_only_as_their_sum():
     assert len(out) == 1 and ident.rank == 30
     k = out[0]
     conf = {UNKNOWNS[i]: c for i, c in ident.confounded_with(U[k], p.scale)}
-    expected = {n: 1.0 for n in group if n != k} if k == "r" else {n: (1.0 if n == "r" else -1.0) for n in group if n != k}
+    expected = (
+        {n: 1.0 for n in group if n != k} if k == "r" else {n: (1.0 if n == "r" else -1.0) for n in group if n != k}
+    )
     assert set(conf) == set(expected)
     for n, c in expected.items():
         assert conf[n] == pytest.approx(c, abs=1e-9)
@@ -113,7 +117,9 @@ def test_base_position_and_frame_links_confounded_when_they_enter_the_tip_as_a_s
     J_tip = _scaled_J(p, "tip")
     for u in "xyz":
         # the hand relation, in design units (mm per mm): J_f_u = -J_m_u
-        np.testing.assert_allclose(J_tip[:, U[f"f_{u}"]] / p.scale[U[f"f_{u}"]], -J_tip[:, U[f"m_{u}"]] / p.scale[U[f"m_{u}"]], atol=1e-9)
+        np.testing.assert_allclose(
+            J_tip[:, U[f"f_{u}"]] / p.scale[U[f"f_{u}"]], -J_tip[:, U[f"m_{u}"]] / p.scale[U[f"m_{u}"]], atol=1e-9
+        )
     ident = identifiability(J_tip)
     base = {"m_x", "m_y", "m_z", "f_x", "f_y", "f_z", "r"}
     for u in "xyz":
@@ -122,7 +128,9 @@ def test_base_position_and_frame_links_confounded_when_they_enter_the_tip_as_a_s
         if UNKNOWNS[k] in base:
             conf = ident.confounded_with(int(k))
             assert conf and {UNKNOWNS[i] for i, _ in conf} <= base
-            np.testing.assert_allclose(sum(c * J_tip[:, i] for i, c in conf), J_tip[:, k], atol=1e-6 * np.abs(J_tip).max())
+            np.testing.assert_allclose(
+                sum(c * J_tip[:, i] for i, c in conf), J_tip[:, k], atol=1e-6 * np.abs(J_tip).max()
+            )
     full = identifiability(_scaled_J(p))
     assert all(full.identifiable[U[n]] for n in ("m_x", "m_y", "m_z", "f_x", "f_y"))
 

@@ -58,8 +58,12 @@ def test_every_part_has_the_design_lengths_at_every_point(setup) -> None:
     np.testing.assert_allclose(parts.spheres[ok][:, 3:5], seg[:, 3:5, 1], atol=1e-12)
     # spherical links: alpha_u from u_m to u_beta, beta_u from u_beta to e; drill holder H = C + r e, E = C - L e
     ends = parts.arc_ends[ok]
-    np.testing.assert_allclose(_angle(ends[:, 0:2, 0], ends[:, 0:2, 1]), np.broadcast_to(x[19:21], (len(ends), 2)), atol=1e-7)
-    np.testing.assert_allclose(_angle(ends[:, 2:4, 0], ends[:, 2:4, 1]), np.broadcast_to(x[21:23], (len(ends), 2)), atol=1e-7)
+    np.testing.assert_allclose(
+        _angle(ends[:, 0:2, 0], ends[:, 0:2, 1]), np.broadcast_to(x[19:21], (len(ends), 2)), atol=1e-7
+    )
+    np.testing.assert_allclose(
+        _angle(ends[:, 2:4, 0], ends[:, 2:4, 1]), np.broadcast_to(x[21:23], (len(ends), 2)), atol=1e-7
+    )
     np.testing.assert_allclose(ends[:, 2:4, 1], np.broadcast_to(task.e[ok][:, None], (len(ends), 2, 3)), atol=1e-12)
     np.testing.assert_allclose(seg[:, 17, 0], mp.C[ok] + x[16] * task.e[ok], atol=1e-9)
     np.testing.assert_allclose(mp.E[ok], task.E[ok], atol=1e-9)
@@ -83,7 +87,10 @@ def _axis_samples(parts, step: float = 0.01) -> list[np.ndarray]:
         theta = np.arccos(np.clip(np.sum(a * b, axis=-1), -1, 1))
         n = int(np.ceil(np.max(parts.arc_radius * theta) / step)) + 1
         phi = np.linspace(0.0, 1.0, n)[None, :, None] * theta[:, None, None]
-        out.append(parts.arc_centre[:, None] + parts.arc_radius[:, None, None] * (a[:, None] * np.cos(phi) + nrm[:, None] * np.sin(phi)))
+        out.append(
+            parts.arc_centre[:, None]
+            + parts.arc_radius[:, None, None] * (a[:, None] * np.cos(phi) + nrm[:, None] * np.sin(phi))
+        )
     return out
 
 
@@ -181,7 +188,11 @@ def test_collision_guards_fail_exactly_below_threshold_and_add_the_shortfall(set
     np.testing.assert_array_equal(names[base_ok & (clear >= c_min) & (selfc < s_min)], "collision/self")
     assert np.array_equal(guarded.points.reachable, base_ok & (clear >= c_min) & (selfc >= s_min))
     # MODEL.md 16: reach first (the IK alone), then fit (each guard's shortfall over its 10 mm scale, at most 1)
-    grade = np.where(base_ok, np.minimum(np.maximum(c_min - clear, 0) / 10.0, 1.0) + np.minimum(np.maximum(s_min - selfc, 0) / 10.0, 1.0), 0.0)
+    grade = np.where(
+        base_ok,
+        np.minimum(np.maximum(c_min - clear, 0) / 10.0, 1.0) + np.minimum(np.maximum(s_min - selfc, 0) / 10.0, 1.0),
+        0.0,
+    )
     n = len(task.E)
     G = np.sum(grade) / n
     want = (n - base_ok.sum()) / n + np.sum(free.points.excess) + G / (1.0 + G) / (2 * n)
@@ -215,7 +226,9 @@ def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard, sam) ->
     centre = mp.C[ok].mean(axis=0) - 45.0 * task.e[ok].mean(axis=0)
     sdf = AnatomyDistance.from_boxes([(centre, np.array([45.0, 60.0, 25.0]), np.eye(3))])
     thin = {"link_radius": 1.0, "actuator_radius": 2.0, "motor_radius": 2.0}
-    free = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options(body=True, **thin), want_points=True, anatomy=sdf)
+    free = evaluate_task_numba(
+        x, task.E, task.e, ALL_MODES[0], Options(body=True, **thin), want_points=True, anatomy=sdf
+    )
     clear = free.points.clearance_mm[free.points.reachable]
     c_min = float(np.quantile(clear, 0.3)) if guard else 0.0
     assert not guard or c_min > 0.0
@@ -230,8 +243,9 @@ def test_kernel_summaries_only_equal_the_per_point_minimum(setup, guard, sam) ->
     if guard:
         # what the optimizer runs: only the guard's decision and shortfall, the same violation; the
         # smallest clearance is then reported as a lower bound (the limit when every point clears it)
-        decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False),
-                                     want_points=False, anatomy=sdf)  # fmt: skip
+        decide = evaluate_task_numba(
+            x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False, anatomy=sdf
+        )
         assert abs(float(decide.violation) - float(full.violation)) <= TOL_MM * len(task.E) / 10 + 1e-9
         assert float(decide.reachable_fraction) == pytest.approx(float(full.reachable_fraction), abs=2 / len(task.E))
         assert c_min - TOL_MM <= float(decide.clearance_min) <= passing.min() + TOL_MM
@@ -250,7 +264,9 @@ def test_self_guard_decision_only_gives_the_same_violation(setup, sam) -> None:
     assert s_min > 0.0
     opts = Options(self_clearance_mm=s_min, single_assembly_mode=sam, **thin)
     full = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts, want_points=True)
-    decide = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False)
+    decide = evaluate_task_numba(
+        x, task.E, task.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False
+    )
     assert 0.0 < float(full.reachable_fraction) < 1.0
     assert float(decide.reachable_fraction) == float(full.reachable_fraction)
     assert float(decide.violation) == pytest.approx(float(full.violation), rel=1e-12)
@@ -273,6 +289,8 @@ def test_carried_self_bounds_decide_as_the_exact_minimum_at_every_threshold(setu
     for q in np.linspace(0.05, 0.95, 10):
         opts = Options(self_clearance_mm=float(np.quantile(values, q)), **thin)
         full = evaluate_task_numba(x, fine.E, fine.e, ALL_MODES[0], opts, want_points=True)
-        decide = evaluate_task_numba(x, fine.E, fine.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False)
+        decide = evaluate_task_numba(
+            x, fine.E, fine.e, ALL_MODES[0], opts.replace(clearance_min_exact=False), want_points=False
+        )
         assert float(decide.reachable_fraction) == float(full.reachable_fraction), q
         assert float(decide.violation) == pytest.approx(float(full.violation), rel=1e-12), q

@@ -19,7 +19,18 @@ HEADER = "trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target
 
 
 def test_json_contract_on_reachable_side(right_side_design: Path) -> None:
-    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(REFERENCE_CSV), "--side", "R", "--points", "7", "--json")
+    out = arcube(
+        "evaluate",
+        "--design",
+        str(right_side_design),
+        "--trajectories",
+        str(REFERENCE_CSV),
+        "--side",
+        "R",
+        "--points",
+        "7",
+        "--json",
+    )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     assert set(doc["design"]) == set(PARAM_NAMES) and doc["mode"] == "+,+,+,+"
@@ -45,7 +56,9 @@ def test_json_contract_on_reachable_side(right_side_design: Path) -> None:
 
 
 def test_unreachable_points_are_null_not_infinite() -> None:
-    out = arcube("evaluate", "--design", "paper", "--trajectories", "reference", "--points", "3", "--json", "--mode=-,+,+,-")
+    out = arcube(
+        "evaluate", "--design", "paper", "--trajectories", "reference", "--points", "3", "--json", "--mode=-,+,+,-"
+    )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)  # json.loads would accept Infinity/NaN; check none were written
     assert "Infinity" not in out.stdout and "NaN" not in out.stdout
@@ -134,7 +147,9 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str)
     assert len(lines) == 1, out.stderr
     assert lines[0].startswith("error: ") and needle in lines[0]
     assert "Traceback" not in out.stderr and out.stdout == ""
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in tmp_path.iterdir() if p.suffix in {".csv", ".json"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        p.name for p in tmp_path.iterdir() if p.suffix in {".csv", ".json"}
+    )
 
 
 def test_slicer_markups_evaluate_like_the_csv(tmp_path: Path, right_side_design: Path) -> None:

@@ -143,7 +143,11 @@ def check_array_function(
                 single = leaves(call(*(a.at(d, n) for a in inputs.args)))
                 assert single.keys() == batch.keys()
                 for name, leaf in batch.items():
-                    _same(single[name], leaf[d, n], f"broadcast: leaf {name}, case (d={d}, n={n}) alone vs in the (D, N) batch")
+                    _same(
+                        single[name],
+                        leaf[d, n],
+                        f"broadcast: leaf {name}, case (d={d}, n={n}) alone vs in the (D, N) batch",
+                    )
 
     if "single" in checks:
         for d, n in sorted({(0, 0), (D - 1, N - 1), (D // 2, N // 2)}):
@@ -151,7 +155,11 @@ def check_array_function(
             alone = leaves(call(*(a.at(d, n) for a in inputs.args)))
             for name, leaf in batch.items():
                 _same(one[name], leaf[d, n][None], f"single: leaf {name}, size-1 call of case ({d}, {n}) vs the batch")
-                _same(alone[name], one[name][0], f"single: leaf {name}, case ({d}, {n}) without leading axes vs the size-1 call")
+                _same(
+                    alone[name],
+                    one[name][0],
+                    f"single: leaf {name}, case ({d}, {n}) without leading axes vs the size-1 call",
+                )
             designs = leaves(call(*(a.at(slice(None), n) for a in inputs.args)))
             points = leaves(call(*(a.at(d, slice(None)) for a in inputs.args)))
             for name, leaf in batch.items():
@@ -174,7 +182,9 @@ def check_array_function(
             got = np.isnan(batch[name])
             want = _expand(mask, got.shape)
             bad = np.argwhere(got != want)
-            assert not bad.size, f"nan: leaf {name} is NaN at {np.argwhere(got & ~want)[:5].tolist()} and finite at {np.argwhere(~got & want)[:5].tolist()} against its contract"
+            assert not bad.size, (
+                f"nan: leaf {name} is NaN at {np.argwhere(got & ~want)[:5].tolist()} and finite at {np.argwhere(~got & want)[:5].tolist()} against its contract"
+            )
         any_nan = np.zeros((D, N), bool)
         for name, leaf in batch.items():
             if leaf.dtype.kind != "f":
@@ -252,7 +262,9 @@ def data() -> Data:
     only_first = _spread(np.flatnonzero(ok[0] & well_posed[0] & ~sol.reachable[2]), 2)
 
     far_shift = np.array([1000.0, -1000.0, 1000.0])
-    E = np.concatenate([task.E[both], task.E[only_first], task.E[both[:2]] + far_shift, task.E[both[1:2]], task.E[both[2:3]]])
+    E = np.concatenate(
+        [task.E[both], task.E[only_first], task.E[both[:2]] + far_shift, task.E[both[1:2]], task.E[both[2:3]]]
+    )
     e = np.concatenate([task.e[both], task.e[only_first], task.e[both[:2]], -task.e[both[1:2]], [[1.0, 0.0, 0.0]]])
     N = E.shape[0]
     far = np.zeros(N, bool)
@@ -276,9 +288,23 @@ def data() -> Data:
     fk_known = np.where(reach, 1, -1).astype(np.int8)
     E_m, e_m = frames.to_mechanism(unpack(X[0]), E, e)
     return Data(
-        X=X, modes=modes, E=E, e=e, known=known, far=far, rho=rho, delta=delta, assembly=assembly, fk_known=fk_known,
-        E_m=E_m, e_m=e_m, sigma0=fill(s.sigma[0], -np.pi, np.pi), rho0=rho[0], delta0=delta[0], asm0=assembly[0],
-    )  # fmt: skip
+        X=X,
+        modes=modes,
+        E=E,
+        e=e,
+        known=known,
+        far=far,
+        rho=rho,
+        delta=delta,
+        assembly=assembly,
+        fk_known=fk_known,
+        E_m=E_m,
+        e_m=e_m,
+        sigma0=fill(s.sigma[0], -np.pi, np.pi),
+        rho0=rho[0],
+        delta0=delta[0],
+        asm0=assembly[0],
+    )
 
 
 def test_data_cover_the_cases(data: Data) -> None:
@@ -303,13 +329,26 @@ def _tls_ik(data: Data) -> Inputs:
     known = np.full((3, len(data.E)), -1, np.int8)
     known[:2, :6] = 1  # designs 0 and 1 share f, p, r; E_m is design 0's
     known[:, data.far] = 0
-    return Inputs((Arg(data.E_m, "point"), Arg(_g(data, "f"), "design"), Arg(_g(data, "p"), "design"),
-                   Arg(_g(data, "r"), "design", 0)), known)  # fmt: skip
+    return Inputs(
+        (
+            Arg(data.E_m, "point"),
+            Arg(_g(data, "f"), "design"),
+            Arg(_g(data, "p"), "design"),
+            Arg(_g(data, "r"), "design", 0),
+        ),
+        known,
+    )
 
 
 def _tls_fk(data: Data) -> Inputs:
-    return Inputs((Arg(data.rho0, "point"), Arg(_g(data, "f"), "design"), Arg(_g(data, "p"), "design"),
-                   Arg(_g(data, "r"), "design", 0)))  # fmt: skip
+    return Inputs(
+        (
+            Arg(data.rho0, "point"),
+            Arg(_g(data, "f"), "design"),
+            Arg(_g(data, "p"), "design"),
+            Arg(_g(data, "r"), "design", 0),
+        )
+    )
 
 
 def _tms_plane(data: Data) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -321,28 +360,56 @@ def _tms_ik(data: Data) -> Inputs:
     v, w = _tms_plane(data)
     known = np.full((3, len(data.E)), -1, np.int8)
     known[0, :6] = 1
-    return Inputs((Arg(v, "point"), Arg(w, "point"), Arg(data.rho0[:, :2], "point"), Arg(data.sigma0, "point"),
-                   Arg(_g(data, "p", slice(0, 2)), "design"), Arg(_g(data, "d", slice(0, 2)), "design"),
-                   Arg(_g(data, "c"), "design"), Arg(_g(data, "t"), "design"),
-                   Arg(data.modes[:, 0:2], "design")), known)  # fmt: skip
+    return Inputs(
+        (
+            Arg(v, "point"),
+            Arg(w, "point"),
+            Arg(data.rho0[:, :2], "point"),
+            Arg(data.sigma0, "point"),
+            Arg(_g(data, "p", slice(0, 2)), "design"),
+            Arg(_g(data, "d", slice(0, 2)), "design"),
+            Arg(_g(data, "c"), "design"),
+            Arg(_g(data, "t"), "design"),
+            Arg(data.modes[:, 0:2], "design"),
+        ),
+        known,
+    )
 
 
 def _tms_fk(data: Data) -> Inputs:
     v, w = _tms_plane(data)
     known = np.full((3, len(data.E)), -1, np.int8)
     known[0] = data.fk_known[0]
-    return Inputs((Arg(v, "point"), Arg(w, "point"), Arg(data.rho0[:, :2], "point"), Arg(data.delta0, "point"),
-                   Arg(_g(data, "p", slice(0, 2)), "design"), Arg(_g(data, "d", slice(0, 2)), "design"),
-                   Arg(_g(data, "c"), "design"), Arg(_g(data, "t"), "design"),
-                   Arg(data.asm0[:, 0:2], "point")), known)  # fmt: skip
+    return Inputs(
+        (
+            Arg(v, "point"),
+            Arg(w, "point"),
+            Arg(data.rho0[:, :2], "point"),
+            Arg(data.delta0, "point"),
+            Arg(_g(data, "p", slice(0, 2)), "design"),
+            Arg(_g(data, "d", slice(0, 2)), "design"),
+            Arg(_g(data, "c"), "design"),
+            Arg(_g(data, "t"), "design"),
+            Arg(data.asm0[:, 0:2], "point"),
+        ),
+        known,
+    )
 
 
 def _rts_ik(data: Data) -> Inputs:
     known = np.full((3, len(data.E)), -1, np.int8)
     known[:2, :6] = 1  # designs 0 and 1 share alpha, beta, o; e_m is design 0's
     known[:, 9] = 0  # e = +x: no design's leg x can be solved (A = B = 0)
-    return Inputs((Arg(data.e_m, "point"), Arg(_g(data, "alpha"), "design"), Arg(_g(data, "beta"), "design"),
-                   Arg(_g(data, "o"), "design"), Arg(data.modes[:, 2:4], "design")), known)  # fmt: skip
+    return Inputs(
+        (
+            Arg(data.e_m, "point"),
+            Arg(_g(data, "alpha"), "design"),
+            Arg(_g(data, "beta"), "design"),
+            Arg(_g(data, "o"), "design"),
+            Arg(data.modes[:, 2:4], "design"),
+        ),
+        known,
+    )
 
 
 def _rts_fk(data: Data) -> Inputs:
@@ -350,16 +417,29 @@ def _rts_fk(data: Data) -> Inputs:
     sigma[6:] = [[0.0, 0.0], [0.0, -0.5], [0.0, 1.0], [0.0, 2.0]]  # the first two do not assemble (radicand < 0)
     known = np.full((3, len(data.E)), -1, np.int8)
     known[:, :6] = 1  # design 0's IK sigma; the three designs share alpha, beta, o
-    return Inputs((Arg(sigma, "point"), Arg(_g(data, "alpha"), "design"), Arg(_g(data, "beta"), "design"),
-                   Arg(_g(data, "o"), "design"), Arg(data.asm0[:, 2], "point", 0)), known)  # fmt: skip
+    return Inputs(
+        (
+            Arg(sigma, "point"),
+            Arg(_g(data, "alpha"), "design"),
+            Arg(_g(data, "beta"), "design"),
+            Arg(_g(data, "o"), "design"),
+            Arg(data.asm0[:, 2], "point", 0),
+        ),
+        known,
+    )
 
 
 def _pose_inputs(data: Data) -> Inputs:
-    return Inputs((Arg(data.X, "design"), Arg(data.E, "point"), Arg(data.e, "point"), Arg(data.modes, "design")), data.known)
+    return Inputs(
+        (Arg(data.X, "design"), Arg(data.E, "point"), Arg(data.e, "point"), Arg(data.modes, "design")), data.known
+    )
 
 
 def _fk_inputs(data: Data) -> Inputs:
-    return Inputs((Arg(data.X, "design"), Arg(data.rho, "grid"), Arg(data.delta, "grid"), Arg(data.assembly, "grid")), data.fk_known)
+    return Inputs(
+        (Arg(data.X, "design"), Arg(data.rho, "grid"), Arg(data.delta, "grid"), Arg(data.assembly, "grid")),
+        data.fk_known,
+    )
 
 
 def _frame_inputs(data: Data) -> Inputs:
@@ -431,7 +511,9 @@ CASES: dict[str, Case] = {
     "frames.to_mechanism": Case(_to_mechanism, _frame_inputs),
     "poses.e_from_angles": Case(poses.e_from_angles, _angle_inputs),
     "poses.angles_from_e": Case(poses.angles_from_e, _direction_inputs),
-    "body.mechanism_points": Case(mechanism_points, _pose_inputs, lambda mp, a: mp.reachable, lambda mp, a: {"J_z": ~mp.z_closes}),
+    "body.mechanism_points": Case(
+        mechanism_points, _pose_inputs, lambda mp, a: mp.reachable, lambda mp, a: {"J_z": ~mp.z_closes}
+    ),
 }
 
 
@@ -448,8 +530,13 @@ def _params() -> list[Any]:
 def test_conformance(data: Data, name: str, check: str) -> None:
     case = CASES[name]
     with np.errstate(invalid="ignore", divide="ignore"):
-        check_array_function(case.fn, functools.partial(case.make_args, data), reachable=case.reachable, nan_where=case.nan_where,
-                             checks=(check,))  # fmt: skip
+        check_array_function(
+            case.fn,
+            functools.partial(case.make_args, data),
+            reachable=case.reachable,
+            nan_where=case.nan_where,
+            checks=(check,),
+        )
 
 
 # ============================================================================ the checker has teeth

@@ -17,8 +17,12 @@ from arcube.io import load_trajectories, select
 
 def test_quick_demo_writes_reports_and_reproducible_designs(tmp_path: Path) -> None:
     out = tmp_path / "demo"
-    proc = subprocess.run([sys.executable, "-m", "arcube", "demo", "--quick", "--out", str(out), "--engine", "numpy"],
-                          capture_output=True, text=True, timeout=600)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "arcube", "demo", "--quick", "--out", str(out), "--engine", "numpy"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "TLS/x: 300" in proc.stdout  # step 1 says why Table 2 as printed reaches nothing
     for run, side in (("paper_links_right", "R"), ("all_free_bilateral", None)):
@@ -42,7 +46,9 @@ def test_quick_demo_writes_reports_and_reproducible_designs(tmp_path: Path) -> N
     design = out / "one_robot"
     summary = json.loads((design / "summary.json").read_text())
     assert str(design / "report.html") in proc.stdout and "4/4" in proc.stdout
-    verdict = "design meets every requirement" if summary["meets_requirements"] else "design does NOT meet every requirement"
+    verdict = (
+        "design meets every requirement" if summary["meets_requirements"] else "design does NOT meet every requirement"
+    )
     assert verdict in proc.stdout
     assert summary["missed"] == [r["requirement"] for r in summary["requirements"] if not r["passed"]]
     assert (design / "requirements.csv").read_text().count("\n") == len(summary["requirements"]) + 1

@@ -37,7 +37,9 @@ def case():
     mp = mechanism_points(X[:, None, :], task.E, task.e, ALL_MODES[0])
     span = np.linalg.norm(mp.Q[..., 2, :] - mp.D[..., 2, :], axis=-1)  # what the dyad must span, NaN where the IK fails
     lo, hi = np.nanmin(span, axis=-1), np.nanmax(span, axis=-1)
-    c_z = np.where(np.arange(len(X)) % 2 == 0, hi - X[:, 11] + 1.0, 0.5 * (lo + hi) - X[:, 11])  # closes everywhere / at some points
+    c_z = np.where(
+        np.arange(len(X)) % 2 == 0, hi - X[:, 11] + 1.0, 0.5 * (lo + hi) - X[:, 11]
+    )  # closes everywhere / at some points
     c_z[3] = np.nan
     return X, task.E, task.e, c_z
 
@@ -48,13 +50,17 @@ def test_a_c_z_per_design_equals_one_design_at_a_time(case) -> None:
     X, E, e, c_z = case
     mode = ALL_MODES[0]
     batch = evaluate_task(X, E, e, mode, OPTIONS, c_z=c_z)
-    assert np.any(batch.points.failure == CODE_Z) and np.any(batch.points.reachable)  # the guard fires at some points, not all
+    assert np.any(batch.points.failure == CODE_Z) and np.any(
+        batch.points.reachable
+    )  # the guard fires at some points, not all
     shortfall = _dyad_shortfall_by_hand(X, E, e, mode, c_z)
     n = E.shape[0]
     for i in range(len(X)):
         one = evaluate_task(X[i], E, e, mode, OPTIONS if np.isnan(c_z[i]) else OPTIONS.replace(c_z=float(c_z[i])))
         for name in ("failure", "eta_L", "self_clearance_mm", "holding_torque_Nm"):
-            np.testing.assert_allclose(getattr(batch.points, name)[i], getattr(one.points, name), rtol=1e-12, err_msg=name)
+            np.testing.assert_allclose(
+                getattr(batch.points, name)[i], getattr(one.points, name), rtol=1e-12, err_msg=name
+            )
         if np.isnan(c_z[i]):  # the options' c_z: the dyad is a guard, as before
             np.testing.assert_allclose(batch.points.guard_grade[i], one.points.guard_grade, rtol=1e-12)
             assert batch.violation[i] == pytest.approx(one.violation, rel=1e-12)
@@ -64,7 +70,9 @@ def test_a_c_z_per_design_equals_one_design_at_a_time(case) -> None:
         stages_fail = (one.points.failure >= 1) & (one.points.failure <= 7)
         opens = (np.nan_to_num(shortfall[i]) > 0.0) & ~stages_fail
         ik = ((one.points.failure > 0) & (one.points.failure <= IK_FAILURES)) | (one.points.failure == CODE_Z)
-        reach = 0.0 if not ik.any() else ik.sum() / n + one.points.excess.sum() + np.nan_to_num(shortfall[i])[opens].sum()
+        reach = (
+            0.0 if not ik.any() else ik.sum() / n + one.points.excess.sum() + np.nan_to_num(shortfall[i])[opens].sum()
+        )
         grade = np.where(opens, 0.0, one.points.guard_grade)
         np.testing.assert_allclose(batch.points.guard_grade[i], grade, rtol=1e-12, atol=1e-15)
         assert batch.violation_reach[i] == pytest.approx(reach, rel=1e-12, abs=1e-15)
@@ -97,7 +105,12 @@ def test_kernel_equals_reference_with_a_c_z_per_design(case) -> None:
             ref = evaluate_task(X, E, e, mode, options, c_z=c_z)
             rtol = point_rtol(X, E, e, mode, ref)
             assert_matches(kernel.evaluate_task_numba(X, E, e, mode, options, c_z=c_z), ref, rtol)
-            assert_matches(kernel.evaluate_task_numba(X, E, e, mode, options, want_points=False, c_z=c_z), ref, rtol, want_points=False)
+            assert_matches(
+                kernel.evaluate_task_numba(X, E, e, mode, options, want_points=False, c_z=c_z),
+                ref,
+                rtol,
+                want_points=False,
+            )
 
 
 def test_the_guard_fails_exactly_where_the_dyad_cannot_span(case) -> None:

@@ -21,17 +21,41 @@ from arcube.design_job.requirements import DEFAULTS, requirements_from
 # --------------------------------------------------------------------------- requirements
 def test_requirements_defaults_changes_and_drops() -> None:
     reqs = {r.name: (r.kind, r.limit) for r in requirements_from()}
-    assert reqs == {"clearance": ("min", 5.0), "self_clearance": ("min", 2.0), "envelope_clearance": ("min", 10.0), "lateral_error": ("max", 0.5),
-                    "axis_error": ("max", 0.25), "torque": ("max", 20.0), "holding_torque": ("max", 20.0)}  # fmt: skip
-    changed = {r.name: r.limit for r in requirements_from({"clearance": 8}, {"torque": 15}, drop=["axis_error", "envelope_clearance"])}
-    assert changed == {"clearance": 8.0, "self_clearance": DEFAULTS["self_clearance"], "lateral_error": DEFAULTS["lateral_error"], "torque": 15.0,
-                       "holding_torque": DEFAULTS["holding_torque"]}
+    assert reqs == {
+        "clearance": ("min", 5.0),
+        "self_clearance": ("min", 2.0),
+        "envelope_clearance": ("min", 10.0),
+        "lateral_error": ("max", 0.5),
+        "axis_error": ("max", 0.25),
+        "torque": ("max", 20.0),
+        "holding_torque": ("max", 20.0),
+    }
+    changed = {
+        r.name: r.limit
+        for r in requirements_from({"clearance": 8}, {"torque": 15}, drop=["axis_error", "envelope_clearance"])
+    }
+    assert changed == {
+        "clearance": 8.0,
+        "self_clearance": DEFAULTS["self_clearance"],
+        "lateral_error": DEFAULTS["lateral_error"],
+        "torque": 15.0,
+        "holding_torque": DEFAULTS["holding_torque"],
+    }
 
 
-@pytest.mark.parametrize("name, value", [
-    ("envelope_clearance", -78.93), ("envelope_clearance", 3.14159), ("clearance", 0.0), ("self_clearance", 1.99999),
-    ("lateral_error", 0.533149), ("torque", 1234.56), ("lateral_error_rms", 0.70001), ("axis_error", 12.345678),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("envelope_clearance", -78.93),
+        ("envelope_clearance", 3.14159),
+        ("clearance", 0.0),
+        ("self_clearance", 1.99999),
+        ("lateral_error", 0.533149),
+        ("torque", 1234.56),
+        ("lateral_error_rms", 0.70001),
+        ("axis_error", 12.345678),
+    ],
+)
 def test_the_advice_of_a_missed_requirement_is_a_command_that_accepts_the_design(name: str, value: float) -> None:
     """Each flag the design job prints for a missed requirement parses (the same parser as the command line) and,
     given, accepts the design that missed: its value meets the printed limit; a limit no flag takes is not printed."""
@@ -68,10 +92,21 @@ def test_program_requirements_are_judged_on_the_program_not_searched() -> None:
     assert {"torque_peak", "power_peak"} <= {r.name for r in reqs} and "torque_peak" not in DEFAULTS
     s = design_settings([r for r in reqs if r.name != "clearance"])  # no anatomy here
     assert "torque_peak" not in s.maxima and "power_peak" not in s.maxima and s.maxima["torque"] == 20.0
-    motors = {"rho_x": {"torque_peak_Nm": 8.0, "power_peak_W": 0.7}, "delta_y": {"torque_peak_Nm": 9.5, "power_peak_W": 0.2}}
+    motors = {
+        "rho_x": {"torque_peak_Nm": 8.0, "power_peak_W": 0.7},
+        "delta_y": {"torque_peak_Nm": 9.5, "power_peak_W": 0.2},
+    }
     rows = {r["requirement"]: r for r in program_rows(reqs, motors)}
-    assert (rows["torque_peak"]["value"], rows["torque_peak"]["part"], rows["torque_peak"]["passed"]) == (9.5, "delta_y", False)
-    assert (rows["power_peak"]["value"], rows["power_peak"]["part"], rows["power_peak"]["passed"]) == (0.7, "rho_x", False)
+    assert (rows["torque_peak"]["value"], rows["torque_peak"]["part"], rows["torque_peak"]["passed"]) == (
+        9.5,
+        "delta_y",
+        False,
+    )
+    assert (rows["power_peak"]["value"], rows["power_peak"]["part"], rows["power_peak"]["passed"]) == (
+        0.7,
+        "rho_x",
+        False,
+    )
     assert rows["torque_peak"]["margin"] == pytest.approx(-0.5)
     assert all(not r["passed"] and math.isnan(r["value"]) for r in program_rows(reqs, None))  # no program: failed
     assert program_rows(requirements_from(), {"rho_x": {"torque_peak_Nm": 1.0}}) == []  # none asked for
@@ -79,9 +114,14 @@ def test_program_requirements_are_judged_on_the_program_not_searched() -> None:
 
 @pytest.mark.parametrize(
     "minima, maxima, drop, needle",
-    [({"speed": 1}, None, (), "unknown requirement"), (None, {"clearance": 5}, (), "give it as min"),
-     ({"clearance": -1}, None, (), "finite number >= 0"), (None, {"torque": 0}, (), "> 0"), (None, None, ("mass",), "unknown requirement")],
-)  # fmt: skip
+    [
+        ({"speed": 1}, None, (), "unknown requirement"),
+        (None, {"clearance": 5}, (), "give it as min"),
+        ({"clearance": -1}, None, (), "finite number >= 0"),
+        (None, {"torque": 0}, (), "> 0"),
+        (None, None, ("mass",), "unknown requirement"),
+    ],
+)
 def test_bad_requirements_are_one_line(minima, maxima, drop, needle) -> None:
     with pytest.raises(InputError, match=needle):
         requirements_from(minima, maxima, drop)
@@ -130,12 +170,19 @@ def _arcube(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
 
 @pytest.mark.parametrize(
     "args, needle",
-    [(["--min", "clearance"], "expected NAME=VALUE"), (["--min", "speed=3"], "unknown requirement"),
-     (["--max", "torque=-2"], "--max"), (["--min", "clearance=-1"], "--min"), (["--seeds", "3-1"], "--seeds"),
-     (["--seeds", "x"], "--seeds")],
-)  # fmt: skip
+    [
+        (["--min", "clearance"], "expected NAME=VALUE"),
+        (["--min", "speed=3"], "unknown requirement"),
+        (["--max", "torque=-2"], "--max"),
+        (["--min", "clearance=-1"], "--min"),
+        (["--seeds", "3-1"], "--seeds"),
+        (["--seeds", "x"], "--seeds"),
+    ],
+)
 def test_bad_design_input_is_one_line_exit_2_and_leaves_nothing(tmp_path: Path, args: list[str], needle: str) -> None:
-    out = _arcube("design", "--trajectories", "reference", "--anatomy", "default", "--out", "d", "--quiet", *args, cwd=tmp_path)
+    out = _arcube(
+        "design", "--trajectories", "reference", "--anatomy", "default", "--out", "d", "--quiet", *args, cwd=tmp_path
+    )
     assert out.returncode == 2, out.stderr
     assert out.stderr.startswith("error: ") and out.stderr.count("\n") == 1 and needle in out.stderr
     assert not (tmp_path / "d").exists()
@@ -152,7 +199,21 @@ def test_design_without_trajectories_is_one_line(tmp_path: Path) -> None:
 # drilling program, checked every 0.5 mm (MODEL.md 17.2), may still be blocked between the samples:
 # then the job says so and exits 3 (test_the_program_decides below holds both outcomes to account).
 # two trajectories (C3, C4): the envelope of MODEL.md 19.5 makes the whole side too hard for a test's budget
-_SMALL = ["--trajectories", "reference", "--side", "R", "--levels", "C3-C4", "--anatomy", "default", "--points", "8", "--generations", "40", "--quiet"]
+_SMALL = [
+    "--trajectories",
+    "reference",
+    "--side",
+    "R",
+    "--levels",
+    "C3-C4",
+    "--anatomy",
+    "default",
+    "--points",
+    "8",
+    "--generations",
+    "40",
+    "--quiet",
+]
 
 
 @pytest.fixture(scope="module")
@@ -160,10 +221,24 @@ def met_design(tmp_path_factory: pytest.TempPathFactory) -> Path:
     import json
 
     root = tmp_path_factory.mktemp("design")
-    out = _arcube("design", *_SMALL, "--seeds", "3", "--out", "d", "--max", "power_peak=1000", "--max", "breach_probability=1", cwd=root)
+    out = _arcube(
+        "design",
+        *_SMALL,
+        "--seeds",
+        "3",
+        "--out",
+        "d",
+        "--max",
+        "power_peak=1000",
+        "--max",
+        "breach_probability=1",
+        cwd=root,
+    )
     assert out.returncode in (0, 3), out.stdout + out.stderr
     summary = json.loads((root / "d" / "summary.json").read_text())
-    assert set(summary["missed"]) <= {"program", "power_peak", "breach_probability"}, out.stdout  # every sampled requirement met
+    assert set(summary["missed"]) <= {"program", "power_peak", "breach_probability"}, (
+        out.stdout
+    )  # every sampled requirement met
     assert ("design meets every requirement" in out.stdout) == (out.returncode == 0) == (summary["missed"] == [])
     return root / "d"
 
@@ -173,23 +248,55 @@ def _check_met(points: list[dict], summary: dict, lines: str) -> None:
     assert summary["reachable_fraction"] == 1.0 and summary["failures"] == {}, (lines, summary["failures"])
     assert summary["clearance_min_mm"] >= 5.0 and summary["self_clearance_min_mm"] >= 2.0, lines
     if lines == "drill":
-        assert summary["lateral_error_max_mm"] <= 0.5 and summary["axis_error_max_deg"] <= 0.25 and summary["torque_max_Nm"] <= 20.0
+        assert (
+            summary["lateral_error_max_mm"] <= 0.5
+            and summary["axis_error_max_deg"] <= 0.25
+            and summary["torque_max_Nm"] <= 20.0
+        )
         assert summary["holding_torque_max_Nm"] <= 20.0  # MODEL.md 18.2 with the default masses
     assert all(p["reachable"] for p in points)
 
 
-def test_a_met_design_meets_every_requirement_in_arcube_evaluate_and_the_numpy_reference(met_design: Path, tmp_path: Path) -> None:
+def test_a_met_design_meets_every_requirement_in_arcube_evaluate_and_the_numpy_reference(
+    met_design: Path, tmp_path: Path
+) -> None:
     import json
 
     summary = json.loads((met_design / "summary.json").read_text())
     rows = {r["requirement"]: r for r in summary["requirements"]}
     assert {"clearance", "self_clearance", "lateral_error", "axis_error", "torque", "reach", "program"} <= set(rows)
-    assert all(r["passed"] for name, r in rows.items() if name not in ("program", "power_peak"))  # those two: the program's
+    assert all(
+        r["passed"] for name, r in rows.items() if name not in ("program", "power_peak")
+    )  # those two: the program's
     # the plan's lines (entry -> target), by the command a user would type, with the NumPy reference
-    guards = ["--mode=" + summary["mode"], "--guards", "--anatomy", "default", "--clearance", "5", "--self-clearance", "2",
-              "--engine", "numpy", "--json", "--points", "8"]  # fmt: skip
-    ev = _arcube("evaluate", "--design", str(met_design / "design.json"), "--trajectories", "reference", "--side", "R", "--levels", "C3-C4",
-                 *guards, cwd=tmp_path)  # fmt: skip
+    guards = [
+        "--mode=" + summary["mode"],
+        "--guards",
+        "--anatomy",
+        "default",
+        "--clearance",
+        "5",
+        "--self-clearance",
+        "2",
+        "--engine",
+        "numpy",
+        "--json",
+        "--points",
+        "8",
+    ]
+    ev = _arcube(
+        "evaluate",
+        "--design",
+        str(met_design / "design.json"),
+        "--trajectories",
+        "reference",
+        "--side",
+        "R",
+        "--levels",
+        "C3-C4",
+        *guards,
+        cwd=tmp_path,
+    )
     assert ev.returncode == 0, ev.stderr
     plan = json.loads(ev.stdout)
     _check_met(plan["points"], plan["summary"], "drill")
@@ -201,14 +308,30 @@ def test_a_met_design_meets_every_requirement_in_arcube_evaluate_and_the_numpy_r
     S, _ = standoff_points(ref.entry[right], ref.target[right], anatomy, 20.0)
     csv = tmp_path / "approach.csv"
     rows_csv = ["trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"]
-    rows_csv += [f"{k + 1},{lv},R," + ",".join(repr(float(v)) for v in (*s, *a))
-                 for k, (lv, s, a) in enumerate(zip(np.asarray(ref.levels)[right], S, ref.entry[right]))]  # fmt: skip
+    rows_csv += [
+        f"{k + 1},{lv},R," + ",".join(repr(float(v)) for v in (*s, *a))
+        for k, (lv, s, a) in enumerate(zip(np.asarray(ref.levels)[right], S, ref.entry[right]))
+    ]
     csv.write_text("\n".join(rows_csv) + "\n")
     from arcube.patients.anatomy import reference_anatomy_path
 
-    mesh = ["--anatomy", str(reference_anatomy_path()), "--anatomy-frame", "patient"]  # the same anatomy, given as a file
-    ev = _arcube("evaluate", "--design", str(met_design / "design.json"), "--trajectories", str(csv), *guards[:2], *mesh, *guards[4:],
-                 cwd=tmp_path)  # fmt: skip
+    mesh = [
+        "--anatomy",
+        str(reference_anatomy_path()),
+        "--anatomy-frame",
+        "patient",
+    ]  # the same anatomy, given as a file
+    ev = _arcube(
+        "evaluate",
+        "--design",
+        str(met_design / "design.json"),
+        "--trajectories",
+        str(csv),
+        *guards[:2],
+        *mesh,
+        *guards[4:],
+        cwd=tmp_path,
+    )
     assert ev.returncode == 0, ev.stderr
     approach = json.loads(ev.stdout)
     _check_met(approach["points"], approach["summary"], "approach")
@@ -265,7 +388,11 @@ def test_the_z_dyad_closes_at_every_row_of_the_program(met_design: Path) -> None
     cfg = oracle_config(x[:23], m + (E + L * e - m) @ R, e @ R, rho, delta, np.zeros_like(delta))
     assert np.abs(cfg.planar).max() < 1e-6  # the rows' joint angles put every leg's D and Q in one plane (MODEL.md 3.1)
     span = np.linalg.norm(cfg.Q[..., 2, :] - cfg.D[..., 2, :], axis=-1)
-    assert len(span) > 10 and np.all(abs(design["d_z"] - design.c_z) <= span) and np.all(span <= design["d_z"] + design.c_z)
+    assert (
+        len(span) > 10
+        and np.all(abs(design["d_z"] - design.c_z) <= span)
+        and np.all(span <= design["d_z"] + design.c_z)
+    )
 
 
 def test_the_report_opens_with_the_verdict_and_the_terminals_rows(met_design: Path) -> None:
@@ -279,7 +406,13 @@ def test_the_report_opens_with_the_verdict_and_the_terminals_rows(met_design: Pa
     summary = json.loads((met_design / "summary.json").read_text())
     page = html.unescape(re.sub(r"<[^>]+>", " ", (met_design / "report.html").read_text()))
     text = " ".join(page.split())
-    assert text.index("Verdict") < text.index("Requirements") < text.index("every parameter") < text.index("Accuracy as built") < text.index("Table 2")
+    assert (
+        text.index("Verdict")
+        < text.index("Requirements")
+        < text.index("every parameter")
+        < text.index("Accuracy as built")
+        < text.index("Table 2")
+    )
     with open(met_design / "requirements.csv", newline="") as f:
         table = list(csv.DictReader(f))
     assert f"{len(table)} of {len(table)} requirements met" in text
@@ -292,8 +425,16 @@ def test_the_report_opens_with_the_verdict_and_the_terminals_rows(met_design: Pa
     budget = json.loads((met_design / "accuracy" / "tolerance.json").read_text())
     assert budget["summary"]["lateral_error_p95_mm"] == acc["lateral_error_p95_mm"]
     assert acc["perfect_robot_lateral_error_mm"] == summary["lateral_error_max_mm"] < acc["lateral_error_p95_mm"]
-    tol = arcube.tolerance(arcube.Design.load(met_design / "design.json"), "reference", side="R", levels="C3-C4", points=8,
-                           mode=summary["mode"], samples=1000, seed=1)  # fmt: skip
+    tol = arcube.tolerance(
+        arcube.Design.load(met_design / "design.json"),
+        "reference",
+        side="R",
+        levels="C3-C4",
+        points=8,
+        mode=summary["mode"],
+        samples=1000,
+        seed=1,
+    )
     assert tol.summary["lateral_error_p95_mm"] == pytest.approx(acc["lateral_error_p95_mm"], rel=1e-12)
 
 
@@ -308,14 +449,37 @@ def test_the_written_files_agree(met_design: Path) -> None:
     assert [n for n, r in table.items() if r["passed"] != "pass"] == summary["missed"]
     design = arcube.Design.load(met_design / "design.json")
     best = json.loads((met_design / "study" / f"seed_{summary['seed']}" / "best_design.json").read_text())
-    assert design.to_dict() == {k: v for k, v in best.items() if k != "c_z"} and design.c_z == best["c_z"]  # c_z: MODEL.md 19.1
+    assert (
+        design.to_dict() == {k: v for k, v in best.items() if k != "c_z"} and design.c_z == best["c_z"]
+    )  # c_z: MODEL.md 19.1
     assert design.mode == summary["mode"]
     assert (met_design / "report.html").stat().st_size > 0
 
 
 def test_an_impossible_requirement_exits_3_naming_it(tmp_path: Path) -> None:
-    out = _arcube("design", "--trajectories", "reference", "--ids", "5", "--anatomy", "default", "--points", "4", "--population", "20",
-                  "--generations", "3", "--seeds", "1", "--max", "lateral_error=0.001", "--out", "d", "--quiet", cwd=tmp_path)  # fmt: skip
+    out = _arcube(
+        "design",
+        "--trajectories",
+        "reference",
+        "--ids",
+        "5",
+        "--anatomy",
+        "default",
+        "--points",
+        "4",
+        "--population",
+        "20",
+        "--generations",
+        "3",
+        "--seeds",
+        "1",
+        "--max",
+        "lateral_error=0.001",
+        "--out",
+        "d",
+        "--quiet",
+        cwd=tmp_path,
+    )
     assert out.returncode == 3, out.stdout + out.stderr
     assert "does NOT meet" in out.stdout and "missed: lateral_error" in out.stdout
     assert (tmp_path / "d" / "summary.json").exists() and (tmp_path / "d" / "requirements.csv").exists()
@@ -326,12 +490,31 @@ def test_kill_then_resume_gives_the_same_design(tmp_path: Path) -> None:
     import signal
     import time
 
-    flags = ["--trajectories", "reference", "--ids", "5", "--anatomy", "default", "--points", "4", "--population", "56",
-             "--generations", "60", "--seeds", "1", "--quiet"]  # fmt: skip
+    flags = [
+        "--trajectories",
+        "reference",
+        "--ids",
+        "5",
+        "--anatomy",
+        "default",
+        "--points",
+        "4",
+        "--population",
+        "56",
+        "--generations",
+        "60",
+        "--seeds",
+        "1",
+        "--quiet",
+    ]
     whole = _arcube("design", *flags, "--out", "whole", cwd=tmp_path)
     assert whole.returncode in (0, 3), whole.stderr
-    proc = subprocess.Popen([sys.executable, "-m", "arcube", "design", *flags, "--out", "cut"], cwd=tmp_path,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "arcube", "design", *flags, "--out", "cut"],
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     mark, deadline = tmp_path / "cut" / "study" / "seed_1" / "checkpoint" / "evals_000020.npz", time.monotonic() + 300
     while time.monotonic() < deadline and proc.poll() is None and not mark.exists():
         time.sleep(0.005)
@@ -342,7 +525,9 @@ def test_kill_then_resume_gives_the_same_design(tmp_path: Path) -> None:
     assert res.returncode == whole.returncode, res.stdout + res.stderr
     assert (tmp_path / "cut" / "design.json").read_text() == (tmp_path / "whole" / "design.json").read_text()
     a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("cut", "whole"))
-    assert {k: a[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")} == {k: b[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")}
+    assert {k: a[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")} == {
+        k: b[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")
+    }
 
 
 def test_the_program_decides(met_design: Path) -> None:
@@ -358,7 +543,9 @@ def test_the_program_decides(met_design: Path) -> None:
     if row["passed"]:
         assert summary["meets_requirements"] and summary["files"]["program"] == "program"
         prog = json.loads((met_design / "program" / "program.json").read_text())
-        assert prog["mode"] == summary["mode"] and prog["clearance_min_mm"] >= 5.0 and prog["self_clearance_min_mm"] >= 2.0
+        assert (
+            prog["mode"] == summary["mode"] and prog["clearance_min_mm"] >= 5.0 and prog["self_clearance_min_mm"] >= 2.0
+        )
         lines = (met_design / "program" / "program.csv").read_text().splitlines()
         assert len({r.split(",")[2] for r in lines[1:] if ",drill," in r}) == 2  # the right side's C3 and C4
         # the program requirement asked for (--max power_peak=1000 W): the largest of the actuators' figures
@@ -368,7 +555,10 @@ def test_the_program_decides(met_design: Path) -> None:
         return
     assert not summary["meets_requirements"] and not (met_design / "program").exists()
     assert not {r["requirement"]: r for r in summary["requirements"]}["power_peak"]["passed"]  # no program: not met
-    found = re.match(r"approach (\d+) blocked: guard/kappa_max at E = \(([-0-9.]+), ([-0-9.]+), ([-0-9.]+)\) mm \(eta_L ([0-9.]+) > 100\)", row["part"])
+    found = re.match(
+        r"approach (\d+) blocked: guard/kappa_max at E = \(([-0-9.]+), ([-0-9.]+), ([-0-9.]+)\) mm \(eta_L ([0-9.]+) > 100\)",
+        row["part"],
+    )
     if found is None:
         pytest.skip(f"blocked by another constraint, not re-checked here: {row['part']}")
     ref = arcube.load_trajectories("reference")
@@ -393,7 +583,10 @@ def test_the_api_and_the_cli_share_the_design_budget(monkeypatch, tmp_path: Path
     arcube.design("reference", tmp_path / "d", side="R", anatomy="default")
     from typer.testing import CliRunner
 
-    CliRunner().invoke(app, ["design", "--trajectories", "reference", "--out", str(tmp_path / "c"), "--side", "R", "--anatomy", "default"])
+    CliRunner().invoke(
+        app,
+        ["design", "--trajectories", "reference", "--out", str(tmp_path / "c"), "--side", "R", "--anatomy", "default"],
+    )
     cli_default = seen[1].generations  # what the command line runs when --generations is not given
     seen["s"] = seen[0]
     assert seen["s"].generations == job.DESIGN_GENERATIONS == cli_default == 100
@@ -412,8 +605,12 @@ def test_without_an_anatomy_the_design_blames_its_own_flag(tmp_path: Path) -> No
     """The clearance requirement needs an anatomy: the command names --anatomy (design has no --clearance flag),
     the API names the field, and nothing is written."""
     out = _arcube("design", "--trajectories", "reference", "--out", "d", cwd=tmp_path)
-    assert out.returncode == 2 and out.stderr.startswith("error: --anatomy is needed by the clearance requirement"), out.stderr
-    assert "--clearance" not in out.stderr and len(out.stderr.strip().splitlines()) == 1 and not (tmp_path / "d").exists()
+    assert out.returncode == 2 and out.stderr.startswith("error: --anatomy is needed by the clearance requirement"), (
+        out.stderr
+    )
+    assert (
+        "--clearance" not in out.stderr and len(out.stderr.strip().splitlines()) == 1 and not (tmp_path / "d").exists()
+    )
     with pytest.raises(InputError) as err:
         arcube.design("reference", tmp_path / "d")
     assert err.value.param == "RunSettings.anatomy" and not (tmp_path / "d").exists()
@@ -441,14 +638,19 @@ def test_every_csv_the_design_job_writes_reads_back(met_design: Path) -> None:
     assert assert_csvs_read_back(met_design) >= 5  # requirements (top and docking), program, accuracy, breach
 
 
-@pytest.mark.parametrize("file, text, needle", [
-    ("study/summary.json", "garbage{", "summary.json"),
-    ("study/summary.json", "[1, 2]", "not a study summary"),
-    ("study/summary.json", '{"objective": "eta_G", "rows": []}', "not a study summary"),
-    ("design.toml", None, "requirements is not a list"),
-    ("design.toml", "", "requirements is missing"),
-])  # fmt: skip
-def test_resume_of_a_damaged_design_job_is_one_line_exit_2(met_design: Path, tmp_path: Path, file: str, text: str | None, needle: str) -> None:
+@pytest.mark.parametrize(
+    "file, text, needle",
+    [
+        ("study/summary.json", "garbage{", "summary.json"),
+        ("study/summary.json", "[1, 2]", "not a study summary"),
+        ("study/summary.json", '{"objective": "eta_G", "rows": []}', "not a study summary"),
+        ("design.toml", None, "requirements is not a list"),
+        ("design.toml", "", "requirements is missing"),
+    ],
+)
+def test_resume_of_a_damaged_design_job_is_one_line_exit_2(
+    met_design: Path, tmp_path: Path, file: str, text: str | None, needle: str
+) -> None:
     """Hardening III: a damaged file the job reads back at resume names itself (was: 'internal error (JSONDecodeError ...)')."""
     import shutil
 

@@ -47,8 +47,21 @@ def docked(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The robot docked on both sides of the reference patient, every default but 12 points a line and 1500 evaluations
     a side (the suite's time)."""
     root = tmp_path_factory.mktemp("dock")
-    out = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--quiet", "--points", "12", "--evaluations",
-                     "1500", cwd=root)  # fmt: skip
+    out = run_arcube(
+        "dock",
+        "--robot",
+        str(ROBOT),
+        "--trajectories",
+        "reference",
+        "--out",
+        "d",
+        "--quiet",
+        "--points",
+        "12",
+        "--evaluations",
+        "1500",
+        cwd=root,
+    )
     assert out.returncode == 0, out.stdout + out.stderr  # every side served
     assert "the robot serves 2 of 2 sides" in out.stdout
     return root / "d"
@@ -62,7 +75,10 @@ def test_every_docking_file_holds_the_given_robot_unchanged(docked: Path) -> Non
         design = json.loads((docked / d["folder"] / "design.json").read_text())
         assert {n: design[n] for n in ROBOT_NAMES} == {n: given[n] for n in ROBOT_NAMES}
         assert design["mode"] == given["mode"] and {n: design[n] for n in PLACEMENT} == {n: d[n] for n in PLACEMENT}
-        assert (design["patient"], design["side"]) == (d["patient"], d["side"])  # the docking file says whose and which side
+        assert (design["patient"], design["side"]) == (
+            d["patient"],
+            d["side"],
+        )  # the docking file says whose and which side
 
 
 def test_the_summary_and_coverage_csv_agree_and_read_back(docked: Path) -> None:
@@ -82,7 +98,9 @@ def test_the_summary_and_coverage_csv_agree_and_read_back(docked: Path) -> None:
 
     assert assert_csvs_read_back(docked) >= 7  # coverage, and per side requirements, program, accuracy, breach
     for d in summary["dockings"]:
-        assert (docked / d["folder"] / "program" / "program.json").exists() and (docked / d["folder"] / "report.html").exists()
+        assert (docked / d["folder"] / "program" / "program.json").exists() and (
+            docked / d["folder"] / "report.html"
+        ).exists()
 
 
 def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: Path, tmp_path: Path) -> None:
@@ -96,8 +114,28 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
     envelope = resolve_envelope(["default"], whole, anatomy)
     for d in summary["dockings"]:
         file = docked / d["folder"] / "design.json"
-        ev = run_arcube("evaluate", "--design", str(file), "--trajectories", "reference", "--side", d["side"], "--anatomy", "default",
-                        "--guards", "--clearance", "5", "--self-clearance", "2", "--engine", "numpy", "--json", "--points", "12", cwd=tmp_path)  # fmt: skip
+        ev = run_arcube(
+            "evaluate",
+            "--design",
+            str(file),
+            "--trajectories",
+            "reference",
+            "--side",
+            d["side"],
+            "--anatomy",
+            "default",
+            "--guards",
+            "--clearance",
+            "5",
+            "--self-clearance",
+            "2",
+            "--engine",
+            "numpy",
+            "--json",
+            "--points",
+            "12",
+            cwd=tmp_path,
+        )
         assert ev.returncode == 0, ev.stderr
         doc = json.loads(ev.stdout)
         assert doc["summary"]["reachable_fraction"] == 1.0 and doc["summary"]["failures"] == {}
@@ -107,12 +145,30 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
         S, _ = standoff_points(side.entry, side.target, anatomy, 20.0)
         for what, entry, target in (("plan", side.entry, side.target), ("approach", S, side.entry)):
             lines = dataclasses.replace(side, entry=np.asarray(entry), target=np.asarray(target), source=what)
-            s = arcube.evaluate(design, lines, points=12, guards=True, engine="numpy", anatomy=anatomy, envelope=envelope, clearance=5.0,
-                                self_clearance=2.0, envelope_clearance_mm=10.0, z_dyad=True, c_z=design.c_z).summary  # fmt: skip
+            s = arcube.evaluate(
+                design,
+                lines,
+                points=12,
+                guards=True,
+                engine="numpy",
+                anatomy=anatomy,
+                envelope=envelope,
+                clearance=5.0,
+                self_clearance=2.0,
+                envelope_clearance_mm=10.0,
+                z_dyad=True,
+                c_z=design.c_z,
+            ).summary
             assert s["reachable_fraction"] == 1.0 and s["failures"] == {}, (d["label"], what, s["failures"])
-            assert s["clearance_min_mm"] >= 5.0 and s["self_clearance_min_mm"] >= 2.0 and s["envelope_clearance_min_mm"] >= 10.0
+            assert (
+                s["clearance_min_mm"] >= 5.0
+                and s["self_clearance_min_mm"] >= 2.0
+                and s["envelope_clearance_min_mm"] >= 10.0
+            )
             if what == "plan":
-                assert s["lateral_error_max_mm"] <= 0.5 and s["axis_error_max_deg"] <= 0.25 and s["torque_max_Nm"] <= 20.0
+                assert (
+                    s["lateral_error_max_mm"] <= 0.5 and s["axis_error_max_deg"] <= 0.25 and s["torque_max_Nm"] <= 20.0
+                )
 
 
 def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(tmp_path: Path) -> None:
@@ -130,11 +186,38 @@ def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(tmp_path: P
     mesh.apply_translation(t)
     mesh.export(tmp_path / "moved.anatomy.stl")
     levels = ["--levels", "C3", "--points", "6", "--quiet", "--side", "R"]
-    out = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "moved.csv", "--anatomy", "moved.anatomy.stl", "--anatomy-frame",
-                     "patient", "--out", "d", "--evaluations", "400", *levels, cwd=tmp_path)  # fmt: skip
+    out = run_arcube(
+        "dock",
+        "--robot",
+        str(ROBOT),
+        "--trajectories",
+        "moved.csv",
+        "--anatomy",
+        "moved.anatomy.stl",
+        "--anatomy-frame",
+        "patient",
+        "--out",
+        "d",
+        "--evaluations",
+        "400",
+        *levels,
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     found = json.loads((tmp_path / "d" / "summary.json").read_text())["dockings"][0]
-    home = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "h", "--evaluations", "400", *levels, cwd=tmp_path)
+    home = run_arcube(
+        "dock",
+        "--robot",
+        str(ROBOT),
+        "--trajectories",
+        "reference",
+        "--out",
+        "h",
+        "--evaluations",
+        "400",
+        *levels,
+        cwd=tmp_path,
+    )
     assert home.returncode == 0, home.stdout + home.stderr
     at_home = json.loads((tmp_path / "h" / "summary.json").read_text())["dockings"][0]
     assert found["meets_requirements"] and found["eta_G"] <= at_home["eta_G"] + 1e-9
@@ -161,52 +244,94 @@ def test_wilson_interval_is_the_score_test_inverted() -> None:
 
 
 def test_the_binding_requirement_is_the_tightest_relative_to_its_limit() -> None:
-    rows = [{"requirement": "reach", "limit": 1.0, "margin": 0.0, "passed": True},
-            {"requirement": "clearance", "limit": 5.0, "margin": 2.0, "passed": True},
-            {"requirement": "torque", "limit": 20.0, "margin": 4.0, "passed": True}]  # fmt: skip
+    rows = [
+        {"requirement": "reach", "limit": 1.0, "margin": 0.0, "passed": True},
+        {"requirement": "clearance", "limit": 5.0, "margin": 2.0, "passed": True},
+        {"requirement": "torque", "limit": 20.0, "margin": 4.0, "passed": True},
+    ]
     assert binding_row(rows)["requirement"] == "torque"  # 4/20 < 2/5; reach is a pass/fail row, never binding when met
     rows[1] = {**rows[1], "margin": -1.0, "passed": False}
     rows.append({"requirement": "lateral_error", "limit": 0.5, "margin": math.nan, "passed": False})
-    assert binding_row(rows)["requirement"] == "clearance"  # a missed one first, a measured one before an unmeasured one
+    assert (
+        binding_row(rows)["requirement"] == "clearance"
+    )  # a missed one first, a measured one before an unmeasured one
 
 
 def test_dask_gives_the_dockings_one_process_gives(tmp_path: Path) -> None:
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        a = arcube.dock(str(ROBOT), "reference", tmp_path / "a", seed=3, evaluations=300, levels="C3", points=6, dask=cluster.scheduler_address)
+        a = arcube.dock(
+            str(ROBOT),
+            "reference",
+            tmp_path / "a",
+            seed=3,
+            evaluations=300,
+            levels="C3",
+            points=6,
+            dask=cluster.scheduler_address,
+        )
     b = arcube.dock(str(ROBOT), "reference", tmp_path / "b", seed=3, evaluations=300, levels="C3", points=6, workers=1)
     for x, y in zip(a.summary["dockings"], b.summary["dockings"]):
-        assert {k: x[k] for k in (*PLACEMENT, "meets_requirements", "eta_G")} == {k: y[k] for k in (*PLACEMENT, "meets_requirements", "eta_G")}
+        assert {k: x[k] for k in (*PLACEMENT, "meets_requirements", "eta_G")} == {
+            k: y[k] for k in (*PLACEMENT, "meets_requirements", "eta_G")
+        }
 
 
 def test_a_killed_dock_leaves_no_folder_and_the_next_one_cleans_up(tmp_path: Path) -> None:
-    cmd = [sys.executable, "-m", "arcube", "dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", *SMALL]
+    cmd = [
+        sys.executable,
+        "-m",
+        "arcube",
+        "dock",
+        "--robot",
+        str(ROBOT),
+        "--trajectories",
+        "reference",
+        "--out",
+        "d",
+        *SMALL,
+    ]
     proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while time.time() < deadline and not any((s / "dockings").exists() for s in tmp_path.glob(".d.dock-*.tmp")):
         time.sleep(0.2)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    assert not (tmp_path / "d").exists() and list(tmp_path.glob(".d.dock-*.tmp"))  # killed mid-way: no d/, its stage left
-    done = run_arcube("dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--side", "R", *SMALL, cwd=tmp_path)
+    assert not (tmp_path / "d").exists() and list(
+        tmp_path.glob(".d.dock-*.tmp")
+    )  # killed mid-way: no d/, its stage left
+    done = run_arcube(
+        "dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--side", "R", *SMALL, cwd=tmp_path
+    )
     assert done.returncode in (0, 3), done.stderr
     assert (tmp_path / "d" / "summary.json").exists() and not list(tmp_path.glob(".d.dock-*.tmp"))
 
 
-@pytest.mark.parametrize("make, args, needle", [
-    (lambda p: p.write_text('{"mode": "+,+,+,+"}'), [], "not a robot: missing robot parameter(s)"),
-    (lambda p: p.write_text(json.dumps({k: v for k, v in json.loads(ROBOT.read_text()).items() if k != "mode"})), [], "working mode is missing"),
-    (None, ["--starts", "0"], "--starts must be an integer >= 1"),
-    (None, ["--evaluations", "5"], "--evaluations must be an integer >= 100"),
-    (None, ["--cohort", "missing.toml"], "missing.toml: no such file"),
-])  # fmt: skip
-def test_bad_dock_input_is_one_line_exit_2_and_leaves_nothing(tmp_path: Path, monkeypatch, capsys, make, args, needle) -> None:
+@pytest.mark.parametrize(
+    "make, args, needle",
+    [
+        (lambda p: p.write_text('{"mode": "+,+,+,+"}'), [], "not a robot: missing robot parameter(s)"),
+        (
+            lambda p: p.write_text(json.dumps({k: v for k, v in json.loads(ROBOT.read_text()).items() if k != "mode"})),
+            [],
+            "working mode is missing",
+        ),
+        (None, ["--starts", "0"], "--starts must be an integer >= 1"),
+        (None, ["--evaluations", "5"], "--evaluations must be an integer >= 100"),
+        (None, ["--cohort", "missing.toml"], "missing.toml: no such file"),
+    ],
+)
+def test_bad_dock_input_is_one_line_exit_2_and_leaves_nothing(
+    tmp_path: Path, monkeypatch, capsys, make, args, needle
+) -> None:
     monkeypatch.chdir(tmp_path)
     robot = tmp_path / "robot.json"
     if make is not None:
         make(robot)
     plan = [] if "--cohort" in args else ["--trajectories", "reference"]
-    code, err = cli_error(["dock", "--robot", str(robot if make else ROBOT), *plan, "--out", "d", "--quiet", *args], capsys)
+    code, err = cli_error(
+        ["dock", "--robot", str(robot if make else ROBOT), *plan, "--out", "d", "--quiet", *args], capsys
+    )
     assert code == 2 and err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == (["robot.json"] if make else [])
 
@@ -217,6 +342,10 @@ def test_a_held_out_cohort_that_shares_a_patient_is_refused(tmp_path: Path, monk
 
     for seed, folder in ((7, "train"), (8, "held")):  # patients seed7, seed8 and seed8, seed9: seed8 is in both
         assert run_cli(["patients", "--seed", str(seed), "--count", "2", "--out", folder], capsys)[0] == 0
-    code, err = cli_error(["design", "--cohort", "train/cohort.toml", "--validate", "held/cohort.toml", "--out", "d", "--quiet"], capsys)
-    assert code == 2 and err.count("\n") == 1 and "--validate" in err and "'seed8' is also in the training cohort" in err, err
+    code, err = cli_error(
+        ["design", "--cohort", "train/cohort.toml", "--validate", "held/cohort.toml", "--out", "d", "--quiet"], capsys
+    )
+    assert (
+        code == 2 and err.count("\n") == 1 and "--validate" in err and "'seed8' is also in the training cohort" in err
+    ), err
     assert not (tmp_path / "d").exists()

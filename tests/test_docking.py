@@ -26,7 +26,16 @@ from arcube.optimization.problem import VariableSpace, parse_free
 
 REPO = Path(__file__).resolve().parents[1]
 START = REPO / "tests" / "data" / "right_side_design.json"
-SMALL = {"algorithm": "ga", "population": 16, "generations": 10, "points": 3, "engine": "numpy", "tolerance": 0.0, "side": "R", "design_from": str(START)}
+SMALL = {
+    "algorithm": "ga",
+    "population": 16,
+    "generations": 10,
+    "points": 3,
+    "engine": "numpy",
+    "tolerance": 0.0,
+    "side": "R",
+    "design_from": str(START),
+}
 
 
 @pytest.fixture(scope="module")
@@ -48,8 +57,20 @@ def test_genes_and_decode_per_patient() -> None:
     shared = VariableSpace(base=base, free=free, patients=3, docking="shared", setups=2, mode=mode)
     docked = ("m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz")
     assert shared.names == (*free, "m_x_L", "m_y_L", "m_z_L") and shared.n_slots == 2
-    assert per.names == (*free, "m_x_L", "m_y_L", "m_z_L", *(f"{n}_p2" for n in docked), "m_x_L_p2", "m_y_L_p2", "m_z_L_p2",
-                         *(f"{n}_p3" for n in docked), "m_x_L_p3", "m_y_L_p3", "m_z_L_p3")  # fmt: skip
+    assert per.names == (
+        *free,
+        "m_x_L",
+        "m_y_L",
+        "m_z_L",
+        *(f"{n}_p2" for n in docked),
+        "m_x_L_p2",
+        "m_y_L_p2",
+        "m_z_L_p2",
+        *(f"{n}_p3" for n in docked),
+        "m_x_L_p3",
+        "m_y_L_p3",
+        "m_z_L_p3",
+    )
     assert per.n_slots == 6 and [per.slot(p, s) for p in range(3) for s in range(2)] == list(range(6))
     rng = np.random.default_rng(3)
     X = per.xl + rng.random((5, per.n_var)) * (per.xu - per.xl)
@@ -113,7 +134,9 @@ def test_per_patient_study_re_evaluates_patient_by_patient(tmp_path: Path, secon
 
 
 def test_shared_docking_keeps_one_placement(tmp_path: Path, second_patient: Path) -> None:
-    run = arcube.optimize(["reference", str(second_patient)], out=tmp_path / "sh", docking="shared", free="m_x,m_y,m_z,r", seed=2, **SMALL)
+    run = arcube.optimize(
+        ["reference", str(second_patient)], out=tmp_path / "sh", docking="shared", free="m_x,m_y,m_z,r", seed=2, **SMALL
+    )
     assert "placements" not in json.loads((run.path / "best_design.json").read_text())
     assert run.designs[0] == run.designs[1] == run.best_design
 
@@ -122,24 +145,51 @@ def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patie
     with pytest.raises(InputError, match="RunSettings.docking must be one of per-patient, shared"):
         build_config(["reference", str(second_patient)], docking="each", seed=1, **SMALL)
     out = tmp_path / "run"
-    res = subprocess.run([sys.executable, "-m", "arcube", "optimize", "--trajectories", "reference", str(second_patient), "--docking", "both",
-                          "--out", str(out), "--quiet"], capture_output=True, text=True, timeout=120)  # fmt: skip
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "arcube",
+            "optimize",
+            "--trajectories",
+            "reference",
+            str(second_patient),
+            "--docking",
+            "both",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert res.returncode == 2 and res.stderr == "error: --docking must be one of per-patient, shared, got 'both'\n"
     assert not out.exists()
     assert runmod.placement_file(1) == "best_design_p2.json" and runmod.placement_file(0, 1) == "best_design_p1_L.json"
 
 
-def test_per_patient_files_with_two_setups_and_a_missing_design_is_an_error(tmp_path: Path, second_patient: Path) -> None:
+def test_per_patient_files_with_two_setups_and_a_missing_design_is_an_error(
+    tmp_path: Path, second_patient: Path
+) -> None:
     both = {**SMALL, "side": None, "generations": 3}
-    run = arcube.optimize(["reference", str(second_patient)], out=tmp_path / "two", setups=2, free="m_x,m_y,m_z,r", seed=1, **both)
+    run = arcube.optimize(
+        ["reference", str(second_patient)], out=tmp_path / "two", setups=2, free="m_x,m_y,m_z,r", seed=1, **both
+    )
     names = sorted(p.name for p in run.path.glob("best_design*.json"))
-    assert names == ["best_design.json", "best_design_L.json", "best_design_p1.json", "best_design_p1_L.json",
-                     "best_design_p2.json", "best_design_p2_L.json"]  # fmt: skip
+    assert names == [
+        "best_design.json",
+        "best_design_L.json",
+        "best_design_p1.json",
+        "best_design_p1_L.json",
+        "best_design_p2.json",
+        "best_design_p2_L.json",
+    ]
     assert (run.path / "best_design_L.json").read_bytes() == (run.path / "best_design_p1_L.json").read_bytes()
     listed = json.loads((run.path / "best_design.json").read_text())["placements"]
     assert [(p["patient"], p["side"]) for p in listed] == [(1, "R"), (1, "L"), (2, "R"), (2, "L")]
     (run.path / "best_design_p2.json").unlink()
     with pytest.raises(InputError, match="best_design_p2.json"):
-        run.designs
+        _ = run.designs
     with pytest.raises(InputError, match="best_design_p2.json is missing"):
         arcube.write_report(run)

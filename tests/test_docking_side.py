@@ -57,7 +57,9 @@ def test_a_docking_file_records_its_patient_and_side_and_reads_back(tmp_path: Pa
     assert design_at_side(path, "R") == path  # the same side: the file as it is
 
 
-def test_a_side_that_contradicts_the_docking_file_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_side_that_contradicts_the_docking_file_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     for side in ("R", "L"):
         (tmp_path / f"reference_{side}").mkdir()
         write_docking(design_at_side(ROBOT, side), tmp_path / f"reference_{side}" / "design.json", "reference", side)
@@ -65,10 +67,16 @@ def test_a_side_that_contradicts_the_docking_file_is_refused(tmp_path: Path, cap
     with pytest.raises(InputError) as info:
         design_at_side(right, "L")
     text = str(info.value)
-    assert text.startswith("side L: ") and "docking of side R" in text and str(tmp_path / "reference_L" / "design.json") in text
+    assert (
+        text.startswith("side L: ")
+        and "docking of side R" in text
+        and str(tmp_path / "reference_L" / "design.json") in text
+    )
     with pytest.raises(InputError, match="side L"):
         arcube.evaluate(right, "reference", side="L", points=3)
-    code, err = cli_error(["evaluate", "--design", str(right), "--trajectories", "reference", "--side", "L", "--points", "3"], capsys)
+    code, err = cli_error(
+        ["evaluate", "--design", str(right), "--trajectories", "reference", "--side", "L", "--points", "3"], capsys
+    )
     assert code == 2 and err.startswith("error: --side L: ") and err.count("\n") == 1, err
 
 

@@ -58,7 +58,7 @@ def fenced_blocks(page: Path) -> list[Block]:
         body: list[str] = []
         j = i + 1
         while j < len(lines) and not closing.match(lines[j]):
-            body.append(lines[j][len(indent):] if lines[j].startswith(indent) else lines[j].lstrip())
+            body.append(lines[j][len(indent) :] if lines[j].startswith(indent) else lines[j].lstrip())
             j += 1
         if j == len(lines):
             raise AssertionError(f"{page.relative_to(ROOT)}:{i + 1}: unclosed code fence")
@@ -102,9 +102,14 @@ def test_python_examples_run(page: Path, tmp_path: Path) -> None:
     blocks = [{"page": str(b.page.relative_to(ROOT)), "line": b.line, "code": b.code} for b in python_blocks(page)]
     env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1"}
     proc = subprocess.run(
-        [sys.executable, "-c", _RUNNER], input=json.dumps(blocks), capture_output=True, text=True,
-        cwd=tmp_path, env=env, timeout=300,
-    )  # fmt: skip
+        [sys.executable, "-c", _RUNNER],
+        input=json.dumps(blocks),
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=env,
+        timeout=300,
+    )
     if proc.returncode != 0:
         pytest.fail(f"{proc.stderr}\n--- stdout (last 3000 characters) ---\n{proc.stdout[-3000:]}", pytrace=False)
 
@@ -112,8 +117,15 @@ def test_python_examples_run(page: Path, tmp_path: Path) -> None:
 def test_every_page_has_a_known_fence() -> None:
     """Code blocks carry an info string, and Python that is not meant to run says so explicitly."""
     allowed = {"python", "{.python .no-run}", "bash", "text", "json", "toml", "csv", "yaml"}
-    bad = [f"{b.page.relative_to(ROOT)}:{b.line - 1}: {b.info!r}" for p in PAGES for b in fenced_blocks(p) if b.info not in allowed]
-    assert not bad, "unexpected code fence info strings (use python, {.python .no-run}, bash, text, ...):\n" + "\n".join(bad)
+    bad = [
+        f"{b.page.relative_to(ROOT)}:{b.line - 1}: {b.info!r}"
+        for p in PAGES
+        for b in fenced_blocks(p)
+        if b.info not in allowed
+    ]
+    assert not bad, (
+        "unexpected code fence info strings (use python, {.python .no-run}, bash, text, ...):\n" + "\n".join(bad)
+    )
 
 
 # --- command lines quoted in shell blocks ---------------------------------------------------------------
@@ -195,8 +207,14 @@ def test_quoted_command_line_parses(argv: list[str], capsys: pytest.CaptureFixtu
 
 
 def _documented_commands() -> set[str]:
-    return {argv[0] for p in PAGES for b in fenced_blocks(p) if b.info == "bash" for _, argv in _shell_commands(b)
-            if argv and not argv[0].startswith("-")}  # fmt: skip
+    return {
+        argv[0]
+        for p in PAGES
+        for b in fenced_blocks(p)
+        if b.info == "bash"
+        for _, argv in _shell_commands(b)
+        if argv and not argv[0].startswith("-")
+    }
 
 
 def test_every_command_is_documented_and_has_help(capsys: pytest.CaptureFixture[str]) -> None:
@@ -249,8 +267,12 @@ def test_cli_reference_lists_the_live_options(capsys: pytest.CaptureFixture[str]
 
 def test_error_convention(capsys: pytest.CaptureFixture[str]) -> None:
     """What the CLI reference says: a bad input prints one line 'error: ...' on stderr and exits with 2."""
-    for argv in (["evaluate", "--points", "1"], ["evaluate", "--mode=+,+"], ["evaluate", "--no-such-flag"],
-                 ["evaluate", "--design", "missing-design.json"]):  # fmt: skip
+    for argv in (
+        ["evaluate", "--points", "1"],
+        ["evaluate", "--mode=+,+"],
+        ["evaluate", "--no-such-flag"],
+        ["evaluate", "--design", "missing-design.json"],
+    ):
         code, out, err = _run_cli(argv, capsys)
         assert code == 2, argv
         assert err.startswith("error: ") and err.count("\n") == 1, (argv, err)
@@ -274,8 +296,12 @@ def test_mkdocs_build_strict(tmp_path: Path) -> None:
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
     proc = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
-        cwd=ROOT, capture_output=True, text=True, env=env, timeout=300,
-    )  # fmt: skip
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (tmp_path / "site" / "index.html").exists()
     assert (tmp_path / "site" / "api" / "index.html").exists()
@@ -292,7 +318,9 @@ def test_griffe_extension_renders_sphinx_roles_as_code() -> None:
     assert module.rewrite("An :class:`Evaluation`, :func:`~arcube.io.load.load_trajectories`.") == (
         "An `Evaluation`, `load_trajectories`."
     )
-    assert module.rewrite("See :mod:`arcube.api`::\n\n    import arcube\n") == "See `arcube.api`:\n\n    import arcube\n"
+    assert (
+        module.rewrite("See :mod:`arcube.api`::\n\n    import arcube\n") == "See `arcube.api`:\n\n    import arcube\n"
+    )
 
 
 # --- citation and changelog --------------------------------------------------------------------------
@@ -321,7 +349,7 @@ def test_the_architecture_layout_names_every_package_and_top_level_module() -> N
     appears in it (it missed accuracy/, calibrate/ and most benchmarks)."""
     src = Path(__file__).resolve().parents[1] / "src" / "arcube"
     text = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text(encoding="utf-8")
-    layout = text[text.index("## Layout"):]
+    layout = text[text.index("## Layout") :]
     names = [f"{p.name}/" for p in src.iterdir() if p.is_dir() and (p / "__init__.py").exists()]
     names += [p.name for p in src.glob("*.py") if p.name not in ("__init__.py", "__main__.py")]
     missing = [n for n in names if n not in layout]

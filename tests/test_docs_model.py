@@ -24,13 +24,19 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 MODEL_PAGES = sorted((DOCS / "model").glob("*.md"))
 # The developers' checkout keeps the specification in a "shared" folder beside (or above) the worktree.
-SPEC = next((d / "shared" / "spec" / "MODEL.md" for d in ROOT.parents if (d / "shared" / "spec" / "MODEL.md").exists()),
-            ROOT.parent / "shared" / "spec" / "MODEL.md")  # fmt: skip
+SPEC = next(
+    (d / "shared" / "spec" / "MODEL.md" for d in ROOT.parents if (d / "shared" / "spec" / "MODEL.md").exists()),
+    ROOT.parent / "shared" / "spec" / "MODEL.md",
+)
 
 _NUM = r"\d+(?:\.\d+)?"
 _REF = rf"{_NUM}(?:\s*[-–]\s*{_NUM})?"
-_CITATION = re.compile(rf"(?:MODEL\.md`?\s*|model\s+§\s*|\[§)(?:\(\s*)?(?:sections?\s+)?(?P<refs>{_REF}(?:\s*(?:,|and)\s*{_REF})*)")
-_HEADING = re.compile(r"^(?P<hashes>#{1,6})\s+(?P<num>\d+(?:\.\d+)?)\.?\s+(?P<title>.*?)\s*(?:\{#(?P<id>[^}\s]+)\})?\s*$")
+_CITATION = re.compile(
+    rf"(?:MODEL\.md`?\s*|model\s+§\s*|\[§)(?:\(\s*)?(?:sections?\s+)?(?P<refs>{_REF}(?:\s*(?:,|and)\s*{_REF})*)"
+)
+_HEADING = re.compile(
+    r"^(?P<hashes>#{1,6})\s+(?P<num>\d+(?:\.\d+)?)\.?\s+(?P<title>.*?)\s*(?:\{#(?P<id>[^}\s]+)\})?\s*$"
+)
 
 
 def _expand(ref: str) -> list[str]:
@@ -81,7 +87,9 @@ HEADINGS = model_headings()
 
 
 def _sources() -> list[Path]:
-    return sorted(p for p in (ROOT / "src").rglob("*") if p.is_file() and p.suffix in {".py", ".md", ".txt", ".json", ".toml"})
+    return sorted(
+        p for p in (ROOT / "src").rglob("*") if p.is_file() and p.suffix in {".py", ".md", ".txt", ".json", ".toml"}
+    )
 
 
 def _missing(citations: dict[str, list[str]]) -> list[str]:

@@ -23,8 +23,15 @@ from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.envelope_drawing import ROUND_CELLS, envelope_meshes, write_envelope_mesh
 from arcube.evaluation.envelope import (
-    BOX_TABLE, Envelope, Landmarks, default_envelope, envelope_from_boxes, landmarks, resolve_envelope, rounded_box_distance,
-)  # fmt: skip
+    BOX_TABLE,
+    Envelope,
+    Landmarks,
+    default_envelope,
+    envelope_from_boxes,
+    landmarks,
+    resolve_envelope,
+    rounded_box_distance,
+)
 from arcube.io import load_trajectories, select
 from arcube.io.meshes import read_meshes, split_shells, write_stl
 
@@ -193,7 +200,12 @@ def test_envelope_mesh_is_closed_and_on_the_surfaces(tmp_path) -> None:
             assert np.abs(d).max() < 1e-9 and len(mesh.faces) == 12 * ROUND_CELLS**2, name
             # and the mesh is the rounded box: its volume, (2a)^3-like terms of the Minkowski sum, to 1 %
             a, rho = env.boxes[k, 3:6], env.boxes[k, 6]
-            vol = 8 * np.prod(a) + 8 * rho * (a[0] * a[1] + a[1] * a[2] + a[0] * a[2]) + 2 * np.pi * rho**2 * a.sum() + 4 / 3 * np.pi * rho**3
+            vol = (
+                8 * np.prod(a)
+                + 8 * rho * (a[0] * a[1] + a[1] * a[2] + a[0] * a[2])
+                + 2 * np.pi * rho**2 * a.sum()
+                + 4 / 3 * np.pi * rho**3
+            )
             assert mesh.volume == pytest.approx(vol, rel=0.01), name
     path = write_envelope_mesh(env, tmp_path / "patient.envelope.stl")
     read = read_meshes([path], "patient")[0]  # closed, outward shells, else InputError
@@ -201,12 +213,16 @@ def test_envelope_mesh_is_closed_and_on_the_surfaces(tmp_path) -> None:
 
 
 def test_a_skin_mesh_envelope_is_read_in_its_frame(tmp_path) -> None:
-    skin = trimesh.creation.box(extents=(120.0, 200.0, 90.0), transform=trimesh.transformations.translation_matrix((30.0, -40.0, 10.0)))
+    skin = trimesh.creation.box(
+        extents=(120.0, 200.0, 90.0), transform=trimesh.transformations.translation_matrix((30.0, -40.0, 10.0))
+    )
     path = write_stl(skin, tmp_path / "skin.stl", frame="LPS")
     env = resolve_envelope([path], None, None, table_z=-100.0, anatomy_frame="LPS")
     assert env.names == ("skin", "table") and env.skin_region == 0 and env.table_region == 1 and env.n_boxes == 0
     # the file holds LPS coordinates of the patient-frame box: read in LPS, the same box comes back
-    np.testing.assert_allclose(np.sort(np.asarray(env.skin[0].vertices), axis=0), np.sort(np.asarray(skin.vertices), axis=0), atol=1e-4)
+    np.testing.assert_allclose(
+        np.sort(np.asarray(env.skin[0].vertices), axis=0), np.sort(np.asarray(skin.vertices), axis=0), atol=1e-4
+    )
     # no table_z: the table of 19.5 from the plan's landmarks
     env2 = resolve_envelope([path], PLAN, None, anatomy_frame="LPS")
     assert env2.table_z == pytest.approx(19.691 + 50.0 - 240.0)
@@ -260,22 +276,41 @@ def test_bad_input_is_one_line_naming_it(tmp_path) -> None:
     assert isinstance(envelope_from_boxes([[0, 0, 0, 1, 1, 1, 1]], ["b"], 0.0), Envelope)
 
 
-@pytest.mark.parametrize("argv, culprit", [
-    (["--table-z", "nan"], "--table-z"),
-    (["--envelope", "{tmp}/missing.stl"], "missing.stl"),
-    (["--envelope", "{tmp}/open.stl", "--anatomy-frame", "patient"], "open.stl"),
-    (["--envelope", "none", "--table-z", "-100"], "--table-z"),
-    (["--envelope", "default", "{tmp}/open.stl"], "--envelope"),
-], ids=["table-z nan", "missing file", "open surface", "table without envelope", "default beside a file"])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv, culprit",
+    [
+        (["--table-z", "nan"], "--table-z"),
+        (["--envelope", "{tmp}/missing.stl"], "missing.stl"),
+        (["--envelope", "{tmp}/open.stl", "--anatomy-frame", "patient"], "open.stl"),
+        (["--envelope", "none", "--table-z", "-100"], "--table-z"),
+        (["--envelope", "default", "{tmp}/open.stl"], "--envelope"),
+    ],
+    ids=["table-z nan", "missing file", "open surface", "table without envelope", "default beside a file"],
+)
 def test_the_cli_refuses_a_bad_envelope_in_one_line(tmp_path, capsys, argv, culprit) -> None:
     """The command line names its own flag or the file, exits 2 and writes no report."""
     from arcube.cli import main
 
     box = trimesh.creation.box(extents=(50.0, 50.0, 50.0))
-    (tmp_path / "open.stl").write_bytes(trimesh.Trimesh(box.vertices, box.faces[:-2], process=False).export(file_type="stl"))
+    (tmp_path / "open.stl").write_bytes(
+        trimesh.Trimesh(box.vertices, box.faces[:-2], process=False).export(file_type="stl")
+    )
     args = [a.replace("{tmp}", str(tmp_path)) for a in argv]
     with pytest.raises(SystemExit) as exc:
-        main(["evaluate", "--design", "paper", "--trajectories", "reference", "--points", "3", "--report", str(tmp_path / "r.html"), *args])
+        main(
+            [
+                "evaluate",
+                "--design",
+                "paper",
+                "--trajectories",
+                "reference",
+                "--points",
+                "3",
+                "--report",
+                str(tmp_path / "r.html"),
+                *args,
+            ]
+        )
     err = capsys.readouterr().err
     assert exc.value.code == 2 and err.count("\n") == 1 and err.startswith("error: ") and culprit in err, err
     assert not (tmp_path / "r.html").exists()
@@ -297,7 +332,9 @@ def test_the_evaluation_path_keeps_the_whole_plan_for_the_envelope() -> None:
     assert abs(env.landmarks.x0) < 1e-9  # the midline of the whole plan, not the right side's mean
     assert env.landmarks == resolve_envelope("default", full, None).landmarks
     task = build_task(right.entry, right.target, 6)
-    want = evaluate_task(design.to_vector(), task.E, task.e, np.ones(4), Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
+    want = evaluate_task(
+        design.to_vector(), task.E, task.e, np.ones(4), Options(outputs=Outputs(envelope_clearance=True)), envelope=env
+    )
     np.testing.assert_array_equal(ev.points.envelope_clearance_mm, want.points.envelope_clearance_mm)
     assert np.all(np.isfinite(ev.points.envelope_clearance_mm))
 

@@ -26,9 +26,15 @@ from arcube.evaluation import kernel  # noqa: E402
 from arcube.evaluation.anatomy import resolve_anatomy  # noqa: E402
 from arcube.evaluation.envelope import Envelope, envelope_from_boxes, resolve_envelope  # noqa: E402
 from arcube.evaluation.envelope_clearance import (  # noqa: E402
-    ENVELOPE_ARC_CHORDS, _box_sd, arc_chord_points, arc_lowest_z, arc_sag_bound, envelope_clearance, pose_envelope_clearance,
+    ENVELOPE_ARC_CHORDS,
+    _box_sd,
+    arc_chord_points,
+    arc_lowest_z,
+    arc_sag_bound,
+    envelope_clearance,
+    pose_envelope_clearance,
     segment_box_min,
-)  # fmt: skip
+)
 from arcube.evaluation.kernel._envelope_exact import _arc_lowest_z, _seg_box  # noqa: E402
 from arcube.evaluation.reference import FAILURES, GUARDED_OPTIONS, IK_FAILURES, Options, evaluate_points, evaluate_task  # noqa: E402
 from arcube.evaluation.task import build_task  # noqa: E402
@@ -78,7 +84,10 @@ def near(task) -> np.ndarray:
 @pytest.fixture(scope="module")
 def envelopes() -> dict[str, Envelope]:
     """The reference patient's default envelope, and the same with the table raised to z = 30 mm (so that it binds)."""
-    return {"default": resolve_envelope("default", PLAN, None), "high table": resolve_envelope("default", PLAN, None, table_z=30.0)}
+    return {
+        "default": resolve_envelope("default", PLAN, None),
+        "high table": resolve_envelope("default", PLAN, None, table_z=30.0),
+    }
 
 
 # ----------------------------------------------------------------------------- pieces
@@ -91,11 +100,11 @@ def _segments(rng, n: int) -> tuple[np.ndarray, ...]:
     b = a + rng.uniform(-120, 120, (n, 3))
     k = n // 8
     b[:k] = a[:k]  # points
-    b[k:2 * k, 1:] = a[k:2 * k, 1:]  # along x
-    a[2 * k:3 * k] = c[2 * k:3 * k] + rng.uniform(-0.5, 0.5, (k, 3)) * h[2 * k:3 * k]  # starting inside the box
-    b[3 * k:4 * k] = 2 * c[3 * k:4 * k] - a[3 * k:4 * k]  # through the centre
-    a[4 * k:5 * k, 2] = c[4 * k:5 * k, 2] + h[4 * k:5 * k, 2] + 3.0  # parallel to and over the top face
-    b[4 * k:5 * k, 2] = a[4 * k:5 * k, 2]
+    b[k : 2 * k, 1:] = a[k : 2 * k, 1:]  # along x
+    a[2 * k : 3 * k] = c[2 * k : 3 * k] + rng.uniform(-0.5, 0.5, (k, 3)) * h[2 * k : 3 * k]  # starting inside the box
+    b[3 * k : 4 * k] = 2 * c[3 * k : 4 * k] - a[3 * k : 4 * k]  # through the centre
+    a[4 * k : 5 * k, 2] = c[4 * k : 5 * k, 2] + h[4 * k : 5 * k, 2] + 3.0  # parallel to and over the top face
+    b[4 * k : 5 * k, 2] = a[4 * k : 5 * k, 2]
     return a, b, c, h
 
 
@@ -127,8 +136,14 @@ def _arc_parts(rng, n: int) -> BodyParts:
     theta = rng.uniform(0.0, np.pi, (n, N_ARCS, 1))
     theta[:, 0] = 0.0  # a zero arc
     b = a * np.cos(theta) + w * np.sin(theta)
-    return BodyParts(np.zeros((n, N_SEGMENTS, 2, 3)), np.zeros((n, 5, 3)), rng.uniform(-50, 50, (n, 3)), rng.uniform(50, 80, n),
-                     np.stack([a, b], axis=-2), np.ones(27))  # fmt: skip
+    return BodyParts(
+        np.zeros((n, N_SEGMENTS, 2, 3)),
+        np.zeros((n, 5, 3)),
+        rng.uniform(-50, 50, (n, 3)),
+        rng.uniform(50, 80, n),
+        np.stack([a, b], axis=-2),
+        np.ones(27),
+    )
 
 
 def test_arcs_lowest_point_and_chords() -> None:
@@ -153,9 +168,13 @@ def test_arcs_lowest_point_and_chords() -> None:
             # chord vertices on the arc, ends exact; every arc point within the sag of the polyline
             V = chords[i, j]
             np.testing.assert_allclose(np.linalg.norm(V - parts.arc_centre[i], axis=-1), r, rtol=1e-12)
-            assert np.array_equal(V[0], parts.arc_centre[i] + r * a[i, j]) and np.array_equal(V[-1], parts.arc_centre[i] + r * b[i, j])
+            assert np.array_equal(V[0], parts.arc_centre[i] + r * a[i, j]) and np.array_equal(
+                V[-1], parts.arc_centre[i] + r * b[i, j]
+            )
             seg = V[1:] - V[:-1]
-            s = np.clip(np.einsum("pkd,kd->pk", pts[::5, None] - V[:-1], seg) / np.maximum(np.sum(seg * seg, -1), 1e-300), 0, 1)
+            s = np.clip(
+                np.einsum("pkd,kd->pk", pts[::5, None] - V[:-1], seg) / np.maximum(np.sum(seg * seg, -1), 1e-300), 0, 1
+            )
             gap = np.min(np.linalg.norm(pts[::5, None] - (V[:-1] + s[..., None] * seg), axis=-1), axis=-1)
             assert gap.max() <= arc_sag_bound(r, theta[i, j]) + 1e-9
     # the stated bound: 0.043 mm for r <= 80 mm and theta <= 90 deg; 0.5 mm up to r = 233 mm at 180 deg
@@ -194,7 +213,9 @@ def test_clearance_equals_brute_force_over_the_body(task, near, envelopes) -> No
     k = np.arange(0, len(task), 10)  # 4 points per design
     mp = mechanism_points(X[:, None], task.E[k], task.e[k], MODE, motor_length=120.0)
     parts = body_parts(mp, BodyRadii())
-    flat = BodyParts(*(np.reshape(f, (-1,) + np.shape(f)[2:]) if np.ndim(f) > 1 and f is not parts.radius else f for f in parts))
+    flat = BodyParts(
+        *(np.reshape(f, (-1,) + np.shape(f)[2:]) if np.ndim(f) > 1 and f is not parts.radius else f for f in parts)
+    )
     ok = np.all(np.isfinite(flat.segments), axis=(-1, -2, -3))
     flat = BodyParts(*(f[ok] if f is not flat.radius else f for f in flat))
     for name, env in envelopes.items():
@@ -209,7 +230,9 @@ def test_clearance_equals_brute_force_over_the_body(task, near, envelopes) -> No
         for p in range(27):
             per_part[:, PRIMITIVE_PART[p]] = np.minimum(per_part[:, PRIMITIVE_PART[p]], brute[:, p].min(axis=-1))
         at = np.arange(len(brute))
-        assert np.all(per_part[at, got.part] <= best + tol) and np.all(brute.min(axis=1)[at, got.region] <= best + tol), name
+        assert np.all(per_part[at, got.part] <= best + tol) and np.all(
+            brute.min(axis=1)[at, got.region] <= best + tol
+        ), name
         alone = np.sort(per_part, axis=-1)[:, 1] > best + 2 * tol  # one part clearly closest: it is the one named
         assert alone.mean() > 0.2
         np.testing.assert_array_equal(got.part[alone], np.argmin(per_part, axis=-1)[alone])
@@ -219,8 +242,14 @@ def test_clearance_equals_brute_force_over_the_body(task, near, envelopes) -> No
 def test_kernel_equals_reference_field_by_field(task, near, envelopes) -> None:
     modes = ALL_MODES[np.random.default_rng(6).integers(0, 16, len(near))]
     seen_regions, seen_parts = set(), set()
-    variants = (Options(envelope_clearance_mm=10.0), Options(outputs=Outputs(envelope_clearance=True)), Options(clearances=True),
-                GUARDED_OPTIONS.replace(guards=GUARDED_OPTIONS.guards.replace(envelope_clearance_mm=20.0, self_clearance_mm=2.0)))
+    variants = (
+        Options(envelope_clearance_mm=10.0),
+        Options(outputs=Outputs(envelope_clearance=True)),
+        Options(clearances=True),
+        GUARDED_OPTIONS.replace(
+            guards=GUARDED_OPTIONS.guards.replace(envelope_clearance_mm=20.0, self_clearance_mm=2.0)
+        ),
+    )
     for env, option_set in ((envelopes["default"], variants[:1]), (envelopes["high table"], variants)):
         for options in option_set:
             ref = evaluate_task(near, task.E, task.e, modes, options, envelope=env)
@@ -234,9 +263,18 @@ def test_kernel_equals_reference_field_by_field(task, near, envelopes) -> None:
                 assert np.any(ref.points.failure == CODE["collision/envelope"]) and np.any(ref.w_G)
     assert seen_regions >= {0, 1, 2, 3} and len(seen_parts) >= 5
     # one design, the point-chunk path, and the exact path
-    ref = evaluate_task(near[3], task.E, task.e, modes[3], Options(envelope_clearance_mm=10.0), envelope=envelopes["default"])
-    got = kernel.evaluate_task_numba(near[3], task.E, task.e, modes[3], Options(envelope_clearance_mm=10.0), exact=True,
-                                     envelope=envelopes["default"])  # fmt: skip
+    ref = evaluate_task(
+        near[3], task.E, task.e, modes[3], Options(envelope_clearance_mm=10.0), envelope=envelopes["default"]
+    )
+    got = kernel.evaluate_task_numba(
+        near[3],
+        task.E,
+        task.e,
+        modes[3],
+        Options(envelope_clearance_mm=10.0),
+        exact=True,
+        envelope=envelopes["default"],
+    )
     assert_matches(got, ref, _point_rtol(near[3], task.E, task.e, modes[3], ref))
 
 
@@ -246,14 +284,28 @@ def test_the_kernels_carried_bounds_along_dense_paths(task, near, envelopes) -> 
     reference at every point."""
     rng = np.random.default_rng(8)
     t = np.linspace(0.0, 1.0, 150)[:, None]
-    E = np.concatenate([task.E[0] + t * (80.0 * task.e[0] + (0.0, -60.0, 0.0)), task.E[20] + t * (0.0, 90.0, 40.0),
-                        task.E[rng.integers(0, len(task), 30)]])  # fmt: skip
-    e = np.concatenate([np.repeat(task.e[[0]], 150, axis=0), np.repeat(task.e[[20]], 150, axis=0), task.e[rng.integers(0, len(task), 30)]])
+    E = np.concatenate(
+        [
+            task.E[0] + t * (80.0 * task.e[0] + (0.0, -60.0, 0.0)),
+            task.E[20] + t * (0.0, 90.0, 40.0),
+            task.E[rng.integers(0, len(task), 30)],
+        ]
+    )
+    e = np.concatenate(
+        [
+            np.repeat(task.e[[0]], 150, axis=0),
+            np.repeat(task.e[[20]], 150, axis=0),
+            task.e[rng.integers(0, len(task), 30)],
+        ]
+    )
     X, env = near[:8], envelopes["high table"]
     ref = evaluate_task(X, E, e, MODE, Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
     got = kernel.evaluate_task_numba(X, E, e, MODE, Options(outputs=Outputs(envelope_clearance=True)), envelope=env)
     assert_matches(got, ref, _point_rtol(X, E, e, MODE, ref))
-    assert np.sum(np.isfinite(ref.points.envelope_clearance_mm)) > 1000 and len(set(ref.points.envelope_region.ravel().tolist())) >= 3
+    assert (
+        np.sum(np.isfinite(ref.points.envelope_clearance_mm)) > 1000
+        and len(set(ref.points.envelope_region.ravel().tolist())) >= 3
+    )
 
 
 def test_a_skin_mesh_envelope_in_both_engines(task, near) -> None:
@@ -308,7 +360,9 @@ def test_a_frame_beside_and_under_the_spine_fails_and_one_above_passes(task) -> 
     above = _designs(task, 400, 11, spread=(0.0, 0.0, 0.0))
     without = kernel.evaluate_task_numba(above, task.E, task.e, MODE, Options())
     got = kernel.evaluate_task_numba(above, task.E, task.e, MODE, options, envelope=env)
-    assert got.w_G.sum() >= 5 and np.all(without.w_G[got.w_G]) and np.sum(without.w_G) > np.sum(got.w_G)  # the guard removed some
+    assert (
+        got.w_G.sum() >= 5 and np.all(without.w_G[got.w_G]) and np.sum(without.w_G) > np.sum(got.w_G)
+    )  # the guard removed some
     pick = np.concatenate([np.flatnonzero(got.w_G)[:5], np.flatnonzero(without.w_G & ~got.w_G)[:5]])
     ref = evaluate_task(above[pick], task.E, task.e, MODE, options, envelope=env)
     np.testing.assert_array_equal(ref.w_G, got.w_G[pick])
@@ -326,7 +380,10 @@ def _lowest_clearance(X: np.ndarray, task, table_z: float) -> np.ndarray:
     z = [parts.segments[..., s, :, 2].min(axis=-1) - radii.link for s in range(N_SEGMENTS - 1)]
     z.append(parts.segments[..., N_SEGMENTS - 1, :, 2].min(axis=-1) - radii.motor)
     z += [parts.spheres[..., s, 2] - radii.actuator for s in range(5)]
-    z += [arc[..., 2].min(axis=-1) - radii.link for arc in (*np.moveaxis(mp.arc_alpha, -3, 0), *np.moveaxis(mp.arc_beta, -3, 0))]
+    z += [
+        arc[..., 2].min(axis=-1) - radii.link
+        for arc in (*np.moveaxis(mp.arc_alpha, -3, 0), *np.moveaxis(mp.arc_beta, -3, 0))
+    ]
     return np.min(z, axis=0) - table_z
 
 
@@ -347,7 +404,9 @@ def test_grading_follows_model_16(task) -> None:
         for run in (evaluate_task, kernel.evaluate_task_numba):
             res = run(X, task.E, task.e, MODE, Options(envelope_clearance_mm=limit), envelope=env)
             np.testing.assert_allclose(res.points.envelope_clearance_mm, c, atol=1e-6)
-            assert res.guard_grade == pytest.approx(G * n, abs=1e-6) and res.violation == pytest.approx(V, rel=1e-6, abs=1e-15)
+            assert res.guard_grade == pytest.approx(G * n, abs=1e-6) and res.violation == pytest.approx(
+                V, rel=1e-6, abs=1e-15
+            )
             assert np.array_equal(res.points.failure == CODE["collision/envelope"], c < limit)
             assert (res.violation == 0.0) == bool(np.all(c >= limit)) == bool(res.w_G) and res.violation < 1 / (2 * n)
         if limit == c.max() + 15.0:
@@ -363,7 +422,12 @@ def test_failure_order_and_both_terms(task, near, envelopes) -> None:
         solved = (r.points.failure == 0) | (r.points.failure > IK_FAILURES)
         assert solved.any() and np.all(r.points.failure[solved] == CODE["collision/self"])
         np.testing.assert_array_equal(r.points.guard_grade[solved], 2.0)
-    assert FAILURES.index("collision/patient") < FAILURES.index("collision/self") < FAILURES.index("collision/envelope") == len(FAILURES) - 1
+    assert (
+        FAILURES.index("collision/patient")
+        < FAILURES.index("collision/self")
+        < FAILURES.index("collision/envelope")
+        == len(FAILURES) - 1
+    )
 
 
 def test_without_an_envelope_every_result_is_unchanged(task, near, envelopes) -> None:
@@ -374,10 +438,25 @@ def test_without_an_envelope_every_result_is_unchanged(task, near, envelopes) ->
             base = run(near, task.E, task.e, MODE, options)
             cases = [
                 run(near, task.E, task.e, MODE, options, envelope=env),  # an envelope nothing asks for
-                run(near, task.E, task.e, MODE, options.replace(guards=options.guards.replace(envelope_clearance_mm=10.0))),  # a guard, no envelope
+                run(
+                    near,
+                    task.E,
+                    task.e,
+                    MODE,
+                    options.replace(guards=options.guards.replace(envelope_clearance_mm=10.0)),
+                ),  # a guard, no envelope
             ]
             if not options.outputs.clearances:  # computed, not guarded: every other field as before
-                cases.append(run(near, task.E, task.e, MODE, options.replace(outputs=options.outputs.replace(envelope_clearance=True)), envelope=env))
+                cases.append(
+                    run(
+                        near,
+                        task.E,
+                        task.e,
+                        MODE,
+                        options.replace(outputs=options.outputs.replace(envelope_clearance=True)),
+                        envelope=env,
+                    )
+                )
             for k, other in enumerate(cases):
                 for field in base._fields[1:]:
                     if field == "envelope_clearance_min" and k == 2:
@@ -386,7 +465,9 @@ def test_without_an_envelope_every_result_is_unchanged(task, near, envelopes) ->
                 for field in base.points._fields:
                     if field.startswith("envelope") and (k == 2 or options.outputs.clearances and k == 0):
                         continue
-                    np.testing.assert_array_equal(getattr(other.points, field), getattr(base.points, field), err_msg=field)
+                    np.testing.assert_array_equal(
+                        getattr(other.points, field), getattr(base.points, field), err_msg=field
+                    )
             assert np.all(np.isnan(base.points.envelope_clearance_mm)) and np.all(base.points.envelope_part == -1)
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from arcube.errors import InputError
 from arcube.evaluation import reference as ev
 from arcube.evaluation.reference import GUARDED_OPTIONS, Options, evaluate_points, evaluate_task, failure_name
 from arcube.model.mechanism import inverse_kinematics
@@ -260,7 +261,7 @@ def test_exact_singularity_is_unreachable_with_reason():
 
 def test_violation_is_zero_iff_w_G(designs, pose_bank, rng):
     D = np.stack(designs)
-    for x, mode, E, e in pose_bank[::9]:
+    for _, mode, E, e in pose_bank[::9]:
         for options in (Options(), GUARDED_OPTIONS, Options(z_dyad=True, c_z=300.0)):
             res = evaluate_task(D, E, e, mode, options)
             assert np.all((res.violation == 0) == res.w_G)
@@ -370,11 +371,18 @@ def test_guard_z_dyad(designs, rng, c_z):
 
 def test_z_dyad_off_by_default_and_guards_off_by_default():
     o = Options()
-    assert (o.guards.z_dyad, o.guards.c_z, o.guards.rho_max_deg, o.guards.min_transmission_deg, o.guards.kappa_max, o.guards.single_assembly_mode) == (False, None, None, None, None, False)
+    assert (
+        o.guards.z_dyad,
+        o.guards.c_z,
+        o.guards.rho_max_deg,
+        o.guards.min_transmission_deg,
+        o.guards.kappa_max,
+        o.guards.single_assembly_mode,
+    ) == (False, None, None, None, None, False)
     g = GUARDED_OPTIONS.guards
     assert g.z_dyad is False and g.single_assembly_mode is True
     assert (g.rho_max_deg, g.min_transmission_deg, g.kappa_max) == (75.0, 20.0, 100.0)
-    with pytest.raises(Exception):
+    with pytest.raises(InputError, match="unknown_guard"):
         Options(unknown_guard=True)
 
 
@@ -415,9 +423,13 @@ def test_build_task_layout_and_sampling():
         Et = task.E[task.trajectory == t]
         np.testing.assert_array_equal(Et[0], entry[t])
         np.testing.assert_allclose(Et[-1], target[t], atol=1e-12)
-        np.testing.assert_allclose(np.diff(Et, axis=0), np.broadcast_to((target[t] - entry[t]) / 29, (29, 3)), atol=1e-12)
+        np.testing.assert_allclose(
+            np.diff(Et, axis=0), np.broadcast_to((target[t] - entry[t]) / 29, (29, 3)), atol=1e-12
+        )
         d = entry[t] - target[t]
-        np.testing.assert_allclose(task.e[task.trajectory == t], np.broadcast_to(d / np.linalg.norm(d), (30, 3)), atol=1e-15)
+        np.testing.assert_allclose(
+            task.e[task.trajectory == t], np.broadcast_to(d / np.linalg.norm(d), (30, 3)), atol=1e-15
+        )
     # hand values: trajectory 1 moves 1 mm per step along -z, trajectory 2 along -y
     np.testing.assert_allclose(task.E[5], [0.0, 0.0, 5.0], atol=1e-12)
     np.testing.assert_allclose(task.E[30 + 7], [5.0, -2.0, 5.0], atol=1e-12)

@@ -41,14 +41,37 @@ from harness import CHROMIUM_SKIP, start_chromium
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
 """A design that reaches the reference plan's right side."""
 MODE = parse_mode("+,+,+,+")
-MET = Design.from_dict({
-    "m_x": -62.3522883422, "m_y": 114.453308012, "m_z": 211.9754504257, "f_x": 134.253587532, "f_y": 49.4301614058,
-    "f_z": 49.6246211776, "p_x": 165.7942798692, "p_y": 151.3099765944, "p_z": 165.134599821, "d_x": 191.2899676262,
-    "d_y": 199.0406508837, "d_z": 125.9578360967, "c_x": 198.439480699, "c_y": 196.8632545324, "t_x": 83.5136844743,
-    "t_y": 69.370076023, "r": 65.8888681066, "o_x": -68.7621331425, "o_y": 232.240559254, "alpha_x": 51.2190132144,
-    "alpha_y": 86.2260992833, "beta_x": 68.535132238, "beta_y": 89.9929823099, "mount_rx": 113.4409115977,
-    "mount_ry": -119.7571950646, "mount_rz": -77.2913353813, "L": 199.7207967951,
-})  # fmt: skip
+MET = Design.from_dict(
+    {
+        "m_x": -62.3522883422,
+        "m_y": 114.453308012,
+        "m_z": 211.9754504257,
+        "f_x": 134.253587532,
+        "f_y": 49.4301614058,
+        "f_z": 49.6246211776,
+        "p_x": 165.7942798692,
+        "p_y": 151.3099765944,
+        "p_z": 165.134599821,
+        "d_x": 191.2899676262,
+        "d_y": 199.0406508837,
+        "d_z": 125.9578360967,
+        "c_x": 198.439480699,
+        "c_y": 196.8632545324,
+        "t_x": 83.5136844743,
+        "t_y": 69.370076023,
+        "r": 65.8888681066,
+        "o_x": -68.7621331425,
+        "o_y": 232.240559254,
+        "alpha_x": 51.2190132144,
+        "alpha_y": 86.2260992833,
+        "beta_x": 68.535132238,
+        "beta_y": 89.9929823099,
+        "mount_rx": 113.4409115977,
+        "mount_ry": -119.7571950646,
+        "mount_rz": -77.2913353813,
+        "L": 199.7207967951,
+    }
+)
 """The right-side design ``arcube design`` chose in the README (seed 3), in working mode +,+,+,-: it meets every
 requirement, so the live rows are compared as numbers, not as NaN = NaN."""
 
@@ -104,7 +127,9 @@ def test_solids_are_the_model_bodys_parts(pose):
         np.testing.assert_allclose([alpha[0, 0], alpha[-1, 1]], [mp.Q[u], mp.B[u]], atol=1e-9)  # Q_u -> B_u
         np.testing.assert_allclose([beta[0, 0], beta[-1, 1]], [mp.B[u], mp.H], atol=1e-9)  # B_u -> H
         np.testing.assert_allclose(alpha[1:, 0], alpha[:-1, 1], atol=1e-12)  # chords join up
-        np.testing.assert_allclose(np.linalg.norm(alpha.reshape(-1, 3) - mp.C, axis=1), mp.r, rtol=1e-12)  # on the sphere
+        np.testing.assert_allclose(
+            np.linalg.norm(alpha.reshape(-1, 3) - mp.C, axis=1), mp.r, rtol=1e-12
+        )  # on the sphere
     np.testing.assert_allclose(ends["drill_motor"][0], [mp.H, mp.drill_end], atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(mp.drill_end - mp.H), 120.0)
     # actuators: spheres at P_u (3) and D_x, D_y with the actuator radius
@@ -121,8 +146,15 @@ def test_solids_are_the_model_bodys_parts(pose):
 
 
 def test_cylinder_frames_place_a_unit_cylinder_on_each_axis():
-    ends = np.array([[[0, 0, 0], [0, 0, 5.0]], [[1, 2, 3], [4, -2, 7.0]], [[0, 0, 0], [0, 0, -2.0]], [[1, 1, 1], [1, 1, 1.0]],
-                     [[np.nan] * 3, [0, 0, 1.0]]])  # fmt: skip
+    ends = np.array(
+        [
+            [[0, 0, 0], [0, 0, 5.0]],
+            [[1, 2, 3], [4, -2, 7.0]],
+            [[0, 0, 0], [0, 0, -2.0]],
+            [[1, 1, 1], [1, 1, 1.0]],
+            [[np.nan] * 3, [0, 0, 1.0]],
+        ]
+    )
     pos, q, length = scene.cylinder_frames(ends)
     w, x, y, z = q.T
     axis = np.stack([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)], axis=1)  # R @ z
@@ -136,7 +168,16 @@ def test_cylinder_frames_place_a_unit_cylinder_on_each_axis():
 def test_colours_follow_the_clearance_thresholds():
     values = [np.nan, -0.1, 0.0, 4.99, 5.0, 14.99, 15.0, 80.0]
     cls = scene.clearance_classes(values, 5.0)
-    assert [scene.CLASSES[c] for c in cls] == ["unknown", "collision", "below", "below", "close", "close", "clear", "clear"]
+    assert [scene.CLASSES[c] for c in cls] == [
+        "unknown",
+        "collision",
+        "below",
+        "below",
+        "close",
+        "close",
+        "clear",
+        "clear",
+    ]
     assert scene.CLOSE_MM == 10.0
     # a part takes the worse of its clearance to the anatomy and its self clearance, each against its own limit
     cls, rgb = scene.part_colours([20.0, 20.0, np.nan, 3.0], [1.0, 50.0, 50.0, np.nan], 5.0, 2.0)
@@ -169,15 +210,38 @@ def test_live_requirements_are_those_of_arcube_design(plan, anatomy, envelope, d
     reqs = requirements_from()
     model = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs, envelope=envelope)
     fig = model.evaluate()
-    rows = {r["requirement"]: r for r in assess([design.to_vector()], mode, [plan], [anatomy], reqs, options=design_options(reqs),
-                                                points=6, standoff_mm=20.0, envelopes=[envelope])}  # fmt: skip
+    rows = {
+        r["requirement"]: r
+        for r in assess(
+            [design.to_vector()],
+            mode,
+            [plan],
+            [anatomy],
+            reqs,
+            options=design_options(reqs),
+            points=6,
+            standoff_mm=20.0,
+            envelopes=[envelope],
+        )
+    }
     assert "envelope_clearance" in {r["requirement"] for r in fig.requirements}
-    if design is MET:  # met every requirement before the envelope existed (MODEL.md 19.5): the envelope is judged, not assumed
+    if (
+        design is MET
+    ):  # met every requirement before the envelope existed (MODEL.md 19.5): the envelope is judged, not assumed
         bare = LiveModel(design, plan, anatomy, mode=mode, points=6, requirements=reqs).evaluate()
-        assert all(np.isfinite(r["value"]) and r["passed"] for r in bare.requirements if r["requirement"] != "envelope_clearance")
+        assert all(
+            np.isfinite(r["value"]) and r["passed"]
+            for r in bare.requirements
+            if r["requirement"] != "envelope_clearance"
+        )
         judged = {r["requirement"]: r for r in fig.requirements}
         assert not judged["envelope_clearance"]["passed"] and 0.0 < judged["envelope_clearance"]["value"] < 10.0
-        assert {r["requirement"] for r in fig.requirements} >= set(rows) - {"rho_max", "transmission", "kappa_max", "single_assembly_mode"}
+        assert {r["requirement"] for r in fig.requirements} >= set(rows) - {
+            "rho_max",
+            "transmission",
+            "kappa_max",
+            "single_assembly_mode",
+        }
     for r in fig.requirements:
         ref = rows[r["requirement"]]
         want = 100.0 * ref["value"] if r["requirement"] == "reach" else ref["value"]
@@ -205,13 +269,23 @@ def test_the_z_dyad_row_counts_the_points_where_the_z_leg_cannot_close(plan, ana
     task = build_task(plan.entry, plan.target, 6)
     lines = [(task.E, task.e), approach_lines(plan.entry, plan.target, anatomy, 6, 20.0)]
     code = FAILURES.index("guard/z_dyad") + 1
-    bad = sum(int(np.sum(evaluate_task(design.to_vector(), E, e, mode, only, engine="numpy", want_points=True).points.failure == code)) for E, e in lines)
+    bad = sum(
+        int(
+            np.sum(
+                evaluate_task(design.to_vector(), E, e, mode, only, engine="numpy", want_points=True).points.failure
+                == code
+            )
+        )
+        for E, e in lines
+    )
     assert row["value"] == bad and row["passed"] == (bad == 0) and row["limit"] == 0.0
     if c_z in (1.0, 1000.0):
         assert bad == 2 * 5 * 6
     saved = model.current_design()
     assert saved.c_z == c_z and saved.mode == "+,+,+,-" and saved.to_dict() == design.to_dict()
-    assert "z_dyad" not in {r["requirement"] for r in LiveModel(MET, plan, anatomy, mode=mode, points=6).evaluate().requirements}
+    assert "z_dyad" not in {
+        r["requirement"] for r in LiveModel(MET, plan, anatomy, mode=mode, points=6).evaluate().requirements
+    }
 
 
 # ----------------------------------------------------------------------------- the app
@@ -220,8 +294,17 @@ def test_the_z_dyad_row_counts_the_points_where_the_z_leg_cannot_close(plan, ana
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     """The explorer on the reference plan's right side with its anatomy, guards off (the paper's model)."""
-    a = explore(PLACED, "reference", side="R", anatomy="default", points=10, guards=False, port=free_port(), block=False,
-                save_path=tmp_path_factory.mktemp("save") / "saved.json")  # fmt: skip
+    a = explore(
+        PLACED,
+        "reference",
+        side="R",
+        anatomy="default",
+        points=10,
+        guards=False,
+        port=free_port(),
+        block=False,
+        save_path=tmp_path_factory.mktemp("save") / "saved.json",
+    )
     assert a.wait_idle(300)
     yield a
     a.stop()
@@ -254,7 +337,11 @@ def test_a_port_scanner_leaves_no_traceback_on_stderr(app, caplog):
             except OSError:
                 pass
     time.sleep(1.0)
-    noise = [f"{r.name}: {r.getMessage()}" for r in caplog.records if r.name.startswith("websockets") and r.levelno >= logging.WARNING]
+    noise = [
+        f"{r.name}: {r.getMessage()}"
+        for r in caplog.records
+        if r.name.startswith("websockets") and r.levelno >= logging.WARNING
+    ]
     assert not noise, noise
 
 
@@ -265,8 +352,13 @@ def test_save_and_polish(app):
     rows = []
     from arcube.explorer.polish import polish
 
-    best, summary = polish(live_model(PLACED, "reference", side="R", points=4, guards=False), population=4, generations=2,
-                           free="m_x,m_y,m_z", progress=rows.append)  # fmt: skip
+    best, summary = polish(
+        live_model(PLACED, "reference", side="R", points=4, guards=False),
+        population=4,
+        generations=2,
+        free="m_x,m_y,m_z",
+        progress=rows.append,
+    )
     assert [r["generation"] for r in rows] == [1, 2] and summary["generations"] == 2
     free = np.abs(best.to_vector() - PLACED.to_vector()) > 0
     assert not free[3:].any()  # only the free parameters moved
@@ -286,8 +378,12 @@ needs_chromium = CHROMIUM_SKIP
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
     # WebGL in software; only 127.0.0.1 resolves, so the page cannot load anything from elsewhere
-    drv = start_chromium(tmp_path_factory.mktemp("chromium-profile"), "--window-size=1000,720", "--enable-unsafe-swiftshader",
-                         "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1")  # fmt: skip
+    drv = start_chromium(
+        tmp_path_factory.mktemp("chromium-profile"),
+        "--window-size=1000,720",
+        "--enable-unsafe-swiftshader",
+        "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1",
+    )
     drv.set_script_timeout(60)
     yield drv
     drv.quit()
@@ -367,7 +463,10 @@ def test_static_export_opens_offline(driver, tmp_path):
     driver.get(out.resolve().as_uri())
     _wait_text(driver, "reach, drill points")
     end = time.monotonic() + 30
-    while time.monotonic() < end and driver.execute_script("return document.querySelectorAll('.js-plotly-plot').length") < 2:
+    while (
+        time.monotonic() < end
+        and driver.execute_script("return document.querySelectorAll('.js-plotly-plot').length") < 2
+    ):
         time.sleep(0.1)
     names = driver.execute_script("return document.getElementById('explore-scene').data.map(t => t.name)")
     assert "anatomy" in names and "robot (colour: clearance)" in names and "drill lines" in names
@@ -400,7 +499,14 @@ def test_port_in_use_is_one_line_and_exit_2():
         s.bind(("127.0.0.1", 0))
         s.listen(1)
         port = s.getsockname()[1]
-        r = subprocess.run([sys.executable, "-m", "arcube", "explore", "--port", str(port)], capture_output=True, text=True, timeout=120)
+        r = subprocess.run(
+            [sys.executable, "-m", "arcube", "explore", "--port", str(port)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     assert r.returncode == 2, r.stderr
-    assert r.stderr.count("\n") == 1 and r.stderr.startswith("error:") and str(port) in r.stderr and "in use" in r.stderr
+    assert (
+        r.stderr.count("\n") == 1 and r.stderr.startswith("error:") and str(port) in r.stderr and "in use" in r.stderr
+    )
     assert r.stdout == ""

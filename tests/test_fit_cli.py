@@ -36,8 +36,22 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def test_json_contract_with_a_mesh_in_the_patient_frame(files) -> None:
-    out = arcube("evaluate", "--design", str(files["design"]), "--trajectories", str(REFERENCE_CSV), "--side", "R", "--points", "4",
-                 "--anatomy", str(files["mesh"]), "--anatomy-frame", "patient", "--json")  # fmt: skip
+    out = arcube(
+        "evaluate",
+        "--design",
+        str(files["design"]),
+        "--trajectories",
+        str(REFERENCE_CSV),
+        "--side",
+        "R",
+        "--points",
+        "4",
+        "--anatomy",
+        str(files["mesh"]),
+        "--anatomy-frame",
+        "patient",
+        "--json",
+    )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     pts = doc["points"]

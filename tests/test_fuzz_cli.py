@@ -26,12 +26,19 @@ numbers = st.one_of(
 )
 texts = st.one_of(numbers, st.text(max_size=12))
 FLAGS = {
-    "--points": numbers, "--mode": st.one_of(st.sampled_from(["+,+,-,+", "free", "+,+", "1,1,1,1"]), texts),
-    "--thrust": numbers, "--lateral-force": numbers, "--encoder-deg": st.one_of(numbers, st.lists(numbers, max_size=6).map(",".join)),
-    "--actuator-stiffness": numbers, "--link-radius": numbers, "--motor-length": numbers,
-    "--side": st.one_of(st.sampled_from(["R", "L", "r", "X"]), texts), "--levels": st.one_of(st.sampled_from(["C3-C5", "C5-C3", "C9"]), texts),
-    "--ids": st.one_of(st.sampled_from(["1,3", "99", "1,1"]), texts), "--engine": st.one_of(st.sampled_from(["numba", "numpy", "gpu"]), texts),
-}  # fmt: skip
+    "--points": numbers,
+    "--mode": st.one_of(st.sampled_from(["+,+,-,+", "free", "+,+", "1,1,1,1"]), texts),
+    "--thrust": numbers,
+    "--lateral-force": numbers,
+    "--encoder-deg": st.one_of(numbers, st.lists(numbers, max_size=6).map(",".join)),
+    "--actuator-stiffness": numbers,
+    "--link-radius": numbers,
+    "--motor-length": numbers,
+    "--side": st.one_of(st.sampled_from(["R", "L", "r", "X"]), texts),
+    "--levels": st.one_of(st.sampled_from(["C3-C5", "C5-C3", "C9"]), texts),
+    "--ids": st.one_of(st.sampled_from(["1,3", "99", "1,1"]), texts),
+    "--engine": st.one_of(st.sampled_from(["numba", "numpy", "gpu"]), texts),
+}
 
 
 def _check(code: int, err: str) -> None:
@@ -41,10 +48,17 @@ def _check(code: int, err: str) -> None:
         assert err.startswith("error: ") and err.count("\n") == 1, err
 
 
-@settings(max_examples=EXAMPLES, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(chosen=st.dictionaries(st.sampled_from(sorted(FLAGS)), st.just(None), min_size=1, max_size=4).flatmap(
-    lambda d: st.fixed_dictionaries({k: FLAGS[k] for k in d})))  # fmt: skip
-def test_evaluate_flag_values(chosen: dict[str, str], capsys: pytest.CaptureFixture[str], tmp_path_factory: pytest.TempPathFactory) -> None:
+@settings(
+    max_examples=EXAMPLES, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    chosen=st.dictionaries(st.sampled_from(sorted(FLAGS)), st.just(None), min_size=1, max_size=4).flatmap(
+        lambda d: st.fixed_dictionaries({k: FLAGS[k] for k in d})
+    )
+)
+def test_evaluate_flag_values(
+    chosen: dict[str, str], capsys: pytest.CaptureFixture[str], tmp_path_factory: pytest.TempPathFactory
+) -> None:
     _tried["evaluate"] += 1
     argv = ["evaluate", "--points", "3", "--ids", "1,2"]
     for flag, value in chosen.items():
@@ -53,14 +67,23 @@ def test_evaluate_flag_values(chosen: dict[str, str], capsys: pytest.CaptureFixt
     _check(code, err)
 
 
-@settings(max_examples=EXAMPLES // 3, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=EXAMPLES // 3,
+    derandomize=True,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 @given(points=numbers, speed=numbers, mode=FLAGS["--mode"])
-def test_joints_flag_values_leave_no_file_on_error(points: str, speed: str, mode: str, capsys: pytest.CaptureFixture[str],
-                                                   tmp_path_factory: pytest.TempPathFactory) -> None:  # fmt: skip
+def test_joints_flag_values_leave_no_file_on_error(
+    points: str, speed: str, mode: str, capsys: pytest.CaptureFixture[str], tmp_path_factory: pytest.TempPathFactory
+) -> None:
     _tried["joints"] += 1
     folder = tmp_path_factory.mktemp("joints")
     out = folder / "j.csv"
-    code, err = _run(["joints", f"--points={points}", f"--speed={speed}", f"--mode={mode}", "--ids", "1,2", "--out", str(out)], capsys)
+    code, err = _run(
+        ["joints", f"--points={points}", f"--speed={speed}", f"--mode={mode}", "--ids", "1,2", "--out", str(out)],
+        capsys,
+    )
     _check(code, err)
     if code != 0:
         assert os.listdir(folder) == [], f"left behind: {os.listdir(folder)}"

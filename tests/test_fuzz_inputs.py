@@ -40,8 +40,13 @@ from arcube.model.design import PARAM_NAMES, PAPER_TABLE2, Design
 
 DATA = Path(__file__).parent / "data" / "trajectories"
 HEADER = ",".join(CSV_COLUMNS) + "\n"
-FUZZ = settings(max_examples=150, derandomize=True, deadline=None, database=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])  # fmt: skip
+FUZZ = settings(
+    max_examples=150,
+    derandomize=True,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 BIG = 10**400
 
 
@@ -67,19 +72,26 @@ def loads_or_input_error(read: Callable[[Path], Any], path: Path, name: str | No
 
 ENCODINGS = ("utf-8", "utf-8-sig", "utf-16", "utf-16-le", "utf-32", "latin-1")
 NUMBER = st.one_of(
-    st.floats(), st.integers(), st.integers(min_value=-(10**30), max_value=10**30),
+    st.floats(),
+    st.integers(),
+    st.integers(min_value=-(10**30), max_value=10**30),
     st.sampled_from([BIG, -BIG, 1e300, -1e308, 0, -0.0, 1e-320, 99999.0, 100001]),
 )
 LEAF = st.one_of(st.none(), st.booleans(), NUMBER, st.text(max_size=12))
 JSON_VALUE = st.recursive(
-    LEAF, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4),
+    LEAF,
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4),
     max_leaves=16,
 )
 NUMBER_TEXT = st.one_of(
-    st.floats().map(repr), st.integers().map(str), st.from_regex(r"[+-]?[0-9_]{0,6}\.?[0-9]{0,4}(e[+-]?[0-9]{1,4})?", fullmatch=True),
+    st.floats().map(repr),
+    st.integers().map(str),
+    st.from_regex(r"[+-]?[0-9_]{0,6}\.?[0-9]{0,4}(e[+-]?[0-9]{1,4})?", fullmatch=True),
     st.sampled_from(["nan", "-inf", "Infinity", "1_4.850", "١٢", "0x10", "1e999", "1e300", " 7 ", "", "１"]),
 )
-CELL = st.one_of(NUMBER_TEXT, st.text(max_size=16), st.sampled_from(["R", "L", "r", "X", "C3", '"', '"a,b"', "\x00", "a" * 140_000]))
+CELL = st.one_of(
+    NUMBER_TEXT, st.text(max_size=16), st.sampled_from(["R", "L", "r", "X", "C3", '"', '"a,b"', "\x00", "a" * 140_000])
+)
 
 
 @st.composite
@@ -89,7 +101,12 @@ def csv_texts(draw: st.DrawFn) -> bytes:
     if draw(st.integers(0, 9)) == 0:
         text = draw(st.text(max_size=300))
     else:
-        header = draw(st.one_of(st.just(list(CSV_COLUMNS)), st.lists(st.sampled_from([*CSV_COLUMNS, "note", " Entry_X ", ""]), max_size=12)))
+        header = draw(
+            st.one_of(
+                st.just(list(CSV_COLUMNS)),
+                st.lists(st.sampled_from([*CSV_COLUMNS, "note", " Entry_X ", ""]), max_size=12),
+            )
+        )
         rows = draw(st.lists(st.lists(CELL, min_size=0, max_size=len(header) + 2), max_size=5))
         newline = draw(st.sampled_from(["\n", "\r\n", "\r"]))
         text = newline.join(",".join(r) for r in [header, *rows]) + draw(st.sampled_from(["", newline]))
@@ -101,25 +118,33 @@ POINT = st.fixed_dictionaries(
     optional={"description": st.sampled_from(["level=C3;side=R", "level=C4;side=x", "level=;side="]) | JSON_VALUE},
 )
 MARKUP = st.fixed_dictionaries(
-    {"type": st.just("Line") | JSON_VALUE, "controlPoints": st.lists(POINT, min_size=2, max_size=2) | st.lists(POINT, max_size=3) | JSON_VALUE},
+    {
+        "type": st.just("Line") | JSON_VALUE,
+        "controlPoints": st.lists(POINT, min_size=2, max_size=2) | st.lists(POINT, max_size=3) | JSON_VALUE,
+    },
     optional={
         "name": st.text(max_size=8) | JSON_VALUE,
         "coordinateSystem": st.sampled_from(["RAS", "LPS", "IJK"]) | JSON_VALUE,
         "coordinateUnits": st.sampled_from(["mm", "um", ["mm", "UCUM", "millimeter"], [["mm"]], []]) | JSON_VALUE,
     },
 )
-MARKUPS = st.fixed_dictionaries({"markups": st.lists(MARKUP, max_size=3) | JSON_VALUE},
-                                optional={"@schema": st.just(MARKUPS_SCHEMA) | JSON_VALUE})  # fmt: skip
+MARKUPS = st.fixed_dictionaries(
+    {"markups": st.lists(MARKUP, max_size=3) | JSON_VALUE}, optional={"@schema": st.just(MARKUPS_SCHEMA) | JSON_VALUE}
+)
 DESIGN = st.one_of(
     st.dictionaries(st.sampled_from([*PARAM_NAMES, "placements", "mount_rw"]), NUMBER | JSON_VALUE, max_size=6).map(
-        lambda changes: {**PAPER_TABLE2, **changes}),
+        lambda changes: {**PAPER_TABLE2, **changes}
+    ),
     st.dictionaries(st.sampled_from(PARAM_NAMES), NUMBER, max_size=27),
     JSON_VALUE,
 )
 ROW = st.lists(NUMBER | LEAF, min_size=4, max_size=4) | st.lists(LEAF, max_size=5)
 TRANSFORM = st.one_of(
-    st.lists(NUMBER, min_size=3, max_size=3).map(lambda t: [[1, 0, 0, t[0]], [0, 1, 0, t[1]], [0, 0, 1, t[2]], [0, 0, 0, 1]]),
-    st.lists(ROW, min_size=4, max_size=4), st.lists(ROW, max_size=5),
+    st.lists(NUMBER, min_size=3, max_size=3).map(
+        lambda t: [[1, 0, 0, t[0]], [0, 1, 0, t[1]], [0, 0, 1, t[2]], [0, 0, 0, 1]]
+    ),
+    st.lists(ROW, min_size=4, max_size=4),
+    st.lists(ROW, max_size=5),
     st.builds(lambda m: {"matrix": m}, st.lists(ROW, min_size=4, max_size=4) | JSON_VALUE),
     JSON_VALUE,
 )
@@ -186,6 +211,7 @@ def test_any_transform_file_loads_or_is_one_input_error(folder: Path, data: byte
 
 # ----------------------------------------------------------------------------- regressions
 
+
 def _raises(read: Callable[[], Any], *needles: str) -> str:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -218,12 +244,16 @@ def test_d1_nul_bytes(tmp_path: Path) -> None:
     _raises(lambda: load_trajectories(path), "zeros.csv", "NUL character at offset")
 
 
-@pytest.mark.parametrize("read", [
-    lambda p: load_trajectories(p),
-    lambda p: Design.load(p),
-    lambda p: load_trajectories("reference", transform=p),
-    lambda p: read_markups(p),
-], ids=["trajectories", "design", "transform", "markups"])  # fmt: skip
+@pytest.mark.parametrize(
+    "read",
+    [
+        lambda p: load_trajectories(p),
+        lambda p: Design.load(p),
+        lambda p: load_trajectories("reference", transform=p),
+        lambda p: read_markups(p),
+    ],
+    ids=["trajectories", "design", "transform", "markups"],
+)
 def test_d2_special_files_are_refused_before_reading(tmp_path: Path, read: Callable[[str], Any]) -> None:
     _raises(lambda: read("/dev/zero"), "/dev/zero", "is a character device, not a regular file")
     fifo = tmp_path / "pipe.json"
@@ -232,18 +262,28 @@ def test_d2_special_files_are_refused_before_reading(tmp_path: Path, read: Calla
 
 
 def test_d2_files_over_the_size_limit_are_refused(tmp_path: Path) -> None:
-    for name, read in (("big.csv", read_csv), ("big.json", lambda p: Design.load(str(p))),
-                       ("big.mrk.json", read_markups), ("tf.json", read_transform)):
+    for name, read in (
+        ("big.csv", read_csv),
+        ("big.json", lambda p: Design.load(str(p))),
+        ("big.mrk.json", read_markups),
+        ("tf.json", read_transform),
+    ):
         path = tmp_path / name
         with open(path, "wb") as fh:
             fh.truncate(MAX_TEXT_BYTES + 1)  # sparse: nothing written
         _raises(lambda: read(path), name, "too large", "64 MiB")
 
 
-@pytest.mark.parametrize("key, value", [
-    ("coordinateSystem", ["RAS"]), ("coordinateSystem", {"name": "RAS"}),
-    ("coordinateUnits", [["mm"]]), ("coordinateUnits", {"unit": "mm"}), ("coordinateUnits", 3),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("coordinateSystem", ["RAS"]),
+        ("coordinateSystem", {"name": "RAS"}),
+        ("coordinateUnits", [["mm"]]),
+        ("coordinateUnits", {"unit": "mm"}),
+        ("coordinateUnits", 3),
+    ],
+)
 def test_d3_markups_system_or_units_of_the_wrong_type(tmp_path: Path, key: str, value: Any) -> None:
     path = tmp_path / "odd.mrk.json"
     path.write_text(json.dumps(_markups_doc(**{key: value})), encoding="utf-8")
@@ -254,8 +294,11 @@ def test_d4_integers_beyond_the_float_range(tmp_path: Path) -> None:
     design = tmp_path / "d.json"
     design.write_text(json.dumps({**PAPER_TABLE2, "p_x": BIG}), encoding="utf-8")
     _raises(lambda: Design.load(str(design)), "d.json", "p_x is not finite")
-    _raises(lambda: Design.from_dict({**PAPER_TABLE2, "p_x": BIG}), "design: parameter p_x is out of range",
-            "an integer of 401 digits")
+    _raises(
+        lambda: Design.from_dict({**PAPER_TABLE2, "p_x": BIG}),
+        "design: parameter p_x is out of range",
+        "an integer of 401 digits",
+    )
     _raises(lambda: Design.from_vector([BIG] * 27), "design")
     _raises(lambda: Design(tuple([BIG] * 27)), "design")
     doc = _markups_doc()
@@ -270,9 +313,14 @@ def test_d4_integers_beyond_the_float_range(tmp_path: Path) -> None:
     _raises(lambda: read_transform(tf), "tf.json", "non-finite")  # past Python's int-from-text limit too
 
 
-@pytest.mark.parametrize("name, read", [
-    ("d.json", lambda p: Design.load(str(p))), ("m.mrk.json", read_markups), ("tf.json", read_transform),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "name, read",
+    [
+        ("d.json", lambda p: Design.load(str(p))),
+        ("m.mrk.json", read_markups),
+        ("tf.json", read_transform),
+    ],
+)
 def test_d5_deeply_nested_json(tmp_path: Path, name: str, read: Callable[[Path], Any]) -> None:
     path = tmp_path / name
     for text in ("[" * 100_000, "[" * 100_000 + "]" * 100_000, "[" * 70 + "]" * 70):

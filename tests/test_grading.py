@@ -38,13 +38,25 @@ ENGINES = ("numpy", "numba")
 ONES = np.ones(4)
 THIN = {"link_radius": 3.0, "actuator_radius": 4.0, "motor_radius": 4.0}
 """Thin body parts (mm): the paper-like designs then clear themselves at some points and not at others."""
-HARSH = Options(z_dyad=True, rho_max_deg=5.0, min_transmission_deg=89.0, kappa_max=1.0, single_assembly_mode=True,
-                self_clearance_mm=1000.0)  # fmt: skip
+HARSH = Options(
+    z_dyad=True,
+    rho_max_deg=5.0,
+    min_transmission_deg=89.0,
+    kappa_max=1.0,
+    single_assembly_mode=True,
+    self_clearance_mm=1000.0,
+)
 """Every guard on and failing nearly everywhere, most terms saturated: the largest V_fit there is."""
 LOOSE = Options(rho_max_deg=90.0, min_transmission_deg=1e-6, kappa_max=1e12, single_assembly_mode=True)
 """Guards on that a design solving the IK at a task's points usually passes."""
-OPTIONS = {"none": Options(), "guarded": GUARDED_OPTIONS, "loose": LOOSE, "harsh": HARSH,
-           "self": Options(self_clearance_mm=3.0, **THIN), "z_dyad": Options(z_dyad=True, c_z=150.0)}  # fmt: skip
+OPTIONS = {
+    "none": Options(),
+    "guarded": GUARDED_OPTIONS,
+    "loose": LOOSE,
+    "harsh": HARSH,
+    "self": Options(self_clearance_mm=3.0, **THIN),
+    "z_dyad": Options(z_dyad=True, c_z=150.0),
+}
 
 
 def _ik_failed(failure: np.ndarray) -> np.ndarray:
@@ -126,8 +138,10 @@ def test_fitness_model_combines_the_tasks_by_hand(engine, right) -> None:
     n = len(E)
     every = per_task[0].w_G & per_task[1].w_G
     space = VariableSpace(base=X[0], free=PAPER_NAMES, mode=ONES)
-    for limits, short in (((("links", "max", limit),), np.maximum(links - limit, 0.0) / limit),
-                          ((("eta_G", "max", 2.5),), np.where(every, np.maximum(per_task[0].eta_G - 2.5, 0.0) / 2.5, 0.0))):  # fmt: skip
+    for limits, short in (
+        ((("links", "max", limit),), np.maximum(links - limit, 0.0) / limit),
+        ((("eta_G", "max", 2.5),), np.where(every, np.maximum(per_task[0].eta_G - 2.5, 0.0) / 2.5, 0.0)),
+    ):
         model = FitnessModel(space=space, tasks=tasks, options=options, engine=engine, limits=limits)
         out = model.evaluate(X[:, :23])
         G = sum(r.guard_grade for r in per_task) / n + short
@@ -188,10 +202,18 @@ def test_fitness_model_ranks_an_ik_failure_in_any_task_below(engine, right) -> N
     E, e = right
     X = _paper_like(60, 7)
     tasks = (TaskData(0, 0, "R", E[:24], e[:24]), TaskData(0, 0, "R approach", E[24:], e[24:], role="approach"))
-    model = FitnessModel(space=VariableSpace(base=X[0], free=PAPER_NAMES, mode=ONES), tasks=tasks, options=HARSH, engine=engine,
-                         limits=(("links", "max", 100.0),))  # fmt: skip
+    model = FitnessModel(
+        space=VariableSpace(base=X[0], free=PAPER_NAMES, mode=ONES),
+        tasks=tasks,
+        options=HARSH,
+        engine=engine,
+        limits=(("links", "max", 100.0),),
+    )
     V = model.evaluate(X[:, :23])["VIOL"]
-    ik = np.any([_ik_failed(evaluate_task(X, t.E, t.e, ONES, HARSH, engine=engine).points.failure).any(axis=-1) for t in tasks], axis=0)
+    ik = np.any(
+        [_ik_failed(evaluate_task(X, t.E, t.e, ONES, HARSH, engine=engine).points.failure).any(axis=-1) for t in tasks],
+        axis=0,
+    )
     assert ik.any() and (~ik).any()
     assert V[ik].min() >= 1.0 / len(E) > 1.0 / (2 * len(E)) > V[~ik].max()
 
@@ -207,7 +229,9 @@ def _solving_design(E, e) -> np.ndarray:
 
 def _anatomy(E, e) -> AnatomyDistance:
     """A box in the patient below the entry points, which the paper-like designs' bodies approach."""
-    return AnatomyDistance.from_boxes([(E.mean(axis=0) - 45.0 * e.mean(axis=0), np.array([45.0, 60.0, 25.0]), np.eye(3))])
+    return AnatomyDistance.from_boxes(
+        [(E.mean(axis=0) - 45.0 * e.mean(axis=0), np.array([45.0, 60.0, 25.0]), np.eye(3))]
+    )
 
 
 SWEEPS = {
@@ -230,7 +254,9 @@ def test_violation_grows_with_every_guard_shortfall(engine, guard, right) -> Non
     key, steps = SWEEPS[guard]
     anatomy = _anatomy(E, e) if guard == "clearance" else None
     extra = {"z_dyad": True} if guard == "z_dyad" else THIN
-    runs = [evaluate_task(x, E, e, ONES, Options(**{key: float(v)}, **extra), engine=engine, anatomy=anatomy) for v in steps]
+    runs = [
+        evaluate_task(x, E, e, ONES, Options(**{key: float(v)}, **extra), engine=engine, anatomy=anatomy) for v in steps
+    ]
     V = np.array([float(r.violation) for r in runs])
     grade = np.array([r.points.guard_grade for r in runs])  # (steps, P)
     assert all(float(r.violation_reach) == 0.0 for r in runs)
@@ -238,7 +264,9 @@ def test_violation_grows_with_every_guard_shortfall(engine, guard, right) -> Non
     assert np.all(np.diff(grade, axis=0) >= -1e-12)
     total = grade.sum(axis=1)
     up = np.diff(total) > 1e-12
-    assert np.all(np.diff(V) >= 0.0) and np.all(np.diff(V)[up] > 0.0) and np.all(np.diff(V)[np.diff(total) == 0.0] == 0.0)
+    assert (
+        np.all(np.diff(V) >= 0.0) and np.all(np.diff(V)[up] > 0.0) and np.all(np.diff(V)[np.diff(total) == 0.0] == 0.0)
+    )
     assert up.sum() >= 5, "the sweep must move the shortfalls"
     assert V[0] < V[-1] < 1.0 / (2 * len(E))
 
@@ -289,13 +317,26 @@ def test_a_tiny_task_graded_by_hand(engine, designs) -> None:
     sines = np.abs(transmission_sines(cfg))
     span = np.linalg.norm((cfg.Q[:, 2] - cfg.D[:, 2])[:, :2], axis=-1)  # the z dyad's D_z -> Q_z
     # thresholds between the points' values
-    km, th_rho, th_sin = float(np.median(eta)), float(np.median(np.abs(rho).max(axis=1))), float(np.median(sines.min(axis=1)))
+    km, th_rho, th_sin = (
+        float(np.median(eta)),
+        float(np.median(np.abs(rho).max(axis=1))),
+        float(np.median(sines.min(axis=1))),
+    )
     d_z, c_z = x[11], float(np.median(span)) - x[11] + 3.0
-    free = evaluate_task(x, E4, e4, ONES, Options(body=True, c_z=c_z, **THIN), engine=engine)  # c_z shapes the body's z dyad
+    free = evaluate_task(
+        x, E4, e4, ONES, Options(body=True, c_z=c_z, **THIN), engine=engine
+    )  # c_z shapes the body's z dyad
     selfc = free.points.self_clearance_mm
     c_self = float(np.max(selfc)) + 4.0
-    options = Options(z_dyad=True, c_z=c_z, rho_max_deg=np.rad2deg(th_rho), min_transmission_deg=np.rad2deg(np.arcsin(th_sin)),
-                      kappa_max=km, self_clearance_mm=c_self, **THIN)  # fmt: skip
+    options = Options(
+        z_dyad=True,
+        c_z=c_z,
+        rho_max_deg=np.rad2deg(th_rho),
+        min_transmission_deg=np.rad2deg(np.arcsin(th_sin)),
+        kappa_max=km,
+        self_clearance_mm=c_self,
+        **THIN,
+    )
     z_short = (np.maximum(span - (d_z + c_z), 0.0) + np.maximum(abs(d_z - c_z) - span, 0.0)) / (d_z + c_z)
     grade = (
         np.minimum(z_short, 1.0)
@@ -343,8 +384,13 @@ def test_single_assembly_mode_counts_one_at_each_point_outside_the_majority(engi
 
 def test_the_grade_scales_are_model_16s() -> None:
     # MODEL.md 19.5 adds the envelope clearance's guard with scale 10 mm
-    assert GRADE_SCALES == {"z_dyad": 1.0, "rho_max": np.deg2rad(10.0), "transmission": np.sin(np.deg2rad(20.0)), "clearance": 10.0,
-                            "envelope": 10.0}  # fmt: skip
+    assert GRADE_SCALES == {
+        "z_dyad": 1.0,
+        "rho_max": np.deg2rad(10.0),
+        "transmission": np.sin(np.deg2rad(20.0)),
+        "clearance": 10.0,
+        "envelope": 10.0,
+    }
 
 
 # ----------------------------------------------------------------------------- the kernel's new fields
@@ -362,5 +408,7 @@ def test_kernel_grades_as_the_reference(name, right) -> None:
         ref = evaluate_reference(params, E, e, mode, options)
         rtol = point_rtol(params, E, e, mode, ref)
         assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options), ref, rtol)
-        assert_matches(kernel.evaluate_task_numba(params, E, e, mode, options, want_points=False), ref, rtol, want_points=False)
+        assert_matches(
+            kernel.evaluate_task_numba(params, E, e, mode, options, want_points=False), ref, rtol, want_points=False
+        )
         assert np.any(ref.guard_grade > 0.0)

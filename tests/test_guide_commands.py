@@ -41,7 +41,9 @@ def test_the_guide_names_the_demos_own_files() -> None:
 
 def test_every_command_of_the_guide_runs_from_a_fresh_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     (tmp_path / DEMO_DOCKING).parent.mkdir(parents=True)
-    write_docking(design_at_side(ROOT / "tests" / "data" / "one_robot.json", "R"), tmp_path / DEMO_DOCKING, "reference", "R")
+    write_docking(
+        design_at_side(ROOT / "tests" / "data" / "one_robot.json", "R"), tmp_path / DEMO_DOCKING, "reference", "R"
+    )
     searched: list[str] = []
 
     def recorder(name: str):

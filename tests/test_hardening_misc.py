@@ -31,27 +31,48 @@ DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?
 # ----------------------------------------------------------------------------- limits and requirements
 
 
-@pytest.mark.parametrize(("argv", "needle"), [
-    (["--max", "torque=1_5"], "the value '1_5' is not a number"),
-    (["--max", "torque=1", "--max", "torque=50"], "torque is given twice ('torque=1' and 'torque=50')"),
-    (["--min", "clearance=0x10", "--anatomy", "default"], "the value '0x10' is not a number"),
-    (["--max", "torque=1,5"], "the value '1,5' is not a number"),
-])  # fmt: skip
-def test_optimize_limits_are_refused_as_typed(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], needle: str) -> None:
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["--max", "torque=1_5"], "the value '1_5' is not a number"),
+        (["--max", "torque=1", "--max", "torque=50"], "torque is given twice ('torque=1' and 'torque=50')"),
+        (["--min", "clearance=0x10", "--anatomy", "default"], "the value '0x10' is not a number"),
+        (["--max", "torque=1,5"], "the value '1,5' is not a number"),
+    ],
+)
+def test_optimize_limits_are_refused_as_typed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], needle: str
+) -> None:
     code, err = _cli(["optimize", "--trajectories", "reference", *argv, "--out", str(tmp_path / "r")], capsys)
     assert code == 2 and err.count("\n") == 1 and err.startswith("error: --m") and needle in err, err
     assert os.listdir(tmp_path) == []
 
 
-def test_design_refuses_a_requirement_both_dropped_and_limited(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code, err = _cli(["design", "--trajectories", "reference", "--no-torque", "--max", "torque=5", "--out", str(tmp_path / "d")], capsys)
-    assert code == 2 and err.count("\n") == 1 and err.startswith("error: --max torque=5: the torque requirement is also dropped"), err
+def test_design_refuses_a_requirement_both_dropped_and_limited(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, err = _cli(
+        ["design", "--trajectories", "reference", "--no-torque", "--max", "torque=5", "--out", str(tmp_path / "d")],
+        capsys,
+    )
+    assert (
+        code == 2
+        and err.count("\n") == 1
+        and err.startswith("error: --max torque=5: the torque requirement is also dropped")
+    ), err
     assert os.listdir(tmp_path) == []
 
 
 def test_requirements_from_texts_as_the_command_line_gives_them() -> None:
-    reqs = {r.name: r.limit for r in requirements_from(["clearance=8"], ["torque=15", "power_peak=40"], drop=["axis_error"])}
-    assert reqs == {**{k: v for k, v in DEFAULTS.items() if k != "axis_error"}, "clearance": 8.0, "torque": 15.0, "power_peak": 40.0}
+    reqs = {
+        r.name: r.limit for r in requirements_from(["clearance=8"], ["torque=15", "power_peak=40"], drop=["axis_error"])
+    }
+    assert reqs == {
+        **{k: v for k, v in DEFAULTS.items() if k != "axis_error"},
+        "clearance": 8.0,
+        "torque": 15.0,
+        "power_peak": 40.0,
+    }
     for minima, maxima, drop, needle in [
         (None, ["torque=1_5"], (), "'1_5' is not a number"),
         (None, ["torque=1", "torque=50"], (), "given twice"),
@@ -65,8 +86,12 @@ def test_requirements_from_texts_as_the_command_line_gives_them() -> None:
 
 
 @settings(max_examples=200, derandomize=True, deadline=None, database=None)
-@given(text=st.one_of(st.from_regex(r"[+-]?[0-9_]{0,4}[.]?[0-9_]{0,3}([eE][+-]?[0-9]{1,3})?", fullmatch=True),
-                      st.sampled_from(["nan", "inf", "-Infinity", "1_5", "١", "１", "0x10", "1e400", " 2 ", ".5", "5.", "+.5e-3"])))  # fmt: skip
+@given(
+    text=st.one_of(
+        st.from_regex(r"[+-]?[0-9_]{0,4}[.]?[0-9_]{0,3}([eE][+-]?[0-9]{1,3})?", fullmatch=True),
+        st.sampled_from(["nan", "inf", "-Infinity", "1_5", "١", "１", "0x10", "1e400", " 2 ", ".5", "5.", "+.5e-3"]),
+    )
+)
 def test_limit_values_in_every_notation(text: str) -> None:
     """A value is taken exactly when it is a finite number in plain decimal notation, and is then
     Python's float of its text (Python's float alone would take ``1_5``, ``١``, ``１``)."""
@@ -85,38 +110,72 @@ def test_limit_values_in_every_notation(text: str) -> None:
 def test_long_numbers_in_messages_are_shortened(capsys: pytest.CaptureFixture[str]) -> None:
     big = "9" * 300
     code, err = _cli(["export", "--out", "r.xml", "--at", f"1:{big}"], capsys)
-    assert code == 2 and err == "error: --at 1:999999999999...(300 digits): sample index k must lie in 0..29 (points=30)\n", err
+    assert (
+        code == 2 and err == "error: --at 1:999999999999...(300 digits): sample index k must lie in 0..29 (points=30)\n"
+    ), err
     assert _one_line("x " + "1" * 24 + "\n y") == "x " + "1" * 24 + " y"
 
 
 def test_at_on_an_unreachable_point_names_the_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, err = _cli(["export", "--design", "paper", "--at", "1:0", "--out", str(tmp_path / "r.xml")], capsys)
-    assert code == 2 and err.startswith("error: --at '1:0': the design has no IK solution at trajectory 1, k=0") and err.count("\n") == 1, err
+    assert (
+        code == 2
+        and err.startswith("error: --at '1:0': the design has no IK solution at trajectory 1, k=0")
+        and err.count("\n") == 1
+    ), err
 
 
 def test_dask_with_workers_names_both_flags(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code, err = _cli(["optimize", "--trajectories", "reference", "--dask", "127.0.0.1:8786", "--workers", "2", "--out", str(tmp_path / "r")], capsys)
-    assert code == 2 and err == "error: --workers 2 and --dask 127.0.0.1:8786: one or the other (a Dask cluster has its own workers)\n", err
+    code, err = _cli(
+        [
+            "optimize",
+            "--trajectories",
+            "reference",
+            "--dask",
+            "127.0.0.1:8786",
+            "--workers",
+            "2",
+            "--out",
+            str(tmp_path / "r"),
+        ],
+        capsys,
+    )
+    assert (
+        code == 2
+        and err
+        == "error: --workers 2 and --dask 127.0.0.1:8786: one or the other (a Dask cluster has its own workers)\n"
+    ), err
 
 
 def test_an_anatomy_too_large_names_its_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     import trimesh
 
     trimesh.creation.box(extents=(5000.0, 5000.0, 5000.0)).export(tmp_path / "big.stl")
-    code, err = _cli(["evaluate", "--points", "3", "--ids", "1,2", "--engine", "numpy", "--anatomy", str(tmp_path / "big.stl")], capsys)
-    assert code == 2 and err.startswith(f"error: --anatomy {tmp_path / 'big.stl'} (LPS): spans 5000 x 5000 x 5000 mm") and err.count("\n") == 1, err
+    code, err = _cli(
+        ["evaluate", "--points", "3", "--ids", "1,2", "--engine", "numpy", "--anatomy", str(tmp_path / "big.stl")],
+        capsys,
+    )
+    assert (
+        code == 2
+        and err.startswith(f"error: --anatomy {tmp_path / 'big.stl'} (LPS): spans 5000 x 5000 x 5000 mm")
+        and err.count("\n") == 1
+    ), err
 
 
 def test_a_control_character_in_a_segment_name_is_refused(tmp_path: Path) -> None:
     from arcube.io.segmentations import read_segmentation
 
-    head = ("NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 2 2 2\n"
-            "space directions: (1,0,0) (0,1,0) (0,0,1)\nkinds: domain domain domain\nendian: little\n"
-            "encoding: raw\nspace origin: (0,0,0)\nSegment0_ID:=Segment_1\nSegment0_Name:=C3\x00x\n"
-            "Segment0_LabelValue:=1\nSegment0_Layer:=0\n\n")  # fmt: skip
+    head = (
+        "NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 2 2 2\n"
+        "space directions: (1,0,0) (0,1,0) (0,0,1)\nkinds: domain domain domain\nendian: little\n"
+        "encoding: raw\nspace origin: (0,0,0)\nSegment0_ID:=Segment_1\nSegment0_Name:=C3\x00x\n"
+        "Segment0_LabelValue:=1\nSegment0_Layer:=0\n\n"
+    )
     path = tmp_path / "nul.seg.nrrd"
     path.write_bytes(head.encode() + np.ones(8, dtype=np.uint8).tobytes())
-    with pytest.raises(InputError, match=r"nul.seg.nrrd: Segment0_Name 'C3\\x00x' holds a control character \(U\+0000\) at position 2"):
+    with pytest.raises(
+        InputError, match=r"nul.seg.nrrd: Segment0_Name 'C3\\x00x' holds a control character \(U\+0000\) at position 2"
+    ):
         read_segmentation(path)
 
 
@@ -131,8 +190,28 @@ def test_a_plan_read_from_a_pipe_is_accepted(tmp_path: Path) -> None:
     os.write(w, text)
     os.close(w)
     env = {**os.environ, "PYTHONPATH": str(SRC)}
-    out = subprocess.run([sys.executable, "-m", "arcube", "evaluate", "--points", "3", "--engine", "numpy", "--json", "--trajectories",
-                          f"/dev/fd/{r}", "--anatomy", "none"], pass_fds=(r,), capture_output=True, text=True, env=env, timeout=300)  # fmt: skip
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "arcube",
+            "evaluate",
+            "--points",
+            "3",
+            "--engine",
+            "numpy",
+            "--json",
+            "--trajectories",
+            f"/dev/fd/{r}",
+            "--anatomy",
+            "none",
+        ],
+        pass_fds=(r,),
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     os.close(r)
     assert out.returncode == 0 and out.stderr == "", out.stderr
     assert '"1"' in out.stdout and '"2"' in out.stdout
@@ -147,7 +226,9 @@ def test_an_empty_fifo_is_named_not_waited_for(tmp_path: Path) -> None:
 # ----------------------------------------------------------------------------- an install nobody can write to
 
 
-def test_the_numba_cache_moves_to_a_private_folder_when_the_install_is_read_only(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_numba_cache_moves_to_a_private_folder_when_the_install_is_read_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from arcube import caches
 
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
@@ -162,7 +243,9 @@ def test_the_numba_cache_moves_to_a_private_folder_when_the_install_is_read_only
     assert not caches._writable(str(shared))  # another user could plant code there: not used
 
 
-@pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None, reason="needs root and setpriv to run as nobody")
+@pytest.mark.skipif(
+    os.geteuid() != 0 or shutil.which("setpriv") is None, reason="needs root and setpriv to run as nobody"
+)
 def test_an_unprivileged_user_with_no_home_loads_the_compiled_kernel() -> None:
     """The source tree is root's (not writable by nobody), HOME is missing: Numba used to refuse the
     ``cache=True`` functions at import (``no locator available``); now they cache in a private folder
@@ -174,11 +257,19 @@ def test_an_unprivileged_user_with_no_home_loads_the_compiled_kernel() -> None:
         os.chmod(tmp, 0o1777)
         env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "PYTHONPATH": str(SRC), "TMPDIR": str(tmp)}
         code = "import os, arcube.evaluation.kernel, arcube.accuracy._kernel, arcube.evaluation.sdf; print(os.environ['NUMBA_CACHE_DIR'])"
-        out = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", sys.executable, "-c", code],
-                             capture_output=True, text=True, env=env, cwd=tmp, timeout=300)  # fmt: skip
+        out = subprocess.run(
+            ["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=tmp,
+            timeout=300,
+        )
         assert out.returncode == 0 and out.stderr == "", out.stderr[-2000:]
         folder = Path(out.stdout.strip())
-        assert folder.parent == tmp and folder.name.startswith("arcube-numba-") and folder.stat().st_mode & 0o777 == 0o700
+        assert (
+            folder.parent == tmp and folder.name.startswith("arcube-numba-") and folder.stat().st_mode & 0o777 == 0o700
+        )
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -214,15 +305,22 @@ def test_every_settings_field_has_a_description() -> None:
     from arcube.pedicles.settings import BreachSettings
 
     for model in (RunSettings, ToleranceSettings, Guards, Body, Loads, Masses, Outputs, BreachSettings):
-        missing = [n for n, f in model.model_fields.items() if not (f.description or "").strip() or f.description.strip() == n]
+        missing = [
+            n for n, f in model.model_fields.items() if not (f.description or "").strip() or f.description.strip() == n
+        ]
         assert not missing, f"{model.__name__}: {missing}"
 
 
-@pytest.mark.parametrize("drop, needle", [
-    (("mount_rx",), "the mounting rotation needs all of mount_rx, mount_ry, mount_rz; missing mount_rx"),
-    (("L",), "a mounted design needs its tool offset L"),
-])  # fmt: skip
-def test_a_partial_design_file_is_refused_naming_what_is_missing(tmp_path: Path, capsys: pytest.CaptureFixture[str], drop, needle) -> None:
+@pytest.mark.parametrize(
+    "drop, needle",
+    [
+        (("mount_rx",), "the mounting rotation needs all of mount_rx, mount_ry, mount_rz; missing mount_rx"),
+        (("L",), "a mounted design needs its tool offset L"),
+    ],
+)
+def test_a_partial_design_file_is_refused_naming_what_is_missing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], drop, needle
+) -> None:
     """Hardening III: without mount_rx evaluate gave eta_G 2.05 instead of 1.38, without L 3.36, and said nothing."""
     import json
 
@@ -232,15 +330,29 @@ def test_a_partial_design_file_is_refused_naming_what_is_missing(tmp_path: Path,
     (tmp_path / "d.json").write_text(json.dumps(values))
     code, err = _cli(["evaluate", "--design", str(tmp_path / "d.json"), "--trajectories", "reference"], capsys)
     assert code == 2 and err.count("\n") == 1 and needle in err, err
-    paper = {k: v for k, v in arcube.Design.paper().to_dict().items() if k not in ("mount_rx", "mount_ry", "mount_rz", "L")}
+    paper = {
+        k: v for k, v in arcube.Design.paper().to_dict().items() if k not in ("mount_rx", "mount_ry", "mount_rz", "L")
+    }
     assert arcube.Design.from_dict(paper).to_dict()["L"] == 0.0  # a paper-style file without mount and L stays valid
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["evaluate", "--design", "papper", "--trajectories", "reference"], "papper: no such file, and not a preset (presets: paper)"),
-    (["evaluate", "--trajectories", "SEMI"], "the header is one field with semicolons: separate the columns with commas"),
-    (["optimize", "foo.csv", "--out", "run"], "--trajectories is required; 'foo.csv' is a value without its flag (give --trajectories foo.csv)"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (
+            ["evaluate", "--design", "papper", "--trajectories", "reference"],
+            "papper: no such file, and not a preset (presets: paper)",
+        ),
+        (
+            ["evaluate", "--trajectories", "SEMI"],
+            "the header is one field with semicolons: separate the columns with commas",
+        ),
+        (
+            ["optimize", "foo.csv", "--out", "run"],
+            "--trajectories is required; 'foo.csv' is a value without its flag (give --trajectories foo.csv)",
+        ),
+    ],
+)
 def test_smaller_mistakes_get_a_line_that_says_what_to_do(tmp_path: Path, monkeypatch, capsys, argv, needle) -> None:
     """Hardening III's smaller items: a misspelt preset, a semicolon-separated CSV, a plan given without its flag."""
     monkeypatch.chdir(tmp_path)
@@ -265,19 +377,71 @@ def test_a_single_file_output_is_not_replaced_without_force(tmp_path: Path, monk
     monkeypatch.chdir(tmp_path)
     from arcube.pedicles.run import robot_dockings
 
-    robot_dockings(Path(__file__).parent / "data" / "one_robot.json")["R"].to_json(tmp_path / "d.json")  # the demo robot's right docking
+    robot_dockings(Path(__file__).parent / "data" / "one_robot.json")["R"].to_json(
+        tmp_path / "d.json"
+    )  # the demo robot's right docking
     mine = tmp_path / "mine.out"
     mine.write_text("the tracker's readings, taken by hand\n")
     argv = {
-        "joints": ["joints", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--points", "3", "--out", "mine.out"],
+        "joints": [
+            "joints",
+            "--design",
+            "d.json",
+            "--trajectories",
+            "reference",
+            "--side",
+            "R",
+            "--points",
+            "3",
+            "--out",
+            "mine.out",
+        ],
         "export": ["export", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--out", "mine.out"],
-        "poses": ["calibrate", "poses", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--count", "12", "--points", "3",
-                  "--around", "2", "--out", "mine.out"],
+        "poses": [
+            "calibrate",
+            "poses",
+            "--design",
+            "d.json",
+            "--trajectories",
+            "reference",
+            "--side",
+            "R",
+            "--count",
+            "12",
+            "--points",
+            "3",
+            "--around",
+            "2",
+            "--out",
+            "mine.out",
+        ],
         "simulate": ["calibrate", "simulate", "--design", "d.json", "--poses", "poses.csv", "--out", "mine.out"],
-    }[command]  # fmt: skip
+    }[command]
     if command == "simulate":
-        assert _cli(["calibrate", "poses", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--count", "12",
-                     "--points", "3", "--around", "2", "--out", "poses.csv"], capsys)[0] == 0  # fmt: skip
+        assert (
+            _cli(
+                [
+                    "calibrate",
+                    "poses",
+                    "--design",
+                    "d.json",
+                    "--trajectories",
+                    "reference",
+                    "--side",
+                    "R",
+                    "--count",
+                    "12",
+                    "--points",
+                    "3",
+                    "--around",
+                    "2",
+                    "--out",
+                    "poses.csv",
+                ],
+                capsys,
+            )[0]
+            == 0
+        )
     code, err = _cli(argv, capsys)
     assert code == 2 and err.count("\n") == 1 and "exists; give --force to replace it" in err, err
     assert mine.read_text() == "the tracker's readings, taken by hand\n"
@@ -299,12 +463,34 @@ def test_a_calibration_cannot_fool_itself(tmp_path: Path, monkeypatch, capsys) -
     right = robot_dockings(Path(__file__).parent / "data" / "one_robot.json")["R"]
     right.to_json(tmp_path / "d.json")
     right.replace(r=right["r"] + 1.0).to_json(tmp_path / "other.json")
-    poses = ["calibrate", "poses", "--design", "d.json", "--trajectories", "reference", "--side", "R", "--points", "3", "--around", "2"]
+    poses = [
+        "calibrate",
+        "poses",
+        "--design",
+        "d.json",
+        "--trajectories",
+        "reference",
+        "--side",
+        "R",
+        "--points",
+        "3",
+        "--around",
+        "2",
+    ]
     code, err = _cli([*poses, "--count", "3", "--out", "few.csv"], capsys)
-    assert code == 2 and "--count is 3, but the" in err and "identifiable unknowns need at least" in err and not (tmp_path / "few.csv").exists()
+    assert (
+        code == 2
+        and "--count is 3, but the" in err
+        and "identifiable unknowns need at least" in err
+        and not (tmp_path / "few.csv").exists()
+    )
     assert _cli([*poses, "--count", "12", "--out", "poses.csv"], capsys)[0] == 0
-    code, err = _cli(["calibrate", "identify", "--design", "d.json", "--measurements", "poses.csv", "--out", "cal"], capsys)
+    code, err = _cli(
+        ["calibrate", "identify", "--design", "d.json", "--measurements", "poses.csv", "--out", "cal"], capsys
+    )
     assert code == 2 and err.count("\n") == 1 and "these are the poses to measure, not measurements" in err, err
-    code, err = _cli(["calibrate", "identify", "--design", "other.json", "--measurements", "poses.csv", "--out", "cal"], capsys)
+    code, err = _cli(
+        ["calibrate", "identify", "--design", "other.json", "--measurements", "poses.csv", "--out", "cal"], capsys
+    )
     assert code == 2 and "measured at poses chosen for another design" in err, err
     assert not (tmp_path / "cal").exists()

@@ -77,14 +77,19 @@ def test_joints_adds_the_holding_torque_columns_with_a_mass_flag(right: Path, ca
     rows = {}
     for name, extra in (("plain", []), ("down", ["--gravity", "0,0,-9.81"]), ("free", ["--gravity", "0,0,0"])):
         out = tmp_path / f"{name}.csv"
-        code, _, err = _run(["joints", "--design", str(right), "--side", "R", "--points", "4", "--out", str(out), *extra], capsys)
+        code, _, err = _run(
+            ["joints", "--design", str(right), "--side", "R", "--points", "4", "--out", str(out), *extra], capsys
+        )
         assert code == 0, err
         rows[name] = list(csv.DictReader(out.open()))
     assert tuple(rows["plain"][0]) == CSV_COLUMNS
     assert tuple(rows["down"][0]) == (*CSV_COLUMNS[:-1], *MASS_COLUMNS, "reachable")
     for row in rows["down"]:
         hold = [float(row[f"hold_{n}_max_Nm"]) for n in ACTUATOR_NAMES]
-        assert float(row["holding_torque_Nm"]) == max(hold) and row["holding_torque_actuator"] == ACTUATOR_NAMES[int(np.argmax(hold))]
+        assert (
+            float(row["holding_torque_Nm"]) == max(hold)
+            and row["holding_torque_actuator"] == ACTUATOR_NAMES[int(np.argmax(hold))]
+        )
     for row in rows["free"]:  # no gravity: MODEL.md 15.3's worst case of each actuator, and no gravity torque
         for n in ACTUATOR_NAMES:
             assert float(row[f"hold_{n}_max_Nm"]) == pytest.approx(float(row[f"tau_{n}_max_Nm"]), rel=1e-12, abs=1e-15)
@@ -118,7 +123,9 @@ COMMANDS = {
 
 @pytest.mark.parametrize("command", list(COMMANDS))
 @pytest.mark.parametrize(("args", "needle"), BAD, ids=[" ".join(a) for a, _ in BAD])
-def test_bad_mass_flags_are_one_line_naming_the_flag(command: str, args: list[str], needle: str, capsys, tmp_path: Path) -> None:
+def test_bad_mass_flags_are_one_line_naming_the_flag(
+    command: str, args: list[str], needle: str, capsys, tmp_path: Path
+) -> None:
     argv = [a.replace("{tmp}", str(tmp_path)) for a in COMMANDS[command]] + args
     code, out, err = _run(argv, capsys)
     assert code == 2, (out, err)

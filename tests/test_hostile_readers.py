@@ -36,8 +36,13 @@ from arcube.motion.output import Program
 from designs import program_object
 from harness import cli_error as _cli
 
-FUZZ = settings(max_examples=120, derandomize=True, deadline=None, database=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])  # fmt: skip
+FUZZ = settings(
+    max_examples=120,
+    derandomize=True,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 CLI_FUZZ = settings(FUZZ, max_examples=20)
 DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _tried: dict[str, int] = {"program": 0, "plan": 0, "export": 0, "report": 0, "evaluate": 0}
@@ -82,17 +87,59 @@ def test_a_written_program_reads_back_to_the_same_numbers(written: tuple[Program
 # ----------------------------------------------------------------------------- strategies
 
 NUMBER_TEXT = st.one_of(
-    st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(min_value=-(10**6), max_value=10**6).map(str),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(min_value=-(10**6), max_value=10**6).map(str),
     st.from_regex(r"[+-]?[0-9_]{0,5}[.,]?[0-9]{0,4}([eE][+-]?[0-9]{1,4})?", fullmatch=True),
-    st.sampled_from(["", " ", "nan", "-inf", "1_5", "0x10", "١٢", "１", "1e999", "19,681", "9" * 400, "9" * 5000, "1e308", "-1e308",
-                     "x" * 200_000, "abc", "1.5.2", "+.5", "5.", "\u00a01"]),
-)  # fmt: skip
+    st.sampled_from(
+        [
+            "",
+            " ",
+            "nan",
+            "-inf",
+            "1_5",
+            "0x10",
+            "١٢",
+            "１",
+            "1e999",
+            "19,681",
+            "9" * 400,
+            "9" * 5000,
+            "1e308",
+            "-1e308",
+            "x" * 200_000,
+            "abc",
+            "1.5.2",
+            "+.5",
+            "5.",
+            "\u00a01",
+        ]
+    ),
+)
 JSON_HOSTILE = st.one_of(
-    st.none(), st.booleans(), st.integers(), st.sampled_from([10**400, -(10**5000), 1e308, "text", [], {}, [1, [2]], {"a": None}]),
-    st.text(max_size=8), st.lists(st.integers(), max_size=3),
-)  # fmt: skip
-SUMMARY_KEYS = ["order", "transits", "trajectories", "total_s", "drilling_s", "dt_s", "mode", "plan", "limits", "motors", "design",
-                "joint_speed_max_deg_s", "clearances_along_time", "anatomy", "eta_L_max"]  # fmt: skip
+    st.none(),
+    st.booleans(),
+    st.integers(),
+    st.sampled_from([10**400, -(10**5000), 1e308, "text", [], {}, [1, [2]], {"a": None}]),
+    st.text(max_size=8),
+    st.lists(st.integers(), max_size=3),
+)
+SUMMARY_KEYS = [
+    "order",
+    "transits",
+    "trajectories",
+    "total_s",
+    "drilling_s",
+    "dt_s",
+    "mode",
+    "plan",
+    "limits",
+    "motors",
+    "design",
+    "joint_speed_max_deg_s",
+    "clearances_along_time",
+    "anatomy",
+    "eta_L_max",
+]
 
 
 def _csv_lines(folder: Path) -> list[str]:
@@ -128,7 +175,9 @@ def damaged_csv(draw: Any, lines: list[str]) -> str:
     elif kind in RESHAPES:
         _reshape(draw, kind, header, rows, r, NUMBER_TEXT)
     elif kind == "header":
-        header[draw(st.integers(0, len(header) - 1))] = draw(st.sampled_from(["", "E_X", "e_x", "t_s ", "tau_rho_x_Nm", "segment"]))
+        header[draw(st.integers(0, len(header) - 1))] = draw(
+            st.sampled_from(["", "E_X", "e_x", "t_s ", "tau_rho_x_Nm", "segment"])
+        )
     else:
         rows.insert(r, [""] * len(header))
     return "\n".join(",".join(x) for x in [header, *rows]) + "\n"
@@ -139,8 +188,9 @@ def damaged_csv(draw: Any, lines: list[str]) -> str:
 
 @FUZZ
 @given(data=st.data())
-def test_program_reader_returns_or_says_what_is_wrong(written: tuple[Program, Path], tmp_path_factory: pytest.TempPathFactory,
-                                                     data: st.DataObject) -> None:  # fmt: skip
+def test_program_reader_returns_or_says_what_is_wrong(
+    written: tuple[Program, Path], tmp_path_factory: pytest.TempPathFactory, data: st.DataObject
+) -> None:
     _tried["program"] += 1
     _, source = written
     folder = tmp_path_factory.mktemp("bad") / "p"
@@ -161,17 +211,22 @@ def test_program_reader_returns_or_says_what_is_wrong(written: tuple[Program, Pa
         assert np.all(np.abs(got.q_deg[finite]) <= 1e6)
 
 
-@pytest.mark.parametrize(("name", "text", "needle"), [
-    ("order 5", '{"order": 5}', "order must be a list"),
-    ("transits null", '{"transits": null}', "transits must be a list"),
-    ("text time", '{"total_s": "abc"}', "total_s must be a number"),
-    ("400 digits", '{"total_s": ' + "9" * 400 + "}", "total_s must be a finite number"),
-    ("5000 digits", '{"total_s": ' + "9" * 5000 + "}", "total_s must be a finite number"),
-    ("deep", '{"a": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested deeper than"),
-    ("list", "[1, 2]", "expected a JSON object"),
-    ("not json", "{", "not valid JSON"),
-])  # fmt: skip
-def test_each_summary_defect_of_the_issue_is_one_line(written: tuple[Program, Path], tmp_path: Path, name: str, text: str, needle: str) -> None:
+@pytest.mark.parametrize(
+    ("name", "text", "needle"),
+    [
+        ("order 5", '{"order": 5}', "order must be a list"),
+        ("transits null", '{"transits": null}', "transits must be a list"),
+        ("text time", '{"total_s": "abc"}', "total_s must be a number"),
+        ("400 digits", '{"total_s": ' + "9" * 400 + "}", "total_s must be a finite number"),
+        ("5000 digits", '{"total_s": ' + "9" * 5000 + "}", "total_s must be a finite number"),
+        ("deep", '{"a": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested deeper than"),
+        ("list", "[1, 2]", "expected a JSON object"),
+        ("not json", "{", "not valid JSON"),
+    ],
+)
+def test_each_summary_defect_of_the_issue_is_one_line(
+    written: tuple[Program, Path], tmp_path: Path, name: str, text: str, needle: str
+) -> None:
     _, source = written
     folder = tmp_path / "p"
     folder.mkdir()
@@ -185,7 +240,9 @@ def test_each_summary_defect_of_the_issue_is_one_line(written: tuple[Program, Pa
 
 @pytest.mark.parametrize("which", [CSV_NAME, JSON_NAME])
 @pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
-def test_device_files_and_fifos_are_refused_before_reading(written: tuple[Program, Path], tmp_path: Path, which: str, special: str) -> None:
+def test_device_files_and_fifos_are_refused_before_reading(
+    written: tuple[Program, Path], tmp_path: Path, which: str, special: str
+) -> None:
     """Inside a program folder only regular files are read: /dev/zero would never end, a FIFO could block."""
     _, source = written
     folder = tmp_path / "p"
@@ -202,11 +259,21 @@ def test_device_files_and_fifos_are_refused_before_reading(written: tuple[Progra
         read_program_files(folder)
 
 
-@pytest.mark.parametrize(("cell", "needle"), [
-    ("x" * 200_000, "longer than"), ("9" * 400, "400 characters"), ("9" * 5000, "5000 characters"), ("1e308", "beyond"),
-    ("-1e308", "beyond"), ("abc", "not a number"), ("1_5", "not a number"),
-])  # fmt: skip
-def test_each_csv_defect_of_the_issue_is_one_line(written: tuple[Program, Path], tmp_path: Path, cell: str, needle: str) -> None:
+@pytest.mark.parametrize(
+    ("cell", "needle"),
+    [
+        ("x" * 200_000, "longer than"),
+        ("9" * 400, "400 characters"),
+        ("9" * 5000, "5000 characters"),
+        ("1e308", "beyond"),
+        ("-1e308", "beyond"),
+        ("abc", "not a number"),
+        ("1_5", "not a number"),
+    ],
+)
+def test_each_csv_defect_of_the_issue_is_one_line(
+    written: tuple[Program, Path], tmp_path: Path, cell: str, needle: str
+) -> None:
     _, source = written
     folder = tmp_path / "p"
     folder.mkdir()
@@ -230,7 +297,10 @@ def test_a_duplicated_column_is_refused_not_used(written: tuple[Program, Path], 
     text = "\n".join([lines[0] + ",E_x", *(ln + ",0.0" for ln in lines[1:])]) + "\n"  # a second E_x that disagrees
     (folder / CSV_NAME).write_text(text)
     (folder / JSON_NAME).write_text((source / JSON_NAME).read_text())
-    with pytest.raises(InputError, match=rf"column E_x appears more than once \(columns {j + 1} and {len(CSV_COLUMNS) + len(TORQUE_COLUMNS) + 1}\)"):
+    with pytest.raises(
+        InputError,
+        match=rf"column E_x appears more than once \(columns {j + 1} and {len(CSV_COLUMNS) + len(TORQUE_COLUMNS) + 1}\)",
+    ):
         read_program_files(folder)
 
 
@@ -244,8 +314,10 @@ def plan_text(draw: Any) -> tuple[str, dict[str, Any]]:
     """A plan CSV of 1-4 rows with one of: nothing wrong, a cell in any notation, a row with extra or
     missing fields, a duplicated column; and what was done."""
     header = list(HEADER)
-    rows = [[str(i + 1), "C3", "R", *(repr(float(v)) for v in draw(st.lists(st.floats(-90, 90), min_size=6, max_size=6)))]
-            for i in range(draw(st.integers(1, 4)))]  # fmt: skip
+    rows = [
+        [str(i + 1), "C3", "R", *(repr(float(v)) for v in draw(st.lists(st.floats(-90, 90), min_size=6, max_size=6)))]
+        for i in range(draw(st.integers(1, 4)))
+    ]
     for row in rows:  # entry != target
         row[8] = repr(float(row[5]) + 10.0)
     kind = draw(st.sampled_from(["none", "cell", "extra", "missing", "duplicate"]))
@@ -286,7 +358,12 @@ def test_plan_csv_rows_and_numbers(case: tuple[str, dict[str, Any]], tmp_path_fa
         assert ts is None and "appears more than once" in str(err), str(err)
     elif kind == "cell":
         cell = _csv_cell(info["text"])
-        plain = bool(DECIMAL.fullmatch(cell)) and len(cell) <= 100 and math.isfinite(float(cell)) and abs(float(cell)) <= 1e5
+        plain = (
+            bool(DECIMAL.fullmatch(cell))
+            and len(cell) <= 100
+            and math.isfinite(float(cell))
+            and abs(float(cell)) <= 1e5
+        )
         if "," in info["text"]:  # a decimal comma splits the cell: the row is one field too wide
             assert ts is None and "a decimal comma?" in str(err), str(err)
         elif not plain:
@@ -304,8 +381,12 @@ def test_plan_csv_rows_and_numbers(case: tuple[str, dict[str, Any]], tmp_path_fa
 
 @CLI_FUZZ
 @given(data=st.data())
-def test_export_and_report_of_a_damaged_program_folder(written: tuple[Program, Path], tmp_path_factory: pytest.TempPathFactory,
-                                                       capsys: pytest.CaptureFixture[str], data: st.DataObject) -> None:  # fmt: skip
+def test_export_and_report_of_a_damaged_program_folder(
+    written: tuple[Program, Path],
+    tmp_path_factory: pytest.TempPathFactory,
+    capsys: pytest.CaptureFixture[str],
+    data: st.DataObject,
+) -> None:
     """Exit 2, one line, and no model, replay or report left beside it (the synthetic program is no
     design's, so even an intact one ends in one line: its design is refused)."""
     _tried["export"] += 1
@@ -328,14 +409,27 @@ def test_export_and_report_of_a_damaged_program_folder(written: tuple[Program, P
 
 @CLI_FUZZ
 @given(case=plan_text())
-def test_evaluate_on_a_hostile_plan(case: tuple[str, dict[str, Any]], tmp_path_factory: pytest.TempPathFactory,
-                                   capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+def test_evaluate_on_a_hostile_plan(
+    case: tuple[str, dict[str, Any]], tmp_path_factory: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str]
+) -> None:
     _tried["evaluate"] += 1
     text, _ = case
     base = tmp_path_factory.mktemp("ev")
     (base / "plan.csv").write_text(text)
-    code, err = _cli(["evaluate", "--trajectories", str(base / "plan.csv"), "--points", "3", "--engine", "numpy", "--report",
-                      str(base / "r.html")], capsys)  # fmt: skip
+    code, err = _cli(
+        [
+            "evaluate",
+            "--trajectories",
+            str(base / "plan.csv"),
+            "--points",
+            "3",
+            "--engine",
+            "numpy",
+            "--report",
+            str(base / "r.html"),
+        ],
+        capsys,
+    )
     assert code in (0, 2) and "Traceback" not in err, err
     if code == 2:
         assert err.startswith("error: ") and err.count("\n") == 1, err

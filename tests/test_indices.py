@@ -97,7 +97,13 @@ def test_condition_numbers_match_svd_of_jacobians(pose_bank):
             np.testing.assert_allclose(kap[:, i], np.linalg.cond(J[name]), rtol=1e-9, err_msg=name)
         # MODEL.md 8.1: g^2 of J_AV is the sum of its squared 2x2 minors; g of J_AP is |det[x_b, y_b, e]|
         Jav, Jap = J["J_AV"], J["J_AP"]
-        np.testing.assert_allclose(np.linalg.det(Jav @ np.swapaxes(Jav, -1, -2)), (Jav[:, 0, 1] * Jav[:, 1, 0]) ** 2 + (Jav[:, 0, 2] * Jav[:, 1, 0]) ** 2 + (Jav[:, 0, 1] * Jav[:, 1, 2]) ** 2, rtol=1e-9)
+        np.testing.assert_allclose(
+            np.linalg.det(Jav @ np.swapaxes(Jav, -1, -2)),
+            (Jav[:, 0, 1] * Jav[:, 1, 0]) ** 2
+            + (Jav[:, 0, 2] * Jav[:, 1, 0]) ** 2
+            + (Jav[:, 0, 1] * Jav[:, 1, 2]) ** 2,
+            rtol=1e-9,
+        )
         det = np.linalg.det(np.stack([sol.u_beta[:, 0], sol.u_beta[:, 1], e], axis=-1))
         np.testing.assert_allclose(np.sqrt(np.linalg.det(Jap @ np.swapaxes(Jap, -1, -2))), np.abs(det), rtol=1e-8)
         assert np.all(kap >= 1.0)
@@ -106,10 +112,30 @@ def test_condition_numbers_match_svd_of_jacobians(pose_bank):
 def test_condition_numbers_inf_at_singularity_and_nan_where_unreachable():
     """rho_x = 0 exactly (TLS argument 0) makes G_x = 0: kappa(J_rho) = +inf, the rest finite."""
     vals = dict(
-        m_x=10.0, m_y=-20.0, m_z=30.0, f_x=40.0, f_y=50.0, f_z=60.0, p_x=100.0, p_y=110.0, p_z=90.0,
-        d_x=120.0, d_y=130.0, d_z=80.0, c_x=150.0, c_y=160.0, t_x=60.0, t_y=70.0, r=60.0,
-        o_x=10.0, o_y=-20.0, alpha_x=60.0, alpha_y=60.0, beta_x=60.0, beta_y=60.0,
-    )  # fmt: skip
+        m_x=10.0,
+        m_y=-20.0,
+        m_z=30.0,
+        f_x=40.0,
+        f_y=50.0,
+        f_z=60.0,
+        p_x=100.0,
+        p_y=110.0,
+        p_z=90.0,
+        d_x=120.0,
+        d_y=130.0,
+        d_z=80.0,
+        c_x=150.0,
+        c_y=160.0,
+        t_x=60.0,
+        t_y=70.0,
+        r=60.0,
+        o_x=10.0,
+        o_y=-20.0,
+        alpha_x=60.0,
+        alpha_y=60.0,
+        beta_x=60.0,
+        beta_y=60.0,
+    )
     x = vec(vals)
     E = np.array([10.0 - 40.0 - 60.0, -20.0 - 50.0 - 60.0 + 30.0, 30.0 - 60.0 - 60.0])  # rho_x = 0, rho_y != 0
     e = np.array([0.1, -0.2, 1.0]) / np.linalg.norm([0.1, -0.2, 1.0])

@@ -31,7 +31,14 @@ DELAYS = (0.15, 0.4, 0.8, 1.3, 2.0, 3.0, 4.5)
 
 def _interrupted(argv: list[str], delay: float, cwd: Path) -> tuple[int, str]:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
-    p = subprocess.Popen([sys.executable, "-m", "arcube", *argv], cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "arcube", *argv],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=300)
@@ -44,16 +51,35 @@ def test_ctrl_c_at_any_moment_of_a_program_is_one_line_and_leaves_nothing(tmp_pa
     from arcube.model.design import Design
 
     Design.from_dict(DESIGN).to_json(tmp_path / "design.json")
-    argv = ["program", "--design", "design.json", "--trajectories", "reference", "--side", "R", "--ids", "5", "--feed", "2", "--dt", "0.05",
-            "--out", "prog"]  # fmt: skip
+    argv = [
+        "program",
+        "--design",
+        "design.json",
+        "--trajectories",
+        "reference",
+        "--side",
+        "R",
+        "--ids",
+        "5",
+        "--feed",
+        "2",
+        "--dt",
+        "0.05",
+        "--out",
+        "prog",
+    ]
     code, err = _interrupted(argv, delay, tmp_path)
     whole = ["program.csv", "program.json", "program.png"]
     if code == 0:  # finished before the signal: the program is whole
         assert err == "" and sorted(os.listdir(tmp_path / "prog")) == whole, (code, err)
         return
-    if code == -signal.SIGINT:  # the signal came while Python shut down (its handlers reset): the program whole or nothing
+    if (
+        code == -signal.SIGINT
+    ):  # the signal came while Python shut down (its handlers reset): the program whole or nothing
         assert err in ("", "error: interrupted\n"), (code, err)
-        assert os.listdir(tmp_path) == ["design.json"] or sorted(os.listdir(tmp_path / "prog")) == whole, os.listdir(tmp_path)
+        assert os.listdir(tmp_path) == ["design.json"] or sorted(os.listdir(tmp_path / "prog")) == whole, os.listdir(
+            tmp_path
+        )
         return
     assert code == 130 and err == "error: interrupted\n", (delay, code, err)
     assert os.listdir(tmp_path) == ["design.json"], os.listdir(tmp_path)
@@ -61,7 +87,11 @@ def test_ctrl_c_at_any_moment_of_a_program_is_one_line_and_leaves_nothing(tmp_pa
 
 @pytest.mark.parametrize("delay", DELAYS)
 def test_ctrl_c_during_an_evaluation_with_a_report_leaves_no_report(tmp_path: Path, delay: float) -> None:
-    code, err = _interrupted(["evaluate", "--points", "30", "--engine", "numpy", "--anatomy", "default", "--report", "r.html"], delay, tmp_path)
+    code, err = _interrupted(
+        ["evaluate", "--points", "30", "--engine", "numpy", "--anatomy", "default", "--report", "r.html"],
+        delay,
+        tmp_path,
+    )
     if code == 0:  # finished before the signal: then the report is whole
         assert (tmp_path / "r.html").read_text().rstrip().endswith("</html>")
         return
@@ -96,12 +126,18 @@ def test_every_import_of_trimesh_is_followed_by_the_check() -> None:
         checked_in_module = "interrupts.check()" in path.read_text(encoding="utf-8")
         for node in ast.walk(tree):
             body = getattr(node, "body", None)
-            if not isinstance(body, list) or (isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING"):
+            if not isinstance(body, list) or (
+                isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING"
+            ):
                 continue
             for i, stmt in enumerate(body):
                 if isinstance(stmt, ast.Import) and any(a.name == "trimesh" for a in stmt.names):
-                    after = body[i + 1:]
-                    ok = any("interrupts.check()" in ast.unparse(s) for s in after) if not isinstance(node, ast.Module) else checked_in_module
+                    after = body[i + 1 :]
+                    ok = (
+                        any("interrupts.check()" in ast.unparse(s) for s in after)
+                        if not isinstance(node, ast.Module)
+                        else checked_in_module
+                    )
                     if not ok:
                         missing.append(f"{path.relative_to(SRC)}:{stmt.lineno}")
     assert not missing, f"import trimesh without interrupts.check() after it: {missing}"
@@ -110,8 +146,10 @@ def test_every_import_of_trimesh_is_followed_by_the_check() -> None:
 def test_the_script_s_entry_installs_the_handling_before_the_heavy_imports() -> None:
     """``import arcube`` and the entry module load no NumPy, SciPy, pydantic or typer: the handler is
     in place before they are imported."""
-    code = ("import sys, arcube.__main__, arcube.interrupts; "
-            "print(sorted(m for m in ('numpy', 'scipy', 'pydantic', 'typer', 'trimesh') if m in sys.modules))")  # fmt: skip
+    code = (
+        "import sys, arcube.__main__, arcube.interrupts; "
+        "print(sorted(m for m in ('numpy', 'scipy', 'pydantic', 'typer', 'trimesh') if m in sys.modules))"
+    )
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60)
     assert out.returncode == 0 and out.stdout.strip() == "[]", out
@@ -134,7 +172,7 @@ def _screen(data: str) -> list[str]:
                 row = max(row - int(token[2:-1] or 1), 0)
         else:
             line = lines[row].ljust(col)
-            lines[row] = line[:col] + token + line[col + len(token):]
+            lines[row] = line[:col] + token + line[col + len(token) :]
             col += len(token)
     return [ln for ln in lines if ln.strip()]
 
@@ -146,9 +184,30 @@ def test_ctrl_c_under_a_progress_bar_leaves_one_line_on_the_terminal(tmp_path: P
 
     master, slave = pty.openpty()
     env = {**os.environ, "PYTHONPATH": str(SRC), "TERM": "xterm", "COLUMNS": "120"}
-    argv = ["optimize", "--trajectories", "reference", "--ids", "1,3", "--points", "5", "--algorithm", "ga", "--population", "20",
-            "--generations", "100000", "--tolerance", "0", "--engine", "numpy", "--out", "r"]  # fmt: skip
-    p = subprocess.Popen([sys.executable, "-m", "arcube", *argv], cwd=tmp_path, env=env, stdin=slave, stdout=slave, stderr=slave)
+    argv = [
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--ids",
+        "1,3",
+        "--points",
+        "5",
+        "--algorithm",
+        "ga",
+        "--population",
+        "20",
+        "--generations",
+        "100000",
+        "--tolerance",
+        "0",
+        "--engine",
+        "numpy",
+        "--out",
+        "r",
+    ]
+    p = subprocess.Popen(
+        [sys.executable, "-m", "arcube", *argv], cwd=tmp_path, env=env, stdin=slave, stdout=slave, stderr=slave
+    )
     os.close(slave)
     data = b""
     deadline = time.monotonic() + 240

@@ -108,7 +108,9 @@ def test_csv_columns_and_unreachable_rows(tmp_path):
         assert rec["reachable"] == ("true" if jt.reachable[i] else "false")
         joint_cells = row[6:20]
         if jt.reachable[i]:
-            np.testing.assert_allclose([float(v) for v in joint_cells], np.concatenate([jt.q_deg[i], jt.q_dot_dps[i]]), rtol=0, atol=0)
+            np.testing.assert_allclose(
+                [float(v) for v in joint_cells], np.concatenate([jt.q_deg[i], jt.q_dot_dps[i]]), rtol=0, atol=0
+            )
         else:
             assert all(v == "" for v in joint_cells)
         np.testing.assert_allclose([float(rec[c]) for c in "xyz"], task.E[i], rtol=0, atol=0)
@@ -130,16 +132,35 @@ def test_joints_command(tmp_path):
     design = tmp_path / "d.json"
     PLACED.to_json(design)
     out = tmp_path / "j.csv"
-    args = ["joints", "--design", str(design), "--trajectories", "reference", "--speed", "1.5", "--out", str(out), "--points", "7", "--side", "R", "--mode=+,+,+,+"]
+    args = [
+        "joints",
+        "--design",
+        str(design),
+        "--trajectories",
+        "reference",
+        "--speed",
+        "1.5",
+        "--out",
+        str(out),
+        "--points",
+        "7",
+        "--side",
+        "R",
+        "--mode=+,+,+,+",
+    ]
     res = CliRunner().invoke(_app(), args)
     assert res.exit_code == 0, res.output
     assert res.stdout.strip() == str(out)
     rows = list(csv.DictReader(io.StringIO(out.read_text())))
     assert len(rows) == 5 * 7 and all(r["reachable"] == "true" for r in rows)
-    assert float(rows[6]["t_s"]) == pytest.approx(ts_len := float(select(load_trajectories("reference"), side="R").lengths[0]) / 1.5)
+    assert float(rows[6]["t_s"]) == pytest.approx(
+        ts_len := float(select(load_trajectories("reference"), side="R").lengths[0]) / 1.5
+    )
     assert ts_len > 0
     for bad, needle in ((["--speed", "0"], "--speed"), (["--mode=+,+"], "--mode"), (["--side", "Q"], "side")):
-        res = CliRunner().invoke(_app(), [*args, "--force", *bad])  # the CSV exists now: the bad flag, not the file, is refused
+        res = CliRunner().invoke(
+            _app(), [*args, "--force", *bad]
+        )  # the CSV exists now: the bad flag, not the file, is refused
         assert isinstance(res.exception, InputError) and needle in flag_message(res.exception)  # what the CLI prints
         assert "\n" not in str(res.exception)
 

@@ -159,7 +159,14 @@ def _numpy_trig_is_libm() -> bool:
     return all(np.array_equal(a, np.array(b)) for a, b in pairs)
 
 
-_TIP_FIELDS = frozenset({*MAXIMUM_FIELDS, "torque_actuator", "holding_torque_actuator", *(f.rsplit("_", 1)[0] + "_max" for f in MAXIMUM_FIELDS)})
+_TIP_FIELDS = frozenset(
+    {
+        *MAXIMUM_FIELDS,
+        "torque_actuator",
+        "holding_torque_actuator",
+        *(f.rsplit("_", 1)[0] + "_max" for f in MAXIMUM_FIELDS),
+    }
+)
 
 
 def test_exact_path_is_bitwise_where_numpy_uses_libm(designs, points) -> None:

@@ -104,7 +104,9 @@ def test_result_rows_follow_the_result_types() -> None:
     tip = TaskResults._fields.index("tip_error_max")
     assert [SUMMARY.names[c] for c in s_cols] == list(TaskResults._fields[tip:])  # MODEL.md 15.5, the last fields
     assert [EXTRA.names[c] for c in x_cols] == [EXTRA.names[c] for c in _layout.METRIC_COLUMNS] == list(MAXIMUM_FIELDS)
-    assert MAXIMUM_FIELDS == (*PERFORMANCE_FIELDS, "holding_torque_Nm") and TaskResults._fields[-1] == "holding_torque_max"  # MODEL.md 18.2
+    assert (
+        MAXIMUM_FIELDS == (*PERFORMANCE_FIELDS, "holding_torque_Nm") and TaskResults._fields[-1] == "holding_torque_max"
+    )  # MODEL.md 18.2
 
 
 def test_geometry_rows_hold_the_arcs_chords_and_slerp_sums() -> None:
@@ -138,14 +140,35 @@ def test_excess_cap_is_the_reference_one() -> None:
 
 
 SAMPLES = {
-    Guards: {"z_dyad": True, "c_z": 150.0, "rho_max_deg": 50.0, "min_transmission_deg": 30.0, "kappa_max": 5.0,
-             "single_assembly_mode": True, "clearance_mm": 3.0, "self_clearance_mm": 2.0, "envelope_clearance_mm": 10.0},
+    Guards: {
+        "z_dyad": True,
+        "c_z": 150.0,
+        "rho_max_deg": 50.0,
+        "min_transmission_deg": 30.0,
+        "kappa_max": 5.0,
+        "single_assembly_mode": True,
+        "clearance_mm": 3.0,
+        "self_clearance_mm": 2.0,
+        "envelope_clearance_mm": 10.0,
+    },
     Body: {"link_radius": 3.0, "actuator_radius": 9.0, "motor_radius": 7.0, "motor_length": 80.0},
     Loads: {"encoder_deg": 0.02, "thrust_N": 12.0, "lateral_force_N": 3.0, "actuator_stiffness": 2e3},
-    Masses: {"wall_mm": 3.0, "density_kg_m3": 7800.0, "m_delta_kg": 0.5, "m_motor_kg": 2.0, "gravity": (0.0, -9.81, 0.0)},
-    Outputs: {"clearances": True, "anatomy_clearance": True, "clearance_min_exact": False, "tip_metrics": False, "holding_torque": True,
-              "envelope_clearance": True},
-}  # fmt: skip
+    Masses: {
+        "wall_mm": 3.0,
+        "density_kg_m3": 7800.0,
+        "m_delta_kg": 0.5,
+        "m_motor_kg": 2.0,
+        "gravity": (0.0, -9.81, 0.0),
+    },
+    Outputs: {
+        "clearances": True,
+        "anatomy_clearance": True,
+        "clearance_min_exact": False,
+        "tip_metrics": False,
+        "holding_torque": True,
+        "envelope_clearance": True,
+    },
+}
 """A value other than the default for every setting (a new setting needs one here)."""
 GROUP = {Guards: "guards", Body: "body", Loads: "loads", Masses: "masses", Outputs: "outputs"}
 
@@ -161,11 +184,15 @@ def test_every_setting_reaches_the_kernel(group) -> None:
     base = _seen(Options())
     for name, value in SAMPLES[group].items():
         changed = _seen(Options(**{GROUP[group]: group(**{name: value})}))
-        assert any(not np.array_equal(a, b, equal_nan=True) for a, b in zip(base, changed)), f"{group.__name__}.{name} is not read"
+        assert any(not np.array_equal(a, b, equal_nan=True) for a, b in zip(base, changed)), (
+            f"{group.__name__}.{name} is not read"
+        )
 
 
 def test_option_vector_blocks() -> None:
-    o = kernel._option_vector(Options(rho_max_deg=50.0, min_transmission_deg=30.0, encoder_deg=0.02, actuator_stiffness=2e3), exact=True)
+    o = kernel._option_vector(
+        Options(rho_max_deg=50.0, min_transmission_deg=30.0, encoder_deg=0.02, actuator_stiffness=2e3), exact=True
+    )
     block = {name: o[OPTIONS.offset[name] : OPTIONS.offset[name] + w] for name, w in OPTIONS.entries}
     assert block["rho_max_on"][0] == 1.0 and block["rho_max"][0] == np.deg2rad(50.0)
     assert block["transmission"][0] == np.sin(np.deg2rad(30.0)) and block["kappa_max_on"][0] == 0.0
@@ -201,14 +228,18 @@ def test_rotation_helpers_sum_in_their_named_orders() -> None:
 
 
 def _python(code: str) -> str:
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True, timeout=300)
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True, timeout=300
+    )
     return out.stdout.strip()
 
 
 def test_import_touches_no_cache_and_the_fingerprint_is_stable() -> None:
     """Importing checks nothing (the check runs at the first compiled call); the fingerprint is the
     same in every process (else each process would drop the cache)."""
-    out = _python("import arcube.evaluation.kernel as k; from arcube.evaluation.kernel import _cache as c; print(c._checked, c.fingerprint())")
+    out = _python(
+        "import arcube.evaluation.kernel as k; from arcube.evaluation.kernel import _cache as c; print(c._checked, c.fingerprint())"
+    )
     checked, fp = out.split()
     assert checked == "False" and fp == _cache.fingerprint()
 

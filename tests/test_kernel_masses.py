@@ -45,7 +45,9 @@ def _cases_points(seed, mount, L, mode_index, n=30):
 @pytest.mark.parametrize(("seed", "mount", "L", "mode_index", "c_z"), MASS_CASES)
 def test_kernel_equals_reference_on_random_designs(seed, mount, L, mode_index, c_z) -> None:
     X, E, e, mode = _cases_points(seed, mount, L, mode_index)
-    for gravity, masses in zip(GRAVITIES, ({}, {"wall_mm": 1.0, "m_motor_kg": 2.5}, {"density_kg_m3": 7800.0, "m_delta_kg": 0.0})):
+    for gravity, masses in zip(
+        GRAVITIES, ({}, {"wall_mm": 1.0, "m_motor_kg": 2.5}, {"density_kg_m3": 7800.0, "m_delta_kg": 0.0})
+    ):
         ref = check(X, E, e, mode, _opts(c_z, gravity, **masses))
         hold, torque = ref.points.holding_torque_Nm, ref.points.torque_Nm
         assert np.all(np.isfinite(hold[ref.points.reachable])) and ref.points.reachable.sum() >= 30
@@ -70,7 +72,9 @@ def patient() -> tuple[np.ndarray, np.ndarray]:
     return task.E[right], task.e[right]
 
 
-@pytest.mark.parametrize("base", [Options(), GUARDED_OPTIONS, Options(z_dyad=True, c_z=150.0)], ids=["plain", "guarded", "z_dyad"])
+@pytest.mark.parametrize(
+    "base", [Options(), GUARDED_OPTIONS, Options(z_dyad=True, c_z=150.0)], ids=["plain", "guarded", "z_dyad"]
+)
 def test_kernel_equals_reference_near_table_2(base, patient) -> None:
     E, e = patient
     X = near_paper_designs(8, 4, 0.01)
@@ -78,7 +82,14 @@ def test_kernel_equals_reference_near_table_2(base, patient) -> None:
     ref = check(X, E, e, modes, _opts(base.guards.c_z, base=base))
     assert np.any(ref.points.reachable) and np.all(np.isfinite(ref.holding_torque_max[ref.reachable_fraction > 0]))
     # gravity alone (no drilling load), and the exact path
-    check(X, E, e, modes, _opts(base.guards.c_z, base=base).replace(loads=Loads(thrust_N=0.0, lateral_force_N=0.0)), exact=True)
+    check(
+        X,
+        E,
+        e,
+        modes,
+        _opts(base.guards.c_z, base=base).replace(loads=Loads(thrust_N=0.0, lateral_force_N=0.0)),
+        exact=True,
+    )
 
 
 def test_batch_equals_loop(patient) -> None:
@@ -95,7 +106,9 @@ def test_batch_equals_loop(patient) -> None:
         for k in range(0, len(E), 7):
             pt = kernel.evaluate_task_numba(X[i], E[k : k + 1], e[k : k + 1], ALL_MODES[0], opts)
             np.testing.assert_array_equal(pt.points.holding_torque_Nm[0], batch.points.holding_torque_Nm[i, k])
-            np.testing.assert_array_equal(pt.points.holding_torque_actuator[0], batch.points.holding_torque_actuator[i, k])
+            np.testing.assert_array_equal(
+                pt.points.holding_torque_actuator[0], batch.points.holding_torque_actuator[i, k]
+            )
 
 
 def test_without_gravity_the_holding_torque_is_the_drill_torque(patient) -> None:

@@ -54,19 +54,40 @@ import arcube
 SRC = Path(__file__).resolve().parents[1] / "src"
 PKG = SRC / "arcube"
 
-MAX_LINES = 400
+MAX_LINES = 250
+"""Statements (logical lines: what ``ruff format`` cannot change by wrapping) of a module without a reason; about
+400 formatted lines. The dense, unformatted code kept modules under 400 physical lines; formatted, the same code
+takes half again as many lines, while its statements stay as they were."""
 LONG_REASON = "Long module:"
-"""A module over :data:`MAX_LINES` lines says why in its docstring, on a line starting with this."""
+"""A module over :data:`MAX_LINES` statements says why in its docstring, on a line starting with this."""
 
 CLI_ALLOWED_PREFIXES = ("arcube.cli",)
 CLI_ALLOWED_MODULES = {"arcube.__main__"}
 
 LAYERS = (
-    "arcube.caches", "arcube.interrupts", "arcube.progress", "arcube.errors", "arcube.io", "arcube.model", "arcube.validation", "arcube.options", "arcube.patients",
-    "arcube.evaluation", "arcube.coerce",
-    "arcube.accuracy", "arcube.optimization", "arcube.motion", "arcube.report", "arcube.calibrate", "arcube.pedicles", "arcube.export",
-    "arcube.design_job", "arcube.api", "arcube.explorer", "arcube.cli",
-)  # fmt: skip
+    "arcube.caches",
+    "arcube.interrupts",
+    "arcube.progress",
+    "arcube.errors",
+    "arcube.io",
+    "arcube.model",
+    "arcube.validation",
+    "arcube.options",
+    "arcube.patients",
+    "arcube.evaluation",
+    "arcube.coerce",
+    "arcube.accuracy",
+    "arcube.optimization",
+    "arcube.motion",
+    "arcube.report",
+    "arcube.calibrate",
+    "arcube.pedicles",
+    "arcube.export",
+    "arcube.design_job",
+    "arcube.api",
+    "arcube.explorer",
+    "arcube.cli",
+)
 """Every package (and top-level module) of src/arcube, bottom first: the pipeline io -> evaluation ->
 optimization -> program (motion) -> report / export -> the design job -> api -> the explorer and the CLI."""
 LOWER_LAYERS = LAYERS[: LAYERS.index("arcube.report")]
@@ -110,12 +131,16 @@ def iter_imports(tree: ast.AST, typed: bool = False) -> Iterator[tuple[ast.Impor
                 if checking == typed:
                     yield child, lazy
                 continue
-            yield from walk(child, lazy or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)), checking)
+            yield from walk(
+                child, lazy or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)), checking
+            )
 
     yield from walk(tree, False)
 
 
-def import_targets(module: str, is_package: bool, node: ast.Import | ast.ImportFrom, modules: dict[str, Path]) -> list[str]:
+def import_targets(
+    module: str, is_package: bool, node: ast.Import | ast.ImportFrom, modules: dict[str, Path]
+) -> list[str]:
     """The modules an import statement in ``module`` names (see the module docstring)."""
     if isinstance(node, ast.Import):
         return [alias.name for alias in node.names]
@@ -128,7 +153,9 @@ def import_targets(module: str, is_package: bool, node: ast.Import | ast.ImportF
     return [f"{target}.{a.name}" if f"{target}.{a.name}" in modules else target for a in node.names]
 
 
-def import_graph(src: Path, package: str, typed: bool = False) -> tuple[dict[str, set[str]], dict[str, set[str]], dict[str, Path]]:
+def import_graph(
+    src: Path, package: str, typed: bool = False
+) -> tuple[dict[str, set[str]], dict[str, set[str]], dict[str, Path]]:
     """(module-level edges, function-level edges, modules), restricted to ``package`` modules; with
     ``typed``, the edges of the ``TYPE_CHECKING`` imports instead."""
     modules = find_modules(src, package)
@@ -200,7 +227,9 @@ def _within(module: str, prefixes: tuple[str, ...]) -> bool:
 
 def upward_imports(graph: dict[str, set[str]], lower: tuple[str, ...], upper: tuple[str, ...], root: str) -> list[str]:
     """``"A -> B"`` for every edge from a module of ``lower`` to one of ``upper`` or to the ``root`` package."""
-    return sorted(f"{m} -> {t}" for m, ts in graph.items() if _within(m, lower) for t in ts if t == root or _within(t, upper))
+    return sorted(
+        f"{m} -> {t}" for m, ts in graph.items() if _within(m, lower) for t in ts if t == root or _within(t, upper)
+    )
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -215,7 +244,9 @@ def top_package(module: str, depth: int = 2) -> str:
 def package_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
     out: dict[str, set[str]] = {}
     for mod, targets in graph.items():
-        out.setdefault(top_package(mod), set()).update(top_package(t) for t in targets if top_package(t) != top_package(mod))
+        out.setdefault(top_package(mod), set()).update(
+            top_package(t) for t in targets if top_package(t) != top_package(mod)
+        )
     return out
 
 
@@ -294,7 +325,10 @@ def test_layer_rule_on_a_made_up_package(tmp_path: Path) -> None:
     )
     eager, lazy, _ = import_graph(tmp_path, "pkg")
     assert upward_imports(merged(eager, lazy), ("pkg.low",), ("pkg.top",), "pkg") == [
-        "pkg.low.core -> pkg.top.draw", "pkg.low.eager -> pkg.top.api", "pkg.low.root -> pkg"]
+        "pkg.low.core -> pkg.top.draw",
+        "pkg.low.eager -> pkg.top.api",
+        "pkg.low.root -> pkg",
+    ]
     assert upward_imports(eager, ("pkg.low",), ("pkg.top",), "pkg") == ["pkg.low.eager -> pkg.top.api"]
 
 
@@ -322,7 +356,10 @@ def test_no_import_cycles_between_modules(graph) -> None:
     eager, lazy, _ = graph
     typed_eager, typed_lazy, _ = import_graph(SRC, "arcube", typed=True)
     found = cycles(merged(eager, lazy, typed_eager, typed_lazy))
-    assert not found, "import cycles, deferred and type-checking imports included (strongly connected components): " + "; ".join(" <-> ".join(c) for c in found)
+    assert not found, (
+        "import cycles, deferred and type-checking imports included (strongly connected components): "
+        + "; ".join(" <-> ".join(c) for c in found)
+    )
 
 
 def test_every_package_has_its_layer(graph) -> None:
@@ -333,8 +370,13 @@ def test_every_package_has_its_layer(graph) -> None:
     packages = {top_package(m) for m in modules} - {"arcube", "arcube.__main__"}
     assert sorted(packages - set(LAYERS)) == [], "packages missing from LAYERS"
     rank = {p: i for i, p in enumerate(LAYERS)}
-    upward = sorted(f"{m} -> {t}" for g in (eager, lazy, typed_eager, typed_lazy) for m, ts in g.items() for t in ts
-                    if top_package(m) in rank and top_package(t) in rank and rank[top_package(t)] > rank[top_package(m)])  # fmt: skip
+    upward = sorted(
+        f"{m} -> {t}"
+        for g in (eager, lazy, typed_eager, typed_lazy)
+        for m, ts in g.items()
+        for t in ts
+        if top_package(m) in rank and top_package(t) in rank and rank[top_package(t)] > rank[top_package(m)]
+    )
     assert not upward, f"imports of a higher layer: {upward}"
 
 
@@ -348,7 +390,9 @@ def test_lower_layers_never_import_the_report_api_or_cli(graph) -> None:
     """model, io, evaluation, optimization (and errors, options, patients) never import arcube.report,
     arcube.api, arcube.cli or the root package, even inside a function: a result does not know its renderer."""
     eager, lazy, modules = graph
-    assert any(_within(m, ("arcube.optimization",)) for m in modules) and any(_within(m, ("arcube.report",)) for m in modules)
+    assert any(_within(m, ("arcube.optimization",)) for m in modules) and any(
+        _within(m, ("arcube.report",)) for m in modules
+    )
     offenders = upward_imports(merged(eager, lazy), LOWER_LAYERS, UPPER_LAYERS, "arcube")
     assert not offenders, f"lower layers importing the report, the API or the CLI: {offenders}"
 
@@ -368,19 +412,36 @@ def test_library_never_imports_the_cli(graph) -> None:
     assert not offenders, f"library modules importing the CLI: {offenders}"
 
 
+def _statements(text: str) -> int:
+    """Logical lines: one per statement however it is wrapped (a docstring is one)."""
+    import io
+    import tokenize
+
+    return sum(1 for t in tokenize.generate_tokens(io.StringIO(text).readline) if t.type == tokenize.NEWLINE)
+
+
+def test_statements_count_logical_lines() -> None:
+    wrapped = 'x = f(\n    1,\n    2,\n)\n"""doc\nstring"""\nif x:\n    y = [\n        3\n    ]  # note\n\n# comment\n'
+    assert _statements(wrapped) == 4  # the call, the docstring, the if, the list
+
+
 def _line_counts() -> dict[str, int]:
-    return {p.relative_to(PKG).as_posix(): len(p.read_text(encoding="utf-8").splitlines()) for p in sorted(PKG.rglob("*.py"))}
+    return {
+        p.relative_to(PKG).as_posix(): _statements(p.read_text(encoding="utf-8")) for p in sorted(PKG.rglob("*.py"))
+    }
 
 
 def _long_reason(rel: str) -> str | None:
     doc = ast.get_docstring(ast.parse((PKG / rel).read_text(encoding="utf-8"))) or ""
-    return next((line[len(LONG_REASON):].strip() for line in doc.splitlines() if line.startswith(LONG_REASON)), None)
+    return next((line[len(LONG_REASON) :].strip() for line in doc.splitlines() if line.startswith(LONG_REASON)), None)
 
 
 def test_module_size() -> None:
-    """No module over ~400 lines without a reason written at its top (issue "A library first")."""
+    """No module over :data:`MAX_LINES` statements (~400 formatted lines) without a reason written at its top."""
     too_long = {rel: n for rel, n in _line_counts().items() if n > MAX_LINES and not _long_reason(rel)}
-    assert not too_long, f"modules over {MAX_LINES} lines without a '{LONG_REASON} ...' line in their docstring: {too_long}"
+    assert not too_long, (
+        f"modules over {MAX_LINES} lines without a '{LONG_REASON} ...' line in their docstring: {too_long}"
+    )
 
 
 def test_long_module_reasons_are_not_stale() -> None:
@@ -403,7 +464,9 @@ def _attribute_docstring(module: str, name: str, seen: frozenset[str] = frozense
         if isinstance(stmt, ast.If) and isinstance(stmt.test, ast.Name) and stmt.test.id == "TYPE_CHECKING":
             body += stmt.body
     for stmt, nxt in zip(body, body[1:] + [None]):
-        targets = stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target] if isinstance(stmt, ast.AnnAssign) else []
+        targets = (
+            stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target] if isinstance(stmt, ast.AnnAssign) else []
+        )
         if any(isinstance(t, ast.Name) and t.id == name for t in targets):
             if isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant) and isinstance(nxt.value.value, str):
                 return nxt.value.value
@@ -428,7 +491,14 @@ def _own_docstring(obj: object) -> str | None:
     scope: list[ast.stmt] = ast.parse(path.read_text(encoding="utf-8")).body
     node: ast.AST | None = None
     for part in obj.__qualname__.split("."):  # type: ignore[attr-defined]
-        node = next((s for s in scope if isinstance(s, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and s.name == part), None)
+        node = next(
+            (
+                s
+                for s in scope
+                if isinstance(s, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and s.name == part
+            ),
+            None,
+        )
         if node is None:
             return None
         scope = node.body  # type: ignore[attr-defined]
@@ -458,3 +528,26 @@ def test_public_name_has_a_docstring(name: str) -> None:
     else:
         doc = _attribute_docstring("arcube", name)
     assert doc and doc.strip(), f"arcube.{name} has no docstring"
+
+
+# ----------------------------------------------------------------------------- form
+
+
+def test_ruff_formats_and_lints_src_and_tests_clean() -> None:
+    """``ruff format --check`` and ``ruff check`` pass on src/ and tests/ (pyproject.toml's [tool.ruff]), as .ci/run
+    runs them before the suite; aligned tables keep their form by ``fmt: skip``, at most 20 of them."""
+    import re
+    import subprocess
+
+    ruff = pytest.importorskip("ruff")
+    binary = ruff.find_ruff_bin()
+    root = SRC.parent
+    for args in (("format", "--check"), ("check",)):
+        done = subprocess.run([binary, *args, "src", "tests"], cwd=root, capture_output=True, text=True)
+        assert done.returncode == 0, f"ruff {' '.join(args)}: {done.stdout[-2000:]}{done.stderr[-500:]}"
+    ci = (root / ".ci" / "run").read_text()
+    assert "ruff format --check src tests" in ci and "ruff check src tests" in ci
+    marker = re.compile(r"#\s*fmt:\s*(skip|off)\b")
+    files = [p for d in (SRC, root / "tests") for p in d.rglob("*.py")]
+    skips = sum(len(marker.findall(p.read_text(encoding="utf-8"))) for p in files)
+    assert skips <= 20, f"{skips} formatter suppressions (at most 20, for aligned tables)"

@@ -16,12 +16,24 @@ from arcube.optimization import run as runmod
 from arcube.optimization.config import build_config
 from arcube.optimization.lock import LOCK_FILE, acquire, release
 
-SETTINGS = {"algorithm": "ga", "free": "m_x,m_y,m_z", "population": 10, "generations": 6, "points": 2, "engine": "numpy",
-            "tolerance": 0.0, "side": "R", "seed": 3, "checkpoint_every": 2}  # fmt: skip
+SETTINGS = {
+    "algorithm": "ga",
+    "free": "m_x,m_y,m_z",
+    "population": 10,
+    "generations": 6,
+    "points": 2,
+    "engine": "numpy",
+    "tolerance": 0.0,
+    "side": "R",
+    "seed": 3,
+    "checkpoint_every": 2,
+}
 
 
 def _dead_pid() -> int:
-    proc = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True)
+    proc = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True
+    )
     return int(proc.stdout)
 
 

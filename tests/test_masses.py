@@ -23,8 +23,11 @@ import arcube
 from arcube.errors import InputError
 from arcube.evaluation.mass_bodies import BODY_NAMES, MassModel, bodies_of_solution, body_masses_kg
 from arcube.evaluation.masses import (
-    gravity_torque_Nm, holding_torque, moving_mass_kg, potential_energy_J,
-)  # fmt: skip
+    gravity_torque_Nm,
+    holding_torque,
+    moving_mass_kg,
+    potential_energy_J,
+)
 from arcube.evaluation.performance import ACTUATOR_NAMES, metrics_of_solution
 from arcube.evaluation.task import build_task
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
@@ -80,7 +83,9 @@ def _oracle_V(x, E, e, rho, delta, sigma, c_z=None, g=G_DOWN):
     u1 = (Qz - Dz) / span
     with np.errstate(invalid="ignore"):
         J = Dz + along * u1 + np.sqrt(d[2] ** 2 - along**2) * np.cross(eye[2], u1)
-    S += np.where(closes, LAMBDA * d[2] * (Dz + J) / 2 + LAMBDA * cz * (J + Qz) / 2, LAMBDA * (d[2] + cz) * (Dz + Qz) / 2)
+    S += np.where(
+        closes, LAMBDA * d[2] * (Dz + J) / 2 + LAMBDA * cz * (J + Qz) / 2, LAMBDA * (d[2] + cz) * (Dz + Qz) / 2
+    )
     S += M_MOTOR * (C_m + (r + L_MOTOR / 2) * e_m)
     M = mass_by_hand(x23, cz)
     S_w = M * m + S @ R.T
@@ -250,9 +255,16 @@ def test_nan_where_the_ik_fails():
 
 @pytest.mark.parametrize(
     "kwargs",
-    [{"wall_mm": 8.0}, {"wall_mm": -1.0}, {"density_kg_m3": -1.0}, {"m_motor_kg": float("nan")}, {"gravity": (0.0, 9.81)},
-     {"c_z_mm": 0.0}, {"m_delta_kg": -0.1}],
-)  # fmt: skip
+    [
+        {"wall_mm": 8.0},
+        {"wall_mm": -1.0},
+        {"density_kg_m3": -1.0},
+        {"m_motor_kg": float("nan")},
+        {"gravity": (0.0, 9.81)},
+        {"c_z_mm": 0.0},
+        {"m_delta_kg": -0.1},
+    ],
+)
 def test_bad_mass_model_raises(kwargs):
     with pytest.raises(InputError) as info:
         MassModel(**kwargs)

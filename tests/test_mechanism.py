@@ -115,9 +115,13 @@ def test_inverse_kinematics_broadcast_equals_loop(designs, pose_bank):
         for j in range(len(E)):
             s1 = inverse_kinematics(D[i], E[j], e[j], modes[i])
             for name in ("E_m", "e", "rho", "sigma", "delta", "tls_arg", "rts_arg", "tms_arg", "u_beta"):
-                np.testing.assert_allclose(getattr(sol, name)[i, j], getattr(s1, name), rtol=1e-13, atol=1e-13, err_msg=name)
+                np.testing.assert_allclose(
+                    getattr(sol, name)[i, j], getattr(s1, name), rtol=1e-13, atol=1e-13, err_msg=name
+                )
             for name in ("F", "G", "D", "E", "H"):
-                np.testing.assert_allclose(getattr(sol.terms, name)[i, j], getattr(s1.terms, name), rtol=1e-13, atol=1e-12)
+                np.testing.assert_allclose(
+                    getattr(sol.terms, name)[i, j], getattr(s1.terms, name), rtol=1e-13, atol=1e-12
+                )
             assert sol.reachable[i, j] == s1.reachable
 
 
@@ -135,10 +139,30 @@ def test_special_pose_rho_zero_and_known_sigma():
     """Design with alpha = beta = 60 deg and a tip at the centre of the TLS box: rho = 0 exactly,
     sigma_u + o_u = the hand values of the e = z case (see test_stages), delta closes the four-bar."""
     vals = dict(
-        m_x=10.0, m_y=-20.0, m_z=30.0, f_x=40.0, f_y=50.0, f_z=60.0, p_x=100.0, p_y=110.0, p_z=90.0,
-        d_x=120.0, d_y=130.0, d_z=80.0, c_x=150.0, c_y=160.0, t_x=60.0, t_y=70.0, r=60.0,
-        o_x=10.0, o_y=-20.0, alpha_x=60.0, alpha_y=60.0, beta_x=60.0, beta_y=60.0,
-    )  # fmt: skip
+        m_x=10.0,
+        m_y=-20.0,
+        m_z=30.0,
+        f_x=40.0,
+        f_y=50.0,
+        f_z=60.0,
+        p_x=100.0,
+        p_y=110.0,
+        p_z=90.0,
+        d_x=120.0,
+        d_y=130.0,
+        d_z=80.0,
+        c_x=150.0,
+        c_y=160.0,
+        t_x=60.0,
+        t_y=70.0,
+        r=60.0,
+        o_x=10.0,
+        o_y=-20.0,
+        alpha_x=60.0,
+        alpha_y=60.0,
+        beta_x=60.0,
+        beta_y=60.0,
+    )
     x = vec(vals)
     E = np.array([10.0 - 40.0 - 60.0, -20.0 - 50.0 - 60.0, 30.0 - 60.0 - 60.0])  # E_m = -f - r
     sol = inverse_kinematics(x, E, Z_HAT)
@@ -167,7 +191,15 @@ def _bank_subset(pose_bank, step=3, n=4):
 def test_jacobian_shapes(pose_bank):
     x, mode, E, e = pose_bank[0]
     J = jacobians(inverse_kinematics(x, E, e, mode), x)
-    shapes = {"J_LV": (3, 3), "J_AV": (2, 3), "J_sigma": (2, 2), "J_AS": (2, 2), "J_AP": (2, 3), "J_rho": (2, 3), "J_delta": (2, 2)}
+    shapes = {
+        "J_LV": (3, 3),
+        "J_AV": (2, 3),
+        "J_sigma": (2, 2),
+        "J_AS": (2, 2),
+        "J_AP": (2, 3),
+        "J_rho": (2, 3),
+        "J_delta": (2, 2),
+    }
     assert set(J) == set(shapes)
     for k, s in shapes.items():
         assert J[k].shape == (len(E),) + s, k
@@ -320,7 +352,9 @@ def test_spin_about_e_gives_zero_joint_rates(pose_bank):
         np.testing.assert_allclose(qd, 0.0, atol=1e-12)
         # adding spin to any twist changes nothing
         v, om = rng.normal(size=(2,) + E.shape)
-        np.testing.assert_allclose(joint_rates(model, v, om + 3.0 * e), joint_rates(model, v, om), rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(
+            joint_rates(model, v, om + 3.0 * e), joint_rates(model, v, om), rtol=1e-9, atol=1e-12
+        )
 
 
 def test_twist_from_joint_rates_inverts_joint_rates(pose_bank):

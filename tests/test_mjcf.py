@@ -31,7 +31,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from arcube.errors import InputError  # noqa: E402
-from arcube.options import Masses, Options
+from arcube.options import Masses, Options  # noqa: E402
 from arcube.evaluation.mass_bodies import MassModel  # noqa: E402
 from arcube.evaluation.masses import gravity_torque_Nm, moving_mass_kg  # noqa: E402
 from arcube.io.load import load_plan  # noqa: E402
@@ -111,7 +111,9 @@ def test_mujoco_kinematics_reproduce_the_model_at_every_reachable_point(designs,
     sites = {f"P_{u}": mp.P[:, i] for i, u in enumerate("xyz")} | {f"D_{u}": mp.D[:, i] for i, u in enumerate("xyz")}
     sites |= {f"Q_{u}": mp.Q[:, i] for i, u in enumerate("xyz")} | {f"K_{u}": mp.K[:, i] for i, u in enumerate("xy")}
     sites |= {f"B_{u}": mp.B[:, i] for i, u in enumerate("xy")} | {"J_z": mp.J_z, "C": mp.C, "C_drill": mp.C, "O": mp.O}
-    sites |= {f"coupler_{u}_T": mp.T[:, i] for i, u in enumerate("xy")} | {f"output_{u}_T": mp.T[:, i] for i, u in enumerate("xy")}
+    sites |= {f"coupler_{u}_T": mp.T[:, i] for i, u in enumerate("xy")} | {
+        f"output_{u}_T": mp.T[:, i] for i, u in enumerate("xy")
+    }
     sites |= {"beta_y_H": mp.H}
     eq_rows = []
     worst = {"tip": 0.0, "axis": 0.0, "holder": 0.0, "sites": 0.0, "closure": 0.0, "efc": 0.0}
@@ -123,7 +125,9 @@ def test_mujoco_kinematics_reproduce_the_model_at_every_reachable_point(designs,
         axis = (holder - tip) / np.linalg.norm(holder - tip)
         worst["axis"] = max(worst["axis"], float(np.linalg.norm(axis - task.e[i])))
         worst["holder"] = max(worst["holder"], float(np.linalg.norm(holder - (task.E[i] + (L + r) * task.e[i]))))
-        worst["sites"] = max(worst["sites"], max(float(np.linalg.norm(data.site(s).xpos - p[i])) for s, p in sites.items()))
+        worst["sites"] = max(
+            worst["sites"], max(float(np.linalg.norm(data.site(s).xpos - p[i])) for s, p in sites.items())
+        )
         worst["closure"] = max(worst["closure"], _closure_gap(model, data))
         eq = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
         eq_rows.append(int(eq.sum()))
@@ -217,14 +221,28 @@ def test_anatomy_meshes_become_static_mesh_geoms() -> None:
 def _closed_form_masses(design: Design, c_z: float, m: MassModel) -> dict[str, float]:
     """Each MuJoCo body's mass from MODEL.md 18.1 by hand: tubes lambda x length, lambda = rho pi (r_o^2 - r_i^2);
     a spherical link is 12 chords of 2 r sin(phi / 24); the delta actuators ride at D_u (on knee_u)."""
-    lam = m.density_kg_m3 * math.pi * ((m.link_radius_mm * 1e-3) ** 2 - ((m.link_radius_mm - m.wall_mm) * 1e-3) ** 2) * 1e-3  # kg/mm
+    lam = (
+        m.density_kg_m3
+        * math.pi
+        * ((m.link_radius_mm * 1e-3) ** 2 - ((m.link_radius_mm - m.wall_mm) * 1e-3) ** 2)
+        * 1e-3
+    )  # kg/mm
     out = {f"crank_{u}": lam * design[f"p_{u}"] for u in "xyz"}
     for u in "xy":
-        out |= {f"input_{u}": lam * design[f"d_{u}"], f"coupler_{u}": lam * design[f"c_{u}"], f"output_{u}": lam * design[f"t_{u}"],
-                f"knee_{u}": m.m_delta_kg}  # fmt: skip
+        out |= {
+            f"input_{u}": lam * design[f"d_{u}"],
+            f"coupler_{u}": lam * design[f"c_{u}"],
+            f"output_{u}": lam * design[f"t_{u}"],
+            f"knee_{u}": m.m_delta_kg,
+        }
         for kind in ("alpha", "beta"):
             out[f"{kind}_{u}"] = lam * 12 * 2 * design["r"] * math.sin(math.radians(design[f"{kind}_{u}"]) / 24)
-    out |= {"zdyad_d": lam * design["d_z"], "zdyad_c": lam * c_z, "platform": lam * 3 * math.sqrt(2) * design["r"], "drill": m.m_motor_kg}
+    out |= {
+        "zdyad_d": lam * design["d_z"],
+        "zdyad_c": lam * c_z,
+        "platform": lam * 3 * math.sqrt(2) * design["r"],
+        "drill": m.m_motor_kg,
+    }
     return out
 
 
@@ -233,10 +251,19 @@ def test_body_masses_and_moving_mass_are_the_mass_model(designs, which) -> None:
     design, c_z = designs[which]
     cz = design["d_z"] if c_z is None else c_z
     masses = MassModel(wall_mm=1.5, density_kg_m3=7800.0, m_delta_kg=0.6, m_motor_kg=2.0, gravity=(1.0, -2.0, -9.0))
-    options = Options(masses=Masses(wall_mm=masses.wall_mm, density_kg_m3=masses.density_kg_m3, m_delta_kg=masses.m_delta_kg,
-                                    m_motor_kg=masses.m_motor_kg, gravity=masses.gravity))  # fmt: skip
+    options = Options(
+        masses=Masses(
+            wall_mm=masses.wall_mm,
+            density_kg_m3=masses.density_kg_m3,
+            m_delta_kg=masses.m_delta_kg,
+            m_motor_kg=masses.m_motor_kg,
+            gravity=masses.gravity,
+        )
+    )
     model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z, options=options))
-    got = {model.body(b).name: float(model.body_mass[b]) for b in range(2, model.nbody)}  # after world and the static base
+    got = {
+        model.body(b).name: float(model.body_mass[b]) for b in range(2, model.nbody)
+    }  # after world and the static base
     want = _closed_form_masses(design, cz, masses)
     assert set(got) - set(want) == {"knee_z"} and got["knee_z"] <= 1e-6  # MuJoCo's floor for a massless moving body
     for name, value in want.items():
@@ -276,8 +303,10 @@ def test_inertias_of_the_motor_and_of_a_spherical_link(designs) -> None:
     mass = model.body_mass[model.body("beta_x").id] / 12
     mid = 0.5 * (pts[1:] + pts[:-1])
     com = mid.mean(axis=0)
-    inertia = sum(mass * (d @ d / 12 * np.eye(3) - np.outer(d, d) / 12) + mass * (q @ q * np.eye(3) - np.outer(q, q))
-                  for d, q in zip(pts[1:] - pts[:-1], mid - com))  # fmt: skip
+    inertia = sum(
+        mass * (d @ d / 12 * np.eye(3) - np.outer(d, d) / 12) + mass * (q @ q * np.eye(3) - np.outer(q, q))
+        for d, q in zip(pts[1:] - pts[:-1], mid - com)
+    )
     np.testing.assert_allclose(data.xipos[model.body("beta_x").id], com, atol=1e-9)
     np.testing.assert_allclose(world_inertia("beta_x"), inertia, atol=1e-6 * np.abs(inertia).max())
 
@@ -292,7 +321,9 @@ def _loop_basis(model, data) -> np.ndarray:
     return N @ np.linalg.inv(N[[model.joint(n).dofadr[0] for n in ACTUATED]])
 
 
-@pytest.mark.parametrize(("which", "gravity"), [("paper_right", (0.0, 0.0, -9.81)), ("rotated_offset", (2.0, -3.0, -9.0))])
+@pytest.mark.parametrize(
+    ("which", "gravity"), [("paper_right", (0.0, 0.0, -9.81)), ("rotated_offset", (2.0, -3.0, -9.0))]
+)
 def test_mujoco_gravity_torques_through_the_loops_equal_ours(designs, which, gravity) -> None:
     """At rest, the torques that hold the weight are G^T qfrc_bias (MuJoCo cuts the loops: an actuator's own
     entry is not its torque). They equal :func:`gravity_torque_Nm` (MODEL.md 18.2, dV/dq through our FK
@@ -301,12 +332,16 @@ def test_mujoco_gravity_torques_through_the_loops_equal_ours(designs, which, gra
     design, c_z = designs[which]
     cz = design["d_z"] if c_z is None else c_z
     ts, task = _plan()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, c_z=c_z, options=Options(masses=Masses(gravity=gravity))))
+    model = mujoco.MjModel.from_xml_string(
+        export_mjcf(design, ts, c_z=c_z, options=Options(masses=Masses(gravity=gravity)))
+    )
     model.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
     data = mujoco.MjData(model)
     sel = np.arange(0, len(task.E), 7)
     q = joint_values(design, task.E[sel], task.e[sel], c_z=c_z)
-    ours = gravity_torque_Nm(design.to_vector(), task.E[sel], task.e[sel], np.ones(4), MassModel(gravity=gravity, c_z_mm=cz))
+    ours = gravity_torque_Nm(
+        design.to_vector(), task.E[sel], task.e[sel], np.ones(4), MassModel(gravity=gravity, c_z_mm=cz)
+    )
     dofs = [model.joint(n).dofadr[0] for n in ACTUATED]
     worst, naive = 0.0, 0.0
     for j in np.flatnonzero(np.isfinite(ours).all(axis=1)):
@@ -315,7 +350,10 @@ def test_mujoco_gravity_torques_through_the_loops_equal_ours(designs, which, gra
         theirs = _loop_basis(model, data).T @ data.qfrc_bias / 1e6  # kg mm^2/s^2 -> N m
         worst = max(worst, float(np.abs(theirs - ours[j]).max()))
         naive = max(naive, float(np.abs(data.qfrc_bias[dofs] / 1e6 - ours[j]).max()))
-    print(which, f"|G^T qfrc_bias - dV/dq| {worst:.2e} N m, naive entries off by {naive:.2f} N m, |dV/dq| max {np.nanmax(np.abs(ours)):.2f}")
+    print(
+        which,
+        f"|G^T qfrc_bias - dV/dq| {worst:.2e} N m, naive entries off by {naive:.2f} N m, |dV/dq| max {np.nanmax(np.abs(ours)):.2f}",
+    )
     assert np.nanmax(np.abs(ours)) > 1.0
     assert worst < 1e-5
     assert naive > 0.1  # the actuated entries alone are not the holding torques
@@ -351,7 +389,9 @@ def test_our_gravity_torques_hold_the_pose_in_mujoco(designs, which, tid) -> Non
 
 def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    return subprocess.run([sys.executable, "-m", "arcube", *args], cwd=cwd, capture_output=True, text=True, timeout=120, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "arcube", *args], cwd=cwd, capture_output=True, text=True, timeout=120, env=env
+    )
 
 
 @pytest.fixture(scope="module")
@@ -391,8 +431,22 @@ def test_cli_bad_input_one_line_exit_2_no_file(tmp_path, design_file, extra, mes
 
 def test_cli_mass_flags_set_the_masses_and_gravity(tmp_path, design_file) -> None:
     xml = tmp_path / "robot.xml"
-    res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--m-motor", "3", "--m-delta", "0.5",
-               "--gravity", "0,-9.81,0", cwd=tmp_path)  # fmt: skip
+    res = _run(
+        "export",
+        "--design",
+        str(design_file),
+        "--out",
+        str(xml),
+        "--c-z",
+        "162",
+        "--m-motor",
+        "3",
+        "--m-delta",
+        "0.5",
+        "--gravity",
+        "0,-9.81,0",
+        cwd=tmp_path,
+    )
     assert res.returncode == 0, res.stderr
     model = mujoco.MjModel.from_xml_path(str(xml))
     assert model.body_mass[model.body("drill").id] == 3.0 and model.body_mass[model.body("knee_x").id] == 0.5
@@ -403,22 +457,60 @@ def test_cli_thin_links_export_without_masses_unless_asked(tmp_path, design_file
     """Links no thicker than the default 2 mm wall and no mass flag: the model is written without 18.1's masses and
     a note says so (as arcube evaluate drops the holding torque); with --wall the wall is refused."""
     xml = tmp_path / "robot.xml"
-    res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--link-radius", "1.5", cwd=tmp_path)
+    res = _run(
+        "export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--link-radius", "1.5", cwd=tmp_path
+    )
     assert res.returncode == 0 and res.stderr.startswith("note: --link-radius 1.5 mm"), res.stderr
     model = mujoco.MjModel.from_xml_path(str(xml))
     assert model.body_mass[model.body("drill").id] < 1e-3  # no 1.5 kg drill motor
-    res = _run("export", "--design", str(design_file), "--out", str(tmp_path / "r2.xml"), "--c-z", "162", "--link-radius", "1.5",
-               "--wall", "2", cwd=tmp_path)  # fmt: skip
-    assert res.returncode == 2 and "--wall must be < the link radius (1.5 mm)" in res.stderr and not (tmp_path / "r2.xml").exists()
+    res = _run(
+        "export",
+        "--design",
+        str(design_file),
+        "--out",
+        str(tmp_path / "r2.xml"),
+        "--c-z",
+        "162",
+        "--link-radius",
+        "1.5",
+        "--wall",
+        "2",
+        cwd=tmp_path,
+    )
+    assert (
+        res.returncode == 2
+        and "--wall must be < the link radius (1.5 mm)" in res.stderr
+        and not (tmp_path / "r2.xml").exists()
+    )
 
 
 def test_example_script_drives_the_exported_model_along_a_joints_csv(tmp_path, design_file) -> None:
     xml, csv = tmp_path / "robot.xml", tmp_path / "joints.csv"
-    res = _run("export", "--design", str(design_file), "--out", str(xml), "--c-z", "162", "--points", "10", "--at", "3:9", cwd=tmp_path)
+    res = _run(
+        "export",
+        "--design",
+        str(design_file),
+        "--out",
+        str(xml),
+        "--c-z",
+        "162",
+        "--points",
+        "10",
+        "--at",
+        "3:9",
+        cwd=tmp_path,
+    )
     assert res.returncode == 0, res.stderr
-    res = _run("joints", "--design", str(design_file), "--out", str(csv), "--points", "10", "--ids", "1,3", cwd=tmp_path)
+    res = _run(
+        "joints", "--design", str(design_file), "--out", str(csv), "--points", "10", "--ids", "1,3", cwd=tmp_path
+    )
     assert res.returncode == 0, res.stderr
-    run = subprocess.run([sys.executable, str(EXAMPLE), str(xml), str(csv), "--trajectory", "1"], capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, str(EXAMPLE), str(xml), str(csv), "--trajectory", "1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 0, run.stderr
     m = re.search(r"max tip error: ([0-9.]+) mm over (\d+) points", run.stdout)
     assert m, run.stdout

@@ -58,8 +58,13 @@ def _program_csv(folder: Path) -> dict[str, np.ndarray]:
     with open(folder / "program.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     col = lambda names: np.array([[float(r[n]) for n in names] for r in rows])  # noqa: E731
-    return {"t": col(["t_s"])[:, 0], "segment": np.array([r["segment"] for r in rows]), "E": col(["E_x", "E_y", "E_z"]),
-            "e": col(["e_x", "e_y", "e_z"]), "q": col(list(ACTUATED))}  # fmt: skip
+    return {
+        "t": col(["t_s"])[:, 0],
+        "segment": np.array([r["segment"] for r in rows]),
+        "E": col(["E_x", "E_y", "E_z"]),
+        "e": col(["e_x", "e_y", "e_z"]),
+        "q": col(list(ACTUATED)),
+    }
 
 
 def _cli(args: list[str]) -> int:
@@ -148,7 +153,9 @@ def test_mujoco_dynamics_keep_the_tip_on_the_program_while_drilling(prog, export
 def test_example_script_replays_the_exported_program(prog, exported) -> None:
     _, folder, _ = prog
     xml, replay = exported
-    run = subprocess.run([sys.executable, str(EXAMPLE), str(xml), str(replay)], capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, str(EXAMPLE), str(xml), str(replay)], capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 0, run.stderr
     last = run.stdout.strip().splitlines()[-1]
     print(last)
@@ -167,9 +174,13 @@ def test_design_from_the_folder_and_unknown_columns(prog, tmp_path: Path) -> Non
     shutil.copytree(folder, job / "program")
     shutil.copy(design_file, job / "design.json")
     (job / "summary.json").write_text(json.dumps({"files": {"design": "design.json", "program": "program"}}))
-    with open(folder / "program.csv", newline="") as fh:  # a later program.csv with a column of its own (beside the torques)
+    with open(
+        folder / "program.csv", newline=""
+    ) as fh:  # a later program.csv with a column of its own (beside the torques)
         lines = fh.read().splitlines()
-    (job / "program" / "program.csv").write_text("\n".join([lines[0] + ",power_W"] + [ln + ",1.5" for ln in lines[1:]]) + "\n")
+    (job / "program" / "program.csv").write_text(
+        "\n".join([lines[0] + ",power_W"] + [ln + ",1.5" for ln in lines[1:]]) + "\n"
+    )
     out = tmp_path / "a" / "robot.xml"
     assert _cli(["--program", str(job / "program"), "--c-z", C_Z, "--out", str(out)]) == 0
     assert out.with_name("robot.replay.csv").read_text() == reference.replay_csv
@@ -202,8 +213,13 @@ def test_whole_turns_of_delta_are_the_program_s(prog) -> None:
     assert np.linalg.norm(data.site("tip").xpos - rows.E[0]) < 1e-9
     first = next(csv.DictReader(ex.replay_csv.splitlines()))
     assert float(first["ctrl_delta_y"]) == pytest.approx(np.radians(rows.q_deg[0, 4]) - 4 * np.pi, abs=1e-12)
-    off = dataclasses.replace(rows, q_deg=rows.q_deg + np.array([0.0, 0.0, 0.0, 0.0, 1e-3]) * (np.arange(len(rows.t_s)) == 7)[:, None])
-    with pytest.raises(InputError, match=r"^design does not run this program: it gives delta_y = .* deg at row 7 \(t = 0\.07 s, approach 1\)"):
+    off = dataclasses.replace(
+        rows, q_deg=rows.q_deg + np.array([0.0, 0.0, 0.0, 0.0, 1e-3]) * (np.arange(len(rows.t_s)) == 7)[:, None]
+    )
+    with pytest.raises(
+        InputError,
+        match=r"^design does not run this program: it gives delta_y = .* deg at row 7 \(t = 0\.07 s, approach 1\)",
+    ):
         export_program(off, Design.from_dict(DESIGN), c_z=float(C_Z))
 
 
@@ -211,11 +227,23 @@ def test_whole_turns_of_delta_are_the_program_s(prog) -> None:
     ("args", "start"),
     [
         (["--c-z", C_Z], "error: --design is required: the program records no design"),
-        (["--design", "paper", "--c-z", C_Z], "error: --design does not run this program: it has no IK solution at row 0"),
+        (
+            ["--design", "paper", "--c-z", C_Z],
+            "error: --design does not run this program: it has no IK solution at row 0",
+        ),
         (["--design", "{design}", "--c-z", "60"], r"error: --c-z in [325.86, 485.80] mm closes the z-leg dyad"),
-        (["--design", "{design}", "--c-z", C_Z, "--at", "1:0", "--points", "5"], "error: --at, --points: not with --program"),
-        (["--design", "{design}", "--c-z", C_Z, "--program", "{missing}"], "error: --program {missing}: no such folder"),
-        (["--design", "{design}", "--c-z", C_Z, "--out", "{replay_blocked}"], "error: --out {replay_blocked}: cannot write"),
+        (
+            ["--design", "{design}", "--c-z", C_Z, "--at", "1:0", "--points", "5"],
+            "error: --at, --points: not with --program",
+        ),
+        (
+            ["--design", "{design}", "--c-z", C_Z, "--program", "{missing}"],
+            "error: --program {missing}: no such folder",
+        ),
+        (
+            ["--design", "{design}", "--c-z", C_Z, "--out", "{replay_blocked}"],
+            "error: --out {replay_blocked}: cannot write",
+        ),
     ],
     ids=["no-design", "wrong-design", "z-dyad", "plan-options", "missing-folder", "replay-unwritable"],
 )
@@ -230,7 +258,11 @@ def test_cli_bad_input_one_line_exit_2_no_file(prog, tmp_path: Path, capsys, arg
         folder = old
     (tmp_path / "robot.replay.csv").mkdir()  # only the replay-unwritable case writes to robot.xml here
     out = tmp_path / "out" / "robot.xml"
-    names = {"design": str(design_file), "missing": str(tmp_path / "nothing"), "replay_blocked": str(tmp_path / "robot.xml")}
+    names = {
+        "design": str(design_file),
+        "missing": str(tmp_path / "nothing"),
+        "replay_blocked": str(tmp_path / "robot.xml"),
+    }
     args = [a.format(**names) for a in args]
     if "--out" not in args:
         args += ["--out", str(out)]

@@ -32,8 +32,15 @@ def _by_hand(x: np.ndarray, E: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, n
     return paper, E2, e2
 
 
-@pytest.mark.parametrize(("mount", "L"), [((0.0, 0.0, 0.0), 120.0), ((-135.0, -144.74, -67.63), 0.0),
-                                          ((-135.0, -144.74, -67.63), 140.0), ((20.0, -35.0, 170.0), 60.0)])
+@pytest.mark.parametrize(
+    ("mount", "L"),
+    [
+        ((0.0, 0.0, 0.0), 120.0),
+        ((-135.0, -144.74, -67.63), 0.0),
+        ((-135.0, -144.74, -67.63), 140.0),
+        ((20.0, -35.0, 170.0), 60.0),
+    ],
+)
 def test_rotated_design_equals_paper_model_on_task_transformed_by_hand(mount, L) -> None:
     task = reference_task()
     x = reaching_design(mount, L)
@@ -77,7 +84,12 @@ def test_ik_then_fk_returns_the_drill_tip_and_axis_with_rotation_and_offset(mode
 def test_kernel_equals_reference_with_rotation_and_offset() -> None:
     task = reference_task()
     rng = np.random.default_rng(11)
-    X = np.stack([reaching_design(tuple(rng.uniform(-180, 180, 3)), float(rng.uniform(0, 200)), seed=k, n=150, mode=6) for k in range(6)])
+    X = np.stack(
+        [
+            reaching_design(tuple(rng.uniform(-180, 180, 3)), float(rng.uniform(0, 200)), seed=k, n=150, mode=6)
+            for k in range(6)
+        ]
+    )
     X = np.concatenate([X, reaching_design((0.0, 0.0, 0.0), 90.0, n=150, mode=6)[None]])  # unrotated, with an offset
     assert evaluate_task(X, task.E, task.e, ALL_MODES[6]).points.reachable.any(axis=1).sum() >= 5
     for options in (Options(), GUARDED_OPTIONS):

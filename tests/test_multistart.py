@@ -24,8 +24,17 @@ START = Path(__file__).resolve().parent / "data" / "right_side_design.json"
 
 
 def _config(**kw: object) -> dict:
-    base = {"free": "all", "population": 20, "generations": 100, "points": 3, "seed": 5, "engine": "numpy", "tolerance": 0.0,
-            "side": "R", "checkpoint_every": 4}  # fmt: skip
+    base = {
+        "free": "all",
+        "population": 20,
+        "generations": 100,
+        "points": 3,
+        "seed": 5,
+        "engine": "numpy",
+        "tolerance": 0.0,
+        "side": "R",
+        "checkpoint_every": 4,
+    }
     base.update(kw)
     return build_config(["reference"], **base)
 
@@ -39,7 +48,13 @@ def test_into_box_is_cmas_transformation_batched() -> None:
 
     one = BoxConstraintsLinQuadTransformation([[0.0, 1.0]])
     rng = np.random.default_rng(0)
-    Y = np.concatenate([rng.normal(0.5, 0.4, (200, 23)), rng.normal(0.5, 30.0, (200, 23)), np.array([[-0.05, 1.05, 0.0, 1.0, 0.5] * 4 + [7.3, -7.3, 2.2]])])
+    Y = np.concatenate(
+        [
+            rng.normal(0.5, 0.4, (200, 23)),
+            rng.normal(0.5, 30.0, (200, 23)),
+            np.array([[-0.05, 1.05, 0.0, 1.0, 0.5] * 4 + [7.3, -7.3, 2.2]]),
+        ]
+    )
     want = np.array([one(y.copy()) for y in Y])
     got = into_box(Y)
     assert np.array_equal(got, want) and got.min() >= 0.0 and got.max() <= 1.0
@@ -56,8 +71,15 @@ def test_batch_cma_parameters_are_cmas() -> None:
         es = cma.CMAEvolutionStrategy(np.full(n, 0.5), 0.3, {"popsize": lam, "verbose": -9, "seed": np.nan})
         p = parameters(n, lam)
         assert np.allclose(p["weights"], list(es.sp.weights), rtol=1e-12, atol=1e-15) and p["mu"] == es.sp.weights.mu
-        want = {"mueff": es.sp.weights.mueff, "cc": es.sp.cc, "c1": es.sm.parameters()["c1"], "cmu": es.sm.parameters()["cmu"],
-                "cs": es.adapt_sigma.cs, "damps": es.adapt_sigma.damps, "chin": Mh.chiN(n)}  # fmt: skip
+        want = {
+            "mueff": es.sp.weights.mueff,
+            "cc": es.sp.cc,
+            "c1": es.sm.parameters()["c1"],
+            "cmu": es.sm.parameters()["cmu"],
+            "cs": es.adapt_sigma.cs,
+            "damps": es.adapt_sigma.damps,
+            "chin": Mh.chiN(n),
+        }
         assert all(np.isclose(p[k], v, rtol=1e-12) for k, v in want.items()), (n, lam)
 
 
@@ -79,8 +101,16 @@ def test_batch_cma_samples_what_cma_samples_and_stops_when_it_stops() -> None:
     for r, x0 in enumerate(starts):
         batch.restart(r, x0, np.random.default_rng(10 + r))
         g = np.random.default_rng(10 + r)
-        opts = {"popsize": lam, "tolfun": tol, "tolfunhist": tol, "tolx": tol / 10, "maxiter": 10**9, "seed": np.nan, "verbose": -9,
-                "randn": lambda *shape, g=g: g.standard_normal(shape)}  # fmt: skip
+        opts = {
+            "popsize": lam,
+            "tolfun": tol,
+            "tolfunhist": tol,
+            "tolx": tol / 10,
+            "maxiter": 10**9,
+            "seed": np.nan,
+            "verbose": -9,
+            "randn": lambda *shape, g=g: g.standard_normal(shape),
+        }
         theirs.append(cma.CMAEvolutionStrategy(x0, 0.4, opts))
     for gen in range(1, 400):
         U = batch.ask().reshape(2, lam, n)
@@ -145,7 +175,11 @@ def test_runs_restart_and_the_best_is_kept(tmp_path: Path) -> None:
         seen.extend(np.asarray(r["ETA"], float).tolist())
         return r
 
-    algo.setup(ArcubeProblem(model.space, 1, batch, penalty_only=True), termination=make_termination("mscmaes", 200, 0.0, population=50), seed=3)
+    algo.setup(
+        ArcubeProblem(model.space, 1, batch, penalty_only=True),
+        termination=make_termination("mscmaes", 200, 0.0, population=50),
+        seed=3,
+    )
     best = []
     while algo.has_next():
         algo.next()

@@ -52,13 +52,38 @@ def test_objective_columns_are_the_evaluated_values(start: Path) -> None:
     model = build_model(build_config(["reference"], objectives="eta_G,torque,axis_error,deflection", **common))
     assert model.n_obj == 4
     F = model.evaluate(model.space.encode(model.space.base)[None, :])["F"][0]
-    np.testing.assert_allclose(F, [s["eta_G"], s["torque_max_Nm"], s["axis_error_max_deg"], s["deflection_max_mm"]], rtol=1e-9)
+    np.testing.assert_allclose(
+        F, [s["eta_G"], s["torque_max_Nm"], s["axis_error_max_deg"], s["deflection_max_mm"]], rtol=1e-9
+    )
 
 
 def test_pareto_rows_hold_27_parameters_and_reevaluate_to_their_objectives(start: Path, tmp_path: Path) -> None:
-    out = arcube("optimize", "--trajectories", "reference", "--side", "R", "--points", "6", "--design-from", str(start),
-                 "--free", "m_x,m_y,m_z,L", "--objectives", "eta_G,lateral_error", "--max", "torque=40",
-                 "--population", "12", "--generations", "4", "--seed", "3", "--quiet", "--out", str(tmp_path / "run"))  # fmt: skip
+    out = arcube(
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--side",
+        "R",
+        "--points",
+        "6",
+        "--design-from",
+        str(start),
+        "--free",
+        "m_x,m_y,m_z,L",
+        "--objectives",
+        "eta_G,lateral_error",
+        "--max",
+        "torque=40",
+        "--population",
+        "12",
+        "--generations",
+        "4",
+        "--seed",
+        "3",
+        "--quiet",
+        "--out",
+        str(tmp_path / "run"),
+    )
     assert out.returncode == 0, out.stderr
     rows = list(csv.DictReader((tmp_path / "run" / "pareto.csv").open()))
     assert rows
@@ -84,7 +109,15 @@ def test_holding_torque_and_mass_limits_add_their_normalized_shortfall(start: Pa
     s = _holding_summary(start, m_motor_kg=2.0)
     hold, mass = s["holding_torque_max_Nm"], s["moving_mass_kg"]
     assert s["w_G"] and hold > s["torque_max_Nm"] + 0.1 and 2.0 < mass < 10.0
-    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": "numpy", "free": "m_x", "m_motor": 2.0}
+    common = {
+        "design_from": str(start),
+        "side": "R",
+        "points": 6,
+        "seed": 1,
+        "engine": "numpy",
+        "free": "m_x",
+        "m_motor": 2.0,
+    }
     for maxima, want in [
         ([f"holding_torque={hold / 2!r}"], 1.0),
         ([f"holding_torque={2 * hold!r}", f"mass={2 * mass!r}"], 0.0),
@@ -101,10 +134,20 @@ def test_holding_torque_and_mass_limits_add_their_normalized_shortfall(start: Pa
 @pytest.mark.parametrize("engine", ["numpy", "numba"])
 def test_holding_torque_and_mass_objectives_are_the_evaluated_values(start: Path, engine: str) -> None:
     s = _holding_summary(start, gravity=(0.0, -9.81, 0.0))
-    common = {"design_from": str(start), "side": "R", "points": 6, "seed": 1, "engine": engine, "free": "m_x", "gravity": "0,-9.81,0"}
+    common = {
+        "design_from": str(start),
+        "side": "R",
+        "points": 6,
+        "seed": 1,
+        "engine": engine,
+        "free": "m_x",
+        "gravity": "0,-9.81,0",
+    }
     model = build_model(build_config(["reference"], objectives="eta_G,holding_torque,mass,torque", **common))
     F = model.evaluate(model.space.encode(model.space.base)[None, :])["F"][0]
-    np.testing.assert_allclose(F, [s["eta_G"], s["holding_torque_max_Nm"], s["moving_mass_kg"], s["torque_max_Nm"]], rtol=1e-9)
+    np.testing.assert_allclose(
+        F, [s["eta_G"], s["holding_torque_max_Nm"], s["moving_mass_kg"], s["torque_max_Nm"]], rtol=1e-9
+    )
     rep = model.report(model.space.encode(model.space.base))
     assert rep["holding_torque_max_Nm"] == pytest.approx(s["holding_torque_max_Nm"], rel=1e-9)
     assert rep["moving_mass_kg"] == pytest.approx(s["moving_mass_kg"], rel=1e-12)
@@ -127,11 +170,19 @@ def test_only_runs_that_use_the_masses_compute_or_report_them(start: Path) -> No
 
 @pytest.mark.parametrize(
     "args, needle",
-    [(["--wall", "9"], "--wall must be < the link radius"), (["--wall", "3", "--link-radius", "3"], "--wall"),
-     (["--density", "-2700"], "--density"), (["--m-delta", "-1"], "--m-delta"), (["--m-motor", "nan"], "--m-motor"),
-     (["--gravity", "0,-9.81"], "--gravity"), (["--gravity", "x,y,z"], "--gravity"), (["--max", "mass=0"], "must be > 0"),
-     (["--max", "holding_torque=-1"], "must be > 0"), (["--objectives", "eta_G,mass", "--link-radius", "2"], "--wall")],
-)  # fmt: skip
+    [
+        (["--wall", "9"], "--wall must be < the link radius"),
+        (["--wall", "3", "--link-radius", "3"], "--wall"),
+        (["--density", "-2700"], "--density"),
+        (["--m-delta", "-1"], "--m-delta"),
+        (["--m-motor", "nan"], "--m-motor"),
+        (["--gravity", "0,-9.81"], "--gravity"),
+        (["--gravity", "x,y,z"], "--gravity"),
+        (["--max", "mass=0"], "must be > 0"),
+        (["--max", "holding_torque=-1"], "must be > 0"),
+        (["--objectives", "eta_G,mass", "--link-radius", "2"], "--wall"),
+    ],
+)
 def test_bad_mass_flags_of_optimize_are_one_line_exit_2(args, needle, tmp_path: Path) -> None:
     out = arcube("optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args)
     assert out.returncode == 2, out.stderr
@@ -141,11 +192,17 @@ def test_bad_mass_flags_of_optimize_are_one_line_exit_2(args, needle, tmp_path: 
 
 @pytest.mark.parametrize(
     "args, needle",
-    [(["--objectives", "eta_G,speed"], "unknown objective 'speed'"), (["--max", "torque"], "expected NAME=VALUE"),
-     (["--max", "weight=3"], "unknown name 'weight'"), (["--min", "clearance=abc"], "is not a number"),
-     (["--max", "torque=-1"], "must be > 0"), (["--objectives", "eta_G", "--algorithm", "nsga2"], "needs two or more"),
-     (["--objectives", "eta_G,clearance"], "needs an anatomy"), (["--thrust", "-3"], "--thrust")],
-)  # fmt: skip
+    [
+        (["--objectives", "eta_G,speed"], "unknown objective 'speed'"),
+        (["--max", "torque"], "expected NAME=VALUE"),
+        (["--max", "weight=3"], "unknown name 'weight'"),
+        (["--min", "clearance=abc"], "is not a number"),
+        (["--max", "torque=-1"], "must be > 0"),
+        (["--objectives", "eta_G", "--algorithm", "nsga2"], "needs two or more"),
+        (["--objectives", "eta_G,clearance"], "needs an anatomy"),
+        (["--thrust", "-3"], "--thrust"),
+    ],
+)
 def test_bad_objective_flags_are_one_line_exit_2(args, needle, tmp_path: Path) -> None:
     out = arcube("optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args)
     assert out.returncode == 2, out.stderr

@@ -41,7 +41,9 @@ def job(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = run_arcube(*_JOB, cwd=root)
     assert out.returncode in (0, 3), out.stdout + out.stderr
     summary = json.loads((root / "d" / "summary.json").read_text())
-    assert ("meets every requirement" in out.stdout) == (out.returncode == 0) == summary["meets_requirements"], out.stdout
+    assert ("meets every requirement" in out.stdout) == (out.returncode == 0) == summary["meets_requirements"], (
+        out.stdout
+    )
     return root / "d"
 
 
@@ -55,11 +57,18 @@ def test_design_json_is_the_robot_and_its_dockings(job: Path) -> None:
     issue's keys; each docking's file is the robot with that entry's placement, and every file names the mode."""
     robot = json.loads((job / "design.json").read_text())
     assert [(d["patient"], d["side"]) for d in robot["dockings"]] == [("reference", "R"), ("reference", "L")]
-    assert all(list(d)[: len(_ENTRY_KEYS)] == _ENTRY_KEYS and set(d) - set(_ENTRY_KEYS) == {"entry", "target"} for d in robot["dockings"])
+    assert all(
+        list(d)[: len(_ENTRY_KEYS)] == _ENTRY_KEYS and set(d) - set(_ENTRY_KEYS) == {"entry", "target"}
+        for d in robot["dockings"]
+    )
     c3 = select(arcube.load_trajectories("reference"), levels="C3")
-    for d in robot["dockings"]:  # each docking's trajectories, for arcube dock to carry its placement onto a new plan (MODEL.md 19.6)
+    for d in robot[
+        "dockings"
+    ]:  # each docking's trajectories, for arcube dock to carry its placement onto a new plan (MODEL.md 19.6)
         side = select(c3, side=d["side"])
-        np.testing.assert_allclose(d["entry"], side.entry, atol=1e-4) and np.testing.assert_allclose(d["target"], side.target, atol=1e-4)
+        np.testing.assert_allclose(d["entry"], side.entry, atol=1e-4) and np.testing.assert_allclose(
+            d["target"], side.target, atol=1e-4
+        )
     assert set(robot) == {*ROBOT_NAMES, "mode", "dockings"} and len(ROBOT_NAMES) == 22
     assert 20.0 <= robot["c_z"] <= 500.0  # the default bounds of c_z (MODEL.md 19.1)
     for entry in robot["dockings"]:
@@ -67,7 +76,9 @@ def test_design_json_is_the_robot_and_its_dockings(job: Path) -> None:
         d = arcube.Design.load(file)
         values = d.to_dict()
         assert {n: values[n] for n in PLACEMENT} == {n: entry[n] for n in PLACEMENT}
-        assert {n: values[n] for n in PARAM_NAMES if n not in PLACEMENT} == {n: robot[n] for n in ROBOT_NAMES if n != "c_z"}
+        assert {n: values[n] for n in PARAM_NAMES if n not in PLACEMENT} == {
+            n: robot[n] for n in ROBOT_NAMES if n != "c_z"
+        }
         assert d.c_z == robot["c_z"] and d.mode == robot["mode"]
         raw = json.loads(file.read_text())
         assert (raw["patient"], raw["side"]) == (entry["patient"], entry["side"])  # whose docking, which side
@@ -79,7 +90,10 @@ def test_requirements_name_the_docking_where_each_is_tightest(job: Path) -> None
     """requirements.csv has a docking column; per requirement, its row is the docking's (in that docking's own table)
     with the smallest margin, a failing one first (MODEL.md 19.4)."""
     top = _csv(job / "requirements.csv")
-    per = {label: {r["requirement"]: r for r in _csv(job / "dockings" / label / "requirements.csv")} for label in ("reference_R", "reference_L")}
+    per = {
+        label: {r["requirement"]: r for r in _csv(job / "dockings" / label / "requirements.csv")}
+        for label in ("reference_R", "reference_L")
+    }
     assert top and all(r["docking"] in per for r in top)
     for r in top:
         mine = per[r["docking"]][r["requirement"]]
@@ -107,12 +121,33 @@ def test_a_docking_the_job_reports_as_met_is_met_by_the_numpy_reference(job: Pat
     envelope = resolve_envelope(["default"], whole, anatomy)  # placed on the whole plan as loaded, as the job's
     for d in summary["dockings"]:
         file = job / "dockings" / d["label"] / "design.json"
-        ev = run_arcube("evaluate", "--design", str(file), "--trajectories", "reference", "--side", d["side"], "--levels", "C3", "--anatomy",
-                        "default", "--engine", "numpy", "--json", "--points", "8", "--envelope", "none", cwd=tmp_path)  # fmt: skip
+        ev = run_arcube(
+            "evaluate",
+            "--design",
+            str(file),
+            "--trajectories",
+            "reference",
+            "--side",
+            d["side"],
+            "--levels",
+            "C3",
+            "--anatomy",
+            "default",
+            "--engine",
+            "numpy",
+            "--json",
+            "--points",
+            "8",
+            "--envelope",
+            "none",
+            cwd=tmp_path,
+        )
         assert ev.returncode == 0, ev.stderr
         doc = json.loads(ev.stdout)
         plan = doc["summary"]
-        assert doc["mode"] == summary["mode"] and doc["guards"]["c_z"] == json.loads(file.read_text())["c_z"]  # read from the file
+        assert (
+            doc["mode"] == summary["mode"] and doc["guards"]["c_z"] == json.loads(file.read_text())["c_z"]
+        )  # read from the file
         rows = {r["requirement"]: r for r in _csv(job / "dockings" / d["label"] / "requirements.csv")}
         for name in ("clearance", "self_clearance"):
             got, ref = float(rows[name]["value"]), plan[f"{name}_min_mm"]
@@ -127,13 +162,31 @@ def test_a_docking_the_job_reports_as_met_is_met_by_the_numpy_reference(job: Pat
         S, _ = standoff_points(side.entry, side.target, anatomy, 20.0)
         for what, entry, target in (("plan", side.entry, side.target), ("approach", S, side.entry)):
             lines = dataclasses.replace(side, entry=np.asarray(entry), target=np.asarray(target), source="approach")
-            res = arcube.evaluate(design, lines, points=8, guards=True, engine="numpy", anatomy=anatomy, envelope=envelope,
-                                  clearance=5.0, self_clearance=2.0, envelope_clearance_mm=10.0, z_dyad=True, c_z=design.c_z)  # fmt: skip
+            res = arcube.evaluate(
+                design,
+                lines,
+                points=8,
+                guards=True,
+                engine="numpy",
+                anatomy=anatomy,
+                envelope=envelope,
+                clearance=5.0,
+                self_clearance=2.0,
+                envelope_clearance_mm=10.0,
+                z_dyad=True,
+                c_z=design.c_z,
+            )
             s = res.summary
             assert s["reachable_fraction"] == 1.0 and s["failures"] == {}, (what, s["failures"])
-            assert s["clearance_min_mm"] >= 5.0 and s["self_clearance_min_mm"] >= 2.0 and s["envelope_clearance_min_mm"] >= 10.0, what
+            assert (
+                s["clearance_min_mm"] >= 5.0
+                and s["self_clearance_min_mm"] >= 2.0
+                and s["envelope_clearance_min_mm"] >= 10.0
+            ), what
             if what == "plan":
-                assert s["lateral_error_max_mm"] <= 0.5 and s["axis_error_max_deg"] <= 0.25 and s["torque_max_Nm"] <= 20.0
+                assert (
+                    s["lateral_error_max_mm"] <= 0.5 and s["axis_error_max_deg"] <= 0.25 and s["torque_max_Nm"] <= 20.0
+                )
                 assert math.isfinite(s["eta_G"])
 
 
@@ -147,8 +200,17 @@ def test_a_killed_cohort_job_resumes_to_the_same_robot(job: Path, tmp_path: Path
     import time
 
     (tmp_path / "cohort.toml").write_text('[[patient]]\nname = "reference"\nplan = "reference"\nanatomy = "default"\n')
-    flags = ["design", "--cohort", "cohort.toml", *_BUDGET, "--out", "cut"]  # the fixture's job, its patient from the file
-    proc = subprocess.Popen([sys.executable, "-m", "arcube", *flags], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    flags = [
+        "design",
+        "--cohort",
+        "cohort.toml",
+        *_BUDGET,
+        "--out",
+        "cut",
+    ]  # the fixture's job, its patient from the file
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "arcube", *flags], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     mark, deadline = tmp_path / "cut" / "study" / "seed_1" / "checkpoint" / "evals_000010.npz", time.monotonic() + 300
     while time.monotonic() < deadline and proc.poll() is None and not mark.exists():
         time.sleep(0.005)
@@ -160,7 +222,9 @@ def test_a_killed_cohort_job_resumes_to_the_same_robot(job: Path, tmp_path: Path
     cut = tmp_path / "cut"
     assert (cut / "design.json").read_text() == (job / "design.json").read_text()
     for label in ("reference_R", "reference_L"):
-        assert (cut / "dockings" / label / "design.json").read_text() == (job / "dockings" / label / "design.json").read_text(), label
+        assert (cut / "dockings" / label / "design.json").read_text() == (
+            job / "dockings" / label / "design.json"
+        ).read_text(), label
     a, b = (json.loads((d / "summary.json").read_text()) for d in (cut, job))
     keys = ("meets_requirements", "mode", "seed", "eta_G", "requirements", "dockings", "missed_at")
     assert _untimed({k: a[k] for k in keys}) == _untimed({k: b[k] for k in keys})
@@ -199,7 +263,9 @@ def test_the_overview_report_fits_a_1400_px_screen(job: Path, tmp_path: Path) ->
         overflow = driver.execute_script("""return [...document.querySelectorAll('table')].filter(
             t => t.getBoundingClientRect().right > document.documentElement.clientWidth + 1).length""")
         assert overflow == 0, "a table runs off the right of a 1400 px window"
-        assert driver.execute_script("return document.documentElement.scrollWidth <= document.documentElement.clientWidth + 1")
+        assert driver.execute_script(
+            "return document.documentElement.scrollWidth <= document.documentElement.clientWidth + 1"
+        )
         boxes = driver.execute_script("""return [...document.querySelectorAll('.grid > div')].map(d => {
             const r = d.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; })""")
         assert len(boxes) == 2

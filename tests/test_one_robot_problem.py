@@ -29,7 +29,16 @@ GUARDS = {"guards": {"z_dyad": True, "self_clearance_mm": 2.0}}
 
 
 def _model(**fields):
-    s = RunSettings(free="all,mount,L,c_z", mode="free", guards=True, points=5, seed=1, options=GUARDS, maxima={"lateral_error": 0.5}, **fields)
+    s = RunSettings(
+        free="all,mount,L,c_z",
+        mode="free",
+        guards=True,
+        points=5,
+        seed=1,
+        options=GUARDS,
+        maxima={"lateral_error": 0.5},
+        **fields,
+    )
     return build_model(build_config(["reference"], s), anatomies=(), settings=s), s
 
 
@@ -109,7 +118,9 @@ def test_a_placement_carried_by_a_rigid_motion_sees_the_moved_plan_alike() -> No
     np.testing.assert_allclose(rb.points.self_clearance_mm, ra.points.self_clearance_mm, rtol=1e-8, atol=1e-8)
 
 
-@pytest.mark.parametrize("angles, which", [((5.0, 4.0, 10.0), 0), ((5.0, 4.0, 180.0), 1)], ids=["levels in order", "half a turn"])
+@pytest.mark.parametrize(
+    "angles, which", [((5.0, 4.0, 10.0), 0), ((5.0, 4.0, 180.0), 1)], ids=["levels in order", "half a turn"]
+)
 def test_kabsch_recovers_a_known_motion(angles, which) -> None:
     """A plan moved by (Q, t): the level pairing finds a motion that keeps the levels' order, the reversed pairing one
     that turns them over (a half turn about the vertical, as between a spine's two sides)."""
@@ -129,13 +140,23 @@ def test_an_infeasible_docking_is_offered_each_feasible_peers_placement_carried_
     ts = select(load_trajectories("reference"), side="R")
     Q1, t1 = rotation_matrix(np.radians([3.0, -4.0, 8.0])), np.array([10.0, -20.0, 5.0])
     Q2, t2 = rotation_matrix(np.radians([-6.0, 2.0, 15.0])), np.array([-15.0, 25.0, 0.0])
-    plans = [(ts.entry, ts.target), (ts.entry @ Q1.T + t1, ts.target @ Q1.T + t1), (ts.entry @ Q2.T + t2, ts.target @ Q2.T + t2)]
-    best = [np.array([-80.0, 60.0, 200.0, 20.0, -70.0, 5.0]), np.array([-60.0, 40.0, 210.0, 25.0, -65.0, 12.0]), np.zeros(6)]
+    plans = [
+        (ts.entry, ts.target),
+        (ts.entry @ Q1.T + t1, ts.target @ Q1.T + t1),
+        (ts.entry @ Q2.T + t2, ts.target @ Q2.T + t2),
+    ]
+    best = [
+        np.array([-80.0, 60.0, 200.0, 20.0, -70.0, 5.0]),
+        np.array([-60.0, 40.0, 210.0, 25.0, -65.0, 12.0]),
+        np.zeros(6),
+    ]
     starts = peer_starts(2, best, [True, True, False], plans)
     want = [carried(best[j], m) for j in (0, 1) for m in task_motions(plans[j], plans[2])]
     assert len(starts) == len(want) == 6 and all(np.array_equal(a, b) for a, b in zip(starts, want, strict=True))
     np.testing.assert_allclose(starts[0][:3], Q2 @ best[0][:3] + t2, atol=1e-8)
-    np.testing.assert_allclose(rotation_matrix(np.radians(starts[0][3:])), Q2 @ rotation_matrix(np.radians(best[0][3:])), atol=1e-10)
+    np.testing.assert_allclose(
+        rotation_matrix(np.radians(starts[0][3:])), Q2 @ rotation_matrix(np.radians(best[0][3:])), atol=1e-10
+    )
     assert len(peer_starts(2, best, [False, True, False], plans)) == 3
     assert peer_starts(2, best, [False, False, True], plans) == []
 

@@ -28,8 +28,13 @@ from arcube.optimization import run as runmod
 from arcube.cli.optimize import register
 from arcube.optimization.config import build_config
 from arcube.optimization.problem import (
-    DEFAULT_BOUNDS, FitnessModel, TaskData, VariableSpace, mechanism_points, parse_free,
-)  # fmt: skip
+    DEFAULT_BOUNDS,
+    FitnessModel,
+    TaskData,
+    VariableSpace,
+    mechanism_points,
+    parse_free,
+)
 from arcube.evaluation.task import build_task
 from arcube.io import load_trajectories, select
 
@@ -78,7 +83,17 @@ def _task(side: str = "R", points: int = 5) -> TaskData:
 
 
 def _config(**kw: object) -> dict:
-    base = {"algorithm": "ga", "free": "all", "population": 20, "generations": 30, "points": 4, "seed": 5, "engine": "numpy", "tolerance": 0.0, "side": "R"}
+    base = {
+        "algorithm": "ga",
+        "free": "all",
+        "population": 20,
+        "generations": 30,
+        "points": 4,
+        "seed": 5,
+        "engine": "numpy",
+        "tolerance": 0.0,
+        "side": "R",
+    }
     base.update(kw)
     return build_config(["reference"], **base)
 
@@ -86,7 +101,19 @@ def _config(**kw: object) -> dict:
 # --------------------------------------------------------------------------------- problem
 def test_variable_space_decodes_free_fixed_setups_and_mode() -> None:
     space = VariableSpace(base=PAPER, free=("m_x", "m_y", "m_z", "r"), setups=2, mode=None)
-    assert space.names == ("m_x", "m_y", "m_z", "r", "m_x_L", "m_y_L", "m_z_L", "mode_T_x", "mode_T_y", "mode_R_x", "mode_R_y")
+    assert space.names == (
+        "m_x",
+        "m_y",
+        "m_z",
+        "r",
+        "m_x_L",
+        "m_y_L",
+        "m_z_L",
+        "mode_T_x",
+        "mode_T_y",
+        "mode_R_x",
+        "mode_R_y",
+    )
     assert space.xl[3] == DEFAULT_BOUNDS["r"][0] and space.xu[-1] == 1.0
     x = np.array([[10.0, 20.0, 30.0, 66.0, -10.0, -20.0, -30.0, 0.3, -0.2, 0.0, -1.0]])
     (right, left), modes = space.decode(x)
@@ -99,7 +126,12 @@ def test_variable_space_decodes_free_fixed_setups_and_mode() -> None:
     (r0, l0), m0 = space.decode(x0[None])
     assert np.allclose(r0[0], PAPER) and np.allclose(l0[0], PAPER) and m0[0].tolist() == [1.0, 1.0, -1.0, 1.0]
     assert parse_free("all") == PAPER_NAMES and parse_free("r,m_x") == ("m_x", "r")
-    assert parse_free("all,mount,L") == PARAM_NAMES and parse_free("L,mount") == ("mount_rx", "mount_ry", "mount_rz", "L")
+    assert parse_free("all,mount,L") == PARAM_NAMES and parse_free("L,mount") == (
+        "mount_rx",
+        "mount_ry",
+        "mount_rz",
+        "L",
+    )
 
 
 def test_fitness_violation_is_zero_exactly_when_feasible_and_eta_matches_core() -> None:
@@ -118,7 +150,9 @@ def test_fitness_violation_is_zero_exactly_when_feasible_and_eta_matches_core() 
 
 def test_margin_shortfall_follows_12_2() -> None:
     task = _task()
-    model = FitnessModel(space=VariableSpace(base=PAPER, free=PAPER_NAMES, mode=np.ones(4)), tasks=(task,), margin_deg=5.0)
+    model = FitnessModel(
+        space=VariableSpace(base=PAPER, free=PAPER_NAMES, mode=np.ones(4)), tasks=(task,), margin_deg=5.0
+    )
     ang = np.degrees(np.arccos(task.e[:, :2]))
     p = PAPER.copy()
     a, b = p[19:21], p[21:23]
@@ -158,8 +192,26 @@ def test_aggregate_worst_is_the_max_over_patients() -> None:
 # --------------------------------------------------------------------------------- runs
 def test_paper_links_reach_the_right_side(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    s = _ok("optimize", "--trajectories", "reference", "--out", str(out), "--design-from", "paper", "--free", "m_x,m_y,m_z",
-            "--side", "R", "--population", "40", "--generations", "60", "--seed", "3", *SMALL)  # fmt: skip
+    s = _ok(
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--out",
+        str(out),
+        "--design-from",
+        "paper",
+        "--free",
+        "m_x,m_y,m_z",
+        "--side",
+        "R",
+        "--population",
+        "40",
+        "--generations",
+        "60",
+        "--seed",
+        "3",
+        *SMALL,
+    )
     assert s["feasible"] and s["eta_G"] is not None and s["points"] == 150
     best = Design.from_json(out / "best_design.json")
     assert all(best[n] == PAPER_TABLE2[n] for n in PARAM_NAMES if n not in ("m_x", "m_y", "m_z"))
@@ -202,7 +254,10 @@ def test_nsga2_front_is_feasible_and_non_dominated(tmp_path: Path) -> None:
 def test_free_mode_and_two_setups(tmp_path: Path) -> None:
     cfg = _config(mode="free", setups=2, side=None, population=40, generations=40)
     s = runmod.start(tmp_path / "s", cfg)
-    right, left = Design.from_json(tmp_path / "s" / "best_design.json"), Design.from_json(tmp_path / "s" / "best_design_L.json")
+    right, left = (
+        Design.from_json(tmp_path / "s" / "best_design.json"),
+        Design.from_json(tmp_path / "s" / "best_design_L.json"),
+    )
     assert s["feasible"] and s["files"] == {"best_design_R": "best_design.json", "best_design_L": "best_design_L.json"}
     assert all(right[n] == left[n] for n in LINKS + ["o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y"])
     assert (right["m_x"], right["m_y"], right["m_z"]) != (left["m_x"], left["m_y"], left["m_z"])
@@ -225,8 +280,29 @@ def test_several_trajectory_files_make_one_robust_problem(tmp_path: Path) -> Non
             e, t = ts.entry[i] + [1.0, 3.0, -2.0], ts.target[i] + [1.0, 3.0, -2.0]
             fh.write(f"{ts.ids[i]},{ts.levels[i]},{ts.sides[i]},{','.join(map(str, e))},{','.join(map(str, t))}\n")
     out = tmp_path / "rob"
-    s = _ok("optimize", "--trajectories", "reference", str(other), "--out", str(out), "--side", "R", "--aggregate", "worst",
-            "--population", "20", "--generations", "10", "--points", "3", "--seed", "1", "--tolerance", "0", *SMALL)  # fmt: skip
+    s = _ok(
+        "optimize",
+        "--trajectories",
+        "reference",
+        str(other),
+        "--out",
+        str(out),
+        "--side",
+        "R",
+        "--aggregate",
+        "worst",
+        "--population",
+        "20",
+        "--generations",
+        "10",
+        "--points",
+        "3",
+        "--seed",
+        "1",
+        "--tolerance",
+        "0",
+        *SMALL,
+    )
     cfg = tomllib.loads((out / "config.toml").read_text())
     assert [p["source"] for p in cfg["patients"]] == ["reference", str(other)] and len(s["tasks"]) == 2
     assert cfg["settings"]["aggregate"] == "worst"
@@ -234,8 +310,26 @@ def test_several_trajectory_files_make_one_robust_problem(tmp_path: Path) -> Non
 
 def test_subset_flags_reach_select_and_resume_cli_of_finished_run(tmp_path: Path) -> None:
     out = tmp_path / "ids"
-    _ok("optimize", "--trajectories", "reference", "--out", str(out), "--ids", "1,3,5", "--levels", "C3-C4", "--population", "10",
-        "--generations", "3", "--points", "2", "--seed", "1", *SMALL)  # fmt: skip
+    _ok(
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--out",
+        str(out),
+        "--ids",
+        "1,3,5",
+        "--levels",
+        "C3-C4",
+        "--population",
+        "10",
+        "--generations",
+        "3",
+        "--points",
+        "2",
+        "--seed",
+        "1",
+        *SMALL,
+    )
     cfg = tomllib.loads((out / "config.toml").read_text())
     assert cfg["patients"][0]["ids"] == ["1", "3"] and cfg["settings"]["levels"] == "C3-C4"
     res = _cli("resume", str(out), "--quiet")
@@ -260,14 +354,32 @@ def test_lean_bookkeeping_equals_pymoo_stock_components(algorithm: str, duplicat
     seen: dict[bool, list] = {}
     for lean in (True, False):
         algo = make_algorithm(algorithm, 30, 11, x0, eliminate_duplicates=duplicates, lean=lean)
-        algo.setup(ArcubeProblem(model.space, model.n_obj, model.evaluate), termination=make_termination(algorithm, 25, 0.0), seed=11)
+        algo.setup(
+            ArcubeProblem(model.space, model.n_obj, model.evaluate),
+            termination=make_termination(algorithm, 25, 0.0),
+            seed=11,
+        )
         trace = []
         while algo.has_next():
             algo.next()
             pop, opt = algo.pop, algo.opt
-            trace.append((pop.get("X"), pop.get("F"), pop.get("CV"), pop.get("rank"), pop.get("VIOL"), opt.get("X"), algo.evaluator.n_eval))
+            trace.append(
+                (
+                    pop.get("X"),
+                    pop.get("F"),
+                    pop.get("CV"),
+                    pop.get("rank"),
+                    pop.get("VIOL"),
+                    opt.get("X"),
+                    algo.evaluator.n_eval,
+                )
+            )
         seen[lean] = trace
-    assert len(seen[True]) == 25 and any(np.any(t[2] > 0) for t in seen[True]) and any(np.any(t[2] == 0) for t in seen[True])
+    assert (
+        len(seen[True]) == 25
+        and any(np.any(t[2] > 0) for t in seen[True])
+        and any(np.any(t[2] == 0) for t in seen[True])
+    )
     for got, want in zip(seen[True], seen[False]):
         for a, b in zip(got, want):
             assert np.array_equal(a, b)
@@ -290,8 +402,9 @@ class _Crash(Exception):
     pass
 
 
-@pytest.mark.parametrize(("algorithm", "generations"), [("ga", 25), ("de", 25), ("cmaes", 25), ("nsga2", 25),
-                                                       ("mscmaes", 100)])  # mscmaes: 20 x 100 evaluations = 21 batches
+@pytest.mark.parametrize(
+    ("algorithm", "generations"), [("ga", 25), ("de", 25), ("cmaes", 25), ("nsga2", 25), ("mscmaes", 100)]
+)  # mscmaes: 20 x 100 evaluations = 21 batches
 def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str, generations: int) -> None:
     cfg = _config(algorithm=algorithm, checkpoint_every=4, generations=generations)
     ref = runmod.start(tmp_path / "ref", dict(cfg))
@@ -312,8 +425,13 @@ def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str, 
     assert runmod.resume(tmp_path / "cut") is None  # finished: nothing to do
 
 
-@pytest.mark.parametrize("extra", [{"objectives": "eta_G,lateral_error", "maxima": ["torque=50"]},
-                                   {"objectives": "eta_G,lateral_error,torque,deflection"}])  # fmt: skip
+@pytest.mark.parametrize(
+    "extra",
+    [
+        {"objectives": "eta_G,lateral_error", "maxima": ["torque=50"]},
+        {"objectives": "eta_G,lateral_error,torque,deflection"},
+    ],
+)
 def test_crash_then_resume_with_objectives_equals_uninterrupted(tmp_path: Path, extra: dict) -> None:
     """Runs with --objectives (NSGA-II, NSGA-III) and limits resume bit for bit like the others."""
     cfg = _config(checkpoint_every=4, generations=10, **extra)
@@ -334,11 +452,34 @@ def test_crash_then_resume_with_objectives_equals_uninterrupted(tmp_path: Path, 
 
 
 def test_kill9_then_resume_is_bit_identical(tmp_path: Path) -> None:
-    args = ["optimize", "--trajectories", "reference", "--free", "all", "--population", "40", "--generations", "150",
-            "--points", "10", "--seed", "7", "--tolerance", "0", "--checkpoint-every", "5", *SMALL]  # fmt: skip
+    args = [
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--free",
+        "all",
+        "--population",
+        "40",
+        "--generations",
+        "150",
+        "--points",
+        "10",
+        "--seed",
+        "7",
+        "--tolerance",
+        "0",
+        "--checkpoint-every",
+        "5",
+        *SMALL,
+    ]
     env = {**os.environ, "PYTHONPATH": str(REPO / "src")}
     cut = tmp_path / "cut"
-    proc = subprocess.Popen([sys.executable, "-m", "arcube", *args, "--out", str(cut)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "arcube", *args, "--out", str(cut)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     state, deadline, gen = cut / "checkpoint" / "state.json", time.monotonic() + 90, 0
     while time.monotonic() < deadline and proc.poll() is None and gen < 20:
         if state.exists():
@@ -348,7 +489,13 @@ def test_kill9_then_resume_is_bit_identical(tmp_path: Path) -> None:
     _, err = proc.communicate()
     assert proc.returncode == -signal.SIGKILL, err.decode()
     assert not (cut / "summary.json").exists() and 20 <= json.loads(state.read_text())["generation"] < 150
-    res = subprocess.run([sys.executable, "-m", "arcube", "resume", str(cut), "--quiet"], env=env, capture_output=True, text=True, timeout=300)
+    res = subprocess.run(
+        [sys.executable, "-m", "arcube", "resume", str(cut), "--quiet"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr
     ref = _ok(*args, "--out", str(tmp_path / "ref"))
     assert (cut / "best_design.json").read_bytes() == (tmp_path / "ref" / "best_design.json").read_bytes()
@@ -369,12 +516,16 @@ def test_corrupt_or_foreign_checkpoint_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="corrupt checkpoint"):
         runmod.resume(tmp_path / "a")
     chunk.write_bytes(good)
-    np.savez(chunk, digest=np.array([object()]), sizes=np.array([1]), F=np.zeros((1, 1)), VIOL=np.zeros(1), ETA=np.zeros(1))
+    np.savez(
+        chunk, digest=np.array([object()]), sizes=np.array([1]), F=np.zeros((1, 1)), VIOL=np.zeros(1), ETA=np.zeros(1)
+    )
     state["chunks"][0]["sha256"] = __import__("hashlib").sha256(chunk.read_bytes()).hexdigest()
     a_state.write_text(json.dumps(state))  # consistent hash, but a pickled object inside: refused
     with pytest.raises(InputError, match="corrupt checkpoint"):
         runmod.resume(tmp_path / "a")
-    a_state.write_text((tmp_path / "b/checkpoint/state.json").read_text().replace('"finished": true', '"finished": false'))
+    a_state.write_text(
+        (tmp_path / "b/checkpoint/state.json").read_text().replace('"finished": true', '"finished": false')
+    )
     with pytest.raises(InputError, match="another run"):
         runmod.resume(tmp_path / "a")
     a_state.write_text("{not json")
@@ -386,8 +537,12 @@ def test_corrupt_or_foreign_checkpoint_is_refused(tmp_path: Path) -> None:
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match="no config.toml"):
         runmod.resume(tmp_path / "empty")
-    res = subprocess.run([sys.executable, "-m", "arcube", "resume", str(tmp_path / "a")], capture_output=True, text=True,
-                         env={**os.environ, "PYTHONPATH": str(REPO / "src")})  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "arcube", "resume", str(tmp_path / "a")],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(REPO / "src")},
+    )
     assert res.returncode == 2 and res.stderr.startswith("error: ") and res.stderr.count("\n") == 1
 
 
@@ -412,13 +567,29 @@ def test_workers_and_dask_give_the_serial_result(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     "extra",
     [
-        ["--algorithm", "sa"], ["--population", "1"], ["--generations", "0"], ["--tolerance", "-1"], ["--points", "1"],
-        ["--mode=+,+"], ["--free", "m_x,q"], ["--setups", "3"], ["--setups", "2", "--side", "R"], ["--margin", "-2"],
-        ["--workers", "0"], ["--workers", "2", "--dask", "tcp://127.0.0.1:1"], ["--bounds", "p_x=10"],
-        ["--bounds", "p_x=-5:10"], ["--engine", "fortran"], ["--aggregate", "median"], ["--design-from", "nope.json"],
-        ["--trajectories", "missing.csv"], ["--side", "X"], ["--seed", "-1"], ["--compactness", "weight"],
+        ["--algorithm", "sa"],
+        ["--population", "1"],
+        ["--generations", "0"],
+        ["--tolerance", "-1"],
+        ["--points", "1"],
+        ["--mode=+,+"],
+        ["--free", "m_x,q"],
+        ["--setups", "3"],
+        ["--setups", "2", "--side", "R"],
+        ["--margin", "-2"],
+        ["--workers", "0"],
+        ["--workers", "2", "--dask", "tcp://127.0.0.1:1"],
+        ["--bounds", "p_x=10"],
+        ["--bounds", "p_x=-5:10"],
+        ["--engine", "fortran"],
+        ["--aggregate", "median"],
+        ["--design-from", "nope.json"],
+        ["--trajectories", "missing.csv"],
+        ["--side", "X"],
+        ["--seed", "-1"],
+        ["--compactness", "weight"],
     ],
-)  # fmt: skip
+)
 def test_bad_flags_raise_one_line_input_error(tmp_path: Path, extra: list[str]) -> None:
     res = _cli("optimize", "--trajectories", "reference", "--out", str(tmp_path / "x"), *SMALL, *extra)
     assert isinstance(res.exception, InputError), (res.exception, res.output)
@@ -431,6 +602,21 @@ def test_out_folder_must_be_new_and_main_cli_exits_2(tmp_path: Path) -> None:
     (tmp_path / "busy" / "config.toml").write_text("x")
     res = _cli("optimize", "--trajectories", "reference", "--out", str(tmp_path / "busy"), *SMALL)
     assert isinstance(res.exception, InputError) and "arcube resume" in str(res.exception)
-    bad = subprocess.run([sys.executable, "-m", "arcube", "optimize", "--trajectories", "reference", "--out", str(tmp_path / "y"),
-                          "--algorithm", "nope"], capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(REPO / "src")})  # fmt: skip
+    bad = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "arcube",
+            "optimize",
+            "--trajectories",
+            "reference",
+            "--out",
+            str(tmp_path / "y"),
+            "--algorithm",
+            "nope",
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(REPO / "src")},
+    )
     assert bad.returncode == 2 and bad.stderr.startswith("error: --algorithm") and bad.stderr.count("\n") == 1

@@ -41,8 +41,17 @@ def test_table2_reaches_right_side_for_some_placement() -> None:
         # Feasibility first: any feasible m beats every infeasible one.
         return np.where(res.w_G, res.eta_G, 1e3 + res.violation)
 
-    found = differential_evolution(objective, [(-400.0, 400.0)] * 3, seed=7, popsize=20, maxiter=150, tol=1e-10, polish=False,
-                                   vectorized=True, updating="deferred")  # fmt: skip
+    found = differential_evolution(
+        objective,
+        [(-400.0, 400.0)] * 3,
+        seed=7,
+        popsize=20,
+        maxiter=150,
+        tol=1e-10,
+        polish=False,
+        vectorized=True,
+        updating="deferred",
+    )
     res = evaluate_task(_with_m(found.x)[0], task.E, task.e)
     print(
         f"\nTable 2 links, right side, m = {np.round(found.x, 2)} mm: reachable {res.reachable_fraction:.0%}, "

@@ -17,7 +17,12 @@ from typer.testing import CliRunner
 
 from arcube.errors import InputError
 from arcube.patients.virtual import (
-    build_patient, check_patient, draw_parameters, format_check, generate_patient, write_patient,
+    build_patient,
+    check_patient,
+    draw_parameters,
+    format_check,
+    generate_patient,
+    write_patient,
 )
 from arcube.cli.patients import register
 from arcube.io import load_trajectories, read_csv
@@ -28,6 +33,7 @@ N_COHORT = 1000
 
 
 # ------------------------------------------------------------ independent helpers
+
 
 def rot_x(deg: float) -> np.ndarray:
     c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
@@ -62,6 +68,7 @@ def assert_sample_matches(values, mean, sd, lo, hi, what: str, k: float = 4.5) -
 
 
 # ------------------------------------------------------------ the mean patient
+
 
 def test_mean_patient_reproduces_the_shared_csv_to_a_micrometre() -> None:
     ts, params = generate_patient(None, "pedicle")
@@ -106,6 +113,7 @@ def test_lateral_mass_entry_relative_to_pedicle_entry() -> None:
 
 
 # ------------------------------------------------------------ recomputed angles per technique
+
 
 @pytest.mark.parametrize("technique", ["pedicle", "roy-camille", "magerl", "an"])
 def test_recomputed_angles_equal_drawn_parameters(tmp_path: Path, technique: str) -> None:
@@ -159,6 +167,7 @@ def test_bad_generator_arguments(seed, technique) -> None:
 
 # ------------------------------------------------------------ cohort statistics
 
+
 @pytest.fixture(scope="module")
 def pedicle_cohort() -> list[dict]:
     return [draw_parameters(seed, "pedicle") for seed in range(N_COHORT)]
@@ -203,7 +212,10 @@ def test_cohort_pedicle_parameters_and_correlation(pedicle_cohort: list[dict]) -
 
 
 # Section 6, typed from MORPHOMETRY.md: the isthmus, means C3..C7, SD, range (mm)
-ISTHMUS_TABLE = {"width_mm": ((4.7, 4.9, 5.4, 5.8, 6.4), 0.8, (2.5, 9.0)), "height_mm": ((6.4, 6.5, 6.6, 6.7, 6.9), 0.8, (4.0, 10.0))}
+ISTHMUS_TABLE = {
+    "width_mm": ((4.7, 4.9, 5.4, 5.8, 6.4), 0.8, (2.5, 9.0)),
+    "height_mm": ((6.4, 6.5, 6.6, 6.7, 6.9), 0.8, (4.0, 10.0)),
+}
 
 
 def test_cohort_isthmus_matches_section_6_and_leaves_every_other_draw_alone(pedicle_cohort: list[dict]) -> None:
@@ -218,7 +230,10 @@ def test_a_drawn_patients_plan_carries_its_isthmus_and_the_mean_patients_does_no
     ts, params = generate_patient(31)
     write_patient(ts, params, tmp_path / "p.csv")
     back = read_csv(tmp_path / "p.csv")
-    expected = [[params["isthmus"][lv][sd]["width_mm"], params["isthmus"][lv][sd]["height_mm"]] for lv, sd in zip(back.levels, back.sides)]
+    expected = [
+        [params["isthmus"][lv][sd]["width_mm"], params["isthmus"][lv][sd]["height_mm"]]
+        for lv, sd in zip(back.levels, back.sides)
+    ]
     np.testing.assert_allclose(back.pedicle[:, :2], expected, atol=5e-4)  # 3 decimals in the CSV
     assert np.isnan(back.pedicle[:, 2:]).all()  # isthmus depth and screw: the defaults
     mean, mean_params = generate_patient(None)
@@ -242,26 +257,39 @@ def test_cohort_lateral_mass_parameters() -> None:
     """Section 2 table: lateral SD 4.8; cephalad 0/facet/15; lengths 11.4/14.05/12.8 SD 1.5.
     No range is published for these: the generator clips at mean +- 3 SD (documented choice)."""
     facet = {"C3": (50.6, 4.65), "C4": (44.9, 5.4), "C5": (40.2, 5.9), "C6": (42.8, 4.9), "C7": (45.0, 5.4)}
-    specs = {"roy-camille": (10, lambda lv: (0.0, 5.0), 11.4), "magerl": (25, lambda lv: facet[lv], 14.05),
-             "an": (30, lambda lv: (15.0, 5.0), 12.8)}
+    specs = {
+        "roy-camille": (10, lambda lv: (0.0, 5.0), 11.4),
+        "magerl": (25, lambda lv: facet[lv], 14.05),
+        "an": (30, lambda lv: (15.0, 5.0), 12.8),
+    }
     n = 400  # per technique; keeps the run short, tolerances scale with 1/sqrt(n)
     for technique, (lateral, cephalad, length) in specs.items():
         cohort = [draw_parameters(seed, technique)["lateral_mass"] for seed in range(n)]
         for lv in LEVELS:
             screws = [c[lv][s] for c in cohort for s in ("R", "L")]  # independent per screw
-            assert_sample_matches([s["lateral_deg"] for s in screws], lateral, 4.8,
-                                  lateral - 14.4, lateral + 14.4, f"{technique} lateral {lv}")
+            assert_sample_matches(
+                [s["lateral_deg"] for s in screws],
+                lateral,
+                4.8,
+                lateral - 14.4,
+                lateral + 14.4,
+                f"{technique} lateral {lv}",
+            )
             m, sd = cephalad(lv)
-            assert_sample_matches([s["cephalad_deg"] for s in screws], m, sd, m - 3 * sd, m + 3 * sd,
-                                  f"{technique} cephalad {lv}")
-            assert_sample_matches([s["length_mm"] for s in screws], length, 1.5, length - 4.5, length + 4.5,
-                                  f"{technique} length {lv}")
+            assert_sample_matches(
+                [s["cephalad_deg"] for s in screws], m, sd, m - 3 * sd, m + 3 * sd, f"{technique} cephalad {lv}"
+            )
+            assert_sample_matches(
+                [s["length_mm"] for s in screws], length, 1.5, length - 4.5, length + 4.5, f"{technique} length {lv}"
+            )
             if lv != "C7":  # width: Jian 2023 mean 12.2 mm; SD 1.2 mm is the generator's assumption
-                assert_sample_matches([s["width_mm"] for s in screws], 12.2, 1.2, 12.2 - 3.6, 12.2 + 3.6,
-                                      f"{technique} width {lv}")
+                assert_sample_matches(
+                    [s["width_mm"] for s in screws], 12.2, 1.2, 12.2 - 3.6, 12.2 + 3.6, f"{technique} width {lv}"
+                )
 
 
 # ------------------------------------------------------------ command line
+
 
 @pytest.fixture()
 def cli() -> tuple[CliRunner, typer.Typer]:
@@ -297,7 +325,12 @@ def test_cli_cohort_folder(cli, tmp_path: Path) -> None:
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
     names = sorted(f.name for f in out.iterdir())
-    assert names == sorted(["cohort.toml", *(f"patient_00{k}.{ext}" for k in range(3) for ext in ("csv", "json", "anatomy.stl", "envelope.stl"))])  # MODEL.md 14.2, 19
+    assert names == sorted(
+        [
+            "cohort.toml",
+            *(f"patient_00{k}.{ext}" for k in range(3) for ext in ("csv", "json", "anatomy.stl", "envelope.stl")),
+        ]
+    )  # MODEL.md 14.2, 19
     seeds = [json.loads((out / f"patient_00{k}.json").read_text())["seed"] for k in range(3)]
     assert seeds == [40, 41, 42]
     ts, _ = generate_patient(41, "magerl")
@@ -306,15 +339,18 @@ def test_cli_cohort_folder(cli, tmp_path: Path) -> None:
     assert result.output.count("# Sanity check (magerl, seed") == 3
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["--out", "x.csv"], "seed is missing: give a seed for random patients, or ask for the mean patient"),
-    (["--mean", "--seed", "1", "--out", "x.csv"], "mean excludes a seed"),
-    (["--seed", "1", "--technique", "screw", "--out", "x.csv"], "technique 'screw'"),
-    (["--seed", "1", "--count", "0", "--out", "x.csv"], "count 0"),
-    (["--mean", "--count", "2", "--out", "d"], "count 2 for the mean patient would write identical patients"),
-    (["--seed", "-3", "--out", "x.csv"], "seed -3"),
-    (["--seed", "1", "--out", "x.json"], "must not end in .json"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--out", "x.csv"], "seed is missing: give a seed for random patients, or ask for the mean patient"),
+        (["--mean", "--seed", "1", "--out", "x.csv"], "mean excludes a seed"),
+        (["--seed", "1", "--technique", "screw", "--out", "x.csv"], "technique 'screw'"),
+        (["--seed", "1", "--count", "0", "--out", "x.csv"], "count 0"),
+        (["--mean", "--count", "2", "--out", "d"], "count 2 for the mean patient would write identical patients"),
+        (["--seed", "-3", "--out", "x.csv"], "seed -3"),
+        (["--seed", "1", "--out", "x.json"], "must not end in .json"),
+    ],
+)
 def test_cli_errors_raise_input_error(cli, tmp_path: Path, monkeypatch, args, needle) -> None:
     runner, app = cli
     monkeypatch.chdir(tmp_path)
@@ -325,6 +361,7 @@ def test_cli_errors_raise_input_error(cli, tmp_path: Path, monkeypatch, args, ne
 
 
 # ------------------------------------------------------------ every written anatomy reads back (Hardening III item 0)
+
 
 def test_every_patient_of_a_200_patient_cohort_reads_back_through_the_strict_readers(cli, tmp_path: Path) -> None:
     """``arcube patients --seed 1 --count 200``: every anatomy and envelope passes the mesh reader, and every
@@ -345,7 +382,10 @@ def test_every_patient_of_a_200_patient_cohort_reads_back_through_the_strict_rea
     assert len(plans) == 200
     for k in range(200):
         stem = out / f"patient_{k:03d}"
-        meshes = [read_mesh(stem.with_suffix(".anatomy.stl"), "patient"), read_mesh(stem.with_suffix(".envelope.stl"), "patient")]
+        meshes = [
+            read_mesh(stem.with_suffix(".anatomy.stl"), "patient"),
+            read_mesh(stem.with_suffix(".envelope.stl"), "patient"),
+        ]
         assert all(m.volume > 0 for m in meshes)
     # the geometry behind it, by hand: the arch's +z face (its third axis) holds the entries, 2 mm thick at least
     for seed in (2, 25, 60):
@@ -393,5 +433,10 @@ def test_one_patient_into_a_folder_path(tmp_path: Path) -> None:
     from arcube.patients.cohort import write_patients
 
     texts = write_patients(False, 17, "pedicle", 1, tmp_path / "next")
-    assert sorted(p.name for p in (tmp_path / "next").iterdir()) == ["cohort.toml", "patient_000.anatomy.stl", "patient_000.csv", "patient_000.json"]
+    assert sorted(p.name for p in (tmp_path / "next").iterdir()) == [
+        "cohort.toml",
+        "patient_000.anatomy.stl",
+        "patient_000.csv",
+        "patient_000.json",
+    ]
     assert 'name = "seed17"' in (tmp_path / "next" / "cohort.toml").read_text() and len(texts) == 2

@@ -252,7 +252,11 @@ def test_invariant_to_the_spin_free_basis_and_to_the_frame():
 def test_batch_equals_loop_and_unreachable_points_give_nan():
     mode = ALL_MODES_ORACLE[0]
     xs, Es, es = [], [], []
-    for seed, mount, L in [(None, (0.0, 0.0, 0.0), 0.0), (None, (20.0, -35.0, 170.0), 60.0), (44, (-10.0, 80.0, 5.0), 30.0)]:
+    for seed, mount, L in [
+        (None, (0.0, 0.0, 0.0), 0.0),
+        (None, (20.0, -35.0, 170.0), 60.0),
+        (44, (-10.0, 80.0, 5.0), 30.0),
+    ]:
         x, E, e, _ = _case(seed, mount, L, 0, n=3, rng_seed=9)
         xs.append(x), Es.append(E), es.append(e)
     X = np.stack(xs)

@@ -23,8 +23,23 @@ from arcube.model.mechanism import ALL_MODES
 from designs import REFERENCE_CSV, reaching_design, reference_task
 from harness import arcube
 
-SUMMARY = {"tip_error_max_mm", "lateral_error_max_mm", "axial_error_max_mm", "axis_error_max_deg", "torque_max_Nm", "deflection_max_mm"}
-POINT = {"tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "torque_actuator", "deflection_mm"}
+SUMMARY = {
+    "tip_error_max_mm",
+    "lateral_error_max_mm",
+    "axial_error_max_mm",
+    "axis_error_max_deg",
+    "torque_max_Nm",
+    "deflection_max_mm",
+}
+POINT = {
+    "tip_error_mm",
+    "lateral_error_mm",
+    "axial_error_mm",
+    "axis_error_deg",
+    "torque_Nm",
+    "torque_actuator",
+    "deflection_mm",
+}
 
 
 @pytest.mark.parametrize("mount, L", [((0.0, 0.0, 0.0), 0.0), ((-135.0, -144.74, -67.63), 120.0)])
@@ -32,8 +47,14 @@ def test_kernel_equals_reference(mount, L) -> None:
     task = reference_task()
     x = reaching_design(mount, L, n=300)
     X = np.stack([x, x * np.r_[np.ones(23), 1.0, 1.0, 1.0, 0.95]])
-    opts = Options(loads=Loads(encoder_deg=[0.01, 0.02, 0.01, 0.005, 0.01], thrust_N=25.0, lateral_force_N=12.0,
-                               actuator_stiffness=[1e4, 2e4, 1e4, 5e3, 5e3]))  # fmt: skip
+    opts = Options(
+        loads=Loads(
+            encoder_deg=[0.01, 0.02, 0.01, 0.005, 0.01],
+            thrust_N=25.0,
+            lateral_force_N=12.0,
+            actuator_stiffness=[1e4, 2e4, 1e4, 5e3, 5e3],
+        )
+    )
     E = np.concatenate([task.E, task.E[:5] + 400.0])  # and five points out of reach
     e = np.concatenate([task.e, task.e[:5]])
     ref = evaluate_task(X, E, e, ALL_MODES[0], opts)
@@ -58,16 +79,41 @@ def test_loads_scale_as_the_model_says() -> None:
     task = reference_task()
     x = reaching_design((0.0, 0.0, 0.0), 0.0, n=300)
     base = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0], Options())
-    other = evaluate_task_numba(x, task.E, task.e, ALL_MODES[0],
-                                Options(loads=Loads(encoder_deg=0.03, thrust_N=60.0, lateral_force_N=20.0, actuator_stiffness=2e4)))  # fmt: skip
+    other = evaluate_task_numba(
+        x,
+        task.E,
+        task.e,
+        ALL_MODES[0],
+        Options(loads=Loads(encoder_deg=0.03, thrust_N=60.0, lateral_force_N=20.0, actuator_stiffness=2e4)),
+    )
     r = base.points.reachable
-    for name, factor in [("tip_error_mm", 3), ("lateral_error_mm", 3), ("axis_error_deg", 3), ("torque_Nm", 2), ("deflection_mm", 1)]:
-        np.testing.assert_allclose(getattr(other.points, name)[r], factor * getattr(base.points, name)[r], rtol=1e-12, err_msg=name)
+    for name, factor in [
+        ("tip_error_mm", 3),
+        ("lateral_error_mm", 3),
+        ("axis_error_deg", 3),
+        ("torque_Nm", 2),
+        ("deflection_mm", 1),
+    ]:
+        np.testing.assert_allclose(
+            getattr(other.points, name)[r], factor * getattr(base.points, name)[r], rtol=1e-12, err_msg=name
+        )
 
 
 def test_json_carries_the_metrics_with_their_names(right_side_design: Path) -> None:
-    out = arcube("evaluate", "--design", str(right_side_design), "--trajectories", str(REFERENCE_CSV), "--points", "5", "--json",
-                 "--thrust", "40", "--encoder-deg", "0.02")  # fmt: skip
+    out = arcube(
+        "evaluate",
+        "--design",
+        str(right_side_design),
+        "--trajectories",
+        str(REFERENCE_CSV),
+        "--points",
+        "5",
+        "--json",
+        "--thrust",
+        "40",
+        "--encoder-deg",
+        "0.02",
+    )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     s = doc["summary"]
@@ -77,7 +123,11 @@ def test_json_carries_the_metrics_with_their_names(right_side_design: Path) -> N
     assert reach and unreach
     assert all(POINT <= set(p) for p in doc["points"])
     assert all(p[k] is None for p in unreach for k in POINT)
-    for key, field in [("tip_error_max_mm", "tip_error_mm"), ("torque_max_Nm", "torque_Nm"), ("deflection_max_mm", "deflection_mm")]:
+    for key, field in [
+        ("tip_error_max_mm", "tip_error_mm"),
+        ("torque_max_Nm", "torque_Nm"),
+        ("deflection_max_mm", "deflection_mm"),
+    ]:
         assert s[key] == max(p[field] for p in reach)
     # lateral and axial are parts of the tip error: each at most the whole, and together at least it
     for p in reach:
@@ -88,9 +138,14 @@ def test_json_carries_the_metrics_with_their_names(right_side_design: Path) -> N
 
 @pytest.mark.parametrize(
     "args, flag",
-    [(["--thrust", "nan"], "--thrust"), (["--lateral-force", "-1"], "--lateral-force"), (["--actuator-stiffness", "0"], "--actuator-stiffness"),
-     (["--encoder-deg", "0.01,0.02"], "--encoder-deg"), (["--encoder-deg", "fine"], "--encoder-deg")],
-)  # fmt: skip
+    [
+        (["--thrust", "nan"], "--thrust"),
+        (["--lateral-force", "-1"], "--lateral-force"),
+        (["--actuator-stiffness", "0"], "--actuator-stiffness"),
+        (["--encoder-deg", "0.01,0.02"], "--encoder-deg"),
+        (["--encoder-deg", "fine"], "--encoder-deg"),
+    ],
+)
 def test_bad_loads_are_one_line_exit_2(args, flag) -> None:
     out = arcube("evaluate", "--points", "3", *args)
     assert out.returncode == 2

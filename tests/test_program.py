@@ -62,7 +62,10 @@ def read_rows(folder: Path) -> dict[str, np.ndarray]:
         reader = csv.reader(fh)
         header = next(reader)
         data = list(reader)
-    assert header in (PROGRAM_COLUMNS, PROGRAM_COLUMNS + PROGRAM_TORQUES)  # the torques of MODEL.md 18.2 follow when masses are on
+    assert header in (
+        PROGRAM_COLUMNS,
+        PROGRAM_COLUMNS + PROGRAM_TORQUES,
+    )  # the torques of MODEL.md 18.2 follow when masses are on
     cols = list(zip(*data))
     out = {name: np.array(cols[i]) for i, name in enumerate(header) if name in ("segment", "trajectory")}
     out.update({name: np.array(cols[i], dtype=float) for i, name in enumerate(header) if name not in out})
@@ -118,12 +121,18 @@ def check_rows(rows: dict[str, np.ndarray], summary: dict, ts, dt: float, anatom
         drill = np.flatnonzero(mine & (seg == "drill"))
         approach = np.flatnonzero(mine & (seg == "approach"))
         # every segment ends exactly where it should: the approach at A, the drill at B (the row after A is the drill's first)
-        assert np.linalg.norm(E[approach[-1]] - A) < 1e-9 and approach[-1] + 1 == drill[0] and np.linalg.norm(E[drill[-1]] - B) < 1e-9
+        assert (
+            np.linalg.norm(E[approach[-1]] - A) < 1e-9
+            and approach[-1] + 1 == drill[0]
+            and np.linalg.norm(E[drill[-1]] - B) < 1e-9
+        )
         speed = np.linalg.norm(np.diff(E[drill[0] - 1 : drill[-1] + 1], axis=0), axis=1) / dt
         assert speed.max() <= lim["feed"] * (1 + TOL) and abs(np.median(speed) - lim["feed"]) < TOL
         for kind, v in (("approach", lim["approach_speed"]), ("retract", lim["retract_speed"])):
             idx = np.flatnonzero(mine & (seg == kind))
-            assert np.linalg.norm(np.diff(E[max(idx[0] - 1, 0) : idx[-1] + 1], axis=0), axis=1).max() / dt <= v * (1 + TOL)
+            assert np.linalg.norm(np.diff(E[max(idx[0] - 1, 0) : idx[-1] + 1], axis=0), axis=1).max() / dt <= v * (
+                1 + TOL
+            )
     # finite-difference rates and accelerations, tip speed in transit
     vmax, amax = lim["max_joint_speed_deg"], lim["max_joint_accel_deg"]
     qdeg, qddeg = rows["q"], rows["qd"]
@@ -163,7 +172,9 @@ def test_program_rows_meet_every_oracle(right) -> None:
 def test_program_summary(right) -> None:
     prog, rows, summary, ts = right
     assert summary["total_s"] == pytest.approx(rows["t_s"][-1])
-    assert summary["drilling_s"] + summary["approach_s"] + summary["retract_s"] + summary["transit_s"] == pytest.approx(summary["total_s"])
+    assert summary["drilling_s"] + summary["approach_s"] + summary["retract_s"] + summary["transit_s"] == pytest.approx(
+        summary["total_s"]
+    )
     drilled = [t for t, s in zip(rows["trajectory"], rows["segment"]) if s == "drill"]
     assert list(dict.fromkeys(drilled)) == summary["order"] == prog.order
     assert [t["method"] for t in summary["transits"]] == ["straight"] * 2
@@ -177,8 +188,14 @@ def test_program_summary(right) -> None:
 def test_shortest_order_beats_the_given_one() -> None:
     """On a plan listed out of order (C7, C3, C5), the shortest order takes no longer than the given one."""
     ts = right_plan("1,5,9")
-    scrambled = type(ts)(("9", "1", "5"), tuple(ts.levels[i] for i in (2, 0, 1)), tuple(ts.sides[i] for i in (2, 0, 1)),
-                         ts.entry[[2, 0, 1]], ts.target[[2, 0, 1]], "scrambled")  # fmt: skip
+    scrambled = type(ts)(
+        ("9", "1", "5"),
+        tuple(ts.levels[i] for i in (2, 0, 1)),
+        tuple(ts.sides[i] for i in (2, 0, 1)),
+        ts.entry[[2, 0, 1]],
+        ts.target[[2, 0, 1]],
+        "scrambled",
+    )
     kw = dict(dt=0.05, standoff_mm=5.0)
     best = program(program_design(), scrambled, None, order="shortest", **kw)
     given = program(program_design(), scrambled, None, order="given", **kw)
@@ -223,7 +240,9 @@ def test_a_wall_between_two_standoffs_makes_the_planner_go_around(tmp_path: Path
     q0, q1 = np.radians(rows["q"][idx[0]]), np.radians(rows["q"][idx[-1] + 1])
     s = np.linspace(0.0, 1.0, 201)[:, None]
     qs = q0 + s * (q1 - q0)
-    fk = forward_kinematics(program_design().to_vector(), qs[:, :3], qs[:, 3:], _assembly_of(rows["E"][:1], rows["e"][:1])[0])
+    fk = forward_kinematics(
+        program_design().to_vector(), qs[:, :3], qs[:, 3:], _assembly_of(rows["E"][:1], rows["e"][:1])[0]
+    )
     assert _tool_clearance(fk.E, fk.e, box, tool_length).min() < -0.5
     # the program's transit goes around: its tool clears the wall at every row
     assert _tool_clearance(rows["E"][idx], rows["e"][idx], box, tool_length).min() >= -ROW_CLEARANCE_TOL
@@ -253,8 +272,23 @@ def test_an_impassable_wall_names_the_transit_and_the_constraint(tmp_path: Path,
     stl = tmp_path / "wall.stl"
     anatomy.write_stl(stl)
     out = tmp_path / "cli"
-    code = _cli(["--ids", "1,3", "--anatomy", str(stl), "--anatomy-frame", "patient", "--order", "given", "--plan-time", "1",
-                 "--out", str(out), "--quiet"])  # fmt: skip
+    code = _cli(
+        [
+            "--ids",
+            "1,3",
+            "--anatomy",
+            str(stl),
+            "--anatomy-frame",
+            "patient",
+            "--order",
+            "given",
+            "--plan-time",
+            "1",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and err.startswith("error: transit 1 -> 3 blocked: collision/tool")
     assert not out.exists()
@@ -360,7 +394,9 @@ def test_the_timeline_figure_shows_every_segment_and_the_limits(right, tmp_path:
 
     from arcube.report.program import JOINTS, _spans, timeline_figure
 
-    assert JOINTS == importlib.import_module("arcube.motion.output").JOINTS  # the figure labels q's columns as the CSV does
+    assert (
+        JOINTS == importlib.import_module("arcube.motion.output").JOINTS
+    )  # the figure labels q's columns as the CSV does
     prog, rows, summary, ts = right
     assert (prog.path / "program.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     spans = _spans(np.asarray(rows["segment"]), np.asarray(rows["trajectory"]))
@@ -369,7 +405,10 @@ def test_the_timeline_figure_shows_every_segment_and_the_limits(right, tmp_path:
     assert all(b[0] == a[1] + 1 for a, b in zip(spans, spans[1:]))  # contiguous, no row left out
     ax_seg, ax_rate, ax_acc = timeline_figure(prog).axes
     assert [t.get_text() for t in ax_seg.texts] == summary["order"]
-    levels = lambda ax: sorted({round(float(line.get_ydata()[0]), 9) for line in ax.get_lines() if line.get_linestyle() == "--"})  # noqa: E731
+
+    def levels(ax):
+        return sorted({round(float(line.get_ydata()[0]), 9) for line in ax.get_lines() if line.get_linestyle() == "--"})
+
     assert levels(ax_rate) == [-30.0, 30.0] and levels(ax_acc) == [-120.0, 120.0]
 
 
@@ -389,12 +428,14 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
     ts = right_plan("1,3")
     S, ax = _standoffs(ts)
     anatomy, _ = _wall((S[0] + S[1]) / 2, (6.0, 1.5, 6.0))
-    A, B = np.asarray(ts.entry), np.asarray(ts.target)
+    A = np.asarray(ts.entry)
     s = np.linspace(-90.0, 40.0, 300)
     E = np.concatenate([A[j] + s[:, None] * ax[j] for j in range(2)])
     e = np.repeat(ax, len(s), axis=0)
-    checkers = {eng: Checker(program_design().to_vector(), MODE, ProgramLimits(), distance=anatomy.distance, engine=eng)
-                for eng in ("numpy", "numba")}  # fmt: skip
+    checkers = {
+        eng: Checker(program_design().to_vector(), MODE, ProgramLimits(), distance=anatomy.distance, engine=eng)
+        for eng in ("numpy", "numba")
+    }
     lines = {eng: c.poses(E, e, tool=True) for eng, c in checkers.items()}
     for c in checkers.values():
         c.assembly = lines["numpy"].assembly[0]
@@ -410,7 +451,9 @@ def test_the_compiled_check_decides_as_the_reference() -> None:
         assert np.array_equal(ref.ok[same], fast.ok[same]) and list(ref.reason[same]) == list(fast.reason[same])
         assert np.all(fast.ok <= ref.ok) and near.mean() < 0.05
         assert 0 < ref.ok.sum() < len(ref.ok)  # both kinds of decision are tested
-        assert np.allclose(ref.eta, fast.eta, rtol=1e-9) and np.allclose(ref.self_clearance, fast.self_clearance, atol=1e-9, equal_nan=True)
+        assert np.allclose(ref.eta, fast.eta, rtol=1e-9) and np.allclose(
+            ref.self_clearance, fast.self_clearance, atol=1e-9, equal_nan=True
+        )
         both = np.isfinite(ref.clearance)
         assert np.array_equal(both, np.isfinite(fast.clearance))
         gap = ref.clearance[both] - fast.clearance[both]

@@ -36,20 +36,35 @@ from designs import PROGRAM_COLUMNS, PROGRAM_TORQUES, program_design, right_plan
 MODE = np.ones(4)
 
 
-FAST = {"approach_speed": 100.0, "retract_speed": 100.0, "max_joint_speed_deg": 180.0, "max_joint_accel_deg": 3000.0,
-        "max_tip_speed": 1000.0}
+FAST = {
+    "approach_speed": 100.0,
+    "retract_speed": 100.0,
+    "max_joint_speed_deg": 180.0,
+    "max_joint_accel_deg": 3000.0,
+    "max_tip_speed": 1000.0,
+}
 """Limits that make inertia matter: at the defaults the program is slow enough that gravity and thrust
 carry nearly all the power (a wrong inertia would hide in the balance's 1 %)."""
 
 
 def _run(out: Path, masses: Masses, **limits: float):
     ts = right_plan("1,3")
-    prog = program(program_design(), ts, out, feed=2.0, options=Options(masses=masses, loads=Loads(lateral_force_N=0.0)), masses=True, **limits)
+    prog = program(
+        program_design(),
+        ts,
+        out,
+        feed=2.0,
+        options=Options(masses=masses, loads=Loads(lateral_force_N=0.0)),
+        masses=True,
+        **limits,
+    )
     with open(out / "program.csv", newline="") as fh:
         reader = csv.reader(fh)
         header = next(reader)
         data = list(zip(*reader))
-    cols = {name: np.array(data[i], dtype=float) for i, name in enumerate(header) if name not in ("segment", "trajectory")}
+    cols = {
+        name: np.array(data[i], dtype=float) for i, name in enumerate(header) if name not in ("segment", "trajectory")
+    }
     cols["segment"] = np.array(data[header.index("segment")])
     return prog, header, cols, json.loads((out / "program.json").read_text()), ts
 
@@ -181,7 +196,11 @@ def _mass_matrix(params, q: np.ndarray, assembly: np.ndarray, model: MassModel) 
     b = bodies_of_solution(sol, params, model, (J_E, J_e))
     Ja, Jb = b.J_ends[:, 0], b.J_ends[:, 1]  # (65, 3, 5)
     cross = np.einsum("k,kia,kib->ab", b.mass, Ja, Jb)
-    M = np.einsum("k,kia,kib->ab", b.mass, Ja, Ja) + np.einsum("k,kia,kib->ab", b.mass, Jb, Jb) + 0.5 * (cross + cross.T)
+    M = (
+        np.einsum("k,kia,kib->ab", b.mass, Ja, Ja)
+        + np.einsum("k,kia,kib->ab", b.mass, Jb, Jb)
+        + 0.5 * (cross + cross.T)
+    )
     return M / 3.0 + b.radial_inertia * J_e.T @ J_e
 
 
@@ -200,8 +219,12 @@ def test_torques_follow_lagranges_equations_on_a_smooth_motion() -> None:
     qd_of = lambda t: amp * w * np.cos(w * t)  # noqa: E731
     for t in (0.13, 0.41, 0.77, 1.05):
         dt = 1e-3
-        fk = forward_kinematics(p, np.stack([q_of(t + k * dt)[:3] for k in (-1, 0, 1)]),
-                                np.stack([q_of(t + k * dt)[3:] for k in (-1, 0, 1)]), asm)  # fmt: skip
+        fk = forward_kinematics(
+            p,
+            np.stack([q_of(t + k * dt)[:3] for k in (-1, 0, 1)]),
+            np.stack([q_of(t + k * dt)[3:] for k in (-1, 0, 1)]),
+            asm,
+        )
         assert np.all(fk.valid)
         tq = program_torques(p, fk.E, fk.e, MODE, dt, np.zeros(3, bool), model)
         h = 1e-5
@@ -212,9 +235,17 @@ def test_torques_follow_lagranges_equations_on_a_smooth_motion() -> None:
             qd = qd_of(t)
             Mp, Mm = _mass_matrix(p, q_of(t) + step, asm, model), _mass_matrix(p, q_of(t) - step, asm, model)
             dT_dq[i] = 0.5 * qd @ (Mp - Mm) @ qd / (2 * h)
-            Vs = [potential_energy_J(p, *(lambda f: (f.E, f.e))(forward_kinematics(p, (q_of(t) + s * step)[:3],
-                                                                                  (q_of(t) + s * step)[3:], asm)), MODE, model)
-                  for s in (1, -1)]  # fmt: skip
+            Vs = [
+                potential_energy_J(
+                    p,
+                    *(lambda f: (f.E, f.e))(
+                        forward_kinematics(p, (q_of(t) + s * step)[:3], (q_of(t) + s * step)[3:], asm)
+                    ),
+                    MODE,
+                    model,
+                )
+                for s in (1, -1)
+            ]
             dV_dq[i] = (Vs[0] - Vs[1]) / (2 * h)
         inertia = ((momentum[1] - momentum[0]) / (2 * h) - dT_dq) * 1e-6  # kg mm^2/s^2 -> N m
         assert np.allclose(tq.inertia_Nm[1], inertia, rtol=1e-4, atol=1e-4 * np.max(np.abs(inertia)))
@@ -254,7 +285,9 @@ def test_the_clearances_along_time_are_the_references_at_those_rows(run) -> None
     assert np.allclose(cols["t_s"][rows], series["t_s"], rtol=0, atol=1e-12) and rows[-1] == len(cols["t_s"]) - 1
     E = np.stack([cols[f"E_{a}"] for a in "xyz"], axis=1)[rows]
     e = np.stack([cols[f"e_{a}"] for a in "xyz"], axis=1)[rows]
-    ref = evaluate_points(program_design().to_vector(), E, e, MODE, Options(outputs=Outputs(clearances=True, tip_metrics=False)))
+    ref = evaluate_points(
+        program_design().to_vector(), E, e, MODE, Options(outputs=Outputs(clearances=True, tip_metrics=False))
+    )
     assert np.allclose(series["self_clearance_mm"], ref.self_clearance_mm, rtol=0, atol=1e-9)
     assert min(series["self_clearance_mm"]) >= summary["self_clearance_min_mm"] - 0.5  # 17.2's states are finer
     fig = timeline_figure(read_program(prog.path))
@@ -285,8 +318,9 @@ def test_motor_figures_add_the_lateral_force_on_drill_rows_only(lateral) -> None
     qd = np.radians(prog.q_dot_deg)
     t = prog.t_s
     gravity = gravity_torque_Nm(p, prog.E, prog.e, MODE, MassModel())
-    loads_only = tip_metrics(J_E[drill], J_e[drill], prog.e[drill], thrust_N=Loads().thrust_N,
-                             lateral_N=Loads().lateral_force_N).torque_per_actuator_Nm  # fmt: skip
+    loads_only = tip_metrics(
+        J_E[drill], J_e[drill], prog.e[drill], thrust_N=Loads().thrust_N, lateral_N=Loads().lateral_force_N
+    ).torque_per_actuator_Nm
     assert np.max(lat) > 0.1 and np.all(lat[~drill] == 0.0)
     for i, name in enumerate(("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")):
         fig = summary["motors"][name]
@@ -306,8 +340,17 @@ def test_thin_links_without_mass_flags_give_a_program_without_torques(tmp_path: 
     from arcube.errors import InputError
     from arcube.options import Body
 
-    prog = program(program_design(), right_plan("5"), tmp_path / "thin", feed=2.0, options=Options(body=Body(link_radius=1.5)))
+    prog = program(
+        program_design(), right_plan("5"), tmp_path / "thin", feed=2.0, options=Options(body=Body(link_radius=1.5))
+    )
     assert prog.tau_Nm is None and "motors" not in prog.summary
     with pytest.raises(InputError, match="wall"):
-        program(program_design(), right_plan("5"), tmp_path / "thin2", feed=2.0, options=Options(body=Body(link_radius=1.5)), masses=True)
+        program(
+            program_design(),
+            right_plan("5"),
+            tmp_path / "thin2",
+            feed=2.0,
+            options=Options(body=Body(link_radius=1.5)),
+            masses=True,
+        )
     assert not (tmp_path / "thin2").exists()

@@ -45,18 +45,32 @@ def run_dir(tmp_path_factory):
     run = tmp_path_factory.mktemp("run")
     ts = select(load_trajectories("reference"), side="R")
     Design.from_dict(PLACED).to_json(run / "best_design.json")
-    patient = "\n".join([
-        "[[patients]]", 'source = "reference"', f"ids = {json.dumps(list(ts.ids))}", f"levels = {json.dumps(list(ts.levels))}",
-        f"sides = {json.dumps(list(ts.sides))}", f"entry = {json.dumps(ts.entry.tolist())}", f"target = {json.dumps(ts.target.tolist())}",
-    ])  # fmt: skip
+    patient = "\n".join(
+        [
+            "[[patients]]",
+            'source = "reference"',
+            f"ids = {json.dumps(list(ts.ids))}",
+            f"levels = {json.dumps(list(ts.levels))}",
+            f"sides = {json.dumps(list(ts.sides))}",
+            f"entry = {json.dumps(ts.entry.tolist())}",
+            f"target = {json.dumps(ts.target.tolist())}",
+        ]
+    )
     (run / "config.toml").write_text(
         'format = "arcube-optimize-run"\nformat_version = 1\nrun_id = "test"\n\n[settings]\nalgorithm = "ga"\npopulation = 40\n'
-        'generations = 25\npoints = 12\nmode = "+,+,+,+"\nguards = false\nsetups = 1\nseed = 7\nfree = ["m_x", "m_y", "m_z"]\n\n' + patient + "\n"
-    )  # fmt: skip
+        'generations = 25\npoints = 12\nmode = "+,+,+,+"\nguards = false\nsetups = 1\nseed = 7\nfree = ["m_x", "m_y", "m_z"]\n\n'
+        + patient
+        + "\n"
+    )
     rows = ["generation,evaluations,best_eta_G,mean_eta_G,feasible_fraction,best_violation,seconds"]
-    rows += [f"{g},{40 * g},{'' if g < 3 else 2.4 + 3.0 / g},{'' if g < 3 else 4.0 + 5.0 / g},{min(1.0, g / 15):.3f},0,{0.1 * g}" for g in range(1, 26)]
+    rows += [
+        f"{g},{40 * g},{'' if g < 3 else 2.4 + 3.0 / g},{'' if g < 3 else 4.0 + 5.0 / g},{min(1.0, g / 15):.3f},0,{0.1 * g}"
+        for g in range(1, 26)
+    ]
     (run / "history.csv").write_text("\n".join(rows) + "\n")
-    (run / "summary.json").write_text(json.dumps({"eta_G": 2.4, "feasible": True, "generations": 25, "mode": "+,+,+,+", "stopped_by": "generations"}))
+    (run / "summary.json").write_text(
+        json.dumps({"eta_G": 2.4, "feasible": True, "generations": 25, "mode": "+,+,+,+", "stopped_by": "generations"})
+    )
     return run
 
 
@@ -72,9 +86,12 @@ def _open(driver, path: Path):
 
 
 def _plots(driver) -> dict[str, dict]:
-    return {p["id"]: p for p in driver.execute_script(
-        "return Array.from(document.querySelectorAll('.js-plotly-plot')).map(g => ({id: g.id, title: g.layout.title.text, names: g.data.map(t => t.name)}))"
-    )}  # fmt: skip
+    return {
+        p["id"]: p
+        for p in driver.execute_script(
+            "return Array.from(document.querySelectorAll('.js-plotly-plot')).map(g => ({id: g.id, title: g.layout.title.text, names: g.data.map(t => t.name)}))"
+        )
+    }
 
 
 def _mechanism(driver, div: str = DIV_IDS["scene"]) -> dict:
@@ -93,8 +110,9 @@ def _move_slider(driver, step: int, div: str = DIV_IDS["scene"]) -> None:
         "const done = arguments[arguments.length - 1]; const g = document.getElementById(arguments[0]);"
         "const s = g.layout.sliders[0].steps[arguments[1]];"
         "Plotly.animate(g, s.args[0], s.args[1]).then(() => done(true), e => done(String(e)));",
-        div, step,
-    )  # fmt: skip
+        div,
+        step,
+    )
     time.sleep(0.3)
 
 
@@ -127,7 +145,9 @@ def _self_contained(html: str) -> None:
 def test_run_report_in_browser(driver, run_dir, tmp_path):
     html = write_run_report(run_dir)
     assert html == run_dir / "report.html"
-    assert (run_dir / "report_dexterity.png").stat().st_size > 0 and (run_dir / "report_convergence.png").stat().st_size > 0
+    assert (run_dir / "report_dexterity.png").stat().st_size > 0 and (
+        run_dir / "report_convergence.png"
+    ).stat().st_size > 0
     _self_contained(html.read_text())
     _open(driver, html)
     plots = _plots(driver)
@@ -136,7 +156,9 @@ def test_run_report_in_browser(driver, run_dir, tmp_path):
     assert plots[DIV_IDS["convergence"]]["title"] == TITLES["convergence"]
     assert plots[DIV_IDS["scene"]]["title"].startswith(TITLES["scene"])
     assert {"best η_G", "feasible %"} <= set(plots[DIV_IDS["convergence"]]["names"])
-    assert {"cranks", "four-bar x", "four-bar y", "spherical x", "spherical y", "drill", "trajectories"} <= set(plots[DIV_IDS["scene"]]["names"])
+    assert {"cranks", "four-bar x", "four-bar y", "spherical x", "spherical y", "drill", "trajectories"} <= set(
+        plots[DIV_IDS["scene"]]["names"]
+    )
     before = _mechanism(driver)
     _move_slider(driver, 40)
     after = _mechanism(driver)
@@ -167,9 +189,13 @@ def test_evaluation_report_with_unreachable_points(driver, tmp_path):
     want = report.results.points.lateral_error_mm
     assert all((v is None) == (not ok) for v, ok in zip(ys, report.results.points.reachable))
     assert max(v for v in ys if v is not None) == pytest.approx(float(want[report.results.points.reachable].max()))
-    n_steps = driver.execute_script("return document.getElementById(arguments[0]).layout.sliders[0].steps.length", DIV_IDS["scene"])
+    n_steps = driver.execute_script(
+        "return document.getElementById(arguments[0]).layout.sliders[0].steps.length", DIV_IDS["scene"]
+    )
     assert n_steps == n_ok
-    note = driver.execute_script("return document.getElementById(arguments[0]).layout.annotations.map(a => a.text).join(' ')", DIV_IDS["scene"])
+    note = driver.execute_script(
+        "return document.getElementById(arguments[0]).layout.annotations.map(a => a.text).join(' ')", DIV_IDS["scene"]
+    )
     assert "unreachable" in note
     before = _mechanism(driver)
     _move_slider(driver, n_steps - 1)
@@ -186,7 +212,9 @@ def test_evaluation_report_draws_the_anatomy_and_the_clearance(driver, tmp_path)
     _open(driver, html)
     plots = _plots(driver)
     assert "anatomy" in plots[DIV_IDS["scene"]]["names"]
-    titles = driver.execute_script("return document.getElementById(arguments[0]).layout.annotations.map(a => a.text)", DIV_IDS["tip"])
+    titles = driver.execute_script(
+        "return document.getElementById(arguments[0]).layout.annotations.map(a => a.text)", DIV_IDS["tip"]
+    )
     assert "clearance to the anatomy (mm)" in titles
     assert _errors(driver) == []
 
@@ -203,7 +231,9 @@ def test_program_report_in_browser(driver, tmp_path):
     _open(driver, html)
     assert set(_plots(driver)) == set(PROGRAM_DIVS.values())
     div = PROGRAM_DIVS["playback"]
-    names = driver.execute_script("return document.getElementById(arguments[0]).layout.sliders[0].steps.map(s => s.args[0][0])", div)
+    names = driver.execute_script(
+        "return document.getElementById(arguments[0]).layout.sliders[0].steps.map(s => s.args[0][0])", div
+    )
     before = _mechanism(driver, div)
     _move_slider(driver, len(names) - 1, div)
     after = _mechanism(driver, div)

@@ -99,7 +99,7 @@ def test_every_frame_closes(scene):
             assert (cranks[u][1] - P) @ w_hat >= -TOL
         for u, name in enumerate(("four-bar x", "four-bar y")):
             u_hat = TRIADS[u][0]
-            (D, K, T, Q), = _split(tr[name])
+            ((D, K, T, Q),) = _split(tr[name])
             np.testing.assert_allclose(D, cranks[u][1], atol=TOL)
             np.testing.assert_allclose(Q, E + r * u_hat, atol=TOL)
             assert abs(dist(K, D) - d[u]) < TOL
@@ -133,7 +133,7 @@ def test_every_frame_closes(scene):
         L = dist(Q_z, cranks[2][1])
         if closed:
             n_closed += 1
-            (Dz, J, Qz), = closed
+            ((Dz, J, Qz),) = closed
             np.testing.assert_allclose(Dz, cranks[2][1], atol=TOL)
             np.testing.assert_allclose(Qz, Q_z, atol=TOL)
             assert abs(dist(J, Dz) - d_z) < TOL and abs(dist(Qz, J) - d_z) < TOL
@@ -156,7 +156,9 @@ def test_geometry_arrays_close_in_every_working_mode(pose_bank):
         r = get(x, "r")
         for u in range(3):
             u_hat = TRIADS[u][0]
-            np.testing.assert_allclose(mp.P[:, u], np.zeros((len(E), 1)) + m - get(x, f"f_{'xyz'[u]}") * u_hat, atol=TOL)
+            np.testing.assert_allclose(
+                mp.P[:, u], np.zeros((len(E), 1)) + m - get(x, f"f_{'xyz'[u]}") * u_hat, atol=TOL
+            )
             np.testing.assert_allclose(dist(mp.D[:, u], mp.P[:, u]), get(x, f"p_{'xyz'[u]}"), atol=TOL)
             np.testing.assert_allclose((mp.D[:, u] - mp.Q[:, u]) @ u_hat, 0.0, atol=TOL)
         for u, leg in enumerate("xy"):

@@ -41,8 +41,10 @@ def test_unreadable_front_names_the_file(tmp_path: Path) -> None:
 def test_front_of_the_run_objectives_marks_the_chosen_design(tmp_path: Path) -> None:
     rows = [(1.3, 0.045, 1.3, 1700.0, 22.0), (1.8, 0.025, 1.8, 1500.0, 13.0), (2.6, 0.011, 2.6, 1100.0, 9.0)]
     path = tmp_path / "pareto.csv"
-    path.write_text("objective_eta_G,objective_lateral_error,eta_G,links_sum_mm,bbox_volume_L\n"
-                    + "".join(",".join(map(str, r)) + "\n" for r in rows))  # fmt: skip
+    path.write_text(
+        "objective_eta_G,objective_lateral_error,eta_G,links_sum_mm,bbox_volume_L\n"
+        + "".join(",".join(map(str, r)) + "\n" for r in rows)
+    )
     front = read_pareto(path)
     assert list(front.objectives) == ["eta_G", "lateral_error"] and front.chosen == 0
     fig = pareto_figure(front)

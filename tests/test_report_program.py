@@ -107,7 +107,7 @@ def test_the_envelope_keeps_every_peak() -> None:
     # every bucket's extremes: the drawn line's envelope over any stretch of rows is the data's
     for a in range(0, len(y), 997):
         sel = keep[(keep >= a) & (keep < a + 997)]
-        inside = y[a:a + 997]
+        inside = y[a : a + 997]
         assert y[sel].max() <= inside.max() and y[sel].min() >= inside.min()
 
 
@@ -156,25 +156,37 @@ def test_the_motor_plot_marks_the_peak_and_rms_of_the_csv(folder: Path) -> None:
         assert all((x, y) in pairs for x, y in zip(cloud.x, cloud.y))  # every drawn point is a row of the CSV
         axis = "y" if k == 0 else f"y{k + 1}"
         lines = sorted(s.y0 for s in fig.layout.shapes if s.yref == axis)
-        rms = math.sqrt(sum((a**2 + b**2) / 2 * (t1 - t0) for a, b, t0, t1 in zip(tau[:-1], tau[1:], t[:-1], t[1:])) / (t[-1] - t[0]))
+        rms = math.sqrt(
+            sum((a**2 + b**2) / 2 * (t1 - t0) for a, b, t0, t1 in zip(tau[:-1], tau[1:], t[:-1], t[1:]))
+            / (t[-1] - t[0])
+        )
         assert lines == pytest.approx(sorted([rms, SYNTHETIC_MOTORS[j]["torque_peak_Nm"]]), rel=1e-12)
 
 
 def test_the_motor_table_shows_program_json(folder: Path) -> None:
     html = program_section(read_program(folder))
-    table = html[html.index("Motor sizing"):]
-    table = table[:table.index("</table>")]
+    table = html[html.index("Motor sizing") :]
+    table = table[: table.index("</table>")]
     head = re.findall(r"<th>([^<]*)</th>", table)
     cells = re.findall(r"<td>([^<]*)</td>", table)
-    names = {"torque_peak_Nm": "peak |τ| (N·m)", "torque_rms_Nm": "RMS τ (N·m)", "speed_peak_deg_s": "peak |q̇| (deg/s)", "power_peak_W": "peak power (W)",
-             "energy_J": "energy (J)", "torque_peak_gravity_Nm": "peak gravity τ (N·m)", "torque_peak_loads_only_Nm": "peak τ without masses (N·m)"}  # fmt: skip
+    names = {
+        "torque_peak_Nm": "peak |τ| (N·m)",
+        "torque_rms_Nm": "RMS τ (N·m)",
+        "speed_peak_deg_s": "peak |q̇| (deg/s)",
+        "power_peak_W": "peak power (W)",
+        "energy_J": "energy (J)",
+        "torque_peak_gravity_Nm": "peak gravity τ (N·m)",
+        "torque_peak_loads_only_Nm": "peak τ without masses (N·m)",
+    }
     assert len(cells) == len(JOINTS) * len(head)
     for k, j in enumerate(JOINTS):
-        row = dict(zip(head, cells[k * len(head):(k + 1) * len(head)]))
+        row = dict(zip(head, cells[k * len(head) : (k + 1) * len(head)]))
         assert row["actuator"] == j
         for key, title in names.items():
             assert float(row[title]) == pytest.approx(SYNTHETIC_MOTORS[j][key], abs=5e-4)
-        assert float(row["peak speed (rpm)"]) == pytest.approx(SYNTHETIC_MOTORS[j]["speed_peak_deg_s"] / 6.0, abs=5e-4)  # 1 rpm = 6 deg/s
+        assert float(row["peak speed (rpm)"]) == pytest.approx(
+            SYNTHETIC_MOTORS[j]["speed_peak_deg_s"] / 6.0, abs=5e-4
+        )  # 1 rpm = 6 deg/s
 
 
 def test_without_torques_there_is_no_motor_view(tmp_path: Path) -> None:
@@ -189,9 +201,21 @@ def test_the_limits_table_flags_what_is_beyond(folder: Path) -> None:
     fails = re.findall(r"<tr class='fail'><td>([^<]*)</td>", html)
     assert fails == ["self clearance, smallest (mm)"]  # 1.5 mm < 2 mm; every other value is within its limit
     assert "clearances are at up to 2000 of the rows" in html  # the note says where the clearance plot comes from
-    rows = {cells[0]: cells[1:] for cells in (re.findall(r"<td>([^<]*)</td>", r) for r in re.findall(r"<tr[^>]*>(.*?)</tr>", html)) if cells}
-    assert rows["joint rate, largest (deg/s)"] == ["14.000", "delta_y", "30.000", "16.000"]  # the largest of 10..14, limit 30
-    assert rows["body to anatomy, smallest (mm)"][::2] == ["7.500", "5.000"] and float(rows["body to anatomy, smallest (mm)"][3]) == 2.5
+    rows = {
+        cells[0]: cells[1:]
+        for cells in (re.findall(r"<td>([^<]*)</td>", r) for r in re.findall(r"<tr[^>]*>(.*?)</tr>", html))
+        if cells
+    }
+    assert rows["joint rate, largest (deg/s)"] == [
+        "14.000",
+        "delta_y",
+        "30.000",
+        "16.000",
+    ]  # the largest of 10..14, limit 30
+    assert (
+        rows["body to anatomy, smallest (mm)"][::2] == ["7.500", "5.000"]
+        and float(rows["body to anatomy, smallest (mm)"][3]) == 2.5
+    )
 
 
 def _cli(args: list[str]) -> int:
@@ -209,7 +233,9 @@ def test_arcube_report_on_a_program_folder(tmp_path: Path, capsys) -> None:
     assert out.out.strip() == str(folder / "report.html") and out.err == ""
     html = (folder / "report.html").read_text()
     assert all(f'id="{div}"' in html for div in DIV_IDS.values())
-    assert not re.search(r"<script[^>]*\bsrc=", html) and html.count("plotly.js v") >= 1  # plotly.js inline: opens offline
+    assert (
+        not re.search(r"<script[^>]*\bsrc=", html) and html.count("plotly.js v") >= 1
+    )  # plotly.js inline: opens offline
 
 
 def test_arcube_report_without_a_design_has_no_playback(tmp_path: Path, capsys) -> None:
@@ -259,7 +285,9 @@ def test_a_design_report_shows_its_program(tmp_path: Path) -> None:
     job = tmp_path / "job"
     synthetic_program(job / "program")
     (job / "design.toml").write_text('format = "arcube-design"\n')
-    ev = evaluate(Design.from_dict(PLACED), select(load_trajectories("reference"), side="R", ids="1,3"), points=4, engine="numpy")
+    ev = evaluate(
+        Design.from_dict(PLACED), select(load_trajectories("reference"), side="R", ids="1,3"), points=4, engine="numpy"
+    )
     html = write_report(ev, job / "report.html").read_text()
     assert all(f'id="{div}"' in html for div in DIV_IDS.values()) and "Drilling program" in html
     assert html.count("plotly.js v") == 1  # plotly.js once per page

@@ -50,7 +50,15 @@ def _budget_figures(design: Design, task, settings: ToleranceSettings) -> tuple[
 
 @pytest.mark.parametrize("engine", ["numpy", "numba"])
 def test_objectives_are_the_budget_of_arcube_tolerance(start: Path, task, engine: str) -> None:
-    common = {"design_from": str(start), "side": "R", "points": POINTS, "seed": 1, "engine": engine, "free": "m_x", **CLASS_F_Q0}
+    common = {
+        "design_from": str(start),
+        "side": "R",
+        "points": POINTS,
+        "seed": 1,
+        "engine": engine,
+        "free": "m_x",
+        **CLASS_F_Q0,
+    }
     model = build_model(build_config(["reference"], objectives="eta_G,lateral_error_wc,lateral_error_rms", **common))
     x = model.space.encode(model.space.base)
     F = model.evaluate(x[None, :])["F"][0]
@@ -58,7 +66,11 @@ def test_objectives_are_the_budget_of_arcube_tolerance(start: Path, task, engine
     eta = ac.evaluate(Design.load(start), "reference", side="R", points=POINTS).summary_json()["eta_G"]
     np.testing.assert_allclose(F, [eta, wc, rms], rtol=1e-9)
     rep = model.report(x)
-    assert (rep["lateral_error_wc_mm"], rep["lateral_error_rms_mm"], rep["tolerance_class"]) == (pytest.approx(wc, rel=1e-9), pytest.approx(rms, rel=1e-9), "f")
+    assert (rep["lateral_error_wc_mm"], rep["lateral_error_rms_mm"], rep["tolerance_class"]) == (
+        pytest.approx(wc, rel=1e-9),
+        pytest.approx(rms, rel=1e-9),
+        "f",
+    )
 
 
 def test_limits_add_their_normalized_shortfall(start: Path, task) -> None:
@@ -88,7 +100,9 @@ def test_with_only_the_encoders_the_worst_case_is_the_perfect_robots_lateral_err
 def test_compiled_equals_reference_and_batch_equals_loop(start: Path, task) -> None:
     rng = np.random.default_rng(5)
     base = Design.load(start).to_vector()
-    X = base + rng.normal(0.0, 0.05, (6, base.size)) * (np.arange(base.size) >= 3)  # links and angles moved, docking kept
+    X = base + rng.normal(0.0, 0.05, (6, base.size)) * (
+        np.arange(base.size) >= 3
+    )  # links and angles moved, docking kept
     X[4, 3] = 5.0  # f_x far too short: misses points
     modes = np.array([parse_mode("+,+,+,+")] * 6)
     want = np.array([True, True, False, True, True, True])
@@ -109,15 +123,32 @@ def test_the_tolerances_are_part_of_the_run(tmp_path: Path) -> None:
     s = RunSettings(tolerance_class="c", tol=["r=0.02", "q0=0.05"], maxima={"lateral_error_rms": 0.5})
     assert RunSettings.from_table(s.to_table()) == s
     assert "tolerance_class" not in RunSettings().to_table() and "tol" not in RunSettings().to_table()
-    assert s.accuracy_settings().tolerances(Design.preset("paper").to_vector())[ac.accuracy.SOURCE_NAMES.index("q0_delta_y")] == 0.05
+    assert (
+        s.accuracy_settings().tolerances(Design.preset("paper").to_vector())[
+            ac.accuracy.SOURCE_NAMES.index("q0_delta_y")
+        ]
+        == 0.05
+    )
 
 
-@pytest.mark.parametrize("flags, message", [
-    (["--tol", "foo=1"], "--tol 'foo=1': unknown error source 'foo'"),
-    (["--tol", "r=-1"], "--tol 'r=-1': a tolerance must be a finite number >= 0"),
-    (["--class", "x"], "--class"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--tol", "foo=1"], "--tol 'foo=1': unknown error source 'foo'"),
+        (["--tol", "r=-1"], "--tol 'r=-1': a tolerance must be a finite number >= 0"),
+        (["--class", "x"], "--class"),
+    ],
+)
 def test_bad_tolerances_on_optimize_exit_2_with_one_line(tmp_path: Path, flags: list[str], message: str) -> None:
-    out = arcube("optimize", "--trajectories", "reference", "--max", "lateral_error_rms=0.5", *flags, "--out", str(tmp_path / "run"))
+    out = arcube(
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--max",
+        "lateral_error_rms=0.5",
+        *flags,
+        "--out",
+        str(tmp_path / "run"),
+    )
     assert out.returncode == 2 and message in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr
     assert not (tmp_path / "run").exists()

@@ -40,7 +40,9 @@ def test_a_folder_among_the_targets_leaves_every_file_as_it_was(tmp_path: Path) 
 
 
 @pytest.mark.parametrize("error", [OSError(28, "No space left on device"), KeyboardInterrupt()])
-def test_a_rename_that_fails_half_way_puts_the_old_files_back(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, error: BaseException) -> None:
+def test_a_rename_that_fails_half_way_puts_the_old_files_back(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, error: BaseException
+) -> None:
     """The second rename fails (a full disk, or Ctrl-C at that moment): the first file, already
     replaced, gets its old content back, the new one is removed, and no temporary file is left."""
     (tmp_path / "a.csv").write_text("old a")
@@ -74,9 +76,18 @@ def test_an_older_program_is_never_overwritten_nor_deleted(tmp_path: Path, capsy
     out.mkdir()
     (out / "program.csv").write_text("an older program")
     (out / "program.json").mkdir()
-    code, err = _cli(["program", "--design", "paper", "--trajectories", "reference", "--ids", "1", "--out", str(out)], capsys)
-    assert code == 2 and err.count("\n") == 1 and err.startswith(f"error: --out {out}: holds an older program (program.csv, program.json (a folder))")
-    assert (out / "program.csv").read_text() == "an older program" and sorted(os.listdir(out)) == ["program.csv", "program.json"]
+    code, err = _cli(
+        ["program", "--design", "paper", "--trajectories", "reference", "--ids", "1", "--out", str(out)], capsys
+    )
+    assert (
+        code == 2
+        and err.count("\n") == 1
+        and err.startswith(f"error: --out {out}: holds an older program (program.csv, program.json (a folder))")
+    )
+    assert (out / "program.csv").read_text() == "an older program" and sorted(os.listdir(out)) == [
+        "program.csv",
+        "program.json",
+    ]
 
 
 def test_a_program_folder_is_written_by_one_process_at_a_time(tmp_path: Path) -> None:
@@ -113,9 +124,31 @@ def test_two_programs_into_one_folder_one_is_refused(tmp_path: Path) -> None:
     """Two ``arcube program`` runs started together into one --out: one writes, the other is refused in one line."""
     design = tmp_path / "design.json"
     arcube.Design.from_dict(DESIGN).to_json(design)
-    args = [sys.executable, "-m", "arcube", "program", "--design", str(design), "--trajectories", "reference", "--side", "R", "--ids", "5",
-            "--feed", "2", "--dt", "0.05", "--quiet", "--out", "prog"]  # fmt: skip
-    procs = [subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    args = [
+        sys.executable,
+        "-m",
+        "arcube",
+        "program",
+        "--design",
+        str(design),
+        "--trajectories",
+        "reference",
+        "--side",
+        "R",
+        "--ids",
+        "5",
+        "--feed",
+        "2",
+        "--dt",
+        "0.05",
+        "--quiet",
+        "--out",
+        "prog",
+    ]
+    procs = [
+        subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
     results = [(p.wait(timeout=600), p.stderr.read()) for p in procs]  # type: ignore[union-attr]
     assert sorted(rc for rc, _ in results) == [0, 2], results
     refused = next(err for rc, err in results if rc == 2)
@@ -126,7 +159,9 @@ def test_two_programs_into_one_folder_one_is_refused(tmp_path: Path) -> None:
 # ----------------------------------------------------------------------------- export and reports
 
 
-def test_export_keeps_the_model_when_the_replay_cannot_be_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_export_keeps_the_model_when_the_replay_cannot_be_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     folder = tmp_path / "p"
     program_object().write(folder)
     (tmp_path / "r.xml").write_text("<old/>")
@@ -138,26 +173,49 @@ def test_export_keeps_the_model_when_the_replay_cannot_be_written(tmp_path: Path
     assert (tmp_path / "r.xml").read_text() == "<old/>"
 
 
-def test_a_report_is_never_written_into_a_fifo_nor_its_pngs_beside_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_report_is_never_written_into_a_fifo_nor_its_pngs_beside_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     os.mkfifo(tmp_path / "r.html")
-    code, err = _cli(["evaluate", "--points", "3", "--ids", "1,2", "--engine", "numpy", "--report", str(tmp_path / "r.html")], capsys)
-    assert code == 2 and err.count("\n") == 1 and "FIFO" in err and err.startswith(f"error: --report {tmp_path / 'r.html'}"), err
+    code, err = _cli(
+        ["evaluate", "--points", "3", "--ids", "1,2", "--engine", "numpy", "--report", str(tmp_path / "r.html")], capsys
+    )
+    assert (
+        code == 2
+        and err.count("\n") == 1
+        and "FIFO" in err
+        and err.startswith(f"error: --report {tmp_path / 'r.html'}")
+    ), err
     assert os.listdir(tmp_path) == ["r.html"]
 
 
 def test_a_report_where_nothing_can_be_written_names_the_flag(capsys: pytest.CaptureFixture[str]) -> None:
     code, err = _cli(["evaluate", "--points", "3", "--ids", "1,2", "--report", "/proc/r.html"], capsys)
-    assert code == 2 and err.startswith("error: --report /proc/r.html: cannot write in /proc") and err.count("\n") == 1, err
+    assert (
+        code == 2 and err.startswith("error: --report /proc/r.html: cannot write in /proc") and err.count("\n") == 1
+    ), err
 
 
 # ----------------------------------------------------------------------------- what the computation can afford
 
 
-@pytest.mark.parametrize(("flag", "value"), [("--dt", "1e-7"), ("--feed", "1e-9"), ("--approach-speed", "1e-6"), ("--retract-speed", "1e-7")])
-def test_a_program_too_long_to_hold_is_refused_before_the_work(tmp_path: Path, capsys: pytest.CaptureFixture[str], flag: str, value: str) -> None:
+@pytest.mark.parametrize(
+    ("flag", "value"), [("--dt", "1e-7"), ("--feed", "1e-9"), ("--approach-speed", "1e-6"), ("--retract-speed", "1e-7")]
+)
+def test_a_program_too_long_to_hold_is_refused_before_the_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], flag: str, value: str
+) -> None:
     out = tmp_path / "prog"
-    code, err = _cli(["program", "--design", "paper", "--trajectories", "reference", "--ids", "1,3", flag, value, "--out", str(out)], capsys)
-    assert code == 2 and err.count("\n") == 1 and err.startswith(f"error: {flag} {float(value):g} ") and f"at most {MAX_PROGRAM_ROWS} rows" in err, err
+    code, err = _cli(
+        ["program", "--design", "paper", "--trajectories", "reference", "--ids", "1,3", flag, value, "--out", str(out)],
+        capsys,
+    )
+    assert (
+        code == 2
+        and err.count("\n") == 1
+        and err.startswith(f"error: {flag} {float(value):g} ")
+        and f"at most {MAX_PROGRAM_ROWS} rows" in err
+    ), err
     assert not out.exists()
 
 
@@ -176,16 +234,32 @@ def test_the_row_bound_is_the_plan_s_own_arithmetic() -> None:
         check_rows(lim.replace(dt=seconds / MAX_PROGRAM_ROWS * 0.999), ts)
 
 
-@pytest.mark.parametrize(("argv", "start"), [
-    (["design", "--trajectories", "reference", "--standoff", "1e308"], "error: --standoff must be <= 1000"),
-    (["optimize", "--trajectories", "reference", "--algorithm", "ga", "--population", "100000000"], "error: --population must be <= 10000"),
-    (["program", "--design", "paper", "--trajectories", "reference", "--standoff", "1e308"], "error: --standoff must be <= 1000"),
-    (["program", "--design", "paper", "--trajectories", "reference", "--max-joint-speed", "1e308"], "error: --max-joint-speed must be <= 3600"),
-    (["program", "--design", "paper", "--trajectories", "reference", "--thrust", "1e308"], "error: --thrust must be <= 100000"),
-    (["optimize", "--trajectories", "reference", "--points", "20000000000000000000"], "error: --points must be"),
-])  # fmt: skip
-def test_values_beyond_what_can_be_computed_are_refused_and_leave_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                                          argv: list[str], start: str) -> None:  # fmt: skip
+@pytest.mark.parametrize(
+    ("argv", "start"),
+    [
+        (["design", "--trajectories", "reference", "--standoff", "1e308"], "error: --standoff must be <= 1000"),
+        (
+            ["optimize", "--trajectories", "reference", "--algorithm", "ga", "--population", "100000000"],
+            "error: --population must be <= 10000",
+        ),
+        (
+            ["program", "--design", "paper", "--trajectories", "reference", "--standoff", "1e308"],
+            "error: --standoff must be <= 1000",
+        ),
+        (
+            ["program", "--design", "paper", "--trajectories", "reference", "--max-joint-speed", "1e308"],
+            "error: --max-joint-speed must be <= 3600",
+        ),
+        (
+            ["program", "--design", "paper", "--trajectories", "reference", "--thrust", "1e308"],
+            "error: --thrust must be <= 100000",
+        ),
+        (["optimize", "--trajectories", "reference", "--points", "20000000000000000000"], "error: --points must be"),
+    ],
+)
+def test_values_beyond_what_can_be_computed_are_refused_and_leave_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], start: str
+) -> None:
     code, err = _cli([*argv, "--out", str(tmp_path / "out")], capsys)
     assert code == 2 and err.startswith(start) and err.count("\n") == 1, err
     assert os.listdir(tmp_path) == []

@@ -20,12 +20,13 @@ from arcube.evaluation.sdf import AnatomyDistance, DistanceGrid, grid_for_bounds
 from arcube.io.meshes import read_mesh
 from arcube.patients.anatomy import reference_anatomy_boxes, reference_anatomy_path
 
-FINE_TOL = 0.5     # mm, MODEL.md 14.3, default fine spacing 1 mm
-COARSE_TOL = 3.0   # mm, h/2 for the default coarse spacing 6 mm (no faces or corners there)
+FINE_TOL = 0.5  # mm, MODEL.md 14.3, default fine spacing 1 mm
+COARSE_TOL = 3.0  # mm, h/2 for the default coarse spacing 6 mm (no faces or corners there)
 N_POINTS = 4000
 
 
 # ------------------------------------------------------------ independent oracles
+
 
 def rotation(axis, angle_deg: float) -> np.ndarray:
     """Rodrigues' formula."""
@@ -75,9 +76,10 @@ def coarse_points(ad: AnatomyDistance, rng, n: int = N_POINTS) -> np.ndarray:
 
 # ------------------------------------------------------------ grid mechanics
 
+
 def test_grid_layout_and_storage() -> None:
     origin, shape = grid_for_bounds([-3.2, 0.4, 7.0], [5.1, 0.9, 7.0], 1.0, 2.0)
-    assert np.allclose(origin, [-6.0, -2.0, 5.0])          # floor((lo - margin) / h) * h
+    assert np.allclose(origin, [-6.0, -2.0, 5.0])  # floor((lo - margin) / h) * h
     hi = origin + 1.0 * (np.array(shape) - 1)
     assert np.all(hi >= [7.1, 2.9, 9.0]) and np.all(hi - 1.0 < [7.1, 2.9, 9.0])
     box = (np.array([0.3, 0.1, 0.2]), np.array([2.0, 3.0, 4.0]), np.eye(3))
@@ -122,14 +124,17 @@ def test_lookup_uses_fine_inside_its_box_and_coarse_outside() -> None:
 
 # ------------------------------------------------------------ exactness of the node values
 
+
 def node_sample(grid: DistanceGrid, rng, n: int = 3000) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
     idx = tuple(rng.integers(0, s, size=n) for s in grid.shape)
     return grid.origin + grid.spacing * np.column_stack(idx), idx
 
 
 def test_node_values_are_exact_for_boxes_and_meshes() -> None:
-    boxes = [(np.array([1.3, -2.2, 0.7]), np.array([6.0, 2.5, 3.5]), rotation([1, 2, 3], 33.0)),
-             (np.array([9.1, 4.4, -3.3]), np.array([2.0, 7.0, 1.5]), rotation([0, 1, -1], 71.0))]
+    boxes = [
+        (np.array([1.3, -2.2, 0.7]), np.array([6.0, 2.5, 3.5]), rotation([1, 2, 3], 33.0)),
+        (np.array([9.1, 4.4, -3.3]), np.array([2.0, 7.0, 1.5]), rotation([0, 1, -1], 71.0)),
+    ]
     meshes = []
     for c, h, r in boxes:
         t = np.eye(4)
@@ -182,12 +187,12 @@ def test_box_anatomies_fine_and_coarse_errors(name: str) -> None:
 
 def test_ridge_halfway_between_nodes_reaches_half_a_spacing() -> None:
     """Two faces 8 mm apart, the ridge plane at x = 0.5 (nodes at integers): the bound h/2 is attained."""
-    left = (np.array([-13.5, 0.0, 0.0]), np.array([10.0, 30.0, 30.0]), np.eye(3))   # face at x = -3.5
-    right = (np.array([14.5, 0.0, 0.0]), np.array([10.0, 30.0, 30.0]), np.eye(3))   # face at x = 4.5
+    left = (np.array([-13.5, 0.0, 0.0]), np.array([10.0, 30.0, 30.0]), np.eye(3))  # face at x = -3.5
+    right = (np.array([14.5, 0.0, 0.0]), np.array([10.0, 30.0, 30.0]), np.eye(3))  # face at x = 4.5
     ad = AnatomyDistance.from_boxes([left, right], coarse_margin=40.0)
     rng = np.random.default_rng(5)
     p = np.column_stack([np.full(500, 0.5), rng.uniform(-20, 20, 500), rng.uniform(-20, 20, 500)])
-    err = ad(p) - union_sd(p, [left, right])            # true 4.0, interpolated between 3.5 and 3.5
+    err = ad(p) - union_sd(p, [left, right])  # true 4.0, interpolated between 3.5 and 3.5
     assert np.allclose(err, -0.5, atol=1e-9)
     q = np.column_stack([rng.uniform(-3.4, 4.4, 3000), rng.uniform(-20, 20, 3000), rng.uniform(-20, 20, 3000)])
     assert np.abs(ad(q) - union_sd(q, [left, right])).max() <= 0.5 + 1e-9
@@ -237,6 +242,7 @@ def test_sphere_mesh_errors_account_for_faceting() -> None:
 
 # ------------------------------------------------------------ the default anatomy
 
+
 @pytest.fixture(scope="module")
 def reference_boxes() -> list:
     return reference_anatomy_boxes()
@@ -251,7 +257,7 @@ def test_default_anatomy_errors(reference_boxes, reference_distance) -> None:
     ad = reference_distance
     rng = np.random.default_rng(8)
     bone = [b for b in reference_boxes if b.kind == "bone"]
-    corridor = rng.uniform([-45, -60, 0], [45, 60, 70], size=(N_POINTS, 3))   # above the bone, in and over the corridor
+    corridor = rng.uniform([-45, -60, 0], [45, 60, 70], size=(N_POINTS, 3))  # above the bone, in and over the corridor
     p = np.vstack([fine_points(ad, rng), near_points(bone, rng), corridor])
     fine_err = np.abs(ad(p) - union_sd(p, reference_boxes)).max()
     q = coarse_points(ad, rng)
@@ -273,7 +279,10 @@ def test_from_meshes_of_the_bundled_stl_agrees_with_from_boxes(reference_distanc
 def test_grid_progress_counts_every_shell_of_both_grids_once() -> None:
     from arcube.progress import GRIDS, listening
 
-    boxes = [trimesh.creation.box(extents=(4.0, 5.0, 6.0)), trimesh.creation.box(extents=(3.0, 3.0, 3.0), transform=translation(20.0))]
+    boxes = [
+        trimesh.creation.box(extents=(4.0, 5.0, 6.0)),
+        trimesh.creation.box(extents=(3.0, 3.0, 3.0), transform=translation(20.0)),
+    ]
     heard: list[tuple[int, int]] = []
     with listening(GRIDS, lambda done, total: heard.append((done, total))):
         AnatomyDistance.from_meshes(boxes, coarse_margin=40.0)

@@ -40,7 +40,9 @@ def layout():
 def _label_at(layout, p: np.ndarray) -> np.ndarray:
     """The documented rule, from the boxes: first of C3..C7 (body or arch), then soft tissue (100), else 0."""
     out = np.zeros(len(p), dtype=int)
-    groups = [(int(lv[1]), [b for b in layout.boxes if b.kind == "bone" and b.name.startswith(lv + " ")]) for lv in LEVELS]
+    groups = [
+        (int(lv[1]), [b for b in layout.boxes if b.kind == "bone" and b.name.startswith(lv + " ")]) for lv in LEVELS
+    ]
     groups.append((100, [b for b in layout.boxes if b.kind == "soft tissue"]))
     for label, boxes in reversed(groups):
         inside = np.min([box_signed_distance(p, *b) for b in boxes], axis=0) <= 0
@@ -109,7 +111,14 @@ def test_write_patients_in_each_format_and_default_finds_the_newest(tmp_path: Pa
     write_patients(True, None, "pedicle", 1, csv, anatomy_format="nii.gz", anatomy_spacing_mm=2.0)
     assert (tmp_path / "p.anatomy.nii.gz").exists() and not (tmp_path / "p.anatomy.stl").exists()
     a = resolve_anatomy("default", plan=str(csv))
-    assert a.source == f"default ({tmp_path / 'p.anatomy.nii.gz'})" and [s.label for s in a.segments] == [3, 4, 5, 6, 7, 100]
+    assert a.source == f"default ({tmp_path / 'p.anatomy.nii.gz'})" and [s.label for s in a.segments] == [
+        3,
+        4,
+        5,
+        6,
+        7,
+        100,
+    ]
     write_patients(True, None, "pedicle", 1, csv, anatomy_format="stl")
     os.utime(tmp_path / "p.anatomy.nii.gz", ns=(1, 1))  # the older one
     b = resolve_anatomy("default", plan=str(csv))
@@ -130,7 +139,9 @@ def test_write_patients_in_each_format_and_default_finds_the_newest(tmp_path: Pa
 def test_a_bad_spacing_writes_nothing(tmp_path: Path, spacing: float) -> None:
     """Negative; so coarse that a vertebra has no voxel centre; so fine that the grid is too large."""
     with pytest.raises(InputError) as err:
-        write_patients(True, None, "pedicle", 1, tmp_path / "p.csv", anatomy_format="seg.nrrd", anatomy_spacing_mm=spacing)
+        write_patients(
+            True, None, "pedicle", 1, tmp_path / "p.csv", anatomy_format="seg.nrrd", anatomy_spacing_mm=spacing
+        )
     assert "\n" not in str(err.value)
     assert list(tmp_path.iterdir()) == []
 
@@ -139,9 +150,9 @@ def test_bad_segments_write_nothing(tmp_path: Path, layout) -> None:
     segs = anatomy_segments(layout)
     cases = {
         "a.seg.nrrd": [segs[0], (segs[1][0], segs[0][1], segs[1][2])],  # a label used twice
-        "b.nii.gz": [("x", 0, segs[0][2])],                               # the background label
-        "c.stl": segs,                                                      # not a label-map format
-        "d.nii.gz": [],                                                     # nothing to write
+        "b.nii.gz": [("x", 0, segs[0][2])],  # the background label
+        "c.stl": segs,  # not a label-map format
+        "d.nii.gz": [],  # nothing to write
     }
     for name, segments in cases.items():
         with pytest.raises(InputError) as err:
@@ -157,7 +168,9 @@ def test_settings_name_their_field() -> None:
     assert SegmentSelection(segments=["skin", 7]).segments == ("skin", "7")
     with pytest.raises(InputError, match=r"^SegmentSelection\.segments must be names or label values"):
         SegmentSelection(segments="C3,,C4")
-    with pytest.raises(InputError, match=r"^PatientAnatomyFormat\.anatomy_format must be one of stl, seg\.nrrd, nii\.gz"):
+    with pytest.raises(
+        InputError, match=r"^PatientAnatomyFormat\.anatomy_format must be one of stl, seg\.nrrd, nii\.gz"
+    ):
         PatientAnatomyFormat(anatomy_format="obj")
     with pytest.raises(InputError, match=r"^PatientAnatomyFormat\.anatomy_spacing_mm must be > 0"):
         PatientAnatomyFormat(anatomy_spacing_mm=0)

@@ -90,23 +90,49 @@ def label_grid(d_lps: np.ndarray = D_LPS, origin_lps: np.ndarray = ORIGIN_LPS, s
 LABELS = label_grid()
 
 
-def write_nrrd(path: Path, data: np.ndarray, d_world: np.ndarray, origin: np.ndarray, space: str = "left-posterior-superior",
-               segments=((1, 0), (2, 0), (3, 0)), **extra) -> Path:
+def write_nrrd(
+    path: Path,
+    data: np.ndarray,
+    d_world: np.ndarray,
+    origin: np.ndarray,
+    space: str = "left-posterior-superior",
+    segments=((1, 0), (2, 0), (3, 0)),
+    **extra,
+) -> Path:
     """A .seg.nrrd: data (I, J, K) or (L, I, J, K), world step per axis = columns of d_world."""
     layered = data.ndim == 4
-    header = {"type": "uint8", "dimension": data.ndim, "space": space, "sizes": np.array(data.shape),
-              "space directions": np.vstack(([[np.nan] * 3] if layered else []) + [d_world.T]),
-              "kinds": (["list"] if layered else []) + ["domain"] * 3, "encoding": "gzip", "space origin": origin}
+    header = {
+        "type": "uint8",
+        "dimension": data.ndim,
+        "space": space,
+        "sizes": np.array(data.shape),
+        "space directions": np.vstack(([[np.nan] * 3] if layered else []) + [d_world.T]),
+        "kinds": (["list"] if layered else []) + ["domain"] * 3,
+        "encoding": "gzip",
+        "space origin": origin,
+    }
     for n, (label, layer) in enumerate(segments):
-        header.update({f"Segment{n}_ID": f"Segment_{label}", f"Segment{n}_Name": NAMES[label],
-                       f"Segment{n}_LabelValue": str(label), f"Segment{n}_Layer": str(layer)})
+        header.update(
+            {
+                f"Segment{n}_ID": f"Segment_{label}",
+                f"Segment{n}_Name": NAMES[label],
+                f"Segment{n}_LabelValue": str(label),
+                f"Segment{n}_Layer": str(layer),
+            }
+        )
     header.update(extra)
     nrrd.write(str(path), data, header, index_order="F")
     return path
 
 
-def write_nifti(path: Path, data: np.ndarray, affine_ras: np.ndarray, sform: bool = True, qform: bool = True,
-                qform_affine: np.ndarray | None = None) -> Path:
+def write_nifti(
+    path: Path,
+    data: np.ndarray,
+    affine_ras: np.ndarray,
+    sform: bool = True,
+    qform: bool = True,
+    qform_affine: np.ndarray | None = None,
+) -> Path:
     img = nibabel.Nifti1Image(data, None)
     img.set_sform(affine_ras if sform else None, code=1 if sform else 0)
     img.set_qform((affine_ras if qform_affine is None else qform_affine) if qform else None, code=1 if qform else 0)
@@ -130,9 +156,16 @@ def files(tmp: Path) -> dict[str, Path]:
     affine_ras = _affine(RAS_FROM_LPS @ D_LPS, RAS_FROM_LPS @ ORIGIN_LPS)
     return {
         "seg.nrrd LPS": write_nrrd(tmp / "lps.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS),
-        "seg.nrrd RAS": write_nrrd(tmp / "ras.seg.nrrd", LABELS, RAS_FROM_LPS @ D_LPS, RAS_FROM_LPS @ ORIGIN_LPS,
-                                   space="right-anterior-superior"),
-        "seg.nrrd layers": write_nrrd(tmp / "layers.seg.nrrd", layers, D_LPS, ORIGIN_LPS, segments=((1, 0), (2, 1), (3, 0))),
+        "seg.nrrd RAS": write_nrrd(
+            tmp / "ras.seg.nrrd",
+            LABELS,
+            RAS_FROM_LPS @ D_LPS,
+            RAS_FROM_LPS @ ORIGIN_LPS,
+            space="right-anterior-superior",
+        ),
+        "seg.nrrd layers": write_nrrd(
+            tmp / "layers.seg.nrrd", layers, D_LPS, ORIGIN_LPS, segments=((1, 0), (2, 1), (3, 0))
+        ),
         "nii.gz sform": write_nifti(tmp / "sform.nii.gz", LABELS, affine_ras, qform=False),
         "nii qform": write_nifti(tmp / "qform.nii", LABELS, affine_ras, sform=False),
     }
@@ -260,17 +293,19 @@ def test_a_mirrored_direction_matrix_gives_the_mirrored_anatomy(tmp_path: Path) 
         assert mesh.volume > 0
         assert np.abs(sd_shape(info.label, v * [-1.0, 1.0, 1.0])).max() <= HALF_DIAGONAL  # the mirror image ...
         if info.label != 3:  # (the sphere is on the mid-sagittal plane: its own mirror image)
-            assert np.abs(sd_shape(info.label, v)).max() > 5.0                              # ... not the original
+            assert np.abs(sd_shape(info.label, v)).max() > 5.0  # ... not the original
 
 
 def test_a_hand_written_nrrd_places_the_voxel_by_the_format(tmp_path: Path) -> None:
     """Bytes written here from the NRRD spec (fastest axis first): one voxel at (i, j, k) = (2, 0, 1)."""
     data = np.zeros((2, 2, 3), dtype=np.uint8)  # [k, j, i]: the file's byte order
     data[1, 0, 2] = 5
-    head = ("NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 3 2 2\n"
-            "space directions: (2,0,0) (0,3,0) (0,0,4)\nkinds: domain domain domain\nendian: little\n"
-            "encoding: raw\nspace origin: (10,20,30)\nSegment0_ID:=Segment_1\nSegment0_Name:=V\n"
-            "Segment0_LabelValue:=5\nSegment0_Layer:=0\n\n")
+    head = (
+        "NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 3 2 2\n"
+        "space directions: (2,0,0) (0,3,0) (0,0,4)\nkinds: domain domain domain\nendian: little\n"
+        "encoding: raw\nspace origin: (10,20,30)\nSegment0_ID:=Segment_1\nSegment0_Name:=V\n"
+        "Segment0_LabelValue:=5\nSegment0_Layer:=0\n\n"
+    )
     path = tmp_path / "one.seg.nrrd"
     path.write_bytes(head.encode() + data.tobytes())
     seg = read_segmentation(path)
@@ -295,10 +330,14 @@ def test_nifti_sform_wins_over_qform(tmp_path: Path) -> None:
 
 def test_extent_offset_does_not_move_the_voxels(tmp_path: Path) -> None:
     """Slicer shifts 'space origin' by the offset when it saves, so the offset is not applied again."""
-    a = read_segmentation(write_nrrd(tmp_path / "a.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS,
-                                     Segmentation_ReferenceImageExtentOffset="0 0 0"))
-    b = read_segmentation(write_nrrd(tmp_path / "b.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS,
-                                     Segmentation_ReferenceImageExtentOffset="12 -3 40"))
+    a = read_segmentation(
+        write_nrrd(tmp_path / "a.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS, Segmentation_ReferenceImageExtentOffset="0 0 0")
+    )
+    b = read_segmentation(
+        write_nrrd(
+            tmp_path / "b.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS, Segmentation_ReferenceImageExtentOffset="12 -3 40"
+        )
+    )
     np.testing.assert_array_equal(a.meshes[1].vertices, b.meshes[1].vertices)
 
 
@@ -314,15 +353,17 @@ def test_selection_by_name_and_value(label_files: dict[str, Path]) -> None:
     assert [[s.label for s in seg.segments] for seg in both] == [[3, 2], [2]]
 
 
-def test_anatomy_from_a_segmentation_is_cached_and_carries_its_segments(label_files: dict[str, Path], tmp_path: Path) -> None:
+def test_anatomy_from_a_segmentation_is_cached_and_carries_its_segments(
+    label_files: dict[str, Path], tmp_path: Path
+) -> None:
     path = tmp_path / "c.seg.nrrd"
     path.write_bytes(label_files["seg.nrrd LPS"].read_bytes())
     a = resolve_anatomy(str(path), segments="ball")
     assert [s.name for s in a.segments] == ["ball"]
     assert a.segments[0].to_dict()["voxels"] == int((LABELS == 3).sum())
     assert resolve_anatomy(path, segments=["ball"]) is a  # same file, same selection: one anatomy, one grid
-    assert resolve_anatomy(str(path)) is not a             # another selection
-    os.utime(path, ns=(1, 1))                              # the file changed: read again
+    assert resolve_anatomy(str(path)) is not a  # another selection
+    os.utime(path, ns=(1, 1))  # the file changed: read again
     assert resolve_anatomy(str(path), segments="ball") is not a
 
 
@@ -349,7 +390,9 @@ BAD = {
     "negative labels": lambda t: write_nifti(t / "n.nii.gz", LABELS.astype(np.int16) - 1, np.eye(4)),
     "no non-zero voxel": lambda t: write_nifti(t / "z.nii.gz", np.zeros((4, 4, 4), np.uint8), np.eye(4)),
     "singular affine": lambda t: write_nifti(t / "s.nii.gz", LABELS, np.diag([1.0, 0.0, 1.0, 1.0]), qform=False),
-    "coplanar directions": lambda t: write_nrrd(t / "c.seg.nrrd", LABELS, np.array([[1.0, 0, 1], [0, 1, 0], [0, 0, 0]]), ORIGIN_LPS),
+    "coplanar directions": lambda t: write_nrrd(
+        t / "c.seg.nrrd", LABELS, np.array([[1.0, 0, 1], [0, 1, 0], [0, 0, 0]]), ORIGIN_LPS
+    ),
     "non-finite origin": lambda t: write_nrrd(t / "nan.seg.nrrd", LABELS, D_LPS, np.array([0.0, np.nan, 0])),
     "4-D NIfTI": lambda t: write_nifti(t / "4d.nii.gz", np.ones((4, 4, 4, 2), np.uint8), np.eye(4)),
     "no orientation": lambda t: write_nifti(t / "o.nii.gz", LABELS, np.eye(4), sform=False, qform=False),
@@ -361,17 +404,32 @@ BAD = {
     "2 GB volume": lambda t: _huge(t),
     "2 GB NIfTI": lambda t: _huge_nifti(t),
     "a folder": lambda t: _folder(t / "dir.seg.nrrd"),
-    "bad extent offset": lambda t: write_nrrd(t / "off.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS, Segmentation_ReferenceImageExtentOffset="1 2"),
-}  # fmt: skip
+    "bad extent offset": lambda t: write_nrrd(
+        t / "off.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS, Segmentation_ReferenceImageExtentOffset="1 2"
+    ),
+}
 NEEDLES = {
-    "not NRRD": "not a NRRD file", "not NIfTI": "not a NIfTI file", "not gzip NIfTI": "not a NIfTI file",
-    "float labels": "non-integer values", "negative labels": "negative values", "no non-zero voxel": "no non-zero voxel",
-    "singular affine": "singular", "coplanar directions": "singular", "non-finite origin": "non-finite",
-    "4-D NIfTI": "4-D image", "no orientation": "neither sform nor qform", "other space": "not supported",
-    "layer axis last": "layer axis first", "truncated NRRD": "truncated", "truncated NIfTI": "truncated",
-    "truncated NIfTI gz": "truncated", "2 GB volume": "too large", "bad extent offset": "not three integers",
-    "2 GB NIfTI": "too large", "a folder": "is a folder",
-}  # fmt: skip
+    "not NRRD": "not a NRRD file",
+    "not NIfTI": "not a NIfTI file",
+    "not gzip NIfTI": "not a NIfTI file",
+    "float labels": "non-integer values",
+    "negative labels": "negative values",
+    "no non-zero voxel": "no non-zero voxel",
+    "singular affine": "singular",
+    "coplanar directions": "singular",
+    "non-finite origin": "non-finite",
+    "4-D NIfTI": "4-D image",
+    "no orientation": "neither sform nor qform",
+    "other space": "not supported",
+    "layer axis last": "layer axis first",
+    "truncated NRRD": "truncated",
+    "truncated NIfTI": "truncated",
+    "truncated NIfTI gz": "truncated",
+    "2 GB volume": "too large",
+    "bad extent offset": "not three integers",
+    "2 GB NIfTI": "too large",
+    "a folder": "is a folder",
+}
 
 
 def _text(path: Path, text: str) -> Path:
@@ -387,9 +445,15 @@ def _cut(path: Path) -> Path:
 
 def _layer_last(tmp: Path) -> Path:
     path = tmp / "last.seg.nrrd"
-    header = {"type": "uint8", "dimension": 4, "space": "left-posterior-superior", "sizes": np.array([3, 3, 3, 2]),
-              "space directions": np.vstack([np.eye(3), [[np.nan] * 3]]), "kinds": ["domain"] * 3 + ["list"],
-              "space origin": np.zeros(3)}
+    header = {
+        "type": "uint8",
+        "dimension": 4,
+        "space": "left-posterior-superior",
+        "sizes": np.array([3, 3, 3, 2]),
+        "space directions": np.vstack([np.eye(3), [[np.nan] * 3]]),
+        "kinds": ["domain"] * 3 + ["list"],
+        "space origin": np.zeros(3),
+    }
     nrrd.write(str(path), np.ones((3, 3, 3, 2), np.uint8), header)
     return path
 
@@ -397,9 +461,11 @@ def _layer_last(tmp: Path) -> Path:
 def _huge(tmp: Path) -> Path:
     """A header announcing 2048 x 2048 x 512 bytes (2 GiB) followed by a few bytes: refused from the header."""
     path = tmp / "huge.seg.nrrd"
-    head = ("NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 2048 2048 512\n"
-            "space directions: (1,0,0) (0,1,0) (0,0,1)\nkinds: domain domain domain\nencoding: raw\n"
-            "space origin: (0,0,0)\n\n")
+    head = (
+        "NRRD0004\ntype: uchar\ndimension: 3\nspace: left-posterior-superior\nsizes: 2048 2048 512\n"
+        "space directions: (1,0,0) (0,1,0) (0,0,1)\nkinds: domain domain domain\nencoding: raw\n"
+        "space origin: (0,0,0)\n\n"
+    )
     path.write_bytes(head.encode() + b"\x01" * 64)
     return path
 
@@ -450,10 +516,20 @@ def test_a_legacy_four_d_file_without_label_values(tmp_path: Path) -> None:
     """One binary layer per segment, no LabelValue or Layer fields: label 1 in layer N (as Slicer reads it)."""
     layers = np.stack([(LABELS == 1), (LABELS == 3)]).astype(np.uint8)
     path = tmp_path / "legacy.seg.nrrd"
-    header = {"type": "uint8", "dimension": 4, "space": "left-posterior-superior", "sizes": np.array(layers.shape),
-              "space directions": np.vstack([[[np.nan] * 3], D_LPS.T]), "kinds": ["list"] + ["domain"] * 3,
-              "encoding": "gzip", "space origin": ORIGIN_LPS, "Segment0_ID": "a", "Segment0_Name": "box",
-              "Segment1_ID": "b", "Segment1_Name": "ball"}
+    header = {
+        "type": "uint8",
+        "dimension": 4,
+        "space": "left-posterior-superior",
+        "sizes": np.array(layers.shape),
+        "space directions": np.vstack([[[np.nan] * 3], D_LPS.T]),
+        "kinds": ["list"] + ["domain"] * 3,
+        "encoding": "gzip",
+        "space origin": ORIGIN_LPS,
+        "Segment0_ID": "a",
+        "Segment0_Name": "box",
+        "Segment1_ID": "b",
+        "Segment1_Name": "ball",
+    }
     nrrd.write(str(path), layers, header)
     seg = read_segmentation(path)
     assert [(s.name, s.label, s.layer) for s in seg.segments] == [("box", 1, 0), ("ball", 1, 1)]
@@ -497,7 +573,7 @@ def test_random_masks_on_random_grids_close_and_face_outward(seed: int) -> None:
     # else Lewiner's interior vertex of an ambiguous cell: its centre, the cell having corners on both sides
     assert (half[~on_edge].sum(axis=1) == 3).all()
     for lo in np.round(idx[~on_edge] - 0.5).astype(int):
-        corners = solid[lo[0]:lo[0] + 2, lo[1]:lo[1] + 2, lo[2]:lo[2] + 2]
+        corners = solid[lo[0] : lo[0] + 2, lo[1] : lo[1] + 2, lo[2] : lo[2] + 2]
         assert corners.any() and not corners.all()
 
 
@@ -510,8 +586,9 @@ def _mc_volume(mask: np.ndarray) -> float:
 
 def test_the_cli_exits_2_with_one_line(tmp_path: Path) -> None:
     bad = _cut(write_nrrd(tmp_path / "cut.seg.nrrd", LABELS, D_LPS, ORIGIN_LPS))
-    run = subprocess.run([sys.executable, "-m", "arcube", "evaluate", "--anatomy", str(bad)],
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-m", "arcube", "evaluate", "--anatomy", str(bad)], capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 2
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and str(bad) in lines[0] and "truncated" in lines[0], run.stderr

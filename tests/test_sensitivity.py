@@ -57,7 +57,9 @@ def test_every_column_equals_central_differences_of_the_fk(seed, mount, L, mode_
         _close(d.dE_dq[..., k], fd_E, f"dE/dq{k}")
         _close(d.de_dq[..., k], fd_e, f"de/dq{k}")
     # d_z does not move the tool; the axis stays a unit vector (every de column is perpendicular to e)
-    assert np.all(d.dE_dp[..., PARAM_NAMES.index("d_z")] == 0.0) and np.all(d.de_dp[..., PARAM_NAMES.index("d_z")] == 0.0)
+    assert np.all(d.dE_dp[..., PARAM_NAMES.index("d_z")] == 0.0) and np.all(
+        d.de_dp[..., PARAM_NAMES.index("d_z")] == 0.0
+    )
     np.testing.assert_allclose(np.einsum("pi,pij->pj", e, d.de_dp), 0.0, atol=1e-12)
     if L > 0:  # the tool offset moves the tip by -e per mm, and nothing of the axis
         np.testing.assert_allclose(d.dE_dp[..., PARAM_NAMES.index("L")], -e, atol=1e-15)

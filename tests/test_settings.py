@@ -22,8 +22,12 @@ from arcube.optimization.settings import FLAT_OPTIONS
 # --------------------------------------------------------------------------- Options
 def test_flat_keywords_route_to_their_group() -> None:
     flat = Options(kappa_max=80.0, clearance_mm=5.0, link_radius=6.0, thrust_N=25.0, tip_metrics=False, body=True)
-    grouped = Options(guards=Guards(kappa_max=80.0, clearance_mm=5.0), body=Body(link_radius=6.0), loads=Loads(thrust_N=25.0),
-                      outputs={"tip_metrics": False, "clearances": True})  # fmt: skip
+    grouped = Options(
+        guards=Guards(kappa_max=80.0, clearance_mm=5.0),
+        body=Body(link_radius=6.0),
+        loads=Loads(thrust_N=25.0),
+        outputs={"tip_metrics": False, "clearances": True},
+    )
     assert flat == grouped
     assert flat.replace(thrust_N=30.0).loads.thrust_N == 30.0 and flat.replace(thrust_N=30.0).guards == flat.guards
 
@@ -46,7 +50,7 @@ def test_flat_keywords_route_to_their_group() -> None:
         (lambda: RunSettings(maxima={"torque": -1}), "RunSettings.maxima"),
         (lambda: RunSettings(thrust=-3.0), "Loads.thrust_N"),
     ],
-)  # fmt: skip
+)
 def test_a_bad_value_names_its_field_in_one_line(make, param: str) -> None:
     with pytest.raises(InputError) as info:
         make()
@@ -60,13 +64,20 @@ def test_a_flat_name_two_groups_share_is_refused_naming_both() -> None:
     with pytest.raises(InputError) as info:
         Options(envelope_clearance=True)
     text = str(info.value)
-    assert text.startswith("envelope_clearance names two settings") and "guards.envelope_clearance_mm" in text and "outputs.envelope_clearance" in text
+    assert (
+        text.startswith("envelope_clearance names two settings")
+        and "guards.envelope_clearance_mm" in text
+        and "outputs.envelope_clearance" in text
+    )
     with pytest.raises(InputError, match="names two settings"):
         arcube.evaluate("paper", "reference", points=3, envelope_clearance=10.0)
     assert Options(envelope_clearance_mm=10.0).guards.envelope_clearance_mm == 10.0
     with pytest.raises(InputError, match=r"^Guards.envelope_clearance_mm must be a number, got True$"):
         Guards(envelope_clearance_mm=True)  # pydantic alone reads True as 1.0
-    assert RunSettings(envelope_clearance=10.0, anatomy="default", envelope="default").options.guards.envelope_clearance_mm == 10.0  # a table's name
+    assert (
+        RunSettings(envelope_clearance=10.0, anatomy="default", envelope="default").options.guards.envelope_clearance_mm
+        == 10.0
+    )  # a table's name
     assert Options(outputs={"envelope_clearance": True}).guards.envelope_clearance_mm is None
 
 
@@ -74,18 +85,41 @@ def test_the_cli_names_the_flag_of_the_field() -> None:
     err = InputError.of("Loads.thrust_N", "must be >= 0, got -3.0")
     assert flag_message(err) == "--thrust must be >= 0, got -3.0"
     assert flag_message(InputError("plain message")) == "plain message"
-    inside = InputError("m.csv: 6 fitted measurements are too few; fit at least 7 (IdentifySettings.holdout sets how many are held out)")
-    assert flag_message(inside).endswith("(--holdout sets how many are held out)")  # a setting named inside the message too
-    assert flag_message(InputError("XIdentifySettings.holdouts stays")) == "XIdentifySettings.holdouts stays"  # whole names only
+    inside = InputError(
+        "m.csv: 6 fitted measurements are too few; fit at least 7 (IdentifySettings.holdout sets how many are held out)"
+    )
+    assert flag_message(inside).endswith(
+        "(--holdout sets how many are held out)"
+    )  # a setting named inside the message too
+    assert (
+        flag_message(InputError("XIdentifySettings.holdouts stays")) == "XIdentifySettings.holdouts stays"
+    )  # whole names only
 
 
 # --------------------------------------------------------------------------- RunSettings: Python values
 def test_python_values_equal_the_command_lines_text() -> None:
-    py = RunSettings(free=["all", "mount", "L"], bounds={"p_x": (30, 250), "r": (50, 90)}, mode=(1, 1, -1, 1),
-                     maxima={"torque": 15}, minima={"clearance": 5}, objectives=["eta_G", "torque"], anatomy="default",
-                     levels=["C3", "C4"], ids=[1, 3])  # fmt: skip
-    text = RunSettings(free="all,mount,L", bounds="p_x=30:250,r=50:90", mode="+,+,-,+", maxima=["torque=15"], minima=["clearance=5"],
-                       objectives="eta_G,torque", anatomy=["default"], levels="C3,C4", ids="1,3")  # fmt: skip
+    py = RunSettings(
+        free=["all", "mount", "L"],
+        bounds={"p_x": (30, 250), "r": (50, 90)},
+        mode=(1, 1, -1, 1),
+        maxima={"torque": 15},
+        minima={"clearance": 5},
+        objectives=["eta_G", "torque"],
+        anatomy="default",
+        levels=["C3", "C4"],
+        ids=[1, 3],
+    )
+    text = RunSettings(
+        free="all,mount,L",
+        bounds="p_x=30:250,r=50:90",
+        mode="+,+,-,+",
+        maxima=["torque=15"],
+        minima=["clearance=5"],
+        objectives="eta_G,torque",
+        anatomy=["default"],
+        levels="C3,C4",
+        ids="1,3",
+    )
     assert py == text
     assert py.free == arcube.PARAM_NAMES and py.algorithm == "nsga2"  # two objectives pick NSGA-II
     assert py.limits == [["torque", "max", 15.0], ["clearance", "min", 5.0]]
@@ -98,15 +132,38 @@ def test_guards_add_the_papers_guards_to_the_options() -> None:
 
 # --------------------------------------------------------------------------- config.toml's table
 def test_table_round_trip() -> None:
-    s = RunSettings(algorithm="ga", population=20, generations=7, seed=5, free=["all", "L"], bounds={"L": (10, 150)}, mode="free",
-                    setups=2, guards=True, margin=3.0, anatomy="default", clearance=4.0, self_clearance=1.5, link_radius=7.0,
-                    thrust=22.0, encoder_deg=[0.01, 0.02, 0.01, 0.01, 0.01], maxima={"torque": 12}, minima={"clearance": 3},
-                    kappa_max=80.0, docking="shared")  # fmt: skip
+    s = RunSettings(
+        algorithm="ga",
+        population=20,
+        generations=7,
+        seed=5,
+        free=["all", "L"],
+        bounds={"L": (10, 150)},
+        mode="free",
+        setups=2,
+        guards=True,
+        margin=3.0,
+        anatomy="default",
+        clearance=4.0,
+        self_clearance=1.5,
+        link_radius=7.0,
+        thrust=22.0,
+        encoder_deg=[0.01, 0.02, 0.01, 0.01, 0.01],
+        maxima={"torque": 12},
+        minima={"clearance": 3},
+        kappa_max=80.0,
+        docking="shared",
+    )
     table = s.to_table()
     assert RunSettings.from_config({"settings": table, "bounds": s.all_bounds}) == s
     assert RunSettings.from_table(table) == s.replace(bounds={})  # the bounds are config.toml's own table
     # the file's flat keys, as every earlier run wrote them
-    assert (table["clearance"], table["thrust"], table["link_radius"], table["limits"]) == (4.0, 22.0, 7.0, [["torque", "max", 12.0], ["clearance", "min", 3.0]])
+    assert (table["clearance"], table["thrust"], table["link_radius"], table["limits"]) == (
+        4.0,
+        22.0,
+        7.0,
+        [["torque", "max", 12.0], ["clearance", "min", 3.0]],
+    )
 
 
 def _other_value(default):
@@ -138,7 +195,11 @@ def test_masses_round_trip_through_the_table_and_are_written_only_when_set() -> 
     assert not {"wall", "density", "m_delta", "m_motor", "gravity"} & set(RunSettings().to_table())
     s = RunSettings(wall=1.5, m_motor=2.5, gravity="0,-9.81,0", maxima={"holding_torque": 12, "mass": 4})
     table = s.to_table()
-    assert (table["wall"], table["m_motor"], table["gravity"]) == (1.5, 2.5, [0.0, -9.81, 0.0]) and "density" not in table
+    assert (table["wall"], table["m_motor"], table["gravity"]) == (
+        1.5,
+        2.5,
+        [0.0, -9.81, 0.0],
+    ) and "density" not in table
     assert RunSettings.from_table(table) == s
     assert s.options.masses == Masses(wall_mm=1.5, m_motor_kg=2.5, gravity=(0.0, -9.81, 0.0))
     assert s.evaluation_options().masses == s.options.masses
@@ -147,11 +208,25 @@ def test_masses_round_trip_through_the_table_and_are_written_only_when_set() -> 
 
 def test_a_table_written_before_docking_loads_and_duplicates_reads_as_those_runs_ran() -> None:
     old = {  # the [settings] of a run folder written before --docking, --thrust and --eliminate-duplicates existed
-        "algorithm": "ga", "population": 40, "generations": 10, "tolerance": 1e-5, "period": 30, "points": 10, "mode": "+,+,+,+",
-        "setups": 1, "guards": False, "seed": 7, "engine": "auto", "engine_resolved": "numba", "aggregate": "mean",
-        "compactness": "links", "checkpoint_every": 10, "design_from": "paper", "free": ["m_x", "m_y", "m_z"],
+        "algorithm": "ga",
+        "population": 40,
+        "generations": 10,
+        "tolerance": 1e-5,
+        "period": 30,
+        "points": 10,
+        "mode": "+,+,+,+",
+        "setups": 1,
+        "guards": False,
+        "seed": 7,
+        "engine": "auto",
+        "engine_resolved": "numba",
+        "aggregate": "mean",
+        "compactness": "links",
+        "checkpoint_every": 10,
+        "design_from": "paper",
+        "free": ["m_x", "m_y", "m_z"],
         "trajectories": ["reference"],
-    }  # fmt: skip
+    }
     s = RunSettings.from_table(old)
     assert s.docking == "shared" and s.eliminate_duplicates is True and s.options == Options()
     assert s.free == ("m_x", "m_y", "m_z") and s.seed == 7
@@ -177,7 +252,11 @@ def test_every_flag_in_the_table_exists() -> None:
 
 def test_every_setting_with_a_flag_is_in_the_table() -> None:
     """A new setting gets its flag by one line in the table (the optimizer's own bookkeeping fields excepted)."""
-    no_flag = {"period", "options", "guards"}  # period: pymoo's; options: the groups below; guards: a switch, not an error source
+    no_flag = {
+        "period",
+        "options",
+        "guards",
+    }  # period: pymoo's; options: the groups below; guards: a switch, not an error source
     run = {f"RunSettings.{n}" for n in RunSettings.model_fields if n not in no_flag}
     groups = {f"{cls.__name__}.{n}" for cls in (Guards, Body, Loads, Masses) for n in cls.model_fields}
     groups -= {"Guards.z_dyad", "Guards.c_z", "Guards.single_assembly_mode"}  # set by --guards or not on the CLI
@@ -188,8 +267,17 @@ def test_every_setting_with_a_flag_is_in_the_table() -> None:
 
 
 # --------------------------------------------------------------------------- in memory
-SMALL = {"algorithm": "ga", "population": 16, "generations": 4, "tolerance": 0.0, "points": 5, "ids": "1,2", "seed": 3,
-         "free": ["m_x", "m_y", "m_z", "L"], "checkpoint_every": 2}  # fmt: skip
+SMALL = {
+    "algorithm": "ga",
+    "population": 16,
+    "generations": 4,
+    "tolerance": 0.0,
+    "points": 5,
+    "ids": "1,2",
+    "seed": 3,
+    "free": ["m_x", "m_y", "m_z", "L"],
+    "checkpoint_every": 2,
+}
 _TIMES = ("wall_s", "eval_s", "files")
 
 
@@ -197,8 +285,12 @@ def _untimed(summary: dict) -> dict:
     return {k: v for k, v in summary.items() if k not in _TIMES}
 
 
-@pytest.mark.parametrize("extra", [{}, {"anatomy": "default", "clearance": 0.0, "design_from": "paper"}], ids=["plain", "anatomy"])
-def test_in_memory_run_equals_the_folder_run_and_writes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, extra: dict) -> None:
+@pytest.mark.parametrize(
+    "extra", [{}, {"anatomy": "default", "clearance": 0.0, "design_from": "paper"}], ids=["plain", "anatomy"]
+)
+def test_in_memory_run_equals_the_folder_run_and_writes_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, extra: dict
+) -> None:
     plan = arcube.load_trajectories("reference")
     empty = tmp_path / "cwd"
     empty.mkdir()

@@ -14,14 +14,16 @@ from arcube.io.slicer import read_markups, write_markups
 from arcube.io import load_trajectories, write_csv
 
 DATA = Path(__file__).parent / "data" / "trajectories"
-SCHEMA = ("https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/"
-          "Resources/Schema/markups-schema-v1.0.3.json#")
+SCHEMA = (
+    "https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/"
+    "Resources/Schema/markups-schema-v1.0.3.json#"
+)
 
 # The same physical line in both hand-made files. Patient frame: x right, y superior,
 # z posterior. RAS (r, a, s) = (20, 30, 15): 20 mm right, 30 mm anterior, 15 mm superior
 # -> patient (20, 15, -30). In LPS the same point is (l, p, s) = (-20, -30, 15).
 ENTRY = [20.0, 15.0, -30.0]
-TARGET = [2.0, 18.0, -45.0]   # RAS (2, 45, 18) / LPS (-2, -45, 18)
+TARGET = [2.0, 18.0, -45.0]  # RAS (2, 45, 18) / LPS (-2, -45, 18)
 
 
 @pytest.mark.parametrize("name", ["ras_line.mrk.json", "lps_line.mrk.json"])
@@ -42,8 +44,16 @@ def test_absent_system_is_lps_fiducials_skipped_unnamed_ids() -> None:
 
 
 def test_single_unnamed_line_takes_file_stem(tmp_path: Path) -> None:
-    doc = {"@schema": SCHEMA, "markups": [{"type": "Line", "coordinateSystem": "RAS", "controlPoints": [
-        {"position": [0, 0, 0]}, {"position": [0, -10, 0]}]}]}
+    doc = {
+        "@schema": SCHEMA,
+        "markups": [
+            {
+                "type": "Line",
+                "coordinateSystem": "RAS",
+                "controlPoints": [{"position": [0, 0, 0]}, {"position": [0, -10, 0]}],
+            }
+        ],
+    }
     p = tmp_path / "left C5.mrk.json"
     p.write_text(json.dumps(doc))
     ts = read_markups(p)
@@ -53,9 +63,18 @@ def test_single_unnamed_line_takes_file_stem(tmp_path: Path) -> None:
 
 
 def test_micrometre_units(tmp_path: Path) -> None:
-    doc = {"@schema": SCHEMA, "markups": [{"type": "Line", "name": "u", "coordinateSystem": "RAS",
-                                           "coordinateUnits": "um", "controlPoints": [
-        {"position": [1000, 0, 0]}, {"position": [0, 0, 2000]}]}]}
+    doc = {
+        "@schema": SCHEMA,
+        "markups": [
+            {
+                "type": "Line",
+                "name": "u",
+                "coordinateSystem": "RAS",
+                "coordinateUnits": "um",
+                "controlPoints": [{"position": [1000, 0, 0]}, {"position": [0, 0, 2000]}],
+            }
+        ],
+    }
     p = tmp_path / "u.mrk.json"
     p.write_text(json.dumps(doc))
     ts = read_markups(p)
@@ -78,7 +97,7 @@ def test_csv_slicer_csv_round_trip(tmp_path: Path, target: str) -> None:
     back = load_trajectories(tmp_path / target)
     write_csv(back, tmp_path / "back.csv", decimals=3)
     # The written CSV is the bundled one, byte for byte.
-    bundled = (Path(__file__).parents[1] / "src" / "arcube" / "data" / "reference_patient.csv")
+    bundled = Path(__file__).parents[1] / "src" / "arcube" / "data" / "reference_patient.csv"
     assert (tmp_path / "back.csv").read_text() == bundled.read_text()
     again = load_trajectories(tmp_path / "back.csv")
     assert (again.ids, again.levels, again.sides) == (ref.ids, ref.levels, ref.sides)
@@ -116,25 +135,34 @@ def test_folder_write_refuses_leftover_files(tmp_path: Path) -> None:
 
 
 def _doc(**markup) -> dict:
-    base = {"type": "Line", "name": "t1", "coordinateSystem": "LPS",
-            "controlPoints": [{"position": [0, 0, 0]}, {"position": [1, 2, 3]}]}
+    base = {
+        "type": "Line",
+        "name": "t1",
+        "coordinateSystem": "LPS",
+        "controlPoints": [{"position": [0, 0, 0]}, {"position": [1, 2, 3]}],
+    }
     base.update(markup)
     return {"@schema": SCHEMA, "markups": [base]}
 
 
-@pytest.mark.parametrize("content, needle", [
-    (_doc(controlPoints=[{"position": [0, 0, 0]}, {"position": [1, 1, 1]}, {"position": [2, 2, 2]}]),
-     "markup 1 ('t1'): Line has 3 control points, expected 2"),
-    (_doc(controlPoints=[{"position": [0, 0, 0]}]), "Line has 1 control points"),
-    (_doc(coordinateSystem="XYZ"), "unknown coordinate system 'XYZ'"),
-    (_doc(coordinateUnits="cm"), "unknown coordinateUnits 'cm'"),
-    (_doc(controlPoints=[{"position": [0, 0]}, {"position": [1, 2, 3]}]), "control point 1 has no position"),
-    (_doc(controlPoints=[{"position": [0, 0, 0]}, {"position": [0, 0, 0]}]), "zero-length trajectory"),
-    ({"markups": [{"type": "Fiducial", "controlPoints": []}]}, "no markup of type 'Line'"),
-    ({"trajectories": []}, "not a Slicer markups file"),
-    ([1, 2, 3], "not a Slicer markups file"),
-    ({"@schema": "https://example.org/other-schema.json", "markups": []}, "not a Slicer markups file"),
-])
+@pytest.mark.parametrize(
+    "content, needle",
+    [
+        (
+            _doc(controlPoints=[{"position": [0, 0, 0]}, {"position": [1, 1, 1]}, {"position": [2, 2, 2]}]),
+            "markup 1 ('t1'): Line has 3 control points, expected 2",
+        ),
+        (_doc(controlPoints=[{"position": [0, 0, 0]}]), "Line has 1 control points"),
+        (_doc(coordinateSystem="XYZ"), "unknown coordinate system 'XYZ'"),
+        (_doc(coordinateUnits="cm"), "unknown coordinateUnits 'cm'"),
+        (_doc(controlPoints=[{"position": [0, 0]}, {"position": [1, 2, 3]}]), "control point 1 has no position"),
+        (_doc(controlPoints=[{"position": [0, 0, 0]}, {"position": [0, 0, 0]}]), "zero-length trajectory"),
+        ({"markups": [{"type": "Fiducial", "controlPoints": []}]}, "no markup of type 'Line'"),
+        ({"trajectories": []}, "not a Slicer markups file"),
+        ([1, 2, 3], "not a Slicer markups file"),
+        ({"@schema": "https://example.org/other-schema.json", "markups": []}, "not a Slicer markups file"),
+    ],
+)
 def test_bad_markups(tmp_path: Path, content: object, needle: str) -> None:
     p = tmp_path / "bad.mrk.json"
     p.write_text(json.dumps(content))
@@ -153,7 +181,7 @@ def test_non_finite_position(tmp_path: Path) -> None:
 
 def test_invalid_json_and_duplicate_ids(tmp_path: Path) -> None:
     bad = tmp_path / "broken.mrk.json"
-    bad.write_text("{\"markups\": [")
+    bad.write_text('{"markups": [')
     with pytest.raises(InputError, match="not valid JSON"):
         read_markups(bad)
     folder = tmp_path / "dups"

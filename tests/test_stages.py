@@ -71,10 +71,12 @@ def test_omega_from_angle_rates_gives_edot_equal_omega_cross_e(rng):
         e_dot = (e_of(psi + h * pd, theta + h * td) - e_of(psi - h * pd, theta - h * td)) / (2 * h)
         om = poses.omega_from_angle_rates(psi, pd, td)
         np.testing.assert_allclose(np.cross(om, e_of(psi, theta)), e_dot, atol=1e-8)
+
         # the full frame R_x(psi) R_y(theta) turns with omega: check on its x axis too
-        Rfun = lambda a, b: np.array(  # noqa: E731
-            [[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]]
-        ) @ np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+        def Rfun(a, b):
+            Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+            return Rx @ np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+
         Rdot = (Rfun(psi + h * pd, theta + h * td) - Rfun(psi - h * pd, theta - h * td)) / (2 * h)
         W = Rdot @ Rfun(psi, theta).T
         np.testing.assert_allclose([W[2, 1], W[0, 2], W[1, 0]], om, atol=1e-8)
@@ -89,7 +91,9 @@ def test_sample_trajectories_endpoints_spacing_and_axis():
     np.testing.assert_array_equal(E[:, 0], entry)
     np.testing.assert_allclose(E[:, -1], target, atol=1e-12)
     steps = np.diff(E, axis=1)
-    np.testing.assert_allclose(steps, np.broadcast_to(((target - entry) / (N - 1))[:, None, :], steps.shape), atol=1e-12)
+    np.testing.assert_allclose(
+        steps, np.broadcast_to(((target - entry) / (N - 1))[:, None, :], steps.shape), atol=1e-12
+    )
     # e points from the target (tip, deep) back to the entry (toward the motor)
     np.testing.assert_allclose(e[1], [0.0, 0.0, 1.0], atol=1e-15)
     d = entry[0] - target[0]
@@ -183,7 +187,9 @@ def test_tls_special_values_by_hand():
     assert rho[0] == 0.0
     np.testing.assert_allclose(rho[1:], [-np.pi / 6, np.pi / 6], rtol=0, atol=1e-15)
     # J_LV = diag(-p cos rho): at rho = 0 it is -p exactly
-    np.testing.assert_allclose(tls.jacobian_LV_diag(rho, p), -p * np.array([1.0, math.sqrt(0.75), math.sqrt(0.75)]), atol=1e-12)
+    np.testing.assert_allclose(
+        tls.jacobian_LV_diag(rho, p), -p * np.array([1.0, math.sqrt(0.75), math.sqrt(0.75)]), atol=1e-12
+    )
     # outside the box: NaN angle, |arg| > 1
     rho, arg = tls.ik(np.array([-160.0 + 121.0, -110.0 - 81.0, -80.0]), f, p, r)
     assert np.isnan(rho[0]) and np.isnan(rho[1]) and rho[2] == 0.0
@@ -360,7 +366,10 @@ def _ub_oracle(sigma, alpha, o):
     for i in range(2):
         u_hat, v_hat, w_hat = [(X_HAT, Y_HAT, Z_HAT), (Y_HAT, Z_HAT, X_HAT)][i]
         lam = sigma[..., i, None] + o[..., i, None]
-        out.append(np.cos(alpha[..., i, None]) * u_hat + np.sin(alpha[..., i, None]) * (np.sin(lam) * v_hat - np.cos(lam) * w_hat))
+        out.append(
+            np.cos(alpha[..., i, None]) * u_hat
+            + np.sin(alpha[..., i, None]) * (np.sin(lam) * v_hat - np.cos(lam) * w_hat)
+        )
     return np.stack(out, axis=-2)
 
 
@@ -565,7 +574,9 @@ def test_zleg_span_and_closure(rng):
     p_z = rng.uniform(60, 140, 500)
     L = zleg.span(E_m, rho_z, p_z)
     # D_z at (x, y) = (0, p_z cos rho_z), Q_z = E + r z at (x_E, y_E) in the plane z = z_E + r
-    np.testing.assert_allclose(L, np.linalg.norm(E_m[:, :2] - np.stack([0 * p_z, p_z * np.cos(rho_z)], -1), axis=-1), rtol=1e-14)
+    np.testing.assert_allclose(
+        L, np.linalg.norm(E_m[:, :2] - np.stack([0 * p_z, p_z * np.cos(rho_z)], -1), axis=-1), rtol=1e-14
+    )
     d_z, c_z = rng.uniform(30, 150, 500), rng.uniform(30, 150, 500)
     short = zleg.closure_shortfall(L, d_z, c_z)
     closes = (np.abs(d_z - c_z) <= L) & (L <= d_z + c_z)

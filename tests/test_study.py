@@ -30,14 +30,49 @@ REPO = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(REPO / "src")}
 START = REPO / "tests" / "data" / "right_side_design.json"
 """Table 2's links placed where they reach the right side (m = 88.23, 79.40, 56.89): every seed starts feasible."""
-SETTINGS = {"algorithm": "ga", "free": "m_x,m_y,m_z,r,o_x", "population": 16, "generations": 12, "points": 3, "engine": "numpy", "tolerance": 0.0,
-            "side": "R", "checkpoint_every": 3, "design_from": str(START)}  # fmt: skip
-FLAGS = ["--trajectories", "reference", "--algorithm", "ga", "--free", "m_x,m_y,m_z,r,o_x", "--population", "16", "--generations", "12", "--points", "3",
-         "--engine", "numpy", "--tolerance", "0", "--side", "R", "--checkpoint-every", "3", "--design-from", str(START), "--quiet"]  # fmt: skip
+SETTINGS = {
+    "algorithm": "ga",
+    "free": "m_x,m_y,m_z,r,o_x",
+    "population": 16,
+    "generations": 12,
+    "points": 3,
+    "engine": "numpy",
+    "tolerance": 0.0,
+    "side": "R",
+    "checkpoint_every": 3,
+    "design_from": str(START),
+}
+FLAGS = [
+    "--trajectories",
+    "reference",
+    "--algorithm",
+    "ga",
+    "--free",
+    "m_x,m_y,m_z,r,o_x",
+    "--population",
+    "16",
+    "--generations",
+    "12",
+    "--points",
+    "3",
+    "--engine",
+    "numpy",
+    "--tolerance",
+    "0",
+    "--side",
+    "R",
+    "--checkpoint-every",
+    "3",
+    "--design-from",
+    str(START),
+    "--quiet",
+]
 
 
 def _cli(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "arcube", *args], capture_output=True, text=True, env=ENV, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "arcube", *args], capture_output=True, text=True, env=ENV, timeout=timeout
+    )
 
 
 def _untimed_csv(path: Path) -> list[dict[str, str]]:
@@ -50,10 +85,14 @@ def _same_study(a: Path, b: Path, seeds: list[int]) -> None:
     for s in seeds:
         assert (a / f"seed_{s}/best_design.json").read_bytes() == (b / f"seed_{s}/best_design.json").read_bytes()
     sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
-    assert {k: sa[k] for k in ("best", "median", "worst", "best_seed")} == {k: sb[k] for k in ("best", "median", "worst", "best_seed")}
+    assert {k: sa[k] for k in ("best", "median", "worst", "best_seed")} == {
+        k: sb[k] for k in ("best", "median", "worst", "best_seed")
+    }
 
 
-@pytest.mark.parametrize(("spec", "want"), [("1-5", [1, 2, 3, 4, 5]), ("7", [7]), ("3,1,2", [1, 2, 3]), ("1-3, 10", [1, 2, 3, 10])])
+@pytest.mark.parametrize(
+    ("spec", "want"), [("1-5", [1, 2, 3, 4, 5]), ("7", [7]), ("3,1,2", [1, 2, 3]), ("1-3, 10", [1, 2, 3, 10])]
+)
 def test_parse_seeds(spec: str, want: list[int]) -> None:
     assert checked_seeds(spec) == want
 
@@ -128,8 +167,12 @@ def test_kill9_study_then_resume_cli(tmp_path: Path) -> None:
     flags = [f for f in FLAGS]
     flags[flags.index("--generations") + 1] = "60"
     cut = tmp_path / "cut"
-    proc = subprocess.Popen([sys.executable, "-m", "arcube", "study", "--seeds", "1-3", "--out", str(cut), *flags], env=ENV,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "arcube", "study", "--seeds", "1-3", "--out", str(cut), *flags],
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     state, deadline = cut / "seed_2" / "checkpoint" / "state.json", time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None and not state.exists():
         time.sleep(0.005)
@@ -153,13 +196,19 @@ def test_killed_parallel_study_leaves_no_orphan_writing_and_resumes(tmp_path: Pa
     flags = list(FLAGS)
     flags[flags.index("--generations") + 1] = "400"
     cut = tmp_path / "cut"
-    proc = subprocess.Popen([sys.executable, "-m", "arcube", "study", "--seeds", "1,2", "--workers", "2", "--out", str(cut), *flags],
-                            env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "arcube", "study", "--seeds", "1,2", "--workers", "2", "--out", str(cut), *flags],
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     states, deadline = [cut / f"seed_{s}" / "checkpoint" / "state.json" for s in (1, 2)], time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None and not all(p.exists() for p in states):
         time.sleep(0.01)
     proc.send_signal(signal.SIGKILL)
-    proc.communicate(timeout=60)  # the pipe closes when the children are gone too  # the children notice within a generation and stop with a checkpoint
+    proc.communicate(
+        timeout=60
+    )  # the pipe closes when the children are gone too  # the children notice within a generation and stop with a checkpoint
     sizes = [(cut / f"seed_{s}/history.csv").stat().st_size for s in (1, 2)]
     time.sleep(1.5)
     assert [(cut / f"seed_{s}/history.csv").stat().st_size for s in (1, 2)] == sizes
@@ -171,15 +220,18 @@ def test_killed_parallel_study_leaves_no_orphan_writing_and_resumes(tmp_path: Pa
     _same_study(cut, tmp_path / "ref", [1, 2])
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--seeds", ""], "--seeds is empty"),
-    (["--seeds", "1-x"], "--seeds '1-x'"),
-    (["--seeds", "5-1"], "runs backwards"),
-    (["--seeds", "1,2", "--seed", "3"], "No such option: --seed"),
-    (["--seeds", "1,2", "--workers", "0"], "--workers must be at least 1"),
-    (["--seeds", "1,2", "--best-known", "-1"], "--best-known"),
-    (["--seeds", "1,2", "--population", "1"], "--population"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--seeds", ""], "--seeds is empty"),
+        (["--seeds", "1-x"], "--seeds '1-x'"),
+        (["--seeds", "5-1"], "runs backwards"),
+        (["--seeds", "1,2", "--seed", "3"], "No such option: --seed"),
+        (["--seeds", "1,2", "--workers", "0"], "--workers must be at least 1"),
+        (["--seeds", "1,2", "--best-known", "-1"], "--best-known"),
+        (["--seeds", "1,2", "--population", "1"], "--population"),
+    ],
+)
 def test_bad_study_input_is_one_line_and_leaves_nothing(tmp_path: Path, args: list[str], message: str) -> None:
     out = tmp_path / "st"
     res = _cli("study", "--out", str(out), *FLAGS, *args)
@@ -192,7 +244,9 @@ def test_unreachable_dask_scheduler_leaves_no_study(tmp_path: Path) -> None:
     pytest.importorskip("distributed")
     out = tmp_path / "st"
     res = _cli("study", "--out", str(out), *FLAGS, "--seeds", "1,2", "--dask", "127.0.0.1:1")
-    assert res.returncode == 2 and res.stderr.startswith("error: --dask 127.0.0.1:1") and res.stderr.count("\n") == 1, res.stderr
+    assert res.returncode == 2 and res.stderr.startswith("error: --dask 127.0.0.1:1") and res.stderr.count("\n") == 1, (
+        res.stderr
+    )
     assert not out.exists()
 
 
@@ -202,8 +256,11 @@ def test_resume_of_a_folder_that_is_not_a_study_or_run(tmp_path: Path) -> None:
     broken = tmp_path / "broken"
     broken.mkdir()
     (broken / "study.toml").write_text('format = "something-else"\n')
-    for folder, message in ((tmp_path / "junk", "not an optimization run or study"), (tmp_path / "missing", "no such"),
-                            (broken, "not a study")):  # fmt: skip
+    for folder, message in (
+        (tmp_path / "junk", "not an optimization run or study"),
+        (tmp_path / "missing", "no such"),
+        (broken, "not a study"),
+    ):
         before = sorted(p.name for p in folder.iterdir()) if folder.exists() else None
         res = _cli("resume", str(folder), "--quiet")
         assert res.returncode == 2 and res.stderr.startswith("error: ") and res.stderr.count("\n") == 1, res.stderr
@@ -221,7 +278,9 @@ def test_study_refuses_a_used_folder_and_a_seed_setting(tmp_path: Path) -> None:
         arcube.study("reference", tmp_path / "s", seeds="1", seed=4, **SETTINGS)
     assert not (tmp_path / "s").exists()
     cfg = build_config(["reference"], seed=9, **SETTINGS)
-    assert studymod.seed_config(cfg, 3)["settings"]["seed"] == 3 and "--seed 3 " in studymod.seed_config(cfg, 3)["rerun"]
+    assert (
+        studymod.seed_config(cfg, 3)["settings"]["seed"] == 3 and "--seed 3 " in studymod.seed_config(cfg, 3)["rerun"]
+    )
 
 
 def test_best_known_line_on_the_convergence_plots(tmp_path: Path) -> None:
@@ -231,7 +290,11 @@ def test_best_known_line_on_the_convergence_plots(tmp_path: Path) -> None:
     run = arcube.optimize("reference", out=tmp_path / "run", seed=1, **SETTINGS)
     history = read_history(run.path / "history.csv")
     lines = [t for t in convergence_figure(history, 1.25).data if t.name == "best known 1.25"]
-    assert len(lines) == 1 and list(lines[0].y) == [1.25, 1.25] and list(lines[0].x) == [history.generation[0], history.generation[-1]]
+    assert (
+        len(lines) == 1
+        and list(lines[0].y) == [1.25, 1.25]
+        and list(lines[0].x) == [history.generation[0], history.generation[-1]]
+    )
     assert not [t for t in convergence_figure(history).data if str(t.name).startswith("best known")]
     assert arcube.write_report(run, best_known=1.25).exists()
     res = _cli("report", str(run.path), "--best-known", "0")

@@ -22,9 +22,26 @@ from arcube.model.design import Design
 from harness import run_cli as _run
 
 PLACED = Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
-POINT_COLUMNS = ["trajectory", "point", "lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm",
-                 "lateral_error_p50_mm", "lateral_error_p95_mm", "lateral_error_p99_mm", "lateral_error_max_mm"]  # fmt: skip
-SUMMARY = ("lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm", "lateral_error_p95_mm", "axis_error_p95_deg")
+POINT_COLUMNS = [
+    "trajectory",
+    "point",
+    "lateral_error_wc_mm",
+    "axis_error_wc_deg",
+    "axial_error_wc_mm",
+    "lateral_error_rms_mm",
+    "lateral_error_p50_mm",
+    "lateral_error_p95_mm",
+    "lateral_error_p99_mm",
+    "lateral_error_max_mm",
+]
+SUMMARY = (
+    "lateral_error_wc_mm",
+    "axis_error_wc_deg",
+    "axial_error_wc_mm",
+    "lateral_error_rms_mm",
+    "lateral_error_p95_mm",
+    "axis_error_p95_deg",
+)
 
 
 @pytest.fixture(scope="module")
@@ -34,13 +51,45 @@ def design_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def test_cli_writes_the_budget_the_library_computes(design_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_writes_the_budget_the_library_computes(
+    design_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "budget"
-    code, text, err = _run(["tolerance", "--design", str(design_file), "--trajectories", "reference", "--side", "R", "--ids", "1,3",
-                            "--points", "6", "--class", "c", "--tol", "r=0.02", "--samples", "200", "--seed", "4", "--out", str(out)], capsys)  # fmt: skip
+    code, text, err = _run(
+        [
+            "tolerance",
+            "--design",
+            str(design_file),
+            "--trajectories",
+            "reference",
+            "--side",
+            "R",
+            "--ids",
+            "1,3",
+            "--points",
+            "6",
+            "--class",
+            "c",
+            "--tol",
+            "r=0.02",
+            "--samples",
+            "200",
+            "--seed",
+            "4",
+            "--out",
+            str(out),
+        ],
+        capsys,
+    )
     assert code == 0, err
-    assert sorted(p.name for p in out.iterdir()) == ["lateral_histogram.png", "sensitivity.csv", "sources.png", "tolerance.json",
-                                                     "tolerance_points.csv", "trajectories.png"]  # fmt: skip
+    assert sorted(p.name for p in out.iterdir()) == [
+        "lateral_histogram.png",
+        "sensitivity.csv",
+        "sources.png",
+        "tolerance.json",
+        "tolerance_points.csv",
+        "trajectories.png",
+    ]
     doc = json.loads((out / "tolerance.json").read_text())
     plan = arcube.select(arcube.load_trajectories("reference"), side="R", ids="1,3")
     task = build_task(plan.entry, plan.target, 6, ids=plan.ids)
@@ -51,8 +100,12 @@ def test_cli_writes_the_budget_the_library_computes(design_file: Path, tmp_path:
     with open(out / "tolerance_points.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert list(rows[0]) == POINT_COLUMNS and len(rows) == 12
-    assert [(r["trajectory"], int(r["point"])) for r in rows] == [(t, k) for t in ("1", "3") for k in range(6)]  # the plan's order
-    assert max(float(r["lateral_error_wc_mm"]) for r in rows) == pytest.approx(doc["summary"]["lateral_error_wc_mm"], rel=1e-12)
+    assert [(r["trajectory"], int(r["point"])) for r in rows] == [
+        (t, k) for t in ("1", "3") for k in range(6)
+    ]  # the plan's order
+    assert max(float(r["lateral_error_wc_mm"]) for r in rows) == pytest.approx(
+        doc["summary"]["lateral_error_wc_mm"], rel=1e-12
+    )
     with open(out / "sensitivity.csv", newline="") as fh:
         sens = list(csv.DictReader(fh))
     assert list(sens[0]) == ["source", "tolerance", "unit", "share"]
@@ -65,20 +118,54 @@ def test_cli_writes_the_budget_the_library_computes(design_file: Path, tmp_path:
 
 @pytest.mark.parametrize(
     "bad, message",
-    [(["--class", "x"], "--class must be one of f, m, c, v"), (["--tol", "foo=1"], "--tol 'foo=1': unknown error source"),
-     (["--tol", "r=-0.1"], "--tol 'r=-0.1': a tolerance must be a finite number >= 0"), (["--samples", "0"], "--samples must be >= 1"),
-     (["--q0-deg", "-1"], "--q0-deg must be >= 0")],
-)  # fmt: skip
-def test_bad_input_is_one_line_exit_2_and_nothing_left(bad: list[str], message: str, design_file: Path, tmp_path: Path,
-                                                        capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    [
+        (["--class", "x"], "--class must be one of f, m, c, v"),
+        (["--tol", "foo=1"], "--tol 'foo=1': unknown error source"),
+        (["--tol", "r=-0.1"], "--tol 'r=-0.1': a tolerance must be a finite number >= 0"),
+        (["--samples", "0"], "--samples must be >= 1"),
+        (["--q0-deg", "-1"], "--q0-deg must be >= 0"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_and_nothing_left(
+    bad: list[str], message: str, design_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "budget"
-    code, _, err = _run(["tolerance", "--design", str(design_file), "--trajectories", "reference", "--side", "R", "--out", str(out), *bad], capsys)
+    code, _, err = _run(
+        [
+            "tolerance",
+            "--design",
+            str(design_file),
+            "--trajectories",
+            "reference",
+            "--side",
+            "R",
+            "--out",
+            str(out),
+            *bad,
+        ],
+        capsys,
+    )
     assert code == 2 and err.startswith(f"error: {message}") and err.count("\n") == 1, err
     assert not out.exists()
 
 
 def test_a_design_without_a_reachable_point_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "budget"
-    code, _, err = _run(["tolerance", "--design", "paper", "--trajectories", "reference", "--side", "R", "--points", "3", "--out", str(out)], capsys)
+    code, _, err = _run(
+        [
+            "tolerance",
+            "--design",
+            "paper",
+            "--trajectories",
+            "reference",
+            "--side",
+            "R",
+            "--points",
+            "3",
+            "--out",
+            str(out),
+        ],
+        capsys,
+    )
     assert code == 2 and "reaches none" in err and err.count("\n") == 1, err
     assert not out.exists()

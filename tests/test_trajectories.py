@@ -11,7 +11,11 @@ import pytest
 
 from arcube.errors import InputError
 from arcube.io import (
-    TrajectorySet, load_trajectories, read_transform, select, write_csv,
+    TrajectorySet,
+    load_trajectories,
+    read_transform,
+    select,
+    write_csv,
 )
 
 DATA = Path(__file__).parent / "data" / "trajectories"
@@ -25,6 +29,7 @@ def _write(tmp_path: Path, name: str, text: str) -> Path:
 
 
 # ---------------------------------------------------------------- reading
+
 
 def test_reference_is_the_bundled_mean_patient() -> None:
     ts = load_trajectories("reference")
@@ -49,8 +54,7 @@ def test_extra_columns_ignored_ids_kept_as_strings_and_order_kept() -> None:
 
 
 def test_level_and_side_columns_are_optional(tmp_path: Path) -> None:
-    p = _write(tmp_path, "a.csv", "trajectory,entry_x,entry_y,entry_z,target_x,target_y,target_z\n"
-                                  "x,0,0,0,0,0,1\n")
+    p = _write(tmp_path, "a.csv", "trajectory,entry_x,entry_y,entry_z,target_x,target_y,target_z\nx,0,0,0,0,0,1\n")
     ts = load_trajectories(p)
     assert ts.levels == ("",) and ts.sides == ("",)
 
@@ -69,11 +73,18 @@ def test_set_is_immutable() -> None:
 
 # ---------------------------------------------------------------- writing
 
+
 def test_write_csv_round_trip_is_exact(tmp_path: Path) -> None:
     rng = np.random.default_rng(3)
     entry = rng.normal(0, 30, (5, 3))
-    ts = TrajectorySet(("a", "b", "07", "x y", "5"), ("C3", "", "C7", "C5", "C4"),
-                       ("R", "L", "", "R", "L"), entry, entry + rng.normal(0, 20, (5, 3)), "made")
+    ts = TrajectorySet(
+        ("a", "b", "07", "x y", "5"),
+        ("C3", "", "C7", "C5", "C4"),
+        ("R", "L", "", "R", "L"),
+        entry,
+        entry + rng.normal(0, 20, (5, 3)),
+        "made",
+    )
     out = tmp_path / "sub" / "t.csv"
     write_csv(ts, out)
     back = load_trajectories(out)
@@ -91,6 +102,7 @@ def test_write_csv_fixed_decimals(tmp_path: Path) -> None:
 
 
 # ---------------------------------------------------------------- select
+
 
 @pytest.fixture()
 def ref() -> TrajectorySet:
@@ -119,15 +131,18 @@ def test_select_filters_combine(ref: TrajectorySet) -> None:
     assert select(ref, side="R", levels="C4-C6", ids="3,4,5,9").ids == ("3", "5")
 
 
-@pytest.mark.parametrize("kwargs, needle", [
-    ({"side": "R", "ids": "2"}, "no trajectory"),
-    ({"side": "X"}, "expected R or L"),
-    ({"levels": "C5-C3"}, "backwards"),
-    ({"levels": "C3-T1"}, "C1..C7"),
-    ({"levels": "C3,,C4"}, "empty item"),
-    ({"ids": "1,99"}, "unknown trajectory id(s) 99"),
-    ({"levels": "T1"}, "no trajectory"),
-])
+@pytest.mark.parametrize(
+    "kwargs, needle",
+    [
+        ({"side": "R", "ids": "2"}, "no trajectory"),
+        ({"side": "X"}, "expected R or L"),
+        ({"levels": "C5-C3"}, "backwards"),
+        ({"levels": "C3-T1"}, "C1..C7"),
+        ({"levels": "C3,,C4"}, "empty item"),
+        ({"ids": "1,99"}, "unknown trajectory id(s) 99"),
+        ({"levels": "T1"}, "no trajectory"),
+    ],
+)
 def test_select_errors(ref: TrajectorySet, kwargs: dict[str, str], needle: str) -> None:
     with pytest.raises(InputError) as err:
         select(ref, **kwargs)
@@ -135,6 +150,7 @@ def test_select_errors(ref: TrajectorySet, kwargs: dict[str, str], needle: str) 
 
 
 # ---------------------------------------------------------------- transform
+
 
 def _rot_z(deg: float) -> list[list[float]]:
     c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
@@ -152,15 +168,18 @@ def test_transform_applied_after_reading(tmp_path: Path, wrap) -> None:
     np.testing.assert_allclose(ts.target[2], [2.25 + 10, 1.5, 10 - 5], atol=1e-12)
 
 
-@pytest.mark.parametrize("content, reason", [
-    ("{not json", "not valid JSON"),
-    (json.dumps({"rows": []}), "'matrix'"),
-    (json.dumps([[1, 0, 0], [0, 1, 0], [0, 0, 1]]), "4 rows of 4"),
-    (json.dumps([[2, 0, 0, 0], [0, 2, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]]), "orthonormal"),
-    (json.dumps([[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "determinant"),
-    (json.dumps([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]), "last row"),
-    (json.dumps([[1, 0, 0, "a"], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "4 rows of 4"),
-])
+@pytest.mark.parametrize(
+    "content, reason",
+    [
+        ("{not json", "not valid JSON"),
+        (json.dumps({"rows": []}), "'matrix'"),
+        (json.dumps([[1, 0, 0], [0, 1, 0], [0, 0, 1]]), "4 rows of 4"),
+        (json.dumps([[2, 0, 0, 0], [0, 2, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]]), "orthonormal"),
+        (json.dumps([[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "determinant"),
+        (json.dumps([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]), "last row"),
+        (json.dumps([[1, 0, 0, "a"], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "4 rows of 4"),
+    ],
+)
 def test_unreadable_transform(tmp_path: Path, content: str, reason: str) -> None:
     tf = _write(tmp_path, "tf.json", content)
     with pytest.raises(InputError) as err:
@@ -179,21 +198,27 @@ def test_transform_tolerance_accepts_rounded_rotation(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- bad CSV input
 
-@pytest.mark.parametrize("text, needle", [
-    ("", "empty file"),
-    ("   \n\n", "empty file"),
-    (HEADER, "no trajectories"),
-    ("trajectory,level,side,entry_x,entry_y,target_x,target_y,target_z\n1,C3,R,1,2,3,4,5\n",
-     "missing column(s) entry_z"),
-    (HEADER + "1,C3,R,1,2,3,4,5,6\n2,C3,L,1,nan,3,4,5,6\n", "row 3: entry_y is not finite ('nan')"),
-    (HEADER + "1,C3,R,1,2,inf,4,5,6\n", "row 2: entry_z is not finite ('inf')"),
-    (HEADER + "1,C3,R,1,2,3,4,abc,6\n", "row 2: target_y is not a number ('abc')"),
-    (HEADER + "1,C3,R,1,2,3,1,2,3\n", "row 2: zero-length trajectory (entry == target)"),
-    (HEADER + "1,C3,R,1,2,3,4,5,6\n1,C3,L,1,2,3,4,5,7\n", "row 3: duplicate trajectory id '1'"),
-    (HEADER + ",C3,R,1,2,3,4,5,6\n", "row 2: empty trajectory id"),
-    (HEADER + "1,C3,X,1,2,3,4,5,6\n", "row 2: side must be R, L or empty"),
-    (HEADER + "1,C3,R,1,2,3\n", "row 2: 6 fields"),
-])
+
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ("", "empty file"),
+        ("   \n\n", "empty file"),
+        (HEADER, "no trajectories"),
+        (
+            "trajectory,level,side,entry_x,entry_y,target_x,target_y,target_z\n1,C3,R,1,2,3,4,5\n",
+            "missing column(s) entry_z",
+        ),
+        (HEADER + "1,C3,R,1,2,3,4,5,6\n2,C3,L,1,nan,3,4,5,6\n", "row 3: entry_y is not finite ('nan')"),
+        (HEADER + "1,C3,R,1,2,inf,4,5,6\n", "row 2: entry_z is not finite ('inf')"),
+        (HEADER + "1,C3,R,1,2,3,4,abc,6\n", "row 2: target_y is not a number ('abc')"),
+        (HEADER + "1,C3,R,1,2,3,1,2,3\n", "row 2: zero-length trajectory (entry == target)"),
+        (HEADER + "1,C3,R,1,2,3,4,5,6\n1,C3,L,1,2,3,4,5,7\n", "row 3: duplicate trajectory id '1'"),
+        (HEADER + ",C3,R,1,2,3,4,5,6\n", "row 2: empty trajectory id"),
+        (HEADER + "1,C3,X,1,2,3,4,5,6\n", "row 2: side must be R, L or empty"),
+        (HEADER + "1,C3,R,1,2,3\n", "row 2: 6 fields"),
+    ],
+)
 def test_bad_csv(tmp_path: Path, text: str, needle: str) -> None:
     p = _write(tmp_path, "bad.csv", text)
     with pytest.raises(InputError) as err:

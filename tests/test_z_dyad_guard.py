@@ -27,7 +27,9 @@ def test_the_guard_is_on_wherever_c_z_is_a_design_parameter() -> None:
     s = design_settings(requirements_from(drop=["clearance", "envelope_clearance"]), RunSettings(envelope=("none",)))
     assert "c_z" in s.free and s.evaluation_options().guards.z_dyad
     assert RunSettings(guards=True, free="all,c_z").evaluation_options().guards.z_dyad
-    assert not RunSettings(guards=True).evaluation_options().guards.z_dyad  # c_z = d_z, not a parameter: MODEL.md 8.2 as it was
+    assert (
+        not RunSettings(guards=True).evaluation_options().guards.z_dyad
+    )  # c_z = d_z, not a parameter: MODEL.md 8.2 as it was
     assert not RunSettings(free="all,c_z").evaluation_options().guards.z_dyad  # no guards asked for
 
 
@@ -35,11 +37,15 @@ def test_a_design_problem_fails_a_robot_whose_z_dyad_cannot_close() -> None:
     """DEMO's robot on the reference patient's right side in the design job's problem: with c_z = 20 mm its z dyad cannot
     span D_z -> Q_z at the points where it must (by hand: outside [|d_z - c_z|, d_z + c_z]); the problem counts those points
     failed (a violation beyond the same problem's without the guard), and with a c_z that spans every point it does not."""
-    reqs = requirements_from(drop=["clearance", "envelope_clearance", "lateral_error", "axis_error", "torque", "holding_torque"])
+    reqs = requirements_from(
+        drop=["clearance", "envelope_clearance", "lateral_error", "axis_error", "torque", "holding_torque"]
+    )
     s = design_settings(reqs, RunSettings(points=5, side="R", envelope=("none",)))
     model = build_model(build_config(["reference"], s), anatomies=(), settings=s)
     assert model.options.guards.z_dyad
-    without = dataclasses.replace(model, options=model.options.replace(z_dyad=False))  # the same problem, the z-dyad guard off
+    without = dataclasses.replace(
+        model, options=model.options.replace(z_dyad=False)
+    )  # the same problem, the z-dyad guard off
     mode = np.array([1.0 if c == "+" else -1.0 for c in DEMO.mode.split(",")])
     _, task = plan_right(5)
     x = DEMO.to_vector()

@@ -57,8 +57,12 @@ def test_an_open_z_leg_at_one_point_ranks_below_every_robot_that_closes_it(case,
         assert opened.points.failure[worst] == CODE_Z and (opened.points.failure == CODE_Z).sum() == 1
         assert opened.violation_reach >= 1.0 / n and opened.violation > closed.violation
         # the excess is the dyad's relative shortfall at that point, by hand
-        shortfall = (np.linalg.norm(mechanism_points(x, E[worst], e[worst], mode).Q[2] - mechanism_points(x, E[worst], e[worst], mode).D[2])
-                     - (x[11] + c_one)) / (x[11] + c_one)  # fmt: skip
+        shortfall = (
+            np.linalg.norm(
+                mechanism_points(x, E[worst], e[worst], mode).Q[2] - mechanism_points(x, E[worst], e[worst], mode).D[2]
+            )
+            - (x[11] + c_one)
+        ) / (x[11] + c_one)
         assert opened.violation_reach == pytest.approx(1.0 / n + shortfall, rel=1e-9)
         assert opened.points.guard_grade[worst] == 0.0  # not graded as a guard any more
     # the costliest robot that closes the dyad still ranks above the cheapest that leaves it open at one point

@@ -29,19 +29,42 @@ __version__ = "0.2.0"
 _caches.configure()
 
 _SOURCES: dict[str, str] = {
-    **dict.fromkeys(("OptimizeResult", "Planner", "Program", "ProgramLimits", "Study", "design", "evaluate", "joints", "optimize", "program",
-                     "resume", "study", "tolerance"), "arcube.api"),
+    **dict.fromkeys(
+        (
+            "OptimizeResult",
+            "Planner",
+            "Program",
+            "ProgramLimits",
+            "Study",
+            "design",
+            "evaluate",
+            "joints",
+            "optimize",
+            "program",
+            "resume",
+            "study",
+            "tolerance",
+        ),
+        "arcube.api",
+    ),
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
-    "InputError": "arcube.errors", "RunSettings": "arcube.optimization.settings",
+    "InputError": "arcube.errors",
+    "RunSettings": "arcube.optimization.settings",
     **dict.fromkeys(("GUARDED_OPTIONS", "Body", "Guards", "Loads", "Masses", "Options", "Outputs"), "arcube.options"),
-    "Evaluation": "arcube.evaluation.result", "export_mjcf": "arcube.export.mjcf",
-    **dict.fromkeys(("TrajectorySet", "load_trajectories", "read_markups", "select", "write_csv", "write_markups"), "arcube.io"),
+    "Evaluation": "arcube.evaluation.result",
+    "export_mjcf": "arcube.export.mjcf",
+    **dict.fromkeys(
+        ("TrajectorySet", "load_trajectories", "read_markups", "select", "write_csv", "write_markups"), "arcube.io"
+    ),
     **dict.fromkeys(("PARAM_NAMES", "Design"), "arcube.model.design"),
-    "generate_patient": "arcube.patients", "write_report": "arcube.report", "explore": "arcube.explorer",
+    "generate_patient": "arcube.patients",
+    "write_report": "arcube.report",
+    "explore": "arcube.explorer",
     **dict.fromkeys(("DockResult", "dock"), "arcube.design_job.coverage"),
-    "DesignResult": "arcube.design_job", "JointTrajectory": "arcube.export.joints",
+    "DesignResult": "arcube.design_job",
+    "JointTrajectory": "arcube.export.joints",
     **dict.fromkeys(("BreachResult", "BreachSettings", "breach"), "arcube.pedicles"),
-}  # fmt: skip
+}
 """Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
 
 if TYPE_CHECKING:
@@ -49,7 +72,21 @@ if TYPE_CHECKING:
 
     from arcube import calibrate
     from arcube.accuracy import ToleranceResult, ToleranceSettings
-    from arcube.api import OptimizeResult, Planner, Program, ProgramLimits, Study, design, evaluate, joints, optimize, program, resume, study, tolerance
+    from arcube.api import (
+        OptimizeResult,
+        Planner,
+        Program,
+        ProgramLimits,
+        Study,
+        design,
+        evaluate,
+        joints,
+        optimize,
+        program,
+        resume,
+        study,
+        tolerance,
+    )
     from arcube.errors import InputError
     from arcube.evaluation.result import Evaluation
     from arcube.design_job import DesignResult
@@ -66,18 +103,62 @@ if TYPE_CHECKING:
     from arcube.report import write_report
 
 __all__ = [
-    "GUARDED_OPTIONS", "PARAM_NAMES", "Body", "BreachResult", "BreachSettings", "Design", "DesignResult", "DockResult", "Evaluation", "Guards", "InputError", "JointTrajectory", "Loads", "OptimizeResult", "Options",
-    "Masses", "Outputs", "Planner", "Program", "ProgramLimits", "RunSettings", "ToleranceResult", "ToleranceSettings", "Study", "TrajectorySet",
-    "__version__", "breach", "calibrate", "design", "dock", "evaluate", "explore", "export_mjcf", "generate_patient", "joints", "load_trajectories", "optimize", "program", "read_markups", "resume", "select", "study", "tolerance",
-    "write_csv", "write_markups", "write_report",
-]  # fmt: skip
+    "GUARDED_OPTIONS",
+    "PARAM_NAMES",
+    "Body",
+    "BreachResult",
+    "BreachSettings",
+    "Design",
+    "DesignResult",
+    "DockResult",
+    "Evaluation",
+    "Guards",
+    "InputError",
+    "JointTrajectory",
+    "Loads",
+    "OptimizeResult",
+    "Options",
+    "Masses",
+    "Outputs",
+    "Planner",
+    "Program",
+    "ProgramLimits",
+    "RunSettings",
+    "ToleranceResult",
+    "ToleranceSettings",
+    "Study",
+    "TrajectorySet",
+    "__version__",
+    "breach",
+    "calibrate",
+    "design",
+    "dock",
+    "evaluate",
+    "explore",
+    "export_mjcf",
+    "generate_patient",
+    "joints",
+    "load_trajectories",
+    "optimize",
+    "program",
+    "read_markups",
+    "resume",
+    "select",
+    "study",
+    "tolerance",
+    "write_csv",
+    "write_markups",
+    "write_report",
+]
 
 
 def __getattr__(name: str) -> Any:
     if name in _SOURCES:
         value: Any = getattr(importlib.import_module(_SOURCES[name]), name)
     elif not name.startswith("_") and importlib.util.find_spec(f"arcube.{name}") is not None:
-        value = importlib.import_module(f"arcube.{name}")  # a subpackage, as when this module imported them all (arcube.io, arcube.calibrate)
+        value = importlib.import_module(
+            f"arcube.{name}"
+        )  # a subpackage, as when this module imported them all (arcube.io, arcube.calibrate)
     else:
         raise AttributeError(f"module 'arcube' has no attribute {name!r}")
     globals()[name] = value

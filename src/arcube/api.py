@@ -47,7 +47,18 @@ if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
     from arcube.export.joints import JointTrajectory
 
-__all__ = ["OptimizeResult", "Study", "design", "evaluate", "joints", "optimize", "program", "resume", "study", "tolerance"]
+__all__ = [
+    "OptimizeResult",
+    "Study",
+    "design",
+    "evaluate",
+    "joints",
+    "optimize",
+    "program",
+    "resume",
+    "study",
+    "tolerance",
+]
 
 PathLike = str | os.PathLike[str]
 
@@ -101,10 +112,28 @@ def evaluate(
         An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``).
     """
     engine_resolved = engine_name(engine)
-    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes, segments,
-                 envelope, table_z)  # fmt: skip
+    r = _request(
+        design,
+        plan,
+        options,
+        points,
+        mode,
+        guards,
+        side,
+        levels,
+        ids,
+        transform,
+        anatomy,
+        anatomy_frame,
+        changes,
+        segments,
+        envelope,
+        table_z,
+    )
     opts = r.options.replace(outputs=r.options.outputs.replace(clearances=True))
-    return evaluate_design(r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy, envelope=r.envelope)
+    return evaluate_design(
+        r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy, envelope=r.envelope
+    )
 
 
 class _Request(NamedTuple):
@@ -119,9 +148,24 @@ class _Request(NamedTuple):
     envelope: Envelope | None
 
 
-def _request(design: Any, plan: Any, options: Options | None, points: Any, mode: Any, guards: bool, side: Any, levels: Any, ids: Any,
-             transform: Any, anatomy: Any, anatomy_frame: str, changes: dict[str, Any], segments: Any = None, envelope: Any = None,
-             table_z: Any = None) -> _Request:  # fmt: skip
+def _request(
+    design: Any,
+    plan: Any,
+    options: Options | None,
+    points: Any,
+    mode: Any,
+    guards: bool,
+    side: Any,
+    levels: Any,
+    ids: Any,
+    transform: Any,
+    anatomy: Any,
+    anatomy_frame: str,
+    changes: dict[str, Any],
+    segments: Any = None,
+    envelope: Any = None,
+    table_z: Any = None,
+) -> _Request:
     from arcube.model.robot import design_at_side
 
     d = Design.coerce(design_at_side(design, side))
@@ -141,11 +185,24 @@ def _request(design: Any, plan: Any, options: Options | None, points: Any, mode:
     return _Request(d, ts, n, signs, opts, anat, env)
 
 
-def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike = "reference", *, speed: float = 1.0,
-           options: Options | None = None, points: int = 30, mode: str | Sequence[float] | None = None, guards: bool = False,
-           side: str | None = None, levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None,
-           transform: PathLike | None = None, anatomy: Any = None, anatomy_frame: str = "LPS", segments: Any = None,
-           **changes: Any) -> JointTrajectory:  # fmt: skip
+def joints(
+    design: Design | PathLike = "paper",
+    plan: TrajectorySet | PathLike = "reference",
+    *,
+    speed: float = 1.0,
+    options: Options | None = None,
+    points: int = 30,
+    mode: str | Sequence[float] | None = None,
+    guards: bool = False,
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[str] | None = None,
+    transform: PathLike | None = None,
+    anatomy: Any = None,
+    anatomy_frame: str = "LPS",
+    segments: Any = None,
+    **changes: Any,
+) -> JointTrajectory:
     """Joint angles (deg) and rates (deg/s) for drilling each trajectory of a plan at ``speed`` mm/s
     (``arcube joints``); the other arguments as :func:`evaluate` takes them. With
     ``options.outputs.holding_torque`` also the holding torque of model §18.2 per row.
@@ -157,15 +214,43 @@ def joints(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike =
 
     if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0.0):
         raise InputError.of("speed", f"must be a finite positive number of mm/s, got {speed!r}")
-    r = _request(design, plan, options, points, mode, guards, side, levels, ids, transform, anatomy, anatomy_frame, changes, segments)
+    r = _request(
+        design,
+        plan,
+        options,
+        points,
+        mode,
+        guards,
+        side,
+        levels,
+        ids,
+        transform,
+        anatomy,
+        anatomy_frame,
+        changes,
+        segments,
+    )
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
-    return joint_trajectory(r.design, task, float(speed), r.signs, r.options, None if r.anatomy is None else r.anatomy.distance)
+    return joint_trajectory(
+        r.design, task, float(speed), r.signs, r.options, None if r.anatomy is None else r.anatomy.distance
+    )
 
 
-def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLike = "reference", out: PathLike | None = None, *,
-              settings: ToleranceSettings | None = None, points: int = 30, mode: str | Sequence[float] | None = None,
-              side: str | None = None, levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None,
-              transform: PathLike | None = None, engine: str = "auto", **fields: Any) -> ToleranceResult:  # fmt: skip
+def tolerance(
+    design: Design | PathLike = "paper",
+    plan: TrajectorySet | PathLike = "reference",
+    out: PathLike | None = None,
+    *,
+    settings: ToleranceSettings | None = None,
+    points: int = 30,
+    mode: str | Sequence[float] | None = None,
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[str] | None = None,
+    transform: PathLike | None = None,
+    engine: str = "auto",
+    **fields: Any,
+) -> ToleranceResult:
     """The accuracy budget of a robot built to tolerances (model §20; ``arcube tolerance``): the first-order
     worst case and RMS of the lateral, axial and axis errors at every point of the plan, each error
     source's share, and the Monte Carlo over built robots (p95 of each robot's largest lateral error).
@@ -186,10 +271,16 @@ def tolerance(design: Design | PathLike = "paper", plan: TrajectorySet | PathLik
 
     if settings is not None and not isinstance(settings, Tolerances):
         raise InputError.of("settings", f"must be an arcube.ToleranceSettings, got {type(settings).__name__}")
-    s = validated(Tolerances, {**(settings.model_dump() if settings is not None else {}), **fields}) if fields or settings is None else settings
+    s = (
+        validated(Tolerances, {**(settings.model_dump() if settings is not None else {}), **fields})
+        if fields or settings is None
+        else settings
+    )
     r = _request(design, plan, None, points, mode, False, side, levels, ids, transform, None, "LPS", {})
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
-    result = budget(r.design, task.E, task.e, r.signs, s, [task.ids[i] for i in task.trajectory], task.k, engine=engine_name(engine))
+    result = budget(
+        r.design, task.E, task.e, r.signs, s, [task.ids[i] for i in task.trajectory], task.k, engine=engine_name(engine)
+    )
     if out is not None:
         from arcube.report.accuracy import write_budget
 
@@ -217,7 +308,10 @@ def _settings(settings: Any, fields: dict[str, Any], what: str) -> RunSettings:
     from arcube.optimization.config import run_settings
 
     if settings is not None and not isinstance(settings, RunSettings):
-        raise InputError.of("settings", f"must be an arcube.RunSettings (give the {what} folder as out=...), got {type(settings).__name__}")
+        raise InputError.of(
+            "settings",
+            f"must be an arcube.RunSettings (give the {what} folder as out=...), got {type(settings).__name__}",
+        )
     return run_settings(settings, **fields)
 
 
@@ -256,7 +350,11 @@ def optimize(
     cfg = build_config(specs, s, workers=workers, dask=dask)
     if out is None:
         # per entry of the config (a patient, or one of its dockings: model §19), its plan's anatomy
-        by_plan = [resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) for spec in specs] if s.anatomy else []
+        by_plan = (
+            [resolve_anatomy(list(s.anatomy), s.anatomy_frame, spec, segments=s.segments) for spec in specs]
+            if s.anatomy
+            else []
+        )
         anatomies = tuple(by_plan[p.get("plan_index", i)] for i, p in enumerate(cfg["patients"])) if by_plan else ()
         for p, anatomy in zip(cfg["patients"], anatomies):
             p["anatomy_source"] = anatomy.source
@@ -268,9 +366,15 @@ def optimize(
     return OptimizeResult(run_dir)
 
 
-def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None = None, workers: int | None = None,
-           dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-           on_stage: Callable[[str], None] | None = None) -> OptimizeResult | Study | DesignResult:  # fmt: skip
+def resume(
+    path: PathLike,
+    *,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+    workers: int | None = None,
+    dask: str | None = None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    on_stage: Callable[[str], None] | None = None,
+) -> OptimizeResult | Study | DesignResult:
     """Continue an interrupted run from its checkpoint, or finish an interrupted study or design job
     (the same result as an uninterrupted one); returns the :class:`OptimizeResult`, the :class:`Study`
     or the :class:`~arcube.design_job.DesignResult` (a design job tells ``on_stage`` its stages after the search)."""
@@ -291,7 +395,9 @@ def resume(path: PathLike, *, progress: Callable[[dict[str, Any]], None] | None 
         return Study(run_dir)
     cfg, raw = runmod.read_config(run_dir)
     runmod.load_checkpoint(run_dir, cfg, raw)  # refuse a corrupt or foreign checkpoint before anything else
-    runmod.resume(run_dir, workers=workers if workers is not None else (1 if dask else None), dask=dask, on_generation=progress)
+    runmod.resume(
+        run_dir, workers=workers if workers is not None else (1 if dask else None), dask=dask, on_generation=progress
+    )
     return OptimizeResult(run_dir)
 
 
@@ -333,7 +439,16 @@ def study(
     seed_list = checked_seeds(seeds)
     s = _settings(settings, fields, "study")
     base = build_config(_plans(plan), s.replace(seed=seed_list[0]))
-    studymod.start_study(Path(out), base, seed_list, workers=workers, dask=dask, best_known=best_known, on_seed=on_seed, on_generation=progress)
+    studymod.start_study(
+        Path(out),
+        base,
+        seed_list,
+        workers=workers,
+        dask=dask,
+        best_known=best_known,
+        on_seed=on_seed,
+        on_generation=progress,
+    )
     write_study_convergence(Path(out))
     return Study(Path(out))
 
@@ -391,10 +506,28 @@ def design(
     if cohort is not None and plan is not None:
         raise InputError.of("cohort", "replaces the plans: give a cohort file or trajectories, not both")
     if cohort is not None and settings is None and "anatomy" not in fields:
-        fields = {**fields, "anatomy": "default"}  # each patient's own anatomy (default: its plan's) comes from the cohort
+        fields = {
+            **fields,
+            "anatomy": "default",
+        }  # each patient's own anatomy (default: its plan's) comes from the cohort
     s = design_settings(reqs, _settings(settings, fields, "design"))
     from arcube.design_job.cohort import read_cohort
 
-    plans = read_cohort(cohort, side=s.side, levels=s.levels, ids=s.ids, transform=s.transform) if cohort is not None else _plans("reference" if plan is None else plan)
-    return start_design(Path(out), plans, s, reqs, checked_seeds(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=progress,
-                        on_stage=on_stage, validate=validate)  # fmt: skip
+    plans = (
+        read_cohort(cohort, side=s.side, levels=s.levels, ids=s.ids, transform=s.transform)
+        if cohort is not None
+        else _plans("reference" if plan is None else plan)
+    )
+    return start_design(
+        Path(out),
+        plans,
+        s,
+        reqs,
+        checked_seeds(seeds),
+        workers=workers,
+        dask=dask,
+        on_seed=on_seed,
+        on_generation=progress,
+        on_stage=on_stage,
+        validate=validate,
+    )

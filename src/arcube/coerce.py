@@ -26,7 +26,17 @@ from arcube.io.inputs import parse_decimal, short_repr
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.mechanism import format_mode, parse_mode
 
-__all__ = ["MAX_POINTS", "MAX_SEEDS", "design_mode", "engine_name", "limit_pairs", "mode_signs", "mode_text", "points", "seeds"]
+__all__ = [
+    "MAX_POINTS",
+    "MAX_SEEDS",
+    "design_mode",
+    "engine_name",
+    "limit_pairs",
+    "mode_signs",
+    "mode_text",
+    "points",
+    "seeds",
+]
 
 MAX_SEEDS = 1000
 """The most seeds one study or design job takes (a typo such as 1-100000 is refused instead of run)."""
@@ -67,7 +77,9 @@ def mode_text(mode: Any, *, param: str = "mode") -> str:
 def points(value: Any, *, param: str = "points") -> int:
     """Samples per trajectory: an integer in ``[2, MAX_POINTS]`` (both ends of a trajectory included)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 2 <= value <= MAX_POINTS:
-        raise InputError.of(param, f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {value!r}")
+        raise InputError.of(
+            param, f"must be an integer in [2, {MAX_POINTS}] (both ends of a trajectory included), got {value!r}"
+        )
     return int(value)
 
 
@@ -89,7 +101,9 @@ def seeds(value: str | Sequence[int]) -> list[int]:
             lo = int(lo_s)
             hi = int(hi_s) if dash else lo
         except ValueError:
-            raise InputError.of("seeds", f"{value!r}: {item.strip()!r} is not a seed or a range A-B of non-negative integers") from None
+            raise InputError.of(
+                "seeds", f"{value!r}: {item.strip()!r} is not a seed or a range A-B of non-negative integers"
+            ) from None
         if lo > hi:
             raise InputError.of("seeds", f"{value!r}: range {item.strip()!r} runs backwards")
         if hi - lo + 1 + len(out) > MAX_SEEDS:
@@ -133,7 +147,10 @@ def limit_pairs(value: Any, *, param: str, example: str = "torque=15") -> list[t
     seen: dict[str, str] = {}
     for name, v, shown in items:
         if name in seen:
-            raise InputError.of(param, f"{short_repr(shown)}: {name} is given twice ({short_repr(seen[name])} and {short_repr(shown)}); give it once")
+            raise InputError.of(
+                param,
+                f"{short_repr(shown)}: {name} is given twice ({short_repr(seen[name])} and {short_repr(shown)}); give it once",
+            )
         seen[name] = shown
         if isinstance(v, bool):
             number = None
@@ -142,7 +159,10 @@ def limit_pairs(value: Any, *, param: str, example: str = "torque=15") -> list[t
         else:
             number = parse_decimal(str(v).strip())
         if number is None:
-            raise InputError.of(param, f"{short_repr(shown)}: the value {short_repr(str(v).strip())} is not a number (plain decimal notation, e.g. {example})")
+            raise InputError.of(
+                param,
+                f"{short_repr(shown)}: the value {short_repr(str(v).strip())} is not a number (plain decimal notation, e.g. {example})",
+            )
         if not np.isfinite(number):
             raise InputError.of(param, f"{short_repr(shown)}: the value must be finite")
         out.append((name, number, shown))

@@ -27,6 +27,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing: this module loads first, keep it light
 if TYPE_CHECKING:
     from types import FrameType
@@ -104,7 +105,6 @@ def check() -> None:
     """Raise ``KeyboardInterrupt`` if Ctrl-C was pressed since :func:`arm` (a dependency may have swallowed it)."""
     if _pending:
         raise KeyboardInterrupt
-
 
 
 class deferred:

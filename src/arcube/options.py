@@ -31,7 +31,21 @@ from arcube.errors import InputError
 from arcube.model.body import BodyRadii
 from arcube.validation import Settings, settings_error, validated  # noqa: F401 (the base of every settings group, used from here)
 
-__all__ = ["Body", "FLAT", "GUARDED_OPTIONS", "Guards", "Loads", "Masses", "Options", "Outputs", "Settings", "request_options", "route_flat", "settings_error", "validated"]
+__all__ = [
+    "Body",
+    "FLAT",
+    "GUARDED_OPTIONS",
+    "Guards",
+    "Loads",
+    "Masses",
+    "Options",
+    "Outputs",
+    "Settings",
+    "request_options",
+    "route_flat",
+    "settings_error",
+    "validated",
+]
 
 
 def _five(value: Any) -> tuple[float, ...]:
@@ -60,8 +74,11 @@ PositiveMm = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 class Guards(Settings):
     """Reachability guards: model §8.2 ([ADDITION]), the clearances of 14.3 and the envelope of 19.5. All off by default."""
 
-    SHORT: ClassVar[dict[str, str]] = {"clearance_mm": "clearance", "self_clearance_mm": "self_clearance",
-                                       "envelope_clearance_mm": "envelope_clearance"}
+    SHORT: ClassVar[dict[str, str]] = {
+        "clearance_mm": "clearance",
+        "self_clearance_mm": "self_clearance",
+        "envelope_clearance_mm": "envelope_clearance",
+    }
 
     z_dyad: bool = False
     """Check the z-leg dyad closure (model §6)."""
@@ -143,7 +160,12 @@ class Masses(Settings):
     """The mass model of model §18.1: thin-walled aluminium tubes as links, the delta actuators
     riding on the cranks, the drill motor; gravity in the patient frame (prone: posterior up)."""
 
-    SHORT: ClassVar[dict[str, str]] = {"wall_mm": "wall", "density_kg_m3": "density", "m_delta_kg": "m_delta", "m_motor_kg": "m_motor"}
+    SHORT: ClassVar[dict[str, str]] = {
+        "wall_mm": "wall",
+        "density_kg_m3": "density",
+        "m_delta_kg": "m_delta",
+        "m_motor_kg": "m_motor",
+    }
 
     wall_mm: float = Field(default=2.0, gt=0, le=1000.0, allow_inf_nan=False)
     """Wall of the links' tubes (model §18.1), mm; < the link radius where the mass model is used."""
@@ -179,13 +201,20 @@ class Outputs(Settings):
     (off by default: every earlier result stays as it was, and thin links need no valid mass model)."""
 
 
-_GROUPS: dict[str, type[Settings]] = {"guards": Guards, "body": Body, "loads": Loads, "masses": Masses, "outputs": Outputs}
+_GROUPS: dict[str, type[Settings]] = {
+    "guards": Guards,
+    "body": Body,
+    "loads": Loads,
+    "masses": Masses,
+    "outputs": Outputs,
+}
 _LEGACY = {"body": ("outputs", "clearances"), "want_clearance": ("outputs", "anatomy_clearance")}
 """Flat keywords of the former single ``Options`` whose names changed with the groups."""
 FLAT: dict[str, tuple[str, str]] = {
     **{name: (group, name) for group, cls in _GROUPS.items() for name in cls.model_fields},
-    **{cls.short(name): (group, name) for group, cls in _GROUPS.items() for name in cls.SHORT}, **_LEGACY,
-}  # fmt: skip
+    **{cls.short(name): (group, name) for group, cls in _GROUPS.items() for name in cls.SHORT},
+    **_LEGACY,
+}
 """Each flat keyword -> (group, field): a field's name or short name (``Options(thrust_N=25)``,
 ``Options(thrust=25)`` and ``arcube.optimize(..., thrust=25)`` mean ``Options(loads=Loads(thrust_N=25))``)."""
 
@@ -206,11 +235,18 @@ def route_flat(data: dict[str, Any], options: Any = None) -> dict[str, Any]:
     """The groups of :class:`Options` (as dicts) with the flat keywords of ``data`` routed into them,
     on top of ``options`` (an :class:`Options`, a dict of groups, or None). ``data`` keeps the rest."""
     base = options.model_dump() if isinstance(options, BaseModel) else dict(options or {})
-    out = {k: (v.model_dump() if isinstance(v, BaseModel) else dict(v)) if isinstance(v, (BaseModel, dict)) else v for k, v in base.items()}
+    out = {
+        k: (v.model_dump() if isinstance(v, BaseModel) else dict(v)) if isinstance(v, (BaseModel, dict)) else v
+        for k, v in base.items()
+    }
     for key in [k for k in data if k in FLAT and not (k == "body" and not isinstance(data[k], bool))]:
         if key in AMBIGUOUS:
-            ways = " or ".join(f"Options({g}={_GROUPS[g].__name__}({f}=...))" for g, f in (a.split(".") for a in AMBIGUOUS[key]))
-            raise InputError.of(key, f"names two settings, {' and '.join(AMBIGUOUS[key])}: give the one meant by its group, {ways}")
+            ways = " or ".join(
+                f"Options({g}={_GROUPS[g].__name__}({f}=...))" for g, f in (a.split(".") for a in AMBIGUOUS[key])
+            )
+            raise InputError.of(
+                key, f"names two settings, {' and '.join(AMBIGUOUS[key])}: give the one meant by its group, {ways}"
+            )
         group, name = FLAT[key]
         current = out.get(group, {})
         out[group] = {**(current if isinstance(current, dict) else dict(current)), name: data.pop(key)}
@@ -236,7 +272,9 @@ class Options(Settings):
         if not isinstance(data, dict):
             return data
         rest = dict(data)
-        groups = {k: rest.pop(k) for k in list(rest) if k in _GROUPS and not (k == "body" and isinstance(rest[k], bool))}
+        groups = {
+            k: rest.pop(k) for k in list(rest) if k in _GROUPS and not (k == "body" and isinstance(rest[k], bool))
+        }
         return {**route_flat(rest, groups), **rest}  # what is left is refused by extra="forbid", with its own name
 
     @property
@@ -298,7 +336,9 @@ class Options(Settings):
         return self.wants_clearance or self.wants_self_clearance or self.wants_envelope_clearance
 
 
-GUARDED_OPTIONS = Options(guards=Guards(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True))
+GUARDED_OPTIONS = Options(
+    guards=Guards(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True)
+)
 """The guards of model §8.2 but z_dyad (``guards=True`` in the API)."""
 
 

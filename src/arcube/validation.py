@@ -47,7 +47,11 @@ class Settings(BaseModel):
     @classmethod
     def _no_bool_for_a_number(cls, value: Any, info: ValidationInfo) -> Any:
         # pydantic reads True as 1.0: Guards(envelope_clearance_mm=True) was a silent 1 mm guard
-        if isinstance(value, bool) and info.field_name is not None and _number_not_bool(cls.model_fields[info.field_name].annotation):
+        if (
+            isinstance(value, bool)
+            and info.field_name is not None
+            and _number_not_bool(cls.model_fields[info.field_name].annotation)
+        ):
             raise ValueError("must be a number")
         return value
 
@@ -80,7 +84,13 @@ class Settings(BaseModel):
         {"thrust_N": 25}}``) merged in, every other value kept."""
 
         def merge(base: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
-            return {**base, **{k: merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v for k, v in new.items()}}
+            return {
+                **base,
+                **{
+                    k: merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v
+                    for k, v in new.items()
+                },
+            }
 
         return validated(type(self), merge(self.model_dump(), tree))
 
@@ -97,7 +107,11 @@ def _param(model: type[BaseModel], loc: tuple[Any, ...]) -> str:
     model's name and the field, as a caller writes them."""
     cls: Any = model
     for i, item in enumerate(loc):
-        field = cls.model_fields.get(item) if isinstance(item, str) and isinstance(cls, type) and issubclass(cls, BaseModel) else None
+        field = (
+            cls.model_fields.get(item)
+            if isinstance(item, str) and isinstance(cls, type) and issubclass(cls, BaseModel)
+            else None
+        )
         if field is None:
             break
         sub = field.annotation
@@ -109,12 +123,21 @@ def _param(model: type[BaseModel], loc: tuple[Any, ...]) -> str:
 
 
 _PHRASES = {
-    "greater_than_equal": "must be >= {ge}", "greater_than": "must be > {gt}", "less_than_equal": "must be <= {le}",
-    "less_than": "must be < {lt}", "finite_number": "must be a finite number", "extra_forbidden": "is not a setting",
-    "bool_parsing": "must be true or false", "bool_type": "must be true or false", "float_parsing": "must be a number",
-    "float_type": "must be a number", "int_parsing": "must be an integer", "int_type": "must be an integer",
-    "int_from_float": "must be an integer", "missing": "is required",
-}  # fmt: skip
+    "greater_than_equal": "must be >= {ge}",
+    "greater_than": "must be > {gt}",
+    "less_than_equal": "must be <= {le}",
+    "less_than": "must be < {lt}",
+    "finite_number": "must be a finite number",
+    "extra_forbidden": "is not a setting",
+    "bool_parsing": "must be true or false",
+    "bool_type": "must be true or false",
+    "float_parsing": "must be a number",
+    "float_type": "must be a number",
+    "int_parsing": "must be an integer",
+    "int_type": "must be an integer",
+    "int_from_float": "must be an integer",
+    "missing": "is required",
+}
 
 
 def settings_error(exc: ValidationError, model: type[BaseModel]) -> InputError:
@@ -130,9 +153,13 @@ def settings_error(exc: ValidationError, model: type[BaseModel]) -> InputError:
     param = _param(model, loc)
     phrase = _PHRASES.get(err["type"])
     if err["type"] == "literal_error":
-        text = "must be one of " + str((err.get("ctx") or {}).get("expected", "")).replace("'", "").replace(" or ", ", ")
+        text = "must be one of " + str((err.get("ctx") or {}).get("expected", "")).replace("'", "").replace(
+            " or ", ", "
+        )
     elif phrase is not None:
-        text = phrase.format(**{k: (f"{v:g}" if isinstance(v, (int, float)) else v) for k, v in (err.get("ctx") or {}).items()})
+        text = phrase.format(
+            **{k: (f"{v:g}" if isinstance(v, (int, float)) else v) for k, v in (err.get("ctx") or {}).items()}
+        )
     else:
         text = str(err["msg"]).removeprefix("Value error, ")
         text = text if text.startswith(("must", "is ")) else f"is invalid: {text}"

@@ -1,5 +1,7 @@
 """Compiled first-order budget (Numba): :func:`first_order_numba` == :func:`arcube.accuracy.first_order.first_order`.
 
+Long module: the compiled twin of :mod:`arcube.accuracy.first_order` reads top to bottom as it does, one step per function.
+
 Per point, in one pass: the IK of model §3-5 (at the centre C, mechanism frame), the derivatives of
 the FK with respect to the 27 parameters and 5 joints (the implicit differentiation of
 :mod:`arcube.model.sensitivity`, written out for one point), the source columns G_E, G_e, and the
@@ -39,9 +41,34 @@ _M, _F, _P, _D, _C, _T, _R, _O, _AL, _BE, _ROT, _OM, _L = 0, 3, 6, 9, 11, 13, 15
 N_GEO = 41
 N_COLS = 32  # the 27 parameters (PARAM_NAMES order), then the 5 joints
 _PARAM_ORDER = (
-    "m_x", "m_y", "m_z", "f_x", "f_y", "f_z", "p_x", "p_y", "p_z", "d_x", "d_y", "d_z", "c_x", "c_y", "t_x", "t_y", "r",
-    "o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y", "mount_rx", "mount_ry", "mount_rz", "L",
-)  # fmt: skip
+    "m_x",
+    "m_y",
+    "m_z",
+    "f_x",
+    "f_y",
+    "f_z",
+    "p_x",
+    "p_y",
+    "p_z",
+    "d_x",
+    "d_y",
+    "d_z",
+    "c_x",
+    "c_y",
+    "t_x",
+    "t_y",
+    "r",
+    "o_x",
+    "o_y",
+    "alpha_x",
+    "alpha_y",
+    "beta_x",
+    "beta_y",
+    "mount_rx",
+    "mount_ry",
+    "mount_rz",
+    "L",
+)
 # the column numbers below are written for this order
 assert PARAM_NAMES == _PARAM_ORDER, "arcube.accuracy._kernel: the design parameter order changed"
 
@@ -49,12 +76,27 @@ assert PARAM_NAMES == _PARAM_ORDER, "arcube.accuracy._kernel: the design paramet
 def geometry_rows(params: ArrayLike) -> NDArray[np.float64]:
     """Geometry rows ``(..., N_GEO)`` of designs ``(..., 27)`` (mm, deg): what :func:`point_jacobians` reads."""
     g = unpack(full_params(params))
-    parts = [g.m, g.f, g.p, g.d[..., :2], g.c, g.t, g.r[..., None], g.o, g.alpha, g.beta,
-             frames.mount_rotation(g).reshape(g.r.shape + (9,)), mount_axes(g).reshape(g.r.shape + (9,)), g.L[..., None]]  # fmt: skip
+    parts = [
+        g.m,
+        g.f,
+        g.p,
+        g.d[..., :2],
+        g.c,
+        g.t,
+        g.r[..., None],
+        g.o,
+        g.alpha,
+        g.beta,
+        frames.mount_rotation(g).reshape(g.r.shape + (9,)),
+        mount_axes(g).reshape(g.r.shape + (9,)),
+        g.L[..., None],
+    ]
     return np.ascontiguousarray(np.concatenate(parts, axis=-1), dtype=np.float64)
 
 
-def source_map(param_column: ArrayLike, joint_column: ArrayLike, is_angle: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+def source_map(
+    param_column: ArrayLike, joint_column: ArrayLike, is_angle: ArrayLike
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """(column ``(n,)`` into the 32 derivative columns, scale ``(n,)``: pi/180 for a source in degrees, else 1)."""
     pc, jc = np.asarray(param_column), np.asarray(joint_column)
     col = np.where(pc >= 0, pc, 27 + jc).astype(np.int64)
@@ -63,7 +105,7 @@ def source_map(param_column: ArrayLike, joint_column: ArrayLike, is_angle: Array
 
 @njit(cache=True, error_model="numpy")
 def _to_world(geo, a0, a1, a2):
-    R = geo[_ROT:_ROT + 9]
+    R = geo[_ROT : _ROT + 9]
     return R[0] * a0 + R[1] * a1 + R[2] * a2, R[3] * a0 + R[4] * a1 + R[5] * a2, R[6] * a0 + R[7] * a1 + R[8] * a2
 
 
@@ -93,13 +135,39 @@ def _columns(geo, ctx, seeds, cols):
 
 
 @njit(cache=True, error_model="numpy")
-def point_jacobians(geo, Cm0, Cm1, Cm2, em0, em1, em2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1, ss0, cs0, ss1, cs1,
-                    col, scale, ctx, cols, G):  # fmt: skip
+def point_jacobians(
+    geo,
+    Cm0,
+    Cm1,
+    Cm2,
+    em0,
+    em1,
+    em2,
+    sr0,
+    cr0,
+    sr1,
+    cr1,
+    sr2,
+    cr2,
+    sd0,
+    cd0,
+    sd1,
+    cd1,
+    ss0,
+    cs0,
+    ss1,
+    cs1,
+    col,
+    scale,
+    ctx,
+    cols,
+    G,
+):
     """G_E = G[0], G_e = G[1] ``(3, n)`` in R_w per source unit, at a point the IK solved: the centre C_m and axis
     e_m in the mechanism frame, sin/cos of rho (3), delta (2) and sigma (2). ``col``, ``scale`` from
     :func:`source_map`; ``ctx`` ``(18,)`` and ``cols`` ``(2, 3, 32)`` are work buffers. Returns False where the
     derivatives do not exist (H_u = 0 or det[x_b, y_b, e] = 0: a singularity), G then NaN."""
-    p, d, c, t = geo[_P:_P + 3], geo[_D:_D + 2], geo[_C:_C + 2], geo[_T:_T + 2]
+    p, d, c, t = geo[_P : _P + 3], geo[_D : _D + 2], geo[_C : _C + 2], geo[_T : _T + 2]
     # TMS coupler terms (model §7.2): a_v = D, a_w = E
     av0 = Cm1 - d[0] * sd0 + t[0] * ss0
     aw0 = Cm2 + d[0] * cd0 - t[0] * cs0 - p[0] * cr0
@@ -246,7 +314,7 @@ def _ik_point(geo, mode, E0, E1, E2, e0, e1, e2):
     """IK of model §3-5 at the pose (E, e) in R_w, mechanism frame at the centre C = E + L e:
     (ok, C_m (3), e_m (3), sin/cos of rho (6), of delta (4), of sigma (4))."""
     L = geo[_L]
-    R = geo[_ROT:_ROT + 9]
+    R = geo[_ROT : _ROT + 9]
     a0, a1, a2 = E0 + L * e0 - geo[_M], E1 + L * e1 - geo[_M + 1], E2 + L * e2 - geo[_M + 2]
     C0, C1, C2 = R[0] * a0 + R[3] * a1 + R[6] * a2, R[1] * a0 + R[4] * a1 + R[7] * a2, R[2] * a0 + R[5] * a1 + R[8] * a2
     m0, m1, m2 = R[0] * e0 + R[3] * e1 + R[6] * e2, R[1] * e0 + R[4] * e1 + R[7] * e2, R[2] * e0 + R[5] * e1 + R[8] * e2
@@ -255,10 +323,16 @@ def _ik_point(geo, mode, E0, E1, E2, e0, e1, e2):
     g1 = (C1 + geo[_F + 1] + r) / geo[_P + 1]
     g2 = (C2 + geo[_F + 2] + r) / geo[_P + 2]
     ok = abs(g0) <= 1.0 and abs(g1) <= 1.0 and abs(g2) <= 1.0
-    cr0, cr1, cr2 = math.sqrt((1.0 - g0) * (1.0 + g0)), math.sqrt((1.0 - g1) * (1.0 + g1)), math.sqrt((1.0 - g2) * (1.0 + g2))
+    cr0, cr1, cr2 = (
+        math.sqrt((1.0 - g0) * (1.0 + g0)),
+        math.sqrt((1.0 - g1) * (1.0 + g1)),
+        math.sqrt((1.0 - g2) * (1.0 + g2)),
+    )
     sa0, sa1 = math.sin(geo[_AL]), math.sin(geo[_AL + 1])
     ca0, ca1 = math.cos(geo[_AL]), math.cos(geo[_AL + 1])
-    sl0, cl0, ok0 = _harmonic(-sa0 * m2, sa0 * m1, math.cos(geo[_BE]) - ca0 * m0, mode[2])  # leg x (e_u, e_v, e_w) = (e0, e1, e2)
+    sl0, cl0, ok0 = _harmonic(
+        -sa0 * m2, sa0 * m1, math.cos(geo[_BE]) - ca0 * m0, mode[2]
+    )  # leg x (e_u, e_v, e_w) = (e0, e1, e2)
     sl1, cl1, ok1 = _harmonic(-sa1 * m0, sa1 * m2, math.cos(geo[_BE + 1]) - ca1 * m1, mode[3])  # leg y: (e1, e2, e0)
     so0, co0, so1, co1 = math.sin(geo[_O]), math.cos(geo[_O]), math.sin(geo[_O + 1]), math.cos(geo[_O + 1])
     ss0, cs0 = sl0 * co0 - cl0 * so0, cl0 * co0 + sl0 * so0  # sigma = lambda - o
@@ -273,14 +347,72 @@ def _ik_point(geo, mode, E0, E1, E2, e0, e1, e2):
 
 
 @njit(cache=True, error_model="numpy")
-def lateral_errors(geo, T, sig, col, scale, Cm0, Cm1, Cm2, em0, em1, em2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1,
-                   ss0, cs0, ss1, cs1, ctx, cols, G, hx, hy, ang, share):  # fmt: skip
+def lateral_errors(
+    geo,
+    T,
+    sig,
+    col,
+    scale,
+    Cm0,
+    Cm1,
+    Cm2,
+    em0,
+    em1,
+    em2,
+    sr0,
+    cr0,
+    sr1,
+    cr1,
+    sr2,
+    cr2,
+    sd0,
+    cd0,
+    sd1,
+    cd1,
+    ss0,
+    cs0,
+    ss1,
+    cs1,
+    ctx,
+    cols,
+    G,
+    hx,
+    hy,
+    ang,
+    share,
+):
     """(lateral_error_wc, lateral_error_rms) in mm at a point an IK solved (its values as :func:`point_jacobians`
     takes them), under tolerances T and sigmas ``(n,)``: what an evaluation kernel needs for the objectives and
     limits ``lateral_error_wc`` and ``lateral_error_rms``. NaN at a singular point. The rest are work buffers:
     ctx (18,), cols (2, 3, 32), G (2, 3, n), hx, hy, ang, share (n,)."""
-    if not point_jacobians(geo, Cm0, Cm1, Cm2, em0, em1, em2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1, ss0, cs0,
-                           ss1, cs1, col, scale, ctx, cols, G):  # fmt: skip
+    if not point_jacobians(
+        geo,
+        Cm0,
+        Cm1,
+        Cm2,
+        em0,
+        em1,
+        em2,
+        sr0,
+        cr0,
+        sr1,
+        cr1,
+        sr2,
+        cr2,
+        sd0,
+        cd0,
+        sd1,
+        cd1,
+        ss0,
+        cs0,
+        ss1,
+        cs1,
+        col,
+        scale,
+        ctx,
+        cols,
+        G,
+    ):
         return math.nan, math.nan
     e0, e1, e2 = _to_world(geo, em0, em1, em2)
     lateral, _, _, rms = point_budget(G, e0, e1, e2, T, sig, hx, hy, ang, share)
@@ -299,10 +431,37 @@ def _first_order_points(geo, mode, E, e, T, sig, col, scale, valid, out, share, 
         ne = math.sqrt(e[k, 0] ** 2 + e[k, 1] ** 2 + e[k, 2] ** 2)
         e0, e1, e2 = e[k, 0] / ne, e[k, 1] / ne, e[k, 2] / ne
         ok, C0, C1, C2, m0, m1, m2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1, ss0, cs0, ss1, cs1 = _ik_point(
-            geo, mode, E[k, 0], E[k, 1], E[k, 2], e0, e1, e2)
+            geo, mode, E[k, 0], E[k, 1], E[k, 2], e0, e1, e2
+        )
         if ok:
-            ok = point_jacobians(geo, C0, C1, C2, m0, m1, m2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1, ss0, cs0,
-                                 ss1, cs1, col, scale, ctx, cols, G[k])  # fmt: skip
+            ok = point_jacobians(
+                geo,
+                C0,
+                C1,
+                C2,
+                m0,
+                m1,
+                m2,
+                sr0,
+                cr0,
+                sr1,
+                cr1,
+                sr2,
+                cr2,
+                sd0,
+                cd0,
+                sd1,
+                cd1,
+                ss0,
+                cs0,
+                ss1,
+                cs1,
+                col,
+                scale,
+                ctx,
+                cols,
+                G[k],
+            )
             ok = ok and np.all(np.isfinite(G[k]))
         valid[k] = ok
         if ok:
@@ -314,7 +473,9 @@ def _first_order_points(geo, mode, E, e, T, sig, col, scale, valid, out, share, 
             G[k] = math.nan
 
 
-def first_order_numba(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike, T: ArrayLike, sigma: ArrayLike) -> FirstOrder:
+def first_order_numba(
+    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike, T: ArrayLike, sigma: ArrayLike
+) -> FirstOrder:
     """:func:`arcube.accuracy.first_order.first_order` for one design ``(27,)`` (or 23) at P points ``(P, 3)``, compiled.
 
     ``mode`` ``(4,)``; ``T``, ``sigma`` ``(n,)`` per source of :data:`arcube.accuracy.sources.SOURCE_NAMES` (mm, deg).
@@ -334,6 +495,12 @@ def first_order_numba(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: Array
     mode = np.array(mode, dtype=np.float64)  # as E_a (the working mode is often a module constant)
     _first_order_points(geo, mode, E_a, e_a, T_a, s_a, col, scale, valid, out, share, G)
     return FirstOrder(
-        lateral_wc_mm=out[:, 0], axis_wc_deg=out[:, 1], axial_wc_mm=out[:, 2], lateral_rms_mm=out[:, 3], share=share,
-        G_E=G[:, 0], G_e=G[:, 1], valid=valid,
-    )  # fmt: skip
+        lateral_wc_mm=out[:, 0],
+        axis_wc_deg=out[:, 1],
+        axial_wc_mm=out[:, 2],
+        lateral_rms_mm=out[:, 3],
+        share=share,
+        G_E=G[:, 0],
+        G_e=G[:, 1],
+        valid=valid,
+    )

@@ -24,14 +24,26 @@ from arcube.model.mechanism import DEFAULT_MODE, format_mode, inverse_kinematics
 from arcube.io.json_values import finite
 
 SUMMARY_KEYS: tuple[str, ...] = (
-    "lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm", "lateral_error_p95_mm",
+    "lateral_error_wc_mm",
+    "axis_error_wc_deg",
+    "axial_error_wc_mm",
+    "lateral_error_rms_mm",
+    "lateral_error_p95_mm",
     "axis_error_p95_deg",
-)  # fmt: skip
+)
 """The summaries of ``tolerance.json`` (the first four: the maximum over the plan's points)."""
 POINT_COLUMNS: tuple[str, ...] = (
-    "trajectory", "point", "lateral_error_wc_mm", "axis_error_wc_deg", "axial_error_wc_mm", "lateral_error_rms_mm",
-    "lateral_error_p50_mm", "lateral_error_p95_mm", "lateral_error_p99_mm", "lateral_error_max_mm",
-)  # fmt: skip
+    "trajectory",
+    "point",
+    "lateral_error_wc_mm",
+    "axis_error_wc_deg",
+    "axial_error_wc_mm",
+    "lateral_error_rms_mm",
+    "lateral_error_p50_mm",
+    "lateral_error_p95_mm",
+    "lateral_error_p99_mm",
+    "lateral_error_max_mm",
+)
 """The columns of ``tolerance_points.csv``."""
 
 
@@ -99,8 +111,11 @@ class ToleranceResult:
     def monte_carlo_summary(self) -> dict[str, Any]:
         """Percentiles over robots of each robot's largest error over the plan (lateral, axial, axis)."""
         out: dict[str, Any] = {"robots": int(self.robot_lateral_max_mm.shape[0]), "unassembled": self.unassembled}
-        for name, a, unit in (("lateral", self.robot_lateral_max_mm, "mm"), ("axial", self.robot_axial_max_mm, "mm"),
-                              ("axis", self.robot_axis_max_deg, "deg")):  # fmt: skip
+        for name, a, unit in (
+            ("lateral", self.robot_lateral_max_mm, "mm"),
+            ("axial", self.robot_axial_max_mm, "mm"),
+            ("axis", self.robot_axis_max_deg, "deg"),
+        ):
             values = percentiles(a, PERCENTILES)
             out.update({f"{name}_error_p{q:g}_{unit}": float(v) for q, v in zip(PERCENTILES, values)})
             out[f"{name}_error_max_{unit}"] = float(np.max(a))
@@ -112,8 +127,13 @@ class ToleranceResult:
         rows = []
         for k in range(len(self.trajectory)):
             values = (f.lateral_wc_mm[k], f.axis_wc_deg[k], f.axial_wc_mm[k], f.lateral_rms_mm[k], *self.lateral_mm[k])
-            rows.append({"trajectory": self.trajectory[k], "point": int(self.point[k]),
-                         **{c: float(v) for c, v in zip(POINT_COLUMNS[2:], values)}})  # fmt: skip
+            rows.append(
+                {
+                    "trajectory": self.trajectory[k],
+                    "point": int(self.point[k]),
+                    **{c: float(v) for c, v in zip(POINT_COLUMNS[2:], values)},
+                }
+            )
         return rows
 
     def to_json(self) -> dict[str, Any]:
@@ -132,7 +152,6 @@ class ToleranceResult:
         return finite(data)
 
 
-
 def _array(value: ArrayLike, name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
     try:
         a = np.asarray(value, dtype=float)
@@ -144,9 +163,15 @@ def _array(value: ArrayLike, name: str, shape: tuple[int, ...]) -> NDArray[np.fl
 
 
 def budget(
-    design: Any, E: ArrayLike, e: ArrayLike, mode: ArrayLike | str = DEFAULT_MODE, settings: ToleranceSettings | None = None,
-    trajectory_ids: Any = None, point_index: ArrayLike | None = None, engine: str = "numba",
-) -> ToleranceResult:  # fmt: skip
+    design: Any,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike | str = DEFAULT_MODE,
+    settings: ToleranceSettings | None = None,
+    trajectory_ids: Any = None,
+    point_index: ArrayLike | None = None,
+    engine: str = "numba",
+) -> ToleranceResult:
     """The accuracy budget (model §20) of ``design`` at the plan points (E, e).
 
     Args:
@@ -187,7 +212,10 @@ def budget(
     if engine not in ("numba", "numpy"):
         raise InputError.of("engine", f"must be numba or numpy, got {engine!r}")
     if settings.samples * P > MAX_ROBOT_POINTS:
-        raise InputError.of("ToleranceSettings.samples", f"x plan points must be <= {MAX_ROBOT_POINTS:,} (memory), got {settings.samples} x {P}")
+        raise InputError.of(
+            "ToleranceSettings.samples",
+            f"x plan points must be <= {MAX_ROBOT_POINTS:,} (memory), got {settings.samples} x {P}",
+        )
 
     T = settings.tolerances(x)
     sig = sigmas(T, settings.distribution)
@@ -199,11 +227,15 @@ def budget(
         fo = first_order(x, E_a, e_a, signs, T, sig)
     reach = np.asarray(fo.valid)
     if not reach.any():
-        raise InputError.of("design", f"reaches none of the {P} plan points in working mode {format_mode(signs)}: no accuracy budget")
+        raise InputError.of(
+            "design", f"reaches none of the {P} plan points in working mode {format_mode(signs)}: no accuracy budget"
+        )
 
     sol = inverse_kinematics(x, E_a[reach], e_a[reach], signs)
     q_cmd = np.concatenate([sol.rho, sol.delta], axis=-1)
-    errors, _ = monte_carlo(x, E_a[reach], e_a[reach], q_cmd, sol.assembly, T, settings.samples, settings.distribution, settings.seed)
+    errors, _ = monte_carlo(
+        x, E_a[reach], e_a[reach], q_cmd, sol.assembly, T, settings.samples, settings.distribution, settings.seed
+    )
 
     def per_point(a: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.full((P, 4), np.nan)
@@ -212,8 +244,19 @@ def budget(
         return out
 
     return ToleranceResult(
-        settings=settings, design=x, mode=signs, tolerances=T, trajectory=ids, point=k, first=fo,
-        lateral_mm=per_point(errors.lateral_mm), axial_mm=per_point(errors.axial_mm), axis_deg=per_point(errors.axis_deg),
-        robot_lateral_max_mm=np.max(errors.lateral_mm, axis=1), robot_axial_max_mm=np.max(errors.axial_mm, axis=1),
-        robot_axis_max_deg=np.max(errors.axis_deg, axis=1), unassembled=int(np.sum(np.isinf(errors.lateral_mm))), engine=engine,
-    )  # fmt: skip
+        settings=settings,
+        design=x,
+        mode=signs,
+        tolerances=T,
+        trajectory=ids,
+        point=k,
+        first=fo,
+        lateral_mm=per_point(errors.lateral_mm),
+        axial_mm=per_point(errors.axial_mm),
+        axis_deg=per_point(errors.axis_deg),
+        robot_lateral_max_mm=np.max(errors.lateral_mm, axis=1),
+        robot_axial_max_mm=np.max(errors.axial_mm, axis=1),
+        robot_axis_max_deg=np.max(errors.axis_deg, axis=1),
+        unassembled=int(np.sum(np.isinf(errors.lateral_mm))),
+        engine=engine,
+    )

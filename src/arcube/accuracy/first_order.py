@@ -53,8 +53,12 @@ def source_jacobians(
     d = pose_derivatives(params, E, e, mode)
     is_param = PARAM_COLUMN >= 0
     scale = np.where(IS_ANGLE, _DEG, 1.0)  # per rad -> per deg
-    G_E = np.where(is_param, d.dE_dp[..., np.maximum(PARAM_COLUMN, 0)], d.dE_dq[..., np.maximum(JOINT_COLUMN, 0)]) * scale
-    G_e = np.where(is_param, d.de_dp[..., np.maximum(PARAM_COLUMN, 0)], d.de_dq[..., np.maximum(JOINT_COLUMN, 0)]) * scale
+    G_E = (
+        np.where(is_param, d.dE_dp[..., np.maximum(PARAM_COLUMN, 0)], d.dE_dq[..., np.maximum(JOINT_COLUMN, 0)]) * scale
+    )
+    G_e = (
+        np.where(is_param, d.de_dp[..., np.maximum(PARAM_COLUMN, 0)], d.de_dq[..., np.maximum(JOINT_COLUMN, 0)]) * scale
+    )
     return G_E, G_e, d.valid
 
 
@@ -110,8 +114,10 @@ def budget_from_jacobians(
         axial_wc_mm=masked(np.sum(T_ * np.abs(along), axis=-1)),
         lateral_rms_mm=masked(np.sqrt(total[..., 0])),
         share=masked(share),
-        G_E=GE, G_e=Ge, valid=ok,
-    )  # fmt: skip
+        G_E=GE,
+        G_e=Ge,
+        valid=ok,
+    )
 
 
 def first_order(

@@ -50,9 +50,14 @@ def robot_draws(rng: np.random.Generator, T: ArrayLike, n_robots: int, distribut
     return out
 
 
-def pose_draws(rng: np.random.Generator, T: ArrayLike, n_robots: int, n_points: int, distribution: str) -> NDArray[np.float64]:
+def pose_draws(
+    rng: np.random.Generator, T: ArrayLike, n_robots: int, n_points: int, distribution: str
+) -> NDArray[np.float64]:
     """The per-pose deviations ``(N, P, m)`` (deg) of the m sources of :data:`POSE_INDEX` (encoders, backlashes)."""
-    return standard_draws(rng, (n_robots, n_points, POSE_INDEX.size), distribution) * np.asarray(T, dtype=float)[POSE_INDEX]
+    return (
+        standard_draws(rng, (n_robots, n_points, POSE_INDEX.size), distribution)
+        * np.asarray(T, dtype=float)[POSE_INDEX]
+    )
 
 
 def pose_joint_errors(draws: ArrayLike) -> NDArray[np.float64]:
@@ -100,7 +105,9 @@ def exact_errors(
     """
     x = np.asarray(params, dtype=float)
     q = np.asarray(q_cmd, dtype=float)[None] + np.asarray(dq, dtype=float)
-    fk = forward_kinematics(x + np.asarray(dp, dtype=float)[:, None, :], q[..., :3], q[..., 3:], np.asarray(assembly, dtype=float)[None])
+    fk = forward_kinematics(
+        x + np.asarray(dp, dtype=float)[:, None, :], q[..., :3], q[..., 3:], np.asarray(assembly, dtype=float)[None]
+    )
     E_a, e_a = np.asarray(E, dtype=float), np.asarray(e, dtype=float)
     dE = fk.E - E_a
     along = np.sum(dE * e_a, axis=-1)
@@ -113,9 +120,16 @@ def exact_errors(
 
 
 def monte_carlo(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, q_cmd: ArrayLike, assembly: ArrayLike, T: ArrayLike,
-    n_robots: int, distribution: str = "uniform", seed: int = 1,
-) -> tuple[Errors, NDArray[np.float64]]:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    q_cmd: ArrayLike,
+    assembly: ArrayLike,
+    T: ArrayLike,
+    n_robots: int,
+    distribution: str = "uniform",
+    seed: int = 1,
+) -> tuple[Errors, NDArray[np.float64]]:
     """N built robots at the P plan poses: (errors ``(N, P)`` each, per-robot deviations ``(N, n)``).
 
     The generator (``numpy.random.default_rng(seed)``) draws the per-robot deviations of all N robots

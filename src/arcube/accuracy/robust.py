@@ -28,9 +28,14 @@ ROBUST_NAMES: tuple[str, str] = ("lateral_error_wc", "lateral_error_rms")
 
 
 def robust_errors(
-    params: ArrayLike, modes: ArrayLike, E: ArrayLike, e: ArrayLike, settings: ToleranceSettings | None = None,
-    engine: str = "numba", want: ArrayLike | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    params: ArrayLike,
+    modes: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    settings: ToleranceSettings | None = None,
+    engine: str = "numba",
+    want: ArrayLike | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lateral_error_wc, lateral_error_rms), each ``(D,)`` mm: the largest over the P points (E, e) ``(P, 3)``
     (R_w, mm) of each design ``params`` ``(D, 27)`` in its working mode ``modes`` ``(D, 4)`` (or one ``(4,)``).
 

@@ -44,7 +44,8 @@ def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
     for name, v, shown in pairs:
         if name not in SOURCE_NAMES and name not in GROUPS:
             raise InputError.of(
-                field, f"{shown!r}: unknown error source {name!r} (known: the groups lengths, angles, q0, encoder, backlash; a parameter that moves "
+                field,
+                f"{shown!r}: unknown error source {name!r} (known: the groups lengths, angles, q0, encoder, backlash; a parameter that moves "
                 "the tool, f_x .. r, L, o_x .. beta_y, m_x .. m_z, mount_rx .. mount_rz; q0_J, encoder_J, backlash_J with J one of "
                 "rho_x, rho_y, rho_z, delta_x, delta_y)",
             )
@@ -90,6 +91,12 @@ class ToleranceSettings(Settings):
     def tolerances(self, params: Any) -> Any:
         """T ``(..., n)`` of every source (:data:`arcube.accuracy.sources.SOURCE_NAMES`) for designs ``(..., 27)``."""
         return tolerances(
-            params, self.tolerance_class, self.tol, self.q0_deg, self.encoder_deg, self.backlash_arcmin, self.docking_mm,
+            params,
+            self.tolerance_class,
+            self.tol,
+            self.q0_deg,
+            self.encoder_deg,
+            self.backlash_arcmin,
+            self.docking_mm,
             self.docking_deg,
-        )  # fmt: skip
+        )

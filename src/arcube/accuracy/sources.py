@@ -26,7 +26,22 @@ from arcube.model.design import INDEX, PARAM_NAMES, full_params
 JOINTS: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated joints (the columns of J_E, model §15.1)."""
 
-LENGTHS: tuple[str, ...] = ("f_x", "f_y", "f_z", "p_x", "p_y", "p_z", "d_x", "d_y", "c_x", "c_y", "t_x", "t_y", "r", "L")
+LENGTHS: tuple[str, ...] = (
+    "f_x",
+    "f_y",
+    "f_z",
+    "p_x",
+    "p_y",
+    "p_z",
+    "d_x",
+    "d_y",
+    "c_x",
+    "c_y",
+    "t_x",
+    "t_y",
+    "r",
+    "L",
+)
 """The group ``lengths``: the 13 lengths that move the tip, and the tool offset L (ISO 2768-1 linear)."""
 ANGLES: tuple[str, ...] = ("o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y")
 """The group ``angles``: ISO 2768-1 angular, with r as the shorter leg."""
@@ -38,8 +53,11 @@ JOINT_KINDS: tuple[str, ...] = ("q0", "encoder", "backlash")
 SOURCE_NAMES: tuple[str, ...] = (*PARAM_SOURCES, *(f"{kind}_{j}" for kind in JOINT_KINDS for j in JOINTS))
 """Every error source, in the order of the arrays of :mod:`arcube.accuracy`."""
 N_SOURCES = len(SOURCE_NAMES)
-GROUPS: dict[str, tuple[str, ...]] = {"lengths": LENGTHS, "angles": ANGLES,
-                                      **{kind: tuple(f"{kind}_{j}" for j in JOINTS) for kind in JOINT_KINDS}}  # fmt: skip
+GROUPS: dict[str, tuple[str, ...]] = {
+    "lengths": LENGTHS,
+    "angles": ANGLES,
+    **{kind: tuple(f"{kind}_{j}" for j in JOINTS) for kind in JOINT_KINDS},
+}
 """Names a tolerance override may give for several sources at once: ``lengths``, ``angles``, and ``q0``,
 ``encoder``, ``backlash`` (that source of all five joints, deg)."""
 
@@ -50,7 +68,9 @@ IS_ANGLE: NDArray[np.bool_] = np.array([u == "deg" for u in UNITS])
 
 PARAM_COLUMN: NDArray[np.intp] = np.array([INDEX.get(n, -1) for n in SOURCE_NAMES])
 """Index into the 27 design parameters of each source (-1 for the joints' sources)."""
-JOINT_COLUMN: NDArray[np.intp] = np.array([JOINTS.index(n.split("_", 1)[1]) if n not in INDEX else -1 for n in SOURCE_NAMES])
+JOINT_COLUMN: NDArray[np.intp] = np.array(
+    [JOINTS.index(n.split("_", 1)[1]) if n not in INDEX else -1 for n in SOURCE_NAMES]
+)
 """Index into the 5 joints of each joint source (-1 for the parameters)."""
 PER_ROBOT: NDArray[np.bool_] = np.array([not n.startswith(("encoder_", "backlash_")) for n in SOURCE_NAMES])
 """Sources drawn once per built robot (parameters, docking, zero offsets); the others afresh at every pose."""
@@ -68,9 +88,15 @@ def resolve_overrides(tol: Mapping[str, float]) -> dict[str, float]:
 
 
 def tolerances(
-    params: ArrayLike, tolerance_class: str = "m", tol: Mapping[str, float] | None = None, q0_deg: float = 0.1,
-    encoder_deg: float = 0.01, backlash_arcmin: float = 1.0, docking_mm: float = 0.0, docking_deg: float = 0.0,
-) -> NDArray[np.float64]:  # fmt: skip
+    params: ArrayLike,
+    tolerance_class: str = "m",
+    tol: Mapping[str, float] | None = None,
+    q0_deg: float = 0.1,
+    encoder_deg: float = 0.01,
+    backlash_arcmin: float = 1.0,
+    docking_mm: float = 0.0,
+    docking_deg: float = 0.0,
+) -> NDArray[np.float64]:
     """Each source's tolerance T ``(..., n)`` (mm or deg, :data:`UNITS`) for designs ``(..., 27)`` (mm, deg).
 
     Lengths: ISO 2768-1 linear of the nominal length in ``tolerance_class`` (:mod:`arcube.accuracy.iso`);

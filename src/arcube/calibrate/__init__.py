@@ -30,4 +30,14 @@ from arcube.calibrate.result import Calibration
 from arcube.calibrate.settings import IdentifySettings, PoseSettings, SimulateSettings
 from arcube.calibrate.simulate import Simulation, simulate
 
-__all__ = ["Calibration", "IdentifySettings", "PoseSelection", "PoseSettings", "SimulateSettings", "Simulation", "identify", "poses", "simulate"]
+__all__ = [
+    "Calibration",
+    "IdentifySettings",
+    "PoseSelection",
+    "PoseSettings",
+    "SimulateSettings",
+    "Simulation",
+    "identify",
+    "poses",
+    "simulate",
+]

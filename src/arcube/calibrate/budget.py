@@ -79,11 +79,18 @@ class CalibratedBudget:
         }
 
     def to_json(self) -> dict[str, Any]:
-        return {"points": self.where, "count": len(self.labels), "reached": int(np.sum(self.reachable)),
-                "robots": int(self.robot_lateral_max_mm.size), **self.summary}  # fmt: skip
+        return {
+            "points": self.where,
+            "count": len(self.labels),
+            "reached": int(np.sum(self.reachable)),
+            "robots": int(self.robot_lateral_max_mm.size),
+            **self.summary,
+        }
 
 
-def source_covariance(cov_unknowns: ArrayLike, encoder_deg: float, backlash_arcmin: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def source_covariance(
+    cov_unknowns: ArrayLike, encoder_deg: float, backlash_arcmin: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(Sigma ``(41, 41)`` of every error source, T ``(41,)``): the unknowns' covariance (mm, deg) in the first 31
     rows and columns; each encoder's and backlash's uniform variance T^2 / 3 (deg^2) on the diagonal."""
     T = np.where(_ENCODER, encoder_deg, 0.0) + np.where(_BACKLASH, backlash_arcmin / 60.0, 0.0)
@@ -115,9 +122,21 @@ def correlated_draws(rng: np.random.Generator, cov: ArrayLike, n: int) -> NDArra
     return rng.standard_normal((n, len(w))) @ A.T
 
 
-def budget_at(design: ArrayLike, cov_unknowns: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike, *, encoder_deg: float,
-              backlash_arcmin: float, samples: int, seed: int, where: str, labels: tuple[str, ...],
-              point: ArrayLike) -> CalibratedBudget | None:  # fmt: skip
+def budget_at(
+    design: ArrayLike,
+    cov_unknowns: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike,
+    *,
+    encoder_deg: float,
+    backlash_arcmin: float,
+    samples: int,
+    seed: int,
+    where: str,
+    labels: tuple[str, ...],
+    point: ArrayLike,
+) -> CalibratedBudget | None:
     """The budget of the calibrated design ``(27,)`` with the unknowns' covariance ``(31, 31)`` at poses (E, e)
     ``(P, 3)`` in working mode ``mode``; None when it reaches none of them."""
     x = np.asarray(design, dtype=float)
@@ -151,22 +170,44 @@ def budget_at(design: ArrayLike, cov_unknowns: ArrayLike, E: ArrayLike, e: Array
     per_point[ok, :3] = percentiles(lateral, PERCENTILES, axis=0).T
     per_point[ok, 3] = np.max(lateral, axis=0)
     return CalibratedBudget(
-        where=where, labels=labels, point=np.asarray(point, dtype=np.intp), E=E_a, e=e_a,
-        lateral_rms_mm=np.where(ok, lat, nan), axial_rms_mm=np.where(ok, axial, nan), axis_rms_deg=np.where(ok, axis, nan),
-        lateral_mm=per_point, robot_lateral_max_mm=np.max(lateral, axis=1), robot_axis_max_deg=np.max(axis_err, axis=1), tolerances=T,
-    )  # fmt: skip
+        where=where,
+        labels=labels,
+        point=np.asarray(point, dtype=np.intp),
+        E=E_a,
+        e=e_a,
+        lateral_rms_mm=np.where(ok, lat, nan),
+        axial_rms_mm=np.where(ok, axial, nan),
+        axis_rms_deg=np.where(ok, axis, nan),
+        lateral_mm=per_point,
+        robot_lateral_max_mm=np.max(lateral, axis=1),
+        robot_axis_max_deg=np.max(axis_err, axis=1),
+        tolerances=T,
+    )
 
 
-def calibrated_budget(design: ArrayLike, cov_unknowns: ArrayLike, mode: ArrayLike, settings: Any,
-                      trajectories: Any = None, measurements: Any = None) -> CalibratedBudget | None:  # fmt: skip
+def calibrated_budget(
+    design: ArrayLike,
+    cov_unknowns: ArrayLike,
+    mode: ArrayLike,
+    settings: Any,
+    trajectories: Any = None,
+    measurements: Any = None,
+) -> CalibratedBudget | None:
     """The budget on a plan's points (``trajectories``, sampled at ``settings.points`` per trajectory) or, without
     one, on the measured poses. The identified zero offsets do not enter: the controller subtracts them from the IK
     and the robot's real offsets add them back, up to the identification's error (in the covariance)."""
-    kw = {"encoder_deg": settings.encoder_deg, "backlash_arcmin": settings.backlash_arcmin, "samples": settings.samples, "seed": settings.seed}
+    kw = {
+        "encoder_deg": settings.encoder_deg,
+        "backlash_arcmin": settings.backlash_arcmin,
+        "samples": settings.samples,
+        "seed": settings.seed,
+    }
     if trajectories is not None:
         task = build_task(trajectories.entry, trajectories.target, settings.points, ids=tuple(trajectories.ids))
         labels = tuple(task.ids[t] for t in task.trajectory)
         return budget_at(design, cov_unknowns, task.E, task.e, mode, where="plan", labels=labels, point=task.k, **kw)
     m = measurements
     labels = m.pose if m.pose is not None else tuple(str(r) for r in (m.rows or range(1, len(m) + 1)))
-    return budget_at(design, cov_unknowns, m.E, m.e, mode, where="measurements", labels=tuple(labels), point=np.zeros(len(m)), **kw)
+    return budget_at(
+        design, cov_unknowns, m.E, m.e, mode, where="measurements", labels=tuple(labels), point=np.zeros(len(m)), **kw
+    )

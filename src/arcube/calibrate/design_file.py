@@ -59,15 +59,18 @@ def load_design(spec: Any) -> StartDesign:
     return StartDesign(d, d.q0, d.c_z, d.mode, d.q0_deg is not None)
 
 
-def calibrated_dict(design: ArrayLike, q0_deg: ArrayLike, mode: ArrayLike | str, c_z: float | None = None) -> dict[str, Any]:
+def calibrated_dict(
+    design: ArrayLike, q0_deg: ArrayLike, mode: ArrayLike | str, c_z: float | None = None
+) -> dict[str, Any]:
     """The object of a calibrated ``design.json``: 27 parameters, ``q0_*`` (deg), ``mode``, and ``c_z`` if given."""
     q0 = tuple(float(v) for v in np.asarray(q0_deg, dtype=float).reshape(5))
     text = mode if isinstance(mode, str) else format_mode(mode)
     return Design.from_vector(design).with_extras(q0_deg=q0, mode=text, c_z=c_z).to_file_dict()
 
 
-def write_calibrated(path: str | os.PathLike[str], design: ArrayLike, q0_deg: ArrayLike, mode: ArrayLike | str,
-                     c_z: float | None = None) -> None:  # fmt: skip
+def write_calibrated(
+    path: str | os.PathLike[str], design: ArrayLike, q0_deg: ArrayLike, mode: ArrayLike | str, c_z: float | None = None
+) -> None:
     """Write a calibrated ``design.json`` atomically (:func:`calibrated_dict`)."""
     atomic_write_text(path, json.dumps(calibrated_dict(design, q0_deg, mode, c_z), indent=2) + "\n")
 
@@ -92,4 +95,13 @@ def signs_of(mode: Any, fallback: str | None = None) -> NDArray[np.float64]:
     return mode_signs(fallback or DEFAULT_MODE_TEXT if mode is None else mode)
 
 
-__all__ = ["Q0_KEYS", "StartDesign", "calibrated_dict", "design_digest", "load_design", "read_calibrated", "signs_of", "write_calibrated"]
+__all__ = [
+    "Q0_KEYS",
+    "StartDesign",
+    "calibrated_dict",
+    "design_digest",
+    "load_design",
+    "read_calibrated",
+    "signs_of",
+    "write_calibrated",
+]

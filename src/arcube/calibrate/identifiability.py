@@ -37,7 +37,9 @@ class Identifiability(NamedTuple):
 
     identifiable: NDArray[np.bool_]  # (n,)
     pivot: NDArray[np.float64]  # (n,) |R_jj| / |R_11| of the unknown's pivot (0 beyond the rank)
-    alias: NDArray[np.float64]  # (n, n) C: column k (non-identifiable) holds its fit on the identified columns, scaled units
+    alias: NDArray[
+        np.float64
+    ]  # (n, n) C: column k (non-identifiable) holds its fit on the identified columns, scaled units
     norms: NDArray[np.float64]  # (n,) |J_j|
 
     @property

@@ -52,7 +52,9 @@ MIN_JITTERED = 64
 
 
 def _subset(p: Problem, rows: NDArray[np.intp]) -> Problem:
-    return Problem(p.design, p.u0, p.scale, p.q_read[rows], p.E[rows], p.e[rows], p.assembly[rows], p.sigma_mm, p.sigma_rad)
+    return Problem(
+        p.design, p.u0, p.scale, p.q_read[rows], p.E[rows], p.e[rows], p.assembly[rows], p.sigma_mm, p.sigma_rad
+    )
 
 
 def identifiable_count(p: Problem) -> int:
@@ -106,9 +108,13 @@ matched to 1e-13 mm)."""
 
 
 def identify(
-    design: Any, measurements: Measurements | str | os.PathLike[str], mode: ArrayLike | str | None = None,
-    settings: IdentifySettings | None = None, trajectories: Any = None, out: str | os.PathLike[str] | None = None,
-) -> Calibration:  # fmt: skip
+    design: Any,
+    measurements: Measurements | str | os.PathLike[str],
+    mode: ArrayLike | str | None = None,
+    settings: IdentifySettings | None = None,
+    trajectories: Any = None,
+    out: str | os.PathLike[str] | None = None,
+) -> Calibration:
     """Identify the built robot's parameters and zero offsets from measurements (model §21.2, 21.4).
 
     Args:
@@ -130,7 +136,9 @@ def identify(
     start = load_design(design)
     meas = measurements if isinstance(measurements, Measurements) else read_measurements(measurements)
     signs = signs_of(mode, start.mode)
-    full = make_problem(start.vector, start.q0_deg, meas.q_deg, meas.E, meas.e, settings.sigma_mm, settings.sigma_deg, where=meas.where)
+    full = make_problem(
+        start.vector, start.q0_deg, meas.q_deg, meas.E, meas.e, settings.sigma_mm, settings.sigma_deg, where=meas.where
+    )
     n_rows = len(meas)
     fitted = _holdout(n_rows, settings.holdout, settings.seed)
     fit = _subset(full, np.flatnonzero(fitted))
@@ -142,42 +150,58 @@ def identify(
             f"{meas.source}: {n_fit} fitted measurements ({n_rows} rows, {n_rows - n_fit} held out) are too few for the "
             f"{n_model} unknowns the model can identify: each gives 5 independent values (3 of the tip, 2 of the axis); "
             f"fit at least {need} (IdentifySettings.holdout sets how many are held out)"
-        )  # fmt: skip
+        )
 
     digest = design_digest(start.vector, start.q0_deg)
     # A calibrated design refines itself from measurements taken at the poses of the design it was calibrated
     # from (whose digest its file does not keep): only a plain design's poses must be its own.
     if meas.design is not None and meas.design != digest and not start.calibrated:
-        raise InputError(f"{meas.source}: measured at poses chosen for another design (digest {meas.design}, this design's is {digest}); "
-                         "identify with the design the poses were chosen for")  # fmt: skip
+        raise InputError(
+            f"{meas.source}: measured at poses chosen for another design (digest {meas.design}, this design's is {digest}); "
+            "identify with the design the poses were chosen for"
+        )
     with np.errstate(invalid="ignore", divide="ignore"):
         pose0 = full.pose(np.zeros(N_UNKNOWNS))
         r0 = full.residuals(pose0)[fitted]
     rms0 = float(np.sqrt(np.nanmean(r0 * r0)))
     if rms0 < NOT_MEASURED:
-        raise InputError(f"{meas.source}: the rows match the nominal design to {rms0:.1e} of the tracker's noise (sigma_mm "
-                         f"{settings.sigma_mm:g}, sigma_deg {settings.sigma_deg:g}): these are the poses to measure, not measurements "
-                         "(fill in E and e with the tracker's readings)")  # fmt: skip
+        raise InputError(
+            f"{meas.source}: the rows match the nominal design to {rms0:.1e} of the tracker's noise (sigma_mm "
+            f"{settings.sigma_mm:g}, sigma_deg {settings.sigma_deg:g}): these are the poses to measure, not measurements "
+            "(fill in E and e with the tracker's readings)"
+        )
     J0 = full.jacobian(pose0)[fitted].reshape(-1, N_UNKNOWNS)
     ident = identifiability(J0)
     idx = np.flatnonzero(ident.identifiable)
     o1, cond = observability(J0[:, idx], n_fit)
 
     f = _Cached(fit, idx)
-    sol = scipy.optimize.least_squares(f.fun, np.zeros(idx.size), jac=f.jac, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                       max_nfev=200 * (idx.size + 1))  # fmt: skip
+    sol = scipy.optimize.least_squares(
+        f.fun,
+        np.zeros(idx.size),
+        jac=f.jac,
+        method="lm",
+        xtol=1e-12,
+        ftol=1e-12,
+        gtol=1e-12,
+        max_nfev=200 * (idx.size + 1),
+    )
     z = np.zeros(N_UNKNOWNS)
     z[idx] = sol.x
     with np.errstate(invalid="ignore", divide="ignore"):
         pose1 = full.pose(z)
     if sol.status <= 0 or not np.all(pose1.valid[fitted]):
-        raise InputError(f"{meas.source}: the identification did not converge ({sol.message}); check the measurements "
-                         "(units, rows of another robot) and the design")  # fmt: skip
+        raise InputError(
+            f"{meas.source}: the identification did not converge ({sol.message}); check the measurements "
+            "(units, rows of another robot) and the design"
+        )
     x_id, _ = full.state(z)
     try:
         Design.from_vector(x_id)
     except InputError as exc:
-        raise InputError(f"{meas.source}: the identified parameters are not a robot ({exc}); check the measurements") from None
+        raise InputError(
+            f"{meas.source}: the identified parameters are not a robot ({exc}); check the measurements"
+        ) from None
 
     Jf = full.jacobian(pose1)[fitted][..., idx].reshape(-1, idx.size)
     r = full.residuals(pose1)[fitted]
@@ -191,12 +215,26 @@ def identify(
     before, after = pose_errors(meas.E, meas.e, pose0.E, pose0.e), pose_errors(meas.E, meas.e, pose1.E, pose1.e)
     budget = calibrated_budget(x_id, cov, signs, settings, trajectories, meas)
     result = Calibration(
-        settings=settings, start=start, mode=signs, measurements=meas, fitted=fitted, assembly=full.assembly,
-        identifiability=ident, scale=full.scale, u_nominal=full.u0, u_identified=full.u0 + z * full.scale,
-        covariance=cov, sigma_hat=math.sqrt(s2), dof=dof, residuals=Residuals(*before, *after), o1=o1, condition_number=cond,
-        n_model=n_model, solver={"status": int(sol.status), "message": str(sol.message), "evaluations": int(sol.nfev)},
+        settings=settings,
+        start=start,
+        mode=signs,
+        measurements=meas,
+        fitted=fitted,
+        assembly=full.assembly,
+        identifiability=ident,
+        scale=full.scale,
+        u_nominal=full.u0,
+        u_identified=full.u0 + z * full.scale,
+        covariance=cov,
+        sigma_hat=math.sqrt(s2),
+        dof=dof,
+        residuals=Residuals(*before, *after),
+        o1=o1,
+        condition_number=cond,
+        n_model=n_model,
+        solver={"status": int(sol.status), "message": str(sol.message), "evaluations": int(sol.nfev)},
         budget=budget,
-    )  # fmt: skip
+    )
     if out is not None:
         from arcube.calibrate.output import write_calibration
 

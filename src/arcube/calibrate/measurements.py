@@ -72,9 +72,14 @@ class Measurements:
         """The measurements at ``index`` (in that order)."""
         idx = np.asarray(index, dtype=np.intp)
         return Measurements(
-            self.q_deg[idx], self.E[idx], self.e[idx], None if self.pose is None else tuple(self.pose[i] for i in idx),
-            self.design, self.source, None if self.rows is None else tuple(self.rows[i] for i in idx),
-        )  # fmt: skip
+            self.q_deg[idx],
+            self.E[idx],
+            self.e[idx],
+            None if self.pose is None else tuple(self.pose[i] for i in idx),
+            self.design,
+            self.source,
+            None if self.rows is None else tuple(self.rows[i] for i in idx),
+        )
 
 
 def _cell(text: str, where: str, column: str) -> float:
@@ -85,11 +90,19 @@ def _header(cells: list[str], name: str) -> dict[str, int]:
     header = [c.strip() for c in cells]
     for i, c in enumerate(header):
         if header.index(c) != i:
-            raise InputError(f"{name}: column {c or '(empty name)'} appears more than once (columns {header.index(c) + 1} and {i + 1})")
+            raise InputError(
+                f"{name}: column {c or '(empty name)'} appears more than once (columns {header.index(c) + 1} and {i + 1})"
+            )
         if c not in NUMBER_COLUMNS and c not in OPTIONAL_COLUMNS:
-            hint = " (column names are case-sensitive: E_ is the tip, e_ the axis)" if c.lower() in {n.lower() for n in NUMBER_COLUMNS} else ""
-            raise InputError(f"{name}: unknown column {short_repr(c)}{hint}; a measurement file has "
-                             f"{', '.join(NUMBER_COLUMNS)}, and optionally pose and design")  # fmt: skip
+            hint = (
+                " (column names are case-sensitive: E_ is the tip, e_ the axis)"
+                if c.lower() in {n.lower() for n in NUMBER_COLUMNS}
+                else ""
+            )
+            raise InputError(
+                f"{name}: unknown column {short_repr(c)}{hint}; a measurement file has "
+                f"{', '.join(NUMBER_COLUMNS)}, and optionally pose and design"
+            )
     missing = [c for c in NUMBER_COLUMNS if c not in header]
     if missing:
         raise InputError(f"{name}: missing column(s) {', '.join(missing)}")
@@ -110,7 +123,9 @@ def parse_measurements(text: str, name: str) -> Measurements:
         q, E, e = nums[:5], nums[5:8], nums[8:]
         bad = next((c for c, v in zip(JOINT_COLUMNS, q) if abs(v) > MAX_JOINT_DEG), None)
         if bad is not None:
-            raise InputError(f"{where}: {bad} = {q[JOINT_COLUMNS.index(bad)]:g} deg is beyond +-{MAX_JOINT_DEG:g} deg (joint angles in degrees)")
+            raise InputError(
+                f"{where}: {bad} = {q[JOINT_COLUMNS.index(bad)]:g} deg is beyond +-{MAX_JOINT_DEG:g} deg (joint angles in degrees)"
+            )
         problem = coordinate_problem(E)
         if problem:
             raise InputError(f"{where}: {problem}")
@@ -125,7 +140,9 @@ def parse_measurements(text: str, name: str) -> Measurements:
     if not values:
         raise InputError(f"{name}: no measurements (header only)")
     if len(digests) > 1:
-        raise InputError(f"{name}: the design column holds {len(digests)} different digests (a file mixes poses of several designs)")
+        raise InputError(
+            f"{name}: the design column holds {len(digests)} different digests (a file mixes poses of several designs)"
+        )
     a = np.array(values, dtype=float)
     e_a = a[:, 8:11]
     with np.errstate(over="ignore", invalid="ignore"):
@@ -134,9 +151,14 @@ def parse_measurements(text: str, name: str) -> Measurements:
         i = int(np.flatnonzero(~np.all(np.isfinite(e_a), axis=1))[0])
         raise InputError(f"{name} row {lines[i]}: the axis (e_x, e_y, e_z) cannot be normalised")
     return Measurements(
-        q_deg=a[:, :5], E=a[:, 5:8], e=e_a, pose=tuple(poses) if "pose" in col else None,
-        design=(next(iter(digests)) or None) if digests else None, source=name, rows=tuple(lines),
-    )  # fmt: skip
+        q_deg=a[:, :5],
+        E=a[:, 5:8],
+        e=e_a,
+        pose=tuple(poses) if "pose" in col else None,
+        design=(next(iter(digests)) or None) if digests else None,
+        source=name,
+        rows=tuple(lines),
+    )
 
 
 def read_measurements(path: str | os.PathLike[str]) -> Measurements:
@@ -176,4 +198,4 @@ __all__ = [
     "parse_measurements",
     "read_measurements",
     "write_measurements",
-]  # fmt: skip
+]

@@ -42,7 +42,9 @@ PARAM_INDEX: NDArray[np.intp] = PARAM_COLUMN[:26]
 """Index into the 27 design parameters of each of the 26 parameter unknowns."""
 _PER_DEG = np.where(IS_ANGLE[:N_UNKNOWNS], np.pi / 180.0, 1.0)  # per rad -> per deg for the angle columns
 DOCKING: frozenset[str] = frozenset({"m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"})
-KINDS: tuple[str, ...] = tuple("docking" if n in DOCKING else "zero offset" if n.startswith("q0_") else "robot" for n in UNKNOWNS)
+KINDS: tuple[str, ...] = tuple(
+    "docking" if n in DOCKING else "zero offset" if n.startswith("q0_") else "robot" for n in UNKNOWNS
+)
 """``robot`` (20), ``docking`` (6) or ``zero offset`` (5), per unknown."""
 DOF_PER_MEASUREMENT = 5
 """Independent residuals per measurement: 3 of the tip, 2 of the unit axis."""
@@ -98,8 +100,15 @@ ASSEMBLIES: NDArray[np.float64] = np.array([[a, b, c] for a in (1.0, -1.0) for b
 """The 8 assembly modes (eps_H_x, eps_H_y, eps_P) of the FK."""
 
 
-def robot_assembly(design: ArrayLike, q0_deg: ArrayLike, q_read_deg: ArrayLike, E: ArrayLike, e: ArrayLike,
-                   sigma_mm: float, sigma_rad: float) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:  # fmt: skip
+def robot_assembly(
+    design: ArrayLike,
+    q0_deg: ArrayLike,
+    q_read_deg: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    sigma_mm: float,
+    sigma_rad: float,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """The robot's assembly mode ``(3,)`` and, per row, whether FK_p(q_read + q0) closes in it ``(N,)``.
 
     The measurements do not record how the robot was assembled, but a robot keeps one assembly mode: it
@@ -153,9 +162,17 @@ class Problem:
         return np.where(pose.valid[:, None, None] & np.isfinite(J), J, 0.0)
 
 
-def make_problem(design: ArrayLike, q0_deg: ArrayLike, q_read_deg: ArrayLike, E: ArrayLike, e: ArrayLike,
-                 sigma_mm: float, sigma_deg: float, assembly: ArrayLike | None = None,
-                 where: object = None) -> Problem:  # fmt: skip
+def make_problem(
+    design: ArrayLike,
+    q0_deg: ArrayLike,
+    q_read_deg: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    sigma_mm: float,
+    sigma_deg: float,
+    assembly: ArrayLike | None = None,
+    where: object = None,
+) -> Problem:
     """The problem at the nominal design and zero offsets; the assembly mode is :func:`robot_assembly`'s unless
     given. ``where(i)`` names row i in the InputError of a row whose nominal FK does not assemble in it (the
     design cannot take these joint angles)."""
@@ -168,10 +185,21 @@ def make_problem(design: ArrayLike, q0_deg: ArrayLike, q_read_deg: ArrayLike, E:
         if not ok.all():
             i = int(np.flatnonzero(~ok)[0])
             name = where(i) if callable(where) else f"measurement {i + 1}"
-            raise InputError(f"{name}: the design cannot take these joint angles (its forward kinematics does not close "
-                             "there in the assembly mode of the other rows): a measurement of another robot, or angles in the wrong unit")  # fmt: skip
+            raise InputError(
+                f"{name}: the design cannot take these joint angles (its forward kinematics does not close "
+                "there in the assembly mode of the other rows): a measurement of another robot, or angles in the wrong unit"
+            )
         asm = np.broadcast_to(mode, (len(q), 3)).copy()
     else:
         asm = np.asarray(assembly, dtype=float)
-    return Problem(x, unknown_values(x, q0), scales(x), q, np.asarray(E, dtype=float), np.asarray(e, dtype=float), asm,
-                   float(sigma_mm), sigma_rad)  # fmt: skip
+    return Problem(
+        x,
+        unknown_values(x, q0),
+        scales(x),
+        q,
+        np.asarray(E, dtype=float),
+        np.asarray(e, dtype=float),
+        asm,
+        float(sigma_mm),
+        sigma_rad,
+    )

@@ -66,7 +66,9 @@ class PoseSelection:
     """K chosen poses, how observable they make the unknowns, and a random choice of K for comparison."""
 
     measurements: Measurements  # the poses: joints to command (deg), E and e nominal, ids "1".."K", design digest
-    random: Measurements  # K candidates drawn at random (seeded), the same columns: what the chosen ones are compared with
+    random: (
+        Measurements  # K candidates drawn at random (seeded), the same columns: what the chosen ones are compared with
+    )
     o1: float  # O1 of the chosen poses
     condition_number: float
     o1_random: float  # O1 of K candidates drawn at random (seeded)
@@ -83,16 +85,28 @@ class PoseSelection:
         unknowns no pose can identify."""
         ident = self.identifiability
         return {
-            "poses": len(self.measurements), "candidates": self.candidates, "drawn": self.drawn, "mode": format_mode(self.mode),
-            "O1": self.o1, "condition_number": self.condition_number,
-            "O1_random": self.o1_random, "condition_number_random": self.condition_number_random,
-            "not_identifiable": {UNKNOWNS[k]: [UNKNOWNS[i] for i, _ in ident.confounded_with(k, self.scale)]
-                                 for k in np.flatnonzero(~ident.identifiable)},
-        }  # fmt: skip
+            "poses": len(self.measurements),
+            "candidates": self.candidates,
+            "drawn": self.drawn,
+            "mode": format_mode(self.mode),
+            "O1": self.o1,
+            "condition_number": self.condition_number,
+            "O1_random": self.o1_random,
+            "condition_number_random": self.condition_number_random,
+            "not_identifiable": {
+                UNKNOWNS[k]: [UNKNOWNS[i] for i, _ in ident.confounded_with(k, self.scale)]
+                for k in np.flatnonzero(~ident.identifiable)
+            },
+        }
 
 
-def candidate_poses(entry: ArrayLike, target: ArrayLike, settings: PoseSettings, anatomy: Any = None,
-                    rng: np.random.Generator | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def candidate_poses(
+    entry: ArrayLike,
+    target: ArrayLike,
+    settings: PoseSettings,
+    anatomy: Any = None,
+    rng: np.random.Generator | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(E, e) ``(C, 3)`` each: the plan's points and approach-line points, then ``around`` random poses around each
     (module doc), C = 2 T points (1 + around) for T trajectories."""
     rng = np.random.default_rng(settings.seed) if rng is None else rng
@@ -108,8 +122,9 @@ def candidate_poses(entry: ArrayLike, target: ArrayLike, settings: PoseSettings,
     return np.concatenate([E0, (E0[:, None, :] + dE).reshape(-1, 3)]), np.concatenate([e0, e1.reshape(-1, 3)])
 
 
-def candidate_jacobians(start: StartDesign, E: ArrayLike, e: ArrayLike, mode: ArrayLike, sigma_mm: float,
-                        sigma_deg: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def candidate_jacobians(
+    start: StartDesign, E: ArrayLike, e: ArrayLike, mode: ArrayLike, sigma_mm: float, sigma_deg: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """(q_read ``(C, 5)`` deg: the joints to command, IK - q0; assembly ``(C, 3)``; J ``(C, 6, 31)`` the scaled
     identification Jacobian at the nominal values) of poses the design reaches in working mode ``mode``."""
     x, q0 = start.vector, start.q0_deg
@@ -117,8 +132,17 @@ def candidate_jacobians(start: StartDesign, E: ArrayLike, e: ArrayLike, mode: Ar
     q_read = np.rad2deg(np.concatenate([sol.rho, sol.delta], axis=-1)) - q0
     asm = np.asarray(sol.assembly, dtype=float)
     pose = model_pose(x, q0, q_read, asm)
-    p = Problem(x, unknown_values(x, q0), scales(x), q_read, np.asarray(E, float), np.asarray(e, float), asm, sigma_mm,
-                float(np.deg2rad(sigma_deg)))  # fmt: skip
+    p = Problem(
+        x,
+        unknown_values(x, q0),
+        scales(x),
+        q_read,
+        np.asarray(E, float),
+        np.asarray(e, float),
+        asm,
+        sigma_mm,
+        float(np.deg2rad(sigma_deg)),
+    )
     return q_read, asm, p.jacobian(pose)
 
 
@@ -159,8 +183,14 @@ def greedy_d_optimal(J: ArrayLike, count: int, ridge: float = RIDGE) -> NDArray[
     return chosen
 
 
-def poses(design: Any, trajectories: Any, mode: ArrayLike | str | None = None, settings: PoseSettings | None = None,
-          anatomy: Any = None, out: str | os.PathLike[str] | None = None) -> PoseSelection:  # fmt: skip
+def poses(
+    design: Any,
+    trajectories: Any,
+    mode: ArrayLike | str | None = None,
+    settings: PoseSettings | None = None,
+    anatomy: Any = None,
+    out: str | os.PathLike[str] | None = None,
+) -> PoseSelection:
     """Choose the poses to measure (model §21.3).
 
     Args:
@@ -180,7 +210,10 @@ def poses(design: Any, trajectories: Any, mode: ArrayLike | str | None = None, s
     signs = signs_of(mode, start.mode)
     drawn = 2 * len(trajectories.ids) * settings.points * (1 + settings.around)
     if drawn > MAX_CANDIDATES:
-        raise InputError.of("PoseSettings.around", f"x points x trajectories gives {drawn:,} candidate poses (at most {MAX_CANDIDATES:,})")
+        raise InputError.of(
+            "PoseSettings.around",
+            f"x points x trajectories gives {drawn:,} candidate poses (at most {MAX_CANDIDATES:,})",
+        )
     rng = np.random.default_rng(settings.seed)
     E, e = candidate_poses(trajectories.entry, trajectories.target, settings, anatomy, rng)
     guards = GUARDED_OPTIONS.guards
@@ -192,14 +225,20 @@ def poses(design: Any, trajectories: Any, mode: ArrayLike | str | None = None, s
         q_read, _, J = candidate_jacobians(start, E, e, signs, settings.sigma_mm, settings.sigma_deg)
     C = len(E)
     if C < settings.count:
-        raise InputError.of("PoseSettings.count", f"is {settings.count}, but the design reaches only {C} of the {drawn} candidate poses "
-                            f"with the guards in working mode {format_mode(signs)}")  # fmt: skip
+        raise InputError.of(
+            "PoseSettings.count",
+            f"is {settings.count}, but the design reaches only {C} of the {drawn} candidate poses "
+            f"with the guards in working mode {format_mode(signs)}",
+        )
     ident = identifiability(J.reshape(-1, N_UNKNOWNS))
     cols = np.flatnonzero(ident.identifiable)
     least = cols.size // DOF_PER_MEASUREMENT + 1  # each pose gives 5 independent values (3 of the tip, 2 of the axis)
     if settings.count < least:
-        raise InputError.of("PoseSettings.count", f"is {settings.count}, but the {cols.size} identifiable unknowns need at least {least} "
-                                                  "poses (each gives 5 independent values); measure more, and some held out")  # fmt: skip
+        raise InputError.of(
+            "PoseSettings.count",
+            f"is {settings.count}, but the {cols.size} identifiable unknowns need at least {least} "
+            "poses (each gives 5 independent values); measure more, and some held out",
+        )
     Jr = tip_and_tilt_rows(J[..., cols], e)
     chosen = greedy_d_optimal(Jr, settings.count)
     random = rng.choice(C, settings.count, replace=False)

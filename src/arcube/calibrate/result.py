@@ -32,7 +32,9 @@ from arcube.model.mechanism import format_mode
 from arcube.io.json_values import finite
 
 
-def pose_errors(E_meas: ArrayLike, e_meas: ArrayLike, E_model: ArrayLike, e_model: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def pose_errors(
+    E_meas: ArrayLike, e_meas: ArrayLike, E_model: ArrayLike, e_model: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(|E_meas - E_model| mm, angle(e_meas, e_model) deg), each ``(...)``; NaN where the model is NaN."""
     dE = np.linalg.norm(np.asarray(E_meas, dtype=float) - np.asarray(E_model, dtype=float), axis=-1)
     a, b = np.asarray(e_meas, dtype=float), np.asarray(e_model, dtype=float)
@@ -111,14 +113,21 @@ class Calibration:
         rows = []
         for k in range(N_UNKNOWNS):
             conf = ident.confounded_with(k, self.scale)
-            rows.append({
-                "name": UNKNOWNS[k], "kind": KINDS[k], "unit": UNKNOWN_UNITS[k], "scale": float(self.scale[k]),
-                "nominal": float(self.u_nominal[k]), "identified": float(self.u_identified[k]),
-                "deviation": float(self.u_identified[k] - self.u_nominal[k]),
-                "sigma": None if math.isnan(sig[k]) else float(sig[k]), "identifiable": bool(ident.identifiable[k]),
-                "pivot": float(ident.pivot[k]),
-                "confounded_with": [{"name": UNKNOWNS[i], "coefficient": c} for i, c in conf],
-            })  # fmt: skip
+            rows.append(
+                {
+                    "name": UNKNOWNS[k],
+                    "kind": KINDS[k],
+                    "unit": UNKNOWN_UNITS[k],
+                    "scale": float(self.scale[k]),
+                    "nominal": float(self.u_nominal[k]),
+                    "identified": float(self.u_identified[k]),
+                    "deviation": float(self.u_identified[k] - self.u_nominal[k]),
+                    "sigma": None if math.isnan(sig[k]) else float(sig[k]),
+                    "identifiable": bool(ident.identifiable[k]),
+                    "pivot": float(ident.pivot[k]),
+                    "confounded_with": [{"name": UNKNOWNS[i], "coefficient": c} for i, c in conf],
+                }
+            )
         return rows
 
     def residual_rms(self) -> dict[str, Any]:
@@ -128,11 +137,16 @@ class Calibration:
         for name, rows in (("fitted", self.fitted), ("held_out", ~self.fitted)):
             out[name] = {
                 "rows": int(rows.sum()),
-                "E_rms_mm_before": rms(r.E_before_mm[rows]), "E_rms_mm": rms(r.E_after_mm[rows]),
-                "e_rms_deg_before": rms(r.e_before_deg[rows]), "e_rms_deg": rms(r.e_after_deg[rows]),
-            }  # fmt: skip
-        out["noise"] = {"E_rms_mm": math.sqrt(3.0) * s.sigma_mm, "e_rms_deg": math.sqrt(2.0) * s.sigma_deg,
-                        "note": "the RMS residuals at the tracker's noise level: sqrt(3) sigma_E (3-D) and sqrt(2) sigma_e"}  # fmt: skip
+                "E_rms_mm_before": rms(r.E_before_mm[rows]),
+                "E_rms_mm": rms(r.E_after_mm[rows]),
+                "e_rms_deg_before": rms(r.e_before_deg[rows]),
+                "e_rms_deg": rms(r.e_after_deg[rows]),
+            }
+        out["noise"] = {
+            "E_rms_mm": math.sqrt(3.0) * s.sigma_mm,
+            "e_rms_deg": math.sqrt(2.0) * s.sigma_deg,
+            "note": "the RMS residuals at the tracker's noise level: sqrt(3) sigma_E (3-D) and sqrt(2) sigma_e",
+        }
         return out
 
     def to_json(self) -> dict[str, Any]:
@@ -142,7 +156,12 @@ class Calibration:
         data = {
             "mode": format_mode(self.mode),
             "settings": self.settings.model_dump(),
-            "measurements": {"source": m.source, "rows": len(m), "fitted": int(self.fitted.sum()), "held_out": int((~self.fitted).sum())},
+            "measurements": {
+                "source": m.source,
+                "rows": len(m),
+                "fitted": int(self.fitted.sum()),
+                "held_out": int((~self.fitted).sum()),
+            },
             "unknowns": self.unknown_rows(),
             "not_identifiable": not_ident,
             "identifiable_count": int(self.identifiability.rank),
@@ -156,5 +175,3 @@ class Calibration:
             "design": self.design_json(),
         }
         return finite(data)
-
-

@@ -52,8 +52,12 @@ class Simulation:
         return unknown_values(self.design, self.q0_deg) - unknown_values(self.nominal.vector, self.nominal.q0_deg)
 
 
-def simulate(design: Any, poses: Measurements | str | os.PathLike[str], settings: SimulateSettings | None = None,
-             out: str | os.PathLike[str] | None = None) -> Simulation:  # fmt: skip
+def simulate(
+    design: Any,
+    poses: Measurements | str | os.PathLike[str],
+    settings: SimulateSettings | None = None,
+    out: str | os.PathLike[str] | None = None,
+) -> Simulation:
     """Build a robot to ``settings.tolerance_class`` and measure it at the poses (module doc).
 
     Args:
@@ -73,16 +77,25 @@ def simulate(design: Any, poses: Measurements | str | os.PathLike[str], settings
     x = start.vector
     digest = design_digest(x, start.q0_deg)
     if m.design is not None and m.design != digest:
-        raise InputError(f"{m.source}: the poses were chosen for another design (digest {m.design}, this design's is {digest}); "
-                         "choose poses for this design (calibrate poses)")  # fmt: skip
+        raise InputError(
+            f"{m.source}: the poses were chosen for another design (digest {m.design}, this design's is {digest}); "
+            "choose poses for this design (calibrate poses)"
+        )
     mode, ok = robot_assembly(x, start.q0_deg, m.q_deg, m.E, m.e, 0.15, np.deg2rad(0.1))
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])
-        raise InputError(f"{m.where(i)}: the design cannot take these joint angles (its forward kinematics does not close "
-                         "there in the assembly mode of the other rows)")  # fmt: skip
+        raise InputError(
+            f"{m.where(i)}: the design cannot take these joint angles (its forward kinematics does not close "
+            "there in the assembly mode of the other rows)"
+        )
     asm = np.broadcast_to(mode, (len(m), 3))
-    tol = ToleranceSettings(tolerance_class=settings.tolerance_class, q0_deg=settings.q0_deg, docking_mm=settings.docking_mm,
-                            docking_deg=settings.docking_deg, distribution=settings.distribution)  # fmt: skip
+    tol = ToleranceSettings(
+        tolerance_class=settings.tolerance_class,
+        q0_deg=settings.q0_deg,
+        docking_mm=settings.docking_mm,
+        docking_deg=settings.docking_deg,
+        distribution=settings.distribution,
+    )
     rng = np.random.default_rng(settings.seed)
     dp, dq0 = split(robot_draws(rng, tol.tolerances(x), 1, settings.distribution)[0])
     x_real = x + dp
@@ -99,14 +112,23 @@ def simulate(design: Any, poses: Measurements | str | os.PathLike[str], settings
     e = e / np.linalg.norm(e, axis=1, keepdims=True)
     keep = np.flatnonzero(good)
     taken = m.take(keep)
-    meas = Measurements(taken.q_deg, E, e, taken.pose, m.design, f"simulated robot (class {settings.tolerance_class}, seed {settings.seed})",
-                        None)  # fmt: skip
+    meas = Measurements(
+        taken.q_deg,
+        E,
+        e,
+        taken.pose,
+        m.design,
+        f"simulated robot (class {settings.tolerance_class}, seed {settings.seed})",
+        None,
+    )
     dropped = tuple(int(m.rows[i]) if m.rows else i + 1 for i in np.flatnonzero(~good))
     if out is not None:  # the measurements and, beside them, the robot they were taken on (a rehearsal's ground truth)
         from arcube.io.files import atomic_write_files
 
         truth = calibrated_dict(x_real, q0_real, start.mode or DEFAULT_MODE_TEXT, start.c_z)
-        atomic_write_files({out: measurements_csv(meas).encode(), truth_path(out): (json.dumps(truth, indent=2) + "\n").encode()})
+        atomic_write_files(
+            {out: measurements_csv(meas).encode(), truth_path(out): (json.dumps(truth, indent=2) + "\n").encode()}
+        )
     return Simulation(meas, x_real, q0_real, start, asm[good], dropped, settings)
 
 
@@ -117,8 +139,15 @@ def truth_path(measurements: str | os.PathLike[str]) -> Path:
     return p.with_name(p.stem + ".truth.json")
 
 
-def tip_errors(real_design: ArrayLike, real_q0_deg: ArrayLike, model_design: ArrayLike, model_q0_deg: ArrayLike,
-               E: ArrayLike, e: ArrayLike, mode: ArrayLike) -> dict[str, NDArray[np.float64]]:  # fmt: skip
+def tip_errors(
+    real_design: ArrayLike,
+    real_q0_deg: ArrayLike,
+    model_design: ArrayLike,
+    model_q0_deg: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike,
+) -> dict[str, NDArray[np.float64]]:
     """What a controller that believes (model_design, model_q0) makes the real robot (real_design, real_q0) drill
     at the poses (E, e) ``(P, 3)``: it commands q_read = IK_model(X) - q0_model (working mode ``mode``); the real
     joints are q_read + q0_real; the tool is at FK_real(q) in the assembly mode of the model's IK.
@@ -139,5 +168,9 @@ def tip_errors(real_design: ArrayLike, real_q0_deg: ArrayLike, model_design: Arr
     lateral = np.linalg.norm(dE - along[:, None] * e_a, axis=-1)
     axis = np.rad2deg(np.arctan2(np.linalg.norm(np.cross(fk.e, e_a), axis=-1), np.sum(fk.e * e_a, axis=-1)))
     nan = np.nan
-    return {"lateral_mm": np.where(ok, lateral, nan), "axial_mm": np.where(ok, np.abs(along), nan),
-            "tip_mm": np.where(ok, np.linalg.norm(dE, axis=-1), nan), "axis_deg": np.where(ok, axis, nan)}  # fmt: skip
+    return {
+        "lateral_mm": np.where(ok, lateral, nan),
+        "axial_mm": np.where(ok, np.abs(along), nan),
+        "tip_mm": np.where(ok, np.linalg.norm(dE, axis=-1), nan),
+        "axis_deg": np.where(ok, axis, nan),
+    }

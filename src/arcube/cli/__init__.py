@@ -16,7 +16,24 @@ from typing import Any
 import typer
 
 from arcube import __version__, interrupts
-from arcube.cli import breach, calibrate, demo, design, dock, evaluate, explore, export, joints, optimize, patients, program, report, resume, study, tolerance
+from arcube.cli import (
+    breach,
+    calibrate,
+    demo,
+    design,
+    dock,
+    evaluate,
+    explore,
+    export,
+    joints,
+    optimize,
+    patients,
+    program,
+    report,
+    resume,
+    study,
+    tolerance,
+)
 from arcube.cli.projection import REGISTRY
 from arcube.errors import InputError
 
@@ -40,12 +57,31 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _root(
-    version: bool = typer.Option(False, "--version", help="Print the version and exit.", callback=_version, is_eager=True),
+    version: bool = typer.Option(
+        False, "--version", help="Print the version and exit.", callback=_version, is_eager=True
+    ),
 ) -> None:
     """Kinematic analysis and dimensional design of the AR-CUBE 3T2R surgical robot."""
 
 
-for _module in (evaluate, optimize, resume, study, design, dock, breach, report, joints, patients, demo, export, explore, program, tolerance, calibrate):
+for _module in (
+    evaluate,
+    optimize,
+    resume,
+    study,
+    design,
+    dock,
+    breach,
+    report,
+    joints,
+    patients,
+    demo,
+    export,
+    explore,
+    program,
+    tolerance,
+    calibrate,
+):
     _module.register(app)
 
 
@@ -79,7 +115,9 @@ PATH_OPTIONS = frozenset(f.name for flags in REGISTRY.values() for f in flags if
 def _check_empty_paths(args: list[str]) -> None:
     for i, token in enumerate(args):
         name, eq, value = token.partition("=")
-        if name in PATH_OPTIONS and ((eq and not value.strip()) or (not eq and i + 1 < len(args) and not args[i + 1].strip())):
+        if name in PATH_OPTIONS and (
+            (eq and not value.strip()) or (not eq and i + 1 < len(args) and not args[i + 1].strip())
+        ):
             raise InputError(f"{name}: empty path (give a file or folder name)")
 
 
@@ -133,10 +171,14 @@ def _run(argv: list[str] | None) -> None:
     except KeyboardInterrupt:
         raise
     except BaseException as exc:
-        if interrupts.pending() and not isinstance(exc, SystemExit):  # what a swallowed interrupt became (ImportError, ...)
+        if interrupts.pending() and not isinstance(
+            exc, SystemExit
+        ):  # what a swallowed interrupt became (ImportError, ...)
             _interrupted()
         _error(exc)
-    if code == 130 or interrupts.pending():  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
+    if (
+        code == 130 or interrupts.pending()
+    ):  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
         _interrupted()
     if isinstance(code, int) and code:
         sys.exit(code)
@@ -163,8 +205,10 @@ def _error(exc: BaseException) -> None:
     if not isinstance(exc, Exception) or os.environ.get("ARCUBE_DEBUG"):
         raise exc
     # a bug, not bad input: one line and a hint, the traceback only on request
-    sys.stderr.write(f"error: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); "
-                     "rerun with ARCUBE_DEBUG=1 for the traceback and please report it\n")  # fmt: skip
+    sys.stderr.write(
+        f"error: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); "
+        "rerun with ARCUBE_DEBUG=1 for the traceback and please report it\n"
+    )
     sys.exit(1)
 
 

@@ -9,27 +9,84 @@ from pathlib import Path
 import typer
 
 from arcube.calibrate.settings import IdentifySettings, PoseSettings, SimulateSettings
-from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, FORCE, check_replace, IDS, LEVELS, MODE, OUT, SEGMENTS, SIDE, TRAJECTORIES, one_plan, with_help
+from arcube.cli.common import (
+    ANATOMY,
+    ANATOMY_FRAME,
+    DESIGN,
+    FORCE,
+    check_replace,
+    IDS,
+    LEVELS,
+    MODE,
+    OUT,
+    SEGMENTS,
+    SIDE,
+    TRAJECTORIES,
+    one_plan,
+    with_help,
+)
 from arcube.cli.projection import Given, command, model_flags, option
 
 __all__ = ["register"]
 
 _DESIGN = with_help(DESIGN, "The nominal design: a design JSON (plain or calibrated) or a preset.", required=True)
-MEASUREMENTS = option("--measurements", "Measurement CSV: rho_x, rho_y, rho_z, delta_x, delta_y (deg, as the encoders read them), "
-                      "E_x, E_y, E_z (mm) and e_x, e_y, e_z (patient frame), one row per measured pose.", Path, params=("measurements",),
-                      required=True)  # fmt: skip
-POSES = option("--poses", "Poses CSV (arcube calibrate poses), the joint angles to drive the simulated robot to.", Path, params=("poses",),
-               required=True)  # fmt: skip
-POSE_FLAGS = [_DESIGN, with_help(TRAJECTORIES, "The plan whose points and approach lines the poses are chosen around.", required=True),
-              SIDE, LEVELS, IDS, MODE, ANATOMY, ANATOMY_FRAME, SEGMENTS, *model_flags(PoseSettings, "poses"),
-              with_help(OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", required=True), FORCE]  # fmt: skip
-SIMULATE_FLAGS = [_DESIGN, POSES, *model_flags(SimulateSettings, "simulate"),
-                  with_help(OUT, "Measurement CSV to write (the simulated tracker's readings), and beside it <stem>.truth.json, the "
-                                 "simulated robot's true design.", required=True), FORCE]  # fmt: skip
-IDENTIFY_FLAGS = [_DESIGN, MEASUREMENTS, MODE, *model_flags(IdentifySettings, "identify"),
-                  with_help(TRAJECTORIES, "Optional plan: the calibrated robot's accuracy budget on its points (default: the measured poses)."),
-                  SIDE, with_help(OUT, "Folder for design.json, calibration.json, residuals.csv and calibration.html (created; new or empty).",
-                                  required=True)]  # fmt: skip
+MEASUREMENTS = option(
+    "--measurements",
+    "Measurement CSV: rho_x, rho_y, rho_z, delta_x, delta_y (deg, as the encoders read them), "
+    "E_x, E_y, E_z (mm) and e_x, e_y, e_z (patient frame), one row per measured pose.",
+    Path,
+    params=("measurements",),
+    required=True,
+)
+POSES = option(
+    "--poses",
+    "Poses CSV (arcube calibrate poses), the joint angles to drive the simulated robot to.",
+    Path,
+    params=("poses",),
+    required=True,
+)
+POSE_FLAGS = [
+    _DESIGN,
+    with_help(TRAJECTORIES, "The plan whose points and approach lines the poses are chosen around.", required=True),
+    SIDE,
+    LEVELS,
+    IDS,
+    MODE,
+    ANATOMY,
+    ANATOMY_FRAME,
+    SEGMENTS,
+    *model_flags(PoseSettings, "poses"),
+    with_help(OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", required=True),
+    FORCE,
+]
+SIMULATE_FLAGS = [
+    _DESIGN,
+    POSES,
+    *model_flags(SimulateSettings, "simulate"),
+    with_help(
+        OUT,
+        "Measurement CSV to write (the simulated tracker's readings), and beside it <stem>.truth.json, the "
+        "simulated robot's true design.",
+        required=True,
+    ),
+    FORCE,
+]
+IDENTIFY_FLAGS = [
+    _DESIGN,
+    MEASUREMENTS,
+    MODE,
+    *model_flags(IdentifySettings, "identify"),
+    with_help(
+        TRAJECTORIES,
+        "Optional plan: the calibrated robot's accuracy budget on its points (default: the measured poses).",
+    ),
+    SIDE,
+    with_help(
+        OUT,
+        "Folder for design.json, calibration.json, residuals.csv and calibration.html (created; new or empty).",
+        required=True,
+    ),
+]
 
 
 def _plan(given: Given) -> object | None:
@@ -48,14 +105,27 @@ def poses(given: Given) -> None:
 
     check_replace(given)
     plan = _plan(given)
-    anatomy = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments"))
-               if given.get("anatomy") else None)  # fmt: skip
-    sel = poses_api(given.get("design"), plan, given.get("mode"), PoseSettings().merged(given.tree("poses")), anatomy=anatomy,
-                    out=given.get("out"))  # fmt: skip
+    anatomy = (
+        resolve_anatomy(
+            given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments")
+        )
+        if given.get("anatomy")
+        else None
+    )
+    sel = poses_api(
+        given.get("design"),
+        plan,
+        given.get("mode"),
+        PoseSettings().merged(given.tree("poses")),
+        anatomy=anatomy,
+        out=given.get("out"),
+    )
     s = sel.summary()
-    typer.echo(f"{s['poses']} poses chosen of {s['candidates']} candidates (mode {s['mode']}): O1 {s['O1']:.3g}, condition number "
-               f"{s['condition_number']:.4g}; {s['poses']} random poses: O1 {s['O1_random']:.3g}, condition number "
-               f"{s['condition_number_random']:.4g}")  # fmt: skip
+    typer.echo(
+        f"{s['poses']} poses chosen of {s['candidates']} candidates (mode {s['mode']}): O1 {s['O1']:.3g}, condition number "
+        f"{s['condition_number']:.4g}; {s['poses']} random poses: O1 {s['O1_random']:.3g}, condition number "
+        f"{s['condition_number_random']:.4g}"
+    )
     for name, others in s["not_identifiable"].items():
         typer.echo(f"  not identifiable: {name} (confounded with {', '.join(others) or 'nothing measured'})")
     typer.echo(f"poses in {given.get('out')}")
@@ -68,9 +138,13 @@ def simulate(given: Given) -> None:
     from arcube.calibrate.simulate import truth_path
 
     check_replace(given, truth_path(given.get("out")))
-    sim = simulate_api(given.get("design"), given.get("poses"), SimulateSettings().merged(given.tree("simulate")), out=given.get("out"))
-    typer.echo(f"{len(sim.measurements)} measurements of a robot built to ISO 2768-{sim.settings.tolerance_class} (seed {sim.settings.seed}) "
-               f"in {given.get('out')}; the robot's true design in {truth_path(given.get('out'))}")  # fmt: skip
+    sim = simulate_api(
+        given.get("design"), given.get("poses"), SimulateSettings().merged(given.tree("simulate")), out=given.get("out")
+    )
+    typer.echo(
+        f"{len(sim.measurements)} measurements of a robot built to ISO 2768-{sim.settings.tolerance_class} (seed {sim.settings.seed}) "
+        f"in {given.get('out')}; the robot's true design in {truth_path(given.get('out'))}"
+    )
 
 
 def identify(given: Given) -> None:
@@ -78,30 +152,53 @@ def identify(given: Given) -> None:
     design.json (the calibrated design), calibration.json, residuals and the report page."""
     from arcube.calibrate import identify as identify_api
 
-    cal = identify_api(given.get("design"), given.get("measurements"), given.get("mode"), IdentifySettings().merged(given.tree("identify")),
-                       trajectories=_plan(given), out=given.get("out"))  # fmt: skip
+    cal = identify_api(
+        given.get("design"),
+        given.get("measurements"),
+        given.get("mode"),
+        IdentifySettings().merged(given.tree("identify")),
+        trajectories=_plan(given),
+        out=given.get("out"),
+    )
     rms = cal.residual_rms()
     fit, held = rms["fitted"], rms["held_out"]
-    typer.echo(f"fitted {fit['rows']} measurements: tip residual RMS {fit['E_rms_mm_before']:.3g} -> {fit['E_rms_mm']:.3g} mm, axis "
-               f"{fit['e_rms_deg_before']:.3g} -> {fit['e_rms_deg']:.3g} deg (the tracker's noise: {rms['noise']['E_rms_mm']:.3g} mm, "
-               f"{rms['noise']['e_rms_deg']:.3g} deg)")  # fmt: skip
+    typer.echo(
+        f"fitted {fit['rows']} measurements: tip residual RMS {fit['E_rms_mm_before']:.3g} -> {fit['E_rms_mm']:.3g} mm, axis "
+        f"{fit['e_rms_deg_before']:.3g} -> {fit['e_rms_deg']:.3g} deg (the tracker's noise: {rms['noise']['E_rms_mm']:.3g} mm, "
+        f"{rms['noise']['e_rms_deg']:.3g} deg)"
+    )
     if held["rows"]:
         typer.echo(f"held out {held['rows']}: tip {held['E_rms_mm']:.3g} mm, axis {held['e_rms_deg']:.3g} deg")
-    if cal.budget is not None:  # the robot's accuracy before (its tip off by what the residuals say) and after calibration
+    if (
+        cal.budget is not None
+    ):  # the robot's accuracy before (its tip off by what the residuals say) and after calibration
         b = cal.budget.summary
-        typer.echo(f"accuracy: the tip was {fit['E_rms_mm_before']:.3g} mm RMS from where the nominal model put it; calibrated, the lateral "
-                   f"error is {b['lateral_error_p95_mm']:.3g} mm (p95 over {cal.budget.robot_lateral_max_mm.size} robots drawn from the "
-                   f"identification, on the {cal.budget.where}'s points), RMS {b['lateral_error_rms_mm']:.3g} mm")  # fmt: skip
+        typer.echo(
+            f"accuracy: the tip was {fit['E_rms_mm_before']:.3g} mm RMS from where the nominal model put it; calibrated, the lateral "
+            f"error is {b['lateral_error_p95_mm']:.3g} mm (p95 over {cal.budget.robot_lateral_max_mm.size} robots drawn from the "
+            f"identification, on the {cal.budget.where}'s points), RMS {b['lateral_error_rms_mm']:.3g} mm"
+        )
     hidden = [u["name"] for u in cal.unknown_rows() if not u["identifiable"]]
-    typer.echo(f"not identifiable from these poses (kept at their nominal values): {', '.join(hidden) if hidden else 'none'}")
+    typer.echo(
+        f"not identifiable from these poses (kept at their nominal values): {', '.join(hidden) if hidden else 'none'}"
+    )
     typer.echo(f"calibrated design in {Path(given.get('out')) / 'design.json'}")
 
 
 def register(app: typer.Typer) -> None:
     """Add the ``calibrate`` command group to ``app``."""
-    group = typer.Typer(name="calibrate", help=__doc__.split("\n\n")[0].replace("\n", " "), no_args_is_help=True, add_completion=False,
-                        rich_markup_mode=None)  # fmt: skip
+    group = typer.Typer(
+        name="calibrate",
+        help=__doc__.split("\n\n")[0].replace("\n", " "),
+        no_args_is_help=True,
+        add_completion=False,
+        rich_markup_mode=None,
+    )
     command(group, "poses", POSE_FLAGS, poses, help=poses.__doc__ or "", registry_name="calibrate poses")
-    command(group, "simulate", SIMULATE_FLAGS, simulate, help=simulate.__doc__ or "", registry_name="calibrate simulate")
-    command(group, "identify", IDENTIFY_FLAGS, identify, help=identify.__doc__ or "", registry_name="calibrate identify")
+    command(
+        group, "simulate", SIMULATE_FLAGS, simulate, help=simulate.__doc__ or "", registry_name="calibrate simulate"
+    )
+    command(
+        group, "identify", IDENTIFY_FLAGS, identify, help=identify.__doc__ or "", registry_name="calibrate identify"
+    )
     app.add_typer(group)

@@ -17,36 +17,103 @@ from arcube.evaluation.envelope import EnvelopeSettings
 from arcube.patients.settings import SegmentSelection
 
 __all__ = [
-    "ANATOMY", "ANATOMY_FRAME", "DASK", "DESIGN", "ENGINE", "ENVELOPE", "GUARDS", "IDS", "LEVELS", "MODE", "OPTION_FLAGS", "OUT", "PLAN",
-    "FORCE", "GridBar", "LIVE_BARS", "POINTS", "QUIET", "RichBar", "check_replace", "SEED", "SIDE", "TRAJECTORIES", "TRANSFORM", "WORKERS", "options_of", "request_flags",
-]  # fmt: skip
+    "ANATOMY",
+    "ANATOMY_FRAME",
+    "DASK",
+    "DESIGN",
+    "ENGINE",
+    "ENVELOPE",
+    "GUARDS",
+    "IDS",
+    "LEVELS",
+    "MODE",
+    "OPTION_FLAGS",
+    "OUT",
+    "PLAN",
+    "FORCE",
+    "GridBar",
+    "LIVE_BARS",
+    "POINTS",
+    "QUIET",
+    "RichBar",
+    "check_replace",
+    "SEED",
+    "SIDE",
+    "TRAJECTORIES",
+    "TRANSFORM",
+    "WORKERS",
+    "options_of",
+    "request_flags",
+]
 
-DESIGN = option("--design", "Design: a preset name (paper) or a design JSON file. [default: paper]", params=("design",), path=True)
-TRAJECTORIES = option("--trajectories", "Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'. [default: reference]",
-                      key="plan", params=("plan",), spread=True, path=True)  # fmt: skip
-POINTS = option("--points", "Points per trajectory (N >= 2), both ends included. [default: 30]", int, params=("points", "RunSettings.points"))
-MODE = option("--mode", "Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,- [default: the design file's mode, else +,+,+,+]",
-              params=("mode", "RunSettings.mode"))  # fmt: skip
-GUARDS = option("--guards", "Turn on the guards of model §8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards"))
+DESIGN = option(
+    "--design", "Design: a preset name (paper) or a design JSON file. [default: paper]", params=("design",), path=True
+)
+TRAJECTORIES = option(
+    "--trajectories",
+    "Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'. [default: reference]",
+    key="plan",
+    params=("plan",),
+    spread=True,
+    path=True,
+)
+POINTS = option(
+    "--points",
+    "Points per trajectory (N >= 2), both ends included. [default: 30]",
+    int,
+    params=("points", "RunSettings.points"),
+)
+MODE = option(
+    "--mode",
+    "Working mode: signs of TMS x, TMS y, RTS x, RTS y, e.g. --mode=-,+,+,- [default: the design file's mode, else +,+,+,+]",
+    params=("mode", "RunSettings.mode"),
+)
+GUARDS = option(
+    "--guards", "Turn on the guards of model §8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards")
+)
 SIDE = option("--side", "Keep trajectories of one side: R or L.", params=("side", "RunSettings.side"))
 LEVELS = option("--levels", "Keep levels, e.g. C3-C5 or C3,C6.", params=("levels", "RunSettings.levels"))
 IDS = option("--ids", "Keep trajectory ids, e.g. 1,3,5.", params=("ids", "RunSettings.ids"))
-TRANSFORM = option("--transform", "4x4 rigid transform (JSON) from the file's frame to the patient frame.", Path,
-                   params=("transform", "RunSettings.transform"))  # fmt: skip
-ENGINE = option("--engine", "Evaluation engine: auto (numba if available), numba or numpy. [default: auto]",
-                params=("engine", "RunSettings.engine"))  # fmt: skip
-ANATOMY = option("--anatomy", "Patient anatomy (model §14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: "
-                 "meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz).", params=("anatomy", "RunSettings.anatomy"), spread=True)  # fmt: skip
-ANATOMY_FRAME = option("--anatomy-frame", "Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient. [default: LPS]",
-                       params=("anatomy_frame", "RunSettings.anatomy_frame"))  # fmt: skip
-SEGMENTS = replace(model_flags(SegmentSelection, only=("segments",))[0], params=("segments", "SegmentSelection.segments", "RunSettings.segments"))
+TRANSFORM = option(
+    "--transform",
+    "4x4 rigid transform (JSON) from the file's frame to the patient frame.",
+    Path,
+    params=("transform", "RunSettings.transform"),
+)
+ENGINE = option(
+    "--engine",
+    "Evaluation engine: auto (numba if available), numba or numpy. [default: auto]",
+    params=("engine", "RunSettings.engine"),
+)
+ANATOMY = option(
+    "--anatomy",
+    "Patient anatomy (model §14.2): none, default (the plan's default anatomy), or files FILE [FILE ...]: "
+    "meshes (STL, OBJ, PLY) or segmentations (.seg.nrrd, .nii, .nii.gz).",
+    params=("anatomy", "RunSettings.anatomy"),
+    spread=True,
+)
+ANATOMY_FRAME = option(
+    "--anatomy-frame",
+    "Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient. [default: LPS]",
+    params=("anatomy_frame", "RunSettings.anatomy_frame"),
+)
+SEGMENTS = replace(
+    model_flags(SegmentSelection, only=("segments",))[0],
+    params=("segments", "SegmentSelection.segments", "RunSettings.segments"),
+)
 """``--segments``: which segments of segmentation anatomy files to keep (names or label values)."""
-ENVELOPE = [replace(f, spread=f.multiple, params=(*f.params, f.key), help=f.help.replace("[default: default]", "[default: none]"))
-            for f in model_flags(EnvelopeSettings)]  # fmt: skip
+ENVELOPE = [
+    replace(
+        f, spread=f.multiple, params=(*f.params, f.key), help=f.help.replace("[default: default]", "[default: none]")
+    )
+    for f in model_flags(EnvelopeSettings)
+]
 """``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (model §19.5)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
 SEED = option("--seed", "Random seed.", int, params=("seed",))
-WORKERS = option("--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",))
+WORKERS = option(
+    "--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",)
+)
 DASK = option("--dask", "Address of a dask.distributed scheduler to send batches to.", params=("dask",))
 QUIET = option("--quiet", "No progress bar.", bool)
 FORCE = option("--force", "Replace the output file if it exists (a file is never replaced without it).", bool)
@@ -64,14 +131,38 @@ def check_replace(given: Given, *beside: Any) -> None:
         if path is not None and Path(path).is_file():
             raise InputError(f"{OUT.name} {given.get('out')}: {path} exists; give {FORCE.name} to replace it")
 
-PLAN: list[Flag] = [DESIGN, TRAJECTORIES, POINTS, MODE, GUARDS, SIDE, LEVELS, IDS, TRANSFORM, ENGINE, ANATOMY, ANATOMY_FRAME, SEGMENTS]
+
+PLAN: list[Flag] = [
+    DESIGN,
+    TRAJECTORIES,
+    POINTS,
+    MODE,
+    GUARDS,
+    SIDE,
+    LEVELS,
+    IDS,
+    TRANSFORM,
+    ENGINE,
+    ANATOMY,
+    ANATOMY_FRAME,
+    SEGMENTS,
+]
 """The plan, its selection and what evaluates it: the request of ``evaluate``, ``joints``, ``export`` and ``explore``."""
 
 OPTION_FLAGS: dict[str, list[Flag]] = {
-    "clearances": model_flags(Guards, "options.guards", only=("clearance_mm", "self_clearance_mm", "envelope_clearance_mm")),
+    "clearances": model_flags(
+        Guards, "options.guards", only=("clearance_mm", "self_clearance_mm", "envelope_clearance_mm")
+    ),
     "guards": model_flags(Guards, "options.guards"),
-    "c_z": [replace(f, params=(*f.params, "c_z")) for f in model_flags(Guards, "options.guards", only=("c_z",),
-                                                                      helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; model §6)."})],
+    "c_z": [
+        replace(f, params=(*f.params, "c_z"))
+        for f in model_flags(
+            Guards,
+            "options.guards",
+            only=("c_z",),
+            helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; model §6)."},
+        )
+    ],
     "body": model_flags(Body, "options.body"),
     "loads": model_flags(Loads, "options.loads"),
     "masses": model_flags(Masses, "options.masses"),
@@ -88,7 +179,11 @@ def request_flags(*groups: str) -> list[Flag]:
 def options_of(given: Given, guarded: bool | None = None, base: Options | None = None) -> Options:
     """The :class:`arcube.Options` of the flags given (``base``, else the paper's with the guards of
     model §8.2 when ``--guards``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
-    start = base if base is not None else (GUARDED_OPTIONS if (given.get("guards") if guarded is None else guarded) else Options())
+    start = (
+        base
+        if base is not None
+        else (GUARDED_OPTIONS if (given.get("guards") if guarded is None else guarded) else Options())
+    )
     tree = given.tree("options")
     return start.merged(tree) if tree else start
 
@@ -172,8 +267,14 @@ class GridBar:
 
             console = Console(file=self.stream)
             if console.is_terminal:
-                self.progress = Progress(TextColumn("anatomy distance grids (model §14.3), parts"), MofNCompleteColumn(), BarColumn(),
-                                         TimeElapsedColumn(), console=console, transient=True)  # fmt: skip
+                self.progress = Progress(
+                    TextColumn("anatomy distance grids (model §14.3), parts"),
+                    MofNCompleteColumn(),
+                    BarColumn(),
+                    TimeElapsedColumn(),
+                    console=console,
+                    transient=True,
+                )
                 self.task = self.progress.add_task("grids", total=total)
                 self.progress.start()
         elif self.progress is not None:

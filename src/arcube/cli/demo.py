@@ -58,10 +58,22 @@ def _design(out: Path, *, seed: int, engine: str, quick: bool) -> Path:
     # robot meets every requirement at both dockings, programs included
     seeds = [seed, seed + 1, seed + 2]
     budget = sizes.get("population", RunSettings().population) * sizes.get("generations", DESIGN_GENERATIONS)
-    with DesignProgress(seeds, budget, dockings=2) as bar:  # the reference patient's two sides  # eight minutes of search: the seeds' progress on stderr
+    with DesignProgress(
+        seeds, budget, dockings=2
+    ) as bar:  # the reference patient's two sides  # eight minutes of search: the seeds' progress on stderr
         bar.watch(out / STUDY)
-        result = design_api(REFERENCE, out, seeds=seeds, anatomy="default", engine=engine, workers=1 if quick else 2,
-                            on_seed=bar.seed, progress=bar.generation, on_stage=bar.stage, **sizes)  # type: ignore[arg-type]  # fmt: skip
+        result = design_api(
+            REFERENCE,
+            out,
+            seeds=seeds,
+            anatomy="default",
+            engine=engine,
+            workers=1 if quick else 2,
+            on_seed=bar.seed,
+            progress=bar.generation,
+            on_stage=bar.stage,
+            **sizes,
+        )  # type: ignore[arg-type]
     print_design(result)
     return out / "report.html"
 
@@ -79,39 +91,77 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     report_text.print_evaluation(evaluate("paper", REFERENCE, engine=engine))
     typer.echo("\n2/4  Table 2's links, placement m searched for the right side (GA, m_x, m_y, m_z free)")
     reports = [
-        _optimize(out / "paper_links_right", seed=seed, engine=engine, quick=quick, design_from="paper",
-                  free="m_x,m_y,m_z", side="R", population=100, generations=60, tolerance=0.0, algorithm="ga"),
-    ]  # fmt: skip
-    scale = "tiny population (--quick)" if quick else "the paper's GA: population 400, up to 300 generations, tolerance 1e-5"
+        _optimize(
+            out / "paper_links_right",
+            seed=seed,
+            engine=engine,
+            quick=quick,
+            design_from="paper",
+            free="m_x,m_y,m_z",
+            side="R",
+            population=100,
+            generations=60,
+            tolerance=0.0,
+            algorithm="ga",
+        ),
+    ]
+    scale = (
+        "tiny population (--quick)"
+        if quick
+        else "the paper's GA: population 400, up to 300 generations, tolerance 1e-5"
+    )
     typer.echo(f"\n3/4  All 23 dimensions free, both sides ({scale})")
-    reports.append(_optimize(out / "all_free_bilateral", seed=seed, engine=engine, quick=quick, population=400, generations=300, tolerance=1e-5,
-                             algorithm="ga"))  # fmt: skip
-    typer.echo("\n4/4  One robot for both sides, docked once per side, that fits the patient and meets every default requirement"
-               f" at both dockings (arcube design, robot and dockings free, seeds {seed}-{seed + 2}"
-               + (", tiny budget (--quick): expect it to fall short)" if quick else ")"))
+    reports.append(
+        _optimize(
+            out / "all_free_bilateral",
+            seed=seed,
+            engine=engine,
+            quick=quick,
+            population=400,
+            generations=300,
+            tolerance=1e-5,
+            algorithm="ga",
+        )
+    )
+    typer.echo(
+        "\n4/4  One robot for both sides, docked once per side, that fits the patient and meets every default requirement"
+        f" at both dockings (arcube design, robot and dockings free, seeds {seed}-{seed + 2}"
+        + (", tiny budget (--quick): expect it to fall short)" if quick else ")")
+    )
     reports.append(_design(out / "one_robot", seed=seed, engine=engine, quick=quick))
     typer.echo(f"\ndone in {time.perf_counter() - started:.0f} s (engine {engine}). Reports:")
     for path in reports:
         typer.echo(f"  {path}")
     typer.echo("Run folders hold config.toml, history.csv, best_design.json and summary.json; rerun a design with")
-    typer.echo(f"  arcube evaluate {DESIGN.name} {out / 'all_free_bilateral' / 'best_design.json'} {TRAJECTORIES.name} reference")
-    typer.echo("The paper's GA lands in a seed-dependent basin; arcube optimize's default (mscmaes, multi-start CMA-ES) goes")
-    typer.echo("further at the same budget, and 'arcube study --seeds 1-5' shows the spread over seeds (docs: guide/optimize.md, 'Which optimizer').")
+    typer.echo(
+        f"  arcube evaluate {DESIGN.name} {out / 'all_free_bilateral' / 'best_design.json'} {TRAJECTORIES.name} reference"
+    )
+    typer.echo(
+        "The paper's GA lands in a seed-dependent basin; arcube optimize's default (mscmaes, multi-start CMA-ES) goes"
+    )
+    typer.echo(
+        "further at the same budget, and 'arcube study --seeds 1-5' shows the spread over seeds (docs: guide/optimize.md, 'Which optimizer')."
+    )
     return reports
 
 
 FLAGS = [
     with_help(OUT, "Folder for the demo's run folders (new or empty); default ./arcube-demo[-N]."),
-    with_help(SEED, "Random seed of both optimizations. [default: 1]"), ENGINE,
+    with_help(SEED, "Random seed of both optimizations. [default: 1]"),
+    ENGINE,
     option("--quick", "Tiny populations (a smoke run of the pipeline, seconds).", bool),
-]  # fmt: skip
+]
 
 
 def demo(given: Given) -> None:
     """Evaluate the paper's design, optimize it, and write run folders with HTML reports."""
     out = given.get("out")
-    run_demo(out if out is not None else _fresh_folder(Path("arcube-demo")), seed=given.get("seed", 1), engine=given.get("engine", "auto"),
-             quick=bool(given.get("quick")))  # fmt: skip
+    run_demo(
+        out if out is not None else _fresh_folder(Path("arcube-demo")),
+        seed=given.get("seed", 1),
+        engine=given.get("engine", "auto"),
+        quick=bool(given.get("quick")),
+    )
 
 
 def register(app: typer.Typer) -> None:

@@ -23,8 +23,29 @@ from arcube.errors import InputError
 
 __all__ = ["COHORT", "DROPS", "MAXIMA", "MINIMA", "missed_line", "print_design", "register", "run_flags"]
 
-_RUN_FIELDS = ("anatomy", "anatomy_frame", "segments", "envelope", "table_z", "dockings", "aggregate", "objectives", "standoff", "points", "side", "levels",
-               "ids", "setups", "population", "generations", "tolerance", "algorithm", "engine", "tolerance_class", "tol")  # fmt: skip
+_RUN_FIELDS = (
+    "anatomy",
+    "anatomy_frame",
+    "segments",
+    "envelope",
+    "table_z",
+    "dockings",
+    "aggregate",
+    "objectives",
+    "standoff",
+    "points",
+    "side",
+    "levels",
+    "ids",
+    "setups",
+    "population",
+    "generations",
+    "tolerance",
+    "algorithm",
+    "engine",
+    "tolerance_class",
+    "tol",
+)
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
@@ -33,29 +54,55 @@ _HELPS = {
     "side": "Keep trajectories of one side: R or L (the robot is docked once per side, as in the paper).",
     "setups": "1, or 2: one placement m per side, the mounting shared (before model §19; dockings gives each docking its own). [default: 1]",
     "dockings": "One robot, docked anew per patient and side (model §19): per-side (each patient's R trajectories one docking, its L ones "
-                "another) or per-patient. [default: per-side]",
+    "another) or per-patient. [default: per-side]",
     "aggregate": "What the robot minimizes over its dockings: max (the worst docking's eta_G) or mean. [default: max]",
     "generations": "Generations (the budget is population x generations evaluations per seed). [default: 100]",
     "tolerance": "ftol (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
     "algorithm": "The optimizer. [default: mscmaes]",
     "engine": "Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference). [default: auto]",
     "tolerance_class": "ISO 2768-1 class (f, m, c, v) of the robot as built: the accuracy budget reported (accuracy/) and the "
-                       "lateral_error_wc / lateral_error_rms requirements (model §20). [default: m]",
+    "lateral_error_wc / lateral_error_rms requirements (model §20). [default: m]",
 }
-MINIMA = option("--min", "Change a lower limit: clearance=5, self_clearance=2 (mm).", key="minima", multiple=True, params=("requirements.min",))
-MAXIMA = option("--max", "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
-                "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm), breach_probability (0-1, model §22: checked on the robot chosen); "
-                "on the program (none by default): torque_peak (N m), power_peak (W).", key="maxima", multiple=True, params=("requirements.max",))  # fmt: skip
-DROPS: list[Flag] = [option(f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}")
-                     for name in DEFAULTS]  # fmt: skip
+MINIMA = option(
+    "--min",
+    "Change a lower limit: clearance=5, self_clearance=2 (mm).",
+    key="minima",
+    multiple=True,
+    params=("requirements.min",),
+)
+MAXIMA = option(
+    "--max",
+    "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
+    "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm), breach_probability (0-1, model §22: checked on the robot chosen); "
+    "on the program (none by default): torque_peak (N m), power_peak (W).",
+    key="maxima",
+    multiple=True,
+    params=("requirements.max",),
+)
+DROPS: list[Flag] = [
+    option(
+        f"--no-{name.replace('_', '-')}", f"Drop the {name.replace('_', '-')} requirement.", bool, key=f"drop.{name}"
+    )
+    for name in DEFAULTS
+]
 """``--no-<requirement>`` for each default requirement."""
 _OBJECTIVE = {"objectives": "--objective"}
-COHORT = option("--cohort", "A cohort file (TOML): [[patient]] tables with name, plan, anatomy, anatomy_frame (and segments, envelope, "
-                            "table_z), paths relative to the file; one robot for all of them (model §19).", Path, params=("cohort",))  # fmt: skip
+COHORT = option(
+    "--cohort",
+    "A cohort file (TOML): [[patient]] tables with name, plan, anatomy, anatomy_frame (and segments, envelope, "
+    "table_z), paths relative to the file; one robot for all of them (model §19).",
+    Path,
+    params=("cohort",),
+)
 
-VALIDATE = option("--validate", "A held-out cohort file (as --cohort; no patient named as a training one): the robot chosen is docked on "
-                                "it as arcube dock does, and the job reports the training and held-out coverage side by side "
-                                "(validation/, coverage.html).", Path, params=("validate",))  # fmt: skip
+VALIDATE = option(
+    "--validate",
+    "A held-out cohort file (as --cohort; no patient named as a training one): the robot chosen is docked on "
+    "it as arcube dock does, and the job reports the training and held-out coverage side by side "
+    "(validation/, coverage.html).",
+    Path,
+    params=("validate",),
+)
 
 
 def run_flags(fields: tuple[str, ...] = _RUN_FIELDS) -> list[Flag]:
@@ -76,30 +123,46 @@ def print_design(result: Any) -> None:
     typer.echo(f"{'requirement':<22} {'limit':>9} {'value':>10} {'margin':>10}  {'':4}  {'docking':<16} where")
     for r in result.rows:
         sign = ">=" if r["kind"] == "min" else "<="
-        typer.echo(f"{r['requirement']:<22} {sign}{r['limit']:>7.4g} {_num(r['value']):>10} {_num(r['margin']):>10}  "
-                   f"{'ok' if r['passed'] else 'FAIL':4}  {r.get('docking') or '':<16} {requirement_where(r)}".rstrip())  # fmt: skip
+        typer.echo(
+            f"{r['requirement']:<22} {sign}{r['limit']:>7.4g} {_num(r['value']):>10} {_num(r['margin']):>10}  "
+            f"{'ok' if r['passed'] else 'FAIL':4}  {r.get('docking') or '':<16} {requirement_where(r)}".rstrip()
+        )
     s = result.summary
     dockings = s.get("dockings") or []
     if len(dockings) > 1:
-        typer.echo(f"\n{'docking':<16} {'met':<4} {'clearance':>9} {'self':>6} {'envelope':>8} {'lateral':>8} {'holding':>8}  m (mm); mount (deg)")
+        typer.echo(
+            f"\n{'docking':<16} {'met':<4} {'clearance':>9} {'self':>6} {'envelope':>8} {'lateral':>8} {'holding':>8}  m (mm); mount (deg)"
+        )
         for d in dockings:
-            typer.echo(f"{d['label']:<16} {'yes' if d['meets_requirements'] else 'NO':<4} {_num(d['clearance_mm']):>9} {_num(d['self_clearance_mm']):>6} "
-                       f"{_num(d['envelope_clearance_mm']):>8} {_num(d['lateral_error_mm']):>8} {_num(d['holding_torque_Nm']):>8}  "
-                       f"{d['m_x']:.1f}, {d['m_y']:.1f}, {d['m_z']:.1f}; {d['mount_rx']:.1f}, {d['mount_ry']:.1f}, {d['mount_rz']:.1f}")  # fmt: skip
-    head = "meets every requirement" + (f" at all {len(dockings)} dockings" if len(dockings) > 1 else "") if result.met else "does NOT meet every requirement"
+            typer.echo(
+                f"{d['label']:<16} {'yes' if d['meets_requirements'] else 'NO':<4} {_num(d['clearance_mm']):>9} {_num(d['self_clearance_mm']):>6} "
+                f"{_num(d['envelope_clearance_mm']):>8} {_num(d['lateral_error_mm']):>8} {_num(d['holding_torque_Nm']):>8}  "
+                f"{d['m_x']:.1f}, {d['m_y']:.1f}, {d['m_z']:.1f}; {d['mount_rx']:.1f}, {d['mount_ry']:.1f}, {d['mount_rz']:.1f}"
+            )
+    head = (
+        "meets every requirement" + (f" at all {len(dockings)} dockings" if len(dockings) > 1 else "")
+        if result.met
+        else "does NOT meet every requirement"
+    )
     met = len(result.rows) - len(result.missed)
     robot = s.get("robot") or {}
     c_z = f", c_z {robot['c_z']:.1f} mm" if robot.get("c_z") is not None else ""
-    typer.echo(f"design {head} ({met} of {len(result.rows)} requirements met): seed {s['seed']}, mode {s['mode']}, "
-               f"eta_G {_num(s.get('eta_G'))}{c_z}; results in {result.path}")  # fmt: skip
+    typer.echo(
+        f"design {head} ({met} of {len(result.rows)} requirements met): seed {s['seed']}, mode {s['mode']}, "
+        f"eta_G {_num(s.get('eta_G'))}{c_z}; results in {result.path}"
+    )
     acc = s.get("accuracy") or {}
     if "lateral_error_p95_mm" in acc:
         top = ", ".join(f"{t['source']} {t['share']:.0%}" for t in acc.get("tighten_first", []))
-        folder = result.path / "dockings" / acc["docking"] if acc.get("docking") else result.path  # several dockings: the worst one's
+        folder = (
+            result.path / "dockings" / acc["docking"] if acc.get("docking") else result.path
+        )  # several dockings: the worst one's
         at = f" at docking {acc['docking']}" if acc.get("docking") else ""
-        typer.echo(f"  as built to ISO 2768-{acc['tolerance_class']}{at}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
-                   f"{acc['robots']} robots, worst case {_num(acc['lateral_error_wc_mm'])} mm (a perfect robot: "
-                   f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {folder / 'accuracy'}")  # fmt: skip
+        typer.echo(
+            f"  as built to ISO 2768-{acc['tolerance_class']}{at}: lateral error p95 {_num(acc['lateral_error_p95_mm'])} mm over "
+            f"{acc['robots']} robots, worst case {_num(acc['lateral_error_wc_mm'])} mm (a perfect robot: "
+            f"{_num(acc.get('perfect_robot_lateral_error_mm'))} mm); tighten first: {top}; see {folder / 'accuracy'}"
+        )
     elif acc:
         typer.echo(f"  accuracy as built: not computed ({acc.get('not_computed')})")
     for r in result.missed:
@@ -113,11 +176,16 @@ def _print_coverage(s: dict[str, Any]) -> None:
         c = s.get(key)
         if c is None or (key == "training" and c["sides"] < 2):
             continue
-        typer.echo(f"  {name} coverage: {c['met']} of {c['sides']} sides ({100 * c['coverage']:.0f} %, 95 % Wilson interval "
-                   f"{100 * c['coverage_low']:.0f}-{100 * c['coverage_high']:.0f} %)" + ("; see validation/ and coverage.html" if key == "held_out" else ""))  # fmt: skip
+        typer.echo(
+            f"  {name} coverage: {c['met']} of {c['sides']} sides ({100 * c['coverage']:.0f} %, 95 % Wilson interval "
+            f"{100 * c['coverage_low']:.0f}-{100 * c['coverage_high']:.0f} %)"
+            + ("; see validation/ and coverage.html" if key == "held_out" else "")
+        )
     for d in s.get("dockings", []):
         if not d["meets_requirements"] and len(s.get("dockings", [])) > 1:
-            typer.echo(f"  not served: {d['label']} (binds: {d.get('binding')} {_num(d.get('binding_margin'))} {d.get('binding_unit') or ''})".rstrip())
+            typer.echo(
+                f"  not served: {d['label']} (binds: {d.get('binding')} {_num(d.get('binding_margin'))} {d.get('binding_unit') or ''})".rstrip()
+            )
 
 
 def missed_line(r: dict[str, Any]) -> str:
@@ -133,7 +201,10 @@ def missed_line(r: dict[str, Any]) -> str:
     if name in ("reach", "rho_max", "transmission", "kappa_max", "single_assembly_mode", "z_dyad"):
         return f"missed: {name}{at} ({_num(value)} {r['unit']}); a larger budget (--generations) or more seeds (--seeds) may find a design"
     need = f"<= {value:.4g}" if r["kind"] == "max" else f">= {value:.4g}"  # the limit the design found would meet
-    return f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}" + _relax(r)
+    return (
+        f"missed: {name}{at} by {_num(-r['margin'])} {r['unit']}; the best design found meets a limit {need}"
+        + _relax(r)
+    )
 
 
 def _relax(row: dict[str, Any]) -> str:
@@ -180,14 +251,33 @@ def design(given: Given) -> None:
         raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")
     from arcube.design_job.cohort import docking_count
 
-    n = docking_count(plans if isinstance(plans, (list, tuple)) or plans is None else [plans], cohort, run.get("side"),
-                      str(run.get("dockings", "per-side")) == "per-patient")  # fmt: skip
-    with DesignProgress(checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet"), dockings=n) as bar:
-        bar.watch(Path(given.get("out")) / STUDY)  # seeds in other processes (--workers, --dask) report through their history
-        result = design_api(plans, given.get("out"), cohort=cohort, seeds=seeds, minima=given.get("minima"),
-                            maxima=given.get("maxima"), drop=drop, on_seed=bar.seed, progress=bar.generation,
-                            on_stage=bar.stage, settings=settings, validate=given.get("validate"),
-                            **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
+    n = docking_count(
+        plans if isinstance(plans, (list, tuple)) or plans is None else [plans],
+        cohort,
+        run.get("side"),
+        str(run.get("dockings", "per-side")) == "per-patient",
+    )
+    with DesignProgress(
+        checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet"), dockings=n
+    ) as bar:
+        bar.watch(
+            Path(given.get("out")) / STUDY
+        )  # seeds in other processes (--workers, --dask) report through their history
+        result = design_api(
+            plans,
+            given.get("out"),
+            cohort=cohort,
+            seeds=seeds,
+            minima=given.get("minima"),
+            maxima=given.get("maxima"),
+            drop=drop,
+            on_seed=bar.seed,
+            progress=bar.generation,
+            on_stage=bar.stage,
+            settings=settings,
+            validate=given.get("validate"),
+            **{k: given.get(k) for k in ("workers", "dask") if k in given},
+        )
     print_design(result)
     if not result.met:
         raise typer.Exit(3)
@@ -198,7 +288,25 @@ def register(app: typer.Typer) -> None:
     out = with_help(OUT, "Design folder (created; must be new or empty).", required=True)
     seeds = with_help(SEEDS, "Seeds, one optimization each: 1-3, 1,3,7. [default: 1-3]")
     masses = [*request_flags("masses"), *[f for f in request_flags("loads") if f.key == "options.loads.encoder_deg"]]
-    plans = with_help(PLANS, "Trajectory sets (CSV, .mrk.json, folder or 'reference'): one patient each, each with its default anatomy "
-                             "(--anatomy default); or --cohort.", required=False)  # fmt: skip
-    flags = [plans, COHORT, VALIDATE, out, seeds, MINIMA, MAXIMA, *DROPS, *masses, *run_flags(), SEED_WORKERS, SEED_DASK, QUIET]
+    plans = with_help(
+        PLANS,
+        "Trajectory sets (CSV, .mrk.json, folder or 'reference'): one patient each, each with its default anatomy "
+        "(--anatomy default); or --cohort.",
+        required=False,
+    )
+    flags = [
+        plans,
+        COHORT,
+        VALIDATE,
+        out,
+        seeds,
+        MINIMA,
+        MAXIMA,
+        *DROPS,
+        *masses,
+        *run_flags(),
+        SEED_WORKERS,
+        SEED_DASK,
+        QUIET,
+    ]
     command(app, "design", flags, design, help=design.__doc__ or "")

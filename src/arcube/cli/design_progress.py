@@ -44,7 +44,11 @@ def _best(row: dict[str, Any]) -> str:
     if isinstance(best, (int, float)) and math.isfinite(best):
         return f"best eta_G {best:.4g} (feasible {row.get('feasible_fraction', 0.0):.0%})"
     viol = row.get("best_violation", math.nan)
-    return f"none feasible yet, smallest violation {viol:.3g}" if isinstance(viol, (int, float)) and math.isfinite(viol) else "none feasible yet"
+    return (
+        f"none feasible yet, smallest violation {viol:.3g}"
+        if isinstance(viol, (int, float)) and math.isfinite(viol)
+        else "none feasible yet"
+    )
 
 
 def last_row(history: Path) -> dict[str, Any] | None:
@@ -77,8 +81,15 @@ class DesignProgress:
     :func:`arcube.optimization.docked.row_work`); ``enabled``: False for ``--quiet``; ``stream``: stderr (tests give their own).
     """
 
-    def __init__(self, seeds: list[int], budget: int, enabled: bool = True, stream: TextIO | None = None,
-                 clock: Any = time.monotonic, dockings: int = 1) -> None:  # fmt: skip
+    def __init__(
+        self,
+        seeds: list[int],
+        budget: int,
+        enabled: bool = True,
+        stream: TextIO | None = None,
+        clock: Any = time.monotonic,
+        dockings: int = 1,
+    ) -> None:
         self.seeds, self.budget, self.enabled = list(seeds), max(int(budget), 1), enabled
         self.dockings = max(int(dockings), 1)
         self.stream = sys.stderr if stream is None else stream
@@ -97,8 +108,13 @@ class DesignProgress:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-            self.bar = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[status]}"), TimeElapsedColumn(),
-                                console=Console(file=self.stream))  # fmt: skip
+            self.bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                TextColumn("{task.fields[status]}"),
+                TimeElapsedColumn(),
+                console=Console(file=self.stream),
+            )
             self.task = self.bar.add_task("design", total=len(self.seeds) * self.budget, status="starting")
 
     def __enter__(self) -> DesignProgress:
@@ -134,7 +150,11 @@ class DesignProgress:
         while not self.stop.wait(1.0 if self.bar is not None else LOG_EVERY_S):
             if self.clock() - self.last_generation < 2 * LOG_EVERY_S:
                 continue
-            rows = {s: r for s in self.seeds if s not in self.done and (r := last_row(seed_dir(study, s) / "history.csv")) is not None}
+            rows = {
+                s: r
+                for s in self.seeds
+                if s not in self.done and (r := last_row(seed_dir(study, s) / "history.csv")) is not None
+            }
             if rows:
                 self.running(rows)
 
@@ -153,13 +173,18 @@ class DesignProgress:
             self.seen.setdefault(seed, e)
             w = self.work(e)
             worked, ran = worked + w, ran + w - self.work(self.seen[seed])
-            parts.append(f"seed {seed} generation {int(row.get('generation', 0))}, {int(e):,} evaluations, {_best(row)}")
+            parts.append(
+                f"seed {seed} generation {int(row.get('generation', 0))}, {int(e):,} evaluations, {_best(row)}"
+            )
         done = sum(min(float(v.get("evaluations", self.budget)), float(self.budget)) for v in self.done.values())
         took = self.clock() - self.started
         left_work = (len(self.seeds) - len(self.done)) * self.work(self.budget) - worked  # docking evaluations left
         left = left_work / (ran / took) if ran > 0 and took > 0 else math.nan
-        text = (f"{len(rows)} seeds running ({len(self.done)} of {len(self.seeds)} done): " + "; ".join(parts)
-                + (f"; about {duration(left)} left" if math.isfinite(left) else ""))  # fmt: skip
+        text = (
+            f"{len(rows)} seeds running ({len(self.done)} of {len(self.seeds)} done): "
+            + "; ".join(parts)
+            + (f"; about {duration(left)} left" if math.isfinite(left) else "")
+        )
         if self.bar is not None:
             self.bar.update(self.task, completed=done + sum(evals.values()))
         self._say(text, force=True)
@@ -197,8 +222,10 @@ class DesignProgress:
         rate = ran / took if took > 0 and ran > 0 else math.nan  # docking evaluations per second
         full = self.work(self.budget)
         left = (full - self.work(evals) + (len(self.seeds) - k - 1) * full) / rate if rate == rate else math.nan
-        text = (f"seed {seed} ({k + 1} of {len(self.seeds)}): generation {row.get('generation')}, {evals:,} of {self.budget:,} evaluations, "
-                f"{_best(row)}" + (f"; about {duration(left)} left" if math.isfinite(left) else ""))  # fmt: skip
+        text = (
+            f"seed {seed} ({k + 1} of {len(self.seeds)}): generation {row.get('generation')}, {evals:,} of {self.budget:,} evaluations, "
+            f"{_best(row)}" + (f"; about {duration(left)} left" if math.isfinite(left) else "")
+        )
         if self.bar is not None:
             self.bar.update(self.task, completed=len(self.done) * self.budget + evals)
         self._say(text)
@@ -210,8 +237,11 @@ class DesignProgress:
         verdict = f"eta_G {eta:.4g}" if isinstance(eta, (int, float)) and math.isfinite(eta) else "no feasible design"
         if self.bar is not None:
             self.bar.update(self.task, completed=len(self.done) * self.budget)
-        self._say(f"seed {seed} done ({len(self.done)} of {len(self.seeds)}): {verdict}, {summary.get('evaluations', 0):,} evaluations "
-                  f"in {duration(float(summary.get('wall_s', math.nan)))}", force=True)  # fmt: skip
+        self._say(
+            f"seed {seed} done ({len(self.done)} of {len(self.seeds)}): {verdict}, {summary.get('evaluations', 0):,} evaluations "
+            f"in {duration(float(summary.get('wall_s', math.nan)))}",
+            force=True,
+        )
 
     def stage(self, text: str) -> None:
         """A named stage after the search ("checking seed 2 with the NumPy reference", ...)."""

@@ -14,7 +14,9 @@ from arcube.cli.projection import Given, command, option
 __all__ = ["register"]
 
 JSON = option("--json", "Print one JSON object (per-point results and summary).", bool, key="as_json")
-REPORT = option("--report", "Also write a self-contained HTML report (plots, 3D mechanism) here.", Path, params=("report",))
+REPORT = option(
+    "--report", "Also write a self-contained HTML report (plots, 3D mechanism) here.", Path, params=("report",)
+)
 FLAGS = [*PLAN, *ENVELOPE, JSON, REPORT, *request_flags("clearances", "body", "loads", "masses")]
 
 
@@ -26,13 +28,20 @@ def evaluate(given: Given) -> None:
     from arcube.report.text import print_evaluation
 
     options = options_of(given)
-    if options.mass_model_on(True if masses_given(given) else None):  # the holding torque, unless the links are too thin for the default wall and no mass flag asks for it
+    if options.mass_model_on(
+        True if masses_given(given) else None
+    ):  # the holding torque, unless the links are too thin for the default wall and no mass flag asks for it
         options = options.replace(outputs=options.outputs.replace(holding_torque=True))
     report = given.get("report")
     if report is not None:
         report = check_report_path(report, REPORT.name)  # before the work: a folder that cannot be written, a FIFO
-    result = evaluate_api(given.get("design", "paper"), one_plan(given), options=options, **{k: given.get(k) for k in ("points", "mode", "engine") if k in given},
-                          **plan_request(given))  # fmt: skip
+    result = evaluate_api(
+        given.get("design", "paper"),
+        one_plan(given),
+        options=options,
+        **{k: given.get(k) for k in ("points", "mode", "engine") if k in given},
+        **plan_request(given),
+    )
     if report is not None:
         write_report(result, report)
     if given.get("as_json"):

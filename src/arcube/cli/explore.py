@@ -8,22 +8,63 @@ from pathlib import Path
 
 import typer
 
-from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, IDS, LEVELS, MODE, POINTS, SEGMENTS, SIDE, TRAJECTORIES, with_help, one_plan, options_of, plan_request, request_flags
+from arcube.cli.common import (
+    ANATOMY,
+    ANATOMY_FRAME,
+    DESIGN,
+    ENVELOPE,
+    IDS,
+    LEVELS,
+    MODE,
+    POINTS,
+    SEGMENTS,
+    SIDE,
+    TRAJECTORIES,
+    with_help,
+    one_plan,
+    options_of,
+    plan_request,
+    request_flags,
+)
 from arcube.cli.projection import Given, command, option
 
 __all__ = ["register"]
 
 FLAGS = [
-    DESIGN, TRAJECTORIES, ANATOMY, ANATOMY_FRAME, SEGMENTS, *[with_help(f, f.help.replace("[default: none]", "[default: default, as arcube design]")) for f in ENVELOPE],
+    DESIGN,
+    TRAJECTORIES,
+    ANATOMY,
+    ANATOMY_FRAME,
+    SEGMENTS,
+    *[with_help(f, f.help.replace("[default: none]", "[default: default, as arcube design]")) for f in ENVELOPE],
     option("--port", "Port of the local web app. [default: 8080]", int, params=("port",)),
     option("--host", "Address to listen on (0.0.0.0: every interface). [default: 127.0.0.1]", params=("host",)),
-    option("--html", "Write a standalone static scene (HTML, opens offline) here instead of serving.", Path, params=("html",)),
-    option("--point", "Point along the lines shown first (per trajectory: approach points, then drill points).", int, params=("point",)),
-    option("--save", "Default file of the app's 'Save design JSON' button. [default: design_explored.json]", Path, key="save_path"),
-    POINTS, MODE,
+    option(
+        "--html",
+        "Write a standalone static scene (HTML, opens offline) here instead of serving.",
+        Path,
+        params=("html",),
+    ),
+    option(
+        "--point",
+        "Point along the lines shown first (per trajectory: approach points, then drill points).",
+        int,
+        params=("point",),
+    ),
+    option(
+        "--save",
+        "Default file of the app's 'Save design JSON' button. [default: design_explored.json]",
+        Path,
+        key="save_path",
+    ),
+    POINTS,
+    MODE,
     option("--no-guards", "Start without the guards of 'arcube design' (the paper's model).", bool),
-    SIDE, LEVELS, IDS, *request_flags("body"),
-]  # fmt: skip
+    SIDE,
+    LEVELS,
+    IDS,
+    *request_flags("body"),
+]
 
 
 def explore(given: Given) -> None:

@@ -9,8 +9,26 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
-    ANATOMY, ANATOMY_FRAME, DESIGN, ENVELOPE, FORCE, check_replace, IDS, LEVELS, MODE, OUT, POINTS, SEGMENTS, SIDE, TRAJECTORIES, masses_given, one_plan, options_of, request_flags, with_help,
-)  # fmt: skip
+    ANATOMY,
+    ANATOMY_FRAME,
+    DESIGN,
+    ENVELOPE,
+    FORCE,
+    check_replace,
+    IDS,
+    LEVELS,
+    MODE,
+    OUT,
+    POINTS,
+    SEGMENTS,
+    SIDE,
+    TRAJECTORIES,
+    masses_given,
+    one_plan,
+    options_of,
+    request_flags,
+    with_help,
+)
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
 
@@ -19,13 +37,34 @@ __all__ = ["register"]
 FORMATS = ("mjcf",)
 MODEL_OUT = with_help(OUT, "Output file, e.g. robot.xml (written atomically).", required=True)
 FORMAT = option("--format", "Model format: mjcf (MuJoCo XML). [default: mjcf]", key="fmt")
-AT = option("--at", "Task point to assemble at, ID:K (trajectory id, sample index k); default the first point the design reaches.",
-            params=("at",))  # fmt: skip
-PROGRAM = option("--program", "Program folder (arcube program): assemble at its first row and write its replay beside --out "
-                 "(robot.xml -> robot.replay.csv); design: --design, else the folder's.", Path, params=("program",))  # fmt: skip
+AT = option(
+    "--at",
+    "Task point to assemble at, ID:K (trajectory id, sample index k); default the first point the design reaches.",
+    params=("at",),
+)
+PROGRAM = option(
+    "--program",
+    "Program folder (arcube program): assemble at its first row and write its replay beside --out "
+    "(robot.xml -> robot.replay.csv); design: --design, else the folder's.",
+    Path,
+    params=("program",),
+)
 PLAN_FLAGS = [TRAJECTORIES, AT, POINTS, MODE, SIDE, LEVELS, IDS]
 """Flags that pick the task point; a program fixes its own (its first row, its working mode)."""
-FLAGS = [MODEL_OUT, FORCE, DESIGN, FORMAT, *PLAN_FLAGS, *request_flags("c_z"), ANATOMY, ANATOMY_FRAME, SEGMENTS, *ENVELOPE, *request_flags("body", "masses"), PROGRAM]
+FLAGS = [
+    MODEL_OUT,
+    FORCE,
+    DESIGN,
+    FORMAT,
+    *PLAN_FLAGS,
+    *request_flags("c_z"),
+    ANATOMY,
+    ANATOMY_FRAME,
+    SEGMENTS,
+    *ENVELOPE,
+    *request_flags("body", "masses"),
+    PROGRAM,
+]
 
 
 def export(given: Given) -> None:
@@ -46,16 +85,24 @@ def export(given: Given) -> None:
     check_replace(given)
     options = options_of(given)
     asked = True if masses_given(given) else None  # a mass flag asks for the mass model, even at its default values
-    if not options.mass_model_on(asked):  # links too thin for the default wall and no mass flag: a model without the masses
-        sys.stderr.write(f"note: {request_flags('body')[0].name} {options.body.link_radius:g} mm is not above the default "
-                         f"{options.masses.wall_mm:g} mm wall: exported without the masses of model §18.1 "
-                         f"(give {request_flags('masses')[0].name} to have them)\n")  # fmt: skip
+    if not options.mass_model_on(
+        asked
+    ):  # links too thin for the default wall and no mass flag: a model without the masses
+        sys.stderr.write(
+            f"note: {request_flags('body')[0].name} {options.body.link_radius:g} mm is not above the default "
+            f"{options.masses.wall_mm:g} mm wall: exported without the masses of model §18.1 "
+            f"(give {request_flags('masses')[0].name} to have them)\n"
+        )
     c_z = options.guards.c_z
     if "program" in given:
         _export_program(given, out, options, c_z, asked)
         return
     plan = one_plan(given)
-    anat = resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), plan, segments=given.get("segments")) if given.get("anatomy") else None
+    anat = (
+        resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), plan, segments=given.get("segments"))
+        if given.get("anatomy")
+        else None
+    )
     kw = {k: given.get(k) for k in ("at", "points", "mode") if k in given}
     from arcube.io.load import load_plan
 
@@ -63,10 +110,21 @@ def export(given: Given) -> None:
     ts = load_plan(full, side=given.get("side"), levels=given.get("levels"), ids=given.get("ids"))
     from arcube.evaluation.envelope import resolve_envelope
 
-    env = resolve_envelope(given.get("envelope"), full, anat, given.get("table_z"), given.get("anatomy_frame", "LPS"))  # drawn (model §19.5)
+    env = resolve_envelope(
+        given.get("envelope"), full, anat, given.get("table_z"), given.get("anatomy_frame", "LPS")
+    )  # drawn (model §19.5)
     from arcube.model.robot import design_at_side
 
-    text = export_mjcf(design_at_side(given.get("design", "paper"), given.get("side")), ts, c_z=c_z, options=options, anatomy=anat, masses=asked, envelope=env, **kw)
+    text = export_mjcf(
+        design_at_side(given.get("design", "paper"), given.get("side")),
+        ts,
+        c_z=c_z,
+        options=options,
+        anatomy=anat,
+        masses=asked,
+        envelope=env,
+        **kw,
+    )
     try:
         atomic_write_text(out, text)
     except OSError as exc:
@@ -82,10 +140,20 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
 
     clash = [f.name for f in PLAN_FLAGS if f.key in given]
     if clash:
-        raise InputError(f"{', '.join(clash)}: not with {PROGRAM.name} (the model is assembled at the program's first row, in its working mode)")
+        raise InputError(
+            f"{', '.join(clash)}: not with {PROGRAM.name} (the model is assembled at the program's first row, in its working mode)"
+        )
     rows = read_program(given.get("program"))
-    anat = (resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), rows.summary.get("plan"), segments=given.get("segments"))
-            if given.get("anatomy") else None)  # fmt: skip
+    anat = (
+        resolve_anatomy(
+            given.get("anatomy"),
+            given.get("anatomy_frame", "LPS"),
+            rows.summary.get("plan"),
+            segments=given.get("segments"),
+        )
+        if given.get("anatomy")
+        else None
+    )
     check_replace(given, replay_path(out))
     try:
         check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
@@ -95,7 +163,9 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
     try:
         xml_path, csv_path = write_program_export(result, out)
     except OSError as exc:
-        raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename or out} ({exc.strerror or exc}); nothing was written") from None
+        raise InputError(
+            f"{MODEL_OUT.name} {out}: cannot write {exc.filename or out} ({exc.strerror or exc}); nothing was written"
+        ) from None
     sys.stdout.write(f"{xml_path}\n{csv_path}\n")
 
 

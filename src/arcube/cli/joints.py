@@ -7,7 +7,19 @@ from pathlib import Path
 
 import typer
 
-from arcube.cli.common import ENGINE, FORCE, OUT, PLAN, check_replace, masses_given, one_plan, options_of, plan_request, request_flags, with_help
+from arcube.cli.common import (
+    ENGINE,
+    FORCE,
+    OUT,
+    PLAN,
+    check_replace,
+    masses_given,
+    one_plan,
+    options_of,
+    plan_request,
+    request_flags,
+    with_help,
+)
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
 
@@ -15,7 +27,13 @@ __all__ = ["register"]
 
 CSV_OUT = with_help(OUT, "Output CSV file (written atomically).", required=True)
 SPEED = option("--speed", "Drilling speed along each trajectory, mm/s. [default: 1]", float, params=("speed",))
-FLAGS = [CSV_OUT, FORCE, SPEED, *[f for f in PLAN if f is not ENGINE], *request_flags("clearances", "body", "loads", "masses")]
+FLAGS = [
+    CSV_OUT,
+    FORCE,
+    SPEED,
+    *[f for f in PLAN if f is not ENGINE],
+    *request_flags("clearances", "body", "loads", "masses"),
+]
 
 
 def joints(given: Given) -> None:
@@ -31,8 +49,13 @@ def joints(given: Given) -> None:
     if masses_given(given):  # the columns of model §18.2 (arcube.export.joints.MASS_COLUMNS)
         options = options.check_masses().replace(outputs=options.outputs.replace(holding_torque=True))
     keys = ("speed", "points", "mode")
-    jt = joints_api(given.get("design", "paper"), one_plan(given), options=options, **{k: given.get(k) for k in keys if k in given},
-                    **plan_request(given))  # fmt: skip
+    jt = joints_api(
+        given.get("design", "paper"),
+        one_plan(given),
+        options=options,
+        **{k: given.get(k) for k in keys if k in given},
+        **plan_request(given),
+    )
     try:
         path = jt.write_csv(out)
     except OSError as exc:
@@ -40,7 +63,9 @@ def joints(given: Given) -> None:
     n_bad = int((~jt.reachable).sum())
     sys.stdout.write(f"{path}\n")
     if n_bad:
-        sys.stderr.write(f"note: {n_bad} of {len(jt.reachable)} points are unreachable (empty cells, reachable=false)\n")
+        sys.stderr.write(
+            f"note: {n_bad} of {len(jt.reachable)} points are unreachable (empty cells, reachable=false)\n"
+        )
 
 
 def register(app: typer.Typer) -> None:

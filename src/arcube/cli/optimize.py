@@ -19,10 +19,14 @@ from arcube.optimization.settings import RunSettings
 
 __all__ = ["PLANS", "RUN_FLAGS", "Progress", "print_summary", "register", "run_settings"]
 
-PLANS = with_help(TRAJECTORIES, "Trajectory sets (CSV, .mrk.json, folder or 'reference'); several make a robust problem over patients.",
-                  required=True)  # fmt: skip
+PLANS = with_help(
+    TRAJECTORIES,
+    "Trajectory sets (CSV, .mrk.json, folder or 'reference'); several make a robust problem over patients.",
+    required=True,
+)
 RUN_FLAGS: list[Flag] = [
-    replace(f, spread=True) if f.dest in ("anatomy", "envelope") else f for f in model_flags(RunSettings, "run", skip=("period", "options"))
+    replace(f, spread=True) if f.dest in ("anatomy", "envelope") else f
+    for f in model_flags(RunSettings, "run", skip=("period", "options"))
 ] + [replace(f, key="run." + f.key) for f in request_flags("guards", "body", "loads", "masses")]
 """The flags of :class:`arcube.RunSettings` (its options groups included), keyed under ``run``."""
 
@@ -41,8 +45,15 @@ class Progress(RichBar):
     def __init__(self, total: int, enabled: bool) -> None:
         from rich.progress import TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-        columns = ("evaluations", TextColumn("best η_G {task.fields[best]}"), TextColumn("feasible {task.fields[feas]}"),
-                   TextColumn("{task.fields[eps]} eval/s"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())  # fmt: skip
+        columns = (
+            "evaluations",
+            TextColumn("best η_G {task.fields[best]}"),
+            TextColumn("feasible {task.fields[feas]}"),
+            TextColumn("{task.fields[eps]} eval/s"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+        )
         super().__init__(enabled, columns, total=total, best="-", feas="-", eps="-")
         self.first_evals: int | None = None
 
@@ -54,9 +65,12 @@ class Progress(RichBar):
         eps = (row["evaluations"] - self.first_evals) / row["session_s"] if row["session_s"] > 0 else 0.0
         best = row["best_eta_G"]
         self.progress.update(
-            self.task, completed=row["evaluations"], best=f"{best:.4f}" if math.isfinite(best) else "none feasible",
-            feas=f"{row['feasible_fraction']:.0%}", eps=f"{eps:,.0f}",
-        )  # fmt: skip
+            self.task,
+            completed=row["evaluations"],
+            best=f"{best:.4f}" if math.isfinite(best) else "none feasible",
+            feas=f"{row['feasible_fraction']:.0%}",
+            eps=f"{eps:,.0f}",
+        )
 
 
 def print_summary(run_dir: Path, summary: dict[str, Any]) -> None:
@@ -64,7 +78,9 @@ def print_summary(run_dir: Path, summary: dict[str, Any]) -> None:
     dex = summary["dexterity_pct"]
     head = "feasible" if summary["feasible"] else "NOT feasible"
     eta_text = f"eta_G {eta:.6g}" if eta is not None else "eta_G inf"
-    typer.echo(f"{head}: {eta_text} (dexterity min/mean/max {dex['min']:.2f}/{dex['mean']:.2f}/{dex['max']:.2f} %), mode {summary['mode']}")
+    typer.echo(
+        f"{head}: {eta_text} (dexterity min/mean/max {dex['min']:.2f}/{dex['mean']:.2f}/{dex['max']:.2f} %), mode {summary['mode']}"
+    )
     typer.echo(
         f"{summary['generations']} generations, {summary['evaluations']} evaluations, {summary['wall_s']:.1f} s "
         f"(evaluation {summary['eval_s']:.1f} s), stopped by {summary['stopped_by']}, seed {summary['seed']}"
@@ -84,8 +100,13 @@ def optimize(given: Given) -> None:
 
     settings = run_settings(given)
     with Progress(settings.population * settings.generations, enabled=not given.get("quiet")) as bar:
-        run = optimize_api(given.get("plan"), settings, out=given.get("out"), progress=bar,
-                           **{k: given.get(k) for k in ("workers", "dask") if k in given})  # fmt: skip
+        run = optimize_api(
+            given.get("plan"),
+            settings,
+            out=given.get("out"),
+            progress=bar,
+            **{k: given.get(k) for k in ("workers", "dask") if k in given},
+        )
     print_summary(run.path, run.summary)
 
 

@@ -12,13 +12,17 @@ from arcube.patients.settings import PatientAnatomyFormat
 __all__ = ["register"]
 
 FLAGS = [
-    with_help(OUT, "A CSV path (*.csv, one patient), or a folder (created) that receives patient_000.csv ... and cohort.toml.", required=True),
+    with_help(
+        OUT,
+        "A CSV path (*.csv, one patient), or a folder (created) that receives patient_000.csv ... and cohort.toml.",
+        required=True,
+    ),
     option("--mean", "The mean patient (all parameters at their means).", bool, params=("mean",)),
     with_help(SEED, "Random seed S; patient k uses S + k."),
     option("--technique", "pedicle, roy-camille, magerl or an. [default: pedicle]", params=("technique",)),
     option("--count", "Number of patients K. [default: 1]", int, params=("count",)),
     *model_flags(PatientAnatomyFormat, "format"),
-]  # fmt: skip
+]
 
 
 def patients(given: Given) -> None:
@@ -26,8 +30,16 @@ def patients(given: Given) -> None:
     from arcube.evaluation.envelope_drawing import write_plan_envelope
 
     fmt = PatientAnatomyFormat().merged(given.tree("format"))
-    for text in write_patients(bool(given.get("mean")), given.get("seed"), given.get("technique", "pedicle"), given.get("count", 1), given.get("out"),
-                               anatomy_format=fmt.anatomy_format, anatomy_spacing_mm=fmt.anatomy_spacing_mm, beside=write_plan_envelope):  # fmt: skip
+    for text in write_patients(
+        bool(given.get("mean")),
+        given.get("seed"),
+        given.get("technique", "pedicle"),
+        given.get("count", 1),
+        given.get("out"),
+        anatomy_format=fmt.anatomy_format,
+        anatomy_spacing_mm=fmt.anatomy_spacing_mm,
+        beside=write_plan_envelope,
+    ):
         typer.echo(text)
 
 

@@ -31,7 +31,19 @@ from pydantic import BaseModel
 
 from arcube.errors import InputError
 
-__all__ = ["Flag", "Given", "REGISTRY", "command", "flag_message", "flag_of", "flag_table", "flag_text", "model_flags", "numbers", "option"]
+__all__ = [
+    "Flag",
+    "Given",
+    "REGISTRY",
+    "command",
+    "flag_message",
+    "flag_of",
+    "flag_table",
+    "flag_text",
+    "model_flags",
+    "numbers",
+    "option",
+]
 
 
 @dataclass(frozen=True)
@@ -77,7 +89,9 @@ def numbers(value: str, flag: str) -> list[float]:
     try:
         return [float(v) for v in str(value).split(",")]
     except ValueError:
-        raise InputError(f"{flag} {value!r}: expected numbers separated by commas, e.g. 0.01 or 0.01,0.01,0.02,0.01,0.01") from None
+        raise InputError(
+            f"{flag} {value!r}: expected numbers separated by commas, e.g. 0.01 or 0.01,0.01,0.02,0.01,0.01"
+        ) from None
 
 
 def _numbers_or_one(value: str, flag: str) -> Any:
@@ -123,8 +137,15 @@ def _kind(annotation: Any) -> tuple[Any, bool, Callable[[Any, str], Any] | None]
     return str, False, None
 
 
-def model_flags(model: type[BaseModel], key: str = "", *, only: Iterable[str] | None = None, skip: Iterable[str] = (),
-                names: dict[str, str] | None = None, helps: dict[str, str] | None = None) -> list[Flag]:  # fmt: skip
+def model_flags(
+    model: type[BaseModel],
+    key: str = "",
+    *,
+    only: Iterable[str] | None = None,
+    skip: Iterable[str] = (),
+    names: dict[str, str] | None = None,
+    helps: dict[str, str] | None = None,
+) -> list[Flag]:
     """The flags of a settings model's fields, in declaration order.
 
     Args:
@@ -148,17 +169,49 @@ def model_flags(model: type[BaseModel], key: str = "", *, only: Iterable[str] | 
         negatable = kind is bool and info.default is True
         if default and not negatable:
             text += f" [default: {default}]"
-        out.append(Flag(flag, f"{key}.{name}" if key else name, text, kind, multiple, (f"{model.__name__}.{name}",), parse,
-                        negatable=negatable))  # fmt: skip
+        out.append(
+            Flag(
+                flag,
+                f"{key}.{name}" if key else name,
+                text,
+                kind,
+                multiple,
+                (f"{model.__name__}.{name}",),
+                parse,
+                negatable=negatable,
+            )
+        )
     return out
 
 
-def option(name: str, help: str, kind: Any = str, *, key: str | None = None, multiple: bool = False, required: bool = False,
-           parse: Callable[[Any, str], Any] | None = None, params: tuple[str, ...] = (), hidden: bool = False,
-           path: bool | None = None, spread: bool = False) -> Flag:  # fmt: skip
+def option(
+    name: str,
+    help: str,
+    kind: Any = str,
+    *,
+    key: str | None = None,
+    multiple: bool = False,
+    required: bool = False,
+    parse: Callable[[Any, str], Any] | None = None,
+    params: tuple[str, ...] = (),
+    hidden: bool = False,
+    path: bool | None = None,
+    spread: bool = False,
+) -> Flag:
     """A flag that is not a settings field (``--out``, ``--json``); ``key`` defaults to its dest."""
-    flag = Flag(name, key or "", help, kind, multiple, params, parse, required, hidden=hidden,
-                path=kind is Path if path is None else path, spread=spread)  # fmt: skip
+    flag = Flag(
+        name,
+        key or "",
+        help,
+        kind,
+        multiple,
+        params,
+        parse,
+        required,
+        hidden=hidden,
+        path=kind is Path if path is None else path,
+        spread=spread,
+    )
     return flag if key else replace(flag, key=flag.dest)
 
 
@@ -193,7 +246,7 @@ class Given:
             if not key.startswith(head):
                 continue
             node = out
-            *parents, leaf = key[len(head):].split(".")
+            *parents, leaf = key[len(head) :].split(".")
             for p in parents:
                 node = node.setdefault(p, {})
             node[leaf] = value
@@ -210,7 +263,7 @@ def flag_text(exc: InputError, flags: Iterable[Flag]) -> InputError:
     if param:
         for f in flags:
             if param in f.params and text.startswith(param):
-                return InputError(f.name + text[len(param):], param=f.name)
+                return InputError(f.name + text[len(param) :], param=f.name)
     return exc
 
 
@@ -232,7 +285,7 @@ def flag_message(exc: InputError) -> str:
     table = flag_table()
     flag = table.get(param) if param else None
     text = str(exc)
-    text = flag + text[len(param):] if flag is not None and param is not None and text.startswith(param) else text
+    text = flag + text[len(param) :] if flag is not None and param is not None and text.startswith(param) else text
     # a setting named inside the message ("IdentifySettings.holdout sets how many") is the user's flag too
     for key in sorted((k for k in table if "." in k and k in text), key=len, reverse=True):
         text = re.sub(rf"(?<![\w.]){re.escape(key)}(?![\w])", table[key], text)
@@ -246,17 +299,29 @@ def _parameter(f: Flag) -> inspect.Parameter:
     else:
         names = (f.name,)
         annotation = list[f.kind] | None if f.multiple or f.spread else f.kind | None  # type: ignore[valid-type]
-    metavar = None if f.kind is bool else f"<{'path' if f.kind is Path else f.kind.__name__}>" + (" ..." if f.spread else "")
+    metavar = (
+        None if f.kind is bool else f"<{'path' if f.kind is Path else f.kind.__name__}>" + (" ..." if f.spread else "")
+    )
     info = typer.Option(*names, help=f.help, hidden=f.hidden, show_default=False, metavar=metavar)
-    return inspect.Parameter(f.dest, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=Annotated[annotation, info])
+    return inspect.Parameter(
+        f.dest, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=Annotated[annotation, info]
+    )
 
 
 _EXCLUSIVE = {("workers", "dask"): "a Dask cluster has its own workers"}
 """Pairs of flags (by key) a command refuses together, naming both, and why (``--workers`` > 1 with ``--dask``)."""
 
 
-def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given], None], *, help: str,
-            arguments: Iterable[inspect.Parameter] = (), registry_name: str | None = None) -> None:  # fmt: skip
+def command(
+    app: typer.Typer,
+    name: str,
+    flags: list[Flag],
+    run: Callable[[Given], None],
+    *,
+    help: str,
+    arguments: Iterable[inspect.Parameter] = (),
+    registry_name: str | None = None,
+) -> None:
     """Register command ``name`` on ``app``: its options are ``flags``, then ``arguments`` (Typer
     parameters of its own, e.g. a positional folder, passed in :attr:`Given.values` by name);
     ``run`` gets what the user gave. Errors naming a setting are printed with its flag. ``registry_name``:
@@ -267,9 +332,17 @@ def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given
     REGISTRY[registry_name or name] = flags
     extra = list(arguments)
     spread = next((f for f in flags if f.spread), None)
-    if spread is not None:  # several values after one flag: arcube.cli.main splits them; in-process callers (tests) do not
-        extra.append(inspect.Parameter("more_values", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None,
-                                       annotation=Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE")]))  # fmt: skip
+    if (
+        spread is not None
+    ):  # several values after one flag: arcube.cli.main splits them; in-process callers (tests) do not
+        extra.append(
+            inspect.Parameter(
+                "more_values",
+                inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                default=None,
+                annotation=Annotated[list[str] | None, typer.Argument(hidden=True, metavar="MORE")],
+            )
+        )
 
     def fn(**kw: Any) -> None:
         given = Given(flags={f.key: f for f in flags})
@@ -278,21 +351,33 @@ def command(app: typer.Typer, name: str, flags: list[Flag], run: Callable[[Given
             value = kw.get(f.dest)
             if value is None or (isinstance(value, list) and not value):
                 if f.required:
-                    hint = f"; {stray[0]!r} is a value without its flag (give {f.name} {stray[0]})" if stray and f.spread else ""
+                    hint = (
+                        f"; {stray[0]!r} is a value without its flag (give {f.name} {stray[0]})"
+                        if stray and f.spread
+                        else ""
+                    )
                     raise InputError(f"{f.name} is required{hint}")
                 continue
-            given.values[f.key] = [f.parse(v, f.name) for v in value] if (f.parse and isinstance(value, list)) else (
-                f.parse(value, f.name) if f.parse else value)  # fmt: skip
+            given.values[f.key] = (
+                [f.parse(v, f.name) for v in value]
+                if (f.parse and isinstance(value, list))
+                else (f.parse(value, f.name) if f.parse else value)
+            )
         more = kw.pop("more_values", None) or []
         for p in extra:
             if p.name != "more_values":
                 given.values[p.name] = kw.get(p.name)
         for (a, b), why in _EXCLUSIVE.items():
             if given.get(a) not in (None, 1) and given.get(b) is not None:
-                raise InputError(f"{given.flag(a)} {given.get(a)} and {given.flag(b)} {given.get(b)}: one or the other ({why})")
+                raise InputError(
+                    f"{given.flag(a)} {given.get(a)} and {given.flag(b)} {given.get(b)}: one or the other ({why})"
+                )
         if more:
             if spread is None or spread.key not in given.values:
-                raise InputError(f"unexpected argument {more[0]!r}" + (f" (values go after {spread.name})" if spread is not None else ""))
+                raise InputError(
+                    f"unexpected argument {more[0]!r}"
+                    + (f" (values go after {spread.name})" if spread is not None else "")
+                )
             given.values[spread.key] = [*given.values[spread.key], *more]
         try:
             run(given)

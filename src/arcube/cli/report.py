@@ -17,14 +17,29 @@ from arcube.cli.study import BEST_KNOWN
 __all__ = ["register"]
 
 FLAGS = [
-    with_help(ANATOMY, "Anatomy to draw and measure instead of the run's own (copied into the run folder) or the program's: none, default or mesh files."),
+    with_help(
+        ANATOMY,
+        "Anatomy to draw and measure instead of the run's own (copied into the run folder) or the program's: none, default or mesh files.",
+    ),
     ANATOMY_FRAME,
     with_help(BEST_KNOWN, "An eta_G to draw as a reference line on the convergence plot (e.g. the best design known)."),
-    with_help(DESIGN, "For a program folder: the design that runs it (JSON or preset), for the 3D playback. Default: design.json in the folder "
-              "or in the design job around it."),
-]  # fmt: skip
-RUN_DIR = inspect.Parameter("run_dir", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=Annotated[Path, typer.Argument(
-    metavar="RUN_DIR", help="An optimization run folder (config.toml, best_design.json, history.csv), or a program folder (program.csv, program.json).")])  # fmt: skip
+    with_help(
+        DESIGN,
+        "For a program folder: the design that runs it (JSON or preset), for the 3D playback. Default: design.json in the folder "
+        "or in the design job around it.",
+    ),
+]
+RUN_DIR = inspect.Parameter(
+    "run_dir",
+    inspect.Parameter.POSITIONAL_OR_KEYWORD,
+    annotation=Annotated[
+        Path,
+        typer.Argument(
+            metavar="RUN_DIR",
+            help="An optimization run folder (config.toml, best_design.json, history.csv), or a program folder (program.csv, program.json).",
+        ),
+    ],
+)
 
 
 def report(given: Given) -> None:
@@ -33,7 +48,12 @@ def report(given: Given) -> None:
     from arcube.report.program_data import is_program_folder
 
     run_dir: Path = given.get("run_dir")
-    anatomy, frame, best_known, design = given.get("anatomy"), given.get("anatomy_frame", "LPS"), given.get("best_known"), given.get("design")
+    anatomy, frame, best_known, design = (
+        given.get("anatomy"),
+        given.get("anatomy_frame", "LPS"),
+        given.get("best_known"),
+        given.get("design"),
+    )
     if run_dir.is_dir():  # before the work: never into a FIFO or a folder named report.html, nor its PNGs beside one
         from arcube.report import check_report_path
 

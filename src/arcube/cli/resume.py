@@ -19,9 +19,22 @@ from arcube.optimization.settings import RunSettings
 
 __all__ = ["register"]
 
-RESUME_FLAGS = [with_help(WORKERS, "Override the run's local worker processes."), with_help(DASK, "Override: send batches to this dask scheduler."), QUIET]
-RUN_DIR = inspect.Parameter("run_dir", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=Annotated[Path, typer.Argument(
-    metavar="RUN_DIR", help="Run folder of an interrupted 'arcube optimize', or the folder of an interrupted 'arcube study' or 'arcube design'.")])  # fmt: skip
+RESUME_FLAGS = [
+    with_help(WORKERS, "Override the run's local worker processes."),
+    with_help(DASK, "Override: send batches to this dask scheduler."),
+    QUIET,
+]
+RUN_DIR = inspect.Parameter(
+    "run_dir",
+    inspect.Parameter.POSITIONAL_OR_KEYWORD,
+    annotation=Annotated[
+        Path,
+        typer.Argument(
+            metavar="RUN_DIR",
+            help="Run folder of an interrupted 'arcube optimize', or the folder of an interrupted 'arcube study' or 'arcube design'.",
+        ),
+    ],
+)
 
 
 def resume(given: Given) -> None:
@@ -45,7 +58,9 @@ def resume(given: Given) -> None:
             budget = 1
         with DesignProgress(study.get("seeds", []), budget, enabled=not quiet) as bar:
             bar.watch(run_dir / STUDY)
-            result = resume_api(run_dir, workers=workers, dask=dask, on_seed=bar.seed, progress=bar.generation, on_stage=bar.stage)
+            result = resume_api(
+                run_dir, workers=workers, dask=dask, on_seed=bar.seed, progress=bar.generation, on_stage=bar.stage
+            )
         print_design(result)
         if not result.met:
             raise typer.Exit(3)

@@ -7,7 +7,25 @@
 """
 
 from arcube.design_job.job import (
-    DESIGN_FORMAT, DESIGN_GENERATIONS, STUDY, DesignResult, design_settings, finish_design, is_design, read_design, start_design,
-)  # fmt: skip
+    DESIGN_FORMAT,
+    DESIGN_GENERATIONS,
+    STUDY,
+    DesignResult,
+    design_settings,
+    finish_design,
+    is_design,
+    read_design,
+    start_design,
+)
 
-__all__ = ["DESIGN_FORMAT", "DESIGN_GENERATIONS", "STUDY", "DesignResult", "design_settings", "finish_design", "is_design", "read_design", "start_design"]
+__all__ = [
+    "DESIGN_FORMAT",
+    "DESIGN_GENERATIONS",
+    "STUDY",
+    "DesignResult",
+    "design_settings",
+    "finish_design",
+    "is_design",
+    "read_design",
+    "start_design",
+]

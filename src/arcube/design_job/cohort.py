@@ -78,14 +78,16 @@ class CohortPatient(Settings):
     @classmethod
     def _name(cls, v: str) -> str:
         if not re.match(_NAME, v):
-            raise ValueError("must be 1-64 letters, digits, '_', '.' or '-' (it names files), starting with a letter or digit")
+            raise ValueError(
+                "must be 1-64 letters, digits, '_', '.' or '-' (it names files), starting with a letter or digit"
+            )
         return v
 
     @field_validator("anatomy", "envelope")
     @classmethod
     def _words_alone(cls, v: tuple[str, ...] | None) -> tuple[str, ...] | None:
         if v is not None and len(v) > 1 and any(x.strip() in WORDS for x in v):
-            raise ValueError("must be \"default\", \"none\" or a list of files, not both")
+            raise ValueError('must be "default", "none" or a list of files, not both')
         return v
 
     @field_validator("segments")
@@ -125,15 +127,20 @@ def _entry(raw: Any, k: int, base: Path, source: Path) -> PatientPlan:
     except InputError as exc:
         raise InputError.of("cohort", f"{where}: {str(exc).removeprefix('CohortPatient.')}") from None
     plan = p.plan.strip() if p.plan.strip() == "reference" else _existing(p.plan, "plan", base, where)
-    anatomy = p.anatomy if p.anatomy[0] in WORDS else tuple(_existing(v, "anatomy file", base, where) for v in p.anatomy)
+    anatomy = (
+        p.anatomy if p.anatomy[0] in WORDS else tuple(_existing(v, "anatomy file", base, where) for v in p.anatomy)
+    )
     envelope = p.envelope
     if envelope is not None and envelope[0] not in WORDS:
         envelope = tuple(_existing(v, "envelope file", base, where) for v in envelope)
-    return PatientPlan(p.name, plan, () if anatomy == ("none",) else anatomy, p.anatomy_frame, p.segments, envelope, p.table_z)
+    return PatientPlan(
+        p.name, plan, () if anatomy == ("none",) else anatomy, p.anatomy_frame, p.segments, envelope, p.table_z
+    )
 
 
-def read_cohort(path: str | os.PathLike[str], *, side: str | None = None, levels: Any = None, ids: Any = None,
-                transform: Any = None) -> list[PatientPlan]:  # fmt: skip
+def read_cohort(
+    path: str | os.PathLike[str], *, side: str | None = None, levels: Any = None, ids: Any = None, transform: Any = None
+) -> list[PatientPlan]:
     """The patients of a cohort file, checked (module docstring); each plan is read, and after the run's
     selection (``side``, ``levels``, ``ids``) must keep a trajectory. InputError naming the file and the entry."""
     from arcube.io import load_trajectories, select
@@ -149,7 +156,9 @@ def read_cohort(path: str | os.PathLike[str], *, side: str | None = None, levels
         raise InputError.of("cohort", f"{source}: not valid TOML ({exc})") from None
     unknown = [k for k in data if k != "patient"]
     if unknown:
-        raise InputError.of("cohort", f"{source}: unknown key {unknown[0]!r} (a cohort file holds [[patient]] tables only)")
+        raise InputError.of(
+            "cohort", f"{source}: unknown key {unknown[0]!r} (a cohort file holds [[patient]] tables only)"
+        )
     raw = data.get("patient")
     if not isinstance(raw, list) or not raw:
         raise InputError.of("cohort", f"{source}: no [[patient]] entries")
@@ -158,7 +167,9 @@ def read_cohort(path: str | os.PathLike[str], *, side: str | None = None, levels
     seen: dict[str, int] = {}
     for k, p in enumerate(patients):
         if p.name in seen:
-            raise InputError.of("cohort", f"{source}: patient {k + 1} ({p.name}): the name is already patient {seen[p.name] + 1}'s")
+            raise InputError.of(
+                "cohort", f"{source}: patient {k + 1} ({p.name}): the name is already patient {seen[p.name] + 1}'s"
+            )
         seen[p.name] = k
     for k, p in enumerate(patients):
         where = f"{source}: patient {k + 1} ({p.name})"
@@ -178,7 +189,11 @@ def plans_as_cohort(plans: Sequence[Any]) -> list[PatientPlan] | None:
     settings, as every job before model §19)."""
     names = []
     for k, plan in enumerate(plans):
-        stem = Path(os.fspath(plan)).name.split(".")[0] if isinstance(plan, (str, os.PathLike)) else getattr(plan, "source", "")
+        stem = (
+            Path(os.fspath(plan)).name.split(".")[0]
+            if isinstance(plan, (str, os.PathLike))
+            else getattr(plan, "source", "")
+        )
         stem = re.sub(r"[^A-Za-z0-9_.-]", "_", str(stem))[:60] or f"patient_{k + 1}"
         names.append(stem if stem[0].isalnum() else f"p{stem}")
     if len(set(names)) != len(names):
@@ -194,7 +209,10 @@ def docking_count(plans: Sequence[Any] | None, cohort: Any, side: str | None = N
 
     try:
         entries = read_cohort(cohort, side=side) if cohort is not None else [PatientPlan("", p) for p in plans or []]
-        sides = [set(select(load_trajectories(e.plan), side=side).sides) if side else set(load_trajectories(e.plan).sides) for e in entries]
+        sides = [
+            set(select(load_trajectories(e.plan), side=side).sides) if side else set(load_trajectories(e.plan).sides)
+            for e in entries
+        ]
     except InputError:
         return 1
     return max(sum(1 if per_patient else len(s) for s in sides if s), 1)

@@ -41,7 +41,18 @@ from arcube.io.json_values import finite
 from arcube.optimization.config import PatientPlan
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["COVERAGE_COLUMNS", "DOCK_FORMAT", "DockResult", "binding_row", "dock", "dock_patients", "docking_jobs", "run_jobs", "solve_only", "wilson"]
+__all__ = [
+    "COVERAGE_COLUMNS",
+    "DOCK_FORMAT",
+    "DockResult",
+    "binding_row",
+    "dock",
+    "dock_patients",
+    "docking_jobs",
+    "run_jobs",
+    "solve_only",
+    "wilson",
+]
 
 DOCK_FORMAT = "arcube-dock"
 DOCKINGS = "dockings"
@@ -85,6 +96,7 @@ def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
     """The requirement that binds at a docking: of the failed rows the one with the least relative margin (margin over its
     limit, or the margin itself where the limit is 0; an unmeasured one last), else of the named requirements (:data:`REQUIREMENTS`: clearance,
     torque, ...; not the pass/fail rows of reach, the guards and the program) the tightest relative to its limit."""
+
     def rel(r: dict[str, Any]) -> float:
         m = r["margin"]
         if not isinstance(m, (int, float)) or not math.isfinite(m):
@@ -94,13 +106,28 @@ def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
     failed = [r for r in rows if not r["passed"]]
     if failed:  # a measured one before an unmeasured one (NaN: the points where it holds are not reached)
         return min(failed, key=lambda r: (rel(r) == -math.inf, rel(r)))
-    limits = [r for r in rows if r["requirement"] in REQUIREMENTS and r.get("limit") and isinstance(r.get("margin"), (int, float))
-              and math.isfinite(r["margin"])]  # fmt: skip
+    limits = [
+        r
+        for r in rows
+        if r["requirement"] in REQUIREMENTS
+        and r.get("limit")
+        and isinstance(r.get("margin"), (int, float))
+        and math.isfinite(r["margin"])
+    ]
     return min(limits, key=rel) if limits else None
 
 
-def docking_jobs(robot: BuiltRobot, patients: Sequence[PatientPlan], settings: RunSettings, reqs: Sequence[Requirement], *, seed: int,
-                 starts: int, evaluations: int, folder: Path) -> list[DockingJob]:  # fmt: skip
+def docking_jobs(
+    robot: BuiltRobot,
+    patients: Sequence[PatientPlan],
+    settings: RunSettings,
+    reqs: Sequence[Requirement],
+    *,
+    seed: int,
+    starts: int,
+    evaluations: int,
+    folder: Path,
+) -> list[DockingJob]:
     """One job per patient side (``settings.dockings`` per-side, the default: each side present in the plan; per-patient:
     the whole plan), each writing into ``folder/dockings/<patient>_<side>``."""
     from arcube.io import load_trajectories, select
@@ -110,8 +137,12 @@ def docking_jobs(robot: BuiltRobot, patients: Sequence[PatientPlan], settings: R
         plan = load_trajectories(p.plan, settings.transform)
         plan = select(plan, side=settings.side, levels=settings.levels, ids=settings.ids)
         if not len(plan.ids):
-            raise InputError.of("plan", f"patient {p.name}: no trajectories left after the selection of side, levels and ids")
-        sides: list[str | None] = [sd for sd in ("R", "L") if sd in plan.sides] if settings.dockings != "per-patient" else [None]
+            raise InputError.of(
+                "plan", f"patient {p.name}: no trajectories left after the selection of side, levels and ids"
+            )
+        sides: list[str | None] = (
+            [sd for sd in ("R", "L") if sd in plan.sides] if settings.dockings != "per-patient" else [None]
+        )
         for side in sides:
             job = DockingJob(robot, p, side, settings, tuple(reqs), int(seed), int(starts), int(evaluations), "")
             jobs.append(DockingJob(**{**job.__dict__, "folder": str(folder / DOCKINGS / job.label)}))
@@ -138,18 +169,35 @@ def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: R
     write_docking(outcome.design, folder / "design.json", outcome.patient, outcome.side)
     write_requirements_csv(folder / "requirements.csv", [{**r, "docking": outcome.label} for r in outcome.rows])
     options = s.evaluation_options()
-    options = options.replace(z_dyad=True, c_z=outcome.design.c_z_mm,
-                              outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))  # fmt: skip
-    ev = evaluate_design(d.design, d.plan, s.points, parse_mode(d.design.mode), options, "numpy", anatomy=d.anatomy, envelope=d.envelope)
+    options = options.replace(
+        z_dyad=True,
+        c_z=outcome.design.c_z_mm,
+        outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True),
+    )
+    ev = evaluate_design(
+        d.design, d.plan, s.points, parse_mode(d.design.mode), options, "numpy", anatomy=d.anatomy, envelope=d.envelope
+    )
     perfect = next((r["value"] for r in outcome.rows if r["requirement"] == "lateral_error"), None)
     accuracy = {**accuracy_budget(folder, d.design, d.plan, str(d.design.mode), s, perfect), "docking": outcome.label}
     outcome.extra["accuracy_p95_mm"] = accuracy.get("lateral_error_p95_mm")
     breach, _ = breach_check(folder, d, s, ())
     outcome.extra["breach_probability"] = breach.get("breach_probability")
     program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
-    mine = {"meets_requirements": outcome.met, "seed": seed, "mode": d.design.mode, "eta_G": outcome.eta_G, "accuracy": accuracy, "breach": breach}
-    write_report(ev, folder / "report.html", program=program, preface=design_preface(mine, outcome.rows, d.design, c_z=d.design.c_z, folder=folder),
-                 title=f"AR-CUBE docking: patient {outcome.patient}, side {outcome.side}")
+    mine = {
+        "meets_requirements": outcome.met,
+        "seed": seed,
+        "mode": d.design.mode,
+        "eta_G": outcome.eta_G,
+        "accuracy": accuracy,
+        "breach": breach,
+    }
+    write_report(
+        ev,
+        folder / "report.html",
+        program=program,
+        preface=design_preface(mine, outcome.rows, d.design, c_z=d.design.c_z, folder=folder),
+        title=f"AR-CUBE docking: patient {outcome.patient}, side {outcome.side}",
+    )
 
 
 def solve_only(job: DockingJob) -> DockingOutcome:
@@ -157,8 +205,13 @@ def solve_only(job: DockingJob) -> DockingOutcome:
     return solve_docking(job)[0]
 
 
-def run_jobs(jobs: Sequence[DockingJob], workers: int, dask: str | None, on_docking: Callable[[DockingOutcome], None] | None,
-             task: Callable[[DockingJob], DockingOutcome] = _dock_and_write) -> list[DockingOutcome]:  # fmt: skip
+def run_jobs(
+    jobs: Sequence[DockingJob],
+    workers: int,
+    dask: str | None,
+    on_docking: Callable[[DockingOutcome], None] | None,
+    task: Callable[[DockingJob], DockingOutcome] = _dock_and_write,
+) -> list[DockingOutcome]:
     """Every job's outcome (``task(job)``: solve and write its folder, by default), in the jobs' order: here, over
     ``workers`` processes, or on the dask scheduler ``dask``."""
     done: dict[int, DockingOutcome] = {}
@@ -202,23 +255,43 @@ def _entry(outcome: DockingOutcome) -> dict[str, Any]:
     bind = binding_row(outcome.rows)
     values = outcome.design.to_dict()
     return {
-        "label": outcome.label, "patient": outcome.patient, "side": outcome.side, "meets_requirements": outcome.met,
+        "label": outcome.label,
+        "patient": outcome.patient,
+        "side": outcome.side,
+        "meets_requirements": outcome.met,
         "missed": [r["requirement"] for r in outcome.rows if not r["passed"]],
-        "binding": None if bind is None else bind["requirement"], "binding_margin": None if bind is None else bind["margin"],
-        "binding_unit": None if bind is None else bind.get("unit"), "binding_where": None if bind is None else (bind.get("part") or None),
-        **{n: values[n] for n in PLACEMENT}, "eta_G": outcome.eta_G, "violation": outcome.violation, "found_by": outcome.found_by,
-        "evaluations": outcome.evaluations, "placements_checked": outcome.tried, "seconds": round(outcome.seconds, 2),
-        "folder": f"{DOCKINGS}/{outcome.label}", **outcome.extra,
-    }  # fmt: skip
+        "binding": None if bind is None else bind["requirement"],
+        "binding_margin": None if bind is None else bind["margin"],
+        "binding_unit": None if bind is None else bind.get("unit"),
+        "binding_where": None if bind is None else (bind.get("part") or None),
+        **{n: values[n] for n in PLACEMENT},
+        "eta_G": outcome.eta_G,
+        "violation": outcome.violation,
+        "found_by": outcome.found_by,
+        "evaluations": outcome.evaluations,
+        "placements_checked": outcome.tried,
+        "seconds": round(outcome.seconds, 2),
+        "folder": f"{DOCKINGS}/{outcome.label}",
+        **outcome.extra,
+    }
 
 
 def coverage_summary(robot: BuiltRobot, outcomes: Sequence[DockingOutcome]) -> dict[str, Any]:
     """The robot, every side's entry and the coverage (its Wilson interval) of summary.json."""
     met = sum(o.met for o in outcomes)
     p, lo, hi = wilson(met, len(outcomes))
-    return {"robot": robot.values, "mode": robot.design.mode, "zdyad_elbow": int(robot.design.zdyad_elbow),
-            "c_z_assumed": robot.c_z_assumed, "dockings": [_entry(o) for o in outcomes],
-            "coverage": p, "coverage_low": lo, "coverage_high": hi, "sides": len(outcomes), "met": met}  # fmt: skip
+    return {
+        "robot": robot.values,
+        "mode": robot.design.mode,
+        "zdyad_elbow": int(robot.design.zdyad_elbow),
+        "c_z_assumed": robot.c_z_assumed,
+        "dockings": [_entry(o) for o in outcomes],
+        "coverage": p,
+        "coverage_low": lo,
+        "coverage_high": hi,
+        "sides": len(outcomes),
+        "met": met,
+    }
 
 
 def coverage_csv(entries: Sequence[dict[str, Any]]) -> str:
@@ -227,10 +300,21 @@ def coverage_csv(entries: Sequence[dict[str, Any]]) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COVERAGE_COLUMNS)
     for e in entries:
-        w.writerow([e["patient"], e["side"], "yes" if e["meets_requirements"] else "no", e["binding"] or "",
-                    "" if e["binding_margin"] is None or not math.isfinite(e["binding_margin"]) else f"{e['binding_margin']:.6g}",
-                    e["binding_unit"] or "", ";".join(e["missed"]), "" if e["eta_G"] is None else f"{e['eta_G']:.6g}",
-                    *(f"{e[n]:.6f}" for n in PLACEMENT)])  # fmt: skip
+        w.writerow(
+            [
+                e["patient"],
+                e["side"],
+                "yes" if e["meets_requirements"] else "no",
+                e["binding"] or "",
+                ""
+                if e["binding_margin"] is None or not math.isfinite(e["binding_margin"])
+                else f"{e['binding_margin']:.6g}",
+                e["binding_unit"] or "",
+                ";".join(e["missed"]),
+                "" if e["eta_G"] is None else f"{e['eta_G']:.6g}",
+                *(f"{e[n]:.6f}" for n in PLACEMENT),
+            ]
+        )
     return buf.getvalue()
 
 
@@ -250,10 +334,21 @@ def _stage(out: Path) -> Path:
     return Path(tempfile.mkdtemp(prefix=f".{out.name}.dock-{os.getpid()}-", suffix=".tmp", dir=out.parent))
 
 
-def dock_patients(robot: str | os.PathLike[str] | BuiltRobot, patients: Sequence[PatientPlan], out: str | os.PathLike[str],
-                  settings: RunSettings, reqs: Sequence[Requirement], *, seed: int = 1, starts: int = 8,
-                  evaluations: int = DOCK_EVALUATIONS, workers: int = 1, dask: str | None = None,
-                  on_docking: Callable[[DockingOutcome], None] | None = None, extra: dict[str, Any] | None = None) -> DockResult:  # fmt: skip
+def dock_patients(
+    robot: str | os.PathLike[str] | BuiltRobot,
+    patients: Sequence[PatientPlan],
+    out: str | os.PathLike[str],
+    settings: RunSettings,
+    reqs: Sequence[Requirement],
+    *,
+    seed: int = 1,
+    starts: int = 8,
+    evaluations: int = DOCK_EVALUATIONS,
+    workers: int = 1,
+    dask: str | None = None,
+    on_docking: Callable[[DockingOutcome], None] | None = None,
+    extra: dict[str, Any] | None = None,
+) -> DockResult:
     """Dock ``robot`` (a robot file or a :class:`BuiltRobot`) on every side of ``patients`` into the new folder ``out``
     (module docstring); ``settings``: the design job's (:func:`~arcube.design_job.job.design_settings`); ``on_docking`` is
     told each side's outcome as it is found; ``extra`` goes into summary.json beside the settings."""
@@ -273,17 +368,34 @@ def dock_patients(robot: str | os.PathLike[str] | BuiltRobot, patients: Sequence
     built = robot if isinstance(robot, BuiltRobot) else read_robot(robot)
     names = [p.name for p in patients]
     if len(set(names)) != len(names):
-        raise InputError.of("plan", f"two patients are named {next(n for n in names if names.count(n) > 1)!r}: each needs its own name")
+        raise InputError.of(
+            "plan", f"two patients are named {next(n for n in names if names.count(n) > 1)!r}: each needs its own name"
+        )
     started = time.perf_counter()
     stage = _stage(out)
     try:
-        jobs = docking_jobs(built, patients, settings, reqs, seed=seed, starts=starts, evaluations=evaluations, folder=stage)
+        jobs = docking_jobs(
+            built, patients, settings, reqs, seed=seed, starts=starts, evaluations=evaluations, folder=stage
+        )
         outcomes = run_jobs(jobs, workers, dask, on_docking)
-        summary = {"format": DOCK_FORMAT, "format_version": 1, "robot_file": built.source, **coverage_summary(built, outcomes),
-                   "settings": {"seed": int(seed), "starts": int(starts), "evaluations": int(evaluations),
-                                "requirements": [[r.name, r.kind, r.limit] for r in reqs], "tolerance_class": settings.tolerance_class,
-                                "points": settings.points, "standoff_mm": settings.standoff, "envelope": list(settings.envelope)},
-                   "wall_s": round(time.perf_counter() - started, 1), **(extra or {})}  # fmt: skip
+        summary = {
+            "format": DOCK_FORMAT,
+            "format_version": 1,
+            "robot_file": built.source,
+            **coverage_summary(built, outcomes),
+            "settings": {
+                "seed": int(seed),
+                "starts": int(starts),
+                "evaluations": int(evaluations),
+                "requirements": [[r.name, r.kind, r.limit] for r in reqs],
+                "tolerance_class": settings.tolerance_class,
+                "points": settings.points,
+                "standoff_mm": settings.standoff,
+                "envelope": list(settings.envelope),
+            },
+            "wall_s": round(time.perf_counter() - started, 1),
+            **(extra or {}),
+        }
         atomic_write_text(stage / "coverage.csv", coverage_csv(summary["dockings"]))
         atomic_write_text(stage / "summary.json", json.dumps(finite(summary), indent=2, allow_nan=False) + "\n")
         from arcube.report.coverage import write_coverage_report
@@ -298,10 +410,24 @@ def dock_patients(robot: str | os.PathLike[str] | BuiltRobot, patients: Sequence
     return DockResult(out, summary["met"] == summary["sides"], summary)
 
 
-def dock(robot: str | os.PathLike[str], plan: Any = None, out: str | os.PathLike[str] | None = None, *, cohort: str | os.PathLike[str] | None = None,
-         seed: int = 1, starts: int = 8, evaluations: int = DOCK_EVALUATIONS, minima: Any = None, maxima: Any = None,
-         drop: Sequence[str] = (), settings: RunSettings | None = None, workers: int = 1, dask: str | None = None,
-         on_docking: Callable[[DockingOutcome], None] | None = None, **fields: Any) -> DockResult:  # fmt: skip
+def dock(
+    robot: str | os.PathLike[str],
+    plan: Any = None,
+    out: str | os.PathLike[str] | None = None,
+    *,
+    cohort: str | os.PathLike[str] | None = None,
+    seed: int = 1,
+    starts: int = 8,
+    evaluations: int = DOCK_EVALUATIONS,
+    minima: Any = None,
+    maxima: Any = None,
+    drop: Sequence[str] = (),
+    settings: RunSettings | None = None,
+    workers: int = 1,
+    dask: str | None = None,
+    on_docking: Callable[[DockingOutcome], None] | None = None,
+    **fields: Any,
+) -> DockResult:
     """Dock a built robot on every side of a plan or a cohort (``arcube dock``, model §19.6); the robot is not changed.
 
     Args:
@@ -340,5 +466,16 @@ def dock(robot: str | os.PathLike[str], plan: Any = None, out: str | os.PathLike
     else:
         plans = list(plan) if isinstance(plan, (list, tuple)) else ["reference" if plan is None else plan]
         patients = plans_as_cohort([p if isinstance(p, TrajectorySet) else os.fspath(p) for p in plans]) or []
-    return dock_patients(robot, patients, out, s, reqs, seed=seed, starts=starts, evaluations=evaluations, workers=workers, dask=dask,
-                         on_docking=on_docking)  # fmt: skip
+    return dock_patients(
+        robot,
+        patients,
+        out,
+        s,
+        reqs,
+        seed=seed,
+        starts=starts,
+        evaluations=evaluations,
+        workers=workers,
+        dask=dask,
+        on_docking=on_docking,
+    )

@@ -122,7 +122,9 @@ def warm_starts(robot: BuiltRobot, entry: np.ndarray, target: np.ndarray) -> lis
 
     out = []
     for w in robot.starts:
-        out.append((f"{w.label} as it is", w.placement.copy()))  # the same patient, or one close to it in the same frame
+        out.append(
+            (f"{w.label} as it is", w.placement.copy())
+        )  # the same patient, or one close to it in the same frame
         if w.entry is None or w.target is None:
             continue
         for k, motion in enumerate(task_motions((w.entry, w.target), (entry, target))):
@@ -137,8 +139,16 @@ def _objective(batch: dict[str, np.ndarray]) -> np.ndarray:
     return np.where(V == 0.0, E, PENALTY * (1.0 + np.nan_to_num(V, nan=1e6, posinf=1e6)))
 
 
-def search(model: Any, lo: np.ndarray, hi: np.ndarray, warm: Sequence[tuple[str, np.ndarray]], starts: int, evaluations: int,
-           rng: np.random.Generator, wanted: int = CHECK_TRIES) -> tuple[list[tuple[float, np.ndarray, str]], int]:  # fmt: skip
+def search(
+    model: Any,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    warm: Sequence[tuple[str, np.ndarray]],
+    starts: int,
+    evaluations: int,
+    rng: np.random.Generator,
+    wanted: int = CHECK_TRIES,
+) -> tuple[list[tuple[float, np.ndarray, str]], int]:
     """Minimize the docking's objective over the placement box [lo, hi] ``(6,)``; returns the distinct placements the
     runs reached (at least :data:`DISTINCT` of each gene's range apart), best first, as (objective, placement ``(6,)``,
     how its run started), and the evaluations spent. The search stops when the budget is spent, or when ``wanted``
@@ -157,14 +167,16 @@ def search(model: Any, lo: np.ndarray, hi: np.ndarray, warm: Sequence[tuple[str,
     spent = len(X0)
     n_warm = min(len(warm_x), max(1, starts // 2)) if len(warm_x) else 0
     order_w = np.argsort(F0[: len(warm_x)], kind="stable")[:n_warm]
-    order_r = len(warm_x) + np.argsort(F0[len(warm_x):], kind="stable")[: starts - n_warm]
+    order_r = len(warm_x) + np.argsort(F0[len(warm_x) :], kind="stable")[: starts - n_warm]
     picks = [*order_w, *order_r]
     origin = [names[i] if i < len(warm_x) else "a random placement" for i in picks]
     lam = default_popsize(6)
     es = BatchCMA(len(picks), 6, lam, SIGMA, TOL)
     for r, i in enumerate(picks):
         es.restart(r, (X0[i] - lo) / span, np.random.default_rng(rng.integers(2**63)))
-    run_best: list[tuple[float, np.ndarray, str]] = [(float(F0[i]), X0[i].copy(), origin[r]) for r, i in enumerate(picks)]
+    run_best: list[tuple[float, np.ndarray, str]] = [
+        (float(F0[i]), X0[i].copy(), origin[r]) for r, i in enumerate(picks)
+    ]
     reached: list[tuple[float, np.ndarray, str]] = []
     best, stall = float(F0.min()), 0
     while spent + es.R * lam + RESTART_SAMPLE <= evaluations:
@@ -172,7 +184,7 @@ def search(model: Any, lo: np.ndarray, hi: np.ndarray, warm: Sequence[tuple[str,
         F = _objective(model.evaluate(X))
         spent += len(X)
         for r in range(es.R):
-            j = r * lam + int(np.argmin(F[r * lam:(r + 1) * lam]))
+            j = r * lam + int(np.argmin(F[r * lam : (r + 1) * lam]))
             if F[j] < run_best[r][0]:
                 run_best[r] = (float(F[j]), X[j].copy(), run_best[r][2])
         improved = float(F.min()) < best - 1e-9 * max(1.0, abs(best))
@@ -203,8 +215,13 @@ def _distinct(found: Sequence[tuple[float, np.ndarray, str]], span: np.ndarray) 
 def docking_settings(settings: RunSettings, robot: BuiltRobot, side: str | None, seed: int) -> RunSettings:
     """The design job's settings with the robot fixed: only the placement and the mounting angles free, the robot's
     working mode, one docking (the side's, or the whole plan's)."""
-    return settings.replace(free=list(PLACEMENT), mode=robot.design.mode, side=side, seed=int(seed),
-                            dockings="per-side" if side else "per-patient")  # fmt: skip
+    return settings.replace(
+        free=list(PLACEMENT),
+        mode=robot.design.mode,
+        side=side,
+        seed=int(seed),
+        dockings="per-side" if side else "per-patient",
+    )
 
 
 def _problem(job: DockingJob) -> tuple[Any, Docking, RunSettings, np.ndarray, np.ndarray]:
@@ -257,7 +274,9 @@ def solve_docking(job: DockingJob) -> tuple[DockingOutcome, Docking, RunSettings
         if d.met:
             d.rows = [*d.rows, *build_program(folder, d, s, job.reqs)]
             built = x
-        if d.met and any(r.name == "breach_probability" for r in job.reqs):  # model §22.4: on a docking that meets the rest
+        if d.met and any(
+            r.name == "breach_probability" for r in job.reqs
+        ):  # model §22.4: on a docking that meets the rest
             d.breach, extra = breach_check(None, d, s, job.reqs)
             d.rows = [*d.rows, *extra]
         tried.append((f, x, how, d.rows))
@@ -267,7 +286,11 @@ def solve_docking(job: DockingJob) -> tuple[DockingOutcome, Docking, RunSettings
         if f >= PENALTY:
             break  # the next placements meet even less at the search's own points: the best one is written
     if chosen is None:
-        chosen = tried[0] if tried else (float("inf"), job.robot.starts[0].placement if job.robot.starts else (lo + hi) / 2, "none", [])
+        chosen = (
+            tried[0]
+            if tried
+            else (float("inf"), job.robot.starts[0].placement if job.robot.starts else (lo + hi) / 2, "none", [])
+        )
         f, x, how, rows = chosen
         if not rows:
             d = Docking(dock.name, dock.side, dock.plan, dock.anatomy, dock.envelope, job.robot.placed(x))
@@ -284,6 +307,17 @@ def solve_docking(job: DockingJob) -> tuple[DockingOutcome, Docking, RunSettings
     batch = model.evaluate(np.asarray(x, dtype=float)[None, :])
     eta = float(batch["ETA"][0])
     design = job.robot.placed(x)
-    outcome = DockingOutcome(job.label, job.patient.name, job.side or "both", design, rows, eta if np.isfinite(eta) else None,
-                             float(batch["VIOL"][0]), spent, time.perf_counter() - started, len(tried), how)  # fmt: skip
+    outcome = DockingOutcome(
+        job.label,
+        job.patient.name,
+        job.side or "both",
+        design,
+        rows,
+        eta if np.isfinite(eta) else None,
+        float(batch["VIOL"][0]),
+        spent,
+        time.perf_counter() - started,
+        len(tried),
+        how,
+    )
     return outcome, Docking(dock.name, dock.side, dock.plan, dock.anatomy, dock.envelope, design, rows), s

@@ -25,9 +25,16 @@ from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
 from arcube.optimization.config import own_settings, patient_settings
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["Docking", "PLACEMENT", "ROBOT_NAMES", "assess_dockings", "docking_entry", "merge_rows", "run_dockings", "warm_starts"]
-
-
+__all__ = [
+    "Docking",
+    "PLACEMENT",
+    "ROBOT_NAMES",
+    "assess_dockings",
+    "docking_entry",
+    "merge_rows",
+    "run_dockings",
+    "warm_starts",
+]
 
 
 @dataclass
@@ -74,11 +81,21 @@ def run_dockings(cfg: dict[str, Any], run: Any, mode: str) -> list[Docking]:
         if plan not in plans:
             plans[plan] = load_trajectories(spec, s.transform)
             ps = patient_settings(s, own_settings(entry))
-            anatomies[plan] = resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
+            anatomies[plan] = (
+                resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
+            )
         ts = select(plans[plan], ids=",".join(entry["ids"]))
         d = designs[k] if k < len(designs) else designs[0]
-        out.append(Docking(str(entry.get("name", f"patient_{k + 1}")), str(entry.get("side", "both")), ts, anatomies[plan],
-                           envelopes[k] if envelopes else None, d.with_extras(mode=mode)))  # fmt: skip
+        out.append(
+            Docking(
+                str(entry.get("name", f"patient_{k + 1}")),
+                str(entry.get("side", "both")),
+                ts,
+                anatomies[plan],
+                envelopes[k] if envelopes else None,
+                d.with_extras(mode=mode),
+            )
+        )
     return out
 
 
@@ -90,9 +107,18 @@ def assess_dockings(dockings: Sequence[Docking], reqs: Sequence[Any], s: RunSett
     base = s.evaluation_options()
     for d in dockings:
         options = base if d.design.c_z is None else base.replace(z_dyad=True, c_z=d.design.c_z)
-        rows = assess([d.design.to_vector()], design_mode(d.design), [d.plan], [d.anatomy], reqs, options=options,
-                      envelopes=[d.envelope] if d.envelope is not None else (), points=s.points, standoff_mm=float(s.standoff or 0.0),
-                      accuracy=s.accuracy_settings())  # fmt: skip
+        rows = assess(
+            [d.design.to_vector()],
+            design_mode(d.design),
+            [d.plan],
+            [d.anatomy],
+            reqs,
+            options=options,
+            envelopes=[d.envelope] if d.envelope is not None else (),
+            points=s.points,
+            standoff_mm=float(s.standoff or 0.0),
+            accuracy=s.accuracy_settings(),
+        )
         if d.design.c_z is not None:
             rows.insert(1, _z_dyad_row(rows, d, options, s))
         for r in rows:
@@ -115,13 +141,28 @@ def _z_dyad_row(rows: list[dict[str, Any]], d: Docking, options: Any, s: RunSett
     E_a, e_a = approach_lines(d.plan.entry, d.plan.target, d.anatomy, s.points, float(s.standoff or 0.0))
     code = FAILURES.index("guard/z_dyad") + 1
     bad = 0
-    only = options.replace(rho_max_deg=None, min_transmission_deg=None, kappa_max=None, single_assembly_mode=False, clearance_mm=None,
-                           self_clearance_mm=None, envelope_clearance_mm=None, outputs=options.outputs.replace(tip_metrics=False))  # fmt: skip
+    only = options.replace(
+        rho_max_deg=None,
+        min_transmission_deg=None,
+        kappa_max=None,
+        single_assembly_mode=False,
+        clearance_mm=None,
+        self_clearance_mm=None,
+        envelope_clearance_mm=None,
+        outputs=options.outputs.replace(tip_metrics=False),
+    )
     for E, e in ((drill.E, drill.e), (E_a, e_a)):
         res = evaluate_task(d.design.to_vector(), E, e, design_mode(d.design), only, engine="numpy")
         bad += int(np.sum(np.asarray(res.points.failure) == code))
-    row = {"requirement": "z_dyad", "kind": "max", "limit": 0.0, "value": float(bad), "unit": "failing points", "where": {},
-           "part": f"c_z {d.design.c_z:.1f} mm, d_z {d.design['d_z']:.1f} mm"}  # fmt: skip
+    row = {
+        "requirement": "z_dyad",
+        "kind": "max",
+        "limit": 0.0,
+        "value": float(bad),
+        "unit": "failing points",
+        "where": {},
+        "part": f"c_z {d.design.c_z:.1f} mm, d_z {d.design['d_z']:.1f} mm",
+    }
     row["margin"] = 0.0 - row["value"]
     row["passed"] = bad == 0
     return row
@@ -168,4 +209,7 @@ def warm_starts(dockings: Sequence[Docking]) -> tuple[Any, ...]:
     points, its side): where docking the robot anew starts looking."""
     from arcube.model.robot import WarmStart
 
-    return tuple(WarmStart(d.label, np.array([d.design[n] for n in PLACEMENT]), d.plan.entry, d.plan.target, d.side) for d in dockings)
+    return tuple(
+        WarmStart(d.label, np.array([d.design[n] for n in PLACEMENT]), d.plan.entry, d.plan.target, d.side)
+        for d in dockings
+    )

@@ -35,15 +35,23 @@ def read_design(out: Path) -> tuple[dict[str, Any], list[Requirement]]:
 
     raw = meta.get("requirements")
     if not isinstance(raw, list):
-        raise InputError(f"{path}: requirements is {'missing' if raw is None else 'not a list'} (expected [[name, min|max, limit], ...])")
+        raise InputError(
+            f"{path}: requirements is {'missing' if raw is None else 'not a list'} (expected [[name, min|max, limit], ...])"
+        )
     reqs = []
     for k, item in enumerate(raw, start=1):
         ok = isinstance(item, list) and len(item) == 3 and item[0] in REQUIREMENTS and item[1] in ("min", "max")
         if not ok or isinstance(item[2], bool) or not isinstance(item[2], (int, float)) or not math.isfinite(item[2]):
-            raise InputError(f"{path}: requirement {k} is not [name, min|max, limit] with a known name and a finite limit: {item!r:.80}")
+            raise InputError(
+                f"{path}: requirement {k} is not [name, min|max, limit] with a known name and a finite limit: {item!r:.80}"
+            )
         reqs.append(Requirement(str(item[0]), str(item[1]), float(item[2])))
     seeds = meta.get("seeds")
-    if not isinstance(seeds, list) or not seeds or not all(isinstance(x, int) and not isinstance(x, bool) for x in seeds):
+    if (
+        not isinstance(seeds, list)
+        or not seeds
+        or not all(isinstance(x, int) and not isinstance(x, bool) for x in seeds)
+    ):
         raise InputError(f"{path}: seeds is not a list of integers")
     return meta, reqs
 
@@ -56,11 +64,22 @@ def read_study_summary(out: Path) -> dict[str, Any]:
     path = Path(out) / STUDY / "summary.json"
     study = load_json(path)
     rows = study.get("rows") if isinstance(study, dict) else None
-    if not isinstance(study, dict) or not isinstance(study.get("objective"), str) or not isinstance(rows, list) or not rows:
-        raise InputError(f"{path}: not a study summary (an object with the objective and its rows); run 'arcube resume' on a folder "
-                         "whose study/ holds its seeds, or design anew")  # fmt: skip
+    if (
+        not isinstance(study, dict)
+        or not isinstance(study.get("objective"), str)
+        or not isinstance(rows, list)
+        or not rows
+    ):
+        raise InputError(
+            f"{path}: not a study summary (an object with the objective and its rows); run 'arcube resume' on a folder "
+            "whose study/ holds its seeds, or design anew"
+        )
     for k, r in enumerate(rows, start=1):
-        if not (isinstance(r, dict) and isinstance(r.get("seed"), int) and isinstance(r.get("feasible"), bool)
-                and isinstance(r.get("violation"), (int, float))):  # fmt: skip
+        if not (
+            isinstance(r, dict)
+            and isinstance(r.get("seed"), int)
+            and isinstance(r.get("feasible"), bool)
+            and isinstance(r.get("violation"), (int, float))
+        ):
             raise InputError(f"{path}: row {k} is not a seed's row (seed, feasible, violation)")
     return study

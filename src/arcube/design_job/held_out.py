@@ -25,17 +25,30 @@ def check_held_out(validate: str | os.PathLike[str], patients: Sequence[Any], se
     has a training patient's name (a held-out patient is one the search never sees)."""
     from arcube.design_job.cohort import read_cohort
 
-    held = read_cohort(validate, side=settings.side, levels=settings.levels, ids=settings.ids, transform=settings.transform)
+    held = read_cohort(
+        validate, side=settings.side, levels=settings.levels, ids=settings.ids, transform=settings.transform
+    )
     training = {p.name for p in patients}
     shared = [p.name for p in held if p.name in training]
     if shared:
-        raise InputError.of("validate", f"{validate}: patient {shared[0]!r} is also in the training cohort; a held-out patient is one the "
-                                        "search never sees (give it another name, or leave it out of one of the cohorts)")  # fmt: skip
+        raise InputError.of(
+            "validate",
+            f"{validate}: patient {shared[0]!r} is also in the training cohort; a held-out patient is one the "
+            "search never sees (give it another name, or leave it out of one of the cohorts)",
+        )
     return str(Path(validate).resolve())
 
 
-def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs: Sequence[Requirement], s: RunSettings,
-              say: Callable[[str], None], workers: int, dask: str | None) -> dict[str, Any]:  # fmt: skip
+def validate(
+    out: Path,
+    meta: dict[str, Any],
+    dockings: Sequence[Docking],
+    reqs: Sequence[Requirement],
+    s: RunSettings,
+    say: Callable[[str], None],
+    workers: int,
+    dask: str | None,
+) -> dict[str, Any]:
     """Dock the chosen robot on the held-out cohort (model §19.6), which the search never saw, into ``validation/``
     (``arcube dock``'s folder); its summary."""
     from arcube.design_job.cohort import read_cohort
@@ -52,10 +65,22 @@ def validate(out: Path, meta: dict[str, Any], dockings: Sequence[Docking], reqs:
 
     def progress(outcome: Any) -> None:
         done.append(outcome.met)
-        say(f"held out: {sum(done)} of {len(done)} sides served; {outcome.label} {'served' if outcome.met else 'not served'}")
+        say(
+            f"held out: {sum(done)} of {len(done)} sides served; {outcome.label} {'served' if outcome.met else 'not served'}"
+        )
 
-    return dock_patients(robot, patients, folder, s, reqs, seed=int(meta["seeds"][0]), evaluations=DOCK_EVALUATIONS, workers=workers,
-                         dask=dask, on_docking=progress).summary  # fmt: skip
+    return dock_patients(
+        robot,
+        patients,
+        folder,
+        s,
+        reqs,
+        seed=int(meta["seeds"][0]),
+        evaluations=DOCK_EVALUATIONS,
+        workers=workers,
+        dask=dask,
+        on_docking=progress,
+    ).summary
 
 
 def coverage_fields(dockings: Sequence[Docking], held_out: dict[str, Any] | None) -> dict[str, Any]:

@@ -42,7 +42,15 @@ from typing import Any
 
 from arcube.coerce import design_mode
 from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, breach_check, build_program, closing_c_z
-from arcube.design_job.dockings import PLACEMENT, ROBOT_NAMES, Docking, assess_dockings, docking_entry, merge_rows, run_dockings
+from arcube.design_job.dockings import (
+    PLACEMENT,
+    ROBOT_NAMES,
+    Docking,
+    assess_dockings,
+    docking_entry,
+    merge_rows,
+    run_dockings,
+)
 from arcube.design_job.folder import DESIGN_FORMAT, STUDY, is_design, read_design, read_study_summary
 from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
 from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_settings, write_requirements_csv
@@ -57,7 +65,16 @@ from arcube.optimization.run_results import OptimizeResult
 from arcube.optimization.settings import RunSettings
 from arcube.io.json_values import finite
 
-__all__ = ["DESIGN_FORMAT", "DesignResult", "design_settings", "finish_design", "is_design", "read_design", "seed_dockings", "start_design"]
+__all__ = [
+    "DESIGN_FORMAT",
+    "DesignResult",
+    "design_settings",
+    "finish_design",
+    "is_design",
+    "read_design",
+    "seed_dockings",
+    "start_design",
+]
 
 DESIGN_GENERATIONS = 100
 """The design job's default budget: population 400 x 100 generations = 40,000 evaluations per seed
@@ -87,7 +104,10 @@ class DesignResult:
     @property
     def dockings(self) -> dict[str, Design]:
         """Each docking's complete design, by ``<patient>_<side>``."""
-        return {d["label"]: Design.from_json(self.path / DOCKINGS / d["label"] / "design.json") for d in self.summary.get("dockings", [])}
+        return {
+            d["label"]: Design.from_json(self.path / DOCKINGS / d["label"] / "design.json")
+            for d in self.summary.get("dockings", [])
+        }
 
     @property
     def missed(self) -> list[dict[str, Any]]:
@@ -95,10 +115,20 @@ class DesignResult:
         return [r for r in self.rows if not r["passed"]]
 
 
-def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: Sequence[Requirement], seeds: Sequence[int], *,
-                 workers: int = 1, dask: str | None = None, on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-                 on_generation: Callable[[dict[str, Any]], None] | None = None, on_stage: Callable[[str], None] | None = None,
-                 validate: str | os.PathLike[str] | None = None) -> DesignResult:  # fmt: skip
+def start_design(
+    out: Path,
+    plans: Sequence[Any],
+    settings: RunSettings,
+    reqs: Sequence[Requirement],
+    seeds: Sequence[int],
+    *,
+    workers: int = 1,
+    dask: str | None = None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    on_generation: Callable[[dict[str, Any]], None] | None = None,
+    on_stage: Callable[[str], None] | None = None,
+    validate: str | os.PathLike[str] | None = None,
+) -> DesignResult:
     """Run the design job into ``out`` (absent or empty): the study, then the choice and the outputs. ``plans``: the
     trajectory sets, or :class:`~arcube.optimization.config.PatientPlan` (a cohort's patients, named, each with its own
     anatomy and envelope); ``on_stage`` is told each stage after the search (:func:`finish_design`); ``validate``: a
@@ -112,18 +142,30 @@ def start_design(out: Path, plans: Sequence[Any], settings: RunSettings, reqs: S
     _check_anatomies(patients, settings, reqs)
     on_program = [r.name for r in reqs if r.name in PROGRAM_FIGURES]
     if on_program and settings.setups != 1:
-        raise InputError.of("requirements.max", f"{', '.join(on_program)}: judged on the drilling program, which a job with one placement "
-                                                "per side (setups 2) does not build; design per side (side R, side L) instead")  # fmt: skip
+        raise InputError.of(
+            "requirements.max",
+            f"{', '.join(on_program)}: judged on the drilling program, which a job with one placement "
+            "per side (setups 2) does not build; design per side (side R, side L) instead",
+        )
     held_out = check_held_out(validate, patients, settings) if validate is not None else None
-    base = build_config(list(patients), settings.replace(seed=int(seeds[0])))  # validates everything before a file is written
+    base = build_config(
+        list(patients), settings.replace(seed=int(seeds[0]))
+    )  # validates everything before a file is written
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     try:
-        meta = {"format": DESIGN_FORMAT, "format_version": 1, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                "seeds": [int(s) for s in seeds], "requirements": [[r.name, r.kind, r.limit] for r in reqs],
-                **({"validate": held_out} if held_out is not None else {})}  # fmt: skip
+        meta = {
+            "format": DESIGN_FORMAT,
+            "format_version": 1,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "seeds": [int(s) for s in seeds],
+            "requirements": [[r.name, r.kind, r.limit] for r in reqs],
+            **({"validate": held_out} if held_out is not None else {}),
+        }
         atomic_write_text(out / "design.toml", runmod.to_toml(meta))
-        studymod.start_study(out / STUDY, base, list(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=on_generation)
+        studymod.start_study(
+            out / STUDY, base, list(seeds), workers=workers, dask=dask, on_seed=on_seed, on_generation=on_generation
+        )
     except (InputError, Exception):
         if not any((studymod.seed_dir(out / STUDY, int(sd)) / "checkpoint").exists() for sd in seeds):
             runmod.remove_folder(out, created)
@@ -139,8 +181,11 @@ def _check_anatomies(patients: Sequence[Any], settings: RunSettings, reqs: Seque
         raise InputError.of("anatomy", "is needed by the clearance requirement (default or mesh files); or drop it")
     for p in patients:
         if (p.anatomy if p.anatomy is not None else settings.anatomy) == ():
-            raise InputError.of("cohort", f"patient {p.name}: anatomy none, but the clearance requirement needs one (give its anatomy, "
-                                          "or drop the clearance requirement)")  # fmt: skip
+            raise InputError.of(
+                "cohort",
+                f"patient {p.name}: anatomy none, but the clearance requirement needs one (give its anatomy, "
+                "or drop the clearance requirement)",
+            )
 
 
 def seed_dockings(out: Path, seed: int) -> tuple[OptimizeResult, RunSettings, dict[str, Any], list[Docking]]:
@@ -152,7 +197,9 @@ def seed_dockings(out: Path, seed: int) -> tuple[OptimizeResult, RunSettings, di
     return run, RunSettings.from_config(cfg), summary, run_dockings(cfg, run, summary["mode"])
 
 
-def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, workers: int = 1, dask: str | None = None) -> DesignResult:
+def finish_design(
+    out: Path, on_stage: Callable[[str], None] | None = None, workers: int = 1, dask: str | None = None
+) -> DesignResult:
     """Choose the robot, re-evaluate every docking with the NumPy reference, build every docking's program and write
     the outputs; ``on_stage`` is told each stage ("checking seed 2 with the NumPy reference", "building the drilling
     program", ...). With a held-out cohort (design.toml's ``validate``), the robot chosen is then docked on it
@@ -168,12 +215,23 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
     meta, reqs = read_design(out)
     study = read_study_summary(out)
     # feasible seeds by objective, then the others by violation (the study's own ranking)
-    order = sorted(study["rows"], key=lambda r: (not r["feasible"], r.get(f"objective_{study['objective']}") or math.inf, r["violation"], r["seed"]))
+    order = sorted(
+        study["rows"],
+        key=lambda r: (
+            not r["feasible"],
+            r.get(f"objective_{study['objective']}") or math.inf,
+            r["violation"],
+            r["seed"],
+        ),
+    )
     chosen, seen, built = None, [], None
     for row in order:
         run, s, summary, dockings = seed_dockings(out, int(row["seed"]))
         entry = (row, run, s, summary, dockings)
-        say(f"checking seed {row['seed']}'s robot with the NumPy reference" + (f" at {len(dockings)} dockings" if len(dockings) > 1 else ""))
+        say(
+            f"checking seed {row['seed']}'s robot with the NumPy reference"
+            + (f" at {len(dockings)} dockings" if len(dockings) > 1 else "")
+        )
         assess_dockings(dockings, reqs, s)
         if s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
             _settle(out, entry, reqs, say, workers, dask)
@@ -193,7 +251,10 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
             _programs(out, chosen, reqs, say, [d for d in dockings if d.met])
     row, run, s, summary, dockings = chosen
     for d in dockings:  # model §22.4: the breach Monte Carlo, on the chosen robot only
-        say(f"the breach probability of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
+        say(
+            f"the breach probability of seed {row['seed']}'s robot"
+            + (f" at docking {d.label}" if len(dockings) > 1 else "")
+        )
         d.breach, breach_rows = breach_check(_folder(out, d, dockings), d, s, reqs)
         d.rows = [*d.rows, *breach_rows]
     met = all(d.met for d in dockings)
@@ -202,7 +263,14 @@ def finish_design(out: Path, on_stage: Callable[[str], None] | None = None, work
     return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings, held_out)
 
 
-def _settle(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], workers: int, dask: str | None) -> None:
+def _settle(
+    out: Path,
+    entry: tuple[Any, ...],
+    reqs: Sequence[Requirement],
+    say: Callable[[str], None],
+    workers: int,
+    dask: str | None,
+) -> None:
     """A seed's dockings after their re-check: the ones that miss are docked anew; once every docking meets the
     requirements at the plan's points, their programs are built, and a docking whose program is blocked is docked anew."""
     from arcube.design_job.redock import redock
@@ -210,22 +278,35 @@ def _settle(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say:
     row, run, s, _, dockings = entry
     cfg = runmod.read_config(run.path)[0]
     folders = [_folder(out, d, dockings) for d in dockings]
-    redone = redock(cfg, dockings, [k for k, d in enumerate(dockings) if not d.met], folders, s, reqs, int(row["seed"]), workers=workers,
-                    dask=dask, say=say)  # fmt: skip
+    redone = redock(
+        cfg,
+        dockings,
+        [k for k, d in enumerate(dockings) if not d.met],
+        folders,
+        s,
+        reqs,
+        int(row["seed"]),
+        workers=workers,
+        dask=dask,
+        say=say,
+    )
     if not all(d.met for d in dockings):
         return  # the programs are built for the seed chosen
     _programs(out, entry, reqs, say, [d for k, d in enumerate(dockings) if k not in redone])
     blocked = {k: d.rows for k, d in enumerate(dockings) if not d.met}
     for k in blocked:
         dockings[k].rows = [r for r in dockings[k].rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
-    redone = redock(cfg, dockings, list(blocked), folders, s, reqs, int(row["seed"]), workers=workers, dask=dask, say=say)
+    redone = redock(
+        cfg, dockings, list(blocked), folders, s, reqs, int(row["seed"]), workers=workers, dask=dask, say=say
+    )
     for k, rows in blocked.items():
         if k not in redone:
             dockings[k].rows = rows  # its own placement: met at the plan's points, its program blocked
 
 
-def _most_served(out: Path, seen: list[tuple[Any, ...]], reqs: Sequence[Requirement], say: Callable[[str], None],
-                 built: Any) -> tuple[tuple[Any, ...], Any]:  # fmt: skip
+def _most_served(
+    out: Path, seen: list[tuple[Any, ...]], reqs: Sequence[Requirement], say: Callable[[str], None], built: Any
+) -> tuple[tuple[Any, ...], Any]:
     """Coverage first (model §19.6) among seeds none of which serves every docking, a docking served only with its
     program built: the seeds in the order of the dockings they meet at the plan's points (a bound on what they serve
     once programmed), each one's programs built until no seed left can serve more than the best so far. Returns the
@@ -250,11 +331,16 @@ def _most_served(out: Path, seen: list[tuple[Any, ...]], reqs: Sequence[Requirem
     return best, built
 
 
-def _programs(out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], which: Sequence[Docking]) -> None:
+def _programs(
+    out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], which: Sequence[Docking]
+) -> None:
     """Build the drilling program of the dockings ``which`` of a seed (their rows gain the program's)."""
     row, _, s, _, dockings = entry
     for d in which:
-        say(f"building the drilling program of seed {row['seed']}'s robot" + (f" at docking {d.label}" if len(dockings) > 1 else ""))
+        say(
+            f"building the drilling program of seed {row['seed']}'s robot"
+            + (f" at docking {d.label}" if len(dockings) > 1 else "")
+        )
         d.rows = [*d.rows, *build_program(_folder(out, d, dockings), d, s, reqs)]
 
 
@@ -283,13 +369,28 @@ def _docking_summary(d: Docking) -> dict[str, Any]:
     from arcube.design_job.coverage import binding_row
 
     bind = binding_row(d.rows)
-    return {"label": d.label, "patient": d.name, "side": d.side, "meets_requirements": d.met, "missed": [r["requirement"] for r in d.rows if not r["passed"]],
-            "trajectories": list(d.plan.ids), **docking_entry(d), "clearance_mm": value("clearance"), "self_clearance_mm": value("self_clearance"),
-            "envelope_clearance_mm": value("envelope_clearance"), "lateral_error_mm": value("lateral_error"), "axis_error_deg": value("axis_error"),
-            "torque_Nm": value("torque"), "holding_torque_Nm": value("holding_torque"), "breach_probability": d.breach.get("breach_probability"),
-            "binding": None if bind is None else bind["requirement"], "binding_margin": None if bind is None else bind["margin"],
-            "binding_unit": None if bind is None else bind.get("unit"), "binding_where": None if bind is None else (bind.get("part") or None),
-            "folder": f"{DOCKINGS}/{d.label}"}  # fmt: skip
+    return {
+        "label": d.label,
+        "patient": d.name,
+        "side": d.side,
+        "meets_requirements": d.met,
+        "missed": [r["requirement"] for r in d.rows if not r["passed"]],
+        "trajectories": list(d.plan.ids),
+        **docking_entry(d),
+        "clearance_mm": value("clearance"),
+        "self_clearance_mm": value("self_clearance"),
+        "envelope_clearance_mm": value("envelope_clearance"),
+        "lateral_error_mm": value("lateral_error"),
+        "axis_error_deg": value("axis_error"),
+        "torque_Nm": value("torque"),
+        "holding_torque_Nm": value("holding_torque"),
+        "breach_probability": d.breach.get("breach_probability"),
+        "binding": None if bind is None else bind["requirement"],
+        "binding_margin": None if bind is None else bind["margin"],
+        "binding_unit": None if bind is None else bind.get("unit"),
+        "binding_where": None if bind is None else (bind.get("part") or None),
+        "folder": f"{DOCKINGS}/{d.label}",
+    }
 
 
 def _worst_breach(dockings: Sequence[Docking]) -> dict[str, Any]:
@@ -301,8 +402,16 @@ def _worst_breach(dockings: Sequence[Docking]) -> dict[str, Any]:
     return {**worst.breach, **({} if len(dockings) == 1 else {"docking": worst.label})}
 
 
-def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunSettings, summary: dict[str, Any],
-                   dockings: list[Docking], held_out: dict[str, Any] | None = None) -> DesignResult:  # fmt: skip
+def _write_outputs(
+    out: Path,
+    met: bool,
+    seed: int,
+    run: OptimizeResult,
+    s: RunSettings,
+    summary: dict[str, Any],
+    dockings: list[Docking],
+    held_out: dict[str, Any] | None = None,
+) -> DesignResult:
     from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
@@ -316,7 +425,9 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
     robot = {**robot, "c_z": first.c_z_mm, "dockings": entries}
     atomic_write_text(out / "design.json", json.dumps(robot, indent=2) + "\n")
     options = s.evaluation_options()
-    options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True))
+    options = options.replace(
+        outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True)
+    )
     from arcube.report.design_job import design_preface
 
     one = len(dockings) == 1
@@ -325,58 +436,124 @@ def _write_outputs(out: Path, met: bool, seed: int, run: OptimizeResult, s: RunS
         folder = _folder(out, d, dockings)
         (out / DOCKINGS / d.label).mkdir(parents=True, exist_ok=True)
         write_docking(d.design, out / DOCKINGS / d.label / "design.json", d.name, d.side)
-        write_requirements_csv(out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows])
+        write_requirements_csv(
+            out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows]
+        )
         opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
-        ev = evaluate_design(d.design, d.plan, s.points, design_mode(d.design), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope)
+        ev = evaluate_design(
+            d.design, d.plan, s.points, design_mode(d.design), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope
+        )
         evaluations.append(ev)
         # the perfect robot's lateral error beside it: the run's figure (one docking), else this docking's requirement row
-        perfect = summary.get("lateral_error_max_mm") if one else next((r["value"] for r in d.rows if r["requirement"] == "lateral_error"), None)
-        accuracies.append({**accuracy_budget(folder, d.design, d.plan, summary["mode"], s, perfect), **({} if one else {"docking": d.label})})
+        perfect = (
+            summary.get("lateral_error_max_mm")
+            if one
+            else next((r["value"] for r in d.rows if r["requirement"] == "lateral_error"), None)
+        )
+        accuracies.append(
+            {
+                **accuracy_budget(folder, d.design, d.plan, summary["mode"], s, perfect),
+                **({} if one else {"docking": d.label}),
+            }
+        )
         c_z = d.design.c_z if d.design.c_z is not None else closing_c_z(d.design, d.plan, s, summary)
         try:
-            xml = export_mjcf(d.design, d.plan, points=s.points, mode=d.design.mode, c_z=c_z, options=s.options, anatomy=d.anatomy,
-                              envelope=d.envelope)  # fmt: skip
+            xml = export_mjcf(
+                d.design,
+                d.plan,
+                points=s.points,
+                mode=d.design.mode,
+                c_z=c_z,
+                options=s.options,
+                anatomy=d.anatomy,
+                envelope=d.envelope,
+            )
             atomic_write_text(folder / "design.xml", xml)
         except InputError as exc:  # an open z dyad (a design that misses the z-dyad requirement): the summary says so
             mujoco = f"not written: {exc}" if one else mujoco
         if not one:
             program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
-            mine = {**summary, "seed": seed, "meets_requirements": d.met, "accuracy": accuracies[-1], "breach": d.breach}
+            mine = {
+                **summary,
+                "seed": seed,
+                "meets_requirements": d.met,
+                "accuracy": accuracies[-1],
+                "breach": d.breach,
+            }
             preface = design_preface(mine, d.rows, d.design, c_z=d.design.c_z, folder=folder)
-            write_report(ev, folder / "report.html", program=program, preface=preface, title=f"AR-CUBE docking: patient {d.name}, side {d.side}")
+            write_report(
+                ev,
+                folder / "report.html",
+                program=program,
+                preface=preface,
+                title=f"AR-CUBE docking: patient {d.name}, side {d.side}",
+            )
     rows = merge_rows(dockings)
     robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
     # the accuracy as built of the docking where it is worst (each docking's own: in its folder's accuracy/)
-    accuracy = max(accuracies, key=lambda a: a.get("lateral_error_p95_mm") if isinstance(a.get("lateral_error_p95_mm"), float) else -math.inf)
+    accuracy = max(
+        accuracies,
+        key=lambda a: a.get("lateral_error_p95_mm") if isinstance(a.get("lateral_error_p95_mm"), float) else -math.inf,
+    )
     result = {
-        "meets_requirements": met, "seed": seed, "mode": summary["mode"], "objective": summary["objectives"][0] if summary.get("objectives") else "eta_G",
-        "aggregate": s.aggregate, "docking_mode": s.dockings, "missed": [r["requirement"] for r in rows if not r["passed"]],
+        "meets_requirements": met,
+        "seed": seed,
+        "mode": summary["mode"],
+        "objective": summary["objectives"][0] if summary.get("objectives") else "eta_G",
+        "aggregate": s.aggregate,
+        "docking_mode": s.dockings,
+        "missed": [r["requirement"] for r in rows if not r["passed"]],
         "missed_at": {r["requirement"]: r["docking"] for r in rows if not r["passed"]},
-        "robot": {n: robot_values[n] for n in ROBOT_NAMES}, "dockings": [_docking_summary(d) for d in dockings],
+        "robot": {n: robot_values[n] for n in ROBOT_NAMES},
+        "dockings": [_docking_summary(d) for d in dockings],
         "requirements": [{k: v for k, v in r.items()} for r in rows],
         **{k: v for k, v in summary.items() if k not in ("files", "tasks", "objectives", "limits", "resumed")},
-        "accuracy": accuracy, **coverage_fields(dockings, held_out),
-        "breach": _worst_breach(dockings), "redocked": [d.label for d in dockings if d.redocked],
-        "files": {"design": "design.json", "requirements": "requirements.csv", "report": "report.html", "study": STUDY, "dockings": DOCKINGS,
-                  **({"validation": VALIDATION, "coverage": "coverage.html"} if held_out is not None else {}),
-                  **({"mujoco": mujoco} if one else {}), **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
-                  **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {})},
-    }  # fmt: skip
+        "accuracy": accuracy,
+        **coverage_fields(dockings, held_out),
+        "breach": _worst_breach(dockings),
+        "redocked": [d.label for d in dockings if d.redocked],
+        "files": {
+            "design": "design.json",
+            "requirements": "requirements.csv",
+            "report": "report.html",
+            "study": STUDY,
+            "dockings": DOCKINGS,
+            **({"validation": VALIDATION, "coverage": "coverage.html"} if held_out is not None else {}),
+            **({"mujoco": mujoco} if one else {}),
+            **({"accuracy": ACCURACY} if (out / ACCURACY / "tolerance.json").exists() else {}),
+            **({"program": PROGRAM} if (out / PROGRAM / "program.json").exists() else {}),
+        },
+    }
     etas = [ev.summary.get("eta_G") for ev in evaluations]
     if result.get("eta_G") is None and all(isinstance(v, float) and math.isfinite(v) for v in etas):
         # the run's robot missed somewhere and was docked anew (redocked): its eta_G is the NumPy reference's, over the dockings
         result["eta_G"] = max(etas) if s.aggregate != "mean" else sum(etas) / len(etas)
     if one:
         program = out / PROGRAM if (out / PROGRAM / "program.json").exists() else None
-        write_report(evaluations[0], out / "report.html", program=program, preface=design_preface(result, rows, first, c_z=first.c_z, folder=out))
+        write_report(
+            evaluations[0],
+            out / "report.html",
+            program=program,
+            preface=design_preface(result, rows, first, c_z=first.c_z, folder=out),
+        )
     else:
         from arcube.report.dockings import write_dockings_report
 
-        write_dockings_report(out / "report.html", dockings, evaluations, rows, met, extra=coverage_html(result, held_out), accuracies=accuracies)
+        write_dockings_report(
+            out / "report.html",
+            dockings,
+            evaluations,
+            rows,
+            met,
+            extra=coverage_html(result, held_out),
+            accuracies=accuracies,
+        )
     if held_out is not None:
         from arcube.report.coverage import write_coverage_report
 
-        write_coverage_report(out / "coverage.html", {**result, **result["training"]}, held_out, held_out_link=f"{VALIDATION}/")
+        write_coverage_report(
+            out / "coverage.html", {**result, **result["training"]}, held_out, held_out_link=f"{VALIDATION}/"
+        )
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(finite(result), indent=2, allow_nan=False) + "\n")
     return DesignResult(out, met, result, rows)

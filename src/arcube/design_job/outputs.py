@@ -34,20 +34,47 @@ def build_program(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requi
     from arcube.report.program import timeline_png
 
     # a dropped clearance requirement leaves no margin, but a program never passes through the patient or itself
-    limits = {"clearance": 0.0, "self_clearance": 0.0, "envelope_clearance": 0.0,
-              **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")}}  # fmt: skip
+    limits = {
+        "clearance": 0.0,
+        "self_clearance": 0.0,
+        "envelope_clearance": 0.0,
+        **{r.name: r.limit for r in reqs if r.name in ("clearance", "self_clearance", "envelope_clearance")},
+    }
     shutil.rmtree(folder / PROGRAM, ignore_errors=True)  # ours: a resumed job (or the next seed tried) builds it again
     folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    row: dict[str, Any] = {"requirement": "program", "kind": "min", "limit": 1.0, "unit": "feasible", "where": {}, "part": ""}
+    row: dict[str, Any] = {
+        "requirement": "program",
+        "kind": "min",
+        "limit": 1.0,
+        "unit": "feasible",
+        "where": {},
+        "part": "",
+    }
     try:
-        prog = program(d.design, d.plan, folder / PROGRAM, options=s.options, anatomy=d.anatomy, envelope=d.envelope, mode=d.design.mode,
-                       standoff_mm=float(s.standoff or 0.0), masses=True, **limits)  # fmt: skip
+        prog = program(
+            d.design,
+            d.plan,
+            folder / PROGRAM,
+            options=s.options,
+            anatomy=d.anatomy,
+            envelope=d.envelope,
+            mode=d.design.mode,
+            standoff_mm=float(s.standoff or 0.0),
+            masses=True,
+            **limits,
+        )
         timeline_png(prog, folder / PROGRAM / "program.png")
     except InputError as exc:
         return [{**row, "value": 0.0, "margin": -1.0, "passed": False, "part": str(exc)}, *program_rows(reqs, None)]
     summary = prog.summary
-    built = {**row, "value": 1.0, "margin": 0.0, "passed": True, "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s"}
+    built = {
+        **row,
+        "value": 1.0,
+        "margin": 0.0,
+        "passed": True,
+        "part": f"total {summary['total_s']:.1f} s, built in {time.perf_counter() - started:.0f} s",
+    }
     return [built, *program_rows(reqs, summary.get("motors"))]
 
 
@@ -67,9 +94,16 @@ def accuracy_budget(out: Path, design: Design, plan: Any, mode: str, s: RunSetti
     except InputError as exc:
         return {"tolerance_class": settings.tolerance_class, "not_computed": str(exc)}
     write_budget(result, out / ACCURACY)
-    return {"tolerance_class": settings.tolerance_class, "robots": settings.samples, "seed": settings.seed, **result.summary,
-            "perfect_robot_lateral_error_mm": perfect,
-            "tighten_first": [{"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]]}  # fmt: skip
+    return {
+        "tolerance_class": settings.tolerance_class,
+        "robots": settings.samples,
+        "seed": settings.seed,
+        **result.summary,
+        "perfect_robot_lateral_error_mm": perfect,
+        "tighten_first": [
+            {"source": n, "tolerance": t, "unit": u, "share": v} for n, t, u, v in result.ranked_sources()[:3]
+        ],
+    }
 
 
 def closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, Any]) -> float | None:
@@ -88,7 +122,9 @@ def closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, An
         return 0.5 * (lo + hi)
 
 
-def breach_check(out: Path | None, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+def breach_check(
+    out: Path | None, d: Docking, s: RunSettings, reqs: Sequence[Requirement]
+) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """The breach probability of one docking's screws (model §22), the robot as built to ``s.tolerance_class`` with the
     default registration and the run's thrust, written to ``out/breach`` when ``out`` is given: (its figures for
     summary.json, the ``breach_probability`` row when the requirement is set). A docking whose screws cannot be judged
@@ -96,23 +132,60 @@ def breach_check(out: Path | None, d: Docking, s: RunSettings, reqs: Sequence[Re
     from arcube.pedicles.run import breach, write_breach
 
     acc = s.accuracy_settings()
-    row = next(({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": "probability", "where": {}, "part": ""}
-                for r in reqs if r.name == "breach_probability"), None)  # fmt: skip
+    row = next(
+        (
+            {"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": "probability", "where": {}, "part": ""}
+            for r in reqs
+            if r.name == "breach_probability"
+        ),
+        None,
+    )
     try:
         result = breach(d.design, d.plan, tolerances=acc, samples=BREACH_SAMPLES, seed=acc.seed, loads=s.options.loads)
     except InputError as exc:
-        rows = [] if row is None else [{**row, "value": float("nan"), "margin": float("nan"), "passed": False, "part": str(exc)}]
+        rows = (
+            []
+            if row is None
+            else [{**row, "value": float("nan"), "margin": float("nan"), "passed": False, "part": str(exc)}]
+        )
         return {"not_computed": str(exc)}, rows
     if out is not None:
         shutil.rmtree(out / BREACH, ignore_errors=True)  # ours: a resumed job writes it again
         write_breach(result, out / BREACH)
     summary = result.summary()
     figures = {k: summary[k] for k in ("breach_probability", "worst_screw", "too_wide", "expected_breaches")}
-    figures["screws"] = [{k: r[k] for k in ("trajectory", "level", "side", "room_mm", "too_wide", "p_breach", "p_breach_low", "p_breach_high",
-                                            "p_major", "p_robot_alone", "p_registration_alone", "p_deflection_alone")} for r in result.rows()]  # fmt: skip
+    figures["screws"] = [
+        {
+            k: r[k]
+            for k in (
+                "trajectory",
+                "level",
+                "side",
+                "room_mm",
+                "too_wide",
+                "p_breach",
+                "p_breach_low",
+                "p_breach_high",
+                "p_major",
+                "p_robot_alone",
+                "p_registration_alone",
+                "p_deflection_alone",
+            )
+        }
+        for r in result.rows()
+    ]
     if row is None:
         return figures, []
-    value = 1.0 if summary["breach_probability"] is None else float(summary["breach_probability"])  # every screw too wide
+    value = (
+        1.0 if summary["breach_probability"] is None else float(summary["breach_probability"])
+    )  # every screw too wide
     worst = summary["worst_screw"] or (summary["too_wide"] or [""])[0]
-    return figures, [{**row, "value": value, "margin": row["limit"] - value, "passed": value <= row["limit"] and not summary["too_wide"],
-                      "part": f"screw {worst}" + (f"; too wide: {', '.join(summary['too_wide'])}" if summary["too_wide"] else "")}]  # fmt: skip
+    return figures, [
+        {
+            **row,
+            "value": value,
+            "margin": row["limit"] - value,
+            "passed": value <= row["limit"] and not summary["too_wide"],
+            "part": f"screw {worst}" + (f"; too wide: {', '.join(summary['too_wide'])}" if summary["too_wide"] else ""),
+        }
+    ]

@@ -46,9 +46,19 @@ def redock_budget(s: RunSettings) -> int:
     return 0 if budget < SMALLEST_JOB else int(min(DOCK_EVALUATIONS, budget // 10))
 
 
-def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], folders: Sequence[Path], s: RunSettings,
-           reqs: Sequence[Requirement], seed: int, *, workers: int = 1, dask: str | None = None,
-           say: Callable[[str], None] | None = None) -> list[int]:  # fmt: skip
+def redock(
+    cfg: dict[str, Any],
+    dockings: list[Docking],
+    which: Sequence[int],
+    folders: Sequence[Path],
+    s: RunSettings,
+    reqs: Sequence[Requirement],
+    seed: int,
+    *,
+    workers: int = 1,
+    dask: str | None = None,
+    say: Callable[[str], None] | None = None,
+) -> list[int]:
     """Dock the robot anew at the dockings ``which`` (indices into ``dockings``, the entries of ``cfg``), each program
     into its folder of ``folders``; a docking met that way takes the new placement and rows. Returns the indices met."""
     from arcube.design_job.coverage import run_jobs, solve_only
@@ -61,7 +71,11 @@ def redock(cfg: dict[str, Any], dockings: list[Docking], which: Sequence[int], f
         d = dockings[k]
         robot = BuiltRobot(d.label, d.design, (starts[k], *(w for j, w in enumerate(starts) if j != k)))
         side = d.side if d.side in ("R", "L") else None
-        jobs.append(DockingJob(robot, docking_patient(cfg, k), side, s, tuple(reqs), int(seed), 8, redock_budget(s), str(folders[k])))
+        jobs.append(
+            DockingJob(
+                robot, docking_patient(cfg, k), side, s, tuple(reqs), int(seed), 8, redock_budget(s), str(folders[k])
+            )
+        )
     if say is not None:
         say(f"docking the robot anew at {', '.join(dockings[k].label for k in which)} (the robot fixed)")
     met = []

@@ -41,22 +41,50 @@ from arcube.model.body import PART_NAMES
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Options
 
-__all__ = ["CHECKED_AFTER", "DEFAULTS", "PROGRAM_FIGURES", "REQUIREMENTS", "Requirement", "assess", "design_settings", "judge", "program_rows", "requirement_figure", "requirements_from", "write_requirements_csv"]
+__all__ = [
+    "CHECKED_AFTER",
+    "DEFAULTS",
+    "PROGRAM_FIGURES",
+    "REQUIREMENTS",
+    "Requirement",
+    "assess",
+    "design_settings",
+    "judge",
+    "program_rows",
+    "requirement_figure",
+    "requirements_from",
+    "write_requirements_csv",
+]
 
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
-    "clearance": ("min", "mm", "whole line"), "self_clearance": ("min", "mm", "whole line"), "envelope_clearance": ("min", "mm", "whole line"),
-    "lateral_error": ("max", "mm", "drill"), "axis_error": ("max", "deg", "drill"), "torque": ("max", "N·m", "drill"),
-    "holding_torque": ("max", "N·m", "drill"), "lateral_error_wc": ("max", "mm", "drill"), "lateral_error_rms": ("max", "mm", "drill"),
-    "torque_peak": ("max", "N·m", "program"), "power_peak": ("max", "W", "program"), "breach_probability": ("max", "probability", "screws"),
-}  # fmt: skip
+    "clearance": ("min", "mm", "whole line"),
+    "self_clearance": ("min", "mm", "whole line"),
+    "envelope_clearance": ("min", "mm", "whole line"),
+    "lateral_error": ("max", "mm", "drill"),
+    "axis_error": ("max", "deg", "drill"),
+    "torque": ("max", "N·m", "drill"),
+    "holding_torque": ("max", "N·m", "drill"),
+    "lateral_error_wc": ("max", "mm", "drill"),
+    "lateral_error_rms": ("max", "mm", "drill"),
+    "torque_peak": ("max", "N·m", "program"),
+    "power_peak": ("max", "W", "program"),
+    "breach_probability": ("max", "probability", "screws"),
+}
 """Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
 PROGRAM_FIGURES: dict[str, str] = {"torque_peak": "torque_peak_Nm", "power_peak": "power_peak_W"}
 """The requirements on the drilling program: their figure in each actuator's ``motors`` entry of program.json."""
 CHECKED_AFTER: tuple[str, ...] = (*PROGRAM_FIGURES, "breach_probability")
 """The requirements checked on the chosen robot only, not searched for: the program's figures, and the breach probability
 (model §22.4: a Monte Carlo is too slow for every candidate; the search can bound it through lateral_error_rms)."""
-DEFAULTS: dict[str, float] = {"clearance": 5.0, "self_clearance": 2.0, "envelope_clearance": 10.0, "lateral_error": 0.5, "axis_error": 0.25,
-                               "torque": 20.0, "holding_torque": 20.0}  # fmt: skip
+DEFAULTS: dict[str, float] = {
+    "clearance": 5.0,
+    "self_clearance": 2.0,
+    "envelope_clearance": 10.0,
+    "lateral_error": 0.5,
+    "axis_error": 0.25,
+    "torque": 20.0,
+    "holding_torque": 20.0,
+}
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
 _GUARDS = ("guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode")
 
@@ -70,8 +98,11 @@ class Requirement:
     limit: float
 
 
-def requirements_from(minima: Mapping[str, float] | Sequence[str] | str | None = None,
-                      maxima: Mapping[str, float] | Sequence[str] | str | None = None, drop: Sequence[str] = ()) -> list[Requirement]:  # fmt: skip
+def requirements_from(
+    minima: Mapping[str, float] | Sequence[str] | str | None = None,
+    maxima: Mapping[str, float] | Sequence[str] | str | None = None,
+    drop: Sequence[str] = (),
+) -> list[Requirement]:
     """The defaults, changed by ``minima`` / ``maxima`` and without the names in ``drop`` (checked).
 
     ``minima`` / ``maxima``: name -> limit, or ``"NAME=VALUE"`` texts as the command line gives them
@@ -82,20 +113,29 @@ def requirements_from(minima: Mapping[str, float] | Sequence[str] | str | None =
     limits = dict(DEFAULTS)
     for name in drop:
         if name not in REQUIREMENTS:
-            raise InputError.of("requirements.drop", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
+            raise InputError.of(
+                "requirements.drop", f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})"
+            )
     for kind, given in (("min", minima), ("max", maxima)):
         param = f"requirements.{kind}"
         for name, v, shown in limit_pairs(given, param=param, example="clearance=5" if kind == "min" else "torque=20"):
             if name not in REQUIREMENTS:
                 raise InputError.of(param, f"{name!r}: unknown requirement (known: {', '.join(REQUIREMENTS)})")
             if REQUIREMENTS[name][0] != kind:
-                raise InputError.of(param, f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE")
+                raise InputError.of(
+                    param,
+                    f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE",
+                )
             if name == "breach_probability" and not 0.0 < v <= 1.0:
                 raise InputError.of(param, f"{shown}: a probability, in (0, 1]")
             if not v >= 0.0 or (kind == "max" and v == 0.0):
-                raise InputError.of(param, f"{shown}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}")
+                raise InputError.of(
+                    param, f"{shown}: the limit must be a finite number {'> 0' if kind == 'max' else '>= 0'}"
+                )
             if name in drop:
-                raise InputError.of(param, f"{shown}: the {name} requirement is also dropped; limit it or drop it, not both")
+                raise InputError.of(
+                    param, f"{shown}: the {name} requirement is also dropped; limit it or drop it, not both"
+                )
             limits[name] = v
     for name in drop:
         limits.pop(name, None)
@@ -105,17 +145,31 @@ def requirements_from(minima: Mapping[str, float] | Sequence[str] | str | None =
 def design_options(reqs: Sequence[Requirement], base: Options = GUARDED_OPTIONS) -> Options:
     """The evaluation options of a design problem: the guards of 8.2 and the two clearance guards."""
     limit = {r.name: r.limit for r in reqs}
-    return base.replace(clearance_mm=limit.get("clearance"), self_clearance_mm=limit.get("self_clearance"),
-                        envelope_clearance_mm=limit.get("envelope_clearance"))  # fmt: skip
+    return base.replace(
+        clearance_mm=limit.get("clearance"),
+        self_clearance_mm=limit.get("self_clearance"),
+        envelope_clearance_mm=limit.get("envelope_clearance"),
+    )
 
 
 def _where(patient: int, ids: Sequence[str], segment: str, n_points: int, index: int) -> dict[str, Any]:
     return {"patient": patient + 1, "trajectory": ids[index // n_points], "segment": segment, "point": index % n_points}
 
 
-def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: Sequence[Any], reqs: Sequence[Requirement], *,
-           options: Options, points: int, standoff_mm: float, engine: str = "numpy", envelopes: Sequence[Any] = (),
-           accuracy: Any = None) -> list[dict[str, Any]]:  # fmt: skip
+def assess(
+    designs: Sequence[Any],
+    mode: Any,
+    plans: Sequence[Any],
+    anatomies: Sequence[Any],
+    reqs: Sequence[Requirement],
+    *,
+    options: Options,
+    points: int,
+    standoff_mm: float,
+    engine: str = "numpy",
+    envelopes: Sequence[Any] = (),
+    accuracy: Any = None,
+) -> list[dict[str, Any]]:
     """One row per requirement (and per guard of 8.2, and reach): the worst over every patient.
 
     ``designs``: per patient, a ``(27,)`` vector; ``plans``: per patient a TrajectorySet; ``anatomies``:
@@ -125,9 +179,21 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
     ``lateral_error_rms`` (default class m), computed by the NumPy first order of model §20.3.
     """
     holding = any(r.name == "holding_torque" for r in reqs)  # model §18.2 (needs a valid mass model)
-    opts = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
+    opts = options.replace(
+        outputs=options.outputs.replace(
+            clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding
+        )
+    )
     worst: dict[str, dict[str, Any]] = {}
-    reach = {"requirement": "reach", "kind": "min", "limit": 1.0, "value": 1.0, "unit": "fraction", "where": {}, "part": ""}
+    reach = {
+        "requirement": "reach",
+        "kind": "min",
+        "limit": 1.0,
+        "value": 1.0,
+        "unit": "fraction",
+        "where": {},
+        "part": "",
+    }
     guard_fail = {g: 0 for g in _GUARDS}
     for p, (x, plan, anat) in enumerate(zip(designs, plans, anatomies)):
         dist = None if anat is None else anat.distance
@@ -142,7 +208,9 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
             frac = float(ok.mean())
             if frac < reach["value"]:
                 bad = int(np.argmin(ok))
-                reach.update(value=frac, where=_where(p, plan.ids, segment, points, bad), part=FAILURES[failure[bad] - 1])
+                reach.update(
+                    value=frac, where=_where(p, plan.ids, segment, points, bad), part=FAILURES[failure[bad] - 1]
+                )
             for g in _GUARDS:
                 guard_fail[g] += int(np.sum(failure == FAILURES.index(g) + 1))
             robust = None
@@ -165,8 +233,17 @@ def assess(designs: Sequence[Any], mode: Any, plans: Sequence[Any], anatomies: S
                     worst[r.name] = {"value": v, "where": _where(p, plan.ids, segment, points, i), "part": part(i)}
     rows = [reach]
     for g in _GUARDS:
-        rows.append({"requirement": g.split("/")[1], "kind": "max", "limit": 0.0, "value": float(guard_fail[g]),
-                     "unit": "failing points", "where": {}, "part": ""})  # fmt: skip
+        rows.append(
+            {
+                "requirement": g.split("/")[1],
+                "kind": "max",
+                "limit": 0.0,
+                "value": float(guard_fail[g]),
+                "unit": "failing points",
+                "where": {},
+                "part": "",
+            }
+        )
     for r in (r for r in reqs if r.name not in CHECKED_AFTER):  # the program's and the breach's rows come after
         w = worst.get(r.name, {"value": math.nan, "where": {}, "part": ""})
         rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], **w})
@@ -195,8 +272,17 @@ def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, 
             v = fig.get(key)
             if isinstance(v, (int, float)) and math.isfinite(v) and not v <= value:
                 value, part = float(v), name
-        rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], "value": value,
-                     "where": {}, "part": part})  # fmt: skip
+        rows.append(
+            {
+                "requirement": r.name,
+                "kind": r.kind,
+                "limit": r.limit,
+                "unit": REQUIREMENTS[r.name][1],
+                "value": value,
+                "where": {},
+                "part": part,
+            }
+        )
     return judge(rows)
 
 
@@ -204,7 +290,9 @@ ROBUST_FIGURES = ("lateral_error_wc", "lateral_error_rms")
 """The requirements on the robot as built (model §20.3), from the first order rather than a point result."""
 
 
-def robust_figures(x: np.ndarray, E: np.ndarray, e: np.ndarray, mode: Any, accuracy: Any = None) -> dict[str, tuple[np.ndarray, Any]]:
+def robust_figures(
+    x: np.ndarray, E: np.ndarray, e: np.ndarray, mode: Any, accuracy: Any = None
+) -> dict[str, tuple[np.ndarray, Any]]:
     """Per point, the first-order worst-case and RMS lateral errors (mm) of design ``x`` ``(27,)`` at (E, e) ``(P, 3)``
     (NaN where the point is not reached), each with index -> the source with the largest share there."""
     from arcube.accuracy.first_order import first_order
@@ -217,9 +305,14 @@ def robust_figures(x: np.ndarray, E: np.ndarray, e: np.ndarray, mode: Any, accur
     share = np.asarray(fo.share)
 
     def top(i: int) -> str:
-        return SOURCE_NAMES[int(np.nanargmax(share[i]))] if np.isfinite(share[i]).any() and np.nanmax(share[i]) > 0 else ""
+        return (
+            SOURCE_NAMES[int(np.nanargmax(share[i]))] if np.isfinite(share[i]).any() and np.nanmax(share[i]) > 0 else ""
+        )
 
-    return {"lateral_error_wc": (np.asarray(fo.lateral_wc_mm, float), top), "lateral_error_rms": (np.asarray(fo.lateral_rms_mm, float), top)}
+    return {
+        "lateral_error_wc": (np.asarray(fo.lateral_wc_mm, float), top),
+        "lateral_error_rms": (np.asarray(fo.lateral_rms_mm, float), top),
+    }
 
 
 def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tuple[np.ndarray, Any]:
@@ -246,7 +339,21 @@ def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tupl
     return np.asarray(getattr(pts, field), float), lambda i: ""
 
 
-CSV_COLUMNS = ("requirement", "kind", "limit", "value", "unit", "margin", "passed", "docking", "patient", "trajectory", "segment", "point", "part")
+CSV_COLUMNS = (
+    "requirement",
+    "kind",
+    "limit",
+    "value",
+    "unit",
+    "margin",
+    "passed",
+    "docking",
+    "patient",
+    "trajectory",
+    "segment",
+    "point",
+    "part",
+)
 """The columns of ``requirements.csv`` (``docking``: where the requirement is tightest, ``<patient>_<side>``, model §19.4)."""
 
 
@@ -256,14 +363,29 @@ def requirements_csv(rows: Sequence[Mapping[str, Any]]) -> str:
     import io
 
     buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")  # a field with a comma (a part: "c_z 277.4 mm, d_z 85.3 mm") is quoted
+    writer = csv.writer(
+        buf, lineterminator="\n"
+    )  # a field with a comma (a part: "c_z 277.4 mm, d_z 85.3 mm") is quoted
     writer.writerow(CSV_COLUMNS)
     for row in rows:
         w = row.get("where") or {}
-        writer.writerow([row["requirement"], row["kind"], repr(float(row["limit"])), "" if not math.isfinite(row["value"]) else repr(float(row["value"])),
-                         row["unit"], "" if not math.isfinite(row["margin"]) else repr(float(row["margin"])), "pass" if row["passed"] else "fail",
-                         str(row.get("docking", "")), str(w.get("patient", "")), str(w.get("trajectory", "")), str(w.get("segment", "")),
-                         str(w.get("point", "")), row.get("part", "")])  # fmt: skip
+        writer.writerow(
+            [
+                row["requirement"],
+                row["kind"],
+                repr(float(row["limit"])),
+                "" if not math.isfinite(row["value"]) else repr(float(row["value"])),
+                row["unit"],
+                "" if not math.isfinite(row["margin"]) else repr(float(row["margin"])),
+                "pass" if row["passed"] else "fail",
+                str(row.get("docking", "")),
+                str(w.get("patient", "")),
+                str(w.get("trajectory", "")),
+                str(w.get("segment", "")),
+                str(w.get("point", "")),
+                row.get("part", ""),
+            ]
+        )
     return buf.getvalue()
 
 
@@ -284,17 +406,37 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
 
     s = run_settings(settings, **fields)
     if not s.anatomy and any(r.name == "clearance" for r in reqs):  # before the guard below would blame its own field
-        raise InputError.of("RunSettings.anatomy", "is needed by the clearance requirement (anatomy default, mesh files or a "
-                                                   "segmentation); or drop the clearance requirement")  # fmt: skip
-    maxima = {r.name: r.limit for r in reqs if r.kind == "max" and r.name not in CHECKED_AFTER}  # checked on the chosen robot
+        raise InputError.of(
+            "RunSettings.anatomy",
+            "is needed by the clearance requirement (anatomy default, mesh files or a "
+            "segmentation); or drop the clearance requirement",
+        )
+    maxima = {
+        r.name: r.limit for r in reqs if r.kind == "max" and r.name not in CHECKED_AFTER
+    }  # checked on the chosen robot
     options = design_options(reqs, s.options).replace(z_dyad=True)
     envelope = s.envelope if "envelope" in s.model_fields_set else ("default",)
     if envelope == ("none",) and any(r.name == "envelope_clearance" for r in reqs):
-        raise InputError.of("RunSettings.envelope", "is none, but the envelope_clearance requirement needs one (envelope default or a skin "
-                                                    "mesh); or drop the requirement")  # fmt: skip
+        raise InputError.of(
+            "RunSettings.envelope",
+            "is none, but the envelope_clearance requirement needs one (envelope default or a skin "
+            "mesh); or drop the requirement",
+        )
     dockings = s.dockings if s.dockings is not None or s.setups != 1 else "per-side"
     aggregate = s.aggregate if "aggregate" in s.model_fields_set else "max"
-    algorithm = s.algorithm if "algorithm" in s.model_fields_set or dockings is None else "docked"  # mscmaes with one docking
-    return s.replace(free=["all", "mount", "L", "c_z"], mode="free", guards=True, maxima={**s.maxima, **maxima}, options=options,
-                     standoff=20.0 if s.standoff is None else s.standoff, envelope=envelope, dockings=dockings, aggregate=aggregate,
-                     docking="per-patient", algorithm=algorithm)  # fmt: skip
+    algorithm = (
+        s.algorithm if "algorithm" in s.model_fields_set or dockings is None else "docked"
+    )  # mscmaes with one docking
+    return s.replace(
+        free=["all", "mount", "L", "c_z"],
+        mode="free",
+        guards=True,
+        maxima={**s.maxima, **maxima},
+        options=options,
+        standoff=20.0 if s.standoff is None else s.standoff,
+        envelope=envelope,
+        dockings=dockings,
+        aggregate=aggregate,
+        docking="per-patient",
+        algorithm=algorithm,
+    )

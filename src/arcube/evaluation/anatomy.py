@@ -81,7 +81,7 @@ class Anatomy:
             except InputError as exc:  # name the files: "anatomy spans ..." alone does not say which
                 if exc.param != "anatomy" or not str(exc).startswith("anatomy "):
                     raise
-                raise InputError(f"anatomy {self.source}: {str(exc)[len('anatomy '):]}", param="anatomy") from None
+                raise InputError(f"anatomy {self.source}: {str(exc)[len('anatomy ') :]}", param="anatomy") from None
         return self._cache["d"]
 
     def write_stl(self, path: str | os.PathLike[str]) -> Path:
@@ -120,14 +120,18 @@ def _cached(key: tuple[Any, ...], build: Any) -> Anatomy:
     return anatomy
 
 
-def _from_files(items: Sequence[str], frame: str, segments: tuple[str, ...] | None, source: str | None = None) -> Anatomy:
+def _from_files(
+    items: Sequence[str], frame: str, segments: tuple[str, ...] | None, source: str | None = None
+) -> Anatomy:
     """The anatomy of mesh and segmentation files; ``source`` None: the files named, each with its frame."""
     from arcube.io.meshes import read_mesh
     from arcube.io.segmentations import is_segmentation, read_segmentations
 
     seg_files = [i for i in items if is_segmentation(i)]
     if segments is not None and not seg_files:
-        raise InputError.of("segments", "applies to segmentation files (.seg.nrrd, .nrrd, .nii, .nii.gz); none was given")
+        raise InputError.of(
+            "segments", "applies to segmentation files (.seg.nrrd, .nrrd, .nii, .nii.gz); none was given"
+        )
     read = iter(read_segmentations(seg_files, segments) if seg_files else [])
     meshes: list[trimesh.Trimesh] = []
     infos: list[SegmentInfo] = []
@@ -153,8 +157,11 @@ def _default_file(plan: str) -> Path:
     candidates = [stem.with_name(stem.name + s) for s in _DEFAULT_SUFFIXES]
     found = [c for c in candidates if c.exists()]
     if not found:
-        raise InputError.of("anatomy", f"'default': no default anatomy for {plan} (expected {candidates[0]}, "
-                                       f"or its .seg.nrrd or .nii.gz, written by 'arcube patients')")
+        raise InputError.of(
+            "anatomy",
+            f"'default': no default anatomy for {plan} (expected {candidates[0]}, "
+            f"or its .seg.nrrd or .nii.gz, written by 'arcube patients')",
+        )
     return max(found, key=lambda c: c.stat().st_mtime_ns)  # max keeps the first of equals: STL first
 
 
@@ -164,7 +171,9 @@ def _default_for(plan: str | None, segments: tuple[str, ...] | None = None) -> A
 
     if plan is None or plan == "reference":
         if segments is not None:
-            raise InputError.of("segments", "applies to segmentation files; the reference patient's default anatomy is boxes")
+            raise InputError.of(
+                "segments", "applies to segmentation files; the reference patient's default anatomy is boxes"
+            )
 
         def build() -> Anatomy:
             boxes = reference_anatomy_boxes()
@@ -178,8 +187,13 @@ def _default_for(plan: str | None, segments: tuple[str, ...] | None = None) -> A
     return _cached(key, lambda: _from_files([str(path)], "patient", segments, f"default ({path})"))
 
 
-def load_anatomy(spec: Sequence[str] | str | None, frame: str = "LPS", plan: str | None = None, *,
-                 segments: str | Iterable[str | int] | None = None) -> Anatomy | None:
+def load_anatomy(
+    spec: Sequence[str] | str | None,
+    frame: str = "LPS",
+    plan: str | None = None,
+    *,
+    segments: str | Iterable[str | int] | None = None,
+) -> Anatomy | None:
     """The anatomy named by ``--anatomy`` (None for ``none``); ``plan`` is the ``--trajectories`` value;
     ``segments`` (``--segments``: names or label values, ``"C3,C4"``) keeps some segments of segmentation files."""
     from arcube.io.segmentations import parse_segments
@@ -200,14 +214,23 @@ def load_anatomy(spec: Sequence[str] | str | None, frame: str = "LPS", plan: str
     return _cached(key, lambda: _from_files([os.fspath(i) for i in items], frame, selection))
 
 
-def resolve_anatomy(anatomy: Any, frame: str = "LPS", plan: Any = None, *,
-                    segments: str | Iterable[str | int] | None = None) -> Anatomy | None:
+def resolve_anatomy(
+    anatomy: Any, frame: str = "LPS", plan: Any = None, *, segments: str | Iterable[str | int] | None = None
+) -> Anatomy | None:
     """An :class:`Anatomy` from what ``--anatomy`` accepts (None, 'none', 'default', mesh or segmentation paths)."""
     if anatomy is None or isinstance(anatomy, Anatomy):
         if segments is not None:
-            raise InputError.of("segments", "needs an anatomy (a segmentation file, or 'default')" if anatomy is None
-                                else "applies to anatomy files, not to an Anatomy already loaded")
+            raise InputError.of(
+                "segments",
+                "needs an anatomy (a segmentation file, or 'default')"
+                if anatomy is None
+                else "applies to anatomy files, not to an Anatomy already loaded",
+            )
         return anatomy
     items = [os.fspath(anatomy)] if isinstance(anatomy, (str, os.PathLike)) else [os.fspath(a) for a in anatomy]
-    plan_spec = plan.source if hasattr(plan, "source") and not isinstance(plan, (str, os.PathLike)) else (None if plan is None else os.fspath(plan))
+    plan_spec = (
+        plan.source
+        if hasattr(plan, "source") and not isinstance(plan, (str, os.PathLike))
+        else (None if plan is None else os.fspath(plan))
+    )
     return load_anatomy(items, frame, plan_spec, segments=segments)

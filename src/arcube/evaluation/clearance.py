@@ -50,7 +50,9 @@ def _min_along(distance: Distance, pts: NDArray[np.float64]) -> NDArray[np.float
     return np.min(d, axis=-1)
 
 
-def anatomy_clearance(parts: BodyParts, distance: Distance, step: float = SAMPLE_STEP_MM) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+def anatomy_clearance(
+    parts: BodyParts, distance: Distance, step: float = SAMPLE_STEP_MM
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """(clearance ``(...)`` mm, index into PART_NAMES ``(...)``, -1 where undefined) of the body to the anatomy.
 
     ``distance`` maps points ``(..., 3)`` in R_w to signed distances ``(...)`` (negative inside).
@@ -78,7 +80,9 @@ def anatomy_clearance(parts: BodyParts, distance: Distance, step: float = SAMPLE
             nrm = nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)
         nrm = np.where(np.isfinite(nrm), nrm, 0.0)  # a zero-length arc: its start point only
         dirs = a[..., None, :] * np.cos(phi)[..., None] + nrm[..., None, :] * np.sin(phi)[..., None]
-        per_primitive.append(_min_along(distance, parts.arc_centre[..., None, :] + parts.arc_radius[..., None, None] * dirs))
+        per_primitive.append(
+            _min_along(distance, parts.arc_centre[..., None, :] + parts.arc_radius[..., None, None] * dirs)
+        )
     values = np.stack(per_primitive, axis=-1) - parts.radius  # (..., 27)
     defined = np.all(np.isfinite(values), axis=-1)
     best = np.argmin(np.where(np.isfinite(values), values, np.inf), axis=-1)
@@ -86,7 +90,9 @@ def anatomy_clearance(parts: BodyParts, distance: Distance, step: float = SAMPLE
     return clearance, np.where(defined, PRIMITIVE_PART[best], -1)
 
 
-def segment_distance(p1: NDArray[np.float64], q1: NDArray[np.float64], p2: NDArray[np.float64], q2: NDArray[np.float64]) -> NDArray[np.float64]:
+def segment_distance(
+    p1: NDArray[np.float64], q1: NDArray[np.float64], p2: NDArray[np.float64], q2: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Distance between segments p1-q1 and p2-q2 ``(..., 3)`` -> ``(...)`` (points are zero-length segments).
 
     The closest-point computation of Ericson, *Real-Time Collision Detection*, 5.1.9, vectorized.
@@ -125,7 +131,9 @@ def arc_chords(parts: BodyParts) -> NDArray[np.float64]:
 def self_clearance(parts: BodyParts) -> NDArray[np.float64]:
     """Smallest distance between the primitive pairs of :data:`SELF_PAIRS`, minus both radii, ``(...)`` mm."""
     n_lines = N_SEGMENTS + N_SPHERES
-    lines = np.concatenate([parts.segments, np.stack([parts.spheres, parts.spheres], axis=-2)], axis=-3)  # (..., 23, 2, 3)
+    lines = np.concatenate(
+        [parts.segments, np.stack([parts.spheres, parts.spheres], axis=-2)], axis=-3
+    )  # (..., 23, 2, 3)
     i, j = SELF_PAIRS[:, 0], SELF_PAIRS[:, 1]  # i < j; two arcs are never paired, so only j can be an arc
     straight = j < n_lines
     i_s, j_s = i[straight], j[straight]
@@ -134,5 +142,9 @@ def self_clearance(parts: BodyParts) -> NDArray[np.float64]:
     chords = arc_chords(parts)[..., j_a, :, :, :]  # (..., n_arc_pairs, n, 2, 3)
     A = lines[..., i_a, None, :, :]
     d_a = np.min(segment_distance(A[..., 0, :], A[..., 1, :], chords[..., 0, :], chords[..., 1, :]), axis=-1)
-    d = np.concatenate([d_s, d_a], axis=-1) - parts.radius[np.concatenate([i_s, i[~straight]])] - parts.radius[np.concatenate([j_s, j[~straight]])]
+    d = (
+        np.concatenate([d_s, d_a], axis=-1)
+        - parts.radius[np.concatenate([i_s, i[~straight]])]
+        - parts.radius[np.concatenate([j_s, j[~straight]])]
+    )
     return np.min(d, axis=-1)

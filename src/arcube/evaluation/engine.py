@@ -32,10 +32,17 @@ def resolve(engine: str) -> str:
 
 
 def evaluate_task(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE,
-    options: Options = Options(), engine: str = "auto", want_points: bool = True, anatomy: Any = None, envelope: Any = None,
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options = Options(),
+    engine: str = "auto",
+    want_points: bool = True,
+    anatomy: Any = None,
+    envelope: Any = None,
     c_z: ArrayLike | None = None,
-) -> TaskResults:  # fmt: skip
+) -> TaskResults:
     """Evaluate designs ``(..., 27)`` on a task's points ``(P, 3)``; see :func:`arcube.evaluation.reference.evaluate_task`.
 
     ``anatomy``: an :class:`arcube.evaluation.sdf.AnatomyDistance` for the clearance of model §14.3;
@@ -48,5 +55,7 @@ def evaluate_task(
     if resolve(engine) == "numba":
         from arcube.evaluation.kernel import evaluate_task_numba
 
-        return evaluate_task_numba(params, E, e, mode, options, want_points=want_points, anatomy=anatomy, envelope=envelope, c_z=c_z)
+        return evaluate_task_numba(
+            params, E, e, mode, options, want_points=want_points, anatomy=anatomy, envelope=envelope, c_z=c_z
+        )
     return evaluate_task_numpy(params, E, e, mode, options, anatomy, envelope, c_z)

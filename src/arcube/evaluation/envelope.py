@@ -54,7 +54,19 @@ if TYPE_CHECKING:  # trimesh and the grids load only when a mesh is used
 
     from arcube.evaluation.sdf import AnatomyDistance
 
-__all__ = ["BOX_TABLE", "ENVELOPE_SPECS", "Envelope", "EnvelopeSettings", "Landmarks", "TABLE_BELOW_SKIN_MM", "default_envelope", "envelope_from_boxes", "landmarks", "resolve_envelope", "rounded_box_distance"]  # fmt: skip
+__all__ = [
+    "BOX_TABLE",
+    "ENVELOPE_SPECS",
+    "Envelope",
+    "EnvelopeSettings",
+    "Landmarks",
+    "TABLE_BELOW_SKIN_MM",
+    "default_envelope",
+    "envelope_from_boxes",
+    "landmarks",
+    "resolve_envelope",
+    "rounded_box_distance",
+]
 
 SKIN_WITHOUT_ANATOMY_MM = 50.0
 """z_s without anatomy: the largest entry z plus this (model §19.5)."""
@@ -70,6 +82,8 @@ BOX_TABLE: tuple[tuple[str, tuple[float, float, float], tuple[float, float, floa
 the neck's half extent along y is (y_top - y_bot) / 2 + its 15 mm (:func:`default_envelope`)."""
 ENVELOPE_SPECS = ("default", "none")
 """The words ``resolve_envelope`` takes besides mesh files."""
+
+
 @dataclass(frozen=True)
 class Landmarks:
     """The landmarks of model §19.5 (patient frame, mm).
@@ -102,7 +116,10 @@ def landmarks(entry: ArrayLike, target: ArrayLike, anatomy: Any = None) -> Landm
     if A.size == 0 or A.shape[-1] != 3 or A.shape != B.shape or not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         raise InputError.of("envelope", "cannot place its landmarks: the plan has no finite entry and target points")
     if anatomy is None:
-        z_s, skin_from = float(np.max(A[:, 2])) + SKIN_WITHOUT_ANATOMY_MM, f"largest entry z + {SKIN_WITHOUT_ANATOMY_MM:g} mm"
+        z_s, skin_from = (
+            float(np.max(A[:, 2])) + SKIN_WITHOUT_ANATOMY_MM,
+            f"largest entry z + {SKIN_WITHOUT_ANATOMY_MM:g} mm",
+        )
     else:
         d = A - B
         e = d / np.linalg.norm(d, axis=-1, keepdims=True)
@@ -120,7 +137,11 @@ def rounded_box_distance(points: ArrayLike, centre: ArrayLike, half: ArrayLike, 
     q1 = np.abs(p[..., 1] - c[..., 1]) - a[..., 1]
     q2 = np.abs(p[..., 2] - c[..., 2]) - a[..., 2]
     o0, o1, o2 = np.maximum(q0, 0.0), np.maximum(q1, 0.0), np.maximum(q2, 0.0)
-    return np.sqrt(o0 * o0 + o1 * o1 + o2 * o2) + np.minimum(np.maximum(q0, np.maximum(q1, q2)), 0.0) - np.asarray(rho, dtype=float)
+    return (
+        np.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+        + np.minimum(np.maximum(q0, np.maximum(q1, q2)), 0.0)
+        - np.asarray(rho, dtype=float)
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,22 +214,37 @@ class Envelope:
     def to_record(self) -> dict[str, Any]:
         """The envelope as a run's config records it (boxes, region names, table, source; a skin mesh is
         copied beside the config, :meth:`from_record` reads it back)."""
-        return {"boxes": self.boxes.tolist(), "names": list(self.names), "table_z": self.table_z, "source": self.source,
-                "skin": bool(self.skin)}  # fmt: skip
+        return {
+            "boxes": self.boxes.tolist(),
+            "names": list(self.names),
+            "table_z": self.table_z,
+            "source": self.source,
+            "skin": bool(self.skin),
+        }
 
     @classmethod
     def from_record(cls, record: dict[str, Any], skin: Sequence[Any] = ()) -> Envelope:
         """The envelope of :meth:`to_record` (``skin``: its skin meshes, patient frame)."""
-        return cls(np.asarray(record["boxes"], dtype=float).reshape(-1, 7), tuple(record["names"]), record.get("table_z"),
-                   tuple(skin), str(record.get("source", "")))  # fmt: skip
+        return cls(
+            np.asarray(record["boxes"], dtype=float).reshape(-1, 7),
+            tuple(record["names"]),
+            record.get("table_z"),
+            tuple(skin),
+            str(record.get("source", "")),
+        )
 
     def describe(self) -> dict[str, Any]:
         """What the envelope is, for a report or a JSON: source, regions, boxes, table and landmarks."""
         return {
-            "source": self.source, "regions": list(self.names), "table_z": self.table_z,
-            "boxes": {name: {"centre": b[:3].tolist(), "half_extents": b[3:6].tolist(), "rho": float(b[6])} for name, b in zip(self.names, self.boxes)},
+            "source": self.source,
+            "regions": list(self.names),
+            "table_z": self.table_z,
+            "boxes": {
+                name: {"centre": b[:3].tolist(), "half_extents": b[3:6].tolist(), "rho": float(b[6])}
+                for name, b in zip(self.names, self.boxes)
+            },
             "landmarks": None if self.landmarks is None else self.landmarks.as_dict(),
-        }  # fmt: skip
+        }
 
 
 def default_envelope(marks: Landmarks, table_z: float | None = None) -> Envelope:
@@ -244,8 +280,9 @@ def _table(table_z: Any) -> float | None:
     return value
 
 
-def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: float | None = None,
-                     anatomy_frame: str = "LPS") -> Envelope | None:  # fmt: skip
+def resolve_envelope(
+    spec: Any, plan: Any = None, anatomy: Any = None, table_z: float | None = None, anatomy_frame: str = "LPS"
+) -> Envelope | None:
     """The envelope named by ``spec``: ``"default"``, ``"none"`` (or None), mesh file(s), or an :class:`Envelope`.
 
     ``plan``: the trajectories **as loaded, before any side, level or id selection** (a
@@ -271,7 +308,10 @@ def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: 
         if items != ["default"]:
             raise InputError.of("envelope", "'none' and 'default' stand alone (not with mesh files)")
         if plan is None:
-            raise InputError.of("envelope", "'default' needs the plan's entry points to place its landmarks (model §19.5); give the trajectories, or 'none', or a skin mesh with table_z")  # fmt: skip
+            raise InputError.of(
+                "envelope",
+                "'default' needs the plan's entry points to place its landmarks (model §19.5); give the trajectories, or 'none', or a skin mesh with table_z",
+            )
         return default_envelope(landmarks(plan.entry, plan.target, anatomy), table)
     from arcube.evaluation.anatomy import FRAMES
     from arcube.io.meshes import read_meshes
@@ -282,7 +322,9 @@ def resolve_envelope(spec: Any, plan: Any = None, anatomy: Any = None, table_z: 
     marks = None
     if table is None:
         if plan is None:
-            raise InputError.of("table_z", "is needed with a skin mesh envelope when no plan places the table of model §19.5")
+            raise InputError.of(
+                "table_z", "is needed with a skin mesh envelope when no plan places the table of model §19.5"
+            )
         marks = landmarks(plan.entry, plan.target, anatomy)
         table = marks.z_s - TABLE_BELOW_SKIN_MM
     source = ", ".join(items) + f" ({anatomy_frame}); table z = {table:.1f} mm"
@@ -319,6 +361,14 @@ class EnvelopeSettings(Settings):
 # ----------------------------------------------------------------------------- drawing
 
 
-def envelope_from_boxes(boxes: Sequence[Sequence[float]], names: Sequence[str], table_z: float | None = None, source: str = "boxes") -> Envelope:
+def envelope_from_boxes(
+    boxes: Sequence[Sequence[float]], names: Sequence[str], table_z: float | None = None, source: str = "boxes"
+) -> Envelope:
     """An envelope of rounded boxes ``(B, 7)`` (centre, half extents, rho) named ``names``, and an optional table."""
-    return Envelope(np.asarray(boxes, dtype=float), (*names, *(("table",) if table_z is not None else ())), _table(table_z), (), source)
+    return Envelope(
+        np.asarray(boxes, dtype=float),
+        (*names, *(("table",) if table_z is not None else ())),
+        _table(table_z),
+        (),
+        source,
+    )

@@ -45,9 +45,16 @@ from arcube.model.body import N_ARCS, PRIMITIVE_PART, BodyParts, body_parts, mec
 from arcube.model.mechanism import DEFAULT_MODE
 
 __all__ = [
-    "ENVELOPE_ARC_CHORDS", "TIE_MM", "EnvelopeClearance", "arc_chord_points", "arc_lowest_z", "arc_sag_bound", "envelope_clearance",
-    "pose_envelope_clearance", "segment_box_min",
-]  # fmt: skip
+    "ENVELOPE_ARC_CHORDS",
+    "TIE_MM",
+    "EnvelopeClearance",
+    "arc_chord_points",
+    "arc_lowest_z",
+    "arc_sag_bound",
+    "envelope_clearance",
+    "pose_envelope_clearance",
+    "segment_box_min",
+]
 
 ENVELOPE_ARC_CHORDS = 24
 """Chords per spherical arc against a rounded box (the error bound in the module doc)."""
@@ -91,7 +98,10 @@ def _candidates(u: NDArray[np.float64], d: NDArray[np.float64], h: NDArray[np.fl
     for i in range(3):  # breakpoints: u_i + t d_i = -h_i, 0, h_i
         ts += [(s * h[..., i] - u[..., i]) / d[..., i] for s in (-1.0, 0.0, 1.0)]
     for sig in _SUBSETS:  # stationary points of sum over the axes outside of (s_i (u_i + t d_i) - h_i)^2
-        num = sum(((s * u[..., i] - h[..., i]) * (s * d[..., i]) for i, s in enumerate(sig) if s), start=np.zeros(u.shape[:-1]))
+        num = sum(
+            ((s * u[..., i] - h[..., i]) * (s * d[..., i]) for i, s in enumerate(sig) if s),
+            start=np.zeros(u.shape[:-1]),
+        )
         den = sum((d[..., i] * d[..., i] for i, s in enumerate(sig) if s), start=np.zeros(u.shape[:-1]))
         ts.append(-num / den)
     for i, j, si, sj in _CROSSINGS:  # the inside pieces: s_i (u_i + t d_i) - h_i = s_j (u_j + t d_j) - h_j
@@ -108,7 +118,10 @@ def segment_box_min(a: ArrayLike, b: ArrayLike, centre: ArrayLike, half: ArrayLi
     a_, b_ = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     shape = np.broadcast_shapes(a_.shape, b_.shape, np.shape(centre), np.shape(half))
     a_, b_ = np.broadcast_to(a_, shape), np.broadcast_to(b_, shape)
-    c, h = np.broadcast_to(np.asarray(centre, dtype=float), shape), np.broadcast_to(np.asarray(half, dtype=float), shape)
+    c, h = (
+        np.broadcast_to(np.asarray(centre, dtype=float), shape),
+        np.broadcast_to(np.asarray(half, dtype=float), shape),
+    )
     u, d = a_ - c, b_ - a_
     best = np.full(shape[:-1], np.inf)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -180,20 +193,32 @@ def envelope_clearance(parts: BodyParts, envelope: Envelope) -> EnvelopeClearanc
     if envelope.table_z is not None:
         low = np.concatenate([np.minimum(lines[..., 0, 2], lines[..., 1, 2]), arc_lowest_z(parts)], axis=-1)
         per_region.append(low - envelope.table_z - parts.radius)
-    mins = np.stack([r[0] if isinstance(r, tuple) else np.min(r, axis=-1) for r in per_region], axis=-1)  # NaN propagates
+    mins = np.stack(
+        [r[0] if isinstance(r, tuple) else np.min(r, axis=-1) for r in per_region], axis=-1
+    )  # NaN propagates
     least = np.min(mins, axis=-1)
     defined = np.isfinite(least) & np.all(np.isfinite(mins), axis=-1)
     tie = np.where(defined, least + TIE_MM, -np.inf)
     region = np.argmax(mins <= tie[..., None], axis=-1)  # the first region within TIE_MM of the least
-    owners = [r[1] if isinstance(r, tuple) else PRIMITIVE_PART[np.argmax(r <= tie[..., None], axis=-1)] for r in per_region]
+    owners = [
+        r[1] if isinstance(r, tuple) else PRIMITIVE_PART[np.argmax(r <= tie[..., None], axis=-1)] for r in per_region
+    ]
     part = np.take_along_axis(np.stack(owners, axis=-1), region[..., None], axis=-1)[..., 0]
-    return EnvelopeClearance(np.where(defined, least, np.nan), np.where(defined, part, -1), np.where(defined, region, -1))
+    return EnvelopeClearance(
+        np.where(defined, least, np.nan), np.where(defined, part, -1), np.where(defined, region, -1)
+    )
 
 
 def pose_envelope_clearance(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, envelope: Envelope, mode: ArrayLike = DEFAULT_MODE, *,
-    radii: Any = None, c_z: ArrayLike | None = None,
-) -> EnvelopeClearance:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    envelope: Envelope,
+    mode: ArrayLike = DEFAULT_MODE,
+    *,
+    radii: Any = None,
+    c_z: ArrayLike | None = None,
+) -> EnvelopeClearance:
     """The envelope clearance of a design ``(..., 27)`` at poses (``E``, ``e`` ``(..., 3)``), e.g. the states of a
     program (model §17.2): the body of 14.1 from the IK in working ``mode``, then :func:`envelope_clearance`.
 

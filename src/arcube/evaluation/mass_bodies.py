@@ -67,9 +67,21 @@ from arcube.options import Body, Masses, Options
 N_CHORDS = 12
 """Chords per spherical link (model §18.1)."""
 _LINKS = (
-    "crank_x", "crank_y", "crank_z", "input_x", "input_y", "coupler_x", "coupler_y", "output_x", "output_y",
-    "zdyad_d", "zdyad_c", "platform_xy", "platform_yz", "platform_zx",
-)  # fmt: skip
+    "crank_x",
+    "crank_y",
+    "crank_z",
+    "input_x",
+    "input_y",
+    "coupler_x",
+    "coupler_y",
+    "output_x",
+    "output_y",
+    "zdyad_d",
+    "zdyad_c",
+    "platform_xy",
+    "platform_yz",
+    "platform_zx",
+)
 _ARC_NAMES = tuple(f"spherical_{kind}_{u}/{k}" for kind in ("alpha", "beta") for u in "xy" for k in range(N_CHORDS))
 BODY_NAMES: tuple[str, ...] = (*_LINKS, *_ARC_NAMES, "actuator_D_x", "actuator_D_y", "drill_motor")
 """The 65 moving bodies, in the order of every body axis."""
@@ -108,9 +120,15 @@ class MassModel:
         if self.c_z_mm is not None:
             _check(self, "c_z_mm", lambda v: v > 0.0, "> 0")
         if self.wall_mm >= self.link_radius_mm:
-            raise InputError.of("MassModel.wall_mm", f"must be < link_radius_mm ({self.link_radius_mm:g}), got {self.wall_mm:g}")
+            raise InputError.of(
+                "MassModel.wall_mm", f"must be < link_radius_mm ({self.link_radius_mm:g}), got {self.wall_mm:g}"
+            )
         g = self.gravity
-        if not (isinstance(g, (tuple, list)) and len(g) == 3 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in g)):
+        if not (
+            isinstance(g, (tuple, list))
+            and len(g) == 3
+            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in g)
+        ):
             raise InputError.of("MassModel.gravity", f"must be three finite numbers (m/s^2), got {short_repr(g)}")
 
     @classmethod
@@ -120,8 +138,17 @@ class MassModel:
             return options
         o = Options() if options is None else options
         m, b = o.masses, o.body
-        return cls(b.link_radius, m.wall_mm, m.density_kg_m3, m.m_delta_kg, m.m_motor_kg, b.motor_radius, b.motor_length,
-                   tuple(float(v) for v in m.gravity), o.guards.c_z)  # fmt: skip
+        return cls(
+            b.link_radius,
+            m.wall_mm,
+            m.density_kg_m3,
+            m.m_delta_kg,
+            m.m_motor_kg,
+            b.motor_radius,
+            b.motor_length,
+            tuple(float(v) for v in m.gravity),
+            o.guards.c_z,
+        )
 
     @property
     def lambda_kg_per_mm(self) -> float:
@@ -149,13 +176,27 @@ def _chord_lengths(params: ArrayLike, model: MassModel, c_z: ArrayLike | None = 
         c_z = np.full(lead, float(model.c_z_mm))
     side = np.sqrt(2.0) * g.r
     arcs = [2.0 * g.r[..., None] * np.sin(phi / (2 * N_CHORDS)) for phi in (g.alpha, g.beta)]  # (..., 2) each
-    links = [*np.moveaxis(g.p, -1, 0), g.d[..., 0], g.d[..., 1], g.c[..., 0], g.c[..., 1], g.t[..., 0], g.t[..., 1],
-             g.d[..., 2], c_z, side, side, side]  # fmt: skip
+    links = [
+        *np.moveaxis(g.p, -1, 0),
+        g.d[..., 0],
+        g.d[..., 1],
+        g.c[..., 0],
+        g.c[..., 1],
+        g.t[..., 0],
+        g.t[..., 1],
+        g.d[..., 2],
+        c_z,
+        side,
+        side,
+        side,
+    ]
     chords = [np.repeat(a[..., i, None], N_CHORDS, axis=-1) for a in arcs for i in range(2)]
     return np.concatenate([np.stack(np.broadcast_arrays(*links), axis=-1), *chords], axis=-1)
 
 
-def body_masses_kg(params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None) -> NDArray[np.float64]:
+def body_masses_kg(
+    params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """``(..., 65)`` the mass (kg) of every body in :data:`BODY_NAMES` order, per design ``(..., 27)``;
     ``c_z`` ``(...)``: each design's own z-dyad link (mm; None: the model's)."""
     model = MassModel.of(options)
@@ -203,9 +244,12 @@ def _outer(vec: NDArray[np.float64], row: NDArray[np.float64]) -> NDArray[np.flo
 
 
 def bodies_of_solution(
-    sol: IKSolution, params: ArrayLike, options: Options | MassModel | None = None,
-    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
-) -> Bodies:  # fmt: skip
+    sol: IKSolution,
+    params: ArrayLike,
+    options: Options | MassModel | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    c_z: ArrayLike | None = None,
+) -> Bodies:
     """The moving bodies (model §18.1) at the poses of an IK solution, with their Jacobians.
 
     ``jacobians`` = (J_E, J_e) of :func:`arcube.evaluation.performance.jacobians_of_solution` if at hand;
@@ -214,8 +258,16 @@ def bodies_of_solution(
     model = MassModel.of(options)
     g = unpack(params)
     J_E, J_e = jacobians_of_solution(sol, params) if jacobians is None else jacobians
-    mp = mechanism_points(params, sol.E_m, sol.e, c_z=model.c_z_mm if c_z is None else c_z, z_elbow=model.z_elbow, motor_length=model.motor_length_mm,
-                          arc_samples=2, sol=sol)  # the chords' points are built below
+    mp = mechanism_points(
+        params,
+        sol.E_m,
+        sol.e,
+        c_z=model.c_z_mm if c_z is None else c_z,
+        z_elbow=model.z_elbow,
+        motor_length=model.motor_length_mm,
+        arc_samples=2,
+        sol=sol,
+    )  # the chords' points are built below
     lead = np.broadcast_shapes(mp.C.shape[:-1], J_E.shape[:-2])
     L = np.broadcast_to(g.L, lead)[..., None, None]
     J_C = J_E + L * J_e
@@ -230,7 +282,10 @@ def bodies_of_solution(
     eye5 = np.eye(5)
     # TLS and TMS joint points (see the module docstring).
     J_D = _outer(np.cross(-v_hat, mp.D - mp.P), np.ones(5)) * eye5[:3, None, :]  # (..., 3, 3, 5): column rho_u only
-    J_K = J_D[..., :2, :, :] + _outer(np.cross(u_hat[..., :2, :], mp.K - mp.D[..., :2, :]), np.ones(5)) * eye5[3:, None, :]
+    J_K = (
+        J_D[..., :2, :, :]
+        + _outer(np.cross(u_hat[..., :2, :], mp.K - mp.D[..., :2, :]), np.ones(5)) * eye5[3:, None, :]
+    )
     J_Q = np.broadcast_to(J_C[..., None, :, :], lead + (3, 3, 5))
     J_T = J_Q[..., :2, :, :] + _outer(np.cross(u_hat[..., :2, :], mp.T - mp.Q[..., :2, :]), J_sigma)
     J_ub = _outer(np.cross(u_hat[..., :2, :], ub), J_sigma)  # (..., 2, 3, 5)
@@ -249,15 +304,18 @@ def bodies_of_solution(
             J2 = np.broadcast_to(J_e[..., None, :, :], lead + (2, 3, 5))
         X = C[..., None, None, :] + r[..., None] * (a[..., None] * v1[..., None, :] + b[..., None] * v2[..., None, :])
         JX = J_C[..., None, None, :, :] + r[..., None, None] * (
-            a[..., None, None] * J1[..., None, :, :] + b[..., None, None] * J2[..., None, :, :])  # fmt: skip
+            a[..., None, None] * J1[..., None, :, :] + b[..., None, None] * J2[..., None, :, :]
+        )
         arc_pts.append(np.stack([X[..., :-1, :], X[..., 1:, :]], axis=-2).reshape(lead + (2 * N_CHORDS, 2, 3)))
         arc_J.append(np.stack([JX[..., :-1, :, :], JX[..., 1:, :, :]], axis=-3).reshape(lead + (2 * N_CHORDS, 2, 3, 5)))
     J_H = J_C + mp.r[..., None, None] * J_e
     J_M = J_H + model.motor_length_mm * J_e
     # z dyad: D_z -> J_z -> Q_z where it closes; else both rods on D_z -> Q_z (module docstring).
     op = ~closes[..., None]
-    z_ends = [(Dz, np.where(op, Qz, Jz), J_Dz, np.where(op[..., None], J_Qz, J_Jz)),
-              (np.where(op, Dz, Jz), Qz, np.where(op[..., None], J_Dz, J_Jz), J_Qz)]  # fmt: skip
+    z_ends = [
+        (Dz, np.where(op, Qz, Jz), J_Dz, np.where(op[..., None], J_Qz, J_Jz)),
+        (np.where(op, Dz, Jz), Qz, np.where(op[..., None], J_Dz, J_Jz), J_Qz),
+    ]
     Pz = np.zeros(lead + (3, 5))
     pairs = [
         *((mp.P[..., u, :], mp.D[..., u, :], Pz, J_D[..., u, :, :]) for u in range(3)),
@@ -283,14 +341,25 @@ def bodies_of_solution(
 
 
 def _elbow(
-    J: NDArray[np.float64], D: NDArray[np.float64], Q: NDArray[np.float64], J_D: NDArray[np.float64],
-    J_Q: NDArray[np.float64], axis: NDArray[np.float64], closes: NDArray[np.bool_],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    J: NDArray[np.float64],
+    D: NDArray[np.float64],
+    Q: NDArray[np.float64],
+    J_D: NDArray[np.float64],
+    J_Q: NDArray[np.float64],
+    axis: NDArray[np.float64],
+    closes: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The z-dyad elbow J ``(..., 3)`` and its Jacobian ``(..., 3, 5)`` from the dyad's closure (module
     docstring); NaN where the dyad does not close or sits at its own singularity."""
     M = np.stack(np.broadcast_arrays(J - D, J - Q, axis), axis=-2)  # (..., 3, 3)
-    rhs = np.stack([np.einsum("...i,...ij->...j", J - D, J_D), np.einsum("...i,...ij->...j", J - Q, J_Q),
-                    np.einsum("...i,...ij->...j", axis, J_Q)], axis=-2)  # fmt: skip
+    rhs = np.stack(
+        [
+            np.einsum("...i,...ij->...j", J - D, J_D),
+            np.einsum("...i,...ij->...j", J - Q, J_Q),
+            np.einsum("...i,...ij->...j", axis, J_Q),
+        ],
+        axis=-2,
+    )
     ok = closes & np.all(np.isfinite(M), axis=(-2, -1)) & np.all(np.isfinite(rhs), axis=(-2, -1))
     M_safe = np.where(ok[..., None, None], M, np.eye(3))
     ok &= np.abs(np.linalg.det(M_safe)) > 0.0

@@ -67,12 +67,20 @@ from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
 from arcube.options import Options
 
 __all__ = [
-    "HoldingTorque", "MassModel", "gravity_torque_Nm", "gravity_torque_of_solution", "holding_torque",
-    "holding_torque_of_solution", "moving_mass_kg", "potential_energy_J",
-]  # fmt: skip
+    "HoldingTorque",
+    "MassModel",
+    "gravity_torque_Nm",
+    "gravity_torque_of_solution",
+    "holding_torque",
+    "holding_torque_of_solution",
+    "moving_mass_kg",
+    "potential_energy_J",
+]
 
 
-def moving_mass_kg(params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None) -> NDArray[np.float64]:
+def moving_mass_kg(
+    params: ArrayLike, options: Options | MassModel | None = None, c_z: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """The moving mass (kg) of each design ``(..., 27)`` -> ``(...)`` (model §18.1, 18.3 ``moving_mass``);
     ``c_z`` ``(...)``: each design's own z-dyad link (mm; None: the options')."""
     return np.sum(body_masses_kg(params, options, c_z), axis=-1)
@@ -84,8 +92,12 @@ def _solve(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike) -> IK
 
 
 def potential_energy_J(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options | MassModel | None = None,
-) -> NDArray[np.float64]:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options | MassModel | None = None,
+) -> NDArray[np.float64]:
     """V = -sum_b m_b g . c_b ``(...)`` in J at poses (E, e) in working mode ``mode``; NaN where the IK fails."""
     model = MassModel.of(options)
     sol = _solve(params, E, e, mode)
@@ -96,9 +108,12 @@ def potential_energy_J(
 
 
 def gravity_torque_of_solution(
-    sol: IKSolution, params: ArrayLike, options: Options | MassModel | None = None,
-    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
-) -> NDArray[np.float64]:  # fmt: skip
+    sol: IKSolution,
+    params: ArrayLike,
+    options: Options | MassModel | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    c_z: ArrayLike | None = None,
+) -> NDArray[np.float64]:
     """dV/dq ``(..., 5)`` N m at the poses of ``sol``; ``jacobians`` = (J_E, J_e) if at hand; ``c_z``: each
     design's own z-dyad link (mm; None: the model's)."""
     model = MassModel.of(options)
@@ -109,8 +124,12 @@ def gravity_torque_of_solution(
 
 
 def gravity_torque_Nm(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options | MassModel | None = None,
-) -> NDArray[np.float64]:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options | MassModel | None = None,
+) -> NDArray[np.float64]:
     """dV/dq ``(..., 5)`` N m (positive along q_i) at poses (E, e) in R_w; NaN where the IK fails."""
     return gravity_torque_of_solution(_solve(params, E, e, mode), params, options)
 
@@ -125,9 +144,13 @@ class HoldingTorque(NamedTuple):
 
 
 def holding_torque_of_solution(
-    sol: IKSolution, params: ArrayLike, options: Options | None = None, masses: MassModel | None = None,
-    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None, c_z: ArrayLike | None = None,
-) -> HoldingTorque:  # fmt: skip
+    sol: IKSolution,
+    params: ArrayLike,
+    options: Options | None = None,
+    masses: MassModel | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    c_z: ArrayLike | None = None,
+) -> HoldingTorque:
     """The holding torque (model §18.2) at the poses of an IK solution.
 
     ``options`` gives the loads (``Options.loads``: thrust F_t, lateral bound F_l) and, unless
@@ -156,8 +179,12 @@ def holding_torque_of_solution(
 
 
 def holding_torque(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options | None = None,
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options | None = None,
     masses: MassModel | None = None,
-) -> HoldingTorque:  # fmt: skip
+) -> HoldingTorque:
     """:func:`holding_torque_of_solution` at poses (E, e) in R_w, e.g. designs ``(D, 1, 27)`` x points ``(P, 3)``."""
     return holding_torque_of_solution(_solve(params, E, e, mode), params, options, masses)

@@ -144,7 +144,9 @@ def check_per_actuator(value: ArrayLike, param: str, unit: str) -> NDArray[np.fl
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError, OverflowError):
-        raise InputError.of(param, f"must be one or five finite numbers of {unit} > 0, got {short_repr(value)}") from None
+        raise InputError.of(
+            param, f"must be one or five finite numbers of {unit} > 0, got {short_repr(value)}"
+        ) from None
     if a.shape not in ((), (5,)) or not np.all(np.isfinite(a)) or not np.all(a > 0.0):
         shown = a.tolist() if a.size <= 5 else f"an array of shape {a.shape}"
         raise InputError.of(param, f"must be one or five finite numbers of {unit} > 0, got {shown}")
@@ -252,8 +254,13 @@ def tip_metrics(
 
 
 PERFORMANCE_FIELDS: tuple[str, ...] = (
-    "tip_error_mm", "lateral_error_mm", "axial_error_mm", "axis_error_deg", "torque_Nm", "deflection_mm",
-)  # fmt: skip
+    "tip_error_mm",
+    "lateral_error_mm",
+    "axial_error_mm",
+    "axis_error_deg",
+    "torque_Nm",
+    "deflection_mm",
+)
 """The per-point metrics of model §15.2-15.4 that have a per-design maximum (15.5)."""
 MAXIMUM_FIELDS: tuple[str, ...] = (*PERFORMANCE_FIELDS, "holding_torque_Nm")
 """Every per-point metric with a per-design maximum over the reachable points (``<name>_max``): those of
@@ -261,9 +268,13 @@ model §15 and the holding torque of 18.2 (:mod:`arcube.evaluation.masses`, with
 
 
 def metrics_of_solution(
-    sol: IKSolution, params: ArrayLike, encoder_deg: ArrayLike = 0.01, thrust_N: float = 30.0,
-    lateral_N: float = 10.0, stiffness_Nm_per_rad: ArrayLike = 1e4,
-) -> TipMetrics:  # fmt: skip
+    sol: IKSolution,
+    params: ArrayLike,
+    encoder_deg: ArrayLike = 0.01,
+    thrust_N: float = 30.0,
+    lateral_N: float = 10.0,
+    stiffness_Nm_per_rad: ArrayLike = 1e4,
+) -> TipMetrics:
     """:func:`tip_metrics` at the points of an IK solution (shapes as ``sol``), in the patient frame."""
     J_E, J_e = jacobians_of_solution(sol, params)
     e_w = frames.directions_to_world(unpack(params), sol.e)

@@ -46,18 +46,41 @@ if TYPE_CHECKING:
     from arcube.evaluation.envelope import Envelope
 
 __all__ = [
-    "FAILURES", "GRADE_SCALES", "GUARDED_OPTIONS", "IK_FAILURES", "Options", "PointResults", "TaskResults", "evaluate_points",
-    "design_c_z", "dyad_in_reach", "evaluate_task", "failure_name", "fit_violation",
-]  # fmt: skip
+    "FAILURES",
+    "GRADE_SCALES",
+    "GUARDED_OPTIONS",
+    "IK_FAILURES",
+    "Options",
+    "PointResults",
+    "TaskResults",
+    "evaluate_points",
+    "design_c_z",
+    "dyad_in_reach",
+    "evaluate_task",
+    "failure_name",
+    "fit_violation",
+]
 from arcube.model.stages import rts, zleg
 
 
 FAILURES: tuple[str, ...] = (
-    "TLS/x", "TLS/y", "TLS/z", "RTS/x", "RTS/y", "TMS/x", "TMS/y",
+    "TLS/x",
+    "TLS/y",
+    "TLS/z",
+    "RTS/x",
+    "RTS/y",
+    "TMS/x",
+    "TMS/y",
     *(f"singular/{name}" for name in JACOBIAN_NAMES),
-    "guard/z_dyad", "guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode",
-    "collision/patient", "collision/self", "collision/envelope",
-)  # fmt: skip
+    "guard/z_dyad",
+    "guard/rho_max",
+    "guard/transmission",
+    "guard/kappa_max",
+    "guard/single_assembly_mode",
+    "collision/patient",
+    "collision/self",
+    "collision/envelope",
+)
 """Failure reasons; a point reports the first that applies, checked in this order except that the
 collision guards (model §14.3, 19.5) come after the other local guards and before the global
 ``guard/single_assembly_mode``. Code 0 in :attr:`PointResults.failure` means reachable; code
@@ -102,9 +125,15 @@ class PointResults(NamedTuple):
     clearance_mm: NDArray[np.float64]  # body to anatomy, signed (model §14.3); NaN when not computed or no IK
     clearance_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the closest part, -1 if none
     self_clearance_mm: NDArray[np.float64]  # between the body's own parts; NaN when not computed or no IK
-    envelope_clearance_mm: NDArray[np.float64]  # body to the envelope of the whole patient, signed (model §19.5); NaN when not computed or no IK
-    envelope_part: NDArray[np.intp]  # index into arcube.model.body.PART_NAMES of the part closest to the envelope, -1 if none
-    envelope_region: NDArray[np.intp]  # index into the envelope's names (neck, head, torso, table...) of the region it binds on, -1 if none
+    envelope_clearance_mm: NDArray[
+        np.float64
+    ]  # body to the envelope of the whole patient, signed (model §19.5); NaN when not computed or no IK
+    envelope_part: NDArray[
+        np.intp
+    ]  # index into arcube.model.body.PART_NAMES of the part closest to the envelope, -1 if none
+    envelope_region: NDArray[
+        np.intp
+    ]  # index into the envelope's names (neck, head, torso, table...) of the region it binds on, -1 if none
     tip_error_mm: NDArray[np.float64]  # model §15.2-15.4 from here on; NaN where unreachable
     lateral_error_mm: NDArray[np.float64]
     axial_error_mm: NDArray[np.float64]
@@ -124,14 +153,18 @@ class TaskResults(NamedTuple):
     reachable_fraction: NDArray[np.float64]
     eta_G: NDArray[np.float64]  # mean eta_L if w_G else +inf
     violation: NDArray[np.float64]  # model §16: violation_reach + G/(1+G)/(2P), G = guard_grade/P; 0 iff w_G
-    violation_reach: NDArray[np.float64]  # V_reach: fraction of IK failures + their excess; 0 iff the IK solves every point
+    violation_reach: NDArray[
+        np.float64
+    ]  # V_reach: fraction of IK failures + their excess; 0 iff the IK solves every point
     guard_grade: NDArray[np.float64]  # sum of points.guard_grade over the P points (not divided by P)
     dexterity_min: NDArray[np.float64]
     dexterity_mean: NDArray[np.float64]
     dexterity_max: NDArray[np.float64]
     clearance_min: NDArray[np.float64]  # min clearance_mm over reachable points (NaN if none)
     self_clearance_min: NDArray[np.float64]  # min self_clearance_mm over reachable points (NaN if none)
-    envelope_clearance_min: NDArray[np.float64]  # min envelope_clearance_mm over reachable points (NaN if none or not computed)
+    envelope_clearance_min: NDArray[
+        np.float64
+    ]  # min envelope_clearance_mm over reachable points (NaN if none or not computed)
     tip_error_max: NDArray[np.float64]  # model §15.5: maxima over the reachable points (NaN if none)
     lateral_error_max: NDArray[np.float64]
     axial_error_max: NDArray[np.float64]
@@ -166,8 +199,12 @@ def _grade(short: ArrayLike, scale: ArrayLike) -> NDArray[np.float64]:
 
 
 def _guard_checks(
-    sol: IKSolution, params: ArrayLike, eta: NDArray[np.float64], options: Options, c_z: NDArray[np.float64] | None = None,
-) -> list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]]:  # fmt: skip
+    sol: IKSolution,
+    params: ArrayLike,
+    eta: NDArray[np.float64],
+    options: Options,
+    c_z: NDArray[np.float64] | None = None,
+) -> list[tuple[str, NDArray[np.bool_], NDArray[np.float64]]]:
     """(reason, failed, grade) of each active local guard; ``grade`` is its model §16 term(s) at each
     point, sum of min(s / S, 1), 0 where undefined (NaN). Points without an IK solution are masked later.
     ``c_z``: each design's own z-dyad link (mm, :func:`design_c_z`), else the options' (d_z when None)."""
@@ -196,14 +233,20 @@ def _guard_checks(
             axis=-1,
         )
         shorts = np.maximum(np.sin(np.deg2rad(options.guards.min_transmission_deg)) - np.abs(sines), 0.0)
-        add("guard/transmission", np.sum(shorts, axis=-1) > 0.0, np.sum(_grade(shorts, GRADE_SCALES["transmission"]), axis=-1))
+        add(
+            "guard/transmission",
+            np.sum(shorts, axis=-1) > 0.0,
+            np.sum(_grade(shorts, GRADE_SCALES["transmission"]), axis=-1),
+        )
     if options.guards.kappa_max is not None:
         km = options.guards.kappa_max
         add("guard/kappa_max", eta > km, _grade(np.maximum(eta - km, 0.0), km))
     return out
 
 
-def _z_dyad_shortfall(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None) -> NDArray[np.float64]:
+def _z_dyad_shortfall(
+    sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None
+) -> NDArray[np.float64]:
     """How far the z dyad is from closing at each point, relative to d_z + c_z (section 6; 0 where it closes,
     NaN where the z leg has no solution). ``c_z``: each design's own, else the options' (d_z when None)."""
     g = unpack(params)
@@ -232,9 +275,15 @@ def design_c_z(params: ArrayLike, options: Options, c_z: ArrayLike | None) -> ND
 
 
 def evaluate_points(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
-    anatomy: Distance | None = None, envelope: Envelope | None = None, c_z: ArrayLike | None = None,
-) -> PointResults:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options = Options(),
+    anatomy: Distance | None = None,
+    envelope: Envelope | None = None,
+    c_z: ArrayLike | None = None,
+) -> PointResults:
     """Local evaluation (no global guard): every argument broadcasts, results ``(...)``.
 
     Parameters: ``params`` ``(..., 27)`` (or ``(..., 23)``) mm/deg; ``E`` ``(..., 3)`` drill tips in R_w, mm;
@@ -248,16 +297,23 @@ def evaluate_points(
 
 
 def _body_clearances(
-    sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None, shape: tuple[int, ...],
-    envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None,
-) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+    sol: IKSolution,
+    params: ArrayLike,
+    options: Options,
+    anatomy: Distance | None,
+    shape: tuple[int, ...],
+    envelope: Envelope | None = None,
+    c_z: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], ...]:
     """(clearance, part, self clearance, envelope clearance, envelope part, envelope region) ``shape`` each:
     NaN / -1 where not asked for or without IK. ``c_z``: each design's own (None: the options')."""
     nan, none = np.full(shape, np.nan), np.full(shape, -1, dtype=np.intp)
     if not options.wants_body:
         return nan, none, nan, nan, none, none
     radii = options.radii
-    mp = mechanism_points(params, sol.E_m, sol.e, c_z=options.guards.c_z if c_z is None else c_z, motor_length=radii.motor_length, sol=sol)
+    mp = mechanism_points(
+        params, sol.E_m, sol.e, c_z=options.guards.c_z if c_z is None else c_z, motor_length=radii.motor_length, sol=sol
+    )
     parts = body_parts(mp, radii)
     selfc = np.broadcast_to(self_clearance(parts), shape) if options.wants_self_clearance else nan
     env: tuple[NDArray[Any], ...] = (nan, none, none)
@@ -269,9 +325,15 @@ def _body_clearances(
     return np.broadcast_to(clear, shape), np.broadcast_to(part, shape), selfc, *env
 
 
-def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distance | None = None,
-           envelope: Envelope | None = None, c_z: NDArray[np.float64] | None = None,
-           dyad_ik: NDArray[np.bool_] | None = None) -> PointResults:  # fmt: skip
+def _judge(
+    sol: IKSolution,
+    params: ArrayLike,
+    options: Options,
+    anatomy: Distance | None = None,
+    envelope: Envelope | None = None,
+    c_z: NDArray[np.float64] | None = None,
+    dyad_ik: NDArray[np.bool_] | None = None,
+) -> PointResults:
     """Every point's results; ``dyad_ik`` (broadcasting as the points): where an open z dyad is an IK failure
     (:func:`dyad_in_reach`, model §16's amendment)."""
     kappa = condition_numbers(sol, params)
@@ -295,7 +357,9 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         open_dyad = dyad_ik & stages_ok & (short > 0.0)
         excess = excess + np.where(open_dyad, short, 0.0)
         solved = solved & ~open_dyad
-    clear, part, selfc, env, env_part, env_region = _body_clearances(sol, params, options, anatomy, shape, envelope, c_z)
+    clear, part, selfc, env, env_part, env_region = _body_clearances(
+        sol, params, options, anatomy, shape, envelope, c_z
+    )
     guards = _guard_checks(sol, params, eta_raw, options, c_z)
     scale = GRADE_SCALES["clearance"]
     if options.guards.clearance_mm is not None and anatomy is not None:
@@ -306,7 +370,9 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
         guards.append(("collision/self", short > 0.0, np.nan_to_num(_grade(short, scale), nan=0.0)))
     if options.guards.envelope_clearance_mm is not None and envelope is not None:
         short = np.maximum(options.guards.envelope_clearance_mm - env, 0.0)  # mm, model §19.5
-        guards.append(("collision/envelope", short > 0.0, np.nan_to_num(_grade(short, GRADE_SCALES["envelope"]), nan=0.0)))
+        guards.append(
+            ("collision/envelope", short > 0.0, np.nan_to_num(_grade(short, GRADE_SCALES["envelope"]), nan=0.0))
+        )
     grade: NDArray[np.float64] | float = 0.0
     for name, failed, term in guards:
         checks.append((name, failed & stages_ok))
@@ -341,7 +407,9 @@ def _judge(sol: IKSolution, params: ArrayLike, options: Options, anatomy: Distan
     return _mask_performance(pts)
 
 
-def _performance(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None = None) -> dict[str, Any] | None:
+def _performance(
+    sol: IKSolution, params: ArrayLike, options: Options, c_z: NDArray[np.float64] | None = None
+) -> dict[str, Any] | None:
     """The drill-tip metrics of model §15 and, with ``Outputs.holding_torque``, the holding torque of
     18.2 (NaN and -1 without it) at the points of ``sol``, by field name; None without ``Outputs.tip_metrics``.
     ``c_z``: each design's own z-dyad link (None: the options')."""
@@ -350,7 +418,9 @@ def _performance(sol: IKSolution, params: ArrayLike, options: Options, c_z: NDAr
     loads = options.loads
     J_E, J_e = jacobians_of_solution(sol, params)
     e_w = frames.directions_to_world(unpack(params), sol.e)
-    out: dict[str, Any] = tip_metrics(J_E, J_e, e_w, loads.encoder_deg, loads.thrust_N, loads.lateral_force_N, loads.actuator_stiffness)._asdict()
+    out: dict[str, Any] = tip_metrics(
+        J_E, J_e, e_w, loads.encoder_deg, loads.thrust_N, loads.lateral_force_N, loads.actuator_stiffness
+    )._asdict()
     out["holding_torque_Nm"], out["holding_torque_actuator"] = np.nan, -1
     if options.outputs.holding_torque:
         hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e), c_z=c_z)
@@ -362,8 +432,11 @@ def _mask_performance(pts: PointResults) -> PointResults:
     """NaN (and -1) for the metrics of model §15 where a point is not reachable."""
     r = pts.reachable
     fields = {name: np.where(r, getattr(pts, name), np.nan) for name in MAXIMUM_FIELDS}
-    return pts._replace(torque_actuator=np.where(r, pts.torque_actuator, -1),
-                        holding_torque_actuator=np.where(r, pts.holding_torque_actuator, -1), **fields)  # fmt: skip
+    return pts._replace(
+        torque_actuator=np.where(r, pts.torque_actuator, -1),
+        holding_torque_actuator=np.where(r, pts.holding_torque_actuator, -1),
+        **fields,
+    )
 
 
 def _single_assembly_mode(sol: IKSolution, pts: PointResults, ik_last: ArrayLike = IK_FAILURES) -> PointResults:
@@ -384,19 +457,27 @@ def _single_assembly_mode(sol: IKSolution, pts: PointResults, ik_last: ArrayLike
     failure = np.where(off, np.int16(_CODE["guard/single_assembly_mode"]), pts.failure)
     reachable = failure == 0
     solved = (pts.failure == 0) | (pts.failure > ik_last)
-    return _mask_performance(pts._replace(
-        reachable=reachable,
-        failure=failure,
-        eta_L=np.where(reachable, pts.eta_L, np.inf),
-        dexterity_pct=np.where(reachable, pts.dexterity_pct, 0.0),
-        guard_grade=np.where(solved & other, pts.guard_grade + 1.0, pts.guard_grade),
-    ))  # fmt: skip
+    return _mask_performance(
+        pts._replace(
+            reachable=reachable,
+            failure=failure,
+            eta_L=np.where(reachable, pts.eta_L, np.inf),
+            dexterity_pct=np.where(reachable, pts.dexterity_pct, 0.0),
+            guard_grade=np.where(solved & other, pts.guard_grade + 1.0, pts.guard_grade),
+        )
+    )
 
 
 def evaluate_task(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
-    anatomy: Distance | None = None, envelope: Envelope | None = None, c_z: ArrayLike | None = None,
-) -> TaskResults:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options = Options(),
+    anatomy: Distance | None = None,
+    envelope: Envelope | None = None,
+    c_z: ArrayLike | None = None,
+) -> TaskResults:
     """Evaluate designs ``(..., 27)`` (or ``(..., 23)``) on the P points of a task (``E``, ``e`` each ``(P, 3)``).
 
     ``mode`` broadcasts as ``(..., 4)`` (one working mode per design, or one for all).
@@ -439,7 +520,10 @@ def evaluate_task(
         clearance_min=_min_reachable(pts.clearance_mm, pts.reachable),
         self_clearance_min=_min_reachable(pts.self_clearance_mm, pts.reachable),
         envelope_clearance_min=_min_reachable(pts.envelope_clearance_mm, pts.reachable),
-        **{name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable) for name in MAXIMUM_FIELDS},
+        **{
+            name.rsplit("_", 1)[0] + "_max": _max_reachable(getattr(pts, name), pts.reachable)
+            for name in MAXIMUM_FIELDS
+        },
     )
 
 

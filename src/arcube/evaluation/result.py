@@ -118,7 +118,9 @@ class Evaluation:
             "engine": self.engine,
             "guards": self.options.flat(),
             "anatomy": None if self.anatomy is None else self.anatomy.source,
-            "anatomy_segments": None if self.anatomy is None or self.anatomy.segments is None else [s.to_dict() for s in self.anatomy.segments],
+            "anatomy_segments": None
+            if self.anatomy is None or self.anatomy.segments is None
+            else [s.to_dict() for s in self.anatomy.segments],
             "envelope": None if self.envelope is None else self.envelope.describe(),
             "points": tables.point_rows(pts, self.task, self.regions),
             "summary": self.summary_json(),
@@ -127,16 +129,38 @@ class Evaluation:
 
 
 def evaluate_design(
-    design: Design, ts: TrajectorySet, points: int, signs: np.ndarray, options: Options, engine: str = "numpy",
-    anatomy: Anatomy | None = None, envelope: Envelope | None = None,
+    design: Design,
+    ts: TrajectorySet,
+    points: int,
+    signs: np.ndarray,
+    options: Options,
+    engine: str = "numpy",
+    anatomy: Anatomy | None = None,
+    envelope: Envelope | None = None,
 ) -> Evaluation:
     """Sample ``ts`` at ``points`` per trajectory and evaluate ``design`` in one batch call. ``envelope``: the envelope of
     the whole patient (model §19.5), resolved on the whole plan (before any side or level is kept), not on ``ts`` alone."""
     task = build_task(ts.entry, ts.target, points, ids=ts.ids)
     distance = None if anatomy is None else anatomy.distance
-    results = evaluate_task(design.to_vector(), task.E, task.e, signs, options, engine=engine, want_points=True, anatomy=distance,
-                            envelope=envelope)  # fmt: skip
+    results = evaluate_task(
+        design.to_vector(),
+        task.E,
+        task.e,
+        signs,
+        options,
+        engine=engine,
+        want_points=True,
+        anatomy=distance,
+        envelope=envelope,
+    )
     return Evaluation(
-        design=design, mode=format_mode(signs), options=options, trajectories=ts, task=task, results=results, engine=engine,
-        anatomy=anatomy, envelope=envelope,
-    )  # fmt: skip
+        design=design,
+        mode=format_mode(signs),
+        options=options,
+        trajectories=ts,
+        task=task,
+        results=results,
+        engine=engine,
+        anatomy=anatomy,
+        envelope=envelope,
+    )

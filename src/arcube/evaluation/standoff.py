@@ -60,7 +60,9 @@ def exit_depths(meshes: Sequence[Any], origins: ArrayLike, directions: ArrayLike
     return best
 
 
-def standoff_points(entry: ArrayLike, target: ArrayLike, anatomy: Any = None, standoff_mm: float = DEFAULT_STANDOFF_MM) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def standoff_points(
+    entry: ArrayLike, target: ArrayLike, anatomy: Any = None, standoff_mm: float = DEFAULT_STANDOFF_MM
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(S ``(T, 3)`` mm, s + t ``(T,)`` mm): each trajectory's standoff tip position and its distance from the entry.
 
     ``anatomy``: an :class:`~arcube.evaluation.anatomy.Anatomy` (its meshes), or None (t_j = 0).
@@ -73,8 +75,13 @@ def standoff_points(entry: ArrayLike, target: ArrayLike, anatomy: Any = None, st
     return A + depth[:, None] * e, depth
 
 
-def approach_lines(entry: ArrayLike, target: ArrayLike, anatomy: Any = None, n_points: int = 30,
-                   standoff_mm: float = DEFAULT_STANDOFF_MM) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def approach_lines(
+    entry: ArrayLike,
+    target: ArrayLike,
+    anatomy: Any = None,
+    n_points: int = 30,
+    standoff_mm: float = DEFAULT_STANDOFF_MM,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The approach segment S_j -> A_j of every trajectory, sampled like a plan's line: (E, e), each
     ``(T * n_points, 3)``, trajectory-major, both ends included; the axis is e_j all along."""
     A = np.atleast_2d(np.asarray(entry, dtype=float))

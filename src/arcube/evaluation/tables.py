@@ -108,7 +108,11 @@ def diagnosis(design: Design, task: Task) -> list[str]:
         a, b = d[f"alpha_{leg}"], d[f"beta_{leg}"]
         need_lo, need_hi = float(angles[:, i].min()), float(angles[:, i].max())
         if need_lo < abs(a - b) or need_hi > a + b:
-            fix = "no placement m can fix this" if not rotated else "only another mounting rotation or wider links can fix this"
+            fix = (
+                "no placement m can fix this"
+                if not rotated
+                else "only another mounting rotation or wider links can fix this"
+            )
             lines.append(
                 f"RTS/{leg}: the drill axes make {need_lo:.1f}-{need_hi:.1f} deg with +{leg}_m but the spherical leg reaches "
                 f"{abs(a - b):.1f}-{a + b:.1f} deg (|alpha_{leg} - beta_{leg}| to alpha_{leg} + beta_{leg}); {fix}"
@@ -116,7 +120,9 @@ def diagnosis(design: Design, task: Task) -> list[str]:
     return lines
 
 
-def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = None, regions: tuple[str, ...] = ()) -> dict[str, Any]:
+def summary(
+    results: TaskResults, n_points: int, moving_mass_kg: float | None = None, regions: tuple[str, ...] = ()
+) -> dict[str, Any]:
     """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity,
     failures, the smallest clearances, the largest tip errors, torque and deflection, and the largest
     holding torque of model §18.2 with the design's moving mass (None where not computed); ``regions``: the
@@ -129,7 +135,11 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
         "w_G": bool(r.w_G),
         "reachable_fraction": float(r.reachable_fraction),
         "eta_G": _num(eta_G),
-        "dexterity_pct": {"min": float(r.dexterity_min), "mean": float(r.dexterity_mean), "max": float(r.dexterity_max)},
+        "dexterity_pct": {
+            "min": float(r.dexterity_min),
+            "mean": float(r.dexterity_mean),
+            "max": float(r.dexterity_max),
+        },
         "inverted_eta_G_pct": _num(100.0 / eta_G) if math.isfinite(eta_G) else None,
         "failures": failure_counts(pts),
         "clearance_min_mm": _num(r.clearance_min),
@@ -138,7 +148,9 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
         # model §19.5: with an envelope (else None); the body part and the envelope's region where it binds
         "envelope_clearance_min_mm": _num(r.envelope_clearance_min),
         "envelope_clearance_min_part": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_part, PART_NAMES),
-        "envelope_clearance_min_region": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_region, regions) if regions else None,
+        "envelope_clearance_min_region": _name_at(pts, pts.envelope_clearance_mm, pts.envelope_region, regions)
+        if regions
+        else None,
         "tip_error_max_mm": _num(r.tip_error_max),
         "lateral_error_max_mm": _num(r.lateral_error_max),
         "axial_error_max_mm": _num(r.axial_error_max),
@@ -149,7 +161,9 @@ def summary(results: TaskResults, n_points: int, moving_mass_kg: float | None = 
         "deflection_max_mm": _num(r.deflection_max),
         # model §18: with Outputs.holding_torque (else None)
         "holding_torque_max_Nm": _num(r.holding_torque_max),
-        "holding_torque_max_actuator": _name_at(pts, -pts.holding_torque_Nm, pts.holding_torque_actuator, ACTUATOR_NAMES),
+        "holding_torque_max_actuator": _name_at(
+            pts, -pts.holding_torque_Nm, pts.holding_torque_actuator, ACTUATOR_NAMES
+        ),
         "moving_mass_kg": None if moving_mass_kg is None else _num(moving_mass_kg),
     }
 
@@ -182,10 +196,14 @@ def point_rows(pts: PointResults, task: Task, regions: tuple[str, ...] = ()) -> 
                 "self_clearance_mm": _num(pts.self_clearance_mm[i]),
                 "envelope_clearance_mm": _num(pts.envelope_clearance_mm[i]),
                 "envelope_part": PART_NAMES[int(pts.envelope_part[i])] if pts.envelope_part[i] >= 0 else None,
-                "envelope_region": regions[int(pts.envelope_region[i])] if pts.envelope_region[i] >= 0 and regions else None,
+                "envelope_region": regions[int(pts.envelope_region[i])]
+                if pts.envelope_region[i] >= 0 and regions
+                else None,
                 **{name: _num(getattr(pts, name)[i]) for name in MAXIMUM_FIELDS},
                 "torque_actuator": ACTUATOR_NAMES[int(pts.torque_actuator[i])] if pts.torque_actuator[i] >= 0 else None,
-                "holding_torque_actuator": ACTUATOR_NAMES[int(pts.holding_torque_actuator[i])] if pts.holding_torque_actuator[i] >= 0 else None,
+                "holding_torque_actuator": ACTUATOR_NAMES[int(pts.holding_torque_actuator[i])]
+                if pts.holding_torque_actuator[i] >= 0
+                else None,
             }
         )
     return points

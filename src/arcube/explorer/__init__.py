@@ -26,10 +26,24 @@ if TYPE_CHECKING:
 __all__ = ["explore", "live_model"]
 
 
-def live_model(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
-               anatomy_frame: str = "LPS", mode: str | Sequence[float] | None = None, points: int = 30, side: str | None = None,
-               levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True,
-               segments: Any = None, envelope: Any = "default", table_z: float | None = None, **changes: Any) -> LiveModel:  # fmt: skip
+def live_model(
+    design: Any = "paper",
+    plan: Any = "reference",
+    *,
+    options: Options | None = None,
+    anatomy: Any = None,
+    anatomy_frame: str = "LPS",
+    mode: str | Sequence[float] | None = None,
+    points: int = 30,
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[str] | None = None,
+    guards: bool = True,
+    segments: Any = None,
+    envelope: Any = "default",
+    table_z: float | None = None,
+    **changes: Any,
+) -> LiveModel:
     """The explorer's :class:`~arcube.explorer.live.LiveModel` from what :func:`explore` takes (InputError on bad input)."""
     from arcube.coerce import design_mode, points as checked_points
     from arcube.evaluation.anatomy import resolve_anatomy
@@ -53,12 +67,30 @@ def live_model(design: Any = "paper", plan: Any = "reference", *, options: Optio
     return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards), envelope=env)
 
 
-def explore(design: Any = "paper", plan: Any = "reference", *, options: Options | None = None, anatomy: Any = None,
-            anatomy_frame: str = "LPS", mode: str | Sequence[float] | None = None, points: int = 30, side: str | None = None,
-            levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, guards: bool = True, port: int = 8080,
-            host: str = "127.0.0.1", html: str | os.PathLike[str] | None = None, point: int | None = None,
-            save_path: str | os.PathLike[str] = "design_explored.json", block: bool = True, segments: Any = None,
-            envelope: Any = "default", table_z: float | None = None, **changes: Any) -> ExplorerApp | Path:  # fmt: skip
+def explore(
+    design: Any = "paper",
+    plan: Any = "reference",
+    *,
+    options: Options | None = None,
+    anatomy: Any = None,
+    anatomy_frame: str = "LPS",
+    mode: str | Sequence[float] | None = None,
+    points: int = 30,
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[str] | None = None,
+    guards: bool = True,
+    port: int = 8080,
+    host: str = "127.0.0.1",
+    html: str | os.PathLike[str] | None = None,
+    point: int | None = None,
+    save_path: str | os.PathLike[str] = "design_explored.json",
+    block: bool = True,
+    segments: Any = None,
+    envelope: Any = "default",
+    table_z: float | None = None,
+    **changes: Any,
+) -> ExplorerApp | Path:
     """Explore a design on a drilling plan in the browser: sliders, the robot's solids coloured by
     clearance, live figures against the requirements of ``arcube design``, save and polish.
 
@@ -82,14 +114,31 @@ def explore(design: Any = "paper", plan: Any = "reference", *, options: Options 
 
     if html is None:
         check_port(host, port)  # before the slow part: a taken port fails at once
-    model = live_model(design, plan, options=options, anatomy=anatomy, anatomy_frame=anatomy_frame, mode=mode, points=points,
-                       side=side, levels=levels, ids=ids, guards=guards, segments=segments, envelope=envelope, table_z=table_z,
-                       **changes)  # fmt: skip
+    model = live_model(
+        design,
+        plan,
+        options=options,
+        anatomy=anatomy,
+        anatomy_frame=anatomy_frame,
+        mode=mode,
+        points=points,
+        side=side,
+        levels=levels,
+        ids=ids,
+        guards=guards,
+        segments=segments,
+        envelope=envelope,
+        table_z=table_z,
+        **changes,
+    )
     if point is not None and (isinstance(point, bool) or not isinstance(point, int) or not 0 <= point < len(model)):
         from arcube.errors import InputError
 
-        raise InputError.of("point", f"must be an integer in [0, {len(model) - 1}] (the points of the lines: per trajectory "
-                                     f"{model.points} approach points, then {model.points} drill points), got {point!r}")  # fmt: skip
+        raise InputError.of(
+            "point",
+            f"must be an integer in [0, {len(model) - 1}] (the points of the lines: per trajectory "
+            f"{model.points} approach points, then {model.points} drill points), got {point!r}",
+        )
     anat = "none" if model.anatomy is None else model.anatomy.source
     title = f"{model.plan.source}: {len(model.plan.ids)} trajectories × {model.points} points · anatomy: {anat}"
     if html is not None:
@@ -98,9 +147,17 @@ def explore(design: Any = "paper", plan: Any = "reference", *, options: Options 
         return write_static(model, html, point, title)
     from arcube.explorer.app import ExplorerApp
 
-    spec = [anatomy] if isinstance(anatomy, (str, os.PathLike)) else list(anatomy) if isinstance(anatomy, (list, tuple)) else None
+    spec = (
+        [anatomy]
+        if isinstance(anatomy, (str, os.PathLike))
+        else list(anatomy)
+        if isinstance(anatomy, (list, tuple))
+        else None
+    )
     spec = None if spec is None else [os.fspath(s) for s in spec]
-    app = ExplorerApp(model, host=host, port=port, save_path=save_path, anatomy_spec=spec, anatomy_frame=anatomy_frame, title=title)
+    app = ExplorerApp(
+        model, host=host, port=port, save_path=save_path, anatomy_spec=spec, anatomy_frame=anatomy_frame, title=title
+    )
     if point is not None:
         app.point.value = int(point)
     if not block:

@@ -1,5 +1,7 @@
 """The live explorer: a viser server (its web client is bundled in the wheel: no CDN, works offline).
 
+Long module: one class, :class:`ExplorerApp`: the viser controls and the refresh worker share its state and its lock.
+
 Every control changes :class:`~arcube.explorer.live.LiveModel` and asks one worker thread to refresh; the worker coalesces
 requests (a slider dragged fast re-evaluates only for its latest value), runs the kernel on the whole plan (skipped when only
 the point along the plan moved), builds the scene at the point shown (:mod:`arcube.explorer.scene`) and sends it in one batch.
@@ -41,8 +43,12 @@ GROUPS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("RTS: r, o, α, β", ("r", "o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y")),
     ("Mounting and tool: R, L", ("mount_rx", "mount_ry", "mount_rz", "L")),
 )
-_RADII = (("link", "link radius (mm)", 1.0, 40.0), ("actuator", "actuator radius (mm)", 1.0, 80.0),
-          ("motor", "motor radius (mm)", 1.0, 60.0), ("motor_length", "motor length (mm)", 1.0, 300.0))  # fmt: skip
+_RADII = (
+    ("link", "link radius (mm)", 1.0, 40.0),
+    ("actuator", "actuator radius (mm)", 1.0, 80.0),
+    ("motor", "motor radius (mm)", 1.0, 60.0),
+    ("motor_length", "motor length (mm)", 1.0, 300.0),
+)
 _TOOL_RGB, _TIP_RGB, _PATIENT_RGB, _SELF_RGB = (60, 60, 70), (20, 20, 20), (220, 20, 60), (160, 40, 200)
 
 
@@ -56,14 +62,25 @@ def check_port(host: str, port: int) -> None:
             probe.bind((host, port))
             probe.listen(1)
         except OSError as exc:
-            raise InputError.of("port", f"{port} on {host} is in use or not available ({exc.strerror or exc}); choose another") from None
+            raise InputError.of(
+                "port", f"{port} on {host} is in use or not available ({exc.strerror or exc}); choose another"
+            ) from None
 
 
 class ExplorerApp:
     """The server, its controls and scene, and the refresh worker (see the module docstring)."""
 
-    def __init__(self, model: LiveModel, *, host: str = "127.0.0.1", port: int = 8080, save_path: str | Path = "design_explored.json",
-                 anatomy_spec: list[str] | None = None, anatomy_frame: str = "LPS", title: str = "") -> None:  # fmt: skip
+    def __init__(
+        self,
+        model: LiveModel,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        save_path: str | Path = "design_explored.json",
+        anatomy_spec: list[str] | None = None,
+        anatomy_frame: str = "LPS",
+        title: str = "",
+    ) -> None:
         import viser
 
         check_port(host, port)
@@ -107,30 +124,66 @@ class ExplorerApp:
         sc.configure_default_lights(cast_shadow=False)  # shadow passes double the cost of a frame (software WebGL)
         if m.anatomy is not None:
             verts, faces = m.anatomy.vertices_faces()
-            sc.add_mesh_simple("/anatomy", verts * SCALE, faces, color=(232, 214, 170), opacity=0.5,
-                               side="double", cast_shadow=False, receive_shadow=False)  # fmt: skip
+            sc.add_mesh_simple(
+                "/anatomy",
+                verts * SCALE,
+                faces,
+                color=(232, 214, 170),
+                opacity=0.5,
+                side="double",
+                cast_shadow=False,
+                receive_shadow=False,
+            )
         if m.envelope is not None:  # model §19.5: faint, so that the robot stays readable inside it
             from arcube.evaluation.envelope_drawing import envelope_meshes
 
             for name, mesh in envelope_meshes(m.envelope):
-                sc.add_mesh_simple(f"/envelope/{name}", np.asarray(mesh.vertices) * SCALE, np.asarray(mesh.faces), color=(143, 168, 200),
-                                   opacity=0.12, side="double", cast_shadow=False, receive_shadow=False)  # fmt: skip
+                sc.add_mesh_simple(
+                    f"/envelope/{name}",
+                    np.asarray(mesh.vertices) * SCALE,
+                    np.asarray(mesh.faces),
+                    color=(143, 168, 200),
+                    opacity=0.12,
+                    side="double",
+                    cast_shadow=False,
+                    receive_shadow=False,
+                )
         drill = np.stack([m.plan.entry, m.plan.target], axis=1) * SCALE
         sc.add_line_segments("/plan/drill", drill, (0, 170, 200), thickness=3.0, thickness_units="screen")
         standoff = m.E_app.reshape(len(m.plan.ids), m.points, 3)[:, 0]
-        sc.add_line_segments("/plan/approach", np.stack([standoff, m.plan.entry], axis=1) * SCALE, (150, 200, 215), thickness=1.5,
-                             thickness_units="screen")  # fmt: skip
+        sc.add_line_segments(
+            "/plan/approach",
+            np.stack([standoff, m.plan.entry], axis=1) * SCALE,
+            (150, 200, 215),
+            thickness=1.5,
+            thickness_units="screen",
+        )
         cyl = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=14)
         ball = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
         z4, z3 = np.tile([1.0, 0.0, 0.0, 0.0], (1, 1)), np.zeros((1, 3))
         flat = {"lod": "off", "cast_shadow": False, "receive_shadow": False}
-        self.h_cyl = sc.add_batched_meshes_simple("/robot/links", cyl.vertices, cyl.faces, z4, z3, batched_scales=np.zeros((1, 3)), **flat)
-        self.h_ball = sc.add_batched_meshes_simple("/robot/joints", ball.vertices, ball.faces, z4, z3, batched_scales=np.zeros(1), **flat)
-        self.h_marks = sc.add_batched_meshes_simple("/closest/ends", ball.vertices, ball.faces, np.tile(z4, (5, 1)), np.zeros((5, 3)),
-                                                    batched_scales=np.zeros(5), **flat)  # fmt: skip
+        self.h_cyl = sc.add_batched_meshes_simple(
+            "/robot/links", cyl.vertices, cyl.faces, z4, z3, batched_scales=np.zeros((1, 3)), **flat
+        )
+        self.h_ball = sc.add_batched_meshes_simple(
+            "/robot/joints", ball.vertices, ball.faces, z4, z3, batched_scales=np.zeros(1), **flat
+        )
+        self.h_marks = sc.add_batched_meshes_simple(
+            "/closest/ends",
+            ball.vertices,
+            ball.faces,
+            np.tile(z4, (5, 1)),
+            np.zeros((5, 3)),
+            batched_scales=np.zeros(5),
+            **flat,
+        )
         nan_seg = np.zeros((1, 2, 3))
-        self.h_patient = sc.add_line_segments("/closest/patient", nan_seg, _PATIENT_RGB, thickness=4.0, thickness_units="screen", visible=False)
-        self.h_self = sc.add_line_segments("/closest/self", nan_seg, _SELF_RGB, thickness=4.0, thickness_units="screen", visible=False)
+        self.h_patient = sc.add_line_segments(
+            "/closest/patient", nan_seg, _PATIENT_RGB, thickness=4.0, thickness_units="screen", visible=False
+        )
+        self.h_self = sc.add_line_segments(
+            "/closest/self", nan_seg, _SELF_RGB, thickness=4.0, thickness_units="screen", visible=False
+        )
         centre = np.mean(np.concatenate([m.plan.entry, m.plan.target, m.x[None, :3]]), axis=0) * SCALE
         self.server.initial_camera.look_at = centre
         self.server.initial_camera.position = centre + np.array([0.22, -0.30, 0.22])
@@ -156,7 +209,10 @@ class ExplorerApp:
         self.h_ball.batched_scales = np.where(good, s.sphere_radius, 0.0) * SCALE
         self.h_ball.batched_colors = view.part_rgb[s.sphere_part]
         marks, sizes, colours = [view.E], [3.0], [_TIP_RGB]
-        for pair, handle, rgb_pair in ((view.patient, self.h_patient, _PATIENT_RGB), (view.self_, self.h_self, _SELF_RGB)):
+        for pair, handle, rgb_pair in (
+            (view.patient, self.h_patient, _PATIENT_RGB),
+            (view.self_, self.h_self, _SELF_RGB),
+        ):
             shown = ok and bool(np.isfinite(pair.clearance))
             handle.visible = shown
             if shown:
@@ -182,22 +238,40 @@ class ExplorerApp:
             x = np.arange(n, dtype=float)
             self.plot = gui.add_uplot(
                 (x, np.zeros(n), np.zeros(n), np.zeros(n)),
-                ({"label": "point"}, {"label": "100/η_L (%)", "stroke": "#1f77b4", "scale": "%"},
-                 {"label": "clearance (mm)", "stroke": "#d62728", "scale": "mm"},
-                 {"label": "self clearance (mm)", "stroke": "#9467bd", "scale": "mm"}),
-                axes=({}, {"scale": "%", "label": "100/η_L (%)"}, {"scale": "mm", "side": 1, "label": "mm", "grid": {"show": False}}),
+                (
+                    {"label": "point"},
+                    {"label": "100/η_L (%)", "stroke": "#1f77b4", "scale": "%"},
+                    {"label": "clearance (mm)", "stroke": "#d62728", "scale": "mm"},
+                    {"label": "self clearance (mm)", "stroke": "#9467bd", "scale": "mm"},
+                ),
+                axes=(
+                    {},
+                    {"scale": "%", "label": "100/η_L (%)"},
+                    {"scale": "mm", "side": 1, "label": "mm", "grid": {"show": False}},
+                ),
                 scales={"x": {"time": False}, "%": {"auto": True}, "mm": {"range": (-10.0, 10.0)}},
-                title="Along the lines (per trajectory: approach, then drill)", aspect=1.6,
-            )  # fmt: skip
+                title="Along the lines (per trajectory: approach, then drill)",
+                aspect=1.6,
+            )
         with gui.add_folder("Point along the plan"):
             self.point = gui.add_slider("point", 0, len(m) - 1, 1, int(m.points))
-            self.play = gui.add_checkbox("play", False, hint="Step through the lines, approach then drill, trajectory after trajectory.")
+            self.play = gui.add_checkbox(
+                "play", False, hint="Step through the lines, approach then drill, trajectory after trajectory."
+            )
         with gui.add_folder("Working mode and guards"):
-            self.mode = gui.add_dropdown("working mode", [format_mode(s) for s in ALL_MODES], initial_value=format_mode(m.mode))
-            self.guards = gui.add_checkbox("guards of arcube design", m.guards,
-                                           hint="model §8.2 and the clearance requirements as guards; off: the paper's model.")  # fmt: skip
+            self.mode = gui.add_dropdown(
+                "working mode", [format_mode(s) for s in ALL_MODES], initial_value=format_mode(m.mode)
+            )
+            self.guards = gui.add_checkbox(
+                "guards of arcube design",
+                m.guards,
+                hint="model §8.2 and the clearance requirements as guards; off: the paper's model.",
+            )
         with gui.add_folder("Body radii", expand_by_default=False):
-            self.radii = {k: gui.add_slider(label, lo, max(hi, getattr(m.radii, k)), 0.5, float(getattr(m.radii, k))) for k, label, lo, hi in _RADII}
+            self.radii = {
+                k: gui.add_slider(label, lo, max(hi, getattr(m.radii, k)), 0.5, float(getattr(m.radii, k)))
+                for k, label, lo, hi in _RADII
+            }
         self.params: dict[str, Any] = {}
         with gui.add_folder("Design: 27 parameters", expand_by_default=False):
             for group, names in GROUPS:
@@ -212,7 +286,9 @@ class ExplorerApp:
             self.population = gui.add_number("population", 16, min=4, max=400, step=1)
             self.generations = gui.add_number("generations", 15, min=1, max=500, step=1)
             self.free = gui.add_text("free parameters", "all", hint="Names and groups (all, mount), as --free.")
-            self.polish_button = gui.add_button("Polish", hint="A short optimization near the current design; loads its best.")
+            self.polish_button = gui.add_button(
+                "Polish", hint="A short optimization near the current design; loads its best."
+            )
             self.progress = gui.add_progress_bar(0.0, visible=False)
             self.revert_button = gui.add_button("Revert polish", visible=False)
             self.md_polish = gui.add_markdown("")
@@ -284,7 +360,9 @@ class ExplorerApp:
         """Run :func:`arcube.explorer.polish.polish` in the background with the panel's settings."""
         if self.polish_thread is not None and self.polish_thread.is_alive():
             return None
-        self.polish_thread = threading.Thread(target=self._polish, args=(client,), name="arcube-explore-polish", daemon=True)
+        self.polish_thread = threading.Thread(
+            target=self._polish, args=(client,), name="arcube-explore-polish", daemon=True
+        )
         self.polish_thread.start()
         return self.polish_thread
 
@@ -299,19 +377,29 @@ class ExplorerApp:
             g, total = int(row["generation"]), int(row.get("total") or 1)
             self.progress.value = min(100.0, 100.0 * g / max(total, 1))
             best = row.get("best_eta_G")
-            self.md_polish.content = f"polishing: generation {g}/{total} · best η_G {best if best is None else f'{float(best):.4f}'}"
+            self.md_polish.content = (
+                f"polishing: generation {g}/{total} · best η_G {best if best is None else f'{float(best):.4f}'}"
+            )
 
         try:
             before = self.model.current_design()
-            best, summary = polish(self.model, population=int(self.population.value), generations=int(self.generations.value),
-                                   free=self.free.value, anatomy_spec=self.anatomy_spec, anatomy_frame=self.anatomy_frame,
-                                   progress=progress)  # fmt: skip
+            best, summary = polish(
+                self.model,
+                population=int(self.population.value),
+                generations=int(self.generations.value),
+                free=self.free.value,
+                anatomy_spec=self.anatomy_spec,
+                anatomy_frame=self.anatomy_frame,
+                progress=progress,
+            )
             self._previous = before
             self.set_design(best)
             eta = summary.get("eta_G")
-            self.md_polish.content = (f"polished: {summary.get('generations', '?')} generations, {summary.get('evaluations', '?')} designs; "
-                                      f"η_G {'—' if eta is None else f'{float(eta):.4f}'}, "
-                                      f"{'feasible' if summary.get('feasible') else 'not feasible'}; loaded")  # fmt: skip
+            self.md_polish.content = (
+                f"polished: {summary.get('generations', '?')} generations, {summary.get('evaluations', '?')} designs; "
+                f"η_G {'—' if eta is None else f'{float(eta):.4f}'}, "
+                f"{'feasible' if summary.get('feasible') else 'not feasible'}; loaded"
+            )
             self.revert_button.visible = True
             self._notify(client, "Polish done", "the best design is loaded", "green")
         except InputError as exc:
@@ -358,14 +446,26 @@ class ExplorerApp:
             self.md_figures.content = text.markdown_table(fig)
             self.md_point.content = text.point_line(view, fig)
             mm = np.concatenate([fig.points["clearance_mm"], fig.points["self_clearance_mm"]])
-            lo, hi = (float(np.min(mm[np.isfinite(mm)])), float(np.max(mm[np.isfinite(mm)]))) if np.isfinite(mm).any() else (-10.0, 10.0)
+            lo, hi = (
+                (float(np.min(mm[np.isfinite(mm)])), float(np.max(mm[np.isfinite(mm)])))
+                if np.isfinite(mm).any()
+                else (-10.0, 10.0)
+            )
             pad = 0.05 * (hi - lo) + 1.0
             self.plot.scales = {"x": {"time": False}, "%": {"auto": True}, "mm": {"range": (lo - pad, hi + pad)}}
-            self.plot.data = (np.arange(len(self.model), dtype=float), *(np.asarray(fig.points[k], float) for k in ("dexterity_pct", "clearance_mm", "self_clearance_mm")))
+            self.plot.data = (
+                np.arange(len(self.model), dtype=float),
+                *(np.asarray(fig.points[k], float) for k in ("dexterity_pct", "clearance_mm", "self_clearance_mm")),
+            )
         self.server.flush()
         t3 = time.perf_counter()
         self.view = view
-        self.timings = {"evaluate_ms": 1e3 * (t1 - t0), "scene_ms": 1e3 * (t2 - t1), "draw_ms": 1e3 * (t3 - t2), "total_ms": 1e3 * (t3 - t0)}
+        self.timings = {
+            "evaluate_ms": 1e3 * (t1 - t0),
+            "scene_ms": 1e3 * (t2 - t1),
+            "draw_ms": 1e3 * (t3 - t2),
+            "total_ms": 1e3 * (t3 - t0),
+        }
         return self.timings
 
     def _run(self) -> None:
@@ -397,4 +497,3 @@ class ExplorerApp:
     def _stop_server(self) -> None:
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
-

@@ -34,7 +34,13 @@ from arcube.io.trajectories import TrajectorySet
 from arcube.model.body import PART_NAMES, BodyRadii
 from arcube.model.design import PARAM_NAMES, Design
 from arcube.model.mechanism import format_mode
-from arcube.design_job.requirements import REQUIREMENTS, Requirement, design_options, requirement_figure, requirements_from
+from arcube.design_job.requirements import (
+    REQUIREMENTS,
+    Requirement,
+    design_options,
+    requirement_figure,
+    requirements_from,
+)
 from arcube.options import GUARDED_OPTIONS, Options
 
 __all__ = ["Figures", "LiveModel", "View"]
@@ -138,7 +144,9 @@ class LiveModel:
         traj = np.repeat(np.arange(T), 2 * n)
         k = np.tile(np.arange(2 * n), T)
         self.line_drill = k >= n
-        self.line_source = traj * n + np.where(self.line_drill, k - n, k)  # index into the drill task or the approach lines
+        self.line_source = traj * n + np.where(
+            self.line_drill, k - n, k
+        )  # index into the drill task or the approach lines
         self.line_traj, self.line_k = traj, np.where(self.line_drill, k - n, k)
         self.limits = {r.name: r.limit for r in self.requirements}
         self.distance = None if self.anatomy is None else self.anatomy.distance
@@ -155,7 +163,9 @@ class LiveModel:
 
     def current_design(self) -> Design:
         """The design the sliders show, with the loaded design's c_z (model §19.1) and the working mode shown."""
-        return self.design.replace(**dict(zip(PARAM_NAMES, self.x.tolist(), strict=True))).with_extras(mode=format_mode(self.mode))
+        return self.design.replace(**dict(zip(PARAM_NAMES, self.x.tolist(), strict=True))).with_extras(
+            mode=format_mode(self.mode)
+        )
 
     def load(self, design: Design) -> None:
         """Replace all 27 parameters and the design's c_z."""
@@ -174,11 +184,19 @@ class LiveModel:
                 base = base.replace(envelope_clearance_mm=None)
         else:
             base = Options()
-        base = base.replace(link_radius=r.link, actuator_radius=r.actuator, motor_radius=r.motor, motor_length=r.motor_length)
-        if self.design.c_z is not None:  # the z dyad closed with the design's own c_z, and a guard when guarded (model §19.2)
+        base = base.replace(
+            link_radius=r.link, actuator_radius=r.actuator, motor_radius=r.motor, motor_length=r.motor_length
+        )
+        if (
+            self.design.c_z is not None
+        ):  # the z dyad closed with the design's own c_z, and a guard when guarded (model §19.2)
             base = base.replace(c_z=self.design.c_z, z_dyad=self.guards)
         holding = any(q.name == "holding_torque" for q in self.requirements)  # model §18.2, as arcube design's
-        return base.replace(outputs=base.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding))
+        return base.replace(
+            outputs=base.outputs.replace(
+                clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=holding
+            )
+        )
 
     # ------------------------------------------------------------------ figures
     def evaluate(self) -> Figures:
@@ -186,10 +204,28 @@ class LiveModel:
         t0 = time.perf_counter()
         opts = self.options()
         with _one_thread():
-            drill = evaluate_task(self.x, self.task.E, self.task.e, self.mode, opts, engine=self.engine, want_points=True, anatomy=self.distance,
-                                  envelope=self.envelope)  # fmt: skip
-            app = evaluate_task(self.x, self.E_app, self.e_app, self.mode, opts, engine=self.engine, want_points=True, anatomy=self.distance,
-                                envelope=self.envelope)  # fmt: skip
+            drill = evaluate_task(
+                self.x,
+                self.task.E,
+                self.task.e,
+                self.mode,
+                opts,
+                engine=self.engine,
+                want_points=True,
+                anatomy=self.distance,
+                envelope=self.envelope,
+            )
+            app = evaluate_task(
+                self.x,
+                self.E_app,
+                self.e_app,
+                self.mode,
+                opts,
+                engine=self.engine,
+                want_points=True,
+                anatomy=self.distance,
+                envelope=self.envelope,
+            )
         seconds = time.perf_counter() - t0
         p = drill.points
         clear, ci = _min_at(np.asarray(p.clearance_mm, float))
@@ -197,16 +233,24 @@ class LiveModel:
         failure = np.asarray(p.failure)
         reach = np.asarray(p.reachable, bool)
         summary = {
-            "n_points": int(len(reach)), "reachable": int(reach.sum()), "reach_pct": 100.0 * float(drill.reachable_fraction),
-            "eta_G": float(drill.eta_G), "clearance_min_mm": clear,
-            "clearance_min_part": PART_NAMES[int(p.clearance_part[ci])] if ci >= 0 and p.clearance_part[ci] >= 0 else "",
+            "n_points": int(len(reach)),
+            "reachable": int(reach.sum()),
+            "reach_pct": 100.0 * float(drill.reachable_fraction),
+            "eta_G": float(drill.eta_G),
+            "clearance_min_mm": clear,
+            "clearance_min_part": PART_NAMES[int(p.clearance_part[ci])]
+            if ci >= 0 and p.clearance_part[ci] >= 0
+            else "",
             "self_clearance_min_mm": _min_at(np.asarray(p.self_clearance_mm, float))[0],
             "lateral_error_max_mm": _max_at(np.asarray(p.lateral_error_mm, float))[0],
-            "axis_error_max_deg": _max_at(np.asarray(p.axis_error_deg, float))[0], "torque_max_Nm": torque,
-            "torque_max_actuator": ACTUATOR_NAMES[int(p.torque_actuator[ti])] if ti >= 0 and p.torque_actuator[ti] >= 0 else "",
+            "axis_error_max_deg": _max_at(np.asarray(p.axis_error_deg, float))[0],
+            "torque_max_Nm": torque,
+            "torque_max_actuator": ACTUATOR_NAMES[int(p.torque_actuator[ti])]
+            if ti >= 0 and p.torque_actuator[ti] >= 0
+            else "",
             "failures": {FAILURES[c - 1]: int(n) for c, n in zip(*np.unique(failure[failure > 0], return_counts=True))},
             "mode": format_mode(self.mode),
-        }  # fmt: skip
+        }
         holding = getattr(drill, "holding_torque_max", None)  # model §18, when the kernel has it
         if holding is not None:
             summary["holding_torque_max_Nm"] = float(np.asarray(holding))
@@ -215,13 +259,31 @@ class LiveModel:
     def _requirement_rows(self, drill: TaskResults, app: TaskResults) -> list[dict[str, Any]]:
         """The rows of :func:`~arcube.design_job.requirements.assess` (reach and each requirement), from the kernel."""
         frac = min(float(drill.reachable_fraction), float(app.reachable_fraction))
-        rows = [{"requirement": "reach", "kind": "min", "limit": 100.0, "unit": "%", "value": 100.0 * frac, "part": "",
-                 "passed": frac >= 1.0}]  # fmt: skip
+        rows = [
+            {
+                "requirement": "reach",
+                "kind": "min",
+                "limit": 100.0,
+                "unit": "%",
+                "value": 100.0 * frac,
+                "part": "",
+                "passed": frac >= 1.0,
+            }
+        ]
         if self.design.c_z is not None and self.guards:  # as arcube design's z_dyad row (model §19.2)
             code = FAILURES.index("guard/z_dyad") + 1
             bad = sum(int(np.sum(np.asarray(res.points.failure) == code)) for res in (drill, app))
-            rows.append({"requirement": "z_dyad", "kind": "max", "limit": 0.0, "unit": "failing points", "value": float(bad),
-                         "part": f"c_z {self.design.c_z:.1f} mm, d_z {self.x[PARAM_NAMES.index('d_z')]:.1f} mm", "passed": bad == 0})  # fmt: skip
+            rows.append(
+                {
+                    "requirement": "z_dyad",
+                    "kind": "max",
+                    "limit": 0.0,
+                    "unit": "failing points",
+                    "value": float(bad),
+                    "part": f"c_z {self.design.c_z:.1f} mm, d_z {self.x[PARAM_NAMES.index('d_z')]:.1f} mm",
+                    "passed": bad == 0,
+                }
+            )
         for r in self.requirements:
             kind, unit, where = REQUIREMENTS[r.name]
             if where == "program":  # judged on the drilling program (arcube design, arcube program), not here
@@ -229,13 +291,32 @@ class LiveModel:
             segments = (drill,) if where == "drill" else (drill, app)
             best, part = math.nan, ""
             for res in segments:
-                values, names = requirement_figure(res.points, r.name, () if self.envelope is None else tuple(self.envelope.names))
+                values, names = requirement_figure(
+                    res.points, r.name, () if self.envelope is None else tuple(self.envelope.names)
+                )
                 v, i = _min_at(values) if kind == "min" else _max_at(values)
                 if math.isfinite(v) and (not math.isfinite(best) or (v < best if kind == "min" else v > best)):
                     best, part = v, names(i)
-            judged = math.isfinite(best) or not ((r.name == "clearance" and self.anatomy is None) or (r.name == "envelope_clearance" and self.envelope is None))
-            passed = None if not judged else bool(math.isfinite(best) and (best >= r.limit if kind == "min" else best <= r.limit))
-            rows.append({"requirement": r.name, "kind": kind, "limit": r.limit, "unit": unit, "value": best, "part": part, "passed": passed})
+            judged = math.isfinite(best) or not (
+                (r.name == "clearance" and self.anatomy is None)
+                or (r.name == "envelope_clearance" and self.envelope is None)
+            )
+            passed = (
+                None
+                if not judged
+                else bool(math.isfinite(best) and (best >= r.limit if kind == "min" else best <= r.limit))
+            )
+            rows.append(
+                {
+                    "requirement": r.name,
+                    "kind": kind,
+                    "limit": r.limit,
+                    "unit": unit,
+                    "value": best,
+                    "part": part,
+                    "passed": passed,
+                }
+            )
         return rows
 
     def _line_arrays(self, drill: TaskResults, app: TaskResults) -> dict[str, NDArray[np.float64]]:
@@ -256,7 +337,9 @@ class LiveModel:
         """``trajectory 3 (C5 R) · drill 12/29``."""
         t, k = int(self.line_traj[index]), int(self.line_k[index])
         seg = "drill" if self.line_drill[index] else "approach"
-        return f"trajectory {self.plan.ids[t]} ({self.plan.levels[t]} {self.plan.sides[t]}) · {seg} {k}/{self.points - 1}"
+        return (
+            f"trajectory {self.plan.ids[t]} ({self.plan.levels[t]} {self.plan.sides[t]}) · {seg} {k}/{self.points - 1}"
+        )
 
     def view(self, index: int) -> View:
         """The body's solids, their colours and the closest pairs at point ``index`` of the lines."""
@@ -266,8 +349,12 @@ class LiveModel:
         mp, parts = scene.pose(self.x, E, e, self.mode, self.radii, c_z)
         per_a, patient = scene.anatomy_closest(parts, self.distance)
         per_s, self_pair = scene.self_closest(parts)
-        cls, rgb = scene.part_colours(scene.part_minimum(per_a), scene.part_minimum(per_s), self.limits.get("clearance"),
-                                      self.limits.get("self_clearance"))  # fmt: skip
+        cls, rgb = scene.part_colours(
+            scene.part_minimum(per_a),
+            scene.part_minimum(per_s),
+            self.limits.get("clearance"),
+            self.limits.get("self_clearance"),
+        )
         return View(index, self.label(index), E, e, mp, scene.body_solids(parts), cls, rgb, patient, self_pair)
 
     def __len__(self) -> int:

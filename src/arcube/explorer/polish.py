@@ -22,9 +22,19 @@ from arcube.optimization.settings import DEFAULT_BOUNDS, parse_free
 __all__ = ["polish"]
 
 
-def polish(model: LiveModel, *, population: int = 16, generations: int = 15, free: str = "all", span: float = 0.05,
-           algorithm: str = "ga", seed: int = 0, anatomy_spec: list[str] | None = None, anatomy_frame: str = "LPS",
-           progress: Callable[[dict[str, Any]], None] | None = None) -> tuple[Design, dict[str, Any]]:  # fmt: skip
+def polish(
+    model: LiveModel,
+    *,
+    population: int = 16,
+    generations: int = 15,
+    free: str = "all",
+    span: float = 0.05,
+    algorithm: str = "ga",
+    seed: int = 0,
+    anatomy_spec: list[str] | None = None,
+    anatomy_frame: str = "LPS",
+    progress: Callable[[dict[str, Any]], None] | None = None,
+) -> tuple[Design, dict[str, Any]]:
     """(best design, the run's summary) of a short run from ``model``'s current design.
 
     ``anatomy_spec``: what ``--anatomy`` said (``["default"]`` or mesh files, in ``anatomy_frame``);
@@ -53,10 +63,23 @@ def polish(model: LiveModel, *, population: int = 16, generations: int = 15, fre
                 anatomy, frame = (str(model.anatomy.write_stl(Path(tmp) / "anatomy.stl")),), "patient"
         opts = model.options()
         result = optimize(
-            model.plan, None, progress=progress, algorithm=algorithm, population=population, generations=generations,
-            tolerance=0.0, points=model.points, mode=format_mode(model.mode), guards=model.guards, seed=seed,
-            design_from=str(start), free=list(names), bounds=bounds, anatomy=anatomy, anatomy_frame=frame,
+            model.plan,
+            None,
+            progress=progress,
+            algorithm=algorithm,
+            population=population,
+            generations=generations,
+            tolerance=0.0,
+            points=model.points,
+            mode=format_mode(model.mode),
+            guards=model.guards,
+            seed=seed,
+            design_from=str(start),
+            free=list(names),
+            bounds=bounds,
+            anatomy=anatomy,
+            anatomy_frame=frame,
             standoff=model.standoff_mm if (model.guards and model.anatomy is not None) else None,
             options=opts.replace(outputs=type(opts.outputs)()),
-        )  # fmt: skip
+        )
     return result.best_design, dict(result.summary)

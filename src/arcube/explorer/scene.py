@@ -26,30 +26,60 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.evaluation.clearance import ARC_CHORDS, arc_chords
 from arcube.model.body import (
-    N_ARCS, N_SEGMENTS, N_SPHERES, PART_NAMES, PRIMITIVE_PART, SELF_PAIRS, BodyParts, BodyRadii, MechanismPoints,
-    body_parts, great_circle, mechanism_points,
-)  # fmt: skip
+    N_ARCS,
+    N_SEGMENTS,
+    N_SPHERES,
+    PART_NAMES,
+    PRIMITIVE_PART,
+    SELF_PAIRS,
+    BodyParts,
+    BodyRadii,
+    MechanismPoints,
+    body_parts,
+    great_circle,
+    mechanism_points,
+)
 
 __all__ = [
-    "CLASSES", "CLOSE_MM", "COLOURS", "Closest", "Solids", "anatomy_closest", "body_solids", "clearance_classes",
-    "cylinder_frames", "part_colours", "part_minimum", "pose", "self_closest",
-]  # fmt: skip
+    "CLASSES",
+    "CLOSE_MM",
+    "COLOURS",
+    "Closest",
+    "Solids",
+    "anatomy_closest",
+    "body_solids",
+    "clearance_classes",
+    "cylinder_frames",
+    "part_colours",
+    "part_minimum",
+    "pose",
+    "self_closest",
+]
 
 N_PRIMITIVES = N_SEGMENTS + N_SPHERES + N_ARCS
 CLASSES: tuple[str, ...] = ("unknown", "clear", "close", "below", "collision")
 """Clearance classes of a part, in rising severity: no value (no anatomy, no IK), >= limit + CLOSE_MM,
 >= limit, >= 0 but below the requirement's limit, < 0 (inside the anatomy / parts overlapping)."""
 COLOURS: dict[str, tuple[int, int, int]] = {
-    "unknown": (150, 160, 175), "clear": (80, 170, 105), "close": (235, 195, 50), "below": (245, 135, 35),
+    "unknown": (150, 160, 175),
+    "clear": (80, 170, 105),
+    "close": (235, 195, 50),
+    "below": (245, 135, 35),
     "collision": (215, 35, 45),
-}  # fmt: skip
+}
 """RGB of each class."""
 CLOSE_MM = 10.0
 """A part within this much of a requirement's limit is ``close``."""
 
 
-def pose(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike, radii: BodyRadii = BodyRadii(),
-         c_z: float | None = None) -> tuple[MechanismPoints, BodyParts]:  # fmt: skip
+def pose(
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike,
+    radii: BodyRadii = BodyRadii(),
+    c_z: float | None = None,
+) -> tuple[MechanismPoints, BodyParts]:
     """Joint positions and body parts of ``params`` ``(27,)`` at one pose (E, e ``(3,)``)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         mp = mechanism_points(params, E, e, mode, c_z=c_z, motor_length=radii.motor_length)
@@ -87,9 +117,13 @@ def body_solids(parts: BodyParts) -> Solids:
     """The solids of one pose's :class:`~arcube.model.body.BodyParts` (leading shape ``()``)."""
     chords = arc_chords(parts).reshape(N_ARCS * ARC_CHORDS, 2, 3)
     cyl = np.concatenate([parts.segments, chords])
-    cyl_prim = np.concatenate([np.arange(N_SEGMENTS), N_SEGMENTS + N_SPHERES + np.repeat(np.arange(N_ARCS), ARC_CHORDS)])
+    cyl_prim = np.concatenate(
+        [np.arange(N_SEGMENTS), N_SEGMENTS + N_SPHERES + np.repeat(np.arange(N_ARCS), ARC_CHORDS)]
+    )
     # caps: both ends of every segment; along an arc, each chord's start and the last chord's end
-    arc_pts = np.concatenate([chords.reshape(N_ARCS, ARC_CHORDS, 2, 3)[:, :, 0], chords.reshape(N_ARCS, ARC_CHORDS, 2, 3)[:, -1:, 1]], axis=1)
+    arc_pts = np.concatenate(
+        [chords.reshape(N_ARCS, ARC_CHORDS, 2, 3)[:, :, 0], chords.reshape(N_ARCS, ARC_CHORDS, 2, 3)[:, -1:, 1]], axis=1
+    )
     sph = np.concatenate([parts.segments.reshape(-1, 3), arc_pts.reshape(-1, 3), parts.spheres])
     arc_prim = N_SEGMENTS + N_SPHERES + np.repeat(np.arange(N_ARCS), ARC_CHORDS + 1)
     sph_prim = np.concatenate([np.repeat(np.arange(N_SEGMENTS), 2), arc_prim, N_SEGMENTS + np.arange(N_SPHERES)])
@@ -175,8 +209,9 @@ def anatomy_closest(parts: BodyParts, distance: Any, step: float = 1.0) -> tuple
     return per, closest
 
 
-def closest_points(p1: NDArray[np.float64], q1: NDArray[np.float64], p2: NDArray[np.float64],
-                   q2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+def closest_points(
+    p1: NDArray[np.float64], q1: NDArray[np.float64], p2: NDArray[np.float64], q2: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The closest points of segments p1-q1 and p2-q2 ``(..., 3)`` (Ericson 5.1.9; points are
     zero-length segments): the same parameters as :func:`arcube.evaluation.clearance.segment_distance`."""
     d1, d2, r = q1 - p1, q2 - p2, p1 - p2
@@ -206,8 +241,11 @@ def self_closest(parts: BodyParts) -> tuple[NDArray[np.float64], Closest]:
     chords = arc_chords(parts)  # (4, n, 2, 3)
     i, j = SELF_PAIRS[:, 0], SELF_PAIRS[:, 1]
     A = lines[i]  # (pairs, 2, 3): the first primitive is never an arc
-    B = np.where((j < n_lines)[:, None, None, None], lines[np.minimum(j, n_lines - 1)][:, None],
-                 chords[np.clip(j - n_lines, 0, N_ARCS - 1)])  # (pairs, n, 2, 3) fmt: skip
+    B = np.where(
+        (j < n_lines)[:, None, None, None],
+        lines[np.minimum(j, n_lines - 1)][:, None],
+        chords[np.clip(j - n_lines, 0, N_ARCS - 1)],
+    )  # (pairs, n, 2, 3)
     ca, cb = closest_points(A[:, None, 0], A[:, None, 1], B[:, :, 0], B[:, :, 1])
     dist = np.linalg.norm(ca - cb, axis=-1)  # (pairs, n)
     best = np.argmin(dist, axis=1)
@@ -222,8 +260,13 @@ def self_closest(parts: BodyParts) -> tuple[NDArray[np.float64], Closest]:
     gap = pb - pa
     n = float(np.linalg.norm(gap))
     u = gap / n if n > 1e-12 else np.zeros(3)
-    closest = Closest(float(d[k]), pa + parts.radius[i[k]] * u, pb - parts.radius[j[k]] * u,
-                      PART_NAMES[PRIMITIVE_PART[i[k]]], PART_NAMES[PRIMITIVE_PART[j[k]]])  # fmt: skip
+    closest = Closest(
+        float(d[k]),
+        pa + parts.radius[i[k]] * u,
+        pb - parts.radius[j[k]] * u,
+        PART_NAMES[PRIMITIVE_PART[i[k]]],
+        PART_NAMES[PRIMITIVE_PART[j[k]]],
+    )
     return per, closest
 
 
@@ -246,8 +289,9 @@ def clearance_classes(values: ArrayLike, limit: float | None) -> NDArray[np.intp
     return np.where(np.isfinite(v), out, 0).astype(np.intp)
 
 
-def part_colours(anatomy: ArrayLike, self_: ArrayLike, clearance_limit: float | None,
-                 self_limit: float | None) -> tuple[NDArray[np.intp], NDArray[np.uint8]]:  # fmt: skip
+def part_colours(
+    anatomy: ArrayLike, self_: ArrayLike, clearance_limit: float | None, self_limit: float | None
+) -> tuple[NDArray[np.intp], NDArray[np.uint8]]:
     """(class ``(parts,)``, RGB ``(parts, 3)``) of every part: the worse of its clearance to the
     anatomy and its self clearance, each against its own limit."""
     cls = np.maximum(clearance_classes(anatomy, clearance_limit), clearance_classes(self_, self_limit))

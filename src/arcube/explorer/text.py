@@ -12,9 +12,16 @@ from arcube.explorer.live import Figures, View
 __all__ = ["PASS", "FAIL", "figure_rows", "html_table", "markdown_table", "point_line"]
 
 PASS, FAIL, NA = "pass", "FAIL", "—"
-_LABELS = {"reach": "reach, whole lines", "clearance": "clearance to the anatomy", "self_clearance": "self clearance",
-           "lateral_error": "lateral error", "axis_error": "axis error", "torque": "actuator torque",
-           "holding_torque": "holding torque (weight)", "z_dyad": "z leg closes (model §19.2)"}  # fmt: skip
+_LABELS = {
+    "reach": "reach, whole lines",
+    "clearance": "clearance to the anatomy",
+    "self_clearance": "self clearance",
+    "lateral_error": "lateral error",
+    "axis_error": "axis error",
+    "torque": "actuator torque",
+    "holding_torque": "holding torque (weight)",
+    "z_dyad": "z leg closes (model §19.2)",
+}
 
 
 def _num(v: Any, digits: int = 2, unit: str = "") -> str:
@@ -52,15 +59,26 @@ def figure_rows(fig: Figures) -> list[tuple[str, str, str, str]]:
             value = "no anatomy"
         rows.append((_LABELS.get(name, name), value, f"{op} {r['limit']:g} {unit}", verdict))
     if s["failures"]:
-        rows.append(("failing points", ", ".join(f"{k}: {n}" for k, n in sorted(s["failures"].items(), key=lambda kv: -kv[1])), "", ""))
+        rows.append(
+            (
+                "failing points",
+                ", ".join(f"{k}: {n}" for k, n in sorted(s["failures"].items(), key=lambda kv: -kv[1])),
+                "",
+                "",
+            )
+        )
     return rows
 
 
 def markdown_table(fig: Figures) -> str:
     """The rows as a Markdown table, with a verdict line on top."""
     verdict = "**Meets every requirement**" if fig.passed else "**Fails a requirement**"
-    lines = [f"{verdict} · mode {fig.summary['mode']} · kernel {1000.0 * fig.seconds:.0f} ms", "",
-             "| figure | value | requirement | |", "|---|---|---|---|"]  # fmt: skip
+    lines = [
+        f"{verdict} · mode {fig.summary['mode']} · kernel {1000.0 * fig.seconds:.0f} ms",
+        "",
+        "| figure | value | requirement | |",
+        "|---|---|---|---|",
+    ]
     lines += [f"| {a} | {b} | {c} | {'**FAIL**' if d == FAIL else d} |" for a, b, c, d in figure_rows(fig)]
     return "\n".join(lines)
 
@@ -69,7 +87,10 @@ def html_table(fig: Figures) -> str:
     """The rows as an HTML table (the static export)."""
     esc = html.escape
     head = "<tr><th>figure</th><th>value</th><th>requirement</th><th></th></tr>"
-    body = "".join(f"<tr><td>{esc(a)}</td><td>{esc(b)}</td><td>{esc(c)}</td><td>{esc(d)}</td></tr>" for a, b, c, d in figure_rows(fig))
+    body = "".join(
+        f"<tr><td>{esc(a)}</td><td>{esc(b)}</td><td>{esc(c)}</td><td>{esc(d)}</td></tr>"
+        for a, b, c, d in figure_rows(fig)
+    )
     verdict = "Meets every requirement" if fig.passed else "Fails a requirement"
     return f"<p><b>{verdict}</b> · mode {esc(fig.summary['mode'])}</p><table>{head}{body}</table>"
 

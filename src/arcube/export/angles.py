@@ -23,11 +23,24 @@ ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated hinges (and their position actuators), in the order of model §7.4."""
 
 JOINT_NAMES: tuple[str, ...] = (
-    "rho_x", "kappa_x", "delta_x", "gamma_x",
-    "rho_y", "kappa_y", "delta_y", "gamma_y",
-    "rho_z", "kappa_z", "zdyad_D", "zdyad_J", "zdyad_Q",
-    "sigma_x", "tau_x", "sigma_y", "tau_y",
-)  # fmt: skip
+    "rho_x",
+    "kappa_x",
+    "delta_x",
+    "gamma_x",
+    "rho_y",
+    "kappa_y",
+    "delta_y",
+    "gamma_y",
+    "rho_z",
+    "kappa_z",
+    "zdyad_D",
+    "zdyad_J",
+    "zdyad_Q",
+    "sigma_x",
+    "tau_x",
+    "sigma_y",
+    "tau_y",
+)
 """Every hinge of the exported model, in the order of ``qpos`` (depth-first body tree)."""
 
 
@@ -45,15 +58,22 @@ def design_vector(design: Design | ArrayLike) -> NDArray[np.float64]:
     return Design.coerce(design).to_vector()
 
 
-def axes_world(params: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+def axes_world(
+    params: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """(û, v̂, ŵ) of legs x, y, z in R_w, each ``(3 legs, 3)``, and R ``(3, 3)`` (one design)."""
     R = frames.mount_rotation(unpack(params))
     return U_HAT @ R.T, V_HAT @ R.T, W_HAT @ R.T, R
 
 
 def joint_values(
-    design: Design | ArrayLike, E: ArrayLike, e: ArrayLike, mode: str | ArrayLike = DEFAULT_MODE_TEXT, *, c_z: float | None = None,
-) -> dict[str, NDArray[np.float64]]:  # fmt: skip
+    design: Design | ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: str | ArrayLike = DEFAULT_MODE_TEXT,
+    *,
+    c_z: float | None = None,
+) -> dict[str, NDArray[np.float64]]:
     """Every hinge angle of the exported model (rad) at poses (E, e) in R_w, from the IK; each ``(...)``.
 
     Keys are :data:`JOINT_NAMES`. Actuated hinges are the model's rho_u, delta_u; ``sigma_u`` is the

@@ -43,7 +43,15 @@ from arcube.model.body import BodyRadii
 from arcube.model.mechanism import inverse_kinematics
 from arcube.options import Options
 
-__all__ = ["BODY_OF", "INERTIA_FLOOR_KG_MM2", "MASS_FLOOR_KG", "Inertial", "body_inertials", "mass_model_for", "principal_axes"]
+__all__ = [
+    "BODY_OF",
+    "INERTIA_FLOOR_KG_MM2",
+    "MASS_FLOOR_KG",
+    "Inertial",
+    "body_inertials",
+    "mass_model_for",
+    "principal_axes",
+]
 
 MASS_FLOOR_KG = 1.0e-6
 """Smallest mass MuJoCo gets for a moving body (compiler ``boundmass``), kg."""
@@ -82,14 +90,25 @@ def mass_model_for(masses: MassModel | Options | None, radii: BodyRadii, c_z: fl
     """The 18.1 mass model of an export: ``masses`` (default ``Options()``) with the exported geometry
     (link radius, motor radius and length of ``radii``; the z dyad's c_z, mm)."""
     if masses is not None and not isinstance(masses, (MassModel, Options)):
-        raise InputError.of("masses", f"must be an arcube.options.Options, a MassModel or None, got {type(masses).__name__}")
+        raise InputError.of(
+            "masses", f"must be an arcube.options.Options, a MassModel or None, got {type(masses).__name__}"
+        )
     model = MassModel.of(masses)
-    return dataclasses.replace(model, link_radius_mm=float(radii.link), motor_radius_mm=float(radii.motor),
-                               motor_length_mm=float(radii.motor_length), c_z_mm=float(c_z))  # fmt: skip
+    return dataclasses.replace(
+        model,
+        link_radius_mm=float(radii.link),
+        motor_radius_mm=float(radii.motor),
+        motor_length_mm=float(radii.motor_length),
+        c_z_mm=float(c_z),
+    )
 
 
 def body_inertials(
-    params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], model: MassModel
+    params: NDArray[np.float64],
+    E: NDArray[np.float64],
+    e: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    model: MassModel,
 ) -> dict[str, Inertial]:
     """The :class:`Inertial` of every MuJoCo body that carries a part of 18.1, at the pose (E, e) ``(3,)``
     (R_w, mm) of one design ``(27,)`` in working mode ``signs`` ``(4,)``; keyed by MuJoCo body name.
@@ -100,7 +119,9 @@ def body_inertials(
         sol = inverse_kinematics(params, E, e, signs)
         b = bodies_of_solution(sol, params, model)
     if not np.all(np.isfinite(b.ends)):
-        raise InputError("MJCF export: the mass model has no finite body positions at the assembled pose (singular pose)")
+        raise InputError(
+            "MJCF export: the mass model has no finite body positions at the assembled pose (singular pose)"
+        )
     out: dict[str, Inertial] = {}
     for body in dict.fromkeys(BODY_OF.values()):
         parts = [i for i, name in enumerate(BODY_NAMES) if BODY_OF[name] == body]
@@ -112,7 +133,9 @@ def body_inertials(
         inertia = np.zeros((3, 3))
         for k, i in enumerate(parts):
             d = c[k] - a[k]
-            inertia += m[k] / 12.0 * (float(d @ d) * np.eye(3) - np.outer(d, d))  # rod: m l^2/12 (I - d d^T), l d = b - a
+            inertia += (
+                m[k] / 12.0 * (float(d @ d) * np.eye(3) - np.outer(d, d))
+            )  # rod: m l^2/12 (I - d d^T), l d = b - a
             r = com_parts[k] - com
             inertia += m[k] * (float(r @ r) * np.eye(3) - np.outer(r, r))  # parallel axes
             if i == MOTOR:

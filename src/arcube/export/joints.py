@@ -53,14 +53,24 @@ JOINT_NAMES: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y",
 """Order of the last axis of :attr:`JointTrajectory.q_deg` and :attr:`JointTrajectory.q_dot_dps`."""
 
 CSV_COLUMNS: tuple[str, ...] = (
-    "trajectory", "k", "t_s", "x", "y", "z",
-    *(f"{n}_deg" for n in JOINT_NAMES), *(f"{n}_dps" for n in JOINT_NAMES),
-    *(f"tau_{n}_Nm" for n in ACTUATOR_NAMES), *(f"tau_{n}_max_Nm" for n in ACTUATOR_NAMES), "reachable",
-)  # fmt: skip
+    "trajectory",
+    "k",
+    "t_s",
+    "x",
+    "y",
+    "z",
+    *(f"{n}_deg" for n in JOINT_NAMES),
+    *(f"{n}_dps" for n in JOINT_NAMES),
+    *(f"tau_{n}_Nm" for n in ACTUATOR_NAMES),
+    *(f"tau_{n}_max_Nm" for n in ACTUATOR_NAMES),
+    "reachable",
+)
 MASS_COLUMNS: tuple[str, ...] = (
-    *(f"tau_gravity_{n}_Nm" for n in ACTUATOR_NAMES), *(f"hold_{n}_max_Nm" for n in ACTUATOR_NAMES), "holding_torque_Nm",
+    *(f"tau_gravity_{n}_Nm" for n in ACTUATOR_NAMES),
+    *(f"hold_{n}_max_Nm" for n in ACTUATOR_NAMES),
+    "holding_torque_Nm",
     "holding_torque_actuator",
-)  # fmt: skip
+)
 """Columns of model §18.2 inserted before ``reachable`` when the trajectory has the holding torque."""
 
 
@@ -77,7 +87,9 @@ class JointTrajectory:
     q_dot_dps: NDArray[np.float64]  # (P, 7) rates, deg/s (NaN where unreachable)
     reachable: NDArray[np.bool_]  # (P,)
     speed_mm_s: float
-    tau_thrust_Nm: NDArray[np.float64]  # (P, 5) torques holding the thrust alone, ACTUATOR_NAMES order (NaN where unreachable)
+    tau_thrust_Nm: NDArray[
+        np.float64
+    ]  # (P, 5) torques holding the thrust alone, ACTUATOR_NAMES order (NaN where unreachable)
     tau_max_Nm: NDArray[np.float64]  # (P, 5) worst case with the lateral force (model §15.3)
     tau_gravity_Nm: NDArray[np.float64] | None = None  # (P, 5) dV/dq (model §18.2), or None without masses
     hold_max_Nm: NDArray[np.float64] | None = None  # (P, 5) |dV/dq_i - F_t e^T J_E,i| + F_l |P_perp J_E,i|, or None
@@ -93,13 +105,23 @@ class JointTrajectory:
         buf.write(",".join(self.columns) + "\n")
         for i in range(len(self.k)):
             ok = bool(self.reachable[i])
-            joints = [_cell(v) if ok else "" for v in (*self.q_deg[i], *self.q_dot_dps[i], *self.tau_thrust_Nm[i], *self.tau_max_Nm[i])]
+            joints = [
+                _cell(v) if ok else ""
+                for v in (*self.q_deg[i], *self.q_dot_dps[i], *self.tau_thrust_Nm[i], *self.tau_max_Nm[i])
+            ]
             if self.hold_max_Nm is not None and self.tau_gravity_Nm is not None:
                 hold = self.hold_max_Nm[i]
                 best = int(np.argmax(hold)) if ok and np.all(np.isfinite(hold)) else -1
                 joints += [_cell(v) if ok else "" for v in (*self.tau_gravity_Nm[i], *hold)]
                 joints += [_cell(hold[best]), ACTUATOR_NAMES[best]] if best >= 0 else ["", ""]
-            row = [self.ids[int(self.trajectory[i])], str(int(self.k[i])), _cell(self.t_s[i]), *(_cell(v) for v in self.E[i]), *joints, "true" if ok else "false"]
+            row = [
+                self.ids[int(self.trajectory[i])],
+                str(int(self.k[i])),
+                _cell(self.t_s[i]),
+                *(_cell(v) for v in self.E[i]),
+                *joints,
+                "true" if ok else "false",
+            ]
             buf.write(",".join(row) + "\n")
         return buf.getvalue()
 
@@ -116,9 +138,13 @@ def _cell(v: float) -> str:
 
 
 def joint_trajectory(
-    design: Design | ArrayLike, task: Task, speed_mm_s: float, mode: ArrayLike = DEFAULT_MODE, options: Options = Options(),
+    design: Design | ArrayLike,
+    task: Task,
+    speed_mm_s: float,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options = Options(),
     anatomy: Any = None,
-) -> JointTrajectory:  # fmt: skip
+) -> JointTrajectory:
     """Joint angles (deg) and rates (deg/s) for drilling the task's trajectories at ``speed_mm_s``.
 
     ``design``: a :class:`Design` or a ``(27,)`` (or ``(23,)``) vector (mm, deg); ``mode``: ``(4,)`` working-mode
@@ -145,9 +171,20 @@ def joint_trajectory(
         J_E, J_e = jacobians_of_solution(sol, params)
         e_w = frames.directions_to_world(unpack(params), sol.e)
         tau = -np.einsum("...ij,...i->...j", J_E, options.loads.thrust_N * e_w) / 1000.0  # N·mm -> N·m
-        worst = tip_metrics(J_E, J_e, e_w, options.loads.encoder_deg, options.loads.thrust_N, options.loads.lateral_force_N,
-                            options.loads.actuator_stiffness).torque_per_actuator_Nm  # fmt: skip
-        hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e)) if options.outputs.holding_torque else None
+        worst = tip_metrics(
+            J_E,
+            J_e,
+            e_w,
+            options.loads.encoder_deg,
+            options.loads.thrust_N,
+            options.loads.lateral_force_N,
+            options.loads.actuator_stiffness,
+        ).torque_per_actuator_Nm
+        hold = (
+            holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e))
+            if options.outputs.holding_torque
+            else None
+        )
     q = np.concatenate([sol.rho, sol.delta, sol.sigma], axis=-1)
     rates = np.concatenate([q_dot, sigma_dot], axis=-1)
     first = np.flatnonzero(task.k == 0)  # entry point of each trajectory (trajectory-major order)

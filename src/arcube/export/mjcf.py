@@ -76,7 +76,19 @@ from arcube.model.design import Design, unpack
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
 
-__all__ = ["ACTUATED", "JOINT_NAMES", "KP", "KV", "check_z_dyad", "checked_inputs", "export_masses", "export_mjcf", "joint_values", "model_xml", "z_dyad_range"]
+__all__ = [
+    "ACTUATED",
+    "JOINT_NAMES",
+    "KP",
+    "KV",
+    "check_z_dyad",
+    "checked_inputs",
+    "export_masses",
+    "export_mjcf",
+    "joint_values",
+    "model_xml",
+    "z_dyad_range",
+]
 
 PIN_MM = 100.0
 """Distance between the two points of a hinge closure along its axis (close_T_u, close_T_u_axis), mm: the
@@ -151,15 +163,33 @@ def export_mjcf(
     where = f"trajectory {pl.ids[pl.trajectory[idx]]}, k={int(pl.k[idx])}"
     if not ok[idx]:
         one = inverse_kinematics(params, pl.E[idx], pl.e[idx], signs)
-        raise InputError.of("at", f"{short_repr(at)}: the design has no IK solution at {where} in mode {format_mode(signs)}: "
-                                  f"{no_ik_reason(one)}; pick another point, mode or design")  # fmt: skip
+        raise InputError.of(
+            "at",
+            f"{short_repr(at)}: the design has no IK solution at {where} in mode {format_mode(signs)}: "
+            f"{no_ik_reason(one)}; pick another point, mode or design",
+        )
     check_z_dyad(params, pl.E[ok], pl.e[ok], signs, cz, "solvable points of the plan")
     if envelope is not None and not hasattr(envelope, "boxes"):
         from arcube.evaluation.envelope import resolve_envelope
         from arcube.io.load import load_plan
 
-        envelope = resolve_envelope(envelope, load_plan("reference" if plan is None else plan), anatomy if hasattr(anatomy, "distance") else None)
-    return model_xml(params, pl.E[idx], pl.e[idx], signs, cz, opts.body.radii, anatomy, export_masses(opts, masses), where, envelope=envelope)
+        envelope = resolve_envelope(
+            envelope,
+            load_plan("reference" if plan is None else plan),
+            anatomy if hasattr(anatomy, "distance") else None,
+        )
+    return model_xml(
+        params,
+        pl.E[idx],
+        pl.e[idx],
+        signs,
+        cz,
+        opts.body.radii,
+        anatomy,
+        export_masses(opts, masses),
+        where,
+        envelope=envelope,
+    )
 
 
 def export_masses(options: Options, masses: bool | None) -> MassModel:
@@ -171,7 +201,9 @@ def export_masses(options: Options, masses: bool | None) -> MassModel:
     return MassModel(link_radius_mm=link, wall_mm=link / 2, density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
 
 
-def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+def checked_inputs(
+    design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
     ``mode`` None: the design's own; ``c_z`` None: the design's, else d_z."""
     d = Design.coerce(design)  # a design file keeps its c_z and mode (a vector has neither); validates (InputError)
@@ -183,7 +215,14 @@ def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None, c_z
     return params, signs, float(unpack(params).d[2]) if c_z is None else float(c_z)
 
 
-def check_z_dyad(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float, what: str) -> None:
+def check_z_dyad(
+    params: NDArray[np.float64],
+    E: NDArray[np.float64],
+    e: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    c_z: float,
+    what: str,
+) -> None:
     """InputError unless the z dyad (model §6; D_z and Q_z lie in one plane z_m = const) closes with c_z (mm)
     at every pose (E, e) ``(P, 3)``; the message names the c_z range that would, or says that none can."""
     d_z = float(unpack(params).d[2])
@@ -192,16 +231,32 @@ def check_z_dyad(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray
     lo, hi = z_dyad_range(L_z, d_z)
     if not lo <= c_z <= hi:
         bad = int(np.sum((L_z > d_z + c_z) | (L_z < abs(d_z - c_z))))
-        head = (f"the z-leg dyad (d_z = {d_z:.4g} mm, c_z = {c_z:.4g} mm) cannot close at {bad} of {len(L_z)} "
-                f"{what} (|Q_z - D_z| spans {L_z.min():.1f}-{L_z.max():.1f} mm)")  # fmt: skip
+        head = (
+            f"the z-leg dyad (d_z = {d_z:.4g} mm, c_z = {c_z:.4g} mm) cannot close at {bad} of {len(L_z)} "
+            f"{what} (|Q_z - D_z| spans {L_z.min():.1f}-{L_z.max():.1f} mm)"
+        )
         if lo <= hi:  # the message leads with the parameter to change (the CLI puts its flag there)
             raise InputError.of("c_z", f"in [{lo:.2f}, {hi:.2f}] mm closes the z-leg dyad at every point: {head}")
-        raise InputError(f"{head}; no c_z closes it at every point (it would need c_z >= {lo:.1f} and <= {hi:.1f} mm): change d_z or the placement")
+        raise InputError(
+            f"{head}; no c_z closes it at every point (it would need c_z >= {lo:.1f} and <= {hi:.1f} mm): change d_z or the placement"
+        )
 
 
-def model_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
-              radii: BodyRadii, anatomy: Any, masses: MassModel, where: str, *,
-              actuated: dict[str, float] | None = None, note: str = "", envelope: Any = None) -> str:  # fmt: skip
+def model_xml(
+    params: NDArray[np.float64],
+    E: NDArray[np.float64],
+    e: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    c_z: float,
+    radii: BodyRadii,
+    anatomy: Any,
+    masses: MassModel,
+    where: str,
+    *,
+    actuated: dict[str, float] | None = None,
+    note: str = "",
+    envelope: Any = None,
+) -> str:
     """The MJCF text assembled at the pose (E, e) ``(3,)``, R_w; inputs checked by the caller (:func:`export_mjcf`).
 
     ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
@@ -209,7 +264,9 @@ def model_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np
     the envelope of the whole patient (model §19.5), drawn (:func:`envelope_geoms`).
     """
     model = mass_model_for(masses, radii, c_z)
-    return _build_xml(params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note, envelope)
+    return _build_xml(
+        params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note, envelope
+    )
 
 
 def envelope_geoms(root: ET.Element, envelope: Any) -> None:
@@ -220,21 +277,77 @@ def envelope_geoms(root: ET.Element, envelope: Any) -> None:
     rgba = COLORS["envelope"]
     for name, box in zip(envelope.names, envelope.boxes):
         half = box[3:6] + box[6]
-        ET.SubElement(world, "geom", {"name": f"envelope_{name}", "type": "box", "pos": vec(box[:3]), "size": vec(half), "rgba": rgba,
-                                      "group": "3", "contype": "0", "conaffinity": "0", "mass": "0"})  # fmt: skip
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": f"envelope_{name}",
+                "type": "box",
+                "pos": vec(box[:3]),
+                "size": vec(half),
+                "rgba": rgba,
+                "group": "3",
+                "contype": "0",
+                "conaffinity": "0",
+                "mass": "0",
+            },
+        )
     for i, m in enumerate(envelope.skin):
-        ET.SubElement(asset, "mesh", {"name": f"envelope_skin_{i}", "vertex": " ".join(num(x) for x in np.asarray(m.vertices, float).reshape(-1)),
-                                      "face": " ".join(str(int(x)) for x in np.asarray(m.faces, np.int64).reshape(-1))})  # fmt: skip
-        ET.SubElement(world, "geom", {"name": f"envelope_skin_{i}", "type": "mesh", "mesh": f"envelope_skin_{i}", "rgba": rgba, "group": "3",
-                                      "contype": "0", "conaffinity": "0", "mass": "0"})  # fmt: skip
+        ET.SubElement(
+            asset,
+            "mesh",
+            {
+                "name": f"envelope_skin_{i}",
+                "vertex": " ".join(num(x) for x in np.asarray(m.vertices, float).reshape(-1)),
+                "face": " ".join(str(int(x)) for x in np.asarray(m.faces, np.int64).reshape(-1)),
+            },
+        )
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": f"envelope_skin_{i}",
+                "type": "mesh",
+                "mesh": f"envelope_skin_{i}",
+                "rgba": rgba,
+                "group": "3",
+                "contype": "0",
+                "conaffinity": "0",
+                "mass": "0",
+            },
+        )
     if envelope.table_z is not None:
-        ET.SubElement(world, "geom", {"name": "envelope_table", "type": "box", "pos": vec(np.array([0.0, 0.0, envelope.table_z - 10.0])),
-                                      "size": "1500 1500 10", "rgba": rgba, "group": "3", "contype": "0", "conaffinity": "0", "mass": "0"})  # fmt: skip
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": "envelope_table",
+                "type": "box",
+                "pos": vec(np.array([0.0, 0.0, envelope.table_z - 10.0])),
+                "size": "1500 1500 10",
+                "rgba": rgba,
+                "group": "3",
+                "contype": "0",
+                "conaffinity": "0",
+                "mass": "0",
+            },
+        )
 
 
-def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], signs: NDArray[np.float64], c_z: float,
-               radii: BodyRadii, meshes: list[Any], where: str, masses: MassModel, actuated: dict[str, float], note: str,
-               envelope: Any = None) -> str:  # fmt: skip
+def _build_xml(
+    params: NDArray[np.float64],
+    E: NDArray[np.float64],
+    e: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    c_z: float,
+    radii: BodyRadii,
+    meshes: list[Any],
+    where: str,
+    masses: MassModel,
+    actuated: dict[str, float],
+    note: str,
+    envelope: Any = None,
+) -> str:
     mp = mechanism_points(params, E, e, signs, c_z=c_z, motor_length=radii.motor_length, arc_samples=9)
     q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()} | actuated
     inertials = body_inertials(params, E, e, signs, masses)
@@ -248,15 +361,26 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
     C, H, Ew, ew, Jz = mp.C, mp.H, mp.E, mp.e, mp.J_z
 
     root = ET.Element("mujoco", {"model": "arcube"})
-    ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true", "inertiafromgeom": "false",
-                                     "boundmass": num(MASS_FLOOR_KG), "boundinertia": num(INERTIA_FLOOR_KG_MM2)})  # fmt: skip
+    ET.SubElement(
+        root,
+        "compiler",
+        {
+            "angle": "radian",
+            "autolimits": "true",
+            "inertiafromgeom": "false",
+            "boundmass": num(MASS_FLOOR_KG),
+            "boundinertia": num(INERTIA_FLOOR_KG_MM2),
+        },
+    )
     gravity = vec(1000.0 * np.asarray(masses.gravity, dtype=float))  # m/s^2 -> mm/s^2, patient frame = model frame
     opt = ET.SubElement(root, "option", {"timestep": "0.001", "integrator": "implicitfast", "gravity": gravity})
     ET.SubElement(opt, "flag", {"contact": "disable"})
     vis = ET.SubElement(root, "visual")
     ET.SubElement(vis, "global", {"offwidth": "1280", "offheight": "960"})
     ET.SubElement(vis, "map", {"znear": "0.001", "zfar": "50"})
-    ET.SubElement(vis, "scale", {"framelength": "0.3", "framewidth": "0.02", "jointlength": "0.3", "jointwidth": "0.03"})
+    ET.SubElement(
+        vis, "scale", {"framelength": "0.3", "framewidth": "0.02", "jointlength": "0.3", "jointwidth": "0.03"}
+    )
     default = ET.SubElement(root, "default")
     ET.SubElement(default, "geom", {"contype": "0", "conaffinity": "0", "group": "1"})
     ET.SubElement(default, "site", {"group": "3", "rgba": "1 0.2 0.2 1"})
@@ -267,19 +391,53 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
     ET.SubElement(default, "equality", {"solref": SOLREF, "solimp": SOLIMP})
 
     asset = ET.SubElement(root, "asset")
-    ET.SubElement(asset, "texture", {"name": "sky", "type": "skybox", "builtin": "gradient", "rgb1": "0.55 0.65 0.75", "rgb2": "0.05 0.05 0.08", "width": "256", "height": "256"})
+    ET.SubElement(
+        asset,
+        "texture",
+        {
+            "name": "sky",
+            "type": "skybox",
+            "builtin": "gradient",
+            "rgb1": "0.55 0.65 0.75",
+            "rgb2": "0.05 0.05 0.08",
+            "width": "256",
+            "height": "256",
+        },
+    )
     if meshes:
         for i, m in enumerate(meshes):
             v = np.asarray(m.vertices, dtype=float)
             f = np.asarray(m.faces, dtype=np.int64)
-            ET.SubElement(asset, "mesh", {"name": f"anatomy_{i}", "inertia": "shell",
-                                          "vertex": " ".join(num(x) for x in v.reshape(-1)),
-                                          "face": " ".join(str(int(x)) for x in f.reshape(-1))})  # fmt: skip
+            ET.SubElement(
+                asset,
+                "mesh",
+                {
+                    "name": f"anatomy_{i}",
+                    "inertia": "shell",
+                    "vertex": " ".join(num(x) for x in v.reshape(-1)),
+                    "face": " ".join(str(int(x)) for x in f.reshape(-1)),
+                },
+            )
 
     world = ET.SubElement(root, "worldbody")
-    ET.SubElement(world, "light", {"name": "top", "pos": vec(C + np.array([0.0, 0.0, 1500.0])), "dir": "0 0 -1", "directional": "true"})
+    ET.SubElement(
+        world,
+        "light",
+        {"name": "top", "pos": vec(C + np.array([0.0, 0.0, 1500.0])), "dir": "0 0 -1", "directional": "true"},
+    )
     for i in range(len(meshes)):
-        ET.SubElement(world, "geom", {"name": f"anatomy_{i}", "type": "mesh", "mesh": f"anatomy_{i}", "rgba": COLORS["anatomy"], "group": "2", "mass": "0"})
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": f"anatomy_{i}",
+                "type": "mesh",
+                "mesh": f"anatomy_{i}",
+                "rgba": COLORS["anatomy"],
+                "group": "2",
+                "mass": "0",
+            },
+        )
 
     base = XmlBody(world, "base", O, np.zeros(3))
     bodies = base.registry  # every body by name, shared down the tree
@@ -355,10 +513,26 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
     eq = ET.SubElement(root, "equality")
     for i, u in enumerate("xy"):
         cpl, out = bodies[f"coupler_{u}"], bodies[f"output_{u}"]
-        ET.SubElement(eq, "connect", {"name": f"close_T_{u}", "body1": cpl.name, "body2": out.name, "anchor": vec(cpl.local(T[i]))})
-        ET.SubElement(eq, "connect", {"name": f"close_T_{u}_axis", "body1": cpl.name, "body2": out.name,
-                                      "anchor": vec(cpl.local(T[i] + PIN_MM * U[i]))})  # fmt: skip
-    ET.SubElement(eq, "connect", {"name": "close_H", "body1": "beta_y", "body2": "drill", "anchor": vec(bodies["beta_y"].local(H))})
+        ET.SubElement(
+            eq,
+            "connect",
+            {"name": f"close_T_{u}", "body1": cpl.name, "body2": out.name, "anchor": vec(cpl.local(T[i]))},
+        )
+        ET.SubElement(
+            eq,
+            "connect",
+            {
+                "name": f"close_T_{u}_axis",
+                "body1": cpl.name,
+                "body2": out.name,
+                "anchor": vec(cpl.local(T[i] + PIN_MM * U[i])),
+            },
+        )
+    ET.SubElement(
+        eq,
+        "connect",
+        {"name": "close_H", "body1": "beta_y", "body2": "drill", "anchor": vec(bodies["beta_y"].local(H))},
+    )
 
     act = ET.SubElement(root, "actuator")
     for name in ACTUATED:
@@ -369,8 +543,15 @@ def _build_xml(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[n
     ET.SubElement(sensor, "framezaxis", {"name": "drill_axis", "objtype": "site", "objname": "tip"})
 
     keys = ET.SubElement(root, "keyframe")
-    ET.SubElement(keys, "key", {"name": "assembled", "qpos": " ".join(num(q[n]) for n in JOINT_NAMES),
-                                "ctrl": " ".join(num(q[n]) for n in ACTUATED)})  # fmt: skip
+    ET.SubElement(
+        keys,
+        "key",
+        {
+            "name": "assembled",
+            "qpos": " ".join(num(q[n]) for n in JOINT_NAMES),
+            "ctrl": " ".join(num(q[n]) for n in ACTUATED),
+        },
+    )
 
     if envelope is not None:
         envelope_geoms(root, envelope)

@@ -50,18 +50,24 @@ def resolve_point(plan: PlanPoints, at: str | tuple[Any, int] | None) -> int:
     if isinstance(at, str):
         tid, sep, ktext = at.strip().rpartition(":")
         if not sep or not tid:
-            raise InputError.of("at", f"{short_repr(at)}: expected ID:K, a trajectory id and a sample index, e.g. '1:0'")
+            raise InputError.of(
+                "at", f"{short_repr(at)}: expected ID:K, a trajectory id and a sample index, e.g. '1:0'"
+            )
         try:
             k = int(ktext)
         except ValueError:
-            raise InputError.of("at", f"{short_repr(at)}: the sample index K must be an integer, got {short_repr(ktext)}") from None
+            raise InputError.of(
+                "at", f"{short_repr(at)}: the sample index K must be an integer, got {short_repr(ktext)}"
+            ) from None
     else:
         tid, k = str(at[0]), int(at[1])
     if tid not in plan.ids:
         shown = ", ".join(plan.ids[:12]) + (", ..." if len(plan.ids) > 12 else "")
         raise InputError.of("at", f"{tid}:{k}: no trajectory with id {short_repr(tid)} in the plan (ids: {shown})")
     if not 0 <= k < plan.n_points:
-        raise InputError.of("at", f"{tid}:{k}: sample index k must lie in 0..{plan.n_points - 1} (points={plan.n_points})")
+        raise InputError.of(
+            "at", f"{tid}:{k}: sample index k must lie in 0..{plan.n_points - 1} (points={plan.n_points})"
+        )
     t = plan.ids.index(tid)
     return int(np.flatnonzero((plan.trajectory == t) & (plan.k == k))[0])
 

@@ -60,13 +60,31 @@ from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
 from arcube.motion.output import Program
 
-__all__ = ["ANGLE_TOL_RAD", "REPLAY_COLUMNS", "ProgramExport", "export_program", "read_program", "recorded_design", "replay_path",
-           "write_program_export"]
+__all__ = [
+    "ANGLE_TOL_RAD",
+    "REPLAY_COLUMNS",
+    "ProgramExport",
+    "export_program",
+    "read_program",
+    "recorded_design",
+    "replay_path",
+    "write_program_export",
+]
 
 REPLAY_COLUMNS: tuple[str, ...] = (
-    "t_s", "segment", "trajectory", "E_x_mm", "E_y_mm", "E_z_mm", "e_x", "e_y", "e_z",
-    *(f"ctrl_{n}" for n in ACTUATED), *(f"qvel_{n}" for n in ACTUATED), *(f"qpos_{n}" for n in JOINT_NAMES),
-)  # fmt: skip
+    "t_s",
+    "segment",
+    "trajectory",
+    "E_x_mm",
+    "E_y_mm",
+    "E_z_mm",
+    "e_x",
+    "e_y",
+    "e_z",
+    *(f"ctrl_{n}" for n in ACTUATED),
+    *(f"qvel_{n}" for n in ACTUATED),
+    *(f"qpos_{n}" for n in JOINT_NAMES),
+)
 """Columns of the replay CSV (module docstring): s, mm, unit vector, rad, rad/s, rad."""
 ANGLE_TOL_RAD = 1.0e-6
 """Largest difference (rad, mod 2 pi) between the design's IK and a program row's angle: the rows are
@@ -90,7 +108,10 @@ def read_program(folder: str | os.PathLike[str]) -> Program:
     damaged file, or a cell the replay cannot use (empty or not finite)."""
     path = Path(folder)
     if not path.is_dir():
-        raise InputError.of("program", f"{path}: {'no such folder' if not path.exists() else 'not a folder'} (give the folder that 'arcube program' wrote)")
+        raise InputError.of(
+            "program",
+            f"{path}: {'no such folder' if not path.exists() else 'not a folder'} (give the folder that 'arcube program' wrote)",
+        )
     try:
         files = read_program_files(path)
     except InputError as exc:
@@ -98,11 +119,21 @@ def read_program(folder: str | os.PathLike[str]) -> Program:
     table = np.column_stack([files.t_s, files.E, files.e, files.q_deg, files.q_dot_deg])
     bad = np.flatnonzero(~np.all(np.isfinite(table), axis=1))
     if len(bad):
-        raise InputError.of("program", f"{path / CSV_NAME}: data row {int(bad[0]) + 1} has an empty or non-finite pose, angle or rate (the replay needs every one)")
+        raise InputError.of(
+            "program",
+            f"{path / CSV_NAME}: data row {int(bad[0]) + 1} has an empty or non-finite pose, angle or rate (the replay needs every one)",
+        )
     return Program(
-        t_s=files.t_s, segment=files.segment, trajectory=files.trajectory, E=files.E, e=files.e, q_deg=files.q_deg,
-        q_dot_deg=files.q_dot_deg, summary=files.summary, path=path,
-    )  # fmt: skip
+        t_s=files.t_s,
+        segment=files.segment,
+        trajectory=files.trajectory,
+        E=files.E,
+        e=files.e,
+        q_deg=files.q_deg,
+        q_dot_deg=files.q_dot_deg,
+        summary=files.summary,
+        path=path,
+    )
 
 
 def _rows_of(program: Any) -> Program:
@@ -110,7 +141,9 @@ def _rows_of(program: Any) -> Program:
         return program
     if isinstance(program, (str, os.PathLike)):
         return read_program(program)
-    raise InputError.of("program", f"must be a program folder or an arcube.motion.Program, got {type(program).__name__}")
+    raise InputError.of(
+        "program", f"must be a program folder or an arcube.motion.Program, got {type(program).__name__}"
+    )
 
 
 def recorded_design(rows: Program) -> Design | None:
@@ -136,7 +169,9 @@ def recorded_design(rows: Program) -> Design | None:
     return None
 
 
-def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.float64], q0_deg: NDArray[np.float64]) -> None:
+def _check_angles(
+    params: NDArray[np.float64], rows: Program, signs: NDArray[np.float64], q0_deg: NDArray[np.float64]
+) -> None:
     """InputError unless the design's IK at every row, less a calibrated design's zero offsets ``q0_deg``
     ``(5,)`` (model §21.4: what the controller commands), gives the row's five angles (mod 2 pi)."""
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -156,9 +191,15 @@ def _check_angles(params: NDArray[np.float64], rows: Program, signs: NDArray[np.
 
 
 def export_program(
-    program: Any, design: Design | Any = None, *, c_z: float | None = None, options: Options | None = None, anatomy: Any = None,
-    masses: bool | None = None, **changes: Any,
-) -> ProgramExport:  # fmt: skip
+    program: Any,
+    design: Design | Any = None,
+    *,
+    c_z: float | None = None,
+    options: Options | None = None,
+    anatomy: Any = None,
+    masses: bool | None = None,
+    **changes: Any,
+) -> ProgramExport:
     """The MJCF of a program's design assembled at its first row, and the replay CSV (module docstring).
 
     Parameters
@@ -178,7 +219,10 @@ def export_program(
     if design is None:
         design = recorded_design(rows)
         if design is None:
-            raise InputError.of("design", "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)")
+            raise InputError.of(
+                "design",
+                "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)",
+            )
     d = Design.coerce(design)
     mode = rows.summary.get("mode", DEFAULT_MODE_TEXT)
     params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT, c_z)
@@ -189,11 +233,24 @@ def export_program(
     source = "the program" if rows.path is None else f"the program {rows.path}"
     where = f"row 0 of {source} (t = {rows.t_s[0]:.6g} s, {rows.segment[0]} {rows.trajectory[0]})"
     note = f"Replay: CSV beside this file (<name>.replay.csv), {len(rows.t_s)} rows: ctrl_* targets (rad) at t_s."
-    xml = model_xml(params, rows.E[0], rows.e[0], signs, cz, opts.body.radii, anatomy, export_masses(opts, masses), where,
-                    actuated={n: float(q0[i]) for i, n in enumerate(ACTUATED)}, note=note)  # fmt: skip
+    xml = model_xml(
+        params,
+        rows.E[0],
+        rows.e[0],
+        signs,
+        cz,
+        opts.body.radii,
+        anatomy,
+        export_masses(opts, masses),
+        where,
+        actuated={n: float(q0[i]) for i, n in enumerate(ACTUATED)},
+        note=note,
+    )
     qpos = joint_values(params, rows.E, rows.e, signs, c_z=cz)
     passive = {n: np.unwrap(qpos[n]) for n in JOINT_NAMES if n not in ACTUATED}  # continuous along the rows
-    full = np.stack([passive[n] if n in passive else np.radians(real_deg[:, ACTUATED.index(n)]) for n in JOINT_NAMES], axis=1)
+    full = np.stack(
+        [passive[n] if n in passive else np.radians(real_deg[:, ACTUATED.index(n)]) for n in JOINT_NAMES], axis=1
+    )
     return ProgramExport(xml, _replay_csv(rows, full, real_deg), d, len(rows.t_s))
 
 

@@ -18,11 +18,31 @@ from arcube.io.files import atomic_write_bytes, atomic_write_text
 from arcube.io.load import load_plan, load_trajectories
 from arcube.io.slicer import read_markups, write_markups
 from arcube.io.trajectories import (
-    CSV_COLUMNS, TrajectorySet, apply_transform, atomic_write, read_csv, read_transform, select, validate_points, write_csv,
-)  # fmt: skip
+    CSV_COLUMNS,
+    TrajectorySet,
+    apply_transform,
+    atomic_write,
+    read_csv,
+    read_transform,
+    select,
+    validate_points,
+    write_csv,
+)
 
 __all__ = [
-    "CSV_COLUMNS", "TrajectorySet", "apply_transform", "atomic_write", "atomic_write_bytes", "atomic_write_text",
-    "load_plan", "load_trajectories", "read_csv", "read_markups", "read_transform", "select", "validate_points", "write_csv",
+    "CSV_COLUMNS",
+    "TrajectorySet",
+    "apply_transform",
+    "atomic_write",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "load_plan",
+    "load_trajectories",
+    "read_csv",
+    "read_markups",
+    "read_transform",
+    "select",
+    "validate_points",
+    "write_csv",
     "write_markups",
-]  # fmt: skip
+]

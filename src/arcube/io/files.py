@@ -39,7 +39,7 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
 def _write_all(fd: int, data: bytes) -> None:
     view = memoryview(data)
     while view:
-        view = view[os.write(fd, view):]
+        view = view[os.write(fd, view) :]
 
 
 def _write_in_place(target: Path, data: bytes, fifo: bool) -> None:
@@ -113,8 +113,12 @@ def check_targets(paths: Iterable[str | os.PathLike[str]]) -> None:
             continue
         if not stat.S_ISREG(st.st_mode):
             code = errno.EISDIR if stat.S_ISDIR(st.st_mode) else errno.EINVAL
-            raise OSError(code, f"is {file_kind(st.st_mode)}, not a file arcube can replace (an output of several files is "
-                                "written to regular files only)", os.fspath(path))  # fmt: skip
+            raise OSError(
+                code,
+                f"is {file_kind(st.st_mode)}, not a file arcube can replace (an output of several files is "
+                "written to regular files only)",
+                os.fspath(path),
+            )
 
 
 def _stage(target: Path, data: bytes) -> str:
@@ -183,7 +187,7 @@ def atomic_write_files(files: Mapping[str | os.PathLike[str], bytes]) -> None:
             Path(tmp).unlink(missing_ok=True)
         raise
     finally:
-        for target, old in kept.items():
+        for old in kept.values():
             if old is not None and Path(old).exists():
                 Path(old).unlink(missing_ok=True)
 

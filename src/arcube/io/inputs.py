@@ -38,9 +38,20 @@ from typing import Any
 from arcube.errors import InputError
 
 __all__ = [
-    "COORDINATE_LIMIT_MM", "MAX_JSON_DEPTH", "MAX_MESH_BYTES", "MAX_TEXT_BYTES", "coordinate_problem", "decode_text", "file_kind",
-    "load_json", "parse_decimal", "parse_json", "read_bytes", "read_text", "short_repr",
-]  # fmt: skip
+    "COORDINATE_LIMIT_MM",
+    "MAX_JSON_DEPTH",
+    "MAX_MESH_BYTES",
+    "MAX_TEXT_BYTES",
+    "coordinate_problem",
+    "decode_text",
+    "file_kind",
+    "load_json",
+    "parse_decimal",
+    "parse_json",
+    "read_bytes",
+    "read_text",
+    "short_repr",
+]
 
 MAX_TEXT_BYTES = 64 * 2**20
 """Largest text input (CSV, markups, transform, design JSON), bytes: 64 MiB."""
@@ -58,9 +69,12 @@ Fail = Callable[[str], InputError]
 _DECIMAL_RE = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NON_FINITE_RE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 _BOMS = (  # longest first: the UTF-32 LE mark starts with the UTF-16 LE one
-    (codecs.BOM_UTF32_LE, "utf-32-le"), (codecs.BOM_UTF32_BE, "utf-32-be"), (codecs.BOM_UTF8, "utf-8"),
-    (codecs.BOM_UTF16_LE, "utf-16-le"), (codecs.BOM_UTF16_BE, "utf-16-be"),
-)  # fmt: skip
+    (codecs.BOM_UTF32_LE, "utf-32-le"),
+    (codecs.BOM_UTF32_BE, "utf-32-be"),
+    (codecs.BOM_UTF8, "utf-8"),
+    (codecs.BOM_UTF16_LE, "utf-16-le"),
+    (codecs.BOM_UTF16_BE, "utf-16-be"),
+)
 
 
 def _default_fail(path: str | os.PathLike[str]) -> Fail:
@@ -78,9 +92,14 @@ def short_repr(value: Any, limit: int = 60) -> str:
 
 def file_kind(mode: int) -> str:
     """What a file of ``st_mode`` is, in words (``"a FIFO (named pipe)"``)."""
-    for test, words in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
-                        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-                        (stat.S_ISSOCK, "a socket"), (stat.S_ISREG, "a regular file")):
+    for test, words in (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+        (stat.S_ISREG, "a regular file"),
+    ):
         if test(mode):
             return words
     return "a special file"
@@ -94,7 +113,9 @@ _PIPES: dict[tuple[int, int], bytes] = {}
 """The bytes of each pipe or FIFO read so far, by (device, inode): a pipe gives them only once."""
 
 
-def read_bytes(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> bytes:
+def read_bytes(
+    path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True
+) -> bytes:
     """The bytes of the regular file, pipe or FIFO ``path``, at most ``limit`` of them (module docstring).
     ``pipes=False``: a regular file only (the files inside a folder arcube wrote: a FIFO there is not its file).
 
@@ -153,19 +174,25 @@ def decode_text(data: bytes, fail: Fail) -> str:
     try:
         text = data[start:].decode(encoding)
     except UnicodeDecodeError as exc:
-        bad = data[start + exc.start: start + exc.start + 1]
-        detail = f"byte 0x{bad.hex()} at offset {start + exc.start}" if bad else f"truncated at offset {start + exc.start}"
+        bad = data[start + exc.start : start + exc.start + 1]
+        detail = (
+            f"byte 0x{bad.hex()} at offset {start + exc.start}" if bad else f"truncated at offset {start + exc.start}"
+        )
         if encoding != "utf-8":
             detail += ", though its byte-order mark says so"
         raise fail(f"not {encoding.upper()} text ({detail}); save it as UTF-8") from None
     nul = text.find("\x00")
     if nul >= 0:
-        raise fail(f"holds a NUL character at offset {nul}: a binary file, or UTF-16 text without a "
-                   "byte-order mark; save it as UTF-8")
+        raise fail(
+            f"holds a NUL character at offset {nul}: a binary file, or UTF-16 text without a "
+            "byte-order mark; save it as UTF-8"
+        )
     return text
 
 
-def read_text(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> str:
+def read_text(
+    path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True
+) -> str:
     """:func:`read_bytes` then :func:`decode_text`."""
     fail = fail or _default_fail(path)
     return decode_text(read_bytes(path, limit, fail, pipes=pipes), fail)
@@ -204,7 +231,9 @@ def parse_json(text: str, fail: Fail) -> Any:
     return data
 
 
-def load_json(path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True) -> Any:
+def load_json(
+    path: str | os.PathLike[str], limit: int = MAX_TEXT_BYTES, fail: Fail | None = None, *, pipes: bool = True
+) -> Any:
     """:func:`read_text` then :func:`parse_json`."""
     fail = fail or _default_fail(path)
     return parse_json(read_text(path, limit, fail, pipes=pipes), fail)

@@ -22,7 +22,14 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.io.inputs import COORDINATE_LIMIT_MM, file_kind, short_repr
 
-__all__ = ["LABEL_SUFFIXES", "MAX_LABELS", "MAX_SEGMENTATION_BYTES", "MAX_SEGMENTATION_VOXELS", "LabelVolume", "read_label_volume"]
+__all__ = [
+    "LABEL_SUFFIXES",
+    "MAX_LABELS",
+    "MAX_SEGMENTATION_BYTES",
+    "MAX_SEGMENTATION_VOXELS",
+    "LabelVolume",
+    "read_label_volume",
+]
 
 LABEL_SUFFIXES = (".seg.nrrd", ".nrrd", ".nii.gz", ".nii")
 MAX_SEGMENTATION_VOXELS = 2**28
@@ -38,13 +45,44 @@ MAX_LABELS = 1000
 _SPACES = {"left-posterior-superior": "LPS", "lps": "LPS", "right-anterior-superior": "RAS", "ras": "RAS"}
 _NRRD_ITEMSIZE = {  # NRRD type names (all spellings of the format) -> bytes per voxel
     **dict.fromkeys(("signed char", "int8", "int8_t", "uchar", "unsigned char", "uint8", "uint8_t"), 1),
-    **dict.fromkeys(("short", "short int", "signed short", "signed short int", "int16", "int16_t", "ushort",
-                     "unsigned short", "unsigned short int", "uint16", "uint16_t"), 2),
-    **dict.fromkeys(("int", "signed int", "int32", "int32_t", "uint", "unsigned int", "uint32", "uint32_t", "float"), 4),
-    **dict.fromkeys(("longlong", "long long", "long long int", "signed long long", "signed long long int", "int64",
-                     "int64_t", "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t",
-                     "double"), 8),
-}  # fmt: skip
+    **dict.fromkeys(
+        (
+            "short",
+            "short int",
+            "signed short",
+            "signed short int",
+            "int16",
+            "int16_t",
+            "ushort",
+            "unsigned short",
+            "unsigned short int",
+            "uint16",
+            "uint16_t",
+        ),
+        2,
+    ),
+    **dict.fromkeys(
+        ("int", "signed int", "int32", "int32_t", "uint", "unsigned int", "uint32", "uint32_t", "float"), 4
+    ),
+    **dict.fromkeys(
+        (
+            "longlong",
+            "long long",
+            "long long int",
+            "signed long long",
+            "signed long long int",
+            "int64",
+            "int64_t",
+            "ulonglong",
+            "unsigned long long",
+            "unsigned long long int",
+            "uint64",
+            "uint64_t",
+            "double",
+        ),
+        8,
+    ),
+}
 _NIFTI_UNITS = {"mm": 1.0, "unknown": 1.0, "meter": 1000.0, "micron": 1e-3}
 _MAX_NAME = 200
 """Longest segment name accepted, characters."""
@@ -87,11 +125,17 @@ def _check_size(path: Path, shape: Sequence[int], itemsize: int) -> None:
     voxels = int(np.prod([int(n) for n in shape], dtype=object))
     text = " x ".join(str(int(n)) for n in shape)
     if voxels > MAX_SEGMENTATION_VOXELS:
-        raise _fail(path, f"too large: {text} = {voxels} voxels (the limit is {MAX_SEGMENTATION_VOXELS}); "
-                          "crop the segmentation to the operated region")
+        raise _fail(
+            path,
+            f"too large: {text} = {voxels} voxels (the limit is {MAX_SEGMENTATION_VOXELS}); "
+            "crop the segmentation to the operated region",
+        )
     if voxels * itemsize > MAX_SEGMENTATION_BYTES:
-        raise _fail(path, f"too large: {text} voxels of {itemsize} bytes = {voxels * itemsize} bytes of voxel data "
-                          f"(the limit is {MAX_SEGMENTATION_BYTES // 2**20} MiB)")
+        raise _fail(
+            path,
+            f"too large: {text} voxels of {itemsize} bytes = {voxels * itemsize} bytes of voxel data "
+            f"(the limit is {MAX_SEGMENTATION_BYTES // 2**20} MiB)",
+        )
 
 
 def _check_affine(path: Path, linear: np.ndarray, origin: np.ndarray, shape: Sequence[int]) -> None:
@@ -100,13 +144,18 @@ def _check_affine(path: Path, linear: np.ndarray, origin: np.ndarray, shape: Seq
         raise _fail(path, "the voxel-to-world matrix has non-finite (NaN or inf) entries")
     lengths = np.linalg.norm(linear, axis=0)
     if not (lengths > 1e-9).all():
-        raise _fail(path, f"the voxel-to-world matrix is singular (voxel spacing {np.array2string(lengths, precision=4)} mm)")
+        raise _fail(
+            path, f"the voxel-to-world matrix is singular (voxel spacing {np.array2string(lengths, precision=4)} mm)"
+        )
     if abs(float(np.linalg.det(linear / lengths))) < 1e-6:  # unit axes (nearly) coplanar
         raise _fail(path, "the voxel-to-world matrix is singular (its axis directions are coplanar)")
     corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)]) * (np.asarray(shape) - 1)
     extent = float(np.abs(corners @ linear.T + origin).max())
     if extent > COORDINATE_LIMIT_MM:
-        raise _fail(path, f"the grid reaches {extent:g} mm from the origin, beyond ±{COORDINATE_LIMIT_MM:g} mm (a unit mistake?)")
+        raise _fail(
+            path,
+            f"the grid reaches {extent:g} mm from the origin, beyond ±{COORDINATE_LIMIT_MM:g} mm (a unit mistake?)",
+        )
 
 
 def _labels(path: Path, data: np.ndarray) -> np.ndarray:
@@ -138,7 +187,9 @@ def _read_nrrd(path: Path) -> LabelVolume:
         except Exception as exc:  # pynrrd raises NRRDError, ValueError, UnicodeDecodeError... on other files
             raise _fail(path, f"not a NRRD file ({' '.join(str(exc).split())[:160] or type(exc).__name__})") from None
         if "data file" in header or "datafile" in header:
-            raise _fail(path, "detached voxel data ('data file') is not supported: save the segmentation as one .seg.nrrd")
+            raise _fail(
+                path, "detached voxel data ('data file') is not supported: save the segmentation as one .seg.nrrd"
+            )
         dim = int(header.get("dimension", 0))
         sizes = [int(s) for s in np.atleast_1d(header.get("sizes", []))]
         if dim not in (3, 4) or len(sizes) != dim:
@@ -148,7 +199,10 @@ def _read_nrrd(path: Path) -> LabelVolume:
             raise _fail(path, "no 'space' field: the anatomical frame (LPS or RAS) is unknown")
         space = _SPACES.get(space_name.lower())
         if space is None:
-            raise _fail(path, f"space {space_name!r} is not supported (expected left-posterior-superior or right-anterior-superior)")
+            raise _fail(
+                path,
+                f"space {space_name!r} is not supported (expected left-posterior-superior or right-anterior-superior)",
+            )
         units = [str(u).strip().lower() for u in header.get("space units", [])]
         if any(u not in ("mm", "") for u in units):
             raise _fail(path, f"space units {' '.join(units)!r}: expected mm")
@@ -157,19 +211,24 @@ def _read_nrrd(path: Path) -> LabelVolume:
             raise _fail(path, "no 'space directions' for the three spatial axes")
         if dim == 4:
             if not np.isnan(directions[0]).all():
-                raise _fail(path, "a 4-D image whose first axis is spatial: expected the layer axis first ('space directions: none ...')")
+                raise _fail(
+                    path,
+                    "a 4-D image whose first axis is spatial: expected the layer axis first ('space directions: none ...')",
+                )
             directions = directions[1:]
         if "space origin" not in header:
             raise _fail(path, "no 'space origin' field")
         origin = np.asarray(header["space origin"], dtype=float).reshape(-1)
         if origin.shape != (3,):
             raise _fail(path, "'space origin' is not a 3-D point")
-        linear = directions.T                       # column a: world step along array axis a
+        linear = directions.T  # column a: world step along array axis a
         spatial = sizes[-3:]
         _check_affine(path, linear, origin, spatial)
         offset = header.get("Segmentation_ReferenceImageExtentOffset")
         if offset is not None and not re.fullmatch(r"\s*-?[0-9]+\s+-?[0-9]+\s+-?[0-9]+\s*", str(offset)):
-            raise _fail(path, f"Segmentation_ReferenceImageExtentOffset {short_repr(str(offset))} is not three integers")
+            raise _fail(
+                path, f"Segmentation_ReferenceImageExtentOffset {short_repr(str(offset))} is not three integers"
+            )
         type_name = str(header.get("type", "")).strip().lower()
         if type_name not in _NRRD_ITEMSIZE:
             raise _fail(path, f"voxel type {type_name!r} is not a label type")
@@ -179,7 +238,10 @@ def _read_nrrd(path: Path) -> LabelVolume:
         try:
             data = nrrd.read_data(header, fh, str(path), index_order="F")
         except Exception as exc:  # truncated or corrupt data: NRRDError, zlib.error, EOFError, ValueError
-            raise _fail(path, f"cannot read the voxel data (truncated or corrupt: {' '.join(str(exc).split())[:160] or type(exc).__name__})") from None
+            raise _fail(
+                path,
+                f"cannot read the voxel data (truncated or corrupt: {' '.join(str(exc).split())[:160] or type(exc).__name__})",
+            ) from None
     layers = _labels(path, np.asarray(data)).reshape([1] * (4 - dim) + sizes)
     affine = np.eye(4)
     affine[:3, :3], affine[:3, 3] = linear, origin
@@ -196,7 +258,10 @@ def _segment_table(path: Path, header: dict[str, Any], dim: int, n_layers: int) 
         name = str(header.get(f"Segment{n}_Name", header.get(f"Segment{n}_ID", f"Segment_{n}"))).strip()
         bad = next((i for i, ch in enumerate(name) if not ch.isprintable()), None)
         if bad is not None:  # a NUL or a line break would be copied into every message, mesh and report naming it
-            raise _fail(path, f"Segment{n}_Name {short_repr(name[:60])} holds a control character (U+{ord(name[bad]):04X}) at position {bad}")
+            raise _fail(
+                path,
+                f"Segment{n}_Name {short_repr(name[:60])} holds a control character (U+{ord(name[bad]):04X}) at position {bad}",
+            )
         if len(name) > _MAX_NAME:
             raise _fail(path, f"Segment{n}_Name has {len(name)} characters (at most {_MAX_NAME})")
         values = []
@@ -234,8 +299,11 @@ def _read_nifti(path: Path) -> LabelVolume:
     elif q_code > 0:
         affine = np.asarray(qform, dtype=float)
     else:
-        raise _fail(path, "neither sform nor qform is set (both codes 0): the image has no orientation, "
-                          "so left and right would be a guess")
+        raise _fail(
+            path,
+            "neither sform nor qform is set (both codes 0): the image has no orientation, "
+            "so left and right would be a guess",
+        )
     unit = img.header.get_xyzt_units()[0]
     if unit not in _NIFTI_UNITS:
         raise _fail(path, f"spatial unit {unit!r} (expected mm, m or um)")
@@ -248,7 +316,10 @@ def _read_nifti(path: Path) -> LabelVolume:
     try:
         data = np.asanyarray(img.dataobj)
     except Exception as exc:  # truncated: OSError, EOFError, zlib.error
-        raise _fail(path, f"cannot read the voxel data (truncated or corrupt: {' '.join(str(exc).split())[:160] or type(exc).__name__})") from None
+        raise _fail(
+            path,
+            f"cannot read the voxel data (truncated or corrupt: {' '.join(str(exc).split())[:160] or type(exc).__name__})",
+        ) from None
     return LabelVolume(_labels(path, data).reshape((1,) + shape), affine, "RAS", None)
 
 

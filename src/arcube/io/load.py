@@ -13,14 +13,18 @@ from arcube.errors import InputError
 from arcube.io.slicer import read_markups
 from arcube.io.inputs import short_repr
 from arcube.io.trajectories import (
-    TrajectorySet, apply_transform, read_csv, read_reference, read_transform, validate_points,
-)  # fmt: skip
+    TrajectorySet,
+    apply_transform,
+    read_csv,
+    read_reference,
+    read_transform,
+    validate_points,
+)
 
 __all__ = ["load_plan", "load_trajectories"]
 
 
-def load_trajectories(spec: str | os.PathLike[str],
-                      transform: str | os.PathLike[str] | None = None) -> TrajectorySet:
+def load_trajectories(spec: str | os.PathLike[str], transform: str | os.PathLike[str] | None = None) -> TrajectorySet:
     """Load a trajectory set.
 
     Args:
@@ -33,7 +37,9 @@ def load_trajectories(spec: str | os.PathLike[str],
         The set, points in mm in the patient frame.
     """
     if not isinstance(spec, (str, os.PathLike)):
-        raise InputError.of("plan", f"must be a trajectory file or folder, 'reference' or a TrajectorySet, got {type(spec).__name__}")
+        raise InputError.of(
+            "plan", f"must be a trajectory file or folder, 'reference' or a TrajectorySet, got {type(spec).__name__}"
+        )
     if os.fspath(spec) == "reference":  # the word always means the bundled file; use ./reference for a path
         ts = read_reference()
     else:
@@ -51,13 +57,21 @@ def load_trajectories(spec: str | os.PathLike[str],
     if transform is not None:
         ts = apply_transform(ts, read_transform(transform))
         # the moved points must still lie within the coordinate range of every reader
-        labels = [f"{ts.source} trajectory {short_repr(tid)} (after the transform {os.fspath(transform)})" for tid in ts.ids]
+        labels = [
+            f"{ts.source} trajectory {short_repr(tid)} (after the transform {os.fspath(transform)})" for tid in ts.ids
+        ]
         validate_points(labels, ts.ids, ts.entry, ts.target)
     return ts
 
 
-def load_plan(plan: TrajectorySet | str | os.PathLike[str], *, side: str | None = None, levels: str | Sequence[str] | None = None,
-              ids: str | Sequence[Any] | None = None, transform: str | os.PathLike[str] | None = None) -> TrajectorySet:  # fmt: skip
+def load_plan(
+    plan: TrajectorySet | str | os.PathLike[str],
+    *,
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[Any] | None = None,
+    transform: str | os.PathLike[str] | None = None,
+) -> TrajectorySet:
     """A plan as every command takes it: a :class:`TrajectorySet` (checked as a file's would be) or what
     :func:`load_trajectories` reads, then kept to ``side``, ``levels`` and ``ids`` (``"C3-C5"`` or
     ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``). ``transform`` applies to files only."""
@@ -66,8 +80,17 @@ def load_plan(plan: TrajectorySet | str | os.PathLike[str], *, side: str | None 
     if isinstance(plan, TrajectorySet):
         if len(plan) == 0:
             raise InputError.of("plan", f"{plan.source} has no trajectories")
-        validate_points([f"{plan.source} trajectory {i}" for i in plan.ids], plan.ids, np.asarray(plan.entry), np.asarray(plan.target))
+        validate_points(
+            [f"{plan.source} trajectory {i}" for i in plan.ids],
+            plan.ids,
+            np.asarray(plan.entry),
+            np.asarray(plan.target),
+        )
         ts = plan
     else:
         ts = load_trajectories(plan, transform=transform)
-    return select(ts, side=side, levels=levels, ids=ids) if (side is not None or levels is not None or ids is not None) else ts
+    return (
+        select(ts, side=side, levels=levels, ids=ids)
+        if (side is not None or levels is not None or ids is not None)
+        else ts
+    )

@@ -55,8 +55,9 @@ def _check_frame(frame: object, where: str) -> str:
 def _declared_frame(head: bytes) -> str | None:
     """Coordinate system declared in a file's first bytes, or None (absent or ambiguous)."""
     text = head.decode("latin-1").upper().replace(" ", "")
-    found = {name for name, tag in (("LPS", "SPACE=LPS"), ("RAS", "SPACE=RAS"), ("patient", "FRAME=PATIENT"))
-             if tag in text}
+    found = {
+        name for name, tag in (("LPS", "SPACE=LPS"), ("RAS", "SPACE=RAS"), ("patient", "FRAME=PATIENT")) if tag in text
+    }
     return found.pop() if len(found) == 1 else None
 
 
@@ -99,16 +100,18 @@ def split_shells(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
         return []
     rows = np.repeat(np.arange(len(faces)), 3)
     # faces i, j connected when they share a vertex: components of the bipartite face-vertex graph
-    full = coo_matrix((np.ones(rows.size), (rows, len(faces) + faces.reshape(-1))),
-                      shape=(len(faces) + n_v, len(faces) + n_v))
+    full = coo_matrix(
+        (np.ones(rows.size), (rows, len(faces) + faces.reshape(-1))), shape=(len(faces) + n_v, len(faces) + n_v)
+    )
     _, labels = connected_components(full, directed=False)
     face_label = labels[: len(faces)]
     shells = []
     for lab in np.unique(face_label):
         f = faces[face_label == lab]
         used, inverse = np.unique(f.reshape(-1), return_inverse=True)
-        shells.append(trimesh.Trimesh(vertices=np.asarray(mesh.vertices)[used],
-                                      faces=inverse.reshape(-1, 3), process=False))
+        shells.append(
+            trimesh.Trimesh(vertices=np.asarray(mesh.vertices)[used], faces=inverse.reshape(-1, 3), process=False)
+        )
     return shells
 
 
@@ -136,13 +139,14 @@ def read_mesh(path: str | os.PathLike[str], frame: str) -> trimesh.Trimesh:
     frame = _check_frame(frame, str(p))
     suffix = p.suffix.lower()
     if suffix not in MESH_SUFFIXES:
-        raise InputError(f"{p}: unknown anatomy format {p.suffix!r} (expected a mesh .stl, .obj or .ply, or a segmentation .seg.nrrd, .nrrd, .nii or .nii.gz)")
+        raise InputError(
+            f"{p}: unknown anatomy format {p.suffix!r} (expected a mesh .stl, .obj or .ply, or a segmentation .seg.nrrd, .nrrd, .nii or .nii.gz)"
+        )
     data = read_bytes(p, MAX_MESH_BYTES)  # a regular file of at most 1 GiB, else InputError
     binary_stl = suffix == ".stl" and _sniff_stl(p, data)
     declared = _declared_frame(data[:80] if binary_stl else data[:_HEADER_BYTES])
     if declared is not None and declared != frame:
-        raise InputError(f"{p}: the file declares its coordinate system as {declared} "
-                         f"but frame {frame!r} was given")
+        raise InputError(f"{p}: the file declares its coordinate system as {declared} but frame {frame!r} was given")
     try:
         loaded = trimesh.load(str(p), force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types for malformed files
@@ -166,20 +170,26 @@ def read_mesh(path: str | os.PathLike[str], frame: str) -> trimesh.Trimesh:
         bad = int((~np.isfinite(vertices).all(axis=1)).sum())
         raise InputError(f"{p}: {bad} vertices have non-finite (NaN or inf) coordinates")
     if len(vertices) and float(np.abs(vertices).max()) > COORDINATE_LIMIT_MM:
-        raise InputError(f"{p}: a vertex coordinate of {float(np.abs(vertices).max()):g} mm is beyond the "
-                         f"±{COORDINATE_LIMIT_MM:g} mm range (a unit mistake?)")
+        raise InputError(
+            f"{p}: a vertex coordinate of {float(np.abs(vertices).max()):g} mm is beyond the "
+            f"±{COORDINATE_LIMIT_MM:g} mm range (a unit mistake?)"
+        )
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise InputError(f"{p}: a face refers to a vertex that does not exist")
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     mesh.merge_vertices()
     unmatched = _unmatched_edges(np.asarray(mesh.faces))
     if unmatched:
-        raise InputError(f"{p}: surface is not closed (not watertight): {unmatched} edges without a "
-                         "matching opposite edge (holes or inconsistently oriented faces)")
+        raise InputError(
+            f"{p}: surface is not closed (not watertight): {unmatched} edges without a "
+            "matching opposite edge (holes or inconsistently oriented faces)"
+        )
     for k, shell in enumerate(split_shells(mesh), start=1):
         if _signed_volume(np.asarray(shell.vertices), np.asarray(shell.faces)) <= 0.0:
-            raise InputError(f"{p}: shell {k} encloses no positive volume (faces oriented inward or flat); "
-                             "expected outward-facing closed surfaces")
+            raise InputError(
+                f"{p}: shell {k} encloses no positive volume (faces oriented inward or flat); "
+                "expected outward-facing closed surfaces"
+            )
     out = np.asarray(mesh.vertices) @ _TO_PATIENT[frame].T
     return trimesh.Trimesh(vertices=out, faces=np.asarray(mesh.faces), process=False)
 
@@ -190,7 +200,7 @@ def read_meshes(paths: Iterable[str | os.PathLike[str]], frame: str) -> list[tri
 
 
 def _stl_bytes(vertices: np.ndarray, faces: np.ndarray, header: str) -> bytes:
-    tri = vertices[faces]                                   # (F, 3, 3)
+    tri = vertices[faces]  # (F, 3, 3)
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(normal, axis=1, keepdims=True)
     normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
@@ -201,8 +211,9 @@ def _stl_bytes(vertices: np.ndarray, faces: np.ndarray, header: str) -> bytes:
     return head + np.uint32(len(faces)).astype("<u4").tobytes() + record.tobytes()
 
 
-def write_stl(mesh_or_meshes: trimesh.Trimesh | Sequence[trimesh.Trimesh], path: str | os.PathLike[str],
-              frame: str = "patient") -> Path:
+def write_stl(
+    mesh_or_meshes: trimesh.Trimesh | Sequence[trimesh.Trimesh], path: str | os.PathLike[str], frame: str = "patient"
+) -> Path:
     """Write one mesh or several (one file, each kept as its own closed shell) as binary STL.
 
     The meshes are in the patient frame; ``frame`` ("patient", "LPS" for 3D Slicer, or "RAS")
@@ -222,7 +233,7 @@ def write_stl(mesh_or_meshes: trimesh.Trimesh | Sequence[trimesh.Trimesh], path:
         vertices.append(np.asarray(m.vertices, dtype=np.float64))
         faces.append(np.asarray(m.faces, dtype=np.int64) + offset)
         offset += len(m.vertices)
-    v = np.concatenate(vertices) @ _TO_PATIENT[frame]        # inverse of a rotation: transpose
+    v = np.concatenate(vertices) @ _TO_PATIENT[frame]  # inverse of a rotation: transpose
     f = np.concatenate(faces)
     tag = "frame=patient (x right, y superior, z posterior)" if frame == "patient" else f"SPACE={frame}"
     try:

@@ -35,9 +35,24 @@ from arcube.io.inputs import COORDINATE_LIMIT_MM, load_json, read_text, short_re
 from arcube.io.tables import parse_table
 
 __all__ = [
-    "CSV_COLUMNS", "CSV_NAME", "JOINTS", "JSON_NAME", "MAX_JOINT_VALUE", "MAX_PROGRAM_BYTES", "MAX_PROGRAM_ROWS", "PNG_NAME", "POSE_COLUMNS",
-    "PROGRAM_FILES", "SEGMENTS", "TORQUE_COLUMNS", "ProgramFiles", "Span", "is_program_folder", "read_program_files", "read_summary",
-]  # fmt: skip
+    "CSV_COLUMNS",
+    "CSV_NAME",
+    "JOINTS",
+    "JSON_NAME",
+    "MAX_JOINT_VALUE",
+    "MAX_PROGRAM_BYTES",
+    "MAX_PROGRAM_ROWS",
+    "PNG_NAME",
+    "POSE_COLUMNS",
+    "PROGRAM_FILES",
+    "SEGMENTS",
+    "TORQUE_COLUMNS",
+    "ProgramFiles",
+    "Span",
+    "is_program_folder",
+    "read_program_files",
+    "read_summary",
+]
 
 CSV_NAME, JSON_NAME, PNG_NAME = "program.csv", "program.json", "program.png"
 PROGRAM_FILES = (CSV_NAME, JSON_NAME, PNG_NAME)
@@ -110,7 +125,16 @@ class ProgramFiles:
         for i in range(1, n + 1):
             if i == n or self.segment[i] != self.segment[start] or self.trajectory[i] != self.trajectory[start]:
                 end_t = self.t_s[i] if i < n else self.t_s[n - 1]
-                out.append(Span(start, i - 1, str(self.segment[start]), str(self.trajectory[start]), float(self.t_s[start]), float(end_t)))
+                out.append(
+                    Span(
+                        start,
+                        i - 1,
+                        str(self.segment[start]),
+                        str(self.trajectory[start]),
+                        float(self.t_s[start]),
+                        float(end_t),
+                    )
+                )
                 start = i
         return out
 
@@ -133,15 +157,41 @@ def is_program_folder(path: str | os.PathLike[str]) -> bool:
 
 
 def _missing(path: Path) -> InputError:
-    return InputError(f"{path}: missing (a program folder holds {CSV_NAME} and {JSON_NAME}, as 'arcube program' writes them)")
+    return InputError(
+        f"{path}: missing (a program folder holds {CSV_NAME} and {JSON_NAME}, as 'arcube program' writes them)"
+    )
 
 
 # ----------------------------------------------------------------------------- program.json
 
-_NUMBERS = ("total_s", "drilling_s", "approach_s", "retract_s", "transit_s", "dt_s", "clearance_min_mm", "tool_clearance_min_mm",
-            "self_clearance_min_mm", "eta_L_max", "tip_speed_max_transit_mm_s", "rows", "checked_states", "resolution_mm")  # fmt: skip
-_TEXTS = ("order_method", "mode", "plan", "anatomy", "check_engine", "timing", "clearance_min_at", "tool_clearance_min_at",
-          "self_clearance_min_at", "eta_L_max_at")  # fmt: skip
+_NUMBERS = (
+    "total_s",
+    "drilling_s",
+    "approach_s",
+    "retract_s",
+    "transit_s",
+    "dt_s",
+    "clearance_min_mm",
+    "tool_clearance_min_mm",
+    "self_clearance_min_mm",
+    "eta_L_max",
+    "tip_speed_max_transit_mm_s",
+    "rows",
+    "checked_states",
+    "resolution_mm",
+)
+_TEXTS = (
+    "order_method",
+    "mode",
+    "plan",
+    "anatomy",
+    "check_engine",
+    "timing",
+    "clearance_min_at",
+    "tool_clearance_min_at",
+    "self_clearance_min_at",
+    "eta_L_max_at",
+)
 _NUMBER_MAPS = ("joint_speed_max_deg_s", "joint_accel_max_deg_s2", "limits", "design", "body", "loads")
 _OBJECT_LISTS = ("trajectories", "transits")
 
@@ -155,8 +205,18 @@ def _kind(value: Any) -> str:
 
 
 def _type_words(value: Any) -> str:
-    return "null" if value is None else {bool: "a boolean", int: "a number", float: "a number", str: "text", list: "a list",
-                                         dict: "an object"}.get(type(value), type(value).__name__)  # fmt: skip
+    return (
+        "null"
+        if value is None
+        else {
+            bool: "a boolean",
+            int: "a number",
+            float: "a number",
+            str: "text",
+            list: "a list",
+            dict: "an object",
+        }.get(type(value), type(value).__name__)
+    )
 
 
 def _check_number(value: Any, where: str, fail: Any, nullable: bool = True) -> None:
@@ -191,7 +251,9 @@ def _check_summary(data: Any, fail: Any) -> dict[str, Any]:
             if not isinstance(table, dict):
                 raise fail(f"{key} must be an object of numbers, got {_kind(table)}")
             for name, v in table.items():
-                if key == "design" and name == "mode" and isinstance(v, str):  # a design's working mode ("+,+,-,+"), checked by Design
+                if (
+                    key == "design" and name == "mode" and isinstance(v, str)
+                ):  # a design's working mode ("+,+,-,+"), checked by Design
                     continue
                 _check_number(v, f"{key}.{name}", fail, nullable=key != "design")
     motors = data.get("motors")
@@ -243,7 +305,9 @@ def _bounded(table: Any, names: tuple[str, ...], limit: float, what: str) -> NDA
         bad = np.argwhere(np.abs(values) > limit)
     if len(bad):
         i, j = bad[0]
-        raise InputError(f"{table.where(table.rows[i][0])}: {names[j]} = {values[i, j]:.6g} is beyond ±{limit:g} ({what})")
+        raise InputError(
+            f"{table.where(table.rows[i][0])}: {names[j]} = {values[i, j]:.6g} is beyond ±{limit:g} ({what})"
+        )
     return values
 
 
@@ -257,11 +321,15 @@ def read_program_files(folder: str | os.PathLike[str]) -> ProgramFiles:
     t = table.column("t_s")
     bad = np.flatnonzero(np.r_[False, np.diff(t) <= 0.0] | (np.abs(t) > 1e9))
     if len(bad):
-        raise InputError(f"{table.where(table.rows[int(bad[0])][0])}: t_s must increase and stay within ±1e9 s, got {t[bad[0]]!r}")
+        raise InputError(
+            f"{table.where(table.rows[int(bad[0])][0])}: t_s must increase and stay within ±1e9 s, got {t[bad[0]]!r}"
+        )
     segment = [cells[table.index("segment")] for _, cells in table.rows]
     odd = next((k for k, s in enumerate(segment) if s not in SEGMENTS), None)
     if odd is not None:
-        raise InputError(f"{table.where(table.rows[odd][0])}: segment {short_repr(segment[odd], 40)} is not one of {', '.join(SEGMENTS)}")
+        raise InputError(
+            f"{table.where(table.rows[odd][0])}: segment {short_repr(segment[odd], 40)} is not one of {', '.join(SEGMENTS)}"
+        )
     E = _bounded(table, POSE_COLUMNS[:3], COORDINATE_LIMIT_MM, "mm: a tip beyond the coordinate range")
     e = _bounded(table, POSE_COLUMNS[3:], 1.0 + _UNIT_TOL, "a unit axis")
     with np.errstate(invalid="ignore"):
@@ -272,6 +340,14 @@ def read_program_files(folder: str | os.PathLike[str]) -> ProgramFiles:
     qd = _bounded(table, tuple(f"{j}_dot" for j in JOINTS), MAX_JOINT_VALUE, "deg/s")
     tau = _bounded(table, TORQUE_COLUMNS, MAX_JOINT_VALUE, "N m") if torques else None
     return ProgramFiles(
-        folder=root, t_s=t, segment=np.array(segment), trajectory=np.array([cells[table.index("trajectory")] for _, cells in table.rows]),
-        E=E, e=e, q_deg=q, q_dot_deg=qd, tau_Nm=tau, summary=summary,
-    )  # fmt: skip
+        folder=root,
+        t_s=t,
+        segment=np.array(segment),
+        trajectory=np.array([cells[table.index("trajectory")] for _, cells in table.rows]),
+        E=E,
+        e=e,
+        q_deg=q,
+        q_dot_deg=qd,
+        tau_Nm=tau,
+        summary=summary,
+    )

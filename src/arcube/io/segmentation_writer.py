@@ -43,10 +43,18 @@ __all__ = ["SegmentSolids", "voxelize", "write_segmentation"]
 SegmentSolids = tuple[str, int, Sequence[Any]]
 """One segment to write: (name, label value >= 1, closed solids in the patient frame)."""
 
-_CHUNK = 1 << 20   # query points per containment call (bounds the memory of the (N, 3) arrays)
+_CHUNK = 1 << 20  # query points per containment call (bounds the memory of the (N, 3) arrays)
 _EXACT_FACES = 2000  # above this, libigl's fast winding number (the exact one is O(points x faces))
-_PALETTE = ((0.89, 0.85, 0.72), (0.95, 0.55, 0.45), (0.50, 0.68, 0.85), (0.60, 0.80, 0.55),
-            (0.85, 0.65, 0.85), (0.95, 0.80, 0.45), (0.55, 0.80, 0.80), (0.80, 0.60, 0.50))
+_PALETTE = (
+    (0.89, 0.85, 0.72),
+    (0.95, 0.55, 0.45),
+    (0.50, 0.68, 0.85),
+    (0.60, 0.80, 0.55),
+    (0.85, 0.65, 0.85),
+    (0.95, 0.80, 0.45),
+    (0.55, 0.80, 0.80),
+    (0.80, 0.60, 0.50),
+)
 
 
 def _bounds(solid: Any) -> np.ndarray:
@@ -87,7 +95,9 @@ def _check_segments(segments: Sequence[SegmentSolids], where: str) -> list[Segme
     return segments
 
 
-def voxelize(segments: Sequence[SegmentSolids], spacing_mm: float = 0.5, where: str = "segmentation") -> tuple[np.ndarray, np.ndarray]:
+def voxelize(
+    segments: Sequence[SegmentSolids], spacing_mm: float = 0.5, where: str = "segmentation"
+) -> tuple[np.ndarray, np.ndarray]:
     """Label map of ``segments`` on an LPS-aligned grid.
 
     Args:
@@ -116,22 +126,24 @@ def voxelize(segments: Sequence[SegmentSolids], spacing_mm: float = 0.5, where: 
             boxes[id(solid)] = (lps.min(axis=0), lps.max(axis=0))
     first = np.floor(np.min([b[0] for b in boxes.values()], axis=0) / h).astype(np.int64) - 2
     last = np.ceil(np.max([b[1] for b in boxes.values()], axis=0) / h).astype(np.int64) + 2
-    origin = first * h                                     # LPS centre of voxel (0, 0, 0)
+    origin = first * h  # LPS centre of voxel (0, 0, 0)
     shape = last - first + 1
     if float(np.prod(shape, dtype=np.float64)) > MAX_SEGMENTATION_VOXELS:
-        raise InputError(f"{where}: a {shape[0]} x {shape[1]} x {shape[2]} grid at {h:g} mm exceeds "
-                         f"{MAX_SEGMENTATION_VOXELS} voxels; use a larger spacing")
+        raise InputError(
+            f"{where}: a {shape[0]} x {shape[1]} x {shape[2]} grid at {h:g} mm exceeds "
+            f"{MAX_SEGMENTATION_VOXELS} voxels; use a larger spacing"
+        )
     top = max(int(label) for _, label, _ in segments)
     labels = np.zeros(tuple(int(n) for n in shape), dtype=np.uint8 if top <= 255 else np.int16)
     patient_origin = PATIENT_FROM_LPS @ origin
-    patient_step = PATIENT_FROM_LPS * h                    # column a: patient step along axis a
-    for _, label, solids in reversed(segments):            # earlier segments overwrite later ones
+    patient_step = PATIENT_FROM_LPS * h  # column a: patient step along axis a
+    for _, label, solids in reversed(segments):  # earlier segments overwrite later ones
         for solid in solids:
             lo_s, hi_s = boxes[id(solid)]
             a0 = np.maximum(np.floor((lo_s - origin) / h).astype(np.int64), 0)
             a1 = np.minimum(np.ceil((hi_s - origin) / h).astype(np.int64), shape - 1)
             plane = int((a1[1] - a0[1] + 1) * (a1[2] - a0[2] + 1))
-            step = max(1, _CHUNK // max(plane, 1))             # slabs of about _CHUNK points
+            step = max(1, _CHUNK // max(plane, 1))  # slabs of about _CHUNK points
             j = np.arange(a0[1], a1[1] + 1)[None, :, None, None] * patient_step[:, 1]
             k = np.arange(a0[2], a1[2] + 1)[None, None, :, None] * patient_step[:, 2]
             for i0 in range(int(a0[0]), int(a1[0]) + 1, step):
@@ -139,7 +151,7 @@ def voxelize(segments: Sequence[SegmentSolids], spacing_mm: float = 0.5, where: 
                 i = np.arange(i0, i1)[:, None, None, None] * patient_step[:, 0]
                 points = (patient_origin + i + j + k).reshape(-1, 3)
                 inside = _contains(solid, points).reshape(i1 - i0, j.shape[1], k.shape[2])
-                labels[i0:i1, a0[1]:a1[1] + 1, a0[2]:a1[2] + 1][inside] = label
+                labels[i0:i1, a0[1] : a1[1] + 1, a0[2] : a1[2] + 1][inside] = label
     index_to_lps = np.eye(4)
     index_to_lps[:3, :3] = np.eye(3) * h
     index_to_lps[:3, 3] = origin
@@ -157,21 +169,33 @@ def _nrrd_bytes(labels: np.ndarray, index_to_lps: np.ndarray, segments: Sequence
     import nrrd
 
     header: dict[str, Any] = {
-        "type": "uint8" if labels.dtype == np.uint8 else "int16", "dimension": 3, "space": "left-posterior-superior",
-        "sizes": np.array(labels.shape), "space directions": index_to_lps[:3, :3].T.copy(),
-        "kinds": ["domain", "domain", "domain"], "encoding": "gzip", "space origin": index_to_lps[:3, 3].copy(),
+        "type": "uint8" if labels.dtype == np.uint8 else "int16",
+        "dimension": 3,
+        "space": "left-posterior-superior",
+        "sizes": np.array(labels.shape),
+        "space directions": index_to_lps[:3, :3].T.copy(),
+        "kinds": ["domain", "domain", "domain"],
+        "encoding": "gzip",
+        "space origin": index_to_lps[:3, 3].copy(),
         "Segmentation_MasterRepresentation": "Binary labelmap",
         "Segmentation_ContainedRepresentationNames": "Binary labelmap|",
         "Segmentation_ReferenceImageExtentOffset": "0 0 0",
-    }  # fmt: skip
+    }
     for n, (name, label, _) in enumerate(segments):
         r, g, b = _PALETTE[n % len(_PALETTE)]
-        header.update({
-            f"Segment{n}_ID": f"Segment_{int(label)}", f"Segment{n}_Name": name, f"Segment{n}_NameAutoGenerated": "0",
-            f"Segment{n}_Color": f"{r:g} {g:g} {b:g}", f"Segment{n}_ColorAutoGenerated": "0",
-            f"Segment{n}_LabelValue": str(int(label)), f"Segment{n}_Layer": "0",
-            f"Segment{n}_Extent": _extent(labels, int(label)), f"Segment{n}_Tags": "|",
-        })  # fmt: skip
+        header.update(
+            {
+                f"Segment{n}_ID": f"Segment_{int(label)}",
+                f"Segment{n}_Name": name,
+                f"Segment{n}_NameAutoGenerated": "0",
+                f"Segment{n}_Color": f"{r:g} {g:g} {b:g}",
+                f"Segment{n}_ColorAutoGenerated": "0",
+                f"Segment{n}_LabelValue": str(int(label)),
+                f"Segment{n}_Layer": "0",
+                f"Segment{n}_Extent": _extent(labels, int(label)),
+                f"Segment{n}_Tags": "|",
+            }
+        )
     out = io.BytesIO()
     nrrd.write(out, labels, header, index_order="F")
     return out.getvalue()
@@ -191,7 +215,9 @@ def _nifti_bytes(labels: np.ndarray, index_to_lps: np.ndarray, compress: bool) -
     return gzip.compress(data, mtime=0) if compress else data
 
 
-def write_segmentation(segments: Sequence[SegmentSolids], path: str | os.PathLike[str], spacing_mm: float = 0.5) -> Path:
+def write_segmentation(
+    segments: Sequence[SegmentSolids], path: str | os.PathLike[str], spacing_mm: float = 0.5
+) -> Path:
     """Voxelize ``segments`` (:func:`voxelize`) and write them as a label map; the format follows the suffix.
 
     Args:
@@ -214,9 +240,15 @@ def write_segmentation(segments: Sequence[SegmentSolids], path: str | os.PathLik
     present = set(np.unique(labels).tolist())
     for seg_name, label, _ in segments:
         if int(label) not in present:
-            raise InputError(f"{target}: segment {seg_name!r} has no voxel at {spacing_mm:g} mm (thinner than a voxel, "
-                             "or covered by segments listed before it)")
-    data = _nrrd_bytes(labels, index_to_lps, segments) if name.endswith(".nrrd") else _nifti_bytes(labels, index_to_lps, name.endswith(".gz"))
+            raise InputError(
+                f"{target}: segment {seg_name!r} has no voxel at {spacing_mm:g} mm (thinner than a voxel, "
+                "or covered by segments listed before it)"
+            )
+    data = (
+        _nrrd_bytes(labels, index_to_lps, segments)
+        if name.endswith(".nrrd")
+        else _nifti_bytes(labels, index_to_lps, name.endswith(".gz"))
+    )
     try:
         atomic_write_bytes(target, data)
     except OSError as exc:

@@ -67,17 +67,31 @@ from arcube import interrupts
 from arcube.errors import InputError
 from arcube.io.inputs import short_repr
 from arcube.io.label_files import (
-    LABEL_SUFFIXES, MAX_LABELS, MAX_SEGMENTATION_BYTES, MAX_SEGMENTATION_VOXELS, LabelVolume, read_label_volume,
-)  # fmt: skip
+    LABEL_SUFFIXES,
+    MAX_LABELS,
+    MAX_SEGMENTATION_BYTES,
+    MAX_SEGMENTATION_VOXELS,
+    LabelVolume,
+    read_label_volume,
+)
 from arcube.io.slicer import PATIENT_FROM_LPS, PATIENT_FROM_RAS
 
 if TYPE_CHECKING:
     import trimesh
 
 __all__ = [
-    "MAX_LABELS", "MAX_SEGMENTATION_BYTES", "MAX_SEGMENTATION_VOXELS", "SEGMENTATION_SUFFIXES", "SegmentInfo",
-    "Segmentation", "is_segmentation", "label_surface", "parse_segments", "read_segmentation", "read_segmentations",
-]  # fmt: skip
+    "MAX_LABELS",
+    "MAX_SEGMENTATION_BYTES",
+    "MAX_SEGMENTATION_VOXELS",
+    "SEGMENTATION_SUFFIXES",
+    "SegmentInfo",
+    "Segmentation",
+    "is_segmentation",
+    "label_surface",
+    "parse_segments",
+    "read_segmentation",
+    "read_segmentations",
+]
 
 SEGMENTATION_SUFFIXES = LABEL_SUFFIXES
 _TO_PATIENT = {"LPS": PATIENT_FROM_LPS, "RAS": PATIENT_FROM_RAS}
@@ -107,8 +121,14 @@ class SegmentInfo:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``{"file", "name", "label", "layer", "voxels", "bounds_mm": [lo, hi]}``."""
-        return {"file": self.file, "name": self.name, "label": self.label, "layer": self.layer,
-                "voxels": self.voxels, "bounds_mm": [list(self.lo), list(self.hi)]}
+        return {
+            "file": self.file,
+            "name": self.name,
+            "label": self.label,
+            "layer": self.layer,
+            "voxels": self.voxels,
+            "bounds_mm": [list(self.lo), list(self.hi)],
+        }
 
 
 @dataclass(frozen=True)
@@ -157,14 +177,21 @@ def _counts(path: Path, volume: LabelVolume) -> dict[tuple[int, int], int]:
 
 
 def _available(table: Sequence[tuple[str, int, int]], counts: dict[tuple[int, int], int]) -> str:
-    shown = [f"{name} (label {label}{f', layer {layer}' if layer else ''}, {counts.get((layer, label), 0)} voxels)"
-             for name, label, layer in table[:40]]
+    shown = [
+        f"{name} (label {label}{f', layer {layer}' if layer else ''}, {counts.get((layer, label), 0)} voxels)"
+        for name, label, layer in table[:40]
+    ]
     more = f", ... ({len(table)} in all)" if len(table) > 40 else ""
     return ", ".join(shown) + more
 
 
-def _select(path: Path, table: list[tuple[str, int, int]], counts: dict[tuple[int, int], int],
-            items: tuple[str, ...] | None, strict: bool) -> tuple[list[tuple[str, int, int]], set[str]]:
+def _select(
+    path: Path,
+    table: list[tuple[str, int, int]],
+    counts: dict[tuple[int, int], int],
+    items: tuple[str, ...] | None,
+    strict: bool,
+) -> tuple[list[tuple[str, int, int]], set[str]]:
     """The kept segments and the selection items they matched (``strict``: every item must match here)."""
     if items is None:
         kept = [s for s in table if counts.get((s[2], s[1]), 0) > 0]
@@ -187,7 +214,9 @@ def _select(path: Path, table: list[tuple[str, int, int]], counts: dict[tuple[in
             if s not in kept:
                 kept.append(s)
     if not kept:
-        raise _fail(path, f"none of the segments {', '.join(items)} is in it (available: {_available(table, counts) or 'none'})")
+        raise _fail(
+            path, f"none of the segments {', '.join(items)} is in it (available: {_available(table, counts) or 'none'})"
+        )
     return kept, matched
 
 
@@ -247,12 +276,16 @@ def _bounding_boxes(grid: np.ndarray, labels: Iterable[int]) -> dict[int, tuple[
     return out
 
 
-def _surfaces(path: Path, volume: LabelVolume, kept: list[tuple[str, int, int]], counts: dict[tuple[int, int], int]) -> Segmentation:
+def _surfaces(
+    path: Path, volume: LabelVolume, kept: list[tuple[str, int, int]], counts: dict[tuple[int, int], int]
+) -> Segmentation:
     to_patient = np.eye(4)
     to_patient[:3, :3] = _TO_PATIENT[volume.space]
     index_to_patient = to_patient @ volume.affine
-    boxes = {layer: _bounding_boxes(volume.layers[layer], sorted({lab for _, lab, lay in kept if lay == layer}))
-             for layer in sorted({s[2] for s in kept})}
+    boxes = {
+        layer: _bounding_boxes(volume.layers[layer], sorted({lab for _, lab, lay in kept if lay == layer}))
+        for layer in sorted({s[2] for s in kept})
+    }
     meshes, infos = [], []
     for name, label, layer in kept:
         box = boxes[layer][label]
@@ -260,9 +293,20 @@ def _surfaces(path: Path, volume: LabelVolume, kept: list[tuple[str, int, int]],
         _check_closed(path, name, mesh)
         lo, hi = mesh.bounds
         meshes.append(mesh)
-        infos.append(SegmentInfo(os.fspath(path), name, label, layer, counts[(layer, label)],
-                                 tuple(float(v) for v in lo), tuple(float(v) for v in hi)))  # type: ignore[arg-type]
-    return Segmentation(path, volume.space, tuple(volume.layers.shape[1:]), index_to_patient, tuple(meshes), tuple(infos))
+        infos.append(
+            SegmentInfo(
+                os.fspath(path),
+                name,
+                label,
+                layer,
+                counts[(layer, label)],
+                tuple(float(v) for v in lo),
+                tuple(float(v) for v in hi),
+            )
+        )  # type: ignore[arg-type]
+    return Segmentation(
+        path, volume.space, tuple(volume.layers.shape[1:]), index_to_patient, tuple(meshes), tuple(infos)
+    )
 
 
 def _read_one(path: Path, items: tuple[str, ...] | None, strict: bool) -> tuple[Segmentation, set[str]]:
@@ -291,7 +335,9 @@ def read_segmentation(path: str | os.PathLike[str], segments: str | Iterable[str
     return _read_one(Path(path), parse_segments(segments), True)[0]
 
 
-def read_segmentations(paths: Sequence[str | os.PathLike[str]], segments: str | Iterable[str | int] | None = None) -> list[Segmentation]:
+def read_segmentations(
+    paths: Sequence[str | os.PathLike[str]], segments: str | Iterable[str | int] | None = None
+) -> list[Segmentation]:
     """:func:`read_segmentation` for several files sharing one selection: each name or value must be in at
     least one file, and each file must keep at least one segment."""
     items = parse_segments(segments)
@@ -304,5 +350,7 @@ def read_segmentations(paths: Sequence[str | os.PathLike[str]], segments: str | 
         matched |= hits
     missing = [i for i in items or () if i not in matched]
     if missing:
-        raise InputError(f"{', '.join(os.fspath(p) for p in paths)}: no segment {', '.join(map(repr, missing))} in any of them")
+        raise InputError(
+            f"{', '.join(os.fspath(p) for p in paths)}: no segment {', '.join(map(repr, missing))} in any of them"
+        )
     return out

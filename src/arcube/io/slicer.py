@@ -34,22 +34,20 @@ from arcube.io.trajectories import TrajectorySet, atomic_write, validate_points
 __all__ = ["MARKUPS_SCHEMA", "PATIENT_FROM_LPS", "PATIENT_FROM_RAS", "read_markups", "write_markups"]
 
 # The identifier Slicer writes (it keeps "master" for compatibility with Slicer < 5.1).
-MARKUPS_SCHEMA = ("https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/"
-                  "Markups/Resources/Schema/markups-schema-v1.0.3.json#")
+MARKUPS_SCHEMA = (
+    "https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/"
+    "Markups/Resources/Schema/markups-schema-v1.0.3.json#"
+)
 # Slicer accepts any v1.x.y markups schema; the same pattern tells a markups file from other JSON.
 _SCHEMA_RE = re.compile(r".*markups-schema-v1\.[0-9]+\.[0-9]+\.json#*$", re.IGNORECASE)
 
 # Patient frame: +x toward the patient's right, +y superior, +z posterior.
 # RAS: +r toward the Right, +a Anterior, +s Superior. So x = r, y = s, z = −a:
 #   (x, y, z)ᵀ = PATIENT_FROM_RAS · (r, a, s)ᵀ
-PATIENT_FROM_RAS = np.array([[1.0, 0.0, 0.0],
-                             [0.0, 0.0, 1.0],
-                             [0.0, -1.0, 0.0]])
+PATIENT_FROM_RAS = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 # LPS: +l toward the Left, +p Posterior, +s Superior. So x = −l, y = s, z = p:
 #   (x, y, z)ᵀ = PATIENT_FROM_LPS · (l, p, s)ᵀ
-PATIENT_FROM_LPS = np.array([[-1.0, 0.0, 0.0],
-                             [0.0, 0.0, 1.0],
-                             [0.0, 1.0, 0.0]])
+PATIENT_FROM_LPS = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
 # Both are rotations (det +1), so the inverse used for writing is the transpose.
 _TO_PATIENT = {"RAS": PATIENT_FROM_RAS, "LPS": PATIENT_FROM_LPS}
 _UNIT_TO_MM = {"mm": 1.0, "um": 1e-3}
@@ -57,8 +55,11 @@ _META_RE = re.compile(r"^\s*level=([^;]*);\s*side=([^;]*)\s*$")
 
 
 def _number_list(value: Any) -> bool:
-    return (isinstance(value, list) and len(value) == 3
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value))
+    return (
+        isinstance(value, list)
+        and len(value) == 3
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+    )
 
 
 def _units_scale(markup: dict[str, Any], where: str) -> float:
@@ -78,8 +79,7 @@ def _read_file(path: Path) -> list[tuple[str, str, str, str, np.ndarray, np.ndar
     schema = data.get("@schema")
     if schema is not None and not (isinstance(schema, str) and _SCHEMA_RE.match(schema)):
         raise InputError(f"{path}: not a Slicer markups file (@schema {short_repr(schema)})")
-    lines = [(k, m) for k, m in enumerate(data["markups"], start=1)
-             if isinstance(m, dict) and m.get("type") == "Line"]
+    lines = [(k, m) for k, m in enumerate(data["markups"], start=1) if isinstance(m, dict) and m.get("type") == "Line"]
     if not lines:
         raise InputError(f"{path}: no markup of type 'Line' (one Line per trajectory)")
     stem = path.name[: -len(".mrk.json")] if path.name.lower().endswith(".mrk.json") else path.stem
@@ -153,18 +153,20 @@ def _markup(ts: TrajectorySet, i: int) -> dict[str, Any]:
     to_lps = PATIENT_FROM_LPS.T
     points = []
     for j, (role, p) in enumerate((("entry", ts.entry[i]), ("target", ts.target[i])), start=1):
-        points.append({
-            "id": str(j),
-            "label": f"{tid}-{role}",
-            "description": f"level={ts.levels[i]};side={ts.sides[i]}" if j == 1 else "",
-            "associatedNodeID": "",
-            "position": _plain(to_lps @ p),
-            "orientation": [-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0],
-            "selected": True,
-            "locked": False,
-            "visibility": True,
-            "positionStatus": "defined",
-        })
+        points.append(
+            {
+                "id": str(j),
+                "label": f"{tid}-{role}",
+                "description": f"level={ts.levels[i]};side={ts.sides[i]}" if j == 1 else "",
+                "associatedNodeID": "",
+                "position": _plain(to_lps @ p),
+                "orientation": [-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0],
+                "selected": True,
+                "locked": False,
+                "visibility": True,
+                "positionStatus": "defined",
+            }
+        )
     return {
         "type": "Line",
         "coordinateSystem": "LPS",
@@ -201,8 +203,7 @@ def write_markups(ts: TrajectorySet, path: str | os.PathLike[str]) -> None:
     names = [f"{i:03d}_{re.sub(r'[^A-Za-z0-9._-]+', '_', tid)}.mrk.json" for i, tid in enumerate(ts.ids)]
     if p.is_dir():
         # A later read takes every .mrk.json of the folder: leftovers would join the set.
-        stale = sorted(f.name for f in p.iterdir()
-                       if f.name.lower().endswith(".mrk.json") and f.name not in names)
+        stale = sorted(f.name for f in p.iterdir() if f.name.lower().endswith(".mrk.json") and f.name not in names)
         if stale:
             raise InputError(f"{p}: folder already holds other markups files ({stale[0]}, ...)")
     for i, name in enumerate(names):

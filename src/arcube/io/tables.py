@@ -68,10 +68,16 @@ class Table:
         j = self.index(name)
         cells = [c[j] for _, c in self.rows]
         joined = "\n".join(cells)
-        if not (_COLUMN_RE.fullmatch(joined) and (empty is not None or "" not in cells) and max(map(len, cells), default=0) <= MAX_NUMBER_CHARS):
+        if not (
+            _COLUMN_RE.fullmatch(joined)
+            and (empty is not None or "" not in cells)
+            and max(map(len, cells), default=0) <= MAX_NUMBER_CHARS
+        ):
             for line, c in self.rows:  # the first culprit, for its message
                 number(c[j], self.where(line), name, empty=empty, finite=finite)
-        values = np.array([empty if c == "" else c for c in cells] if "" in cells else cells, dtype=np.float64).reshape(-1)
+        values = np.array([empty if c == "" else c for c in cells] if "" in cells else cells, dtype=np.float64).reshape(
+            -1
+        )
         if finite and not np.all(np.isfinite(values)):
             k = int(np.flatnonzero(~np.isfinite(values))[0])
             line, c = self.rows[k]
@@ -97,7 +103,9 @@ def number(text: str, where: str, column: str, *, empty: float | None = None, fi
             raise InputError(f"{where}: {column} is empty")
         return empty
     if len(text) > MAX_NUMBER_CHARS:
-        raise InputError(f"{where}: {column} is not a number ({len(text)} characters, at most {MAX_NUMBER_CHARS}: {short_repr(text, 30)})")
+        raise InputError(
+            f"{where}: {column} is not a number ({len(text)} characters, at most {MAX_NUMBER_CHARS}: {short_repr(text, 30)})"
+        )
     value = parse_decimal(text)
     if value is None:
         hint = " (write 1.5, not 1,5)" if "," in text else ""
@@ -112,8 +120,14 @@ def _cut(text: str) -> str:
     return short_repr(text[:80])
 
 
-def parse_table(text: str, name: str, *, required: Iterable[str] = (), key: Callable[[str], str] = str.strip,
-                allowed: Iterable[str] | None = None) -> Table:  # fmt: skip
+def parse_table(
+    text: str,
+    name: str,
+    *,
+    required: Iterable[str] = (),
+    key: Callable[[str], str] = str.strip,
+    allowed: Iterable[str] | None = None,
+) -> Table:
     """Parse CSV ``text`` (module docstring); ``name`` labels every message.
 
     ``required``: columns that must be present (after ``key``, which normalises a header name: case,
@@ -137,11 +151,17 @@ def parse_table(text: str, name: str, *, required: Iterable[str] = (), key: Call
                 raise InputError(f"{name} row {line}: {len(cells)} fields, the header has {width}{hint}")
             long = next((j for j, c in enumerate(cells) if len(c) > MAX_FIELD_CHARS), None)
             if long is not None:
-                raise InputError(f"{name} row {line}: field {long + 1} ({header[long] or 'unnamed'}) has {len(cells[long])} characters "
-                                 f"(at most {MAX_FIELD_CHARS}): {_cut(cells[long])}")  # fmt: skip
+                raise InputError(
+                    f"{name} row {line}: field {long + 1} ({header[long] or 'unnamed'}) has {len(cells[long])} characters "
+                    f"(at most {MAX_FIELD_CHARS}): {_cut(cells[long])}"
+                )
             rows.append((line, tuple(c.strip() for c in cells)))
     except csv.Error as exc:  # a field over csv.field_size_limit(), a stray quote
-        problem = f"a field is longer than {csv.field_size_limit()} characters" if "field limit" in str(exc) else f"not valid CSV ({exc})"
+        problem = (
+            f"a field is longer than {csv.field_size_limit()} characters"
+            if "field limit" in str(exc)
+            else f"not valid CSV ({exc})"
+        )
         raise InputError(f"{name} row {reader.line_num}: {problem}") from None
     return Table(name, header, tuple(rows))
 
@@ -169,8 +189,10 @@ def _check_header(header: tuple[str, ...], name: str, required: Iterable[str], a
     missing = [c for c in required if c not in seen]
     if missing:
         semicolons = len(header) == 1 and ";" in header[0]
-        raise InputError(f"{name}: missing column(s) {', '.join(missing)}" + (" (the header is one field with semicolons: separate the "
-                                                                               "columns with commas)" if semicolons else ""))  # fmt: skip
+        raise InputError(
+            f"{name}: missing column(s) {', '.join(missing)}"
+            + (" (the header is one field with semicolons: separate the columns with commas)" if semicolons else "")
+        )
 
 
 def read_table(path: str | os.PathLike[str], *, limit: int = MAX_TEXT_BYTES, pipes: bool = True, **kw: object) -> Table:

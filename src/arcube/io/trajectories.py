@@ -29,7 +29,8 @@ import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -53,12 +54,24 @@ __all__ = [
 ]
 
 CSV_COLUMNS = (
-    "trajectory", "level", "side",
-    "entry_x", "entry_y", "entry_z", "target_x", "target_y", "target_z",
+    "trajectory",
+    "level",
+    "side",
+    "entry_x",
+    "entry_y",
+    "entry_z",
+    "target_x",
+    "target_y",
+    "target_z",
 )
 PEDICLE_COLUMNS = ("pedicle_width_mm", "pedicle_height_mm", "isthmus_depth_mm", "screw_diameter_mm")
 """The optional columns of a plan CSV that describe each screw's pedicle (model §22.1), mm."""
-PEDICLE_LIMITS = {"pedicle_width_mm": 30.0, "pedicle_height_mm": 30.0, "isthmus_depth_mm": 200.0, "screw_diameter_mm": 20.0}
+PEDICLE_LIMITS = {
+    "pedicle_width_mm": 30.0,
+    "pedicle_height_mm": 30.0,
+    "isthmus_depth_mm": 200.0,
+    "screw_diameter_mm": 20.0,
+}
 """Each pedicle column's values lie in (0, limit) mm (a screw of 20 mm or more is no pedicle screw)."""
 _COORD_COLUMNS = CSV_COLUMNS[3:]
 # level and side may be absent: a plan exported from elsewhere often has neither.
@@ -106,7 +119,9 @@ class TrajectorySet:
         if self.pedicle is not None:
             pedicle = np.array(self.pedicle, dtype=float).reshape(-1, len(PEDICLE_COLUMNS))
             if pedicle.shape[0] != entry.shape[0]:
-                raise ValueError(f"TrajectorySet: pedicle has {pedicle.shape[0]} rows for {entry.shape[0]} trajectories")
+                raise ValueError(
+                    f"TrajectorySet: pedicle has {pedicle.shape[0]} rows for {entry.shape[0]} trajectories"
+                )
             pedicle.setflags(write=False)
             object.__setattr__(self, "pedicle", pedicle)
         n = len(self.ids)
@@ -124,9 +139,12 @@ class TrajectorySet:
         if not isinstance(other, TrajectorySet):
             return NotImplemented
         return (
-            self.ids == other.ids and self.levels == other.levels and self.sides == other.sides
+            self.ids == other.ids
+            and self.levels == other.levels
+            and self.sides == other.sides
             and self.source == other.source
-            and np.array_equal(self.entry, other.entry) and np.array_equal(self.target, other.target)
+            and np.array_equal(self.entry, other.entry)
+            and np.array_equal(self.target, other.target)
             and (self.pedicle is None) == (other.pedicle is None)
             and (self.pedicle is None or np.array_equal(self.pedicle, other.pedicle, equal_nan=True))
         )
@@ -150,8 +168,7 @@ def atomic_write(path: str | os.PathLike[str], text: str) -> None:
         raise InputError(f"{os.fspath(path)}: cannot write ({exc.strerror or exc})") from exc
 
 
-def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray,
-                    target: np.ndarray) -> None:
+def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray, target: np.ndarray) -> None:
     """Check what every reader must guarantee; raise InputError at the first problem.
 
     Args:
@@ -211,7 +228,9 @@ def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
         bad = np.flatnonzero(ped[:, 2] >= length)
         if bad.size:
             k = int(bad[0])
-            raise InputError(f"{labels[k]}: isthmus_depth_mm {ped[k, 2]:g} is not inside the trajectory ({length[k]:.3g} mm from entry to target)")
+            raise InputError(
+                f"{labels[k]}: isthmus_depth_mm {ped[k, 2]:g} is not inside the trajectory ({length[k]:.3g} mm from entry to target)"
+            )
     return TrajectorySet(tuple(ids), tuple(levels), tuple(sides), pts[:, :3], pts[:, 3:], source, ped)
 
 
@@ -235,8 +254,10 @@ def _refuse_near_misses(header: Sequence[str], name: str) -> None:
         if h and h not in known:
             close = difflib.get_close_matches(h, known, n=1, cutoff=0.8)
             if close:
-                raise InputError(f"{name}: unknown column {short_repr(h)}: did you mean {close[0]}? (other columns are ignored, a "
-                                 "misspelt one is not)")  # fmt: skip
+                raise InputError(
+                    f"{name}: unknown column {short_repr(h)}: did you mean {close[0]}? (other columns are ignored, a "
+                    "misspelt one is not)"
+                )
 
 
 def read_csv(path: str | os.PathLike[str]) -> TrajectorySet:
@@ -271,9 +292,12 @@ def read_transform(path: str | os.PathLike[str]) -> np.ndarray:
         if "matrix" not in data:
             raise bad("expected a 4x4 list or an object with a 'matrix' key")
         data = data["matrix"]
-    if not (isinstance(data, list) and len(data) == 4
-            and all(isinstance(r, list) and len(r) == 4 for r in data)
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for r in data for v in r)):
+    if not (
+        isinstance(data, list)
+        and len(data) == 4
+        and all(isinstance(r, list) and len(r) == 4 for r in data)
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for r in data for v in r)
+    ):
         raise bad("expected 4 rows of 4 numbers")
     m = np.array(data, dtype=float)
     if not np.all(np.isfinite(m)):
@@ -295,8 +319,9 @@ def read_transform(path: str | os.PathLike[str]) -> np.ndarray:
 def apply_transform(ts: TrajectorySet, matrix: np.ndarray) -> TrajectorySet:
     """Map entry and target points by the (4, 4) homogeneous ``matrix``: p' = R p + t."""
     rot, t = matrix[:3, :3], matrix[:3, 3]
-    return TrajectorySet(ts.ids, ts.levels, ts.sides, ts.entry @ rot.T + t,
-                         ts.target @ rot.T + t, ts.source, ts.pedicle)
+    return TrajectorySet(
+        ts.ids, ts.levels, ts.sides, ts.entry @ rot.T + t, ts.target @ rot.T + t, ts.source, ts.pedicle
+    )
 
 
 def _expand_levels(spec: str) -> set[str]:
@@ -315,12 +340,16 @@ def _expand_levels(spec: str) -> set[str]:
         i, j = LEVEL_ORDER.index(lo), LEVEL_ORDER.index(hi)
         if i > j:
             raise InputError.of("levels", f"{spec!r}: range {token!r} runs backwards")
-        wanted.update(LEVEL_ORDER[i:j + 1])
+        wanted.update(LEVEL_ORDER[i : j + 1])
     return wanted
 
 
-def select(ts: TrajectorySet, side: str | None = None, levels: str | Sequence[str] | None = None,
-           ids: str | Sequence[Any] | None = None) -> TrajectorySet:
+def select(
+    ts: TrajectorySet,
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[Any] | None = None,
+) -> TrajectorySet:
     """Subset of ``ts`` matching every given filter (AND), in the set's own order.
 
     Args:
@@ -351,13 +380,18 @@ def select(ts: TrajectorySet, side: str | None = None, levels: str | Sequence[st
             raise InputError.of("ids", f"{ids!r}: unknown trajectory id(s) {', '.join(unknown)} in {ts.source}")
         keep &= np.array([v in wanted_ids for v in ts.ids], dtype=bool)
     if not keep.any():
-        given = ", ".join(f"{k}={v}" for k, v in (("side", side), ("levels", levels), ("ids", ids))
-                          if v is not None)
+        given = ", ".join(f"{k}={v}" for k, v in (("side", side), ("levels", levels), ("ids", ids)) if v is not None)
         raise InputError(f"no trajectory of {ts.source} matches {given}")
     idx = np.flatnonzero(keep)
-    return TrajectorySet(tuple(ts.ids[i] for i in idx), tuple(ts.levels[i] for i in idx),
-                         tuple(ts.sides[i] for i in idx), ts.entry[idx], ts.target[idx], ts.source,
-                         None if ts.pedicle is None else ts.pedicle[idx])
+    return TrajectorySet(
+        tuple(ts.ids[i] for i in idx),
+        tuple(ts.levels[i] for i in idx),
+        tuple(ts.sides[i] for i in idx),
+        ts.entry[idx],
+        ts.target[idx],
+        ts.source,
+        None if ts.pedicle is None else ts.pedicle[idx],
+    )
 
 
 def _fmt(value: float, decimals: int | None) -> str:

@@ -94,7 +94,9 @@ def great_circle(a: ArrayLike, b: ArrayLike, n_samples: int) -> NDArray[np.float
     return np.where(small, lerp, slerp)
 
 
-def dyad_elbow(D: ArrayLike, Q: ArrayLike, axis: ArrayLike, l1: ArrayLike, l2: ArrayLike, sign: float = Z_ELBOW_SIGN) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+def dyad_elbow(
+    D: ArrayLike, Q: ArrayLike, axis: ArrayLike, l1: ArrayLike, l2: ArrayLike, sign: float = Z_ELBOW_SIGN
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Elbow of a planar two-link RRR chain D -> J -> Q with |J - D| = l1, |Q - J| = l2.
 
     ``D``, ``Q`` ``(..., 3)`` lie in a plane normal to the unit ``axis`` ``(3,)``; ``l1``, ``l2``
@@ -116,10 +118,17 @@ def dyad_elbow(D: ArrayLike, Q: ArrayLike, axis: ArrayLike, l1: ArrayLike, l2: A
 
 
 def mechanism_points(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE, *,
-    c_z: ArrayLike | None = None, z_elbow: float = Z_ELBOW_SIGN,
-    motor_length: ArrayLike | None = None, arc_samples: int = 17, sol: IKSolution | None = None,
-) -> MechanismPoints:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    *,
+    c_z: ArrayLike | None = None,
+    z_elbow: float = Z_ELBOW_SIGN,
+    motor_length: ArrayLike | None = None,
+    arc_samples: int = 17,
+    sol: IKSolution | None = None,
+) -> MechanismPoints:
     """All joint positions of the mechanism at poses (E, e), from the IK.
 
     Parameters
@@ -172,20 +181,56 @@ def mechanism_points(
     O = np.broadcast_to(g.m, lead + (3,)).copy()
     E_w = np.where(L[..., None] == 0.0, world(C_m), world(E_m))
     return MechanismPoints(
-        O=O, P=world(P), D=world(D), Q=world(Q), K=world(K), T=world(T), J_z=world(J_z),
-        z_closes=z_closes, B=world(B), H=world(H), arc_alpha=world(arc_alpha), arc_beta=world(arc_beta),
-        E=E_w, C=world(C_m), e=frames.directions_to_world(g, sol.e), drill_end=world(drill_end),
-        reachable=np.asarray(sol.reachable), r=r.copy(), c_z=cz.copy(),
-    )  # fmt: skip
+        O=O,
+        P=world(P),
+        D=world(D),
+        Q=world(Q),
+        K=world(K),
+        T=world(T),
+        J_z=world(J_z),
+        z_closes=z_closes,
+        B=world(B),
+        H=world(H),
+        arc_alpha=world(arc_alpha),
+        arc_beta=world(arc_beta),
+        E=E_w,
+        C=world(C_m),
+        e=frames.directions_to_world(g, sol.e),
+        drill_end=world(drill_end),
+        reachable=np.asarray(sol.reachable),
+        r=r.copy(),
+        c_z=cz.copy(),
+    )
 
 
 # ----------------------------------------------------------------------------- model §14.1: parts
 
 PART_NAMES: tuple[str, ...] = (
-    "frame_x", "frame_y", "frame_z", "actuator_P_x", "actuator_P_y", "actuator_P_z", "crank_x", "crank_y", "crank_z",
-    "actuator_D_x", "actuator_D_y", "input_x", "input_y", "coupler_x", "coupler_y", "output_x", "output_y", "zdyad",
-    "platform", "spherical_alpha_x", "spherical_alpha_y", "spherical_beta_x", "spherical_beta_y", "drill_motor",
-)  # fmt: skip
+    "frame_x",
+    "frame_y",
+    "frame_z",
+    "actuator_P_x",
+    "actuator_P_y",
+    "actuator_P_z",
+    "crank_x",
+    "crank_y",
+    "crank_z",
+    "actuator_D_x",
+    "actuator_D_y",
+    "input_x",
+    "input_y",
+    "coupler_x",
+    "coupler_y",
+    "output_x",
+    "output_y",
+    "zdyad",
+    "platform",
+    "spherical_alpha_x",
+    "spherical_alpha_y",
+    "spherical_beta_x",
+    "spherical_beta_y",
+    "drill_motor",
+)
 """The named parts of the robot's body (model §14.1); the tool E -> H is exempt and not a part."""
 _PART = {name: i for i, name in enumerate(PART_NAMES)}
 
@@ -224,7 +269,7 @@ _SEGMENTS: tuple[tuple[str, frozenset[str], str, str], ...] = (
     ("zdyad", frozenset({"D_z", "J_z", "Q_z"}), "z", "TMS"),
     *(("platform", frozenset({"Q_x", "Q_y", "Q_z"}), "platform", "platform") for _ in range(3)),
     ("drill_motor", frozenset({"H"}), "tool", "tool"),
-)  # fmt: skip
+)
 _SPHERES: tuple[tuple[str, frozenset[str], str, str], ...] = (
     *((f"actuator_P_{u}", frozenset({f"P_{u}"}), u, "TLS") for u in "xyz"),
     *((f"actuator_D_{u}", frozenset({f"D_{u}"}), u, "TMS") for u in "xy"),
@@ -298,12 +343,18 @@ def body_parts(mp: MechanismPoints, radii: BodyRadii = BodyRadii()) -> BodyParts
         u_dir = (Q[..., :2, :] - mp.C[..., None, :]) / r
         b_dir = (mp.B - mp.C[..., None, :]) / r
     e_dir = np.broadcast_to(mp.e[..., None, :], b_dir.shape)
-    arcs = np.stack([np.stack([u_dir, b_dir], axis=-2), np.stack([b_dir, e_dir], axis=-2)], axis=-4)  # (..., 2 kinds, 2 legs, 2, 3)
+    arcs = np.stack(
+        [np.stack([u_dir, b_dir], axis=-2), np.stack([b_dir, e_dir], axis=-2)], axis=-4
+    )  # (..., 2 kinds, 2 legs, 2, 3)
     arcs = arcs.reshape(arcs.shape[:-4] + (4, 2, 3))
     return BodyParts(
-        segments=np.stack(segs, axis=-3), spheres=spheres, arc_centre=mp.C, arc_radius=mp.r, arc_ends=arcs,
+        segments=np.stack(segs, axis=-3),
+        spheres=spheres,
+        arc_centre=mp.C,
+        arc_radius=mp.r,
+        arc_ends=arcs,
         radius=primitive_radii(radii),
-    )  # fmt: skip
+    )
 
 
 def primitive_radii(radii: BodyRadii = BodyRadii()) -> NDArray[np.float64]:

@@ -1,6 +1,8 @@
 """The 27 design parameters of the AR-CUBE: the paper's 23 (model §2), then the mounting
 rotation and the tool offset (model §13.3): ``mount_rx, mount_ry, mount_rz`` (deg) and ``L`` (mm).
 
+Long module: the parameters, their checks and :class:`Design`'s JSON form are one contract, the design file.
+
 Two layers, as in spatialmath:
 
 * the plain-array layer: a design is a float array of shape ``(..., 27)`` in the order of
@@ -31,27 +33,50 @@ from arcube.io.inputs import load_json, short_repr
 from arcube.model.modes import format_mode, parse_mode
 
 PARAM_NAMES: tuple[str, ...] = (
-    "m_x", "m_y", "m_z",
-    "f_x", "f_y", "f_z",
-    "p_x", "p_y", "p_z",
-    "d_x", "d_y", "d_z",
-    "c_x", "c_y",
-    "t_x", "t_y",
+    "m_x",
+    "m_y",
+    "m_z",
+    "f_x",
+    "f_y",
+    "f_z",
+    "p_x",
+    "p_y",
+    "p_z",
+    "d_x",
+    "d_y",
+    "d_z",
+    "c_x",
+    "c_y",
+    "t_x",
+    "t_y",
     "r",
-    "o_x", "o_y",
-    "alpha_x", "alpha_y",
-    "beta_x", "beta_y",
-    "mount_rx", "mount_ry", "mount_rz",
+    "o_x",
+    "o_y",
+    "alpha_x",
+    "alpha_y",
+    "beta_x",
+    "beta_y",
+    "mount_rx",
+    "mount_ry",
+    "mount_rz",
     "L",
-)  # fmt: skip
+)
 """Code order of the 27 parameters (model §2 and 13.3)."""
 
 SLICES: dict[str, slice | int] = {
-    "m": slice(0, 3), "f": slice(3, 6), "p": slice(6, 9), "d": slice(9, 12),
-    "c": slice(12, 14), "t": slice(14, 16), "r": 16,
-    "o": slice(17, 19), "alpha": slice(19, 21), "beta": slice(21, 23),
-    "mount": slice(23, 26), "L": 26,
-}  # fmt: skip
+    "m": slice(0, 3),
+    "f": slice(3, 6),
+    "p": slice(6, 9),
+    "d": slice(9, 12),
+    "c": slice(12, 14),
+    "t": slice(14, 16),
+    "r": 16,
+    "o": slice(17, 19),
+    "alpha": slice(19, 21),
+    "beta": slice(21, 23),
+    "mount": slice(23, 26),
+    "L": 26,
+}
 """The one parameter layout: where each :class:`Geometry` field sits on the last axis of a design
 array, i.e. the :data:`PARAM_NAMES` ``<key>_*`` (an int: the one scalar parameter ``<key>``).
 ``x[..., SLICES["p"]]`` is ``(..., 3)``, ``x[..., SLICES["r"]]`` is ``(...)``."""
@@ -79,18 +104,34 @@ LENGTH_NAMES: frozenset[str] = frozenset(PARAM_NAMES) - ANGLE_NAMES - POSITION_N
 UNITS: dict[str, str] = {n: ("deg" if n in ANGLE_NAMES else "mm") for n in PARAM_NAMES}
 
 PAPER_TABLE2: dict[str, float] = {
-    "m_x": 31.8694, "m_y": 11.9589, "m_z": 192.0769,
-    "f_x": 123.1147, "f_y": 116.9719, "f_z": 56.7787,
-    "p_x": 134.099, "p_y": 149.9886, "p_z": 99.8766,
-    "d_x": 79.2596, "d_y": 99.9402, "d_z": 53.5671,
-    "c_x": 139.8911, "c_y": 106.8319,
-    "t_x": 70.9301, "t_y": 65.3946,
+    "m_x": 31.8694,
+    "m_y": 11.9589,
+    "m_z": 192.0769,
+    "f_x": 123.1147,
+    "f_y": 116.9719,
+    "f_z": 56.7787,
+    "p_x": 134.099,
+    "p_y": 149.9886,
+    "p_z": 99.8766,
+    "d_x": 79.2596,
+    "d_y": 99.9402,
+    "d_z": 53.5671,
+    "c_x": 139.8911,
+    "c_y": 106.8319,
+    "t_x": 70.9301,
+    "t_y": 65.3946,
     "r": 70.4466,
-    "o_x": -19.2229, "o_y": 43.2917,
-    "alpha_x": 52.6402, "alpha_y": 66.446,
-    "beta_x": 50.0038, "beta_y": 62.1208,
-    "mount_rx": 0.0, "mount_ry": 0.0, "mount_rz": 0.0, "L": 0.0,
-}  # fmt: skip
+    "o_x": -19.2229,
+    "o_y": 43.2917,
+    "alpha_x": 52.6402,
+    "alpha_y": 66.446,
+    "beta_x": 50.0038,
+    "beta_y": 62.1208,
+    "mount_rx": 0.0,
+    "mount_ry": 0.0,
+    "mount_rz": 0.0,
+    "L": 0.0,
+}
 """The paper's Table 2 (the optimum it reports)."""
 
 PRESETS: dict[str, dict[str, float]] = {"paper": PAPER_TABLE2}
@@ -146,13 +187,19 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
         raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
     unknown = [k for k in values if k not in INDEX]
     if unknown:
-        raise InputError(f"{source}: unknown parameter {short_repr(unknown[0])} (expected the 27 names of model §2 and 13.3: {', '.join(PARAM_NAMES)})")
+        raise InputError(
+            f"{source}: unknown parameter {short_repr(unknown[0])} (expected the 27 names of model §2 and 13.3: {', '.join(PARAM_NAMES)})"
+        )
     mounted = [n for n in MOUNT_NAMES if n in values]
     if mounted and len(mounted) < len(MOUNT_NAMES):  # a partial group is a mistake, not a rotation about fewer axes
-        raise InputError(f"{source}: the mounting rotation needs all of {', '.join(MOUNT_NAMES)}; missing "
-                         f"{', '.join(n for n in MOUNT_NAMES if n not in values)} (a paper-style design gives none of them)")  # fmt: skip
+        raise InputError(
+            f"{source}: the mounting rotation needs all of {', '.join(MOUNT_NAMES)}; missing "
+            f"{', '.join(n for n in MOUNT_NAMES if n not in values)} (a paper-style design gives none of them)"
+        )
     if mounted and "L" not in values:
-        raise InputError(f"{source}: a mounted design needs its tool offset L (mm): the tip is L from the spherical stage's centre")
+        raise InputError(
+            f"{source}: a mounted design needs its tool offset L (mm): the tip is L from the spherical stage's centre"
+        )
     values = {**{n: 0.0 for n in ADDED_NAMES}, **values}
     missing = [n for n in PARAM_NAMES if n not in values]
     if missing:
@@ -196,7 +243,7 @@ def check_labels(values: Mapping[str, Any], source: str) -> None:
     if patient is not None and (not isinstance(patient, str) or not patient.strip()):
         raise InputError(f"{source}: patient must be the docking's patient name (text), got {short_repr(patient)}")
     if side is not None and side not in ("R", "L"):
-        raise InputError(f"{source}: side must be \"R\" or \"L\", got {short_repr(side)}")
+        raise InputError(f'{source}: side must be "R" or "L", got {short_repr(side)}')
 
 
 def _extra_number(value: Any, key: str, source: str) -> float:
@@ -219,7 +266,7 @@ def check_extras(c_z: Any, mode: Any, q0_deg: Any, zdyad_elbow: Any, source: str
             raise InputError(f"{source}: c_z (the z dyad's second link) must be a positive length, got {c_z:g} mm")
     if mode is not None:
         if not isinstance(mode, str):
-            raise InputError(f"{source}: mode must be text such as \"+,+,+,-\", got {short_repr(mode)}")
+            raise InputError(f'{source}: mode must be text such as "+,+,+,-", got {short_repr(mode)}')
         try:
             mode = format_mode(parse_mode(mode))
         except ValueError as exc:
@@ -232,7 +279,9 @@ def check_extras(c_z: Any, mode: Any, q0_deg: Any, zdyad_elbow: Any, source: str
             raise InputError(f"{source}: a zero offset must lie within +-180 deg, got {list(q0)}")
         q0_deg = q0
     if zdyad_elbow is None or isinstance(zdyad_elbow, bool) or zdyad_elbow not in (1, -1, 1.0, -1.0):
-        raise InputError(f"{source}: zdyad_elbow must be +1 or -1 (the side of the z dyad's elbow, model §19.1), got {short_repr(zdyad_elbow)}")
+        raise InputError(
+            f"{source}: zdyad_elbow must be +1 or -1 (the side of the z dyad's elbow, model §19.1), got {short_repr(zdyad_elbow)}"
+        )
     return c_z, mode, q0_deg, float(zdyad_elbow)
 
 
@@ -273,14 +322,20 @@ class Design:
         if not isinstance(values, Mapping):
             raise InputError(f"{source}: expected a mapping of parameter names to values, got {type(values).__name__}")
         params = {k: v for k, v in values.items() if k not in EXTRA_KEYS and k not in _LISTS and k not in LABEL_KEYS}
-        if isinstance(values.get("dockings"), list) and "m_x" not in values:  # model §19.1: a robot without its placements
-            raise InputError(f"{source}: one robot at {len(values['dockings'])} dockings, no placement of its own: give one docking's "
-                             "design (dockings/<patient>_<side>/design.json beside it), or the side whose docking to use")  # fmt: skip
+        if (
+            isinstance(values.get("dockings"), list) and "m_x" not in values
+        ):  # model §19.1: a robot without its placements
+            raise InputError(
+                f"{source}: one robot at {len(values['dockings'])} dockings, no placement of its own: give one docking's "
+                "design (dockings/<patient>_<side>/design.json beside it), or the side whose docking to use"
+            )
         check_labels(values, source)
         checked = validate_values(params, source)
         present = [k for k in Q0_KEYS if k in values]
         if present and len(present) != len(Q0_KEYS):
-            raise InputError(f"{source}: a calibrated design needs all five zero offsets; missing {', '.join(k for k in Q0_KEYS if k not in values)}")
+            raise InputError(
+                f"{source}: a calibrated design needs all five zero offsets; missing {', '.join(k for k in Q0_KEYS if k not in values)}"
+            )
         q0 = [values[k] for k in Q0_KEYS] if present else None
         extras = check_extras(values.get("c_z"), values.get("mode"), q0, values.get("zdyad_elbow", 1.0), source)
         return cls(tuple(checked[n] for n in PARAM_NAMES), *extras)
@@ -291,7 +346,9 @@ class Design:
         try:
             v = np.asarray(vector, dtype=float).reshape(-1)
         except (TypeError, ValueError, OverflowError) as exc:
-            raise InputError(f"design: the vector must hold numbers (mm, deg) ({' '.join(str(exc).split())[:120]})") from None
+            raise InputError(
+                f"design: the vector must hold numbers (mm, deg) ({' '.join(str(exc).split())[:120]})"
+            ) from None
         return cls(tuple(float(a) for a in v))
 
     @classmethod
@@ -303,7 +360,10 @@ class Design:
         if isinstance(design, (str, os.PathLike)):
             return cls.load(os.fspath(design))
         if isinstance(design, (bytes, dict)) or design is None:
-            raise InputError.of("design", f"must be a Design, a preset name, a design JSON path or 27 numbers, got {type(design).__name__}")
+            raise InputError.of(
+                "design",
+                f"must be a Design, a preset name, a design JSON path or 27 numbers, got {type(design).__name__}",
+            )
         return cls.from_vector(design)
 
     @classmethod
@@ -388,7 +448,9 @@ class Design:
             if k not in INDEX:
                 raise InputError(f"design: unknown parameter {k!r}")
             d[k] = v
-        return dataclasses.replace(Design.from_dict(d), c_z=self.c_z, mode=self.mode, q0_deg=self.q0_deg, zdyad_elbow=self.zdyad_elbow)
+        return dataclasses.replace(
+            Design.from_dict(d), c_z=self.c_z, mode=self.mode, q0_deg=self.q0_deg, zdyad_elbow=self.zdyad_elbow
+        )
 
     def __getitem__(self, name: str) -> float:
         return self.values[INDEX[name]]

@@ -22,6 +22,7 @@ from arcube.model import frames
 from arcube.model.poses import leg_coords
 from arcube.model.stages import rts, tls, tms
 
+
 class IKSolution(NamedTuple):
     """Everything the inverse kinematics computes at a pose; every field broadcast to ``(...)``.
 

@@ -30,5 +30,3 @@ def parse_mode(text: str) -> NDArray[np.float64]:
     if len(parts) != 4 or any(s not in {"+", "-", "+1", "-1", "1"} for s in parts):
         raise ValueError(f"working mode must be four signs 'TMS x,TMS y,RTS x,RTS y' like '+,+,-,+', got {text!r}")
     return np.array([-1.0 if s.startswith("-") else 1.0 for s in parts])
-
-

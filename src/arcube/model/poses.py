@@ -43,7 +43,9 @@ def omega_from_angle_rates(psi: ArrayLike, psi_dot: ArrayLike, theta_dot: ArrayL
     return np.stack([pd + zero, td * np.cos(psi_a) + zero, td * np.sin(psi_a) + zero], axis=-1)
 
 
-def sample_trajectories(entry: ArrayLike, target: ArrayLike, n_points: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def sample_trajectories(
+    entry: ArrayLike, target: ArrayLike, n_points: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Sample trajectories at ``n_points`` equally spaced points, both ends included (model §1.4).
 
     Parameters

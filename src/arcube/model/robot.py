@@ -93,30 +93,51 @@ def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
     p = Path(path)
     data = load_json(p)
     if not isinstance(data, dict):
-        raise InputError(f"{p}: a robot file must hold one JSON object (a design.json of arcube design, or a docking's design file)")
+        raise InputError(
+            f"{p}: a robot file must hold one JSON object (a design.json of arcube design, or a docking's design file)"
+        )
     missing = [n for n in ROBOT_NAMES if n != "c_z" and n not in data]
     if missing:
-        raise InputError(f"{p}: not a robot: missing robot parameter(s) {', '.join(missing)} (give a design.json of arcube design "
-                         "or a docking's design file)")  # fmt: skip
+        raise InputError(
+            f"{p}: not a robot: missing robot parameter(s) {', '.join(missing)} (give a design.json of arcube design "
+            "or a docking's design file)"
+        )
     if data.get("mode") is None:
-        raise InputError(f"{p}: the robot's working mode is missing (\"mode\": \"+,+,+,-\"): a built robot has one; add it to the file")
+        raise InputError(
+            f'{p}: the robot\'s working mode is missing ("mode": "+,+,+,-"): a built robot has one; add it to the file'
+        )
     raw = data.get("dockings")
     if raw is not None and (not isinstance(raw, list) or not raw):
         raise InputError(f"{p}: dockings must be a non-empty list of the robot's dockings")
     starts: list[WarmStart] = []
     for k, entry in enumerate(raw or []):
         where = f"{p}: docking {k + 1}"
-        label = f"{entry.get('patient', k + 1)}_{entry.get('side', '')}".rstrip("_") if isinstance(entry, dict) else str(k + 1)
+        label = (
+            f"{entry.get('patient', k + 1)}_{entry.get('side', '')}".rstrip("_")
+            if isinstance(entry, dict)
+            else str(k + 1)
+        )
         placement = _placement(entry, where)
-        entry_pts, target_pts = _points(entry.get("entry"), "entry", where), _points(entry.get("target"), "target", where)
-        if (entry_pts is None) != (target_pts is None) or (entry_pts is not None and entry_pts.shape != target_pts.shape):
+        entry_pts, target_pts = (
+            _points(entry.get("entry"), "entry", where),
+            _points(entry.get("target"), "target", where),
+        )
+        if (entry_pts is None) != (target_pts is None) or (
+            entry_pts is not None and entry_pts.shape != target_pts.shape
+        ):
             raise InputError(f"{where}: entry and target must be given together, one point each per trajectory")
         starts.append(WarmStart(label, placement, entry_pts, target_pts, entry.get("side")))
     values = {n: data[n] for n in ROBOT_NAMES if n != "c_z"}
     if all(n in data for n in PLACEMENT):
         own = _placement(data, str(p))
         if not starts:  # a docking file: its own placement is its one docking
-            starts.append(WarmStart(str(data.get("patient", "own")) + (f"_{data['side']}" if data.get("side") else ""), own, side=data.get("side")))
+            starts.append(
+                WarmStart(
+                    str(data.get("patient", "own")) + (f"_{data['side']}" if data.get("side") else ""),
+                    own,
+                    side=data.get("side"),
+                )
+            )
     else:
         own = starts[0].placement if starts else np.zeros(len(PLACEMENT))
     values.update(zip(PLACEMENT, (float(v) for v in own)))
@@ -161,12 +182,18 @@ def design_at_side(design: Any, side: str | None) -> Any:
     sides = {e.get("side") for e in dockings if isinstance(e, dict)}
     if "m_x" in data:  # a design job of one docking: its design.json is that docking's complete design
         if sides and s not in sides:
-            raise InputError.of("side", f"{s}: {p} is the robot's one docking, on side {'/'.join(sorted(map(str, sides)))}")
+            raise InputError.of(
+                "side", f"{s}: {p} is the robot's one docking, on side {'/'.join(sorted(map(str, sides)))}"
+            )
         return design
     robot = read_robot(p)
     here = [w for w in robot.starts if w.side == s]
     if len(here) == 1:
         return robot.placed(here[0].placement)
     names = ", ".join(str(p.parent / "dockings" / w.label / "design.json") for w in here)
-    problem = f"docks it {len(here)} times on side {s}; give one docking's file: {names}" if here else f"has no docking on side {s}"
+    problem = (
+        f"docks it {len(here)} times on side {s}; give one docking's file: {names}"
+        if here
+        else f"has no docking on side {s}"
+    )
     raise InputError.of("side", f"{s}: the robot of {p} {problem}")

@@ -73,12 +73,19 @@ def mount_axes(g: Geometry) -> NDArray[np.float64]:
 
 
 def _derivatives(
-    g: Geometry, C_m: NDArray[np.float64], e_m: NDArray[np.float64], rho: NDArray[np.float64],
-    delta: NDArray[np.float64], sigma: NDArray[np.float64], valid: NDArray[np.bool_],
-) -> FKDerivatives:  # fmt: skip
+    g: Geometry,
+    C_m: NDArray[np.float64],
+    e_m: NDArray[np.float64],
+    rho: NDArray[np.float64],
+    delta: NDArray[np.float64],
+    sigma: NDArray[np.float64],
+    valid: NDArray[np.bool_],
+) -> FKDerivatives:
     """The derivatives at a closed configuration: C_m, e_m ``(..., 3)`` (mechanism frame), rho ``(..., 3)``,
     delta, sigma ``(..., 2)`` (rad), all consistent (the FK's or the IK's)."""
-    lead = np.broadcast_shapes(C_m.shape[:-1], e_m.shape[:-1], rho.shape[:-1], delta.shape[:-1], sigma.shape[:-1], np.shape(g.r))
+    lead = np.broadcast_shapes(
+        C_m.shape[:-1], e_m.shape[:-1], rho.shape[:-1], delta.shape[:-1], sigma.shape[:-1], np.shape(g.r)
+    )
     sr, cr = np.sin(rho), np.cos(rho)
     sd, cd = np.sin(delta), np.cos(delta)
     ss, cs = np.sin(sigma), np.cos(sigma)
@@ -157,9 +164,14 @@ def _derivatives(
     dE = np.where(ok[..., None, None], dE, np.nan)
     de = np.where(ok[..., None, None], de, np.nan)
     return FKDerivatives(
-        E=np.broadcast_to(E_w, lead + (3,)), e=np.broadcast_to(e_w, lead + (3,)),
-        dE_dp=dE[..., :_Q], de_dp=de[..., :_Q], dE_dq=dE[..., _Q:], de_dq=de[..., _Q:], valid=np.broadcast_to(ok, lead),
-    )  # fmt: skip
+        E=np.broadcast_to(E_w, lead + (3,)),
+        e=np.broadcast_to(e_w, lead + (3,)),
+        dE_dp=dE[..., :_Q],
+        de_dp=de[..., :_Q],
+        dE_dq=dE[..., _Q:],
+        de_dq=de[..., _Q:],
+        valid=np.broadcast_to(ok, lead),
+    )
 
 
 def fk_derivatives(params: ArrayLike, rho: ArrayLike, delta: ArrayLike, assembly: ArrayLike) -> FKDerivatives:
@@ -179,7 +191,9 @@ def fk_derivatives(params: ArrayLike, rho: ArrayLike, delta: ArrayLike, assembly
     delta_a = np.asarray(delta, dtype=float)
     C_m = tls.fk(rho_a, g.f, g.p, g.r)
     lc = leg_coords(C_m)[..., :2, :]
-    sigma, tms_arg = tms.fk(lc[..., 1], lc[..., 2], rho_a[..., :2], delta_a, g.p[..., :2], g.d[..., :2], g.c, g.t, asm[..., 0:2])
+    sigma, tms_arg = tms.fk(
+        lc[..., 1], lc[..., 2], rho_a[..., :2], delta_a, g.p[..., :2], g.d[..., :2], g.c, g.t, asm[..., 0:2]
+    )
     e_m, radicand = rts.fk(sigma, g.alpha, g.beta, g.o, asm[..., 2])
     valid = np.all(np.abs(tms_arg) <= 1.0, axis=-1) & (radicand >= 0.0)
     return _derivatives(g, C_m, e_m, rho_a, delta_a, sigma, valid)
@@ -194,4 +208,3 @@ def pose_derivatives(params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayL
     """
     sol = inverse_kinematics(params, E, e, mode)
     return _derivatives(unpack(params), sol.E_m, sol.e, sol.rho, sol.delta, sol.sigma, sol.reachable)
-

@@ -45,14 +45,31 @@ def _limits(limits: ProgramLimits | None, changes: dict[str, Any]) -> ProgramLim
 
 
 def program(
-    design: Any, plan: Any, out: str | os.PathLike[str] | None = None, *, options: Options | None = None, anatomy: Any = None,
-    anatomy_frame: str = "LPS", mode: Any = None, order: str = "shortest", side: str | None = None,
-    levels: str | Sequence[str] | None = None, ids: str | Sequence[str] | None = None, transform: Any = None,
-    limits: ProgramLimits | None = None, planner: Planner | None = None, seed: int | None = None,
-    log: Callable[[str], None] | None = None, masses: bool | None = None, engine: str = "auto", segments: Any = None,
-    envelope: Any = None, table_z: float | None = None, figures: Callable[[Program], dict[str, bytes]] | None = None,
+    design: Any,
+    plan: Any,
+    out: str | os.PathLike[str] | None = None,
+    *,
+    options: Options | None = None,
+    anatomy: Any = None,
+    anatomy_frame: str = "LPS",
+    mode: Any = None,
+    order: str = "shortest",
+    side: str | None = None,
+    levels: str | Sequence[str] | None = None,
+    ids: str | Sequence[str] | None = None,
+    transform: Any = None,
+    limits: ProgramLimits | None = None,
+    planner: Planner | None = None,
+    seed: int | None = None,
+    log: Callable[[str], None] | None = None,
+    masses: bool | None = None,
+    engine: str = "auto",
+    segments: Any = None,
+    envelope: Any = None,
+    table_z: float | None = None,
+    figures: Callable[[Program], dict[str, bytes]] | None = None,
     **changes: Any,
-) -> Program:  # fmt: skip
+) -> Program:
     """The drilling program of ``design`` for a plan (model §17).
 
     Args:
@@ -115,7 +132,9 @@ def program(
     plan_settings = planner if planner is not None else Planner()
     if seed is not None:
         plan_settings = plan_settings.replace(seed=seed)
-    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (model §19.2): its masses are the two real links
+    if (
+        d.c_z is not None and opts.guards.c_z is None
+    ):  # the design's own z dyad (model §19.2): its masses are the two real links
         opts = opts.replace(c_z=d.c_z)
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
     full = load_plan(plan, transform=transform)
@@ -124,11 +143,15 @@ def program(
     anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
     env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)
     if out is None:
-        return build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env)
+        return build_program(
+            d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env
+        )
     folder, created, lock = None, False, None
     try:
         folder, created, lock = prepare_folder(out)
-        prog = build_program(d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env)
+        prog = build_program(
+            d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env
+        )
         prog.write(folder, figures(prog) if figures is not None else None)
     except BaseException:
         if folder is not None:

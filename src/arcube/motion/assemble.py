@@ -56,7 +56,10 @@ def _lines(ts: TrajectorySet, anatomy: Any, limits: ProgramLimits) -> list[Line]
     A, B = np.asarray(ts.entry, float), np.asarray(ts.target, float)
     S, depth = standoff_points(A, B, anatomy, limits.standoff_mm)
     e = (A - B) / np.linalg.norm(A - B, axis=1, keepdims=True)
-    return [Line(str(ts.ids[i]), S[i], A[i], B[i], e[i], float(depth[i]), float(np.linalg.norm(A[i] - B[i]))) for i in range(len(A))]
+    return [
+        Line(str(ts.ids[i]), S[i], A[i], B[i], e[i], float(depth[i]), float(np.linalg.norm(A[i] - B[i])))
+        for i in range(len(A))
+    ]
 
 
 def _near(q_from: NDArray[np.float64], q_to: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -82,14 +85,27 @@ def _proxy(q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker,
 
 
 class _Builder:
-    def __init__(self, design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], limits: ProgramLimits,
-                 body: Body, planner: Planner, log: Callable[[str], None], engine: str = "numpy", envelope: Any = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        design: Design,
+        ts: TrajectorySet,
+        anatomy: Any,
+        mode: NDArray[np.float64],
+        limits: ProgramLimits,
+        body: Body,
+        planner: Planner,
+        log: Callable[[str], None],
+        engine: str = "numpy",
+        envelope: Any = None,
+    ) -> None:
         self.ts, self.limits, self.planner, self.log, self.design = ts, limits, planner, log, design
         self.mode, self.mode_text = mode, format_mode(mode)
         self.lines = _lines(ts, anatomy, limits)
         self.anatomy_source = None if anatomy is None else str(anatomy.source)
         distance = None if anatomy is None else anatomy.distance
-        self.checker = Checker(design.to_vector(), mode, limits, body, distance, engine=engine, envelope=envelope, c_z=design.c_z)
+        self.checker = Checker(
+            design.to_vector(), mode, limits, body, distance, engine=engine, envelope=envelope, c_z=design.c_z
+        )
         self.envelope_source = None if envelope is None else envelope.source
         self.transits: dict[tuple[int, int], tuple[Transit, list[dict[str, Any]], float]] = {}
 
@@ -108,9 +124,11 @@ class _Builder:
 
     def line_rows(self, line: Line) -> list[tuple[Piece, dict[str, Any]]]:
         lim, p = self.limits, self.checker.params
-        pieces = [line_piece("approach", line, 0.0, line.depth, lim.approach_speed, p, self.mode),
-                  line_piece("drill", line, line.depth, line.total, lim.feed, p, self.mode),
-                  line_piece("retract", line, line.total, 0.0, lim.retract_speed, p, self.mode)]  # fmt: skip
+        pieces = [
+            line_piece("approach", line, 0.0, line.depth, lim.approach_speed, p, self.mode),
+            line_piece("drill", line, line.depth, line.total, lim.feed, p, self.mode),
+            line_piece("retract", line, line.total, 0.0, lim.retract_speed, p, self.mode),
+        ]
         out = []
         for piece in pieces:
             problem = cruise_problem(piece, lim)
@@ -130,7 +148,9 @@ class _Builder:
             la, lb = self.lines[a], self.lines[b]
             label = f"{la.tid}->{lb.tid}"
             q_a = self.q_standoff(a)
-            tr = transit(label, q_a, _near(q_a, self.q_standoff(b)), self.checker, self.limits.max_tip_speed, self.planner)
+            tr = transit(
+                label, q_a, _near(q_a, self.q_standoff(b)), self.checker, self.limits.max_tip_speed, self.planner
+            )
             rows: list[dict[str, Any]] = []
             duration = 0.0 if tr.method == "none" else math.inf
             if tr.pieces:
@@ -139,7 +159,10 @@ class _Builder:
                     duration = sum(r["t"][-1] for r in rows)
                 except TimingError as exc:
                     tr.pieces, tr.method = [], f"blocked (timing: {exc})"
-            self.log(f"transit {la.tid} -> {lb.tid}: {tr.method}" + (f", {duration:.2f} s" if math.isfinite(duration) else ""))
+            self.log(
+                f"transit {la.tid} -> {lb.tid}: {tr.method}"
+                + (f", {duration:.2f} s" if math.isfinite(duration) else "")
+            )
             self.transits[(a, b)] = (tr, rows, duration)
         return self.transits[(a, b)]
 
@@ -151,7 +174,10 @@ class _Builder:
         text = head + f"{tr.blocked.describe(tr.blocked_index, self.limits)} on the straight move in joint space"
         if tr.method.startswith("blocked (timing"):
             return text + f"; the planned path cannot be timed ({tr.method[9:-1]})"
-        return text + f", and OMPL RRTConnect found no way around within {self.planner.time_s:g} s (seed {self.planner.seed})"
+        return (
+            text
+            + f", and OMPL RRTConnect found no way around within {self.planner.time_s:g} s (seed {self.planner.seed})"
+        )
 
     def choose_order(self, order: str) -> tuple[list[int], str]:
         n = len(self.lines)
@@ -174,14 +200,20 @@ class _Builder:
             if not todo and math.isfinite(path_cost(seq, cost)):
                 break
             if not todo:
-                raise InputError(self.blocked_message(*last_blocked) if last_blocked else "no order of the trajectories can be run")
+                raise InputError(
+                    self.blocked_message(*last_blocked) if last_blocked else "no order of the trajectories can be run"
+                )
             for a, b in todo:
                 cost[a, b] = self.transit(a, b)[2]
                 if self.transits[(a, b)][0].method == "straight" and (b, a) not in self.transits:
                     cost[b, a] = cost[a, b]  # the same states backwards: a better guess than the proxy
                 if not math.isfinite(cost[a, b]):
                     last_blocked = (a, b)
-        method = "shortest (exact: dynamic programming over subsets)" if exact else f"shortest (heuristic beyond {EXACT_MAX}: nearest neighbour + 2-opt)"
+        method = (
+            "shortest (exact: dynamic programming over subsets)"
+            if exact
+            else f"shortest (heuristic beyond {EXACT_MAX}: nearest neighbour + 2-opt)"
+        )
         return seq, method
 
 
@@ -196,9 +228,21 @@ def _extreme(values: list[tuple[NDArray[np.float64], str]], smallest: bool) -> t
     return (best, where) if where is not None else (math.nan, None)
 
 
-def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray[np.float64], order: str, limits: ProgramLimits,
-                  body: Body, planner: Planner, log: Callable[[str], None] | None = None, masses: MassModel | None = None,
-                  loads: Loads | None = None, engine: str = "numpy", envelope: Any = None) -> Program:  # fmt: skip
+def build_program(
+    design: Design,
+    ts: TrajectorySet,
+    anatomy: Any,
+    mode: NDArray[np.float64],
+    order: str,
+    limits: ProgramLimits,
+    body: Body,
+    planner: Planner,
+    log: Callable[[str], None] | None = None,
+    masses: MassModel | None = None,
+    loads: Loads | None = None,
+    engine: str = "numpy",
+    envelope: Any = None,
+) -> Program:
     """The program of ``design`` for the plan ``ts`` (model §17); InputError naming the segment if none exists.
 
     With ``masses`` (model §18.1) the rows get the actuator torques of 18.2 and the summary the motor
@@ -215,8 +259,14 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
     checked: list[tuple[StateChecks, str, bool]] = [(line.checks, line.tid, False) for line in b.lines]  # type: ignore[misc]
     for pos, j in enumerate(seq):
         line = b.lines[j]
-        info: dict[str, Any] = {"trajectory": line.tid, "level": ts.levels[j], "side": ts.sides[j], "standoff_mm": line.depth,
-                                "exit_depth_mm": line.depth - limits.standoff_mm, "drilled_mm": line.length}  # fmt: skip
+        info: dict[str, Any] = {
+            "trajectory": line.tid,
+            "level": ts.levels[j],
+            "side": ts.sides[j],
+            "standoff_mm": line.depth,
+            "exit_depth_mm": line.depth - limits.standoff_mm,
+            "drilled_mm": line.length,
+        }
         for piece, rows in b.line_rows(line):
             blocks.append((piece.kind, line.tid, rows))
             info[f"{piece.kind}_s"] = float(rows["t"][-1])
@@ -225,14 +275,25 @@ def build_program(design: Design, ts: TrajectorySet, anatomy: Any, mode: NDArray
         if pos + 1 < len(seq):
             tr, rows_list, duration = b.transit(j, seq[pos + 1])
             label = f"{line.tid}->{b.lines[seq[pos + 1]].tid}"
-            transits.append({"from": line.tid, "to": b.lines[seq[pos + 1]].tid, "duration_s": duration, "method": tr.method,
-                             "waypoints": tr.waypoints, "pieces": len(tr.pieces), "planner_s": tr.planner_s,
-                             "straight_blocked_by": None if tr.blocked is None else str(tr.blocked.reason[tr.blocked_index])})  # fmt: skip
+            transits.append(
+                {
+                    "from": line.tid,
+                    "to": b.lines[seq[pos + 1]].tid,
+                    "duration_s": duration,
+                    "method": tr.method,
+                    "waypoints": tr.waypoints,
+                    "pieces": len(tr.pieces),
+                    "planner_s": tr.planner_s,
+                    "straight_blocked_by": None if tr.blocked is None else str(tr.blocked.reason[tr.blocked_index]),
+                }
+            )
             blocks += [("transit", label, rows) for rows in rows_list]
             check_total(limits, sum(len(r["t"]) for _, _, r in blocks), "transit")
             checked += [(piece.checks, label, True) for piece in tr.pieces]
     prog = _program(b, seq, order_method, blocks, per_traj, transits, checked)
-    prog = dataclasses.replace(prog, summary={**prog.summary, "clearances_along_time": clearances_along_time(prog, b.checker)})
+    prog = dataclasses.replace(
+        prog, summary={**prog.summary, "clearances_along_time": clearances_along_time(prog, b.checker)}
+    )
     return prog if masses is None else with_torques(prog, b.checker.params, b.mode, masses, loads or Loads())
 
 
@@ -253,13 +314,29 @@ def clearances_along_time(prog: Program, checker: Checker) -> dict[str, list[flo
             c = checker.poses(prog.E[idx[mask]], prog.e[idx[mask]], tool=with_tool)
             clear[mask], tool[mask], selfc[mask] = c.clearance, c.tool_clearance, c.self_clearance
     as_list = lambda a: [float(v) if math.isfinite(v) else None for v in a]  # noqa: E731
-    return {"t_s": as_list(prog.t_s[idx]), "clearance_mm": as_list(clear), "tool_clearance_mm": as_list(tool), "self_clearance_mm": as_list(selfc)}
+    return {
+        "t_s": as_list(prog.t_s[idx]),
+        "clearance_mm": as_list(clear),
+        "tool_clearance_mm": as_list(tool),
+        "self_clearance_mm": as_list(selfc),
+    }
 
 
-def with_torques(prog: Program, params: NDArray[np.float64], mode: NDArray[np.float64], masses: MassModel, loads: Loads) -> Program:
+def with_torques(
+    prog: Program, params: NDArray[np.float64], mode: NDArray[np.float64], masses: MassModel, loads: Loads
+) -> Program:
     """``prog`` with its actuator torques per row (18.2) and its motor figures (18.3) in the summary."""
-    tq = program_torques(params, prog.E, prog.e, mode, float(prog.summary["dt_s"]), prog.segment == "drill", masses,
-                         loads.thrust_N, loads.lateral_force_N)  # fmt: skip
+    tq = program_torques(
+        params,
+        prog.E,
+        prog.e,
+        mode,
+        float(prog.summary["dt_s"]),
+        prog.segment == "drill",
+        masses,
+        loads.thrust_N,
+        loads.lateral_force_N,
+    )
     summary = dict(prog.summary)
     summary["motors"] = motor_figures(prog.t_s, np.radians(prog.q_dot_deg), tq, JOINTS)
     summary["masses"] = {**dataclasses.asdict(masses), "moving_mass_kg": float(moving_mass_kg(params, masses))}
@@ -267,8 +344,15 @@ def with_torques(prog: Program, params: NDArray[np.float64], mode: NDArray[np.fl
     return dataclasses.replace(prog, tau_Nm=tq.tau_Nm, summary=summary)
 
 
-def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[str, str, dict[str, Any]]], per_traj: list[dict[str, Any]],
-             transits: list[dict[str, Any]], checked: list[tuple[StateChecks, str, bool]]) -> Program:  # fmt: skip
+def _program(
+    b: _Builder,
+    seq: list[int],
+    order_method: str,
+    blocks: list[tuple[str, str, dict[str, Any]]],
+    per_traj: list[dict[str, Any]],
+    transits: list[dict[str, Any]],
+    checked: list[tuple[StateChecks, str, bool]],
+) -> Program:
     lim = b.limits
     parts: dict[str, list[Any]] = {k: [] for k in ("E", "e", "q", "qd", "seg", "traj")}
     step = 0
@@ -290,12 +374,16 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
     t = np.arange(len(q)) * lim.dt
     seg = np.array(parts["seg"])
     total = float(t[-1])
-    times = {k: float(np.sum(np.diff(t)[seg[1:] == k])) for k in ("approach", "drill", "retract", "transit")}  # a step is its end row's
+    times = {
+        k: float(np.sum(np.diff(t)[seg[1:] == k])) for k in ("approach", "drill", "retract", "transit")
+    }  # a step is its end row's
     kinds = [blk[0] for blk in blocks]
     traj_starts = [starts[i] * lim.dt for i, k in enumerate(kinds) if k == "approach"]
     for info, start in zip(per_traj, traj_starts):
         info["start_s"] = start
-    tr_starts = [starts[i] * lim.dt for i, k in enumerate(kinds) if k == "transit" and (i == 0 or kinds[i - 1] != "transit")]
+    tr_starts = [
+        starts[i] * lim.dt for i, k in enumerate(kinds) if k == "transit" and (i == 0 or kinds[i - 1] != "transit")
+    ]
     for info, start in zip(transits, tr_starts):
         info["start_s"] = start
     E = np.concatenate(parts["E"])
@@ -308,23 +396,48 @@ def _program(b: _Builder, seq: list[int], order_method: str, blocks: list[tuple[
     envc = _extreme([(c.envelope_clearance, lab) for c, lab, _ in checked], True)
     eta = _extreme([(c.eta, lab) for c, lab, _ in checked], False)
     summary: dict[str, Any] = {
-        "order": [b.lines[j].tid for j in seq], "order_method": order_method, "total_s": total,
-        "drilling_s": times["drill"], "approach_s": times["approach"], "retract_s": times["retract"], "transit_s": times["transit"],
-        "rows": len(t), "dt_s": lim.dt, "mode": b.mode_text, "assembly_signs": [int(v) for v in b.checker.assembly],  # type: ignore[union-attr]
-        "trajectories": per_traj, "transits": transits,
-        "clearance_min_mm": clear[0], "clearance_min_at": clear[1], "tool_clearance_min_mm": tool[0], "tool_clearance_min_at": tool[1],
-        "self_clearance_min_mm": selfc[0], "self_clearance_min_at": selfc[1], "eta_L_max": eta[0], "eta_L_max_at": eta[1],
-        **({"envelope_clearance_min_mm": envc[0], "envelope_clearance_min_at": envc[1], "envelope": b.envelope_source}
-           if b.envelope_source is not None else {}),
+        "order": [b.lines[j].tid for j in seq],
+        "order_method": order_method,
+        "total_s": total,
+        "drilling_s": times["drill"],
+        "approach_s": times["approach"],
+        "retract_s": times["retract"],
+        "transit_s": times["transit"],
+        "rows": len(t),
+        "dt_s": lim.dt,
+        "mode": b.mode_text,
+        "assembly_signs": [int(v) for v in b.checker.assembly],  # type: ignore[union-attr]
+        "trajectories": per_traj,
+        "transits": transits,
+        "clearance_min_mm": clear[0],
+        "clearance_min_at": clear[1],
+        "tool_clearance_min_mm": tool[0],
+        "tool_clearance_min_at": tool[1],
+        "self_clearance_min_mm": selfc[0],
+        "self_clearance_min_at": selfc[1],
+        "eta_L_max": eta[0],
+        "eta_L_max_at": eta[1],
+        **(
+            {"envelope_clearance_min_mm": envc[0], "envelope_clearance_min_at": envc[1], "envelope": b.envelope_source}
+            if b.envelope_source is not None
+            else {}
+        ),
         "joint_speed_max_deg_s": {j: float(np.degrees(np.max(np.abs(qd[:, i])))) for i, j in enumerate(JOINTS)},
-        "joint_accel_max_deg_s2": {j: float(np.degrees(np.max(accel[:, i], initial=0.0))) for i, j in enumerate(JOINTS)},
+        "joint_accel_max_deg_s2": {
+            j: float(np.degrees(np.max(accel[:, i], initial=0.0))) for i, j in enumerate(JOINTS)
+        },
         "tip_speed_max_transit_mm_s": float(np.max(tip[in_transit[:-1] & in_transit[1:]], initial=0.0)),
-        "checked_states": int(b.checker.calls), "resolution_mm": RESOLUTION_MM, "check_engine": b.checker.engine,
+        "checked_states": int(b.checker.calls),
+        "resolution_mm": RESOLUTION_MM,
+        "check_engine": b.checker.engine,
         "timing": "toppra (TOPP-RA, time-optimal on the checked grid; rows verified, retimed if a limit is exceeded)",
-        "limits": lim.model_dump(), "planner": {"name": "OMPL RRTConnect + PathSimplifier", **b.planner.model_dump()},
-        "anatomy": b.anatomy_source, "plan": b.ts.source,
-        "design": b.design.to_file_dict(), "body": b.checker.body.model_dump(),
-    }  # fmt: skip
+        "limits": lim.model_dump(),
+        "planner": {"name": "OMPL RRTConnect + PathSimplifier", **b.planner.model_dump()},
+        "anatomy": b.anatomy_source,
+        "plan": b.ts.source,
+        "design": b.design.to_file_dict(),
+        "body": b.checker.body.model_dump(),
+    }
     q_deg = np.degrees(q)
     if b.design.q0_deg is not None:  # model §21.4: a calibrated design commands IK - q0 (the encoders then read it)
         q_deg = q_deg - b.design.q0

@@ -93,7 +93,11 @@ class StateChecks(NamedTuple):
     def describe(self, i: int, limits: ProgramLimits) -> str:
         """``collision/patient at E = (x, y, z) mm (clearance 1.2 mm < 5)``: state i's failure, one line."""
         reason = str(self.reason[i])
-        where = "E = (" + ", ".join(f"{v:.2f}" for v in self.E[i]) + ") mm" if np.all(np.isfinite(self.E[i])) else "this joint state"
+        where = (
+            "E = (" + ", ".join(f"{v:.2f}" for v in self.E[i]) + ") mm"
+            if np.all(np.isfinite(self.E[i]))
+            else "this joint state"
+        )
         detail = {
             "guard/kappa_max": f"eta_L {self.eta[i]:.4g} > {limits.kappa_max:g}",
             "guard/z_dyad": "the z dyad (d_z, c_z) cannot span D_z -> Q_z",
@@ -117,10 +121,21 @@ class Checker:
     module docstring.
     """
 
-    def __init__(self, params: ArrayLike, mode: ArrayLike, limits: ProgramLimits, body: Body = Body(),
-                 distance: Distance | None = None, assembly: ArrayLike | None = None, *,
-                 step: float = SAMPLE_STEP_MM, margin: float = 0.0, engine: str = "numpy", envelope: Any = None,
-                 c_z: float | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        params: ArrayLike,
+        mode: ArrayLike,
+        limits: ProgramLimits,
+        body: Body = Body(),
+        distance: Distance | None = None,
+        assembly: ArrayLike | None = None,
+        *,
+        step: float = SAMPLE_STEP_MM,
+        margin: float = 0.0,
+        engine: str = "numpy",
+        envelope: Any = None,
+        c_z: float | None = None,
+    ) -> None:
         if engine not in ("numpy", "numba"):
             raise ValueError(f"engine must be numpy or numba, got {engine!r}")
         self.engine = engine
@@ -149,8 +164,19 @@ class Checker:
                 slack += [ends.envelope_clearance - lim.envelope_clearance]
             least = float(np.nanmin(np.concatenate(slack)))
             res = float(np.clip(0.9 * least, RESOLUTION_MM, PLANNING_RESOLUTION_MM))
-        out = Checker(self.params, self.mode, self.limits, self.body, self.distance, self.assembly, step=res, margin=res,
-                      engine=self.engine, envelope=self.envelope, c_z=self.c_z)  # fmt: skip
+        out = Checker(
+            self.params,
+            self.mode,
+            self.limits,
+            self.body,
+            self.distance,
+            self.assembly,
+            step=res,
+            margin=res,
+            engine=self.engine,
+            envelope=self.envelope,
+            c_z=self.c_z,
+        )
         out.resolution = res
         return out
 
@@ -191,7 +217,10 @@ class Checker:
         if self.c_z is not None:  # model §19.2: a z leg that can be assembled, at every state
             checks.append(("guard/z_dyad", ~np.asarray(mp.z_closes)))
         checks += [
-            ("guard/assembly_mode", np.any(asm != self.assembly, axis=-1) if self.assembly is not None else np.zeros(n, bool)),
+            (
+                "guard/assembly_mode",
+                np.any(asm != self.assembly, axis=-1) if self.assembly is not None else np.zeros(n, bool),
+            ),
             ("guard/kappa_max", ~(eta <= lim.kappa_max)),
             ("collision/self", ~(selfc >= lim.self_clearance + m)),
         ]
@@ -204,9 +233,22 @@ class Checker:
         for name, failed in reversed(checks):
             reason = np.where(failed, name, reason)
         points = np.concatenate(
-            [mp.P, mp.D, mp.Q, mp.K, mp.T, mp.J_z[:, None], mp.B, mp.H[:, None], mp.arc_alpha.reshape(n, -1, 3),
-             mp.arc_beta.reshape(n, -1, 3), mp.E[:, None], mp.drill_end[:, None]], axis=1,
-        )  # fmt: skip
+            [
+                mp.P,
+                mp.D,
+                mp.Q,
+                mp.K,
+                mp.T,
+                mp.J_z[:, None],
+                mp.B,
+                mp.H[:, None],
+                mp.arc_alpha.reshape(n, -1, 3),
+                mp.arc_beta.reshape(n, -1, 3),
+                mp.E[:, None],
+                mp.drill_end[:, None],
+            ],
+            axis=1,
+        )
         return StateChecks(reason == "", reason, mp.E, mp.e, q, asm, eta, clear, tool_clear, selfc, env, points)
 
     def _compiled(self, E: NDArray[np.float64], e: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
@@ -218,12 +260,26 @@ class Checker:
         outputs = Outputs(clearances=True, anatomy_clearance=self.distance is not None, tip_metrics=False)
         guards = Guards() if self.c_z is None else Guards(c_z=self.c_z)  # the body's z dyad is the design's
         ok = np.all(np.isfinite(E), axis=-1) & np.all(np.isfinite(e), axis=-1)
-        kappa, clear, selfc, env = np.full((len(E), 7), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan), np.full(len(E), np.nan)
+        kappa, clear, selfc, env = (
+            np.full((len(E), 7), np.nan),
+            np.full(len(E), np.nan),
+            np.full(len(E), np.nan),
+            np.full(len(E), np.nan),
+        )
         if ok.any():
-            pts = evaluate_task_numba(self.params, E[ok], e[ok], self.mode, Options(guards=guards, body=self.body, outputs=outputs),
-                                      anatomy=self.distance, envelope=self.envelope).points  # fmt: skip
+            pts = evaluate_task_numba(
+                self.params,
+                E[ok],
+                e[ok],
+                self.mode,
+                Options(guards=guards, body=self.body, outputs=outputs),
+                anatomy=self.distance,
+                envelope=self.envelope,
+            ).points
             kappa[ok], clear[ok], selfc[ok] = pts.kappa, pts.clearance_mm - TOL_MM, pts.self_clearance_mm
-            if self.envelope is not None:  # a skin mesh is searched as the anatomy is: its tolerance below, as the clearance's
+            if (
+                self.envelope is not None
+            ):  # a skin mesh is searched as the anatomy is: its tolerance below, as the clearance's
                 env[ok] = pts.envelope_clearance_mm - (TOL_MM if self.envelope.skin else 0.0)
         return kappa, clear, selfc, env
 
@@ -234,20 +290,34 @@ class Checker:
         if self.step == SAMPLE_STEP_MM:
             return anatomy_clearance(parts, self.distance, self.step)[0]  # type: ignore[arg-type]
         seg = parts.segments  # (n, S, 2, 3)
-        k = max(int(np.ceil(np.nanmax(np.linalg.norm(seg[..., 1, :] - seg[..., 0, :], axis=-1), initial=0.0) / self.step)), 1) + 1
+        k = (
+            max(
+                int(
+                    np.ceil(
+                        np.nanmax(np.linalg.norm(seg[..., 1, :] - seg[..., 0, :], axis=-1), initial=0.0) / self.step
+                    )
+                ),
+                1,
+            )
+            + 1
+        )
         f = np.linspace(0.0, 1.0, k)[:, None]
         seg_pts = seg[..., None, 0, :] + f * (seg[..., None, 1, :] - seg[..., None, 0, :])  # (n, S, k, 3)
         ends = parts.arc_ends
         angle = np.arccos(np.clip(np.sum(ends[..., 0, :] * ends[..., 1, :], axis=-1), -1.0, 1.0))
         ka = max(int(np.ceil(np.nanmax(parts.arc_radius[..., None] * angle, initial=0.0) / self.step)), 1) + 1
-        arc_pts = parts.arc_centre[:, None, None, :] + parts.arc_radius[:, None, None, None] * great_circle(ends[..., 0, :], ends[..., 1, :], ka)
+        arc_pts = parts.arc_centre[:, None, None, :] + parts.arc_radius[:, None, None, None] * great_circle(
+            ends[..., 0, :], ends[..., 1, :], ka
+        )
         n = len(seg)
         sizes = (seg_pts.shape[1] * k, parts.spheres.shape[1], arc_pts.shape[1] * ka)
         pts = np.concatenate([seg_pts.reshape(n, -1, 3), parts.spheres, arc_pts.reshape(n, -1, 3)], axis=1)
         bad = ~np.all(np.isfinite(pts), axis=-1)
         d = np.where(bad, np.nan, self.distance(np.where(bad[..., None], 0.0, pts)))  # type: ignore[misc]
         a, b = sizes[0], sizes[0] + sizes[1]
-        per = np.concatenate([d[:, :a].reshape(n, -1, k).min(axis=-1), d[:, a:b], d[:, b:].reshape(n, -1, ka).min(axis=-1)], axis=1)
+        per = np.concatenate(
+            [d[:, :a].reshape(n, -1, k).min(axis=-1), d[:, a:b], d[:, b:].reshape(n, -1, ka).min(axis=-1)], axis=1
+        )
         return np.min(per - parts.radius, axis=-1)
 
     def _tool_clearance(self, E: NDArray[np.float64], H: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -289,8 +359,15 @@ def displacement(points: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.max(np.where(np.isfinite(d), d, 0.0), axis=-1) if len(d) else np.zeros(0)
 
 
-def refine(evaluate: Callable[[NDArray[np.float64]], StateChecks], s0: float, s1: float, limit: float = RESOLUTION_MM,
-           n0: int = 9, stop_on_failure: bool = False, max_states: int = 200_000) -> tuple[NDArray[np.float64], StateChecks]:  # fmt: skip
+def refine(
+    evaluate: Callable[[NDArray[np.float64]], StateChecks],
+    s0: float,
+    s1: float,
+    limit: float = RESOLUTION_MM,
+    n0: int = 9,
+    stop_on_failure: bool = False,
+    max_states: int = 200_000,
+) -> tuple[NDArray[np.float64], StateChecks]:
     """States s in [s0, s1] of a path so close that no body or tool point moves more than ``limit``
     between two of them; ``evaluate(s)`` checks a batch. Intervals that move more are split
     (into as many equal parts as their move needs) until none does.
@@ -308,7 +385,9 @@ def refine(evaluate: Callable[[NDArray[np.float64]], StateChecks], s0: float, s1
         if not len(over):
             return s, checks
         if len(s) > max_states:
-            raise RuntimeError(f"refine: more than {max_states} states needed (a point moves {move.max():.3g} mm per state)")
+            raise RuntimeError(
+                f"refine: more than {max_states} states needed (a point moves {move.max():.3g} mm per state)"
+            )
         parts = np.ceil(move[over] / limit * 1.05).astype(int)  # a little more: the move is not exactly linear in s
         new = np.concatenate([s[i] + (s[i + 1] - s[i]) * np.arange(1, k) / k for i, k in zip(over, parts)])
         added = evaluate(new)

@@ -53,8 +53,13 @@ class ProgramTorques(NamedTuple):
     lateral_Nm: NDArray[np.float64]  # F_l |P_perp J_E,i| on drill rows, else 0 (sizing only, 18.3)
 
 
-def _points(params: NDArray[np.float64], E: NDArray[np.float64], e: NDArray[np.float64], mode: NDArray[np.float64],
-            model: MassModel) -> tuple[NDArray[np.float64], ...]:  # fmt: skip
+def _points(
+    params: NDArray[np.float64],
+    E: NDArray[np.float64],
+    e: NDArray[np.float64],
+    mode: NDArray[np.float64],
+    model: MassModel,
+) -> tuple[NDArray[np.float64], ...]:
     """Point masses of the rows: positions ``(m, 3 K, 3)``, Jacobians ``(m, 3 K, 3, 5)``, masses ``(3 K,)``, and
     e ``(m, 3)``, J_e, J_E ``(m, 3, 5)`` in R_w."""
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -79,9 +84,16 @@ def _rows_with_neighbours(s: int, stop: int, n: int) -> NDArray[np.intp]:
 
 
 def program_torques(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike, dt: float, drilling: ArrayLike,
-    model: MassModel, thrust_N: float = 30.0, lateral_N: float = 10.0,
-) -> ProgramTorques:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike,
+    dt: float,
+    drilling: ArrayLike,
+    model: MassModel,
+    thrust_N: float = 30.0,
+    lateral_N: float = 10.0,
+) -> ProgramTorques:
     """The actuator torques along a program's rows (module docstring).
 
     Args:
@@ -116,4 +128,3 @@ def program_torques(
         out["lateral_Nm"][s:stop] = np.where(on, lateral_N * lateral / 1000.0, 0.0)
     out["tau_Nm"] = out["gravity_Nm"] + out["inertia_Nm"] + out["thrust_Nm"]
     return ProgramTorques(**out)
-

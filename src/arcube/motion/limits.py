@@ -25,10 +25,15 @@ RESOLUTION_MM = 0.5
 
 _SPEED = dict(gt=0, le=1000.0, allow_inf_nan=False)  # mm/s: a metre per second is beyond any drilling robot
 
+
 class ProgramLimits(Settings):
     """Speeds and limits of model §17 (mm, s, deg)."""
 
-    SHORT: ClassVar[dict[str, str]] = {"standoff_mm": "standoff", "max_joint_speed_deg": "max_joint_speed", "max_joint_accel_deg": "max_joint_accel"}
+    SHORT: ClassVar[dict[str, str]] = {
+        "standoff_mm": "standoff",
+        "max_joint_speed_deg": "max_joint_speed",
+        "max_joint_accel_deg": "max_joint_accel",
+    }
 
     standoff_mm: float = Field(default=20.0, ge=0, le=1000.0, allow_inf_nan=False)
     """The tip waits this far outside the anatomy along its axis (model §17.1), mm (at most a metre: beyond the robot's reach)."""

@@ -27,10 +27,14 @@ from arcube.motion.dynamics import ProgramTorques
 __all__ = ["MOTOR_FIELDS", "motor_figures", "motor_table_rows", "motor_table_text"]
 
 MOTOR_FIELDS: dict[str, str] = {
-    "torque_peak_Nm": "peak torque, N m", "torque_rms_Nm": "RMS torque, N m", "speed_peak_deg_s": "peak speed, deg/s",
-    "power_peak_W": "peak power, W", "energy_J": "energy per plan, J", "torque_peak_gravity_Nm": "peak gravity torque, N m",
+    "torque_peak_Nm": "peak torque, N m",
+    "torque_rms_Nm": "RMS torque, N m",
+    "speed_peak_deg_s": "peak speed, deg/s",
+    "power_peak_W": "peak power, W",
+    "energy_J": "energy per plan, J",
+    "torque_peak_gravity_Nm": "peak gravity torque, N m",
     "torque_peak_loads_only_Nm": "peak torque without masses, N m",
-}  # fmt: skip
+}
 """The figures of each actuator in ``program.json``'s ``motors``, and what they are."""
 
 
@@ -38,7 +42,9 @@ def _trapezoid(y: np.ndarray, t: np.ndarray) -> float:
     return float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(t))) if len(t) > 1 else 0.0
 
 
-def motor_figures(t_s: ArrayLike, q_dot_rad_s: ArrayLike, torques: ProgramTorques, joints: tuple[str, ...]) -> dict[str, dict[str, float]]:
+def motor_figures(
+    t_s: ArrayLike, q_dot_rad_s: ArrayLike, torques: ProgramTorques, joints: tuple[str, ...]
+) -> dict[str, dict[str, float]]:
     """Per actuator (``joints``, q's order) the figures of model §18.3 (module docstring).
 
     ``t_s`` ``(n,)`` s, ``q_dot_rad_s`` ``(n, 5)`` rad/s, ``torques`` per row ``(n, 5)`` N m.
@@ -53,13 +59,14 @@ def motor_figures(t_s: ArrayLike, q_dot_rad_s: ArrayLike, torques: ProgramTorque
     for i, name in enumerate(joints):
         rms = np.sqrt(_trapezoid(size[:, i] ** 2, t) / span) if span > 0 else float(size[0, i])
         out[name] = {
-            "torque_peak_Nm": float(np.max(size[:, i])), "torque_rms_Nm": float(rms),
+            "torque_peak_Nm": float(np.max(size[:, i])),
+            "torque_rms_Nm": float(rms),
             "speed_peak_deg_s": float(np.degrees(np.max(np.abs(qd[:, i])))),
             "power_peak_W": float(np.max(size[:, i] * np.abs(qd[:, i]))),
             "energy_J": _trapezoid(np.maximum(power[:, i], 0.0), t),
             "torque_peak_gravity_Nm": float(np.max(np.abs(torques.gravity_Nm[:, i]))),
             "torque_peak_loads_only_Nm": float(np.max(np.abs(torques.thrust_Nm[:, i]) + lat[:, i])),
-        }  # fmt: skip
+        }
     return out
 
 

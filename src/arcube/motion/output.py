@@ -88,8 +88,10 @@ class Program:
         PNG) into the folder ``out`` (created), all or none; returns it. OSError names the file at fault."""
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
-        files = {folder / CSV_NAME: self.to_csv().encode("utf-8"),
-                 folder / JSON_NAME: (json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n").encode("utf-8")}  # fmt: skip
+        files = {
+            folder / CSV_NAME: self.to_csv().encode("utf-8"),
+            folder / JSON_NAME: (json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n").encode("utf-8"),
+        }
         files.update({folder / name: data for name, data in (extra or {}).items()})
         atomic_write_files(files)
         return folder
@@ -131,9 +133,15 @@ def prepare_folder(out: str | os.PathLike[str]) -> tuple[Path, bool, Path]:
             lock = acquire(folder)
         older = [name for name in PROGRAM_FILES if os.path.lexists(folder / name)]
         if older:
-            shown = [name if (folder / name).is_file() else f"{name} ({file_kind(os.lstat(folder / name).st_mode)})" for name in older]
-            raise InputError.of("out", f"{folder}: holds an older program ({', '.join(shown)}); give a new or empty folder, "
-                                       f"or delete {' and '.join(older)} first")  # fmt: skip
+            shown = [
+                name if (folder / name).is_file() else f"{name} ({file_kind(os.lstat(folder / name).st_mode)})"
+                for name in older
+            ]
+            raise InputError.of(
+                "out",
+                f"{folder}: holds an older program ({', '.join(shown)}); give a new or empty folder, "
+                f"or delete {' and '.join(older)} first",
+            )
     except BaseException as exc:
         remove_folder(folder, lock, created)
         if isinstance(exc, OSError):

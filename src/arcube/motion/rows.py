@@ -27,7 +27,12 @@ from arcube.motion.limits import ProgramLimits
 __all__ = ["check_piece", "check_rows", "check_total"]
 
 _DEFAULT_DT = ProgramLimits().dt
-_SPEED_OF = {"approach": "approach_speed", "drill": "feed", "retract": "retract_speed", "transit": "max_joint_speed_deg"}
+_SPEED_OF = {
+    "approach": "approach_speed",
+    "drill": "feed",
+    "retract": "retract_speed",
+    "transit": "max_joint_speed_deg",
+}
 _UNIT = {"approach_speed": "mm/s", "feed": "mm/s", "retract_speed": "mm/s", "max_joint_speed_deg": "deg/s"}
 
 
@@ -42,8 +47,11 @@ def _refuse(limits: ProgramLimits, seconds: float, what: str, kind: str) -> Inpu
         value, unit = getattr(limits, field), _UNIT[field]
         fix = "faster speeds" if kind != "transit" else "larger joint speed, acceleration or tip speed limits"
     param = f"ProgramLimits.{field}"
-    return InputError(f"{param} {value:g} {unit}: {what} takes {seconds:.3g} s, {rows:.3g} rows of {limits.dt:g} s; a program has at most "
-                      f"{MAX_PROGRAM_ROWS} rows: give {fix}", param=param)  # fmt: skip
+    return InputError(
+        f"{param} {value:g} {unit}: {what} takes {seconds:.3g} s, {rows:.3g} rows of {limits.dt:g} s; a program has at most "
+        f"{MAX_PROGRAM_ROWS} rows: give {fix}",
+        param=param,
+    )
 
 
 def check_rows(limits: ProgramLimits, ts: TrajectorySet) -> None:
@@ -59,7 +67,12 @@ def check_rows(limits: ProgramLimits, ts: TrajectorySet) -> None:
     seconds = sum(parts.values())
     if not math.isfinite(seconds) or seconds / limits.dt > MAX_PROGRAM_ROWS:
         kind = max(parts, key=lambda k: parts[k])
-        raise _refuse(limits, seconds, f"drilling {len(ts)} trajector{'y' if len(ts) == 1 else 'ies'} (approach, drilling and retract alone)", kind)
+        raise _refuse(
+            limits,
+            seconds,
+            f"drilling {len(ts)} trajector{'y' if len(ts) == 1 else 'ies'} (approach, drilling and retract alone)",
+            kind,
+        )
 
 
 def check_piece(limits: ProgramLimits, duration: float, kind: str, label: str = "") -> None:

@@ -40,12 +40,21 @@ def cruise_problem(piece: Piece, limits: ProgramLimits) -> str | None:
     worst = np.unravel_index(int(np.argmax(need)), need.shape)
     if need[worst] <= limits.qd_max:
         return None
-    return (f"{piece.speed:g} mm/s needs {JOINTS[worst[1]]} at {math.degrees(need[worst]):.4g} deg/s "
-            f"> max_joint_speed_deg {limits.max_joint_speed_deg:g}")  # fmt: skip
+    return (
+        f"{piece.speed:g} mm/s needs {JOINTS[worst[1]]} at {math.degrees(need[worst]):.4g} deg/s "
+        f"> max_joint_speed_deg {limits.max_joint_speed_deg:g}"
+    )
 
 
-def _ratio(E: NDArray[np.float64], q: NDArray[np.float64], qd: NDArray[np.float64], dt: float, limits: ProgramLimits,
-           speed: float, line: bool) -> tuple[float, float]:  # fmt: skip
+def _ratio(
+    E: NDArray[np.float64],
+    q: NDArray[np.float64],
+    qd: NDArray[np.float64],
+    dt: float,
+    limits: ProgramLimits,
+    speed: float,
+    line: bool,
+) -> tuple[float, float]:
     """(joint ratio, tip-speed ratio): the largest sampled value over its limit."""
     rate = max(np.max(np.abs(qd), initial=0.0), np.max(np.abs(np.diff(q, axis=0)) / dt, initial=0.0)) / limits.qd_max
     acc = np.max(np.abs(np.diff(qd, axis=0)) / dt, initial=0.0)
@@ -61,8 +70,15 @@ def sample_piece(piece: Piece, limits: ProgramLimits, line: bool) -> dict[str, N
     dt = limits.dt
     factor = 1.0
     for _ in range(_ATTEMPTS):
-        law = time_optimal(piece.fn, piece.grid, limits.qd_max, limits.qdd_max, piece.speed * (1.0 if line else factor),
-                           piece.gain, factor=factor)  # fmt: skip
+        law = time_optimal(
+            piece.fn,
+            piece.grid,
+            limits.qd_max,
+            limits.qdd_max,
+            piece.speed * (1.0 if line else factor),
+            piece.gain,
+            factor=factor,
+        )
         check_piece(limits, law.duration, "transit" if not line else piece.kind)  # before the rows are allocated
         n = max(int(math.ceil(law.duration / dt - 1e-9)), 1)
         t = np.arange(n + 1) * dt

@@ -89,8 +89,15 @@ def _unwrap(q: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def line_piece(kind: str, line: Line, s_from: float, s_to: float, speed: float, params: NDArray[np.float64],
-               mode: NDArray[np.float64]) -> Piece:  # fmt: skip
+def line_piece(
+    kind: str,
+    line: Line,
+    s_from: float,
+    s_to: float,
+    speed: float,
+    params: NDArray[np.float64],
+    mode: NDArray[np.float64],
+) -> Piece:
     """The piece of ``line`` from s_from to s_to (either way) at ``speed`` mm/s."""
     sign = 1.0 if s_to >= s_from else -1.0
     lo, hi = min(s_from, s_to), max(s_from, s_to)

@@ -82,7 +82,9 @@ class _Path:
         return np.array([0.0, self.s_end])
 
 
-def _ends_refined(grid: NDArray[np.float64], gain: ArrayLike | None) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+def _ends_refined(
+    grid: NDArray[np.float64], gain: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """The grid with points added at geometrically shrinking distances from both ends (1e-7 of the length
     and up): s_ddot is constant between grid points, so from rest the speed is reached no sooner than the
     first point; without these, a ramp from rest would span the whole first interval."""
@@ -95,8 +97,15 @@ def _ends_refined(grid: NDArray[np.float64], gain: ArrayLike | None) -> tuple[ND
     return out, g
 
 
-def time_optimal(fn: PathFn, grid: ArrayLike, qd_max: float, qdd_max: float, speed: float | None = None,
-                 gain: ArrayLike | None = None, factor: float = 1.0) -> TimeLaw:  # fmt: skip
+def time_optimal(
+    fn: PathFn,
+    grid: ArrayLike,
+    qd_max: float,
+    qdd_max: float,
+    speed: float | None = None,
+    gain: ArrayLike | None = None,
+    factor: float = 1.0,
+) -> TimeLaw:
     """The fastest rest-to-rest time law along ``fn`` on ``grid`` (0 = grid[0] < ... < grid[-1] = S).
 
     ``qd_max``, ``qdd_max`` rad/s, rad/s^2 for every actuator, both multiplied by ``factor``; ``speed``
@@ -126,7 +135,9 @@ def time_optimal(fn: PathFn, grid: ArrayLike, qd_max: float, qdd_max: float, spe
             return np.stack([-c, c], axis=-1)
 
         vel = constraint.JointVelocityConstraintVarying(vlim)
-    acc = constraint.JointAccelerationConstraint(np.full(5, amax), discretization_scheme=constraint.DiscretizationType.Interpolation)
+    acc = constraint.JointAccelerationConstraint(
+        np.full(5, amax), discretization_scheme=constraint.DiscretizationType.Interpolation
+    )
     instance = algo.TOPPRA([vel, acc], path, gridpoints=grid, solver_wrapper="seidel")
     sdd, sd, _ = instance.compute_parameterization(0.0, 0.0)
     if sd is None or np.any(~np.isfinite(sd)) or np.any(~np.isfinite(sdd)):

@@ -50,8 +50,9 @@ def straight(label: str, q_a: NDArray[np.float64], q_b: NDArray[np.float64], che
     return joint_piece(label, fn, knots[-1], checker, speed)
 
 
-def transit(label: str, q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker, speed: float,
-            planner: Planner) -> Transit:  # fmt: skip
+def transit(
+    label: str, q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker, speed: float, planner: Planner
+) -> Transit:
     """The transit from q_a to q_b (rad, at rest at both ends)."""
     import time
 
@@ -92,7 +93,9 @@ def _pose_coords(E: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.f
     return np.concatenate([E, ANGLE_SCALE_MM * np.stack([psi, theta], axis=-1)], axis=-1)
 
 
-def plan_path(q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker, planner: Planner) -> NDArray[np.float64] | None:
+def plan_path(
+    q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Checker, planner: Planner
+) -> NDArray[np.float64] | None:
     """OMPL RRTConnect + simplification from q_a to q_b with ``checker`` as the validity check: the
     waypoints ``(m, 5)`` (rad; first q_a, last q_b), or None if no path is found within the time budget.
 
@@ -139,8 +142,14 @@ def plan_path(q_a: NDArray[np.float64], q_b: NDArray[np.float64], checker: Check
             (ok1, a), (ok2, b) = state_q(s1), state_q(s2)
             if not (ok1 and ok2):
                 return False
-            _, checks = refine(lambda s: checker.joints(a + s[:, None] * (b - a)), 0.0, 1.0, checker.resolution, n0=3,
-                               stop_on_failure=True)  # fmt: skip
+            _, checks = refine(
+                lambda s: checker.joints(a + s[:, None] * (b - a)),
+                0.0,
+                1.0,
+                checker.resolution,
+                n0=3,
+                stop_on_failure=True,
+            )
             return bool(checks.ok.all())
 
     setup.setStateValidityChecker(lambda state: state_q(state)[0])

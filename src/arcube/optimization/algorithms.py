@@ -52,8 +52,12 @@ from pymoo.termination.robust import RobustTermination
 from arcube.errors import InputError
 from arcube.optimization.lean import LeanEvaluator, LeanFitnessSurvival, LeanGA, PassRepair, lean_comp_by_cv_and_fitness
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_ALGORITHM, check_algorithm: still importable from here)
-    ALGORITHMS, DEFAULT_ALGORITHM, DEFAULT_PERIOD, MULTI_OBJECTIVE_ALGORITHMS, check_algorithm,
-)  # fmt: skip
+    ALGORITHMS,
+    DEFAULT_ALGORITHM,
+    DEFAULT_PERIOD,
+    MULTI_OBJECTIVE_ALGORITHMS,
+    check_algorithm,
+)
 
 BUDGETED: frozenset[str] = frozenset({"mscmaes", "docked"})
 """Algorithms whose budget is population * generations design evaluations, not generations."""
@@ -80,9 +84,18 @@ class SeededSampling(Sampling):
         return X
 
 
-def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None = None, *,
-                   eliminate_duplicates: bool = False, lean: bool = True, n_obj: int = 2, generations: int = 300,
-                   structure: Any = None) -> Algorithm:  # fmt: skip
+def make_algorithm(
+    name: str,
+    population: int,
+    seed: int,
+    x0: np.ndarray | None = None,
+    *,
+    eliminate_duplicates: bool = False,
+    lean: bool = True,
+    n_obj: int = 2,
+    generations: int = 300,
+    structure: Any = None,
+) -> Algorithm:
     """A fresh pymoo algorithm; ``x0`` (an optimizer vector) seeds the initial population.
 
     ``generations`` matters to the budgeted algorithms (``mscmaes``, ``docked``: ``population * generations`` evaluations);
@@ -105,11 +118,15 @@ def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None 
         if lean:  # offspring are always new individuals: nothing to skip, no check needed
             common.update(evaluator=LeanEvaluator(skip_already_evaluated=False), repair=PassRepair())
         return (LeanGA if lean else GA)(
-            pop_size=population, sampling=SeededSampling(x0),
+            pop_size=population,
+            sampling=SeededSampling(x0),
             selection=TournamentSelection(func_comp=lean_comp_by_cv_and_fitness if lean else comp_by_cv_and_fitness),
-            crossover=SBX(prob=0.9, eta=15), mutation=PM(eta=20), survival=LeanFitnessSurvival() if lean else FitnessSurvival(),
-            eliminate_duplicates=bool(eliminate_duplicates), **common,
-        )  # fmt: skip
+            crossover=SBX(prob=0.9, eta=15),
+            mutation=PM(eta=20),
+            survival=LeanFitnessSurvival() if lean else FitnessSurvival(),
+            eliminate_duplicates=bool(eliminate_duplicates),
+            **common,
+        )
     if lean:
         common["evaluator"] = LeanEvaluator()
     if name == "de":
@@ -126,17 +143,30 @@ def make_algorithm(name: str, population: int, seed: int, x0: np.ndarray | None 
         from pymoo.util.ref_dirs import get_reference_directions  # noqa: PLC0415
 
         ref_dirs = get_reference_directions("energy", int(n_obj), int(population), seed=int(seed))
-        return NSGA3(pop_size=population, ref_dirs=ref_dirs, sampling=SeededSampling(x0), crossover=SBX(prob=0.9, eta=15),
-                     mutation=PM(eta=20), eliminate_duplicates=True, **common)  # fmt: skip
+        return NSGA3(
+            pop_size=population,
+            ref_dirs=ref_dirs,
+            sampling=SeededSampling(x0),
+            crossover=SBX(prob=0.9, eta=15),
+            mutation=PM(eta=20),
+            eliminate_duplicates=True,
+            **common,
+        )
     from pymoo.algorithms.moo.nsga2 import NSGA2  # noqa: PLC0415
 
     return NSGA2(
-        pop_size=population, sampling=SeededSampling(x0), crossover=SBX(prob=0.9, eta=15), mutation=PM(eta=20),
-        eliminate_duplicates=True, **common,
-    )  # fmt: skip
+        pop_size=population,
+        sampling=SeededSampling(x0),
+        crossover=SBX(prob=0.9, eta=15),
+        mutation=PM(eta=20),
+        eliminate_duplicates=True,
+        **common,
+    )
 
 
-def make_termination(name: str, generations: int, tolerance: float, period: int = DEFAULT_PERIOD, population: int = 1) -> TerminationCollection:
+def make_termination(
+    name: str, generations: int, tolerance: float, period: int = DEFAULT_PERIOD, population: int = 1
+) -> TerminationCollection:
     """At most ``generations`` generations; with ``tolerance > 0`` also pymoo's ftol criterion
     (the best feasible objective, or the feasible front for nsga2, moved by at most
     ``tolerance`` over ``period`` generations). ``tolerance == 0`` runs every generation.
@@ -146,10 +176,16 @@ def make_termination(name: str, generations: int, tolerance: float, period: int 
     if not (tolerance >= 0.0 and np.isfinite(tolerance)):
         raise InputError.of("RunSettings.tolerance", f"must be a finite number >= 0, got {tolerance}")
     if name in BUDGETED:
-        return TerminationCollection(MaximumFunctionCallTermination(population * generations + (DOCKED_SLACK if name == "docked" else 0)))
+        return TerminationCollection(
+            MaximumFunctionCallTermination(population * generations + (DOCKED_SLACK if name == "docked" else 0))
+        )
     criteria: list[Termination] = [MaximumGenerationTermination(generations)]
     if tolerance > 0.0:
-        ftol = MultiObjectiveSpaceTermination(tolerance, only_feas=True) if name in MULTI_OBJECTIVE else SingleObjectiveSpaceTermination(tolerance, only_feas=True)
+        ftol = (
+            MultiObjectiveSpaceTermination(tolerance, only_feas=True)
+            if name in MULTI_OBJECTIVE
+            else SingleObjectiveSpaceTermination(tolerance, only_feas=True)
+        )
         criteria.append(RobustTermination(ftol, period=period))
     return TerminationCollection(*criteria)
 

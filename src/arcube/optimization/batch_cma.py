@@ -69,7 +69,17 @@ def parameters(n: int, lam: int) -> dict[str, float | np.ndarray]:
     damps = 0.5 + 0.5 + 2.0 * max(0.0, d_in * ((mueff - 1.0) / (n + 1.0)) ** 0.5 - 1.0) + cs  # no mirrors
     cc = (4.0 + mueff / n) / (n + 4.0 + 2.0 * mueff / n)
     chin = math.sqrt(2.0) * math.exp(math.lgamma((n + 1) / 2.0) - math.lgamma(n / 2.0))
-    return {"weights": w, "mu": int(pos.sum()), "mueff": mueff, "cc": cc, "c1": c1, "cmu": cmu, "cs": cs, "damps": damps, "chin": chin}
+    return {
+        "weights": w,
+        "mu": int(pos.sum()),
+        "mueff": mueff,
+        "cc": cc,
+        "c1": c1,
+        "cmu": cmu,
+        "cs": cs,
+        "damps": damps,
+        "chin": chin,
+    }
 
 
 class BatchCMA:
@@ -88,7 +98,9 @@ class BatchCMA:
         self.R, self.n, self.lam, self.sigma0, self.tol = int(runs), int(n), int(lam), float(sigma0), float(tol)
         p = parameters(self.n, self.lam)
         self.w, self.mu, self.mueff = p["weights"], int(p["mu"]), float(p["mueff"])
-        self.cc, self.c1, self.cmu, self.cs, self.damps, self.chin = (float(p[k]) for k in ("cc", "c1", "cmu", "cs", "damps", "chin"))
+        self.cc, self.c1, self.cmu, self.cs, self.damps, self.chin = (
+            float(p[k]) for k in ("cc", "c1", "cmu", "cs", "damps", "chin")
+        )
         self.H = int(10 + 30 * self.n / self.lam)
         R, n = self.R, self.n
         self.mean, self.ps, self.pc = np.zeros((R, n)), np.zeros((R, n)), np.zeros((R, n))
@@ -141,7 +153,9 @@ class BatchCMA:
         wc = np.tile(self.cmu * self.w, (R, 1))
         neg = self.w < 0
         if neg.any():
-            norms = np.sqrt(np.sum(((Ys[:, neg] @ self.B) / self.D[:, None, :]) ** 2, axis=2))  # (R, #neg): |C^(-1/2) y|
+            norms = np.sqrt(
+                np.sum(((Ys[:, neg] @ self.B) / self.D[:, None, :]) ** 2, axis=2)
+            )  # (R, #neg): |C^(-1/2) y|
             wc[:, neg] *= n / (norms + 1e-9) ** 2
         decay = 1.0 - c1a - self.cmu * float(self.w.sum())
         self.C *= decay[:, None, None]
@@ -164,7 +178,9 @@ class BatchCMA:
         stop = (Fs[:, -1] - Fs[:, 0] < tol) & (hist_range < tol)  # tolfun
         stop |= (np.minimum(self.it, self.H) > 9) & (hist_range < tol)  # tolfunhist
         sd = self.sigma[:, None] * np.sqrt(np.diagonal(self.C, axis1=1, axis2=2))  # (R, n) standard deviations
-        stop |= np.all(sd < 0.1 * tol, axis=1) & np.all(self.sigma[:, None] * self.pc < 0.1 * tol, axis=1)  # tolx (as cma: pc signed)
+        stop |= np.all(sd < 0.1 * tol, axis=1) & np.all(
+            self.sigma[:, None] * self.pc < 0.1 * tol, axis=1
+        )  # tolx (as cma: pc signed)
         stop |= np.any(sd > self.sigma0 * TOLFACUPX, axis=1)  # tolfacupx
         stop |= np.any(self.mean == self.mean + 0.2 * sd, axis=1)  # noeffectcoord
         i = self.it % self.n

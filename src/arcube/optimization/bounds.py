@@ -12,18 +12,43 @@ from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, P
 
 __all__ = ["C_Z", "C_Z_BOUNDS", "DEFAULT_BOUNDS", "FREE_GROUPS", "parse_bounds", "parse_free", "resolve_bounds"]
 
-_B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (-400.0, 400.0), (20.0, 250.0), (30.0, 200.0), (50.0, 80.0), (-270.0, 270.0), (30.0, 90.0)
+_B_M, _B_F, _B_L, _B_R, _B_O, _B_A = (
+    (-400.0, 400.0),
+    (20.0, 250.0),
+    (30.0, 200.0),
+    (50.0, 80.0),
+    (-270.0, 270.0),
+    (30.0, 90.0),
+)
 DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
-    "m_x": _B_M, "m_y": _B_M, "m_z": _B_M,
-    "f_x": _B_F, "f_y": _B_F, "f_z": _B_F,
-    "p_x": _B_L, "p_y": _B_L, "p_z": _B_L,
-    "d_x": _B_L, "d_y": _B_L, "d_z": _B_L,
-    "c_x": _B_L, "c_y": _B_L, "t_x": _B_L, "t_y": _B_L,
+    "m_x": _B_M,
+    "m_y": _B_M,
+    "m_z": _B_M,
+    "f_x": _B_F,
+    "f_y": _B_F,
+    "f_z": _B_F,
+    "p_x": _B_L,
+    "p_y": _B_L,
+    "p_z": _B_L,
+    "d_x": _B_L,
+    "d_y": _B_L,
+    "d_z": _B_L,
+    "c_x": _B_L,
+    "c_y": _B_L,
+    "t_x": _B_L,
+    "t_y": _B_L,
     "r": _B_R,
-    "o_x": _B_O, "o_y": _B_O,
-    "alpha_x": _B_A, "alpha_y": _B_A, "beta_x": _B_A, "beta_y": _B_A,
-    "mount_rx": (-180.0, 180.0), "mount_ry": (-180.0, 180.0), "mount_rz": (-180.0, 180.0), "L": (0.0, 200.0),
-}  # fmt: skip
+    "o_x": _B_O,
+    "o_y": _B_O,
+    "alpha_x": _B_A,
+    "alpha_y": _B_A,
+    "beta_x": _B_A,
+    "beta_y": _B_A,
+    "mount_rx": (-180.0, 180.0),
+    "mount_ry": (-180.0, 180.0),
+    "mount_rz": (-180.0, 180.0),
+    "L": (0.0, 200.0),
+}
 """model §12.1 and 13.3 default bounds (mm, deg)."""
 C_Z = "c_z"
 """The z dyad's second link (model §19.1): a free parameter beside the 27 (``free=...,c_z``), in no design vector."""
@@ -31,6 +56,8 @@ C_Z_BOUNDS: tuple[float, float] = (20.0, 500.0)
 """Its default bounds, mm (model §19.1)."""
 FREE_GROUPS: dict[str, tuple[str, ...]] = {"all": PAPER_NAMES, "mount": MOUNT_NAMES}
 """Group words of ``free``: ``all`` (the paper's 23) and ``mount`` (the three mounting angles)."""
+
+
 def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
     """Parameter names and group words (``all``: the paper's 23, ``mount``: the three mounting
     angles), as a list or comma-separated text (``"all,mount,L"``) -> names in PARAM_NAMES order,
@@ -46,7 +73,10 @@ def parse_free(spec: str | Sequence[str]) -> tuple[str, ...]:
         elif item in INDEX or item == C_Z:
             names.add(item)
         else:
-            raise InputError.of("RunSettings.free", f"has an unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)}, {C_Z})")
+            raise InputError.of(
+                "RunSettings.free",
+                f"has an unknown parameter {item!r} (groups: all, mount; names: {', '.join(PARAM_NAMES)}, {C_Z})",
+            )
     return tuple(n for n in (*PARAM_NAMES, C_Z) if n in names)
 
 
@@ -64,7 +94,10 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
             name, sep, rng = item.partition("=")
             lo_s, sep2, hi_s = rng.partition(":")
             if not sep or not sep2:
-                raise InputError.of("RunSettings.bounds", f"item {item.strip()!r}: expected NAME=LO:HI with NAME one of the 27 parameters")
+                raise InputError.of(
+                    "RunSettings.bounds",
+                    f"item {item.strip()!r}: expected NAME=LO:HI with NAME one of the 27 parameters",
+                )
             try:
                 items.append((name.strip(), (float(lo_s), float(hi_s))))
             except ValueError:
@@ -90,6 +123,8 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
     return out
 
 
-def resolve_bounds(overrides: Mapping[str, tuple[float, float]] | None = None, c_z: bool = False) -> dict[str, tuple[float, float]]:
+def resolve_bounds(
+    overrides: Mapping[str, tuple[float, float]] | None = None, c_z: bool = False
+) -> dict[str, tuple[float, float]]:
     """DEFAULT_BOUNDS updated with ``overrides``; with ``c_z`` (a free c_z) also c_z's (:data:`C_Z_BOUNDS` unless overridden)."""
     return {**DEFAULT_BOUNDS, **({C_Z: C_Z_BOUNDS} if c_z else {}), **(overrides or {})}

@@ -107,14 +107,23 @@ def stl_roundtrip(anatomy: Any) -> Any:
 
     data = _stl_bytes(*anatomy.vertices_faces(), "arcube anatomy, mm, frame=patient")
     loaded = trimesh.load(io.BytesIO(data), file_type="stl", force="mesh", process=False)
-    mesh = trimesh.Trimesh(vertices=np.asarray(loaded.vertices, dtype=np.float64), faces=np.asarray(loaded.faces, dtype=np.int64), process=False)
+    mesh = trimesh.Trimesh(
+        vertices=np.asarray(loaded.vertices, dtype=np.float64),
+        faces=np.asarray(loaded.faces, dtype=np.int64),
+        process=False,
+    )
     mesh.merge_vertices()
     mesh = trimesh.Trimesh(vertices=np.asarray(mesh.vertices) @ np.eye(3), faces=np.asarray(mesh.faces), process=False)
     return Anatomy.from_meshes([mesh], anatomy.source).distance
 
 
-def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, ...] | None = None,
-                settings: RunSettings | None = None, skins: tuple[Any, ...] | None = None) -> FitnessModel:  # fmt: skip
+def build_model(
+    cfg: dict[str, Any],
+    run_dir: Any = None,
+    anatomies: tuple[Any, ...] | None = None,
+    settings: RunSettings | None = None,
+    skins: tuple[Any, ...] | None = None,
+) -> FitnessModel:
     """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
     from the run folder (None: not loaded, for validating a config), or given as ``anatomies``;
     ``settings``: the config's settings when already read (:meth:`RunSettings.from_config`)."""
@@ -125,29 +134,52 @@ def build_model(cfg: dict[str, Any], run_dir: Any = None, anatomies: tuple[Any, 
     bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
     base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
     # configs written before --docking existed shared one placement among patients
-    space = VariableSpace(base=base, free=rs.free, bounds=bounds, setups=rs.setups, mode=mode, patients=len(cfg["patients"]),
-                          docking=rs.docking, base_c_z=cfg["design"].get("c_z"))  # fmt: skip
+    space = VariableSpace(
+        base=base,
+        free=rs.free,
+        bounds=bounds,
+        setups=rs.setups,
+        mode=mode,
+        patients=len(cfg["patients"]),
+        docking=rs.docking,
+        base_c_z=cfg["design"].get("c_z"),
+    )
     tasks: list[TaskData] = []
     for i, pat in enumerate(cfg["patients"]):
         entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
-        groups = [("", np.ones(len(sides), bool))] if space.setups == 1 else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
+        groups = (
+            [("", np.ones(len(sides), bool))]
+            if space.setups == 1
+            else [(sd, np.array([x == sd for x in sides])) for sd in ("R", "L")]
+        )
         for setup, (side, keep) in enumerate(groups):
             task = build_task(entry[keep], target[keep], rs.points)
-            label = f"{pat['source']}{' ' + side if side else ''}" if "name" not in pat else f"{pat['name']} {pat['side']}"
+            label = (
+                f"{pat['source']}{' ' + side if side else ''}" if "name" not in pat else f"{pat['name']} {pat['side']}"
+            )
             tasks.append(TaskData(i, setup, label, task.E, task.e))
             if "standoff" in pat:  # model §17.1: the line from each standoff S_j to its entry A_j
                 approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], rs.points)
                 direction = np.repeat(task.e.reshape(-1, rs.points, 3)[:, 0], rs.points, axis=0)
                 tasks.append(TaskData(i, setup, f"{label} approach", approach.E, direction, role="approach"))
     return FitnessModel(
-        space=space, tasks=tuple(tasks), n_patients=len(cfg["patients"]),
-        options=rs.evaluation_options(), engine=s["engine_resolved"], aggregate=rs.aggregate, anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
+        space=space,
+        tasks=tuple(tasks),
+        n_patients=len(cfg["patients"]),
+        options=rs.evaluation_options(),
+        engine=s["engine_resolved"],
+        aggregate=rs.aggregate,
+        anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
         envelopes=run_envelopes(cfg, run_dir, skins),
-        margin_deg=rs.margin, by_docking=rs.dockings is not None,
-        docking_plans=tuple((np.array(p["entry"], float), np.array(p["target"], float)) for p in cfg["patients"]) if rs.dockings is not None else (),
-        objectives=rs.run_objectives, limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
+        margin_deg=rs.margin,
+        by_docking=rs.dockings is not None,
+        docking_plans=tuple((np.array(p["entry"], float), np.array(p["target"], float)) for p in cfg["patients"])
+        if rs.dockings is not None
+        else (),
+        objectives=rs.run_objectives,
+        limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
         accuracy=rs.accuracy_settings(),
-    )  # fmt: skip
+    )
 
 
 def check_engine(name: str) -> str:

@@ -77,7 +77,9 @@ class EvalLog:
         if self.replay:
             want, batch = self.replay.popleft()
             if want != d or len(batch["VIOL"]) != len(X):
-                raise InputError(f"checkpoint does not replay: batch {self.calls} asked for other designs than the logged run (other code or library versions, or a foreign checkpoint)")
+                raise InputError(
+                    f"checkpoint does not replay: batch {self.calls} asked for other designs than the logged run (other code or library versions, or a foreign checkpoint)"
+                )
             return batch
         t0 = time.perf_counter()
         batch = self.executor(X)
@@ -97,10 +99,11 @@ def write_checkpoint(run_dir: Path, state: dict[str, Any], log: EvalLog, generat
         entries = log.pending
         keys = (*LOG_KEYS, *(k for k in EXTRA_KEYS if all(k in b for _, b in entries)))
         np.savez(
-            buf, digest=np.array([np.frombuffer(d, np.uint8) for d, _ in entries]),
+            buf,
+            digest=np.array([np.frombuffer(d, np.uint8) for d, _ in entries]),
             sizes=np.array([len(b["VIOL"]) for _, b in entries], dtype=np.int64),
             **{k: np.concatenate([b[k] for _, b in entries]).astype(np.float64) for k in keys},
-        )  # fmt: skip
+        )
         name = f"evals_{generation:06d}.npz"
         atomic_write_bytes(ckdir / name, buf.getvalue())
         state["chunks"].append({"file": name, "sha256": _sha(buf.getvalue()), "calls": len(entries)})
@@ -120,10 +123,16 @@ def history_digest(data: bytes, rows: int) -> str:
 
 def _state_digest(state: dict[str, Any]) -> str:
     """SHA-256 of state.json's content but its own digest (an edited state is refused)."""
-    return _sha(json.dumps({k: v for k, v in state.items() if k != "state_sha256"}, sort_keys=True, allow_nan=False).encode("utf-8"))
+    return _sha(
+        json.dumps({k: v for k, v in state.items() if k != "state_sha256"}, sort_keys=True, allow_nan=False).encode(
+            "utf-8"
+        )
+    )
 
 
-def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
+def load_checkpoint(
+    run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes
+) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
     """(state, replay entries); (None, []) when the run was killed before its first checkpoint."""
     path = run_dir / "checkpoint" / "state.json"
     if not path.exists():
@@ -132,20 +141,30 @@ def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple
         state = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"{path}: corrupt checkpoint ({exc})") from None
-    if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT or state.get("format_version") != FORMAT_VERSION:
+    if (
+        not isinstance(state, dict)
+        or state.get("format") != CHECKPOINT_FORMAT
+        or state.get("format_version") != FORMAT_VERSION
+    ):
         raise InputError(f"{path}: not an arcube optimize checkpoint")
     if state.get("run_id") != cfg["run_id"] or state.get("config_sha256") != _sha(cfg_raw):
-        raise InputError(f"{path}: checkpoint of another run or config (run_id/config.toml do not match); refusing to resume")
+        raise InputError(
+            f"{path}: checkpoint of another run or config (run_id/config.toml do not match); refusing to resume"
+        )
     # checkpoints written before these digests existed have neither: nothing to check then
     if "state_sha256" in state and state["state_sha256"] != _state_digest(state):
-        raise InputError(f"{path}: edited or corrupt checkpoint state (it does not match its SHA-256); refusing to resume")
+        raise InputError(
+            f"{path}: edited or corrupt checkpoint state (it does not match its SHA-256); refusing to resume"
+        )
     if "history_sha256" in state:
         try:
             data = (run_dir / "history.csv").read_bytes()
         except OSError as exc:
             raise InputError(f"{run_dir / 'history.csv'}: cannot read ({exc.strerror or exc})") from None
         if history_digest(data, int(state["generation"])) != state["history_sha256"]:
-            raise InputError(f"{run_dir / 'history.csv'}: edited or corrupt (its first {state['generation']} rows do not match the checkpoint); refusing to resume")
+            raise InputError(
+                f"{run_dir / 'history.csv'}: edited or corrupt (its first {state['generation']} rows do not match the checkpoint); refusing to resume"
+            )
     entries: list[tuple[bytes, Batch]] = []
     n_obj = len(RunSettings.from_table(cfg["settings"]).run_objectives)
     try:
@@ -160,9 +179,15 @@ def load_checkpoint(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes) -> tuple
                 keys = (*LOG_KEYS, *(k for k in EXTRA_KEYS if k in z.files))
                 arr = {k: z[k] for k in ("digest", "sizes", *keys)}
             sizes, n = arr["sizes"].astype(np.int64), int(arr["sizes"].sum())
-            if arr["digest"].shape != (len(sizes), 32) or arr["F"].shape != (n, n_obj) or arr["VIOL"].shape != (n,) or arr["ETA"].shape != (n,) or len(sizes) != ch["calls"]:
+            if (
+                arr["digest"].shape != (len(sizes), 32)
+                or arr["F"].shape != (n, n_obj)
+                or arr["VIOL"].shape != (n,)
+                or arr["ETA"].shape != (n,)
+                or len(sizes) != ch["calls"]
+            ):
                 raise ValueError(f"{f.name} has inconsistent shapes")
-            if any(arr[k].ndim != 2 or len(arr[k]) != n for k in keys[len(LOG_KEYS):]):
+            if any(arr[k].ndim != 2 or len(arr[k]) != n for k in keys[len(LOG_KEYS) :]):
                 raise ValueError(f"{f.name} has inconsistent shapes")
             start = np.concatenate([[0], np.cumsum(sizes)])
             for i in range(len(sizes)):

@@ -44,7 +44,13 @@ class PatientPlan:
     table_z: float | None = None
 
 
-OWN = {"anatomy": "anatomy", "anatomy_frame": "anatomy_frame", "segments": "segments", "envelope": "envelope_spec", "table_z": "table_z"}
+OWN = {
+    "anatomy": "anatomy",
+    "anatomy_frame": "anatomy_frame",
+    "segments": "segments",
+    "envelope": "envelope_spec",
+    "table_z": "table_z",
+}
 """The settings a :class:`PatientPlan` may set for its patient alone -> the key of its config entries that records them
 (``envelope`` is the entry's placed envelope, its spec ``envelope_spec``)."""
 
@@ -57,7 +63,9 @@ def own_settings(entry: dict[str, Any]) -> dict[str, Any]:
 def patient_settings(s: RunSettings, own: dict[str, Any]) -> RunSettings:
     """The run's settings with one patient's own (:data:`OWN`, by setting name) on top."""
     changes = {k: own[k] for k in OWN if own.get(k) is not None}
-    return s.model_copy(update={k: (tuple(v) if isinstance(v, list) else v) for k, v in changes.items()}) if changes else s
+    return (
+        s.model_copy(update={k: (tuple(v) if isinstance(v, list) else v) for k, v in changes.items()}) if changes else s
+    )
 
 
 def docking_groups(ts: TrajectorySet, dockings: str | None) -> list[tuple[str, TrajectorySet]]:
@@ -87,19 +95,29 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
         if s.setups == 2:
             for sd in ("R", "L"):
                 if sd not in ts.sides:
-                    raise InputError.of("RunSettings.setups", f"2 needs R and L trajectories; {spec} has no side {sd} (after the selection)")
-        anatomy = resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
+                    raise InputError.of(
+                        "RunSettings.setups",
+                        f"2 needs R and L trajectories; {spec} has no side {sd} (after the selection)",
+                    )
+        anatomy = (
+            resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
+        )
         envelope = None
         if ps.envelope != ("none",):  # model §19.5: placed once on the whole plan (both sides), kept in config.toml
-            envelope = json.dumps(resolve_envelope(list(ps.envelope), full, anatomy, ps.table_z, ps.anatomy_frame).to_record())
+            envelope = json.dumps(
+                resolve_envelope(list(ps.envelope), full, anatomy, ps.table_z, ps.anatomy_frame).to_record()
+            )
         name = pat.name if pat is not None else (f"patient_{index + 1}" if len(specs) > 1 else "patient")
         names.append(name)
         for side, group in docking_groups(ts, s.dockings):
             patient = {
-                "source": ts.source if isinstance(spec, TrajectorySet) else str(spec), "ids": list(group.ids), "levels": list(group.levels),
-                "sides": list(group.sides), "entry": [[float(v) for v in row] for row in group.entry],
+                "source": ts.source if isinstance(spec, TrajectorySet) else str(spec),
+                "ids": list(group.ids),
+                "levels": list(group.levels),
+                "sides": list(group.sides),
+                "entry": [[float(v) for v in row] for row in group.entry],
                 "target": [[float(v) for v in row] for row in group.target],
-            }  # fmt: skip
+            }
             if s.dockings is not None or pat is not None:  # model §19: whose docking this is (written only then)
                 patient.update(name=name, side=side or "both", plan_index=index)
             patient.update({OWN[k]: (list(v) if isinstance(v, tuple) else v) for k, v in own.items()})
@@ -121,8 +139,14 @@ def run_settings(settings: RunSettings | None = None, **fields: Any) -> RunSetti
     return validated(RunSettings, {**base, **fields}) if fields or settings is None else settings
 
 
-def build_config(trajectories: list[Any], settings: RunSettings | None = None, *, workers: int = 1, dask: str | None = None,
-                 **fields: Any) -> dict[str, Any]:  # fmt: skip
+def build_config(
+    trajectories: list[Any],
+    settings: RunSettings | None = None,
+    *,
+    workers: int = 1,
+    dask: str | None = None,
+    **fields: Any,
+) -> dict[str, Any]:
     """The run's config for these plans (each a TrajectorySet or what ``load_trajectories`` reads).
 
     ``workers`` and ``dask`` say where the evaluations run (recorded, not part of the settings).
@@ -145,8 +169,11 @@ def build_config(trajectories: list[Any], settings: RunSettings | None = None, *
     design = Design.load(s.design_from)
     patients = _load_patients(trajectories, s)  # reads every anatomy: a bad file stops the run before its folder exists
     plans = [t.plan if isinstance(t, PatientPlan) else t for t in trajectories]
-    table = {**s.to_table(), "engine_resolved": engine_resolved,
-             "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in plans]}  # fmt: skip
+    table = {
+        **s.to_table(),
+        "engine_resolved": engine_resolved,
+        "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in plans],
+    }
     cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
     if design.c_z is not None:  # the start design's own z dyad (model §19.1): fixed parameters keep it
         cfg["design"]["c_z"] = design.c_z
@@ -164,7 +191,15 @@ def _rerun_command(s: RunSettings, trajectories: list[str]) -> str:
     """The command line that reruns this run: every setting of ``s`` written out with its flag
     (:meth:`arcube.options.Settings.flag`, the rule the CLI's options are generated with), so that the
     line holds even when a default changes."""
-    parts = ["arcube optimize", RunSettings.flag("trajectories"), *trajectories, RunSettings.flag("out"), "DIR", RunSettings.flag("seed"), str(s.seed)]
+    parts = [
+        "arcube optimize",
+        RunSettings.flag("trajectories"),
+        *trajectories,
+        RunSettings.flag("out"),
+        "DIR",
+        RunSettings.flag("seed"),
+        str(s.seed),
+    ]
     for name in RunSettings.model_fields:
         value = getattr(s, name)
         if name in ("seed", "period", "options") or value is None or value == () or value == {} or value is False:

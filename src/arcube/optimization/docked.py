@@ -1,5 +1,7 @@
 """One robot at several dockings, solved with the problem's structure (``--algorithm docked``, model §19.3).
 
+Long module: the three phases below are one ask-tell algorithm, :class:`DockedCMA`, and the motions it carries.
+
 Given the robot's parameters, the dockings are independent problems of six variables each (the placement m and
 the mounting angles). The algorithm uses that, over one budget of ``population x generations`` rows, in three phases:
 
@@ -40,9 +42,30 @@ from arcube.errors import InputError
 from arcube.model.frames import rotation_matrix
 from arcube.optimization.batch_cma import BatchCMA
 from arcube.optimization.lean import LeanEvaluator, column, new_population
-from arcube.optimization.multistart import AskTell, POLISH_RUNS, POLISH_SIGMA, POLISH_TOL, RUNS, SIGMA, TOL, default_popsize, into_box, make_multistart
+from arcube.optimization.multistart import (
+    AskTell,
+    POLISH_RUNS,
+    POLISH_SIGMA,
+    POLISH_TOL,
+    RUNS,
+    SIGMA,
+    TOL,
+    default_popsize,
+    into_box,
+    make_multistart,
+)
 
-__all__ = ["A_SHARE", "B_SHARE", "RESCUE_AT", "DockedCMA", "DockingStructure", "make_docked", "peer_starts", "row_work", "task_motions"]
+__all__ = [
+    "A_SHARE",
+    "B_SHARE",
+    "RESCUE_AT",
+    "DockedCMA",
+    "DockingStructure",
+    "make_docked",
+    "peer_starts",
+    "row_work",
+    "task_motions",
+]
 
 A_SHARE = 0.85
 """Share of the rows for phase A (the robot at its first docking)."""
@@ -83,9 +106,17 @@ class DockingStructure:
     def of(cls, model: Any) -> DockingStructure:
         """The structure of a :class:`~arcube.optimization.problem.FitnessModel` over dockings (InputError otherwise)."""
         columns = model.space.placement_columns()
-        if not model.by_docking or not model.docking_plans or len(columns) != model.n_patients or any(len(c) != 6 for c in columns):
-            raise InputError.of("RunSettings.algorithm", "docked needs dockings (per-side or per-patient) with every placement and "
-                                                         "mounting angle free (free=all,mount,...)")  # fmt: skip
+        if (
+            not model.by_docking
+            or not model.docking_plans
+            or len(columns) != model.n_patients
+            or any(len(c) != 6 for c in columns)
+        ):
+            raise InputError.of(
+                "RunSettings.algorithm",
+                "docked needs dockings (per-side or per-patient) with every placement and "
+                "mounting angle free (free=all,mount,...)",
+            )
         placement = tuple(np.array(c, dtype=np.int64) for c in columns)
         taken = np.concatenate(placement)
         robot = np.array([i for i in range(model.space.n_var) if i not in set(taken.tolist())], dtype=np.int64)
@@ -101,7 +132,9 @@ def _kabsch(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return Q, cb - Q @ ca
 
 
-def task_motions(source: tuple[np.ndarray, np.ndarray], target: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+def task_motions(
+    source: tuple[np.ndarray, np.ndarray], target: tuple[np.ndarray, np.ndarray]
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Rigid motions (Q (3, 3), t (3,)) that carry one docking's trajectories (entry, target ``(T, 3)``) near another's:
     Kabsch on the entries and targets paired by level (sorted along y, head first), paired in reverse order, and the
     translation of the centroids (Q = I). With different numbers of trajectories the first ones of each (by level) pair up."""
@@ -135,11 +168,18 @@ def carried(placement: np.ndarray, motion: tuple[np.ndarray, np.ndarray]) -> np.
     return np.concatenate([Q @ placement[:3] + t, _angles(Q @ R)])
 
 
-def peer_starts(k: int, best: Sequence[np.ndarray], feasible: Sequence[bool], plans: Sequence[tuple[np.ndarray, np.ndarray]]) -> list[np.ndarray]:
+def peer_starts(
+    k: int, best: Sequence[np.ndarray], feasible: Sequence[bool], plans: Sequence[tuple[np.ndarray, np.ndarray]]
+) -> list[np.ndarray]:
     """Starts for docking ``k`` from its peers: every other feasible docking j's best placement ``best[j]`` (6,) carried by
     each of :func:`task_motions` from j's trajectories to k's (``plans``: per docking entry, target ``(T, 3)``), in the
     order of j, then of the motions. Empty when no other docking is feasible."""
-    return [carried(best[j], m) for j in range(len(best)) if j != k and feasible[j] for m in task_motions(plans[j], plans[k])]
+    return [
+        carried(best[j], m)
+        for j in range(len(best))
+        if j != k and feasible[j]
+        for m in task_motions(plans[j], plans[k])
+    ]
 
 
 class DockedCMA(AskTell):
@@ -182,7 +222,11 @@ class DockedCMA(AskTell):
 
     # ------------------------------------------------------------------ phases
     def _start_a(self, r: int, first: bool) -> None:
-        start = self._norm(self.x0[self.active_a], self.active_a) if first and self.x0 is not None else self.random_state.random(len(self.active_a))
+        start = (
+            self._norm(self.x0[self.active_a], self.active_a)
+            if first and self.x0 is not None
+            else self.random_state.random(len(self.active_a))
+        )
         self.es.restart(r, start, self._rng())
 
     def _enter_a(self) -> None:
@@ -307,7 +351,11 @@ class DockedCMA(AskTell):
         j = int(np.argmin(F))
         if self.best is None or F[j] < self.best.F[0]:
             self.best = infills[j]
-            self.best_u = self.U[j].copy() if self.phase == "C" else self._norm(np.asarray(infills[j].X, float), np.arange(self.n))
+            self.best_u = (
+                self.U[j].copy()
+                if self.phase == "C"
+                else self._norm(np.asarray(infills[j].X, float), np.arange(self.n))
+            )
 
     def _tell_c0(self, infills: Any) -> None:
         self._tell_whole(infills)
@@ -335,19 +383,34 @@ class DockedCMA(AskTell):
     def _ask(self) -> Any:
         if self.phase == "A" and self.evaluator.n_eval + self.runs_a * self.lam_a > self.budget_a:
             self._enter_b0()  # a budget too small for phase A
-        X = {"A": self._ask_a, "B0": self._ask_b0, "B1": self._ask_b0, "B": self._ask_b, "C0": lambda: self.assembled[None, :].copy(),
-             "C": self._ask_c}[self.phase]()  # fmt: skip
+        X = {
+            "A": self._ask_a,
+            "B0": self._ask_b0,
+            "B1": self._ask_b0,
+            "B": self._ask_b,
+            "C0": lambda: self.assembled[None, :].copy(),
+            "C": self._ask_c,
+        }[self.phase]()
         return new_population(X)
 
     def _tell(self, infills: Any) -> None:
         self.pop = infills
-        {"A": self._tell_a, "B0": self._tell_b0, "B1": self._tell_b1, "B": self._tell_b, "C0": self._tell_c0, "C": self._tell_c}[self.phase](infills)
+        {
+            "A": self._tell_a,
+            "B0": self._tell_b0,
+            "B1": self._tell_b1,
+            "B": self._tell_b,
+            "C0": self._tell_c0,
+            "C": self._tell_c,
+        }[self.phase](infills)
         if self.phase == "done":
             self.termination.force_termination = True
 
     def _initialize_infill(self) -> Any:
         self._enter_a()
-        if self.best_a is None and self.runs_a * self.lam_a > self.budget_a:  # too small for phase A: one batch all the same
+        if (
+            self.best_a is None and self.runs_a * self.lam_a > self.budget_a
+        ):  # too small for phase A: one batch all the same
             self.budget_a = self.runs_a * self.lam_a
             self.budget_b = max(self.budget_b, self.budget_a)
         return new_population(self._ask_a())
@@ -357,4 +420,6 @@ def make_docked(budget: int, seed: int, structure: DockingStructure | None, x0: 
     """The docked algorithm for ``budget`` rows; with one docking (or no structure) ``mscmaes`` itself."""
     if structure is None or len(structure.placement) < 2:
         return make_multistart(budget, seed, x0)
-    return DockedCMA(budget, structure, x0=x0, seed=int(seed), evaluator=LeanEvaluator(), save_history=False, verbose=False)
+    return DockedCMA(
+        budget, structure, x0=x0, seed=int(seed), evaluator=LeanEvaluator(), save_history=False, verbose=False
+    )

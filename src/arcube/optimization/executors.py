@@ -41,7 +41,9 @@ def connect_dask(address: str) -> Any:
         try:
             socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
         except OSError as exc:
-            raise InputError.of("dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})") from None
+            raise InputError.of(
+                "dask", f"{address}: cannot reach the scheduler ({type(exc).__name__}: {exc})"
+            ) from None
     try:
         return Client(address, timeout=20, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
@@ -108,5 +110,3 @@ def make_executor(model: FitnessModel, workers: int = 1, dask: str | None = None
     if dask:
         return DaskExecutor(model, dask)
     return ProcessExecutor(model, workers) if workers > 1 else Executor(model)
-
-

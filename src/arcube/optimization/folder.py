@@ -25,9 +25,20 @@ from arcube.optimization.build import build_model, check_engine
 from arcube.optimization.checkpoint import FORMAT_VERSION
 
 __all__ = [
-    "RUN_FORMAT", "STUDY_FORMAT", "STUDY_VERSION", "check_new_folder", "is_finished", "is_study", "placement_file", "read_config",
-    "read_study", "remove_folder", "seed_dir", "to_toml", "versions",
-]  # fmt: skip
+    "RUN_FORMAT",
+    "STUDY_FORMAT",
+    "STUDY_VERSION",
+    "check_new_folder",
+    "is_finished",
+    "is_study",
+    "placement_file",
+    "read_config",
+    "read_study",
+    "remove_folder",
+    "seed_dir",
+    "to_toml",
+    "versions",
+]
 
 
 RUN_FORMAT = "arcube-optimize-run"
@@ -66,7 +77,11 @@ def to_toml(cfg: dict[str, Any]) -> str:
         if not isinstance(val, (dict, list)) or (isinstance(val, list) and not (val and isinstance(val[0], dict))):
             lines.append(f"{key} = {_toml_value(val)}")
     for key, val in cfg.items():
-        tables = [val] if isinstance(val, dict) else (val if isinstance(val, list) and val and isinstance(val[0], dict) else [])
+        tables = (
+            [val]
+            if isinstance(val, dict)
+            else (val if isinstance(val, list) and val and isinstance(val[0], dict) else [])
+        )
         for tab in tables:
             lines += ["", f"[[{key}]]" if isinstance(val, list) else f"[{key}]"]
             lines += [f"{k} = {_toml_value(x)}" for k, x in tab.items() if x is not None]
@@ -85,14 +100,16 @@ def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"{path}: unreadable config ({exc})") from None
     if cfg.get("format") != RUN_FORMAT or cfg.get("format_version") != FORMAT_VERSION:
-        raise InputError(f"{path}: not an arcube optimize config (format {cfg.get('format')!r} version {cfg.get('format_version')!r})")
+        raise InputError(
+            f"{path}: not an arcube optimize config (format {cfg.get('format')!r} version {cfg.get('format_version')!r})"
+        )
     try:
         check_engine(cfg["settings"]["engine_resolved"])
         build_model(cfg)
     except InputError as exc:  # a setting the file holds: name the file and its [settings] key, not RunSettings
         text = str(exc)
         if text.startswith("RunSettings."):
-            text = "settings." + text[len("RunSettings."):]
+            text = "settings." + text[len("RunSettings.") :]
         raise InputError(f"{path}: {text}") from None
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
@@ -161,7 +178,9 @@ def read_study(study_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"{path}: unreadable study ({exc})") from None
     if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
-        raise InputError(f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})")
+        raise InputError(
+            f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})"
+        )
     seeds = study.get("seeds")
     if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
         raise InputError(f"{path}: no seeds list")

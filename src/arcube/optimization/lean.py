@@ -64,7 +64,9 @@ class LeanEvaluator(Evaluator):
         X = np.array([ind.X for ind in pop])
         out = problem.evaluate(X, return_values_of=evaluate_values_of, return_as_dictionary=True, **kwargs)
         for key, val in out.items():
-            if val is None or (val.ndim > 1 and val.shape[1] == 0 and isinstance(getattr(Individual, key, None), property)):
+            if val is None or (
+                val.ndim > 1 and val.shape[1] == 0 and isinstance(getattr(Individual, key, None), property)
+            ):
                 continue  # nothing to write (an empty G/H row equals the individual's default)
             rows = [r.copy() for r in val] if val.ndim > 1 else list(val)  # as Population.set: own copies of rows
             if hasattr(Individual, key):
@@ -130,12 +132,18 @@ class LeanMating(Mating):
     is made once. Only for operators without ``vtype`` or a built-in ``repair`` (pymoo's defaults).
     """
 
-    def _do(self, problem: Any, pop: Any, n_offsprings: int, parents: Any = None, random_state: Any = None, **kwargs: Any) -> Any:
+    def _do(
+        self, problem: Any, pop: Any, n_offsprings: int, parents: Any = None, random_state: Any = None, **kwargs: Any
+    ) -> Any:
         cx, mu = self.crossover, self.mutation
-        assert all(op.vtype is None and op.repair is None for op in (self.selection, cx, mu)), "lean mating needs plain operators"
+        assert all(op.vtype is None and op.repair is None for op in (self.selection, cx, mu)), (
+            "lean mating needs plain operators"
+        )
         n_matings = math.ceil(n_offsprings / cx.n_offsprings)
         if parents is None:
-            parents = self.selection(problem, pop, n_matings, n_parents=cx.n_parents, to_pop=False, random_state=random_state, **kwargs)
+            parents = self.selection(
+                problem, pop, n_matings, n_parents=cx.n_parents, to_pop=False, random_state=random_state, **kwargs
+            )
         X = np.swapaxes(column(pop, "X")[np.asarray(parents)], 0, 1)  # (n_parents, n_matings, n_var), as Crossover.do
         Xp = self._cross(problem, X, random_state, **kwargs)
         Xm = mu._do(problem, Xp, random_state=random_state, **kwargs)  # Mutation.do: _do, then the per-individual draw
@@ -173,8 +181,14 @@ class LeanGA(GA):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         m = self.mating
-        self.mating = LeanMating(m.selection, m.crossover, m.mutation, repair=m.repair, eliminate_duplicates=m.eliminate_duplicates,
-                                 n_max_iterations=m.n_max_iterations)  # fmt: skip
+        self.mating = LeanMating(
+            m.selection,
+            m.crossover,
+            m.mutation,
+            repair=m.repair,
+            eliminate_duplicates=m.eliminate_duplicates,
+            n_max_iterations=m.n_max_iterations,
+        )
 
     def infill(self) -> Any:
         """pymoo's ``Algorithm.infill`` with the ``n_gen`` / ``n_iter`` tags set in one pass."""

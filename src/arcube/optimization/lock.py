@@ -53,8 +53,10 @@ def acquire(run_dir: Path) -> Path:
             if other.get("host") == me["host"] and not _alive(other.get("pid")):
                 path.unlink(missing_ok=True)  # stale: the process that held it is gone (killed)
                 continue
-            raise InputError(f"{run_dir}: in use by process {other.get('pid', '?')} on {other.get('host', '?')} "
-                             f"(delete {path} if that process is gone)") from None  # fmt: skip
+            raise InputError(
+                f"{run_dir}: in use by process {other.get('pid', '?')} on {other.get('host', '?')} "
+                f"(delete {path} if that process is gone)"
+            ) from None
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             json.dump(me, fh)
         return path

@@ -27,9 +27,27 @@ from arcube.optimization.objectives import MAXIMIZED
 from arcube.optimization.problem import ArcubeProblem, FitnessModel
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["HISTORY_COLUMNS", "Loop", "Observer", "Progress", "describe", "generation_stats", "observed", "pick_best", "run_algorithm"]
+__all__ = [
+    "HISTORY_COLUMNS",
+    "Loop",
+    "Observer",
+    "Progress",
+    "describe",
+    "generation_stats",
+    "observed",
+    "pick_best",
+    "run_algorithm",
+]
 
-HISTORY_COLUMNS = ("generation", "evaluations", "best_eta_G", "mean_eta_G", "feasible_fraction", "best_violation", "seconds")
+HISTORY_COLUMNS = (
+    "generation",
+    "evaluations",
+    "best_eta_G",
+    "mean_eta_G",
+    "feasible_fraction",
+    "best_violation",
+    "seconds",
+)
 GC_GEN0_THRESHOLD = 100_000
 """During a run the cyclic garbage collector's first threshold is raised to this many allocations
 (Python's default is 700): pymoo makes a few thousand small objects per generation (individuals,
@@ -63,9 +81,15 @@ def generation_stats(algorithm: Any) -> dict[str, float]:
     }
 
 
-def run_algorithm(model: FitnessModel, s: RunSettings, batch: Callable[[np.ndarray], dict[str, np.ndarray]], *,
-                  on_generation: Callable[[Loop, dict[str, Any]], None] | None = None, done_generation: int = 0,
-                  clock: Callable[[], float] = time.perf_counter) -> Loop:  # fmt: skip
+def run_algorithm(
+    model: FitnessModel,
+    s: RunSettings,
+    batch: Callable[[np.ndarray], dict[str, np.ndarray]],
+    *,
+    on_generation: Callable[[Loop, dict[str, Any]], None] | None = None,
+    done_generation: int = 0,
+    clock: Callable[[], float] = time.perf_counter,
+) -> Loop:
     """Run the algorithm of ``s`` on ``model`` to its termination.
 
     ``on_generation(loop, row)`` is called after every generation past ``done_generation`` (the
@@ -78,8 +102,16 @@ def run_algorithm(model: FitnessModel, s: RunSettings, batch: Callable[[np.ndarr
         from arcube.optimization.docked import DockingStructure
 
         structure = DockingStructure.of(model)
-    algo = make_algorithm(s.algorithm, s.population, s.seed, model.space.encode(model.space.base), n_obj=model.n_obj,
-                          eliminate_duplicates=s.eliminate_duplicates, generations=s.generations, structure=structure)  # fmt: skip
+    algo = make_algorithm(
+        s.algorithm,
+        s.population,
+        s.seed,
+        model.space.encode(model.space.base),
+        n_obj=model.n_obj,
+        eliminate_duplicates=s.eliminate_duplicates,
+        generations=s.generations,
+        structure=structure,
+    )
     problem = ArcubeProblem(model.space, model.n_obj, batch, penalty_only=s.algorithm in PENALTY_ONLY)
     termination = make_termination(s.algorithm, s.generations, s.tolerance, s.period, s.population)
     algo.setup(problem, termination=termination, seed=s.seed, verbose=False)
@@ -124,8 +156,15 @@ class Progress(Observer):
         self.callback({**row, **timing})
 
 
-def observed(model: FitnessModel, s: RunSettings, log: Any, observers: list[Observer], *, done_generation: int = 0,
-            prior_s: float = 0.0) -> Loop:  # fmt: skip
+def observed(
+    model: FitnessModel,
+    s: RunSettings,
+    log: Any,
+    observers: list[Observer],
+    *,
+    done_generation: int = 0,
+    prior_s: float = 0.0,
+) -> Loop:
     """Run ``model`` under ``s`` to its termination, answering batches through ``log`` (an
     :class:`~arcube.optimization.checkpoint.EvalLog`: it times the evaluations and replays a
     checkpoint), and tell every observer about every generation past ``done_generation``.
@@ -136,8 +175,13 @@ def observed(model: FitnessModel, s: RunSettings, log: Any, observers: list[Obse
     def generation(loop: Loop, row: dict[str, Any]) -> None:
         now = time.perf_counter()
         row = {**row, "seconds": prior_s + now - t0}
-        timing = {"total": s.generations, "total_evaluations": budget, "eval_s": log.eval_s,
-                  "optimizer_s": loop.algorithm_s - log.call_s, "session_s": now - t0}  # fmt: skip
+        timing = {
+            "total": s.generations,
+            "total_evaluations": budget,
+            "eval_s": log.eval_s,
+            "optimizer_s": loop.algorithm_s - log.call_s,
+            "session_s": now - t0,
+        }
         for observer in observers:
             observer.generation(loop, row, timing)
 
@@ -164,12 +208,24 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
         rep = model.report(X[i])
         big = max(rep["tasks"], key=lambda t: t["bbox_volume_L"])
         ext = [hi - lo for lo, hi in zip(big["bbox_min_mm"], big["bbox_max_mm"])]
-        row = {f"objective_{name}": float(F[i, j]) * (-1.0 if name in MAXIMIZED else 1.0) for j, name in enumerate(model.objectives)}
-        row |= {"eta_G": rep["eta_G"], "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
-               "bbox_dx_mm": ext[0], "bbox_dy_mm": ext[1], "bbox_dz_mm": ext[2],
-               "dexterity_mean_pct": rep["dexterity_pct"]["mean"], "feasible": rep["feasible"], "mode": rep["mode"],
-               "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-               **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in _EXTRA}}  # fmt: skip
+        row = {
+            f"objective_{name}": float(F[i, j]) * (-1.0 if name in MAXIMIZED else 1.0)
+            for j, name in enumerate(model.objectives)
+        }
+        row |= {
+            "eta_G": rep["eta_G"],
+            "links_sum_mm": rep["links_sum_mm"],
+            "bbox_volume_L": rep["bbox_volume_L"],
+            "bbox_dx_mm": ext[0],
+            "bbox_dy_mm": ext[1],
+            "bbox_dz_mm": ext[2],
+            "dexterity_mean_pct": rep["dexterity_pct"]["mean"],
+            "feasible": rep["feasible"],
+            "mode": rep["mode"],
+            "clearance_min_mm": rep["clearance_min_mm"],
+            "self_clearance_min_mm": rep["self_clearance_min_mm"],
+            **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in _EXTRA},
+        }
         row.update(dict(zip(PARAM_NAMES, (float(v) for v in rep["designs"][0]))))
         if "c_z" in rep:
             row["c_z"] = rep["c_z"]
@@ -179,7 +235,12 @@ def front_rows(model: FitnessModel, algorithm: Any) -> list[dict[str, Any]]:
                 if p or setup:  # the first patient's (R side's) values are the parameter columns
                     suffix = ("_L" if setup else "") + (f"_p{p + 1}" if p else "")
                     d = rep["designs"][space.slot(p, setup)]
-                    row.update({f"{n}{suffix}": float(d[PARAM_NAMES.index(n)]) for n in (("m_x", "m_y", "m_z") if setup else space.docked)})
+                    row.update(
+                        {
+                            f"{n}{suffix}": float(d[PARAM_NAMES.index(n)])
+                            for n in (("m_x", "m_y", "m_z") if setup else space.docked)
+                        }
+                    )
         rows.append(row)
     return rows
 
@@ -188,26 +249,51 @@ _EXTRA = ("moving_mass_kg", "lateral_error_wc_mm", "lateral_error_rms_mm", "tole
 """A report's figures that only some runs have (the masses of 18.1, the accuracy under tolerances of 20.3)."""
 
 
-def describe(cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]) -> tuple[dict[str, Any], list[np.ndarray], list[dict[str, Any]] | None]:
+def describe(
+    cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]
+) -> tuple[dict[str, Any], list[np.ndarray], list[dict[str, Any]] | None]:
     """(summary, the best design of each slot ``(27,)``, the front's rows or None) of a finished run."""
     rep = model.report(pick_best(algorithm).X)
     designs = rep.pop("designs")
     s = cfg["settings"]
     summary: dict[str, Any] = {
-        "feasible": rep["feasible"], "eta_G": rep["eta_G"], "dexterity_pct": rep["dexterity_pct"],
-        "generations": info["generations"], "evaluations": info["evaluations"], "seed": s["seed"],
-        "wall_s": round(info["wall_s"], 3), "eval_s": round(info["eval_s"], 3), "stopped_by": info["stopped_by"],
-        "algorithm": s["algorithm"], "population": s["population"], "engine": s["engine_resolved"],
-        "mode": rep["mode"], "setups": s["setups"], "aggregate": s["aggregate"], "free": s["free"],
-        "violation": rep["violation"], "margin_shortfall_rad": rep["margin_shortfall_rad"],
-        "links_sum_mm": rep["links_sum_mm"], "bbox_volume_L": rep["bbox_volume_L"],
-        "clearance_min_mm": rep["clearance_min_mm"], "self_clearance_min_mm": rep["self_clearance_min_mm"],
-        **{k: v for k, v in rep.items() if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in (*_EXTRA, "envelope_clearance_min_mm")},
+        "feasible": rep["feasible"],
+        "eta_G": rep["eta_G"],
+        "dexterity_pct": rep["dexterity_pct"],
+        "generations": info["generations"],
+        "evaluations": info["evaluations"],
+        "seed": s["seed"],
+        "wall_s": round(info["wall_s"], 3),
+        "eval_s": round(info["eval_s"], 3),
+        "stopped_by": info["stopped_by"],
+        "algorithm": s["algorithm"],
+        "population": s["population"],
+        "engine": s["engine_resolved"],
+        "mode": rep["mode"],
+        "setups": s["setups"],
+        "aggregate": s["aggregate"],
+        "free": s["free"],
+        "violation": rep["violation"],
+        "margin_shortfall_rad": rep["margin_shortfall_rad"],
+        "links_sum_mm": rep["links_sum_mm"],
+        "bbox_volume_L": rep["bbox_volume_L"],
+        "clearance_min_mm": rep["clearance_min_mm"],
+        "self_clearance_min_mm": rep["self_clearance_min_mm"],
+        **{
+            k: v
+            for k, v in rep.items()
+            if k.endswith(("_max_mm", "_max_deg", "_max_Nm")) or k in (*_EXTRA, "envelope_clearance_min_mm")
+        },
         **({"c_z": rep["c_z"]} if "c_z" in rep else {}),
-        "objectives": list(model.objectives), "limits": [list(lim) for lim in model.limits],
-        "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None, "tasks": rep["tasks"],
-        "points": model.n_points, "files": {}, "resumed": info["resumed"], "docking": s.get("docking", "shared"),
-    }  # fmt: skip
+        "objectives": list(model.objectives),
+        "limits": [list(lim) for lim in model.limits],
+        "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None,
+        "tasks": rep["tasks"],
+        "points": model.n_points,
+        "files": {},
+        "resumed": info["resumed"],
+        "docking": s.get("docking", "shared"),
+    }
     front = None
     if s["algorithm"] in MULTI_OBJECTIVE:
         front = front_rows(model, algorithm)

@@ -113,10 +113,24 @@ class MultiStartCMAES(AskTell):
     ``started`` counts the runs started (search and polish).
     """
 
-    def __init__(self, budget: int, runs: int = RUNS, popsize: int | None = None, sigma: float = SIGMA, tol: float = TOL,
-                 x0: np.ndarray | None = None, **kwargs: Any) -> None:  # fmt: skip
+    def __init__(
+        self,
+        budget: int,
+        runs: int = RUNS,
+        popsize: int | None = None,
+        sigma: float = SIGMA,
+        tol: float = TOL,
+        x0: np.ndarray | None = None,
+        **kwargs: Any,
+    ) -> None:
         super().__init__(**kwargs)
-        self.budget, self.runs, self.popsize, self.sigma, self.tol = int(budget), int(runs), popsize, float(sigma), float(tol)
+        self.budget, self.runs, self.popsize, self.sigma, self.tol = (
+            int(budget),
+            int(runs),
+            popsize,
+            float(sigma),
+            float(tol),
+        )
         self.x0 = None if x0 is None else np.asarray(x0, dtype=float)
         self.es: BatchCMA | None = None
         self.U = np.zeros((0, 0))  # the last batch's samples (runs * lam, n), before into_box
@@ -177,7 +191,6 @@ class MultiStartCMAES(AskTell):
     def _initialize_infill(self) -> Any:
         self._new_phase(self.runs)
         return self._ask()
-
 
 
 def make_multistart(budget: int, seed: int, x0: np.ndarray | None = None) -> MultiStartCMAES:

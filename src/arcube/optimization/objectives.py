@@ -38,16 +38,33 @@ OBJECTIVES: dict[str, str] = {
 """Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure."""
 
 MAXIMIZED = frozenset({"clearance", "envelope_clearance"})
-_SUMMARY = {"tip_error": "tip_error_max", "lateral_error": "lateral_error_max", "axial_error": "axial_error_max",
-            "axis_error": "axis_error_max", "torque": "torque_max", "deflection": "deflection_max",
-            "holding_torque": "holding_torque_max"}  # fmt: skip
+_SUMMARY = {
+    "tip_error": "tip_error_max",
+    "lateral_error": "lateral_error_max",
+    "axial_error": "axial_error_max",
+    "axis_error": "axis_error_max",
+    "torque": "torque_max",
+    "deflection": "deflection_max",
+    "holding_torque": "holding_torque_max",
+}
 
 SUMMARY_KEYS: dict[str, str] = {
-    "eta_G": "eta_G", "tip_error": "tip_error_max_mm", "lateral_error": "lateral_error_max_mm", "axial_error": "axial_error_max_mm",
-    "axis_error": "axis_error_max_deg", "torque": "torque_max_Nm", "deflection": "deflection_max_mm", "links": "links_sum_mm",
-    "bbox": "bbox_volume_L", "clearance": "clearance_min_mm", "holding_torque": "holding_torque_max_Nm", "mass": "moving_mass_kg",
-    "envelope_clearance": "envelope_clearance_min_mm", "lateral_error_wc": "lateral_error_wc_mm", "lateral_error_rms": "lateral_error_rms_mm",
-}  # fmt: skip
+    "eta_G": "eta_G",
+    "tip_error": "tip_error_max_mm",
+    "lateral_error": "lateral_error_max_mm",
+    "axial_error": "axial_error_max_mm",
+    "axis_error": "axis_error_max_deg",
+    "torque": "torque_max_Nm",
+    "deflection": "deflection_max_mm",
+    "links": "links_sum_mm",
+    "bbox": "bbox_volume_L",
+    "clearance": "clearance_min_mm",
+    "holding_torque": "holding_torque_max_Nm",
+    "mass": "moving_mass_kg",
+    "envelope_clearance": "envelope_clearance_min_mm",
+    "lateral_error_wc": "lateral_error_wc_mm",
+    "lateral_error_rms": "lateral_error_rms_mm",
+}
 """The field of a run's summary.json (and of arcube.evaluate's summary) that holds each objective's value."""
 
 
@@ -87,9 +104,16 @@ def needs_masses(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     return any(n in ("holding_torque", "mass") for n in (*objectives, *(n for n, _, _ in limits)))
 
 
-def metric_values(names: set[str], results: list[Any], eta: np.ndarray, links: np.ndarray, vol: np.ndarray,
-                  clearance_results: list[Any] | None = None, mass: np.ndarray | None = None,
-                  robust: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+def metric_values(
+    names: set[str],
+    results: list[Any],
+    eta: np.ndarray,
+    links: np.ndarray,
+    vol: np.ndarray,
+    clearance_results: list[Any] | None = None,
+    mass: np.ndarray | None = None,
+    robust: dict[str, np.ndarray] | None = None,
+) -> dict[str, np.ndarray]:
     """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable);
     the clearance over ``clearance_results`` when given (the plan's and the approach lines' tasks);
     ``mass``: the moving mass per design (kg), needed for the name ``mass``; ``robust``: the values of
@@ -129,8 +153,9 @@ def limit_shortfall(limits: list[list[Any]], values: dict[str, np.ndarray], n: i
     return short
 
 
-def objective_columns(objectives: tuple[str, ...], values: dict[str, np.ndarray], feasible: np.ndarray,
-                      viol: np.ndarray, penalty: float) -> list[np.ndarray]:  # fmt: skip
+def objective_columns(
+    objectives: tuple[str, ...], values: dict[str, np.ndarray], feasible: np.ndarray, viol: np.ndarray, penalty: float
+) -> list[np.ndarray]:
     """The F columns: each objective's value (negated when maximized); infeasible designs and missing
     values get ``penalty * (1 + viol)`` so that single-objective algorithms rank them last."""
     cols = []

@@ -44,8 +44,13 @@ from arcube.optimization.objectives import SUMMARY_KEYS, limit_shortfall, metric
 from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
 from arcube.optimization.bounds import C_Z, C_Z_BOUNDS
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
-    DEFAULT_BOUNDS, FREE_GROUPS, RunSettings, parse_bounds, parse_free, resolve_bounds,
-)  # fmt: skip
+    DEFAULT_BOUNDS,
+    FREE_GROUPS,
+    RunSettings,
+    parse_bounds,
+    parse_free,
+    resolve_bounds,
+)
 from arcube.model.mechanism import format_mode
 
 Array = NDArray[np.float64]
@@ -212,8 +217,9 @@ class VariableSpace:
         d = np.asarray(design, dtype=float)
         lm = d[:3] if left_m is None else np.asarray(left_m, dtype=float)
         c_z = d[INDEX["d_z"]] if self.base_c_z is None else self.base_c_z
-        vals = [c_z if p == C_Z else (lm if g[len(p) :].startswith("_L") else d)[INDEX[p]]
-                for g, p in self.genes() if p]  # m_x_L, m_x_L_p2: left side  # fmt: skip
+        vals = [
+            c_z if p == C_Z else (lm if g[len(p) :].startswith("_L") else d)[INDEX[p]] for g, p in self.genes() if p
+        ]  # m_x_L, m_x_L_p2: left side
         if self.mode is None:
             vals += list(0.5 * (np.ones(4) if mode is None else np.asarray(mode, dtype=float)))
         return np.clip(np.array(vals, dtype=float), self.xl, self.xu)
@@ -245,14 +251,18 @@ class FitnessModel:
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
-            raise InputError.of("RunSettings.aggregate", f"must be one of {', '.join(AGGREGATES)}, got {self.aggregate!r}")
+            raise InputError.of(
+                "RunSettings.aggregate", f"must be one of {', '.join(AGGREGATES)}, got {self.aggregate!r}"
+            )
         RunSettings(objectives=self.objectives)  # validates the names
         e_all = np.concatenate([t.e for t in self.tasks])
         ang = np.degrees(np.arccos(np.clip(e_all[:, :2], -1.0, 1.0)))  # angle(e, +u) for legs x, y
         object.__setattr__(self, "_ang_max", ang.max(axis=0))
         object.__setattr__(self, "_ang_min", ang.min(axis=0))
         # the approach lines need no drill-tip metrics: the drill works between entry and target only
-        object.__setattr__(self, "_approach_options", self.options.replace(outputs=self.options.outputs.replace(tip_metrics=False)))
+        object.__setattr__(
+            self, "_approach_options", self.options.replace(outputs=self.options.outputs.replace(tip_metrics=False))
+        )
 
     @property
     def n_obj(self) -> int:
@@ -272,15 +282,30 @@ class FitnessModel:
         short = np.maximum(self._ang_max + mu - (a + b), 0.0) + np.maximum(np.abs(a - b) - (self._ang_min - mu), 0.0)  # type: ignore[attr-defined]
         return np.radians(short.sum(axis=1))
 
-    def _run_tasks(self, params: list[Array], modes: Array, want_points: bool, c_z: Array | None = None,
-                   active: tuple[bool, ...] | None = None) -> list[Any]:  # fmt: skip
+    def _run_tasks(
+        self,
+        params: list[Array],
+        modes: Array,
+        want_points: bool,
+        c_z: Array | None = None,
+        active: tuple[bool, ...] | None = None,
+    ) -> list[Any]:
         """Each task's results (None for the tasks of a docking not ``active``)."""
         return [
-            core_engine.evaluate_task(params[self.space.slot(t.patient, t.setup)], t.E, t.e, modes,
-                                      self.options if t.role == "plan" else self._approach_options,  # type: ignore[attr-defined]
-                                      engine=self.engine, want_points=want_points, anatomy=self.anatomies[t.patient] if self.anatomies else None,
-                                      envelope=self.envelopes[t.patient] if self.envelopes else None, c_z=c_z)  # fmt: skip
-            if active is None or active[t.patient] else None
+            core_engine.evaluate_task(
+                params[self.space.slot(t.patient, t.setup)],
+                t.E,
+                t.e,
+                modes,
+                self.options if t.role == "plan" else self._approach_options,  # type: ignore[attr-defined]
+                engine=self.engine,
+                want_points=want_points,
+                anatomy=self.anatomies[t.patient] if self.anatomies else None,
+                envelope=self.envelopes[t.patient] if self.envelopes else None,
+                c_z=c_z,
+            )
+            if active is None or active[t.patient]
+            else None
             for t in self.tasks
         ]
 
@@ -345,7 +370,9 @@ class FitnessModel:
             return (True,) * self.n_patients
         return tuple(not (cols and bool(np.isnan(row[cols]).any())) for cols in columns)
 
-    def robust_values(self, params: list[Array], modes: Array, want: Array, patient: int | None = None) -> dict[str, Array]:
+    def robust_values(
+        self, params: list[Array], modes: Array, want: Array, patient: int | None = None
+    ) -> dict[str, Array]:
         """lateral_error_wc and lateral_error_rms (mm, model §20.3) ``(n,)``: the largest over the plan's tasks
         (of one ``patient`` entry, a docking, when given), computed only where ``want`` (the designs that reach
         every point; NaN elsewhere)."""
@@ -357,11 +384,18 @@ class FitnessModel:
         for t in self.tasks:
             if t.role != "plan" or (patient is not None and t.patient != patient):
                 continue
-            w, r = robust_errors(params[self.space.slot(t.patient, t.setup)], modes, t.E, t.e, self.accuracy, engine, want)
+            w, r = robust_errors(
+                params[self.space.slot(t.patient, t.setup)], modes, t.E, t.e, self.accuracy, engine, want
+            )
             wc, rms = np.maximum(wc, w), np.maximum(rms, r)  # a NaN stays NaN
-        return {"lateral_error_wc": np.where(np.isfinite(wc), wc, np.nan), "lateral_error_rms": np.where(np.isfinite(rms), rms, np.nan)}
+        return {
+            "lateral_error_wc": np.where(np.isfinite(wc), wc, np.nan),
+            "lateral_error_rms": np.where(np.isfinite(rms), rms, np.nan),
+        }
 
-    def _judge(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None = None) -> tuple[Array, Array, dict[str, Array]]:
+    def _judge(
+        self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None = None
+    ) -> tuple[Array, Array, dict[str, Array]]:
         """(eta, violation, the objectives' and limits' values), each ``(n,)``. The violation is model §16's:
         margin shortfall + sum of the tasks' V_reach + G / (1 + G) / (2n), n = the points of all tasks (approach
         lines too), G = (their guard grades summed) / n + the --max/--min shortfalls; 0 iff feasible. With
@@ -376,10 +410,17 @@ class FitnessModel:
         plan = [r for t, r in zip(self.tasks, results) if t.role == "plan"]
         mass = self.moving_mass(params, c_z) if "mass" in names else None
         # the first order costs ~25 us a point: only for the designs that reach every point of every task
-        robust = self.robust_values(params, modes, reach == 0.0) if names & {"lateral_error_wc", "lateral_error_rms"} else None
+        robust = (
+            self.robust_values(params, modes, reach == 0.0)
+            if names & {"lateral_error_wc", "lateral_error_rms"}
+            else None
+        )
         values = metric_values(names, plan, eta, links, vol, clearance_results=results, mass=mass, robust=robust)
         n_all = sum(t.n_points for t in self.tasks)
-        fit = fit_violation(grade / n_all + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta), len(reach)), n_all)
+        fit = fit_violation(
+            grade / n_all + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta), len(reach)),
+            n_all,
+        )
         fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
         viol = reach + fit
         return np.where(viol == 0.0, eta, np.inf), viol, values
@@ -392,8 +433,9 @@ class FitnessModel:
             defined["eta_G"] = np.where(np.isfinite(eta), eta, np.nan)
         return defined
 
-    def _judge_dockings(self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None,
-                        active: tuple[bool, ...]) -> tuple[Array, Array, dict[str, Array], Array, Array]:  # fmt: skip
+    def _judge_dockings(
+        self, results: list[Any], params: list[Array], modes: Array, c_z: Array | None, active: tuple[bool, ...]
+    ) -> tuple[Array, Array, dict[str, Array], Array, Array]:
         """model §19.3 over the ``active`` dockings: (eta, violation, values, each docking's violation ``(n, K)``, each
         docking's eta_G ``(n, K)``). Docking k's V_k is its tasks' V_reach plus its own V_fit, G_k / (1 + G_k) / (2 n_k)
         with n_k its points (approach lines too) and G_k its guard grades / n_k plus its own --max/--min shortfalls (the
@@ -425,10 +467,20 @@ class FitnessModel:
             eta_k = np.where((reach == 0.0) & all_w, eta_sum / pts, np.inf)
             robust = self.robust_values(params, modes, reach == 0.0, patient=k) if names & robust_names else None
             robust_d.append(robust)
-            values = metric_values(names, [r for t, r in mine if t.role == "plan"], eta_k, links, vol, clearance_results=[r for _, r in mine],
-                                   mass=mass, robust=robust)  # fmt: skip
+            values = metric_values(
+                names,
+                [r for t, r in mine if t.role == "plan"],
+                eta_k,
+                links,
+                vol,
+                clearance_results=[r for _, r in mine],
+                mass=mass,
+                robust=robust,
+            )
             n_k = sum(t.n_points for t, _ in mine)
-            fit = fit_violation(grade / n_k + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta_k), n), n_k)
+            fit = fit_violation(
+                grade / n_k + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta_k), n), n_k
+            )
             fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
             viol_d[:, k] = reach + fit
             eta_d[:, k] = np.where(viol_d[:, k] == 0.0, eta_k, np.inf)
@@ -440,7 +492,9 @@ class FitnessModel:
         plan = [r for t, r in zip(self.tasks, results) if active[t.patient] and t.role == "plan"]
         robust = None
         if names & robust_names:  # the worst over the dockings (a NaN, a docking not reached, stays NaN)
-            robust = {name: np.max(np.stack([rd[name] for rd in robust_d if rd is not None]), axis=0) for name in robust_names}
+            robust = {
+                name: np.max(np.stack([rd[name] for rd in robust_d if rd is not None]), axis=0) for name in robust_names
+            }
         values = metric_values(names, plan, eta, links, vol, clearance_results=kept, mass=mass, robust=robust)
         return eta, viol, values, viol_d, eta_d
 
@@ -450,27 +504,42 @@ class FitnessModel:
         """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
         X = np.atleast_2d(np.asarray(x, dtype=float))
         params, modes = self.space.decode(X)
-        masses = needs_masses(self.objectives, [list(lim) for lim in self.limits])  # else the summary stays as it always was
-        outputs = self.options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=masses)
+        masses = needs_masses(
+            self.objectives, [list(lim) for lim in self.limits]
+        )  # else the summary stays as it always was
+        outputs = self.options.outputs.replace(
+            clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=masses
+        )
         described = replace(self, options=self.options.replace(outputs=outputs))
         metrics = {**_METRICS, **_MASS_METRICS} if masses else _METRICS
         c_z = self.space.c_z(X)
         results = described._run_tasks(params, modes, want_points=True, c_z=c_z)
         eta, viol, values = self._judge(results, params, modes, c_z)
-        dex = np.concatenate([np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"])
+        dex = np.concatenate(
+            [np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"]
+        )
         links, vol = self.compactness_values(params)
         tasks = []
         for t, r in zip(self.tasks, results):
             lo, hi = bounding_box(params[self.space.slot(t.patient, t.setup)], t.E, t.e)
-            tasks.append({
-                "label": t.label, **({} if t.role == "plan" else {"role": t.role}), "points": t.n_points, "w_G": bool(r.w_G[0]), "eta_G": _num(r.eta_G[0]),
-                "reachable_fraction": float(r.reachable_fraction[0]), "violation": float(r.violation[0]),
-                "bbox_min_mm": [float(v) for v in lo[0]], "bbox_max_mm": [float(v) for v in hi[0]],
-                "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
-                "clearance_min_mm": _num(r.clearance_min[0]), "self_clearance_min_mm": _num(r.self_clearance_min[0]),
-                **({"envelope_clearance_min_mm": _num(r.envelope_clearance_min[0])} if self.envelopes else {}),
-                **{f"{name}_max": _num(getattr(r, name + "_max")[0]) for name in metrics},
-            })  # fmt: skip
+            tasks.append(
+                {
+                    "label": t.label,
+                    **({} if t.role == "plan" else {"role": t.role}),
+                    "points": t.n_points,
+                    "w_G": bool(r.w_G[0]),
+                    "eta_G": _num(r.eta_G[0]),
+                    "reachable_fraction": float(r.reachable_fraction[0]),
+                    "violation": float(r.violation[0]),
+                    "bbox_min_mm": [float(v) for v in lo[0]],
+                    "bbox_max_mm": [float(v) for v in hi[0]],
+                    "bbox_volume_L": float(np.prod(hi[0] - lo[0]) / 1e6),
+                    "clearance_min_mm": _num(r.clearance_min[0]),
+                    "self_clearance_min_mm": _num(r.self_clearance_min[0]),
+                    **({"envelope_clearance_min_mm": _num(r.envelope_clearance_min[0])} if self.envelopes else {}),
+                    **{f"{name}_max": _num(getattr(r, name + "_max")[0]) for name in metrics},
+                }
+            )
         return {
             "designs": [p[0] for p in params],
             **({} if c_z is None else {"c_z": float(c_z[0])}),
@@ -483,17 +552,35 @@ class FitnessModel:
             "links_sum_mm": float(links[0]),
             "clearance_min_mm": _min_num([tk["clearance_min_mm"] for tk in tasks]),
             "self_clearance_min_mm": _min_num([tk["self_clearance_min_mm"] for tk in tasks]),
-            **({"envelope_clearance_min_mm": _min_num([tk["envelope_clearance_min_mm"] for tk in tasks])} if self.envelopes else {}),
+            **(
+                {"envelope_clearance_min_mm": _min_num([tk["envelope_clearance_min_mm"] for tk in tasks])}
+                if self.envelopes
+                else {}
+            ),
             "bbox_volume_L": float(vol[0]),
-            **{f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk]) for name, unit in metrics.items()},
+            **{
+                f"{name}_max_{unit}": _max_num([tk[f"{name}_max"] for tk in tasks if "role" not in tk])
+                for name, unit in metrics.items()
+            },
             **({"moving_mass_kg": float(self.moving_mass(params, c_z)[0])} if masses else {}),
             **{SUMMARY_KEYS[name]: _num(values[name][0]) for name in ROBUST_NAMES if name in values},
-            **({"tolerance_class": (self.accuracy or ToleranceSettings()).tolerance_class} if set(ROBUST_NAMES) & set(values) else {}),
+            **(
+                {"tolerance_class": (self.accuracy or ToleranceSettings()).tolerance_class}
+                if set(ROBUST_NAMES) & set(values)
+                else {}
+            ),
             "tasks": tasks,
         }
 
 
-_METRICS = {"tip_error": "mm", "lateral_error": "mm", "axial_error": "mm", "axis_error": "deg", "torque": "Nm", "deflection": "mm"}
+_METRICS = {
+    "tip_error": "mm",
+    "lateral_error": "mm",
+    "axial_error": "mm",
+    "axis_error": "deg",
+    "torque": "Nm",
+    "deflection": "mm",
+}
 """The summary maxima of model §15.5 (TaskResults fields ``<name>_max``) and their units."""
 _MASS_METRICS = {"holding_torque": "Nm"}
 """The maximum of model §18.2, in a report when an objective or limit uses the masses (with ``moving_mass_kg``)."""
@@ -545,8 +632,12 @@ class ArcubeProblem(Problem):
     ride along on the individuals for bookkeeping.
     """
 
-    def __init__(self, space: VariableSpace, n_obj: int, batch: Callable[[Array], dict[str, Array]], penalty_only: bool = False) -> None:
-        super().__init__(n_var=space.n_var, n_obj=n_obj, n_ieq_constr=0 if penalty_only else 1, xl=space.xl, xu=space.xu)
+    def __init__(
+        self, space: VariableSpace, n_obj: int, batch: Callable[[Array], dict[str, Array]], penalty_only: bool = False
+    ) -> None:
+        super().__init__(
+            n_var=space.n_var, n_obj=n_obj, n_ieq_constr=0 if penalty_only else 1, xl=space.xl, xu=space.xu
+        )
         self._batch = batch
 
     def _evaluate(self, X: Array, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
@@ -563,7 +654,25 @@ class ArcubeProblem(Problem):
 
 
 __all__ = [
-    "AGGREGATES", "COMPACTNESS", "DEFAULT_BOUNDS", "DOCKING_KEYS", "DOCKINGS", "LINK_NAMES", "MODE_GENES", "N_PARAMS", "PENALTY",
-    "ArcubeProblem", "FitnessModel", "TaskData", "VariableSpace", "bounding_box", "mechanism_points",
-    "evaluate_with", "parse_bounds", "parse_free", "resolve_bounds", "worker_evaluate", "worker_init",
-]  # fmt: skip
+    "AGGREGATES",
+    "COMPACTNESS",
+    "DEFAULT_BOUNDS",
+    "DOCKING_KEYS",
+    "DOCKINGS",
+    "LINK_NAMES",
+    "MODE_GENES",
+    "N_PARAMS",
+    "PENALTY",
+    "ArcubeProblem",
+    "FitnessModel",
+    "TaskData",
+    "VariableSpace",
+    "bounding_box",
+    "mechanism_points",
+    "evaluate_with",
+    "parse_bounds",
+    "parse_free",
+    "resolve_bounds",
+    "worker_evaluate",
+    "worker_init",
+]

@@ -33,17 +33,32 @@ from arcube.model.design import PARAM_NAMES, Design
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.optimization.algorithms import stop_reason
-from arcube.optimization.checkpoint import CHECKPOINT_FORMAT, FORMAT_VERSION, EvalLog, _sha, load_checkpoint, write_checkpoint
+from arcube.optimization.checkpoint import (
+    CHECKPOINT_FORMAT,
+    FORMAT_VERSION,
+    EvalLog,
+    _sha,
+    load_checkpoint,
+    write_checkpoint,
+)
 from arcube.optimization.lock import LOCK_FILE, acquire, release
 from arcube.optimization.loop import HISTORY_COLUMNS, Loop, Observer, Progress, describe, observed
 from arcube.optimization.build import anatomy_file, build_model, envelope_file
 from arcube.optimization.folder import (  # noqa: F401  (the folder's files, used here and by callers of this module)
-    RUN_FORMAT, check_new_folder, is_finished, placement_file, read_config, remove_folder, to_toml, versions,
-)  # fmt: skip
+    RUN_FORMAT,
+    check_new_folder,
+    is_finished,
+    placement_file,
+    read_config,
+    remove_folder,
+    to_toml,
+    versions,
+)
 from arcube.optimization.executors import make_executor
 from arcube.optimization.problem import FitnessModel
 from arcube.optimization.run_results import OptimizeResult
 from arcube.optimization.settings import RunSettings
+
 
 # ----------------------------------------------------------------------------- config.toml
 # ----------------------------------------------------------------------------- history and outputs
@@ -58,7 +73,9 @@ def reset_history(path: Path, keep_rows: int) -> None:
     atomic_write_text(path, "\n".join([",".join(HISTORY_COLUMNS), *rows]) + "\n")
 
 
-def write_outputs(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]) -> dict[str, Any]:
+def write_outputs(
+    run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]
+) -> dict[str, Any]:
     """Write the best design(s), pareto.csv (multi-objective) and summary.json; returns the summary."""
     summary, designs, front = describe(cfg, model, algorithm, info)
     if model.space.per_patient:
@@ -93,7 +110,9 @@ def run_design(vector: np.ndarray, summary: dict[str, Any]) -> Design:
     return d.with_extras(c_z=summary["c_z"]) if summary.get("c_z") is not None else d
 
 
-def write_placements(run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None) -> dict[str, str]:
+def write_placements(
+    run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None
+) -> dict[str, str]:
     """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
     design (placed for the first patient) with a ``placements`` list: each patient's m and mounting.
     ``c_z``: the run's (model §19.1), in every file when given."""
@@ -136,14 +155,19 @@ class _History(Observer):
         self.file = path.open("a", encoding="utf-8", newline="")
 
     def generation(self, loop: Loop, row: dict[str, Any], timing: dict[str, float]) -> None:
-        self.file.write(",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS) + "\n")
+        self.file.write(
+            ",".join(str(row[c]) if c in ("generation", "evaluations") else _fmt(row[c]) for c in HISTORY_COLUMNS)
+            + "\n"
+        )
         self.file.flush()
 
 
 class _Checkpoint(Observer):
     """Writes a checkpoint every ``every`` generations (and remembers the last generation seen)."""
 
-    def __init__(self, run_dir: Path, state: dict[str, Any], log: EvalLog, every: int, prior_s: float, prior_eval: float) -> None:
+    def __init__(
+        self, run_dir: Path, state: dict[str, Any], log: EvalLog, every: int, prior_s: float, prior_eval: float
+    ) -> None:
         self.run_dir, self.state, self.log, self.every = run_dir, state, log, every
         self.prior_s, self.prior_eval, self.t0, self.generation_seen = prior_s, prior_eval, time.perf_counter(), 0
 
@@ -162,8 +186,16 @@ class _Checkpoint(Observer):
             self.write(loop.generation, evaluations=loop.algorithm.evaluator.n_eval)
 
 
-def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool = False, workers: int | None = None,
-             dask: str | None = None, on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+def _execute(
+    run_dir: Path,
+    cfg: dict[str, Any],
+    cfg_raw: bytes,
+    *,
+    resume: bool = False,
+    workers: int | None = None,
+    dask: str | None = None,
+    on_generation: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
     """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary.
 
     ``on_generation`` gets each new generation's history row and timing (:class:`~arcube.optimization.loop.Observer`).
@@ -171,14 +203,28 @@ def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool
     settings = RunSettings.from_config(cfg)
     state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
     if state is None:
-        state = {"format": CHECKPOINT_FORMAT, "format_version": FORMAT_VERSION, "run_id": cfg["run_id"], "config_sha256": _sha(cfg_raw),
-                 "generation": 0, "elapsed_s": 0.0, "eval_s": 0.0, "sessions": 0, "chunks": [], "finished": False}  # fmt: skip
+        state = {
+            "format": CHECKPOINT_FORMAT,
+            "format_version": FORMAT_VERSION,
+            "run_id": cfg["run_id"],
+            "config_sha256": _sha(cfg_raw),
+            "generation": 0,
+            "elapsed_s": 0.0,
+            "eval_s": 0.0,
+            "sessions": 0,
+            "chunks": [],
+            "finished": False,
+        }
     done_gen, prior_s, prior_eval = int(state["generation"]), float(state["elapsed_s"]), float(state["eval_s"])
     state["sessions"] = int(state.get("sessions", 0)) + 1
     reset_history(run_dir / "history.csv", done_gen)
     model = build_model(cfg, run_dir, settings=settings)
     ex = cfg.get("executor", {})
-    executor = make_executor(model, workers if workers is not None else int(ex.get("workers", 1)), dask if dask is not None else ex.get("dask") or None)
+    executor = make_executor(
+        model,
+        workers if workers is not None else int(ex.get("workers", 1)),
+        dask if dask is not None else ex.get("dask") or None,
+    )
     log = EvalLog(executor, replay)
     history = _History(run_dir / "history.csv")
     checkpoint = _Checkpoint(run_dir, state, log, settings.checkpoint_every, prior_s, prior_eval)
@@ -186,10 +232,18 @@ def _execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, *, resume: bool
     try:
         loop = observed(model, settings, log, observers, done_generation=done_gen, prior_s=prior_s)
         if log.replay:
-            raise InputError("checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)")
+            raise InputError(
+                "checkpoint does not replay: the run ended before the logged batches did (foreign checkpoint?)"
+            )
         gen, algo = loop.generation, loop.algorithm
-        info = {"generations": gen, "evaluations": int(algo.evaluator.n_eval), "wall_s": checkpoint.elapsed(), "eval_s": prior_eval + log.eval_s,
-                "stopped_by": stop_reason(loop.termination), "resumed": state["sessions"] - 1}  # fmt: skip
+        info = {
+            "generations": gen,
+            "evaluations": int(algo.evaluator.n_eval),
+            "wall_s": checkpoint.elapsed(),
+            "eval_s": prior_eval + log.eval_s,
+            "stopped_by": stop_reason(loop.termination),
+            "resumed": state["sessions"] - 1,
+        }
         summary = write_outputs(run_dir, cfg, model, algo, info)
         checkpoint.write(gen, evaluations=algo.evaluator.n_eval, finished=True)
         return summary
@@ -212,7 +266,9 @@ class _Rows(Observer):
         self.rows.append(row)
 
 
-def run_in_memory(cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation: Callable[[dict[str, Any]], None] | None = None) -> OptimizeResult:
+def run_in_memory(
+    cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation: Callable[[dict[str, Any]], None] | None = None
+) -> OptimizeResult:
     """Run ``cfg`` with nothing written (``anatomies``: each patient's distance grids, as the run
     folder's ``anatomy.stl`` gives them): the same designs, summary and history as a run folder's."""
     settings = RunSettings.from_config(cfg)
@@ -230,23 +286,42 @@ def run_in_memory(cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation
         loop = observed(model, settings, log, [rows, *([Progress(on_generation)] if on_generation is not None else [])])
     finally:
         executor.close()
-    info = {"generations": loop.generation, "evaluations": int(loop.algorithm.evaluator.n_eval), "wall_s": time.perf_counter() - t0,
-            "eval_s": log.eval_s, "stopped_by": stop_reason(loop.termination), "resumed": 0}  # fmt: skip
+    info = {
+        "generations": loop.generation,
+        "evaluations": int(loop.algorithm.evaluator.n_eval),
+        "wall_s": time.perf_counter() - t0,
+        "eval_s": log.eval_s,
+        "stopped_by": stop_reason(loop.termination),
+        "resumed": 0,
+    }
     summary, designs, front = describe(cfg, model, loop.algorithm, info)
     history = {c: np.array([float(r[c]) for r in rows.rows]) for c in HISTORY_COLUMNS}
     pareto = None if front is None else {k: np.array([r.get(k) for r in front]) for k in (front[0] if front else {})}
-    return OptimizeResult(summary=summary, designs=[run_design(d, summary) for d in designs], history=history, pareto=pareto, config=cfg)
+    return OptimizeResult(
+        summary=summary, designs=[run_design(d, summary) for d in designs], history=history, pareto=pareto, config=cfg
+    )
 
 
-def new_run_config(settings: dict[str, Any], bounds: dict[str, tuple[float, float]], design: Design, patients: list[dict[str, Any]],
-                   executor: dict[str, Any]) -> dict[str, Any]:  # fmt: skip
+def new_run_config(
+    settings: dict[str, Any],
+    bounds: dict[str, tuple[float, float]],
+    design: Design,
+    patients: list[dict[str, Any]],
+    executor: dict[str, Any],
+) -> dict[str, Any]:
     return {
-        "format": RUN_FORMAT, "format_version": FORMAT_VERSION, "run_id": uuid.uuid4().hex,
-        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": " ".join(sys.argv),
-        "versions": versions(), "settings": settings,
+        "format": RUN_FORMAT,
+        "format_version": FORMAT_VERSION,
+        "run_id": uuid.uuid4().hex,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "command": " ".join(sys.argv),
+        "versions": versions(),
+        "settings": settings,
         "bounds": {k: [float(lo), float(hi)] for k, (lo, hi) in bounds.items()},
-        "design": design.to_dict(), "executor": executor, "patients": patients,
-    }  # fmt: skip
+        "design": design.to_dict(),
+        "executor": executor,
+        "patients": patients,
+    }
 
 
 def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
@@ -264,8 +339,12 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
         if plan in written:  # another docking of the same plan
             p["anatomy_file"], p["anatomy_source"] = written[plan]
             continue
-        anatomy = resolve_anatomy(spec_anatomy, p.get("anatomy_frame", s.get("anatomy_frame", "LPS")), s["trajectories"][plan],
-                                  segments=p.get("segments", s.get("segments")))  # fmt: skip
+        anatomy = resolve_anatomy(
+            spec_anatomy,
+            p.get("anatomy_frame", s.get("anatomy_frame", "LPS")),
+            s["trajectories"][plan],
+            segments=p.get("segments", s.get("segments")),
+        )
         anatomy.write_stl(run_dir / anatomy_file(i))
         p["anatomy_source"] = anatomy.source
         if "plan_index" in p:
@@ -282,7 +361,9 @@ def write_envelopes(run_dir: Path, cfg: dict[str, Any]) -> None:
 
     for i, p in enumerate(cfg["patients"]):
         if "envelope" in p and json.loads(p["envelope"]).get("skin"):
-            meshes = read_meshes(list(p.get("envelope_spec", s["envelope"])), p.get("anatomy_frame", s.get("anatomy_frame", "LPS")))
+            meshes = read_meshes(
+                list(p.get("envelope_spec", s["envelope"])), p.get("anatomy_frame", s.get("anatomy_frame", "LPS"))
+            )
             write_stl(meshes, run_dir / envelope_file(i))
 
 
@@ -332,5 +413,7 @@ def resume(run_dir: Path, **kwargs: Any) -> dict[str, Any] | None:
     now = versions()
     changed = [f"{k} {old[k]} -> {now.get(k)}" for k in ("pymoo", "numpy", "cma") if k in old and old[k] != now.get(k)]
     if changed:
-        sys.stderr.write(f"warning: versions changed since the run started ({', '.join(changed)}); the replay will check\n")
+        sys.stderr.write(
+            f"warning: versions changed since the run started ({', '.join(changed)}); the replay will check\n"
+        )
     return execute(run_dir, cfg, raw, resume=True, **kwargs)

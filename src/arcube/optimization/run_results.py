@@ -33,9 +33,16 @@ class OptimizeResult:
     run just finished look the same. :attr:`path` is the folder, or None in memory.
     """
 
-    def __init__(self, path: PathLike | None = None, *, summary: dict[str, Any] | None = None, designs: list[Design] | None = None,
-                 history: dict[str, np.ndarray] | None = None, pareto: dict[str, np.ndarray] | None = None,
-                 config: dict[str, Any] | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        path: PathLike | None = None,
+        *,
+        summary: dict[str, Any] | None = None,
+        designs: list[Design] | None = None,
+        history: dict[str, np.ndarray] | None = None,
+        pareto: dict[str, np.ndarray] | None = None,
+        config: dict[str, Any] | None = None,
+    ) -> None:
         if path is None and (summary is None or designs is None or history is None or config is None):
             raise InputError.of("path", "is required for a run that is not held in memory")
         self.path = None if path is None else Path(path)
@@ -45,7 +52,9 @@ class OptimizeResult:
         return f"OptimizeResult({'in memory' if self.path is None else str(self.path)!s})"
 
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, OptimizeResult) and other.path == self.path and (self.path is not None or other is self)
+        return (
+            isinstance(other, OptimizeResult) and other.path == self.path and (self.path is not None or other is self)
+        )
 
     __hash__ = None  # type: ignore[assignment]
 

@@ -1,5 +1,7 @@
 """The settings of one optimization run, typed and validated once: :class:`RunSettings`.
 
+Long module: one pydantic model; its fields and the validators that read several of them are one class.
+
 ``arcube optimize``'s flags, ``arcube.optimize(plan, RunSettings(...))`` and a run folder's
 ``config.toml`` all hold the same object. Python callers write Python values
 (``free=["all", "mount", "L"]``, ``bounds={"p_x": (30, 250)}``, ``mode=(1, 1, -1, 1)``,
@@ -28,11 +30,26 @@ from arcube.model.design import PAPER_NAMES
 from arcube.coerce import limit_pairs, mode_text
 from arcube.optimization.bounds import DEFAULT_BOUNDS, FREE_GROUPS, parse_bounds, parse_free, resolve_bounds
 from arcube.evaluation.envelope import envelope_spec
-from arcube.optimization.objectives import OBJECTIVES, needs_clearance, needs_envelope_clearance, needs_holding_torque, needs_masses, needs_tip_metrics
+from arcube.optimization.objectives import (
+    OBJECTIVES,
+    needs_clearance,
+    needs_envelope_clearance,
+    needs_holding_torque,
+    needs_masses,
+    needs_tip_metrics,
+)
 from arcube.patients.settings import Segments
 from arcube.options import FLAT, GUARDED_OPTIONS, Masses, Options, Settings, route_flat
 
-__all__ = ["DEFAULT_BOUNDS", "FREE_GROUPS", "RunSettings", "check_algorithm", "parse_bounds", "parse_free", "resolve_bounds"]
+__all__ = [
+    "DEFAULT_BOUNDS",
+    "FREE_GROUPS",
+    "RunSettings",
+    "check_algorithm",
+    "parse_bounds",
+    "parse_free",
+    "resolve_bounds",
+]
 
 ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3", "docked")
 DEFAULT_ALGORITHM = "mscmaes"
@@ -68,7 +85,9 @@ def _limits(kind: str) -> Any:
         out: dict[str, float] = {}
         for name, number, shown in limit_pairs(value, param=f"RunSettings.{kind}", example="lateral_error=0.2"):
             if name not in OBJECTIVES:
-                raise InputError.of(f"RunSettings.{kind}", f"{shown!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})")
+                raise InputError.of(
+                    f"RunSettings.{kind}", f"{shown!r}: unknown name {name!r} (known: {', '.join(OBJECTIVES)})"
+                )
             if kind == "maxima" and number <= 0.0:
                 raise InputError.of("RunSettings.maxima", f"{shown!r}: an upper limit must be > 0")
             out[name] = number
@@ -86,7 +105,9 @@ def _objectives(value: Any) -> tuple[str, ...]:
         return ()
     for n in names:
         if n not in OBJECTIVES:
-            raise InputError.of("RunSettings.objectives", f"has an unknown objective {n!r} (known: {', '.join(OBJECTIVES)})")
+            raise InputError.of(
+                "RunSettings.objectives", f"has an unknown objective {n!r} (known: {', '.join(OBJECTIVES)})"
+            )
     if len(set(names)) != len(names):
         raise InputError.of("RunSettings.objectives", f"{','.join(names)!r}: an objective is named twice")
     return names
@@ -211,25 +232,42 @@ class RunSettings(Settings):
     @model_validator(mode="after")
     def _check(self) -> RunSettings:
         if self.algorithm not in ALGORITHMS:
-            raise InputError.of("RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}")
+            raise InputError.of(
+                "RunSettings.algorithm", f"must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}"
+            )
         if len(self.objectives) == 1 and self.algorithm in MULTI_OBJECTIVE_ALGORITHMS:
-            raise InputError.of("RunSettings.algorithm", f"{self.algorithm} needs two or more objectives (got {self.objectives[0]} alone)")
+            raise InputError.of(
+                "RunSettings.algorithm",
+                f"{self.algorithm} needs two or more objectives (got {self.objectives[0]} alone)",
+            )
         check_algorithm(self.algorithm, self.population)
         if self.algorithm == "docked" and self.dockings is None:
             raise InputError.of("RunSettings.algorithm", "docked needs dockings (per-side or per-patient)")
         if self.dockings is not None and (self.setups != 1 or self.docking != "per-patient"):
-            raise InputError.of("RunSettings.dockings", "gives every docking its own placement: it needs setups 1 and docking per-patient")
+            raise InputError.of(
+                "RunSettings.dockings",
+                "gives every docking its own placement: it needs setups 1 and docking per-patient",
+            )
         if self.setups == 2 and self.side is not None:
             raise InputError.of("RunSettings.setups", "2 uses both sides (one placement each); drop side")
         if not self.anatomy:
             if self.options.guards.clearance_mm is not None:
                 raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
             if needs_clearance(self.objectives, self.limits):
-                raise InputError("the clearance objective or limit needs an anatomy (default or mesh files)", param="RunSettings.anatomy")
+                raise InputError(
+                    "the clearance objective or limit needs an anatomy (default or mesh files)",
+                    param="RunSettings.anatomy",
+                )
         if needs_masses(self.objectives, self.limits):
             self.options.check_masses()
-        if self.envelope == ("none",) and (self.options.guards.envelope_clearance_mm is not None or needs_envelope_clearance(self.objectives, self.limits)):
-            raise InputError.of("RunSettings.envelope", "is none, but the clearance to the envelope is required (model §19.5): give envelope default or a skin mesh")
+        if self.envelope == ("none",) and (
+            self.options.guards.envelope_clearance_mm is not None
+            or needs_envelope_clearance(self.objectives, self.limits)
+        ):
+            raise InputError.of(
+                "RunSettings.envelope",
+                "is none, but the clearance to the envelope is required (model §19.5): give envelope default or a skin mesh",
+            )
         return self
 
     @property
@@ -259,17 +297,27 @@ class RunSettings(Settings):
         guards = self.options.guards
         if self.guards:
             on = GUARDED_OPTIONS.guards
-            guards = guards.replace(rho_max_deg=on.rho_max_deg, min_transmission_deg=on.min_transmission_deg,
-                                    kappa_max=on.kappa_max, single_assembly_mode=True)  # fmt: skip
-            if "c_z" in self.free:  # model §19.2: a design with a z-dyad link of its own has a z leg that can be assembled
+            guards = guards.replace(
+                rho_max_deg=on.rho_max_deg,
+                min_transmission_deg=on.min_transmission_deg,
+                kappa_max=on.kappa_max,
+                single_assembly_mode=True,
+            )
+            if (
+                "c_z" in self.free
+            ):  # model §19.2: a design with a z-dyad link of its own has a z leg that can be assembled
                 guards = guards.replace(z_dyad=True)
         clearance = needs_clearance(self.run_objectives, self.limits)
         outputs = self.options.outputs.replace(
-            anatomy_clearance=clearance and guards.clearance_mm is None, tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
-            clearance_min_exact=clearance, holding_torque=needs_holding_torque(self.run_objectives, self.limits),
+            anatomy_clearance=clearance and guards.clearance_mm is None,
+            tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
+            clearance_min_exact=clearance,
+            holding_torque=needs_holding_torque(self.run_objectives, self.limits),
             envelope_clearance=needs_envelope_clearance(self.run_objectives, self.limits),
-        )  # fmt: skip
-        return Options(guards=guards, body=self.options.body, loads=self.options.loads, masses=self.options.masses, outputs=outputs)
+        )
+        return Options(
+            guards=guards, body=self.options.body, loads=self.options.loads, masses=self.options.masses, outputs=outputs
+        )
 
     # ------------------------------------------------------------------ config.toml's [settings] table
     def to_table(self) -> dict[str, Any]:
@@ -277,18 +325,44 @@ class RunSettings(Settings):
         guard of 8.2 set one by one adds its own key)."""
         g, b, ld = self.options.guards, self.options.body, self.options.loads
         table: dict[str, Any] = {
-            "algorithm": self.algorithm, "population": self.population, "generations": self.generations, "tolerance": self.tolerance,
-            "period": self.period, "points": self.points, "mode": self.mode, "setups": self.setups, "guards": self.guards,
-            "margin": self.margin, "seed": self.seed, "engine": self.engine, "aggregate": self.aggregate,
-            "compactness": self.compactness, "checkpoint_every": self.checkpoint_every,
-            "eliminate_duplicates": self.eliminate_duplicates, "design_from": self.design_from, "free": list(self.free),
-            "side": self.side, "levels": self.levels, "ids": self.ids, "transform": self.transform,
-            "anatomy": list(self.anatomy), "anatomy_frame": self.anatomy_frame, "clearance": g.clearance_mm,
-            "self_clearance": g.self_clearance_mm, "link_radius": b.link_radius, "actuator_radius": b.actuator_radius,
-            "motor_radius": b.motor_radius, "motor_length": b.motor_length, "objectives": list(self.objectives),
-            "limits": self.limits, "encoder_deg": list(ld.encoder_deg), "thrust": ld.thrust_N, "lateral_force": ld.lateral_force_N,
-            "actuator_stiffness": list(ld.actuator_stiffness), "docking": self.docking,
-        }  # fmt: skip
+            "algorithm": self.algorithm,
+            "population": self.population,
+            "generations": self.generations,
+            "tolerance": self.tolerance,
+            "period": self.period,
+            "points": self.points,
+            "mode": self.mode,
+            "setups": self.setups,
+            "guards": self.guards,
+            "margin": self.margin,
+            "seed": self.seed,
+            "engine": self.engine,
+            "aggregate": self.aggregate,
+            "compactness": self.compactness,
+            "checkpoint_every": self.checkpoint_every,
+            "eliminate_duplicates": self.eliminate_duplicates,
+            "design_from": self.design_from,
+            "free": list(self.free),
+            "side": self.side,
+            "levels": self.levels,
+            "ids": self.ids,
+            "transform": self.transform,
+            "anatomy": list(self.anatomy),
+            "anatomy_frame": self.anatomy_frame,
+            "clearance": g.clearance_mm,
+            "self_clearance": g.self_clearance_mm,
+            "link_radius": b.link_radius,
+            "actuator_radius": b.actuator_radius,
+            "motor_radius": b.motor_radius,
+            "motor_length": b.motor_length,
+            "objectives": list(self.objectives),
+            "limits": self.limits,
+            "encoder_deg": list(ld.encoder_deg),
+            "thrust": ld.thrust_N,
+            "lateral_force": ld.lateral_force_N,
+            "actuator_stiffness": list(ld.actuator_stiffness),
+            "docking": self.docking,
+        }
         for name in _TABLE_GUARDS:
             if getattr(g, name) not in (None, False):
                 table[name] = getattr(g, name)
@@ -335,9 +409,28 @@ _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_
 """Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
-FLAT_OPTIONS: dict[str, tuple[str, str]] = {key: FLAT[key] for key in (
-    *_TABLE_GUARDS, "clearance", "self_clearance", "envelope_clearance", "link_radius", "actuator_radius", "motor_radius", "motor_length", "encoder_deg",
-    "thrust", "lateral_force", "actuator_stiffness", "wall", "density", "m_delta", "m_motor", "gravity")}  # fmt: skip
+FLAT_OPTIONS: dict[str, tuple[str, str]] = {
+    key: FLAT[key]
+    for key in (
+        *_TABLE_GUARDS,
+        "clearance",
+        "self_clearance",
+        "envelope_clearance",
+        "link_radius",
+        "actuator_radius",
+        "motor_radius",
+        "motor_length",
+        "encoder_deg",
+        "thrust",
+        "lateral_force",
+        "actuator_stiffness",
+        "wall",
+        "density",
+        "m_delta",
+        "m_motor",
+        "gravity",
+    )
+}
 """The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names."""
 _MASSES = Masses()
 

@@ -65,10 +65,17 @@ def _prepare_seeds(study_dir: Path, base: dict[str, Any], seeds: list[int]) -> N
             runmod.prepare(d, seed_config(base, seed))
 
 
-def start_study(study_dir: Path, base: dict[str, Any], seeds: list[int], *, workers: int = 1, dask: str | None = None,
-                best_known: float | None = None,
-                on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-                on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+def start_study(
+    study_dir: Path,
+    base: dict[str, Any],
+    seeds: list[int],
+    *,
+    workers: int = 1,
+    dask: str | None = None,
+    best_known: float | None = None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    on_generation: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
     """Create the study folder, one run folder per seed, run them all; returns the study summary.
 
     ``base`` is a run config (:func:`arcube.optimization.config.build_config`); its seed is replaced
@@ -90,9 +97,17 @@ def start_study(study_dir: Path, base: dict[str, Any], seeds: list[int], *, work
     try:
         study_dir.mkdir(parents=True, exist_ok=True)
         atomic_write_text(study_dir / "base_config.toml", runmod.to_toml(base))
-        study = {"format": STUDY_FORMAT, "format_version": STUDY_VERSION, "study_id": uuid.uuid4().hex,
-                 "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": " ".join(sys.argv), "seeds": list(seeds),
-                 "workers": int(workers), "dask": dask or "", "best_known": best_known}  # fmt: skip
+        study = {
+            "format": STUDY_FORMAT,
+            "format_version": STUDY_VERSION,
+            "study_id": uuid.uuid4().hex,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "command": " ".join(sys.argv),
+            "seeds": list(seeds),
+            "workers": int(workers),
+            "dask": dask or "",
+            "best_known": best_known,
+        }
         atomic_write_text(study_dir / "study.toml", runmod.to_toml(study))
         _prepare_seeds(study_dir, base, seeds)
         return _run(study_dir, seeds, workers, dask, on_seed, on_generation)
@@ -102,9 +117,14 @@ def start_study(study_dir: Path, base: dict[str, Any], seeds: list[int], *, work
         raise
 
 
-def resume_study(study_dir: Path, *, workers: int | None = None, dask: str | None = None,
-                 on_seed: Callable[[int, dict[str, Any]], None] | None = None,
-                 on_generation: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+def resume_study(
+    study_dir: Path,
+    *,
+    workers: int | None = None,
+    dask: str | None = None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None = None,
+    on_generation: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
     """Finish an interrupted study (finished seeds are kept, the others resume); returns its summary.
 
     ``workers`` / ``dask`` override how the study started (the result does not depend on them)."""
@@ -158,8 +178,14 @@ def _run_seed(run_dir: str, parent_pid: int | None = None) -> dict[str, Any]:
     return run_summary(path)
 
 
-def _run(study_dir: Path, seeds: list[int], workers: int, dask: str | None,
-         on_seed: Callable[[int, dict[str, Any]], None] | None, on_generation: Callable[[dict[str, Any]], None] | None) -> dict[str, Any]:  # fmt: skip
+def _run(
+    study_dir: Path,
+    seeds: list[int],
+    workers: int,
+    dask: str | None,
+    on_seed: Callable[[int, dict[str, Any]], None] | None,
+    on_generation: Callable[[dict[str, Any]], None] | None,
+) -> dict[str, Any]:
     pending = [s for s in seeds if not runmod.is_finished(seed_dir(study_dir, s))]
     for seed in seeds:
         if seed not in pending and on_seed is not None:
@@ -176,7 +202,9 @@ def _run(study_dir: Path, seeds: list[int], workers: int, dask: str | None,
     return finish(study_dir, seeds)
 
 
-def _run_processes(study_dir: Path, pending: list[int], workers: int, on_seed: Callable[[int, dict[str, Any]], None] | None) -> None:
+def _run_processes(
+    study_dir: Path, pending: list[int], workers: int, on_seed: Callable[[int, dict[str, Any]], None] | None
+) -> None:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -193,7 +221,9 @@ def _run_processes(study_dir: Path, pending: list[int], workers: int, on_seed: C
             raise
 
 
-def _run_dask(study_dir: Path, pending: list[int], address: str, on_seed: Callable[[int, dict[str, Any]], None] | None) -> None:
+def _run_dask(
+    study_dir: Path, pending: list[int], address: str, on_seed: Callable[[int, dict[str, Any]], None] | None
+) -> None:
     from arcube.optimization.executors import connect_dask
 
     client = connect_dask(address)
@@ -229,7 +259,14 @@ def study_rows(study_dir: Path, summaries: dict[int, dict[str, Any]]) -> list[di
         names = s.get("objectives") or ["eta_G"]
         row: dict[str, Any] = {"seed": seed, "run": d.name, "feasible": bool(s["feasible"])}
         row |= {f"objective_{n}": summary_value(s, n) for n in names}
-        row |= {"eta_G": s["eta_G"], "violation": s["violation"], "generations": s["generations"], "evaluations": s["evaluations"], "wall_s": s["wall_s"], "eval_s": s["eval_s"]}
+        row |= {
+            "eta_G": s["eta_G"],
+            "violation": s["violation"],
+            "generations": s["generations"],
+            "evaluations": s["evaluations"],
+            "wall_s": s["wall_s"],
+            "eval_s": s["eval_s"],
+        }
         rows.append(row)
     return rows
 
@@ -245,7 +282,9 @@ def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
     w.writeheader()
-    w.writerows([{k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
+    w.writerows(
+        [{k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in r.items()} for r in rows]
+    )
     atomic_write_text(study_dir / "study.csv", buf.getvalue())
     # the first objective, then (when no seed is feasible) the least violation, then the seed
     ranked = sorted(rows, key=lambda r: (_ranked_value(summaries[r["seed"]], name), float(r["violation"]), r["seed"]))
@@ -260,10 +299,17 @@ def finish(study_dir: Path, seeds: list[int]) -> dict[str, Any]:
         return sign * v if math.isfinite(v) else None
 
     summary = {
-        "format": STUDY_FORMAT, "objective": name, "seeds": seeds, "feasible_seeds": len(finite),
-        "best": shown(values[0]), "median": shown(statistics.median(values)) if values else None, "worst": shown(values[-1]),
-        "best_seed": best_seed, "spread_pct": 100.0 * (finite[-1] - finite[0]) / abs(finite[0]) if len(finite) > 1 and finite[0] else None,
-        "wall_s": round(sum(float(r["wall_s"]) for r in rows), 3), "rows": rows,
-    }  # fmt: skip
+        "format": STUDY_FORMAT,
+        "objective": name,
+        "seeds": seeds,
+        "feasible_seeds": len(finite),
+        "best": shown(values[0]),
+        "median": shown(statistics.median(values)) if values else None,
+        "worst": shown(values[-1]),
+        "best_seed": best_seed,
+        "spread_pct": 100.0 * (finite[-1] - finite[0]) / abs(finite[0]) if len(finite) > 1 and finite[0] else None,
+        "wall_s": round(sum(float(r["wall_s"]) for r in rows), 3),
+        "rows": rows,
+    }
     atomic_write_text(study_dir / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return summary

@@ -7,11 +7,27 @@ checks them (MORPHOMETRY.md section 4).
 from __future__ import annotations
 
 from arcube.patients.virtual import (
-    LEVELS, TECHNIQUES, PatientCheck, build_patient, check_patient, draw_parameters, format_check, generate_patient,
-    level_frames, write_patient,
-)  # fmt: skip
+    LEVELS,
+    TECHNIQUES,
+    PatientCheck,
+    build_patient,
+    check_patient,
+    draw_parameters,
+    format_check,
+    generate_patient,
+    level_frames,
+    write_patient,
+)
 
 __all__ = [
-    "LEVELS", "TECHNIQUES", "PatientCheck", "build_patient", "check_patient", "draw_parameters", "format_check",
-    "generate_patient", "level_frames", "write_patient",
-]  # fmt: skip
+    "LEVELS",
+    "TECHNIQUES",
+    "PatientCheck",
+    "build_patient",
+    "check_patient",
+    "draw_parameters",
+    "format_check",
+    "generate_patient",
+    "level_frames",
+    "write_patient",
+]

@@ -81,21 +81,34 @@ if TYPE_CHECKING:  # trimesh is imported only when meshes are made (it is slow t
     import trimesh
 
 __all__ = [
-    "ARCH_ENTRY_MARGIN_MM", "ARCH_MIN_THICKNESS_MM", "BODY_WIDTH_MM", "Box", "CORRIDOR_BEYOND_ENTRY_MM", "DefaultAnatomy",
-    "FLOOR_BELOW_ARCH_MM", "LATERAL_MASS_MARGIN_MM",
-    "REFERENCE_ANATOMY_FILE", "SLAB_BEYOND_LEVELS_MM", "SLAB_HALF_WIDTH_MM", "default_anatomy",
-    "default_anatomy_boxes", "default_anatomy_layout", "reference_anatomy", "reference_anatomy_boxes",
-    "reference_anatomy_path", "write_anatomy",
+    "ARCH_ENTRY_MARGIN_MM",
+    "ARCH_MIN_THICKNESS_MM",
+    "BODY_WIDTH_MM",
+    "Box",
+    "CORRIDOR_BEYOND_ENTRY_MM",
+    "DefaultAnatomy",
+    "FLOOR_BELOW_ARCH_MM",
+    "LATERAL_MASS_MARGIN_MM",
+    "REFERENCE_ANATOMY_FILE",
+    "SLAB_BEYOND_LEVELS_MM",
+    "SLAB_HALF_WIDTH_MM",
+    "default_anatomy",
+    "default_anatomy_boxes",
+    "default_anatomy_layout",
+    "reference_anatomy",
+    "reference_anatomy_boxes",
+    "reference_anatomy_path",
+    "write_anatomy",
 ]
 
-BODY_WIDTH_MM = 18.0            # vertebral body width (x), assumed
-LATERAL_MASS_MARGIN_MM = 2.0    # arch beyond each pedicle entry (entry 2 mm medial to the lateral notch)
-ARCH_ENTRY_MARGIN_MM = 3.0      # arch beyond every entry point along the vertebra (y)
-ARCH_MIN_THICKNESS_MM = 2.0     # arch at least this thick in front of its posterior face (never flat or inverted)
-SLAB_HALF_WIDTH_MM = 80.0       # soft tissue x in [-80, 80]
-SLAB_BEYOND_LEVELS_MM = 40.0    # soft tissue 40 mm beyond the C3 and C7 blocks (y)
+BODY_WIDTH_MM = 18.0  # vertebral body width (x), assumed
+LATERAL_MASS_MARGIN_MM = 2.0  # arch beyond each pedicle entry (entry 2 mm medial to the lateral notch)
+ARCH_ENTRY_MARGIN_MM = 3.0  # arch beyond every entry point along the vertebra (y)
+ARCH_MIN_THICKNESS_MM = 2.0  # arch at least this thick in front of its posterior face (never flat or inverted)
+SLAB_HALF_WIDTH_MM = 80.0  # soft tissue x in [-80, 80]
+SLAB_BEYOND_LEVELS_MM = 40.0  # soft tissue 40 mm beyond the C3 and C7 blocks (y)
 CORRIDOR_BEYOND_ENTRY_MM = 5.0  # corridor walls at least this far beyond every entry point (x)
-FLOOR_BELOW_ARCH_MM = 2.0       # corridor floor below the lowest point of the arches' posterior faces
+FLOOR_BELOW_ARCH_MM = 2.0  # corridor floor below the lowest point of the arches' posterior faces
 REFERENCE_ANATOMY_FILE = "reference_patient.anatomy.stl"  # in arcube/data, patient frame
 
 
@@ -138,9 +151,9 @@ class DefaultAnatomy:
     """One patient's default anatomy and the dimensions that define it (mm, patient frame)."""
 
     boxes: tuple[Box, ...]
-    skin_z: float                       # skin plane (top of the slab)
-    floor_z: float                      # corridor floor
-    bottom_z: float                     # bottom of the slab (anterior face of the bodies)
+    skin_z: float  # skin plane (top of the slab)
+    floor_z: float  # corridor floor
+    bottom_z: float  # bottom of the slab (anterior face of the bodies)
     slab_x: tuple[float, float]
     slab_y: tuple[float, float]
     corridor_x: tuple[float, float]
@@ -154,12 +167,14 @@ class DefaultAnatomy:
     def summary(self) -> str:
         """One line: what the default anatomy is, with its dimensions."""
         n_bone = sum(b.kind == "bone" for b in self.boxes)
-        return (f"default anatomy ([CHOICE], boxes): {n_bone} bone blocks (bodies {BODY_WIDTH_MM:g} mm wide, "
-                f"posterior arches holding the entry points); soft tissue x {self.slab_x[0]:.1f}..{self.slab_x[1]:.1f}, "
-                f"y {self.slab_y[0]:.1f}..{self.slab_y[1]:.1f}, z {self.bottom_z:.1f}..{self.skin_z:.1f} mm "
-                f"(skin {self.skin_mm:g} mm above the most posterior entry); corridor x "
-                f"{self.corridor_x[0]:.1f}..{self.corridor_x[1]:.1f}, y {self.corridor_y[0]:.1f}..{self.corridor_y[1]:.1f}, "
-                f"open above z {self.floor_z:.1f} mm")
+        return (
+            f"default anatomy ([CHOICE], boxes): {n_bone} bone blocks (bodies {BODY_WIDTH_MM:g} mm wide, "
+            f"posterior arches holding the entry points); soft tissue x {self.slab_x[0]:.1f}..{self.slab_x[1]:.1f}, "
+            f"y {self.slab_y[0]:.1f}..{self.slab_y[1]:.1f}, z {self.bottom_z:.1f}..{self.skin_z:.1f} mm "
+            f"(skin {self.skin_mm:g} mm above the most posterior entry); corridor x "
+            f"{self.corridor_x[0]:.1f}..{self.corridor_x[1]:.1f}, y {self.corridor_y[0]:.1f}..{self.corridor_y[1]:.1f}, "
+            f"open above z {self.floor_z:.1f} mm"
+        )
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -173,14 +188,21 @@ def _pedicle_entries_local(params: dict[str, Any], lv: str) -> list[np.ndarray]:
     for side, sigma in (("R", 1.0), ("L", -1.0)):
         p = params["pedicle"][lv][side]
         anchor = np.array([sigma * p["XA_mm"], h / 2 - p["SIP_mm"], -d / 2])
-        direction = _unit(np.array([-sigma * math.tan(math.radians(p["TA_deg"])),
-                                    math.tan(math.radians(p["SA_deg"])), -1.0]))
+        direction = _unit(
+            np.array([-sigma * math.tan(math.radians(p["TA_deg"])), math.tan(math.radians(p["SA_deg"])), -1.0])
+        )
         out.append(anchor - p["PAL_mm"] * direction)
     return out
 
 
-def _arch_box(centre: np.ndarray, rot: np.ndarray, lv: str, params: dict[str, Any],
-              entries_local: list[np.ndarray], cover_local: list[np.ndarray]) -> Box:
+def _arch_box(
+    centre: np.ndarray,
+    rot: np.ndarray,
+    lv: str,
+    params: dict[str, Any],
+    entries_local: list[np.ndarray],
+    cover_local: list[np.ndarray],
+) -> Box:
     """The posterior arch of one level: posterior face through the right and left entries.
 
     ``entries_local``: (right, left) entry, vertebra frame; ``cover_local``: points the arch's
@@ -190,19 +212,21 @@ def _arch_box(centre: np.ndarray, rot: np.ndarray, lv: str, params: dict[str, An
     right, left = entries_local
     w = _unit(right - left)
     z_hat, x_hat = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
-    n = _unit(z_hat - (z_hat @ w) * w)                 # thickness axis ⊥ the entry line
+    n = _unit(z_hat - (z_hat @ w) * w)  # thickness axis ⊥ the entry line
     xb = _unit(x_hat - (x_hat @ n) * n)
     yb = np.cross(n, xb)
-    axes = np.column_stack([xb, yb, n])                # arch frame in the vertebra frame
-    pts = np.array(cover_local) @ axes                 # points to cover, in arch coordinates
+    axes = np.column_stack([xb, yb, n])  # arch frame in the vertebra frame
+    pts = np.array(cover_local) @ axes  # points to cover, in arch coordinates
     wall = np.array([[sx * BODY_WIDTH_MM / 2, sy * h / 2, d / 2] for sx in (-1, 1) for sy in (-1, 1)])
     face = float(right @ n)
-    lo = np.array([pts[:, 0].min() - LATERAL_MASS_MARGIN_MM,
-                   min(-h / 2, pts[:, 1].min() - ARCH_ENTRY_MARGIN_MM),
-                   min(float((wall @ axes)[:, 2].min()), face - ARCH_MIN_THICKNESS_MM)])
-    hi = np.array([pts[:, 0].max() + LATERAL_MASS_MARGIN_MM,
-                   max(h / 2, pts[:, 1].max() + ARCH_ENTRY_MARGIN_MM),
-                   face])
+    lo = np.array(
+        [
+            pts[:, 0].min() - LATERAL_MASS_MARGIN_MM,
+            min(-h / 2, pts[:, 1].min() - ARCH_ENTRY_MARGIN_MM),
+            min(float((wall @ axes)[:, 2].min()), face - ARCH_MIN_THICKNESS_MM),
+        ]
+    )
+    hi = np.array([pts[:, 0].max() + LATERAL_MASS_MARGIN_MM, max(h / 2, pts[:, 1].max() + ARCH_ENTRY_MARGIN_MM), face])
     mid = (lo + hi) / 2
     return Box(centre + rot @ (axes @ mid), (hi - lo) / 2, rot @ axes, f"{lv} posterior arch", "bone")
 
@@ -212,8 +236,9 @@ def _aligned(lo: Sequence[float], hi: Sequence[float], name: str) -> Box:
     return Box((lo_a + hi_a) / 2, (hi_a - lo_a) / 2, np.eye(3), name, "soft tissue")
 
 
-def default_anatomy_layout(params: dict[str, Any], skin_mm: float = 40.0, corridor_width_mm: float = 80.0,
-                           corridor_margin_mm: float = 10.0) -> DefaultAnatomy:
+def default_anatomy_layout(
+    params: dict[str, Any], skin_mm: float = 40.0, corridor_width_mm: float = 80.0, corridor_margin_mm: float = 10.0
+) -> DefaultAnatomy:
     """The default anatomy of the patient ``params`` (from :func:`draw_parameters`), with its dimensions.
 
     Args:
@@ -248,8 +273,8 @@ def default_anatomy_layout(params: dict[str, Any], skin_mm: float = 40.0, corrid
     cy = (y_lo - corridor_margin_mm, y_hi + corridor_margin_mm)
     sx = max(SLAB_HALF_WIDTH_MM, cx + 10.0)
     sy = (min(y_lo - SLAB_BEYOND_LEVELS_MM, cy[0] - 10.0), max(y_hi + SLAB_BEYOND_LEVELS_MM, cy[1] + 10.0))
-    z_mid = (bottom_z + floor_z) / 2                     # walls start here: overlap the floor layer
-    overlap = min(5.0, (cy[0] - sy[0]) / 2)             # side walls reach into the end walls
+    z_mid = (bottom_z + floor_z) / 2  # walls start here: overlap the floor layer
+    overlap = min(5.0, (cy[0] - sy[0]) / 2)  # side walls reach into the end walls
     soft = [
         _aligned((-sx, sy[0], bottom_z), (sx, sy[1], floor_z), "soft tissue: floor layer"),
         _aligned((-sx, sy[0], z_mid), (sx, cy[0], skin_z), "soft tissue: below the corridor"),
@@ -257,18 +282,19 @@ def default_anatomy_layout(params: dict[str, Any], skin_mm: float = 40.0, corrid
         _aligned((cx, cy[0] - overlap, z_mid), (sx, cy[1] + overlap, skin_z), "soft tissue: right of the corridor"),
         _aligned((-sx, cy[0] - overlap, z_mid), (-cx, cy[1] + overlap, skin_z), "soft tissue: left of the corridor"),
     ]
-    return DefaultAnatomy(tuple(bone + soft), skin_z, floor_z, bottom_z, (-sx, sx), sy, (-cx, cx), cy,
-                          float(skin_mm))
+    return DefaultAnatomy(tuple(bone + soft), skin_z, floor_z, bottom_z, (-sx, sx), sy, (-cx, cx), cy, float(skin_mm))
 
 
-def default_anatomy_boxes(params: dict[str, Any], skin_mm: float = 40.0, corridor_width_mm: float = 80.0,
-                          corridor_margin_mm: float = 10.0) -> list[Box]:
+def default_anatomy_boxes(
+    params: dict[str, Any], skin_mm: float = 40.0, corridor_width_mm: float = 80.0, corridor_margin_mm: float = 10.0
+) -> list[Box]:
     """The default anatomy as boxes: 10 bone blocks (C3 body, C3 arch, ..., C7 arch), then 5 soft-tissue boxes."""
     return list(default_anatomy_layout(params, skin_mm, corridor_width_mm, corridor_margin_mm).boxes)
 
 
-def default_anatomy(params: dict[str, Any], skin_mm: float = 40.0, corridor_width_mm: float = 80.0,
-                    corridor_margin_mm: float = 10.0) -> list[trimesh.Trimesh]:
+def default_anatomy(
+    params: dict[str, Any], skin_mm: float = 40.0, corridor_width_mm: float = 80.0, corridor_margin_mm: float = 10.0
+) -> list[trimesh.Trimesh]:
     """The default anatomy as closed box meshes (patient frame, mm), in the order of :func:`default_anatomy_boxes`."""
     return [b.mesh() for b in default_anatomy_boxes(params, skin_mm, corridor_width_mm, corridor_margin_mm)]
 
@@ -288,8 +314,13 @@ def reference_anatomy_path() -> Path:
     return Path(str(resources.files("arcube").joinpath("data", REFERENCE_ANATOMY_FILE)))
 
 
-def write_anatomy(params: dict[str, Any], path: str | os.PathLike[str], skin_mm: float = 40.0,
-                  corridor_width_mm: float = 80.0, corridor_margin_mm: float = 10.0) -> DefaultAnatomy:
+def write_anatomy(
+    params: dict[str, Any],
+    path: str | os.PathLike[str],
+    skin_mm: float = 40.0,
+    corridor_width_mm: float = 80.0,
+    corridor_margin_mm: float = 10.0,
+) -> DefaultAnatomy:
     """Write the default anatomy of ``params`` as one binary STL (patient frame, one shell per box).
 
     Returns:

@@ -19,9 +19,17 @@ from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, gen
 __all__ = ["COHORT_FILE", "cohort_toml", "patient_name", "write_patients"]
 
 
-def write_patients(mean: bool, seed: int | None, technique: str, count: int, out: Path, *,
-                   anatomy_format: str = "stl", anatomy_spacing_mm: float = 0.5,
-                   beside: Callable[[Path], str] | None = None) -> list[str]:  # fmt: skip
+def write_patients(
+    mean: bool,
+    seed: int | None,
+    technique: str,
+    count: int,
+    out: Path,
+    *,
+    anatomy_format: str = "stl",
+    anatomy_spacing_mm: float = 0.5,
+    beside: Callable[[Path], str] | None = None,
+) -> list[str]:
     """Generate, write and check the patients; return one check text per patient.
 
     Args:
@@ -45,8 +53,11 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
         anatomy_spacing_mm: voxel size of a label-map anatomy, mm (> 0).
     """
     anatomy_suffix(anatomy_format)
-    if anatomy_format != "stl" and (isinstance(anatomy_spacing_mm, bool) or not isinstance(anatomy_spacing_mm, (int, float))
-                                    or not 0 < anatomy_spacing_mm < float("inf")):
+    if anatomy_format != "stl" and (
+        isinstance(anatomy_spacing_mm, bool)
+        or not isinstance(anatomy_spacing_mm, (int, float))
+        or not 0 < anatomy_spacing_mm < float("inf")
+    ):
         raise InputError.of("anatomy_spacing_mm", f"{anatomy_spacing_mm!r}: expected a positive number of mm")
     if mean and seed is not None:
         raise InputError.of("mean", "excludes a seed: the mean patient has no random draws (give one or the other)")
@@ -76,10 +87,16 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
     parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{parent.name or 'patients'}.", suffix=".tmp", dir=parent))
     try:
-        texts, entries = _stage_patients(paths, stage, mean, seed, technique, anatomy_format, anatomy_spacing_mm, beside)
-        if paths[0].parent == out:  # a folder of patients: the cohort file of one design job for all of them (model §19)
+        texts, entries = _stage_patients(
+            paths, stage, mean, seed, technique, anatomy_format, anatomy_spacing_mm, beside
+        )
+        if (
+            paths[0].parent == out
+        ):  # a folder of patients: the cohort file of one design job for all of them (model §19)
             (stage / COHORT_FILE).write_text(cohort_toml(entries))
-            texts.append(f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}")
+            texts.append(
+                f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}"
+            )
         staged = sorted(stage.iterdir(), key=lambda f: f.stat().st_mtime_ns)  # the order they were made in
         atomic_write_files({parent / f.name: f.read_bytes() for f in staged})
     except BaseException:
@@ -94,8 +111,16 @@ def write_patients(mean: bool, seed: int | None, technique: str, count: int, out
     return texts
 
 
-def _stage_patients(paths: list[Path], stage: Path, mean: bool, seed: int | None, technique: str, anatomy_format: str,
-                    anatomy_spacing_mm: float, beside: Callable[[Path], str] | None) -> tuple[list[str], list[dict[str, Any]]]:
+def _stage_patients(
+    paths: list[Path],
+    stage: Path,
+    mean: bool,
+    seed: int | None,
+    technique: str,
+    anatomy_format: str,
+    anatomy_spacing_mm: float,
+    beside: Callable[[Path], str] | None,
+) -> tuple[list[str], list[dict[str, Any]]]:
     """Write each patient's files into ``stage`` under the names of ``paths``; the check texts name ``paths``."""
     suffix = anatomy_suffix(anatomy_format)
     texts: list[str] = []
@@ -108,15 +133,27 @@ def _stage_patients(paths: list[Path], stage: Path, mean: bool, seed: int | None
         layout = write_anatomy_as(params, staged.with_suffix(suffix), anatomy_format, anatomy_spacing_mm)
         json_path = path.with_suffix(".json")
         write_patient(ts, params, staged)
-        frame = {"stl": "patient frame", "seg.nrrd": f"LPS label map, {anatomy_spacing_mm:g} mm voxels",
-                 "nii.gz": f"RAS label map, {anatomy_spacing_mm:g} mm voxels"}[anatomy_format]
+        frame = {
+            "stl": "patient frame",
+            "seg.nrrd": f"LPS label map, {anatomy_spacing_mm:g} mm voxels",
+            "nii.gz": f"RAS label map, {anatomy_spacing_mm:g} mm voxels",
+        }[anatomy_format]
         # The check re-reads the written file, so it sees the 3-decimal points a user gets.
         check = format_check(check_patient(read_csv(staged), params))
         # what a higher layer writes beside the plan (its envelope; it reads the anatomy back on the way)
         more = "" if beside is None else beside(staged).replace(str(stage), str(path.parent))
-        texts.append(f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame}{more})\n"
-                     f"# {layout.summary()}\n{check}")
-        entries.append({"name": patient_name(params), "plan": path.name, "anatomy": [anatomy_path.name], "anatomy_frame": COHORT_FRAMES[anatomy_format]})
+        texts.append(
+            f"# {path} (parameters: {json_path}; default anatomy: {anatomy_path}, {frame}{more})\n"
+            f"# {layout.summary()}\n{check}"
+        )
+        entries.append(
+            {
+                "name": patient_name(params),
+                "plan": path.name,
+                "anatomy": [anatomy_path.name],
+                "anatomy_frame": COHORT_FRAMES[anatomy_format],
+            }
+        )
     return texts, entries
 
 
@@ -136,7 +173,9 @@ COHORT_FRAMES = {"stl": "patient", "seg.nrrd": "LPS", "nii.gz": "RAS"}
 
 def cohort_toml(entries: list[dict[str, Any]]) -> str:
     """A cohort file's text (``arcube design --cohort``): one ``[[patient]]`` table per entry, paths relative to the file."""
-    lines = ["# arcube cohort: the patients of one design job (arcube design --cohort cohort.toml); paths relative to this file"]
+    lines = [
+        "# arcube cohort: the patients of one design job (arcube design --cohort cohort.toml); paths relative to this file"
+    ]
     for e in entries:
         lines += ["", "[[patient]]", *(f"{k} = {json.dumps(v)}" for k, v in e.items())]
     return "\n".join(lines) + "\n"

@@ -43,7 +43,11 @@ def draw_isthmus(seed: int | None) -> dict[str, Any]:
     rho = RL_CORRELATION
     for k, lv in enumerate(LEVELS):
         for name, (means, sd, lo, hi) in ISTHMUS.items():
-            z_right, z_other = (0.0, 0.0) if rng is None else (float(rng.standard_normal()), float(rng.standard_normal()))
+            z_right, z_other = (
+                (0.0, 0.0) if rng is None else (float(rng.standard_normal()), float(rng.standard_normal()))
+            )
             out[lv]["R"][name] = float(min(max(means[k] + sd * z_right, lo), hi))
-            out[lv]["L"][name] = float(min(max(means[k] + sd * (rho * z_right + math.sqrt(1 - rho * rho) * z_other), lo), hi))
+            out[lv]["L"][name] = float(
+                min(max(means[k] + sd * (rho * z_right + math.sqrt(1 - rho * rho) * z_other), lo), hi)
+            )
     return out

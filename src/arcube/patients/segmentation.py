@@ -65,8 +65,13 @@ def anatomy_suffix(anatomy_format: str) -> str:
     return f".anatomy.{anatomy_format}"
 
 
-def write_anatomy_as(params: dict[str, Any], path: str | os.PathLike[str], anatomy_format: str = "stl",
-                     spacing_mm: float = 0.5, **layout: float) -> DefaultAnatomy:
+def write_anatomy_as(
+    params: dict[str, Any],
+    path: str | os.PathLike[str],
+    anatomy_format: str = "stl",
+    spacing_mm: float = 0.5,
+    **layout: float,
+) -> DefaultAnatomy:
     """Write the default anatomy of ``params`` to ``path`` as STL (one shell per box, patient frame) or as a
     label map (``seg.nrrd``: LPS; ``nii.gz``: RAS; voxels of ``spacing_mm``); ``layout`` goes to
     :func:`~arcube.patients.anatomy.default_anatomy_layout` (skin_mm, corridor_width_mm, corridor_margin_mm).

@@ -35,8 +35,16 @@ from arcube.io.trajectories import TrajectorySet, atomic_write, write_csv
 from arcube.patients.isthmus import LEVELS, draw_isthmus
 
 __all__ = [
-    "LEVELS", "TECHNIQUES", "PatientCheck", "build_patient", "check_patient", "draw_parameters",
-    "format_check", "generate_patient", "level_frames", "write_patient",
+    "LEVELS",
+    "TECHNIQUES",
+    "PatientCheck",
+    "build_patient",
+    "check_patient",
+    "draw_parameters",
+    "format_check",
+    "generate_patient",
+    "level_frames",
+    "write_patient",
 ]
 
 TECHNIQUES = ("pedicle", "roy-camille", "magerl", "an")
@@ -64,10 +72,10 @@ class _Normal:
 
 
 # Section 1 table. Per-level means (C3..C7), SD, clip range.
-LORDOSIS = _Normal(18.6, 10.0, -10.0, 45.0)          # C2–C7 posterior tangent, deg
-BODY_HEIGHT = _Normal(12.5, 1.4, 9.0, 16.0)          # mm, every level
-BODY_DEPTH = _Normal(16.5, 1.3, 12.0, 21.0)          # mm, every level
-DISC_HEIGHT = _Normal(5.3, 1.0, 3.0, 8.0)            # mm, C3/4 .. C6/7
+LORDOSIS = _Normal(18.6, 10.0, -10.0, 45.0)  # C2–C7 posterior tangent, deg
+BODY_HEIGHT = _Normal(12.5, 1.4, 9.0, 16.0)  # mm, every level
+BODY_DEPTH = _Normal(16.5, 1.3, 12.0, 21.0)  # mm, every level
+DISC_HEIGHT = _Normal(5.3, 1.0, 3.0, 8.0)  # mm, C3/4 .. C6/7
 PEDICLE: dict[str, tuple[tuple[float, ...], float, float | None, float | None]] = {
     "TA_deg": ((47.0, 49.0, 46.0, 43.0, 39.0), 4.5, 25.0, 62.0),
     "SA_deg": ((8.0, 4.0, 0.0, -4.0, -3.0), 6.0, -25.0, 25.0),
@@ -76,20 +84,25 @@ PEDICLE: dict[str, tuple[tuple[float, ...], float, float | None, float | None]] 
     "XA_mm": ((0.0, 0.0, 0.0, 1.7, 1.7), 1.0, -3.0, 5.0),
 }
 RL_CORRELATION = 0.7
-ANTERIOR_MARGIN_MM = 3.0      # drill stops short of the anterior cortex
-MIN_TIP_MIDLINE_MM = 2.0      # tip kept this far from the midline
+ANTERIOR_MARGIN_MM = 3.0  # drill stops short of the anterior cortex
+MIN_TIP_MIDLINE_MM = 2.0  # tip kept this far from the midline
 # Section 2. Lateral-mass centre from the pedicle entry (vertebra frame).
-LM_WIDTH = _Normal(12.2, 1.2)             # Jian 2023 mean; SD assumed (see module docstring)
-LM_ENTRY_TO_NOTCH_MM = 2.0                # C3–C6: pedicle entry 2 mm medial to the lateral notch
-LM_C7_CENTRE_MEDIAL_MM = 1.6              # C7: pedicle entry 1.6 mm lateral to the centre
-LM_CENTRE_BELOW_ENTRY_MM = 2.5            # every level: centre 2.5 mm below the pedicle entry
-_FACET = (50.6, 44.9, 40.2, 42.8, 45.0)                 # superior-facet angle, deg, C3..C7
-_FACET_SD = (4.65, 5.4, 5.9, 4.9, 5.4)                  # mean of right/left SDs, PMC2219934
+LM_WIDTH = _Normal(12.2, 1.2)  # Jian 2023 mean; SD assumed (see module docstring)
+LM_ENTRY_TO_NOTCH_MM = 2.0  # C3–C6: pedicle entry 2 mm medial to the lateral notch
+LM_C7_CENTRE_MEDIAL_MM = 1.6  # C7: pedicle entry 1.6 mm lateral to the centre
+LM_CENTRE_BELOW_ENTRY_MM = 2.5  # every level: centre 2.5 mm below the pedicle entry
+_FACET = (50.6, 44.9, 40.2, 42.8, 45.0)  # superior-facet angle, deg, C3..C7
+_FACET_SD = (4.65, 5.4, 5.9, 4.9, 5.4)  # mean of right/left SDs, PMC2219934
 # technique → (medial offset mm, cranial offset mm, lateral angle, per-level cephalad, length)
 LATERAL_MASS: dict[str, tuple[float, float, _Normal, tuple[_Normal, ...], _Normal]] = {
     "roy-camille": (0.0, 0.0, _Normal(10.0, 4.8), (_Normal(0.0, 5.0),) * 5, _Normal(11.4, 1.5)),
-    "magerl": (2.0, 2.0, _Normal(25.0, 4.8),
-               tuple(_Normal(m, s) for m, s in zip(_FACET, _FACET_SD)), _Normal(14.05, 1.5)),
+    "magerl": (
+        2.0,
+        2.0,
+        _Normal(25.0, 4.8),
+        tuple(_Normal(m, s) for m, s in zip(_FACET, _FACET_SD)),
+        _Normal(14.05, 1.5),
+    ),
     "an": (1.0, 0.0, _Normal(30.0, 4.8), (_Normal(15.0, 5.0),) * 5, _Normal(12.8, 1.5)),
 }
 # Check only: midline spino-laminar junction, this far posterior to the body's posterior wall.
@@ -194,11 +207,11 @@ def _pedicle_local(params: dict[str, Any], lv: str, side: str, sigma: float) -> 
     p = params["pedicle"][lv][side]
     h, d = params["body_height_mm"][lv], params["body_depth_mm"][lv]
     anchor = np.array([sigma * p["XA_mm"], h / 2 - p["SIP_mm"], -d / 2])
-    direction = _unit(np.array([-sigma * math.tan(math.radians(p["TA_deg"])),
-                                math.tan(math.radians(p["SA_deg"])), -1.0]))
+    direction = _unit(
+        np.array([-sigma * math.tan(math.radians(p["TA_deg"])), math.tan(math.radians(p["SA_deg"])), -1.0])
+    )
     entry = anchor - p["PAL_mm"] * direction
-    depth = min(p["PAL_mm"] - ANTERIOR_MARGIN_MM,
-                (sigma * entry[0] - MIN_TIP_MIDLINE_MM) / (-sigma * direction[0]))
+    depth = min(p["PAL_mm"] - ANTERIOR_MARGIN_MM, (sigma * entry[0] - MIN_TIP_MIDLINE_MM) / (-sigma * direction[0]))
     return entry, entry + depth * direction
 
 
@@ -212,8 +225,9 @@ def _lateral_mass_local(params: dict[str, Any], lv: str, side: str, sigma: float
         medial_shift = s["width_mm"] / 2 - LM_ENTRY_TO_NOTCH_MM
     centre = ped_entry + np.array([-sigma * medial_shift, -LM_CENTRE_BELOW_ENTRY_MM, 0.0])
     entry = centre + np.array([-sigma * s["medial_offset_mm"], s["cranial_offset_mm"], 0.0])
-    direction = _unit(np.array([sigma * math.tan(math.radians(s["lateral_deg"])),
-                                math.tan(math.radians(s["cephalad_deg"])), -1.0]))
+    direction = _unit(
+        np.array([sigma * math.tan(math.radians(s["lateral_deg"])), math.tan(math.radians(s["cephalad_deg"])), -1.0])
+    )
     return entry, entry + s["length_mm"] * direction
 
 
@@ -241,9 +255,21 @@ def build_patient(params: dict[str, Any]) -> TrajectorySet:
     isthmus = params.get("isthmus")
     pedicle = None
     if params["technique"] == "pedicle" and params["seed"] is not None and isthmus is not None:
-        pedicle = np.array([[isthmus[lv][sd]["width_mm"], isthmus[lv][sd]["height_mm"], np.nan, np.nan] for lv, sd in zip(levels, sides)])
-    return TrajectorySet(ids, tuple(levels), tuple(sides), np.array(entry), np.array(target),
-                         f"virtual:{params['technique']}:{tag}", pedicle)
+        pedicle = np.array(
+            [
+                [isthmus[lv][sd]["width_mm"], isthmus[lv][sd]["height_mm"], np.nan, np.nan]
+                for lv, sd in zip(levels, sides)
+            ]
+        )
+    return TrajectorySet(
+        ids,
+        tuple(levels),
+        tuple(sides),
+        np.array(entry),
+        np.array(target),
+        f"virtual:{params['technique']}:{tag}",
+        pedicle,
+    )
 
 
 def generate_patient(seed: int | None = None, technique: str = "pedicle") -> tuple[TrajectorySet, dict[str, Any]]:
@@ -292,7 +318,7 @@ class PatientCheck:
 def _angles(d: np.ndarray, sigma: float) -> tuple[float, float]:
     """(medial, sagittal) projected angles of drill direction ``d``, deg (conventions section)."""
     medial = math.degrees(math.atan2(-sigma * d[0], -d[2]))  # + toward the midline
-    sagittal = math.degrees(math.atan2(d[1], -d[2]))        # + tip cephalad
+    sagittal = math.degrees(math.atan2(d[1], -d[2]))  # + tip cephalad
     return medial, sagittal
 
 
@@ -326,19 +352,26 @@ def check_patient(ts: TrajectorySet, params: dict[str, Any]) -> PatientCheck:
             lateral = LATERAL_MASS[technique][2]
             med_tab, sag_tab = -s["lateral_deg"], s["cephalad_deg"]
             z = (s["lateral_deg"] - lateral.mean) / lateral.sd
-        rows.append((tid, lv, side, float(np.linalg.norm(d)), med_loc, med_tab, sag_loc, sag_tab,
-                     med_pat, sag_pat, z))
+        rows.append((tid, lv, side, float(np.linalg.norm(d)), med_loc, med_tab, sag_loc, sag_tab, med_pat, sag_pat, z))
         tips[(lv, side)] = ts.target[i]
         e_local = rot.T @ (ts.entry[i] - c)
         z_junction = params["body_depth_mm"][lv] / 2 + SPINOLAMINAR_BEHIND_BODY_MM
         slj[(lv, side)] = math.hypot(e_local[0], e_local[2] - z_junction)  # axial plane
     per_level = {
         lv: (float(np.linalg.norm(tips[(lv, "R")] - tips[(lv, "L")])), slj[(lv, "R")], slj[(lv, "L")])
-        for lv in LEVELS if (lv, "R") in tips and (lv, "L") in tips
+        for lv in LEVELS
+        if (lv, "R") in tips and (lv, "L") in tips
     }
     what = "published means" if params["seed"] is None else f"seed {params['seed']}"
-    return PatientCheck(f"{technique}, {what}", {lv: frames[lv][2] for lv in LEVELS},
-                        params["lordosis_deg"], technique, rows, per_level, ts.entry.copy())
+    return PatientCheck(
+        f"{technique}, {what}",
+        {lv: frames[lv][2] for lv in LEVELS},
+        params["lordosis_deg"],
+        technique,
+        rows,
+        per_level,
+        ts.entry.copy(),
+    )
 
 
 def _f(value: float, spec: str) -> str:
@@ -376,6 +409,8 @@ def format_check(check: PatientCheck) -> str:
     for lv, (gap, right, left) in check.per_level.items():
         out.append(f"#   {lv} tip gap {gap:5.1f} mm   entry-to-spinolaminar R {right:5.1f}  L {left:5.1f} mm")
     ax = np.abs(ent[:, 0])
-    out.append(f"# entry points span: |x| {ax.min():.1f}-{ax.max():.1f}, y {ent[:, 1].min():.1f}.."
-               f"{ent[:, 1].max():.1f}, z {ent[:, 2].min():.1f}..{ent[:, 2].max():.1f} mm")
+    out.append(
+        f"# entry points span: |x| {ax.min():.1f}-{ax.max():.1f}, y {ent[:, 1].min():.1f}.."
+        f"{ent[:, 1].max():.1f}, z {ent[:, 2].min():.1f}..{ent[:, 2].max():.1f} mm"
+    )
     return "\n".join(out) + "\n"

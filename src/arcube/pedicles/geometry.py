@@ -28,8 +28,15 @@ from arcube.io.trajectories import PEDICLE_COLUMNS
 from arcube.patients.isthmus import isthmus_mean
 
 __all__ = [
-    "DEFAULT_ISTHMUS_DEPTH_MM", "DEFAULT_SCREW_MM", "DIRECTIONS", "GRADES", "Pedicles", "breach_depth", "classify", "pedicles",
-]  # fmt: skip
+    "DEFAULT_ISTHMUS_DEPTH_MM",
+    "DEFAULT_SCREW_MM",
+    "DIRECTIONS",
+    "GRADES",
+    "Pedicles",
+    "breach_depth",
+    "classify",
+    "pedicles",
+]
 
 DEFAULT_ISTHMUS_DEPTH_MM = 12.0
 """s where the plan does not give ``isthmus_depth_mm`` (model §22.1), mm."""
@@ -87,16 +94,22 @@ def pedicles(plan: object, screw_mm: float | None = None) -> Pedicles:
     ids, levels, sides = tuple(plan.ids), tuple(plan.levels), tuple(plan.sides)  # type: ignore[attr-defined]
     A, B = np.asarray(plan.entry, dtype=float), np.asarray(plan.target, dtype=float)  # type: ignore[attr-defined]
     J = len(ids)
-    given = np.full((J, len(PEDICLE_COLUMNS)), np.nan) if plan.pedicle is None else np.asarray(plan.pedicle, dtype=float)  # type: ignore[attr-defined]
+    given = (
+        np.full((J, len(PEDICLE_COLUMNS)), np.nan) if plan.pedicle is None else np.asarray(plan.pedicle, dtype=float)
+    )  # type: ignore[attr-defined]
     mean = np.array([isthmus_mean(lv) for lv in levels]).reshape(J, 2)
     width = np.where(np.isnan(given[:, 0]), mean[:, 0], given[:, 0])
     height = np.where(np.isnan(given[:, 1]), mean[:, 1], given[:, 1])
     for j in range(J):
         if sides[j] not in ("R", "L"):
-            raise InputError(f"{plan.source} trajectory {ids[j]}: a screw needs its side (R or L) to tell medial from lateral")  # type: ignore[attr-defined]
+            raise InputError(
+                f"{plan.source} trajectory {ids[j]}: a screw needs its side (R or L) to tell medial from lateral"
+            )  # type: ignore[attr-defined]
         if np.isnan(width[j]) or np.isnan(height[j]):
-            raise InputError(f"{plan.source} trajectory {ids[j]}: no pedicle width or height, and level {levels[j]!r} is not C3-C7 "  # type: ignore[attr-defined]
-                             "(give pedicle_width_mm and pedicle_height_mm)")  # fmt: skip
+            raise InputError(
+                f"{plan.source} trajectory {ids[j]}: no pedicle width or height, and level {levels[j]!r} is not C3-C7 "  # type: ignore[attr-defined]
+                "(give pedicle_width_mm and pedicle_height_mm)"
+            )
     depth = np.where(np.isnan(given[:, 2]), DEFAULT_ISTHMUS_DEPTH_MM, given[:, 2])
     default_screw = DEFAULT_SCREW_MM if screw_mm is None else float(screw_mm)
     screw = np.where(np.isnan(given[:, 3]), default_screw, given[:, 3])
@@ -106,7 +119,9 @@ def pedicles(plan: object, screw_mm: float | None = None) -> Pedicles:
     norm = np.linalg.norm(px, axis=-1)
     if np.any(norm < 1e-9):
         j = int(np.argmin(norm))
-        raise InputError(f"{plan.source} trajectory {ids[j]}: runs along the patient's x axis: no medio-lateral direction across it")  # type: ignore[attr-defined]
+        raise InputError(
+            f"{plan.source} trajectory {ids[j]}: runs along the patient's x axis: no medio-lateral direction across it"
+        )  # type: ignore[attr-defined]
     w = px / norm[:, None]
     h = np.cross(u, w)
     medial = np.where(np.array(sides) == "R", -1.0, 1.0)  # w has +x: medial is -w on the right, +w on the left

@@ -17,15 +17,41 @@ import numpy as np
 from numpy.typing import NDArray
 
 from arcube.pedicles.geometry import DIRECTIONS, Pedicles, classify
-from arcube.pedicles.sources import Draws, RobotModel, deflection, draw, registration, robot_displacements, robot_displacements_reference
+from arcube.pedicles.sources import (
+    Draws,
+    RobotModel,
+    deflection,
+    draw,
+    registration,
+    robot_displacements,
+    robot_displacements_reference,
+)
 
 __all__ = ["BREACH_COLUMNS", "BreachResult", "monte_carlo", "wilson"]
 
 BREACH_COLUMNS = (
-    "trajectory", "level", "side", "width_mm", "height_mm", "isthmus_depth_mm", "screw_mm", "room_mm", "too_wide", "p_breach",
-    "p_breach_low", "p_breach_high", "p_medial", "p_lateral", "p_cranial", "p_caudal", "p_major", "offset_p95_mm",
-    "p_robot_alone", "p_registration_alone", "p_deflection_alone",
-)  # fmt: skip
+    "trajectory",
+    "level",
+    "side",
+    "width_mm",
+    "height_mm",
+    "isthmus_depth_mm",
+    "screw_mm",
+    "room_mm",
+    "too_wide",
+    "p_breach",
+    "p_breach_low",
+    "p_breach_high",
+    "p_medial",
+    "p_lateral",
+    "p_cranial",
+    "p_caudal",
+    "p_major",
+    "offset_p95_mm",
+    "p_robot_alone",
+    "p_registration_alone",
+    "p_deflection_alone",
+)
 """The columns of breach.csv, one row per screw in the plan's order (then ``room_height_mm``, ``docking``, ``reached``)."""
 Z95 = 1.959963984540054
 
@@ -36,7 +62,9 @@ def wilson(k: NDArray[np.float64] | float, n: int, z: float = Z95) -> tuple[Any,
     p = k_a / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return np.where(k_a == 0, 0.0, np.maximum(centre - half, 0.0)), np.where(k_a == n, 1.0, np.minimum(centre + half, 1.0))
+    return np.where(k_a == 0, 0.0, np.maximum(centre - half, 0.0)), np.where(
+        k_a == n, 1.0, np.minimum(centre + half, 1.0)
+    )
 
 
 @dataclass(frozen=True)
@@ -66,17 +94,32 @@ class BreachResult:
         p, (low, high), room, wide = self.pedicles, self.interval, self.pedicles.room, self.pedicles.too_wide
         out = []
         for j in range(len(p.ids)):
-            nan_if_wide = (lambda v: math.nan if wide[j] else float(v))  # noqa: E731 - one screw's rule
-            out.append({
-                "trajectory": p.ids[j], "level": p.levels[j], "side": p.sides[j], "width_mm": float(p.width[j]), "height_mm": float(p.height[j]),
-                "isthmus_depth_mm": float(p.depth[j]), "screw_mm": float(p.screw[j]), "room_mm": float(room[j, 0]), "too_wide": bool(wide[j]),
-                "p_breach": float(self.p_breach[j]), "p_breach_low": float(low[j]), "p_breach_high": float(high[j]),
-                **{f"p_{name}": nan_if_wide(self.p_direction[j, k]) for k, name in enumerate(DIRECTIONS)},
-                "p_major": nan_if_wide(self.p_major[j]), "offset_p95_mm": nan_if_wide(self.offset_p95_mm[j]),
-                "p_robot_alone": nan_if_wide(self.p_alone[j, 0]), "p_registration_alone": nan_if_wide(self.p_alone[j, 1]),
-                "p_deflection_alone": nan_if_wide(self.p_alone[j, 2]),
-                "room_height_mm": float(room[j, 1]), "docking": self.docking[j], "reached": bool(self.reached[j]),
-            })  # fmt: skip
+            nan_if_wide = lambda v: math.nan if wide[j] else float(v)  # noqa: E731 - one screw's rule
+            out.append(
+                {
+                    "trajectory": p.ids[j],
+                    "level": p.levels[j],
+                    "side": p.sides[j],
+                    "width_mm": float(p.width[j]),
+                    "height_mm": float(p.height[j]),
+                    "isthmus_depth_mm": float(p.depth[j]),
+                    "screw_mm": float(p.screw[j]),
+                    "room_mm": float(room[j, 0]),
+                    "too_wide": bool(wide[j]),
+                    "p_breach": float(self.p_breach[j]),
+                    "p_breach_low": float(low[j]),
+                    "p_breach_high": float(high[j]),
+                    **{f"p_{name}": nan_if_wide(self.p_direction[j, k]) for k, name in enumerate(DIRECTIONS)},
+                    "p_major": nan_if_wide(self.p_major[j]),
+                    "offset_p95_mm": nan_if_wide(self.offset_p95_mm[j]),
+                    "p_robot_alone": nan_if_wide(self.p_alone[j, 0]),
+                    "p_registration_alone": nan_if_wide(self.p_alone[j, 1]),
+                    "p_deflection_alone": nan_if_wide(self.p_alone[j, 2]),
+                    "room_height_mm": float(room[j, 1]),
+                    "docking": self.docking[j],
+                    "reached": bool(self.reached[j]),
+                }
+            )
         return out
 
     def summary(self) -> dict[str, Any]:
@@ -92,16 +135,22 @@ class BreachResult:
         per_docking = {}
         for name in dict.fromkeys(self.docking):
             mine = np.array([d == name for d in self.docking])
-            per_docking[name] = {"breach_probability": float(np.max(self.p_breach[mine & fit])) if (mine & fit).any() else None,
-                                 "expected_breaches": float(np.sum(self.p_breach[mine])), "screws": int(mine.sum())}  # fmt: skip
+            per_docking[name] = {
+                "breach_probability": float(np.max(self.p_breach[mine & fit])) if (mine & fit).any() else None,
+                "expected_breaches": float(np.sum(self.p_breach[mine])),
+                "screws": int(mine.sum()),
+            }
         return {
             "breach_probability": None if worst is None else float(self.p_breach[worst]),
             "worst_screw": None if worst is None else p.ids[worst],
             "too_wide": [p.ids[j] for j in np.flatnonzero(wide)],
             "not_reached": [p.ids[j] for j in np.flatnonzero(~self.reached)],
             "expected_breaches": float(np.sum(self.p_breach)),
-            "per_level_side": per_level, "per_docking": per_docking, "samples": self.samples, "settings": self.settings,
-        }  # fmt: skip
+            "per_level_side": per_level,
+            "per_docking": per_docking,
+            "samples": self.samples,
+            "settings": self.settings,
+        }
 
 
 def _stats(offsets: NDArray[np.float64], p: Pedicles) -> tuple[NDArray[np.float64], ...]:
@@ -111,9 +160,20 @@ def _stats(offsets: NDArray[np.float64], p: Pedicles) -> tuple[NDArray[np.float6
     return np.mean(breach, axis=0), p_dir, np.mean(major, axis=0)
 
 
-def monte_carlo(robot: RobotModel, p: Pedicles, docking: tuple[str, ...], *, samples: int, seed: int, registration_mm: float,
-                registration_deg: float, thrust_N: float, stiffness_Nm_per_rad: Any, reference: bool = False,
-                settings: dict[str, Any] | None = None) -> BreachResult:  # fmt: skip
+def monte_carlo(
+    robot: RobotModel,
+    p: Pedicles,
+    docking: tuple[str, ...],
+    *,
+    samples: int,
+    seed: int,
+    registration_mm: float,
+    registration_deg: float,
+    thrust_N: float,
+    stiffness_Nm_per_rad: Any,
+    reference: bool = False,
+    settings: dict[str, Any] | None = None,
+) -> BreachResult:
     """Run the Monte Carlo (module docstring) on the screws ``p``; ``docking`` ``(J,)`` names each screw's docking (one
     registration per docking, about the centroid of its screws' entries). ``reference``: the robot's displacements
     one sample at a time (:func:`~arcube.pedicles.sources.robot_displacements_reference`), else all at once."""
@@ -122,10 +182,14 @@ def monte_carlo(robot: RobotModel, p: Pedicles, docking: tuple[str, ...], *, sam
     index = np.array([names.index(d) for d in docking], dtype=np.intp)
     entries = p.isthmus - p.depth[:, None] * p.u
     centres = np.array([entries[index == k].mean(axis=0) for k in range(len(names))])
-    draws: Draws = draw(np.random.default_rng(seed), robot, samples, len(p.ids), len(names), registration_mm, registration_deg)
+    draws: Draws = draw(
+        np.random.default_rng(seed), robot, samples, len(p.ids), len(names), registration_mm, registration_deg
+    )
     robot_d = (robot_displacements_reference if reference else robot_displacements)(robot, p.isthmus, e, draws)
     reached = ~np.any(np.isnan(robot_d[0]), axis=-1) if samples else np.ones(len(p.ids), bool)
-    robot_d = np.where(np.isnan(robot_d), np.inf, robot_d)  # a screw the robot does not reach is not drilled where planned
+    robot_d = np.where(
+        np.isnan(robot_d), np.inf, robot_d
+    )  # a screw the robot does not reach is not drilled where planned
     reg_d = registration(draws, p.isthmus, index, centres)
     # an unassembled or unreached screw's offset is not finite (inf x 0 gives NaN): classify() counts it a breach
     with np.errstate(invalid="ignore", over="ignore"):
@@ -133,9 +197,13 @@ def monte_carlo(robot: RobotModel, p: Pedicles, docking: tuple[str, ...], *, sam
         offsets = p.offsets(robot_d + reg_d + defl_d)
     with np.errstate(invalid="ignore", over="ignore"):
         p_breach, p_dir, p_major = _stats(offsets, p)
-        alone = np.stack([_stats(p.offsets(d), p)[0] for d in (robot_d, reg_d, np.broadcast_to(defl_d, robot_d.shape))], axis=-1)
+        alone = np.stack(
+            [_stats(p.offsets(d), p)[0] for d in (robot_d, reg_d, np.broadcast_to(defl_d, robot_d.shape))], axis=-1
+        )
         size = np.nan_to_num(np.linalg.norm(offsets, axis=-1), nan=np.inf)  # not finite: beyond any room
     from arcube.accuracy.monte_carlo import percentiles
 
     p95 = percentiles(size, [95.0], axis=0)[0]
-    return BreachResult(p, tuple(docking), samples, reached, p_breach, p_dir, p_major, p95, alone, offsets, settings or {})
+    return BreachResult(
+        p, tuple(docking), samples, reached, p_breach, p_dir, p_major, p95, alone, offsets, settings or {}
+    )

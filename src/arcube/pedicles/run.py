@@ -41,8 +41,11 @@ def read_calibration(folder: str | os.PathLike[str]) -> tuple[Any, np.ndarray, d
         raise InputError.of("calibration", f"{d}: not a folder (give the folder of arcube calibrate identify)")
     for name in ("design.json", "calibration.json", COVARIANCE_FILE):
         if not (d / name).is_file():
-            raise InputError.of("calibration", f"{d}: has no {name} (the folder of arcube calibrate identify holds design.json, "
-                                               f"calibration.json and {COVARIANCE_FILE})")  # fmt: skip
+            raise InputError.of(
+                "calibration",
+                f"{d}: has no {name} (the folder of arcube calibrate identify holds design.json, "
+                f"calibration.json and {COVARIANCE_FILE})",
+            )
     info = load_json(d / "calibration.json")
     if not isinstance(info, dict) or not isinstance(info.get("settings"), dict):
         raise InputError(f"{d / 'calibration.json'}: not a calibration (no settings)")
@@ -63,16 +66,32 @@ def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:
         for w in robot.starts:
             side = w.side or ""
             if side in out:  # a robot of a cohort: which patient's docking the plan is for is the user's to say
-                raise InputError.of("design", f"{path}: the robot docks {sum(s.label.endswith('_' + side) for s in robot.starts)} times on side "
-                                              f"{side}; give the docking of this plan's patient (dockings/<patient>_<side>/design.json)")  # fmt: skip
+                raise InputError.of(
+                    "design",
+                    f"{path}: the robot docks {sum(s.label.endswith('_' + side) for s in robot.starts)} times on side "
+                    f"{side}; give the docking of this plan's patient (dockings/<patient>_<side>/design.json)",
+                )
             out[side] = robot.placed(w.placement)
         return out
     return {"": Design.load(path)}
 
 
-def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[str] | None = None, *, calibration: Any = None,
-           side: str | None = None, levels: Any = None, ids: Any = None, mode: Any = None, transform: Any = None,
-           tolerances: Any = None, settings: BreachSettings | None = None, loads: Any = None, **fields: Any) -> BreachResult:  # fmt: skip
+def breach(
+    design: Any = None,
+    plan: Any = "reference",
+    out: str | os.PathLike[str] | None = None,
+    *,
+    calibration: Any = None,
+    side: str | None = None,
+    levels: Any = None,
+    ids: Any = None,
+    mode: Any = None,
+    transform: Any = None,
+    tolerances: Any = None,
+    settings: BreachSettings | None = None,
+    loads: Any = None,
+    **fields: Any,
+) -> BreachResult:
     """The breach probability of every screw of ``plan`` (model §22; ``arcube breach``).
 
     Args:
@@ -94,22 +113,34 @@ def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[s
     from arcube.model.design import Design
     from arcube.options import Loads, validated
 
-    s = validated(BreachSettings, {**(settings.model_dump() if settings is not None else {}), **fields}) if fields or settings is None else settings
+    s = (
+        validated(BreachSettings, {**(settings.model_dump() if settings is not None else {}), **fields})
+        if fields or settings is None
+        else settings
+    )
     tol = ToleranceSettings() if tolerances is None else tolerances
     ld = Loads() if loads is None else loads
     cov, cal = None, None
     if calibration is not None:
         cal_design, cov, cal = read_calibration(calibration)
-        if design is not None and not (isinstance(design, (str, os.PathLike)) and Path(design).resolve() == (Path(calibration) / "design.json").resolve()):
-            raise InputError.of("calibration", f"{calibration}: and design {design} are two robots: give the calibration folder alone "
-                                               "(its design.json is the calibrated design)")  # fmt: skip
+        if design is not None and not (
+            isinstance(design, (str, os.PathLike))
+            and Path(design).resolve() == (Path(calibration) / "design.json").resolve()
+        ):
+            raise InputError.of(
+                "calibration",
+                f"{calibration}: and design {design} are two robots: give the calibration folder alone "
+                "(its design.json is the calibrated design)",
+            )
         by_side: dict[str, Any] = {"": cal_design}
     elif design is None:
         raise InputError.of("design", "is required (a design file, a design job's design.json), or give calibration")
     elif isinstance(design, (str, os.PathLike)) and not (isinstance(design, str) and design in ("paper",)):
         from arcube.model.robot import design_at_side
 
-        chosen = design_at_side(design, side)  # a docking of the other side is refused; a robot's design.json gives this side's
+        chosen = design_at_side(
+            design, side
+        )  # a docking of the other side is refused; a robot's design.json gives this side's
         by_side = robot_dockings(design) if chosen is design else {"": chosen}
     else:
         by_side = {"": Design.coerce(design)}
@@ -131,11 +162,31 @@ def breach(design: Any = None, plan: Any = "reference", out: str | os.PathLike[s
         else:
             model = RobotModel(x, signs, tol.tolerances(x), tol.distribution)
         sub = select(ts, ids=",".join(ts.ids[i] for i in idx))
-        info = {"registration_mm": s.registration_mm, "registration_deg": s.registration_deg, "thrust_N": ld.thrust_N,
-                "screw_mm": s.screw_mm, "seed": s.seed, "robot": "calibrated" if cov is not None else f"ISO 2768-{tol.tolerance_class}"}  # fmt: skip
-        results.append((idx, monte_carlo(model, pedicles(sub, s.screw_mm), (name,) * len(idx), samples=s.samples, seed=s.seed,
-                                          registration_mm=s.registration_mm, registration_deg=s.registration_deg, thrust_N=ld.thrust_N,
-                                          stiffness_Nm_per_rad=ld.actuator_stiffness, settings=info)))  # fmt: skip
+        info = {
+            "registration_mm": s.registration_mm,
+            "registration_deg": s.registration_deg,
+            "thrust_N": ld.thrust_N,
+            "screw_mm": s.screw_mm,
+            "seed": s.seed,
+            "robot": "calibrated" if cov is not None else f"ISO 2768-{tol.tolerance_class}",
+        }
+        results.append(
+            (
+                idx,
+                monte_carlo(
+                    model,
+                    pedicles(sub, s.screw_mm),
+                    (name,) * len(idx),
+                    samples=s.samples,
+                    seed=s.seed,
+                    registration_mm=s.registration_mm,
+                    registration_deg=s.registration_deg,
+                    thrust_N=ld.thrust_N,
+                    stiffness_Nm_per_rad=ld.actuator_stiffness,
+                    settings=info,
+                ),
+            )
+        )
     result = _merge(p_all, results, s.samples)
     if out is not None:
         write_breach(result, out)
@@ -146,7 +197,9 @@ def _calibrated_T(cal: dict[str, Any]) -> np.ndarray:
     """T ``(41,)`` of a calibrated robot's encoders and lost motion (its calibration's), 0 elsewhere (the covariance)."""
     from arcube.calibrate.budget import source_covariance
 
-    return source_covariance(np.zeros((31, 31)), float(cal.get("encoder_deg", 0.01)), float(cal.get("backlash_arcmin", 1.0)))[1]
+    return source_covariance(
+        np.zeros((31, 31)), float(cal.get("encoder_deg", 0.01)), float(cal.get("backlash_arcmin", 1.0))
+    )[1]
 
 
 def _groups(ts: Any, by_side: dict[str, Any]) -> list[tuple[str, np.ndarray, Any]]:
@@ -158,7 +211,10 @@ def _groups(ts: Any, by_side: dict[str, Any]) -> list[tuple[str, np.ndarray, Any
     out = []
     for side in dict.fromkeys(ts.sides):
         if side not in by_side:
-            raise InputError.of("design", f"has no docking for side {side!r} (its dockings: {', '.join(by_side)}); keep that side out (side)")
+            raise InputError.of(
+                "design",
+                f"has no docking for side {side!r} (its dockings: {', '.join(by_side)}); keep that side out (side)",
+            )
         out.append((side, np.array([i for i, sd in enumerate(ts.sides) if sd == side]), by_side[side]))
     return out
 
@@ -182,8 +238,19 @@ def _merge(p_all: Any, results: list[tuple[np.ndarray, BreachResult]], samples: 
         for k, i in enumerate(idx):
             docking[i] = r.docking[k]
     first = results[0][1]
-    return BreachResult(p_all, tuple(docking), samples, put("reached", (), bool), put("p_breach", ()), put("p_direction", (4,)),
-                        put("p_major", ()), put("offset_p95_mm", ()), put("p_alone", (3,)), offsets, first.settings)  # fmt: skip
+    return BreachResult(
+        p_all,
+        tuple(docking),
+        samples,
+        put("reached", (), bool),
+        put("p_breach", ()),
+        put("p_direction", (4,)),
+        put("p_major", ()),
+        put("offset_p95_mm", ()),
+        put("p_alone", (3,)),
+        offsets,
+        first.settings,
+    )
 
 
 def _cell(v: Any) -> str:
@@ -221,7 +288,14 @@ def write_breach(result: BreachResult, out: str | os.PathLike[str]) -> Path:
     if worst is not None:
         j = result.pedicles.ids.index(worst)
         p = result.pedicles
-        files["worst_screw.png"] = worst_screw_png(result.offsets[:, j], p.room[j], (p.width[j] / 2, p.height[j] / 2), p.screw[j] / 2,
-                                                   float(p.medial[j]), float(p.cranial[j]), f"trajectory {worst} ({p.levels[j]} {p.sides[j]})",
-                                                   float(result.p_breach[j]))  # fmt: skip
+        files["worst_screw.png"] = worst_screw_png(
+            result.offsets[:, j],
+            p.room[j],
+            (p.width[j] / 2, p.height[j] / 2),
+            p.screw[j] / 2,
+            float(p.medial[j]),
+            float(p.cranial[j]),
+            f"trajectory {worst} ({p.levels[j]} {p.sides[j]})",
+            float(result.p_breach[j]),
+        )
     return write_folder(files, out)

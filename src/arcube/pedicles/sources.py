@@ -31,7 +31,16 @@ from arcube.accuracy.monte_carlo import POSE_INDEX, pose_draws, pose_joint_error
 from arcube.accuracy.sources import N_SOURCES
 from arcube.model.mechanism import forward_kinematics, inverse_kinematics
 
-__all__ = ["CHUNK", "Draws", "RobotModel", "deflection", "draw", "registration", "robot_displacements", "robot_displacements_reference"]
+__all__ = [
+    "CHUNK",
+    "Draws",
+    "RobotModel",
+    "deflection",
+    "draw",
+    "registration",
+    "robot_displacements",
+    "robot_displacements_reference",
+]
 
 CHUNK = 20_000
 """Samples x screws evaluated at once by :func:`robot_displacements` (about 30 MB of temporaries)."""
@@ -61,7 +70,15 @@ class Draws:
     omega: NDArray[np.float64]
 
 
-def draw(rng: np.random.Generator, robot: RobotModel, n: int, screws: int, dockings: int, sigma_t_mm: float, sigma_r_deg: float) -> Draws:
+def draw(
+    rng: np.random.Generator,
+    robot: RobotModel,
+    n: int,
+    screws: int,
+    dockings: int,
+    sigma_t_mm: float,
+    sigma_r_deg: float,
+) -> Draws:
     """The draws of ``n`` samples (module docstring for the order)."""
     if robot.covariance is None:
         per_robot = robot_draws(rng, robot.T, n, robot.distribution)
@@ -76,7 +93,9 @@ def draw(rng: np.random.Generator, robot: RobotModel, n: int, screws: int, docki
     return Draws(per_robot, per_pose, t, omega)
 
 
-def _commanded(robot: RobotModel, I: NDArray[np.float64], e: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+def _commanded(
+    robot: RobotModel, I: NDArray[np.float64], e: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """(q_cmd ``(J, 5)`` rad, assembly ``(J, 3)``, reached ``(J,)``): the nominal IK at the isthmus poses."""
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(robot.design, I, e, robot.mode)
@@ -127,7 +146,9 @@ def registration(draws: Draws, I: ArrayLike, docking: ArrayLike, centres: ArrayL
     return draws.t[:, k, :] + np.cross(draws.omega[:, k, :], arm[None])
 
 
-def deflection(robot: RobotModel, I: ArrayLike, e: ArrayLike, thrust_N: float, stiffness_Nm_per_rad: ArrayLike) -> NDArray[np.float64]:
+def deflection(
+    robot: RobotModel, I: ArrayLike, e: ArrayLike, thrust_N: float, stiffness_Nm_per_rad: ArrayLike
+) -> NDArray[np.float64]:
     """D_deflection ``(J, 3)`` mm: F_t C_E e_j with C_E = J_E K^-1 J_E^T (model §15.4; K in N mm/rad), at the
     nominal design; NaN where it does not reach the screw."""
     from arcube.evaluation.performance import forward_jacobian

@@ -28,8 +28,15 @@ if TYPE_CHECKING:
     from arcube.evaluation.result import Evaluation
     from arcube.optimization.run_results import OptimizeResult
 
-__all__ = ["REPORT_SUFFIXES", "check_report_path", "mechanism_points", "write_evaluation_report", "write_report", "write_run_report",
-           "write_study_convergence"]  # fmt: skip
+__all__ = [
+    "REPORT_SUFFIXES",
+    "check_report_path",
+    "mechanism_points",
+    "write_evaluation_report",
+    "write_report",
+    "write_run_report",
+    "write_study_convergence",
+]
 
 REPORT_SUFFIXES = (".html", ".htm")
 """File endings of an HTML report (its PNGs are named from the stem)."""
@@ -74,9 +81,14 @@ def _check_writable(out: Path, name: str) -> None:
         raise InputError(f"{name} {out}: cannot write in {existing} ({exc.strerror or exc})") from None
 
 
-def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLike[str] | None = None,
-                 program: str | os.PathLike[str] | None = None, preface: str | None = None, title: str | None = None,
-                 **run: Any) -> Path:  # fmt: skip
+def write_report(
+    evaluation: Evaluation | OptimizeResult,
+    path: str | os.PathLike[str] | None = None,
+    program: str | os.PathLike[str] | None = None,
+    preface: str | None = None,
+    title: str | None = None,
+    **run: Any,
+) -> Path:
     """Write the self-contained HTML report of an evaluation (plots, 3D mechanism), or of an optimization
     run held in a folder, and its PNGs; returns the path.
 
@@ -94,7 +106,9 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
 
     if isinstance(evaluation, OptimizeResult):
         if evaluation.path is None:
-            raise InputError.of("result", "is held in memory: only a run written to a folder (optimize with out=...) has a report")
+            raise InputError.of(
+                "result", "is held in memory: only a run written to a folder (optimize with out=...) has a report"
+            )
         if path is not None:
             raise InputError.of("path", "is the run folder's report.html for a run; give none")
         from arcube.report.run_report import write_run_report
@@ -105,7 +119,11 @@ def write_report(evaluation: Evaluation | OptimizeResult, path: str | os.PathLik
     out = check_report_path(path)
     from arcube.report.html import write_evaluation_report
 
-    if program is None and (out.parent / "design.toml").is_file() and (out.parent / "program" / "program.json").is_file():
+    if (
+        program is None
+        and (out.parent / "design.toml").is_file()
+        and (out.parent / "program" / "program.json").is_file()
+    ):
         program = out.parent / "program"
     return write_evaluation_report(evaluation, out, program=program, preface=preface, title=title)
 

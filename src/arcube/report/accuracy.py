@@ -29,8 +29,10 @@ def _png(fig: object) -> bytes:
 
 def _subtitle(result: ToleranceResult) -> str:
     s = result.settings
-    return (f"ISO 2768-1 class {s.tolerance_class}, zero offsets {s.q0_deg:g} deg, encoders {s.encoder_deg:g} deg, "
-            f"backlash {s.backlash_arcmin:g}', {s.distribution}")  # fmt: skip
+    return (
+        f"ISO 2768-1 class {s.tolerance_class}, zero offsets {s.q0_deg:g} deg, encoders {s.encoder_deg:g} deg, "
+        f"backlash {s.backlash_arcmin:g}', {s.distribution}"
+    )
 
 
 def sources_png(result: ToleranceResult) -> bytes:
@@ -75,8 +77,11 @@ def histogram_png(result: ToleranceResult) -> bytes:
     note = f" ({a.size - finite.size} robots cannot assemble somewhere)" if finite.size < a.size else ""
     ax.set_xlabel("largest lateral error of a built robot over the plan (mm)")
     ax.set_ylabel("robots")
-    ax.set_title(f"95 % of {a.size} robots built to these tolerances drill every point within {p95:.3g} mm{note}\n"
-                 f"{_subtitle(result)}", fontsize=10)  # fmt: skip
+    ax.set_title(
+        f"95 % of {a.size} robots built to these tolerances drill every point within {p95:.3g} mm{note}\n"
+        f"{_subtitle(result)}",
+        fontsize=10,
+    )
     ax.legend(fontsize=8)
     return _png(fig)
 

@@ -20,8 +20,11 @@ from arcube.report.page import png_bytes
 
 __all__ = ["breach_bars_png", "worst_screw_png"]
 
-_SOURCES = (("p_robot_alone", "robot alone", "#4C72B0"), ("p_registration_alone", "registration alone", "#DD8452"),
-            ("p_deflection_alone", "deflection alone", "#55A868"))  # fmt: skip
+_SOURCES = (
+    ("p_robot_alone", "robot alone", "#4C72B0"),
+    ("p_registration_alone", "registration alone", "#DD8452"),
+    ("p_deflection_alone", "deflection alone", "#55A868"),
+)
 
 
 def breach_bars_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
@@ -37,9 +40,13 @@ def breach_bars_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
     lo = np.array([r["p_breach_low"] for r in rows])
     hi = np.array([r["p_breach_high"] for r in rows])
     ax.bar(x - 1.5 * width, 100 * p, width, color="#222222", label="all sources")
-    ax.errorbar(x - 1.5 * width, 100 * p, yerr=[100 * (p - lo), 100 * (hi - p)], fmt="none", ecolor="#888888", capsize=2, lw=1)
+    ax.errorbar(
+        x - 1.5 * width, 100 * p, yerr=[100 * (p - lo), 100 * (hi - p)], fmt="none", ecolor="#888888", capsize=2, lw=1
+    )
     for k, (key, label, colour) in enumerate(_SOURCES):
-        v = np.array([0.0 if r[key] is None or (isinstance(r[key], float) and math.isnan(r[key])) else r[key] for r in rows])
+        v = np.array(
+            [0.0 if r[key] is None or (isinstance(r[key], float) and math.isnan(r[key])) else r[key] for r in rows]
+        )
         ax.bar(x + (k - 0.5) * width, 100 * v, width, color=colour, label=label)
     for i, r in enumerate(rows):
         if r["too_wide"]:
@@ -54,8 +61,16 @@ def breach_bars_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
     return png_bytes(fig)
 
 
-def worst_screw_png(offsets: Any, room: Any, half: tuple[float, float], radius: float, medial: float, cranial: float, title: str,
-                    p_breach: float) -> bytes:  # fmt: skip
+def worst_screw_png(
+    offsets: Any,
+    room: Any,
+    half: tuple[float, float],
+    radius: float,
+    medial: float,
+    cranial: float,
+    title: str,
+    p_breach: float,
+) -> bytes:
     """One screw's isthmus (mm, in its plane: medio-lateral across, cranio-caudal up): the bone's ellipse (half
     extents ``half``), the screw's circle (``radius``) at the plan, the room (``room`` (a', b'): where the screw's
     centre must stay) and the sampled ``offsets`` ``(N, 2)``; ``medial``/``cranial`` +-1 orient the axes (medial left,
@@ -66,7 +81,11 @@ def worst_screw_png(offsets: Any, room: Any, half: tuple[float, float], radius: 
     d = d[np.all(np.isfinite(d), axis=1)]
     shown = np.column_stack([-medial * d[:, 0], cranial * d[:, 1]])  # medial to the left, cranial up
     a_r, b_r = float(room[0]), float(room[1])
-    inside = (shown[:, 0] / a_r) ** 2 + (shown[:, 1] / b_r) ** 2 <= 1.0 if a_r > 0 and b_r > 0 else np.zeros(len(shown), bool)
+    inside = (
+        (shown[:, 0] / a_r) ** 2 + (shown[:, 1] / b_r) ** 2 <= 1.0
+        if a_r > 0 and b_r > 0
+        else np.zeros(len(shown), bool)
+    )
     fig = Figure(figsize=(5.6, 5.2))
     ax = fig.add_subplot()
     t = np.linspace(0, 2 * np.pi, 200)
@@ -76,8 +95,22 @@ def worst_screw_png(offsets: Any, room: Any, half: tuple[float, float], radius: 
         ax.plot(a_r * np.cos(t), b_r * np.sin(t), "--", color="#666666", lw=1, label="room of the screw's centre")
     ax.plot(radius * np.cos(t), radius * np.sin(t), color="#222222", lw=1.5, label="screw, as planned")
     keep = slice(None, None, max(1, len(shown) // 4000))
-    ax.scatter(shown[keep][inside[keep], 0], shown[keep][inside[keep], 1], s=2, color="#4C72B0", alpha=0.35, label="samples in bone")
-    ax.scatter(shown[keep][~inside[keep], 0], shown[keep][~inside[keep], 1], s=2, color="#c00000", alpha=0.5, label="samples that breach")
+    ax.scatter(
+        shown[keep][inside[keep], 0],
+        shown[keep][inside[keep], 1],
+        s=2,
+        color="#4C72B0",
+        alpha=0.35,
+        label="samples in bone",
+    )
+    ax.scatter(
+        shown[keep][~inside[keep], 0],
+        shown[keep][~inside[keep], 1],
+        s=2,
+        color="#c00000",
+        alpha=0.5,
+        label="samples that breach",
+    )
     reach = max(half[0], half[1], float(np.percentile(np.abs(shown), 99)) if len(shown) else 0.0) * 1.25
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)

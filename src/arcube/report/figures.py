@@ -31,9 +31,14 @@ if TYPE_CHECKING:
     from arcube.evaluation.result import Evaluation
 
 JACOBIAN_COLORS: dict[str, str] = {
-    "J_LV": "#1f77b4", "J_AV": "#ff7f0e", "J_sigma": "#2ca02c", "J_AS": "#9467bd",
-    "J_AP": "#8c564b", "J_rho": "#e377c2", "J_delta": "#17becf",
-}  # fmt: skip
+    "J_LV": "#1f77b4",
+    "J_AV": "#ff7f0e",
+    "J_sigma": "#2ca02c",
+    "J_AS": "#9467bd",
+    "J_AP": "#8c564b",
+    "J_rho": "#e377c2",
+    "J_delta": "#17becf",
+}
 """One colour per Jacobian (tab10 without red, which marks unreachable points)."""
 UNREACHABLE_COLOR = "#d62728"
 
@@ -132,11 +137,21 @@ def dexterity_png(report: Evaluation, path: str | os.PathLike[str]) -> Path:
     for j, name in enumerate(JACOBIAN_NAMES):
         sel = s.limiting == j
         if sel.any():
-            ax.scatter(s.index[sel], s.dexterity[sel], s=14, color=JACOBIAN_COLORS[name], label=f"limited by {name}", zorder=3)
+            ax.scatter(
+                s.index[sel], s.dexterity[sel], s=14, color=JACOBIAN_COLORS[name], label=f"limited by {name}", zorder=3
+            )
     ax.plot(s.index, s.dexterity, color="0.7", lw=0.8, zorder=2)
     bad = ~s.reachable
     if bad.any():
-        ax.scatter(s.index[bad], np.zeros(int(bad.sum())), marker="x", s=28, color=UNREACHABLE_COLOR, label="unreachable", zorder=4)
+        ax.scatter(
+            s.index[bad],
+            np.zeros(int(bad.sum())),
+            marker="x",
+            s=28,
+            color=UNREACHABLE_COLOR,
+            label="unreachable",
+            zorder=4,
+        )
     for b in s.boundaries:
         ax.axvline(b, color="0.4", lw=0.8, ls="--")
     top = max(float(np.max(s.dexterity, initial=0.0)), 1.0) * 1.18
@@ -184,7 +199,6 @@ def convergence_png(history: History, path: str | os.PathLike[str], best_known: 
     return out
 
 
-
 def _plain_log_ticks(ax: Any) -> None:
     """Tick labels of a log axis as plain numbers (1.25, 1.3), not powers of ten (1.25 x 10^0)."""
     from matplotlib.ticker import FuncFormatter
@@ -199,8 +213,12 @@ def _best_known_line(ax: Any, best_known: float | None) -> None:
         ax.axhline(best_known, color="#d62728", lw=1.0, ls=":", label=f"best known {best_known:g}")
 
 
-def study_convergence_png(histories: dict[int, History], path: str | os.PathLike[str], best_seed: int | None = None,
-                          best_known: float | None = None) -> Path:  # fmt: skip
+def study_convergence_png(
+    histories: dict[int, History],
+    path: str | os.PathLike[str],
+    best_seed: int | None = None,
+    best_known: float | None = None,
+) -> Path:
     """Write the convergence of a study: best eta_G against evaluations (or generations), one line per seed, log scale."""
     from matplotlib.figure import Figure
 
@@ -213,18 +231,30 @@ def study_convergence_png(histories: dict[int, History], path: str | os.PathLike
         last = h.best_eta_G[np.isfinite(h.best_eta_G)]
         final = float(last[-1]) if len(last) else math.nan
         finals.append(final)
-        ax.plot(x, h.best_eta_G, lw=2.2 if seed == best_seed else 1.0, label=f"seed {seed}: {final:.4f}" if math.isfinite(final) else f"seed {seed}: none feasible")
+        ax.plot(
+            x,
+            h.best_eta_G,
+            lw=2.2 if seed == best_seed else 1.0,
+            label=f"seed {seed}: {final:.4f}" if math.isfinite(final) else f"seed {seed}: none feasible",
+        )
     _best_known_line(ax, best_known)
     ax.set_xlabel("design evaluations" if by_evals else "generation")
     ax.set_ylabel("best η_G (log scale)")
     ax.set_yscale("log")
     ok = np.array([f for f in finals if math.isfinite(f)])
     if len(ok):  # the early values run into the hundreds: show the last 30 % above the worst final, where seeds differ
-        low = min(float(ok.min()), best_known if best_known is not None and math.isfinite(best_known) and best_known > 0 else math.inf)
+        low = min(
+            float(ok.min()),
+            best_known if best_known is not None and math.isfinite(best_known) and best_known > 0 else math.inf,
+        )
         ax.set_ylim(low / 1.005, float(ok.max()) * 1.3)
     _plain_log_ticks(ax)
     spread = f", spread {100.0 * (ok.max() - ok.min()) / ok.min():.1f} %" if len(ok) > 1 else ""
-    ax.set_title(f"Convergence over {len(histories)} seeds (median final {np.median(ok):.4f}{spread})" if len(ok) else "Convergence over seeds")
+    ax.set_title(
+        f"Convergence over {len(histories)} seeds (median final {np.median(ok):.4f}{spread})"
+        if len(ok)
+        else "Convergence over seeds"
+    )
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, ncols=2 if len(histories) > 8 else 1)
     out = Path(path)
@@ -252,9 +282,13 @@ class ParetoFront(NamedTuple):
 def read_pareto(path: str | os.PathLike[str]) -> ParetoFront:
     """Read ``pareto.csv`` (columns eta_G, links_sum_mm, bbox_volume_L); InputError naming the file otherwise."""
     base = ("eta_G", "links_sum_mm", "bbox_volume_L")
-    table = read_table(path, pipes=False, required=base)  # arcube.io.tables: a text file, rows as wide as the header, each column once
-    names = [k[len("objective_"):] for k in table.header if k.startswith("objective_")]
-    data = np.array(table.numbers([*base, *("objective_" + n for n in names)], finite=False), dtype=float).reshape(-1, len(base) + len(names))
+    table = read_table(
+        path, pipes=False, required=base
+    )  # arcube.io.tables: a text file, rows as wide as the header, each column once
+    names = [k[len("objective_") :] for k in table.header if k.startswith("objective_")]
+    data = np.array(table.numbers([*base, *("objective_" + n for n in names)], finite=False), dtype=float).reshape(
+        -1, len(base) + len(names)
+    )
     cols = {k: data[:, j].copy() for j, k in enumerate(base)}
     objs = {n: data[:, len(base) + j].copy() for j, n in enumerate(names)}
     if objs:  # a run with --objectives: rows as written (sorted by the first objective)
@@ -270,13 +304,20 @@ def pareto_png(front: ParetoFront, path: str | os.PathLike[str]) -> Path:
 
     if front.objectives:
         names = list(front.objectives)
-        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
+        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
         fig = Figure(figsize=(4.2 * len(pairs), 4.0), layout="constrained")
         for j, (a, b) in enumerate(pairs):
             ax = fig.add_subplot(1, len(pairs), j + 1)
             ax.scatter(front.objectives[b], front.objectives[a], s=12, c=front.bbox_volume_L, cmap="viridis")
             c = front.chosen
-            ax.scatter([front.objectives[b][c]], [front.objectives[a][c]], marker="*", s=160, color="#d62728", label="best_design.json")
+            ax.scatter(
+                [front.objectives[b][c]],
+                [front.objectives[a][c]],
+                marker="*",
+                s=160,
+                color="#d62728",
+                label="best_design.json",
+            )
             ax.set_xlabel(b)
             ax.set_ylabel(a)
             ax.legend(fontsize=8)

@@ -29,11 +29,25 @@ from arcube.io.files import atomic_write_text
 from arcube.evaluation.indices import JACOBIAN_NAMES
 from arcube.model.mechanism import parse_mode
 from arcube.report.figures import (
-    JACOBIAN_COLORS, UNREACHABLE_COLOR, History, ParetoFront, convergence_png, dexterity_png, dexterity_series, pareto_png,
-    read_history, read_pareto,
-)  # fmt: skip
+    JACOBIAN_COLORS,
+    UNREACHABLE_COLOR,
+    History,
+    ParetoFront,
+    convergence_png,
+    dexterity_png,
+    dexterity_series,
+    pareto_png,
+    read_history,
+    read_pareto,
+)
 from arcube.model.body import PART_NAMES, MechanismPoints, mechanism_points
-from arcube.report.mechanism3d import SCENE_TRACES, STYLE as _STYLE, mechanism_extent, mechanism_traces as _mechanism_traces, xyz as _xyz
+from arcube.report.mechanism3d import (
+    SCENE_TRACES,
+    STYLE as _STYLE,
+    mechanism_extent,
+    mechanism_traces as _mechanism_traces,
+    xyz as _xyz,
+)
 from arcube.report.page import CSS as _CSS, esc as _esc, fmt as _fmt, plotly_div
 from arcube.report.mechanism3d import envelope_trace
 from arcube.report.tip import anatomy_trace, tip_figure
@@ -43,7 +57,13 @@ if TYPE_CHECKING:
 
     from arcube.evaluation.result import Evaluation
 
-DIV_IDS = {"dexterity": "fig-dexterity", "convergence": "fig-convergence", "pareto": "fig-pareto", "tip": "fig-tip", "scene": "fig-scene"}
+DIV_IDS = {
+    "dexterity": "fig-dexterity",
+    "convergence": "fig-convergence",
+    "pareto": "fig-pareto",
+    "tip": "fig-tip",
+    "scene": "fig-scene",
+}
 TITLES = {
     "dexterity": "Local inverted dexterity along the drilling trajectories (paper Fig. 4)",
     "convergence": "Optimization convergence per generation",
@@ -61,7 +81,9 @@ def _frame_title(report: Evaluation, i: int, mp: MechanismPoints, series: Any) -
     pts = report.results.points
     if np.isfinite(pts.clearance_mm[i]):
         c, part = float(pts.clearance_mm[i]), PART_NAMES[int(pts.clearance_part[i])]
-        text += f" · clearance {c:.1f} mm ({part})" if c >= 0.0 else f" · COLLISION: {part} {-c:.1f} mm inside the anatomy"
+        text += (
+            f" · clearance {c:.1f} mm ({part})" if c >= 0.0 else f" · COLLISION: {part} {-c:.1f} mm inside the anatomy"
+        )
     if np.isfinite(pts.self_clearance_mm[i]) and pts.self_clearance_mm[i] < 0.0:
         text += f" · parts overlap by {-float(pts.self_clearance_mm[i]):.1f} mm"
     return text + ("" if mp.z_closes[i] else " · z dyad open (dashed)")
@@ -73,15 +95,31 @@ def scene_figure(report: Evaluation) -> go.Figure:
 
     task, ts = report.task, report.trajectories
     series = dexterity_series(report)
-    mp = mechanism_points(report.design.to_vector(), task.E, task.e, parse_mode(report.mode), c_z=report.options.guards.c_z)
+    mp = mechanism_points(
+        report.design.to_vector(), task.E, task.e, parse_mode(report.mode), c_z=report.options.guards.c_z
+    )
     shown = np.flatnonzero(series.reachable & np.isfinite(mp.D).all(axis=(-2, -1)))
     fig = go.Figure()
     seg = [np.stack([a, b]) for a, b in zip(ts.entry, ts.target)]
-    fig.add_trace(go.Scatter3d(name="trajectories", mode="lines", line={"color": "#17becf", "width": 4}, hoverinfo="skip", **_xyz(seg)))
+    fig.add_trace(
+        go.Scatter3d(
+            name="trajectories", mode="lines", line={"color": "#17becf", "width": 4}, hoverinfo="skip", **_xyz(seg)
+        )
+    )
     labels = [f"entry {lab}" for lab in series.labels]
-    fig.add_trace(go.Scatter3d(name="entry points", mode="markers", marker={"size": 3, "color": "#17becf"}, hovertext=labels,
-                               hoverinfo="text", **_xyz([np.asarray(ts.entry)])))  # fmt: skip
-    first = _mechanism_traces(mp, int(shown[0])) if len(shown) else [_xyz([np.full((1, 3), np.nan)])] * len(SCENE_TRACES)
+    fig.add_trace(
+        go.Scatter3d(
+            name="entry points",
+            mode="markers",
+            marker={"size": 3, "color": "#17becf"},
+            hovertext=labels,
+            hoverinfo="text",
+            **_xyz([np.asarray(ts.entry)]),
+        )
+    )
+    first = (
+        _mechanism_traces(mp, int(shown[0])) if len(shown) else [_xyz([np.full((1, 3), np.nan)])] * len(SCENE_TRACES)
+    )
     for name, data in zip(SCENE_TRACES, first):
         fig.add_trace(go.Scatter3d(name=name, hoverinfo="name", **_STYLE[name], **data))
     dyn = list(range(_N_STATIC, _N_STATIC + len(SCENE_TRACES)))
@@ -89,9 +127,25 @@ def scene_figure(report: Evaluation) -> go.Figure:
     for i in shown:
         name = f"p{int(i)}"
         title = _frame_title(report, int(i), mp, series)
-        frames.append(go.Frame(name=name, traces=dyn, data=[go.Scatter3d(**d) for d in _mechanism_traces(mp, int(i))], layout={"title": {"text": title}}))
+        frames.append(
+            go.Frame(
+                name=name,
+                traces=dyn,
+                data=[go.Scatter3d(**d) for d in _mechanism_traces(mp, int(i))],
+                layout={"title": {"text": title}},
+            )
+        )
         label = f"{task.ids[int(task.trajectory[i])]}:{int(task.k[i])}"
-        steps.append({"label": label, "method": "animate", "args": [[name], {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}}]})
+        steps.append(
+            {
+                "label": label,
+                "method": "animate",
+                "args": [
+                    [name],
+                    {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}},
+                ],
+            }
+        )
     fig.frames = frames
     anatomy = anatomy_trace(report)
     if anatomy is not None:  # after the animated traces: frames address those by index
@@ -106,24 +160,81 @@ def scene_figure(report: Evaluation) -> go.Figure:
     allp = np.concatenate(pts)
     lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
     pad = 0.05 * float(np.max(hi - lo)) + 1.0
-    axes = {f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"} for j, a in enumerate("xyz")}
+    axes = {
+        f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"}
+        for j, a in enumerate("xyz")
+    }
     n_skip = len(task) - len(shown)
     note = (f"{n_skip} of {len(task)} points are unreachable: they have no slider step." if n_skip else "") + (
-        " No reachable point: only the trajectories are drawn." if not len(shown) else "")  # fmt: skip
+        " No reachable point: only the trajectories are drawn." if not len(shown) else ""
+    )
     fig.update_layout(
-        title={"text": _frame_title(report, int(shown[0]), mp, series) if len(shown) else TITLES["scene"], "font": {"size": 13}},
-        scene={"aspectmode": "data", **axes, "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}}},
-        height=760, margin={"l": 0, "r": 0, "t": 50, "b": 0}, legend={"x": 0.0, "y": 0.95},
-        annotations=[{"text": note, "showarrow": False, "xref": "paper", "yref": "paper", "x": 1.0, "y": 1.0, "xanchor": "right", "yanchor": "top", "font": {"color": UNREACHABLE_COLOR}}] if note else [],
-    )  # fmt: skip
+        title={
+            "text": _frame_title(report, int(shown[0]), mp, series) if len(shown) else TITLES["scene"],
+            "font": {"size": 13},
+        },
+        scene={
+            "aspectmode": "data",
+            **axes,
+            "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}},
+        },
+        height=760,
+        margin={"l": 0, "r": 0, "t": 50, "b": 0},
+        legend={"x": 0.0, "y": 0.95},
+        annotations=[
+            {
+                "text": note,
+                "showarrow": False,
+                "xref": "paper",
+                "yref": "paper",
+                "x": 1.0,
+                "y": 1.0,
+                "xanchor": "right",
+                "yanchor": "top",
+                "font": {"color": UNREACHABLE_COLOR},
+            }
+        ]
+        if note
+        else [],
+    )
     if steps:
-        play = {"label": "▶ play", "method": "animate", "args": [None, {"frame": {"duration": 150, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}}]}
-        pause = {"label": "❚❚ pause", "method": "animate", "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}]}
+        play = {
+            "label": "▶ play",
+            "method": "animate",
+            "args": [
+                None,
+                {"frame": {"duration": 150, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}},
+            ],
+        }
+        pause = {
+            "label": "❚❚ pause",
+            "method": "animate",
+            "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}],
+        }
         fig.update_layout(
-            updatemenus=[{"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.06, "xanchor": "left", "direction": "left"}],
-            sliders=[{"active": 0, "steps": steps, "x": 0.15, "len": 0.83, "y": 0.06, "font": {"color": "rgba(0,0,0,0)", "size": 6},
-                      "currentvalue": {"prefix": "trajectory:k = ", "font": {"size": 12, "color": "#333"}}, "ticklen": 2}],
-        )  # fmt: skip
+            updatemenus=[
+                {
+                    "type": "buttons",
+                    "buttons": [play, pause],
+                    "x": 0.0,
+                    "y": 0.06,
+                    "xanchor": "left",
+                    "direction": "left",
+                }
+            ],
+            sliders=[
+                {
+                    "active": 0,
+                    "steps": steps,
+                    "x": 0.15,
+                    "len": 0.83,
+                    "y": 0.06,
+                    "font": {"color": "rgba(0,0,0,0)", "size": 6},
+                    "currentvalue": {"prefix": "trajectory:k = ", "font": {"size": 12, "color": "#333"}},
+                    "ticklen": 2,
+                }
+            ],
+        )
     return fig
 
 
@@ -135,26 +246,78 @@ def dexterity_figure(report: Evaluation) -> go.Figure:
     task = report.task
     hover = [f"traj {s.labels[int(t)]}, k={int(k)}" for t, k in zip(task.trajectory, task.k)]
     fig = go.Figure()
-    fig.add_trace(go.Scatter(x=s.index.tolist(), y=s.dexterity.tolist(), mode="lines", line={"color": "#bbbbbb", "width": 1}, name="100/η_L", hoverinfo="skip"))
+    fig.add_trace(
+        go.Scatter(
+            x=s.index.tolist(),
+            y=s.dexterity.tolist(),
+            mode="lines",
+            line={"color": "#bbbbbb", "width": 1},
+            name="100/η_L",
+            hoverinfo="skip",
+        )
+    )
     for j, name in enumerate(JACOBIAN_NAMES):
         sel = np.flatnonzero(s.limiting == j)
         if len(sel):
-            fig.add_trace(go.Scatter(x=sel.tolist(), y=s.dexterity[sel].round(3).tolist(), mode="markers", name=f"limited by {name}",
-                                     marker={"color": JACOBIAN_COLORS[name], "size": 6}, text=[hover[i] for i in sel],
-                                     hovertemplate="%{text}<br>100/η_L = %{y:.2f} %<extra>" + name + "</extra>"))  # fmt: skip
+            fig.add_trace(
+                go.Scatter(
+                    x=sel.tolist(),
+                    y=s.dexterity[sel].round(3).tolist(),
+                    mode="markers",
+                    name=f"limited by {name}",
+                    marker={"color": JACOBIAN_COLORS[name], "size": 6},
+                    text=[hover[i] for i in sel],
+                    hovertemplate="%{text}<br>100/η_L = %{y:.2f} %<extra>" + name + "</extra>",
+                )
+            )
     bad = np.flatnonzero(~s.reachable)
     if len(bad):
-        fig.add_trace(go.Scatter(x=bad.tolist(), y=[0.0] * len(bad), mode="markers", name="unreachable", marker={"color": UNREACHABLE_COLOR, "symbol": "x", "size": 7},
-                                 text=[f"{hover[i]}: {s.failure[i]}" for i in bad], hovertemplate="%{text}<extra>unreachable</extra>"))  # fmt: skip
+        fig.add_trace(
+            go.Scatter(
+                x=bad.tolist(),
+                y=[0.0] * len(bad),
+                mode="markers",
+                name="unreachable",
+                marker={"color": UNREACHABLE_COLOR, "symbol": "x", "size": 7},
+                text=[f"{hover[i]}: {s.failure[i]}" for i in bad],
+                hovertemplate="%{text}<extra>unreachable</extra>",
+            )
+        )
     top = max(float(np.max(s.dexterity, initial=0.0)), 1.0) * 1.15
     fig.update_layout(
-        title={"text": TITLES["dexterity"]}, height=430, margin={"t": 60, "b": 50},
+        title={"text": TITLES["dexterity"]},
+        height=430,
+        margin={"t": 60, "b": 50},
         xaxis={"title": "point index along the trajectories", "range": [-1, len(s.index)]},
         yaxis={"title": "local inverted dexterity 100/η_L (%)", "range": [-3, top]},
-        shapes=[{"type": "line", "x0": b, "x1": b, "xref": "x", "yref": "paper", "y0": 0, "y1": 1, "line": {"color": "#666", "width": 1, "dash": "dash"}} for b in s.boundaries],
-        annotations=[{"x": c, "y": 1.0, "xref": "x", "yref": "paper", "text": lab, "showarrow": False, "yanchor": "top", "font": {"size": 10},
-                      "textangle": -90 if len(s.labels) > 12 else 0} for c, lab in zip(s.centres, s.labels)],
-    )  # fmt: skip
+        shapes=[
+            {
+                "type": "line",
+                "x0": b,
+                "x1": b,
+                "xref": "x",
+                "yref": "paper",
+                "y0": 0,
+                "y1": 1,
+                "line": {"color": "#666", "width": 1, "dash": "dash"},
+            }
+            for b in s.boundaries
+        ],
+        annotations=[
+            {
+                "x": c,
+                "y": 1.0,
+                "xref": "x",
+                "yref": "paper",
+                "text": lab,
+                "showarrow": False,
+                "yanchor": "top",
+                "font": {"size": 10},
+                "textangle": -90 if len(s.labels) > 12 else 0,
+            }
+            for c, lab in zip(s.centres, s.labels)
+        ],
+    )
     return fig
 
 
@@ -165,12 +328,32 @@ def convergence_figure(history: History, best_known: float | None = None) -> go.
     g = history.generation.tolist()
     nan_to_none = lambda a: [None if not math.isfinite(v) else float(v) for v in a]  # noqa: E731
     fig = make_subplots(specs=[[{"secondary_y": True}]])
-    fig.add_scatter(x=g, y=nan_to_none(history.best_eta_G), name="best η_G", mode="lines", line={"color": "#1f77b4", "width": 2})
-    fig.add_scatter(x=g, y=nan_to_none(history.mean_eta_G), name="mean η_G (feasible)", mode="lines", line={"color": "#1f77b4", "dash": "dash"})
-    fig.add_scatter(x=g, y=nan_to_none(100.0 * history.feasible_fraction), name="feasible %", mode="lines", line={"color": "#2ca02c"}, secondary_y=True)
+    fig.add_scatter(
+        x=g, y=nan_to_none(history.best_eta_G), name="best η_G", mode="lines", line={"color": "#1f77b4", "width": 2}
+    )
+    fig.add_scatter(
+        x=g,
+        y=nan_to_none(history.mean_eta_G),
+        name="mean η_G (feasible)",
+        mode="lines",
+        line={"color": "#1f77b4", "dash": "dash"},
+    )
+    fig.add_scatter(
+        x=g,
+        y=nan_to_none(100.0 * history.feasible_fraction),
+        name="feasible %",
+        mode="lines",
+        line={"color": "#2ca02c"},
+        secondary_y=True,
+    )
     if best_known is not None and math.isfinite(best_known) and best_known > 0.0:
-        fig.add_scatter(x=[g[0], g[-1]] if g else [], y=[best_known, best_known], name=f"best known {best_known:g}", mode="lines",
-                        line={"color": "#d62728", "dash": "dot", "width": 1})  # fmt: skip
+        fig.add_scatter(
+            x=[g[0], g[-1]] if g else [],
+            y=[best_known, best_known],
+            name=f"best known {best_known:g}",
+            mode="lines",
+            line={"color": "#d62728", "dash": "dot", "width": 1},
+        )
     fig.update_layout(title={"text": TITLES["convergence"]}, height=380, margin={"t": 60})
     fig.update_xaxes(title_text="generation")
     # eta_G falls from tens to about 1.3: a log axis shows the last percent, where runs differ
@@ -187,7 +370,9 @@ def design_table(report: Evaluation) -> str:
         if stem == "r":
             cells = f'<td colspan="3" style="text-align:center">{vals["r"]:.4f}</td>'
         else:
-            cells = "".join(f"<td>{vals[f'{stem}_{a}']:.4f}</td>" if f"{stem}_{a}" in vals else "<td>NA</td>" for a in "xyz")
+            cells = "".join(
+                f"<td>{vals[f'{stem}_{a}']:.4f}</td>" if f"{stem}_{a}" in vals else "<td>NA</td>" for a in "xyz"
+            )
         unit = UNITS["r" if stem == "r" else f"{stem}_x"]
         sym = {"alpha": "α", "beta": "β"}.get(stem, stem)
         rows.append(f"<tr><th>{sym}</th>{cells}<td>{unit}</td></tr>")
@@ -201,26 +386,49 @@ def summary_html(report: Evaluation) -> str:
     guards = {k: v for k, v in report.options.guards.model_dump().items() if v not in (None, False)}
     items = [
         ("trajectories", f"{report.trajectories.source}: {len(report.task.ids)} × {report.task.n_points} points"),
-        ("working mode", report.mode), ("guards", ", ".join(f"{k}={v}" for k, v in guards.items()) or "none (paper)"),
-        ("w_G", int(s["w_G"])), ("reachable", f"{100 * s['reachable_fraction']:.1f} % of {s['n_points']} points"),
-        ("η_G", _fmt(s["eta_G"])), ("100/η_G", _fmt(s["inverted_eta_G_pct"], 2) + " %"),
-        ("inverted dexterity min / mean / max", f"{dex['min']:.2f} / {dex['mean']:.2f} / {dex['max']:.2f} % (0 at unreachable points)"),
-        ("failures", ", ".join(f"{k}: {n}" for k, n in s["failures"].items()) or "none"), ("engine", report.engine),
-    ]  # fmt: skip
+        ("working mode", report.mode),
+        ("guards", ", ".join(f"{k}={v}" for k, v in guards.items()) or "none (paper)"),
+        ("w_G", int(s["w_G"])),
+        ("reachable", f"{100 * s['reachable_fraction']:.1f} % of {s['n_points']} points"),
+        ("η_G", _fmt(s["eta_G"])),
+        ("100/η_G", _fmt(s["inverted_eta_G_pct"], 2) + " %"),
+        (
+            "inverted dexterity min / mean / max",
+            f"{dex['min']:.2f} / {dex['mean']:.2f} / {dex['max']:.2f} % (0 at unreachable points)",
+        ),
+        ("failures", ", ".join(f"{k}: {n}" for k, n in s["failures"].items()) or "none"),
+        ("engine", report.engine),
+    ]
     out = "<table>" + "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>" for k, v in items) + "</table>"
     head = ("traj", "level", "side", "reachable", "dex min %", "dex mean %", "dex max %", "limiting", "first failure")
     out += "<h3>Per trajectory</h3><table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"
     for r in report.per_trajectory():
-        cells = (r.id, r.level, r.side, f"{100 * r.reachable_fraction:.0f} %", f"{r.dexterity_min:.2f}", f"{r.dexterity_mean:.2f}",
-                 f"{r.dexterity_max:.2f}", r.limiting_jacobian or "—", r.first_failure or "—")  # fmt: skip
+        cells = (
+            r.id,
+            r.level,
+            r.side,
+            f"{100 * r.reachable_fraction:.0f} %",
+            f"{r.dexterity_min:.2f}",
+            f"{r.dexterity_mean:.2f}",
+            f"{r.dexterity_max:.2f}",
+            r.limiting_jacobian or "—",
+            r.first_failure or "—",
+        )
         out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
     out += "</table>"
     segments = None if report.anatomy is None else report.anatomy.segments
     if segments:  # an anatomy read from a segmentation: which segments, how big, where (model §14.2)
         out += "<h3>Anatomy segments</h3><table><tr><th>segment</th><th>label</th><th>layer</th><th>voxels</th><th>bounds min (mm)</th><th>bounds max (mm)</th><th>file</th></tr>"
         for seg in segments:
-            cells = (seg.name, seg.label, seg.layer, f"{seg.voxels:,}", ", ".join(f"{v:.1f}" for v in seg.lo), ", ".join(f"{v:.1f}" for v in seg.hi),
-                     Path(seg.file).name)  # fmt: skip
+            cells = (
+                seg.name,
+                seg.label,
+                seg.layer,
+                f"{seg.voxels:,}",
+                ", ".join(f"{v:.1f}" for v in seg.lo),
+                ", ".join(f"{v:.1f}" for v in seg.hi),
+                Path(seg.file).name,
+            )
             out += "<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>"
         out += "</table>"
     diag = report.diagnosis()
@@ -239,42 +447,84 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
         c = front.chosen
         if len(names) == 2:
             a, b = names
-            fig = go.Figure(go.Scatter(x=front.objectives[b].tolist(), y=front.objectives[a].tolist(), mode="markers", name="front",
-                                       marker={"size": 7, "color": front.bbox_volume_L.tolist(), "colorscale": "Viridis",
-                                               "showscale": True, "colorbar": {"title": "bbox (L)"}}))  # fmt: skip
-            fig.add_trace(go.Scatter(x=[float(front.objectives[b][c])], y=[float(front.objectives[a][c])], mode="markers",
-                                     name="best_design.json", marker={"symbol": "star", "size": 16, "color": "#d62728"}))  # fmt: skip
+            fig = go.Figure(
+                go.Scatter(
+                    x=front.objectives[b].tolist(),
+                    y=front.objectives[a].tolist(),
+                    mode="markers",
+                    name="front",
+                    marker={
+                        "size": 7,
+                        "color": front.bbox_volume_L.tolist(),
+                        "colorscale": "Viridis",
+                        "showscale": True,
+                        "colorbar": {"title": "bbox (L)"},
+                    },
+                )
+            )
+            fig.add_trace(
+                go.Scatter(
+                    x=[float(front.objectives[b][c])],
+                    y=[float(front.objectives[a][c])],
+                    mode="markers",
+                    name="best_design.json",
+                    marker={"symbol": "star", "size": 16, "color": "#d62728"},
+                )
+            )
             fig.update_xaxes(title_text=b)
             fig.update_yaxes(title_text=a)
         else:
             dims = [{"label": n, "values": v.tolist()} for n, v in front.objectives.items()]
             colors = ["#d62728" if i == c else "#1f77b4" for i in range(len(front.eta_G))]
-            fig = go.Figure(go.Splom(dimensions=dims, marker={"size": 5, "color": colors}, showupperhalf=False, name="front"))
-        fig.update_layout(title={"text": "Pareto front of the run's objectives (star: best_design.json, the lowest " + names[0] + ")"},
-                          height=420 if len(names) == 2 else 700, margin={"t": 60})  # fmt: skip
+            fig = go.Figure(
+                go.Splom(dimensions=dims, marker={"size": 5, "color": colors}, showupperhalf=False, name="front")
+            )
+        fig.update_layout(
+            title={
+                "text": "Pareto front of the run's objectives (star: best_design.json, the lowest " + names[0] + ")"
+            },
+            height=420 if len(names) == 2 else 700,
+            margin={"t": 60},
+        )
         return fig
 
     fig = go.Figure(
         go.Scatter(
-            x=front.links_sum_mm.tolist(), y=front.eta_G.tolist(), mode="markers+lines", name="front",
-            marker={"size": 8, "color": front.bbox_volume_L.tolist(), "colorscale": "Viridis", "showscale": True,
-                    "colorbar": {"title": "bbox (L)"}},
+            x=front.links_sum_mm.tolist(),
+            y=front.eta_G.tolist(),
+            mode="markers+lines",
+            name="front",
+            marker={
+                "size": 8,
+                "color": front.bbox_volume_L.tolist(),
+                "colorscale": "Viridis",
+                "showscale": True,
+                "colorbar": {"title": "bbox (L)"},
+            },
             line={"color": "#bbb", "width": 1},
             hovertemplate="links %{x:.0f} mm<br>η_G %{y:.4f}<br>bbox %{marker.color:.1f} L<extra></extra>",
         )
-    )  # fmt: skip
-    fig.update_layout(title={"text": "Pareto front: dexterity (η_G, lower is better) against size"}, height=420, margin={"t": 60})
+    )
+    fig.update_layout(
+        title={"text": "Pareto front: dexterity (η_G, lower is better) against size"}, height=420, margin={"t": 60}
+    )
     fig.update_xaxes(title_text="sum of link lengths (mm)")
     fig.update_yaxes(title_text="η_G")
     return fig
 
 
 def write_evaluation_report(
-    report: Evaluation, path: str | os.PathLike[str], history_csv: str | os.PathLike[str] | None = None,
-    run_info: dict[str, Any] | None = None, pareto_csv: str | os.PathLike[str] | None = None,
-    limits: dict[str, float] | None = None, best_known: float | None = None, program: str | os.PathLike[str] | None = None,
-    preface: str | None = None, title: str | None = None,
-) -> Path:  # fmt: skip
+    report: Evaluation,
+    path: str | os.PathLike[str],
+    history_csv: str | os.PathLike[str] | None = None,
+    run_info: dict[str, Any] | None = None,
+    pareto_csv: str | os.PathLike[str] | None = None,
+    limits: dict[str, float] | None = None,
+    best_known: float | None = None,
+    program: str | os.PathLike[str] | None = None,
+    preface: str | None = None,
+    title: str | None = None,
+) -> Path:
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
     ``history_csv``: a run's ``history.csv`` (adds the convergence plot and PNG).
@@ -312,33 +562,57 @@ def write_evaluation_report(
         # plotly.js goes inline once, with the first figure; the others reuse it.
         divs[key] = plotly_div(fig, DIV_IDS[key], include_js=k == 0)
     title = title or f"AR-CUBE report: {report.trajectories.source}"
-    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
-             f"<h1>{_esc(title)}</h1>"]  # fmt: skip
+    parts = [
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{_esc(title)}</h1>",
+    ]
     if preface:
         parts.append(preface)
     if run_info:
-        parts.append("<h2>Optimization run</h2><table>" + "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(_fmt(v))}</td></tr>" for k, v in run_info.items()) + "</table>")
-    parts += ["<h2>Design (Table 2 layout)</h2>", design_table(report), "<h2>Summary</h2>", summary_html(report), "<h2>Dexterity</h2>", divs["dexterity"]]
+        parts.append(
+            "<h2>Optimization run</h2><table>"
+            + "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(_fmt(v))}</td></tr>" for k, v in run_info.items())
+            + "</table>"
+        )
+    parts += [
+        "<h2>Design (Table 2 layout)</h2>",
+        design_table(report),
+        "<h2>Summary</h2>",
+        summary_html(report),
+        "<h2>Dexterity</h2>",
+        divs["dexterity"],
+    ]
     if "convergence" in divs:
         parts += ["<h2>Convergence</h2>", divs["convergence"]]
     if "pareto" in divs:
         parts += ["<h2>Pareto front</h2>", divs["pareto"]]
-    parts += ["<h2>At the drill tip</h2><p class='note'>Worst-case tip and axis errors for the encoder resolution, the largest "
-              "actuator torque and the lateral deflection under the drilling loads (model §15), and the clearance of the robot's "
-              "body to the anatomy (model §14) when an anatomy is given; unreachable points are gaps.</p>", divs["tip"]]
+    parts += [
+        "<h2>At the drill tip</h2><p class='note'>Worst-case tip and axis errors for the encoder resolution, the largest "
+        "actuator torque and the lateral deflection under the drilling loads (model §15), and the clearance of the robot's "
+        "body to the anatomy (model §14) when an anatomy is given; unreachable points are gaps.</p>",
+        divs["tip"],
+    ]
     parts += [
         "<h2>Mechanism</h2><p class='note'>Patient frame R_w (x right, y superior, z posterior). Spherical links are drawn as "
         "great-circle arcs on the sphere of radius r around the drill tip E; a dashed z dyad means (d_z, c_z) cannot span "
-        "D_z–Q_z at that point (model §6, not checked by the paper).</p>", divs["scene"],
-    ]  # fmt: skip
+        "D_z–Q_z at that point (model §6, not checked by the paper).</p>",
+        divs["scene"],
+    ]
     if prog is not None:
         from arcube.report.program_html import program_section
 
-        parts.append(program_section(prog, report.design.to_vector(), None if report.anatomy is None else report.anatomy.meshes,
-                                     report.options.guards.c_z))  # fmt: skip
+        parts.append(
+            program_section(
+                prog,
+                report.design.to_vector(),
+                None if report.anatomy is None else report.anatomy.meshes,
+                report.options.guards.c_z,
+            )
+        )
     parts += [
         f"<p class='note'>Figures also saved as {_esc(Path(f'{stem}_dexterity.png').name)}"
-        + (f" and {_esc(Path(f'{stem}_convergence.png').name)}" if "convergence" in divs else "") + ".</p></body></html>",
-    ]  # fmt: skip
+        + (f" and {_esc(Path(f'{stem}_convergence.png').name)}" if "convergence" in divs else "")
+        + ".</p></body></html>",
+    ]
     atomic_write_text(out, "\n".join(parts))
     return out

@@ -20,12 +20,28 @@ from arcube.model.body import MechanismPoints
 
 __all__ = ["SCENE_TRACES", "STYLE", "mechanism_traces", "mesh_trace", "xyz"]
 
-SCENE_TRACES = ("frame", "cranks", "four-bar x", "four-bar y", "z dyad", "z dyad (open)", "platform", "spherical x", "spherical y", "drill", "drill tip")
+SCENE_TRACES = (
+    "frame",
+    "cranks",
+    "four-bar x",
+    "four-bar y",
+    "z dyad",
+    "z dyad (open)",
+    "platform",
+    "spherical x",
+    "spherical y",
+    "drill",
+    "drill tip",
+)
 """The body's traces, in the order :func:`mechanism_traces` returns them."""
 
 STYLE: dict[str, dict[str, Any]] = {
     "frame": {"mode": "lines+markers", "line": {"color": "black", "width": 8}, "marker": {"size": 4, "color": "black"}},
-    "cranks": {"mode": "lines+markers", "line": {"color": "#1f77b4", "width": 7}, "marker": {"size": 4, "color": "#1f77b4"}},
+    "cranks": {
+        "mode": "lines+markers",
+        "line": {"color": "#1f77b4", "width": 7},
+        "marker": {"size": 4, "color": "#1f77b4"},
+    },
     "four-bar x": {"mode": "lines+markers", "line": {"color": "#ff7f0e", "width": 5}, "marker": {"size": 3}},
     "four-bar y": {"mode": "lines+markers", "line": {"color": "#2ca02c", "width": 5}, "marker": {"size": 3}},
     "z dyad": {"mode": "lines+markers", "line": {"color": "#9467bd", "width": 5}, "marker": {"size": 3}},
@@ -33,7 +49,11 @@ STYLE: dict[str, dict[str, Any]] = {
     "platform": {"mode": "lines", "line": {"color": "#7f7f7f", "width": 3}},
     "spherical x": {"mode": "lines", "line": {"color": "#b35806", "width": 6}},
     "spherical y": {"mode": "lines", "line": {"color": "#1b7837", "width": 6}},
-    "drill": {"mode": "lines+markers", "line": {"color": "#d62728", "width": 9}, "marker": {"size": 4, "color": "#d62728"}},
+    "drill": {
+        "mode": "lines+markers",
+        "line": {"color": "#d62728", "width": 9},
+        "marker": {"size": 4, "color": "#d62728"},
+    },
     "drill tip": {"mode": "markers", "marker": {"size": 5, "color": "black", "symbol": "diamond"}},
 }
 """Plotly line/marker style of each of :data:`SCENE_TRACES`."""
@@ -87,8 +107,12 @@ def envelope_trace(envelope: Any) -> Any:
         return None
     from arcube.evaluation.envelope_drawing import envelope_meshes
 
-    return mesh_trace([m for _, m in envelope_meshes(envelope)], name="envelope (" + ", ".join(envelope.names) + ")",
-                      color=ENVELOPE_COLOR, opacity=0.12)  # fmt: skip
+    return mesh_trace(
+        [m for _, m in envelope_meshes(envelope)],
+        name="envelope (" + ", ".join(envelope.names) + ")",
+        color=ENVELOPE_COLOR,
+        opacity=0.12,
+    )
 
 
 def mesh_trace(meshes: Sequence[Any], name: str = "anatomy", color: str = "#e8d8b0", opacity: float = 0.35) -> Any:
@@ -102,5 +126,16 @@ def mesh_trace(meshes: Sequence[Any], name: str = "anatomy", color: str = "#e8d8
         faces.append(np.asarray(m.faces, np.int64) + offset)
         offset += len(m.vertices)
     V, F = np.concatenate(verts), np.concatenate(faces)
-    return go.Mesh3d(x=V[:, 0].tolist(), y=V[:, 1].tolist(), z=V[:, 2].tolist(), i=F[:, 0].tolist(), j=F[:, 1].tolist(),
-                     k=F[:, 2].tolist(), color=color, opacity=opacity, name=name, hoverinfo="name", showlegend=True)  # fmt: skip
+    return go.Mesh3d(
+        x=V[:, 0].tolist(),
+        y=V[:, 1].tolist(),
+        z=V[:, 2].tolist(),
+        i=F[:, 0].tolist(),
+        j=F[:, 1].tolist(),
+        k=F[:, 2].tolist(),
+        color=color,
+        opacity=opacity,
+        name=name,
+        hoverinfo="name",
+        showlegend=True,
+    )

@@ -36,8 +36,14 @@ def plotly_div(fig: Any, div_id: str, include_js: bool) -> str:
     plotly.js inline (once per page, with the first figure)."""
     import plotly.io as pio
 
-    return pio.to_html(fig, full_html=False, include_plotlyjs=include_js, auto_play=False, div_id=div_id,
-                       config={"displaylogo": False, "responsive": True})  # fmt: skip
+    return pio.to_html(
+        fig,
+        full_html=False,
+        include_plotlyjs=include_js,
+        auto_play=False,
+        div_id=div_id,
+        config={"displaylogo": False, "responsive": True},
+    )
 
 
 def png_bytes(fig: Any, dpi: int = 120) -> bytes:

@@ -10,7 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from arcube.evaluation.performance import ACTUATOR_NAMES as JOINTS  # q's order in a program (arcube.motion.output.JOINTS)
+from arcube.evaluation.performance import (
+    ACTUATOR_NAMES as JOINTS,
+)  # q's order in a program (arcube.motion.output.JOINTS)
 from arcube.io.files import atomic_write_bytes
 from arcube.report.figures import _png_bytes
 
@@ -49,10 +51,14 @@ def timeline_figure(prog: Any) -> Any:
         if seg == "drill":
             ax_seg.text(0.5 * (t0 + t1), 0.5, traj, ha="center", va="center", color="white", fontsize=9)
     ax_seg.set_yticks([])
-    ax_seg.legend(handles=[Patch(color=c, label=s) for s, c in SEGMENT_COLOURS.items()], ncols=4, loc="upper right", fontsize=8)
+    ax_seg.legend(
+        handles=[Patch(color=c, label=s) for s, c in SEGMENT_COLOURS.items()], ncols=4, loc="upper right", fontsize=8
+    )
     summary = prog.summary
-    ax_seg.set_title(f"order {' '.join(str(k) for k in summary.get('order', []))}: {summary.get('total_s', t[-1]):.1f} s in total, "
-                     f"{summary.get('drilling_s', float('nan')):.1f} s drilling")  # fmt: skip
+    ax_seg.set_title(
+        f"order {' '.join(str(k) for k in summary.get('order', []))}: {summary.get('total_s', t[-1]):.1f} s in total, "
+        f"{summary.get('drilling_s', float('nan')):.1f} s drilling"
+    )
     for j, name in enumerate(JOINTS):
         ax_rate.plot(t, rate[:, j], lw=1, label=name)
         ax_acc.plot(t, accel[:, j], lw=1, label=name)

@@ -15,11 +15,30 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.io.program_files import CSV_NAME, JOINTS, JSON_NAME, POSE_COLUMNS, TORQUE_COLUMNS, ProgramFiles, Span, is_program_folder
+from arcube.io.program_files import (
+    CSV_NAME,
+    JOINTS,
+    JSON_NAME,
+    POSE_COLUMNS,
+    TORQUE_COLUMNS,
+    ProgramFiles,
+    Span,
+    is_program_folder,
+)
 from arcube.io.program_files import read_program_files as read_program
 
-__all__ = ["CSV_NAME", "JOINTS", "JSON_NAME", "TORQUE_COLUMNS", "ProgramFiles", "Span", "envelope", "find_design", "is_program_folder",
-           "read_program"]  # fmt: skip
+__all__ = [
+    "CSV_NAME",
+    "JOINTS",
+    "JSON_NAME",
+    "TORQUE_COLUMNS",
+    "ProgramFiles",
+    "Span",
+    "envelope",
+    "find_design",
+    "is_program_folder",
+    "read_program",
+]
 
 NUMERIC_COLUMNS: tuple[str, ...] = (*POSE_COLUMNS, *JOINTS, *(f"{j}_dot" for j in JOINTS))
 """The numeric columns every program.csv has, after ``t_s, segment, trajectory``."""

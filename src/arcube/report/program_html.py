@@ -57,43 +57,93 @@ def timeline_figure(prog: ProgramFiles) -> go.Figure:
 
     clear = prog.summary.get("clearances_along_time")
     clear = clear if isinstance(clear, dict) and clear.get("t_s") else None
-    panels = ["segments", "joint rate (deg/s)", "joint acceleration (deg/s²)"] + (["actuator torque (N·m)"] if prog.tau_Nm is not None else [])
+    panels = ["segments", "joint rate (deg/s)", "joint acceleration (deg/s²)"] + (
+        ["actuator torque (N·m)"] if prog.tau_Nm is not None else []
+    )
     panels += ["clearance (mm)"] if clear else []
-    fig = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.04, row_heights=[0.35] + [1.0] * (len(panels) - 1),
-                        subplot_titles=panels)  # fmt: skip
+    fig = make_subplots(
+        rows=len(panels),
+        cols=1,
+        shared_xaxes=True,
+        vertical_spacing=0.04,
+        row_heights=[0.35] + [1.0] * (len(panels) - 1),
+        subplot_titles=panels,
+    )
     spans = prog.spans()
     for kind, colour in SEGMENT_COLOURS.items():
         mine = [s for s in spans if s.segment == kind]
         if mine:
-            fig.add_trace(go.Bar(name=kind, orientation="h", y=["segment"] * len(mine), base=[s.t0 for s in mine], x=[s.t1 - s.t0 for s in mine],
-                                 marker={"color": colour}, text=[s.trajectory if kind == "drill" else "" for s in mine], textposition="inside",
-                                 insidetextanchor="middle", customdata=[[s.first, s.last, s.trajectory] for s in mine], legendgroup="segments",
-                                 hovertemplate=f"{kind} %{{customdata[2]}}<br>rows %{{customdata[0]}}-%{{customdata[1]}}<br>"
-                                               "%{base:.2f} s + %{x:.2f} s<extra></extra>"), row=1, col=1)  # fmt: skip
+            fig.add_trace(
+                go.Bar(
+                    name=kind,
+                    orientation="h",
+                    y=["segment"] * len(mine),
+                    base=[s.t0 for s in mine],
+                    x=[s.t1 - s.t0 for s in mine],
+                    marker={"color": colour},
+                    text=[s.trajectory if kind == "drill" else "" for s in mine],
+                    textposition="inside",
+                    insidetextanchor="middle",
+                    customdata=[[s.first, s.last, s.trajectory] for s in mine],
+                    legendgroup="segments",
+                    hovertemplate=f"{kind} %{{customdata[2]}}<br>rows %{{customdata[0]}}-%{{customdata[1]}}<br>"
+                    "%{base:.2f} s + %{x:.2f} s<extra></extra>",
+                ),
+                row=1,
+                col=1,
+            )
     series = [prog.q_dot_deg, prog.accel_deg_s2()] + ([prog.tau_Nm] if prog.tau_Nm is not None else [])
     for r, values in enumerate(series, start=2):
         for j, name in enumerate(JOINTS):
-            fig.add_trace(go.Scatter(name=name, mode="lines", line={"width": 1, "color": JOINT_COLOURS[j]}, legendgroup=name, showlegend=r == 2,
-                                     **_series(prog.t_s, values[:, j])), row=r, col=1)  # fmt: skip
+            fig.add_trace(
+                go.Scatter(
+                    name=name,
+                    mode="lines",
+                    line={"width": 1, "color": JOINT_COLOURS[j]},
+                    legendgroup=name,
+                    showlegend=r == 2,
+                    **_series(prog.t_s, values[:, j]),
+                ),
+                row=r,
+                col=1,
+            )
     lim = prog.limits
     for r, key in ((2, "max_joint_speed_deg"), (3, "max_joint_accel_deg")):
         if isinstance(lim.get(key), (int, float)):
             dash = {"color": "black", "width": 1, "dash": "dash"}
-            fig.add_hline(y=float(lim[key]), line=dash, row=r, col=1, annotation_text=f"limit ±{float(lim[key]):g}", annotation_position="top left")
+            fig.add_hline(
+                y=float(lim[key]),
+                line=dash,
+                row=r,
+                col=1,
+                annotation_text=f"limit ±{float(lim[key]):g}",
+                annotation_position="top left",
+            )
             fig.add_hline(y=-float(lim[key]), line=dash, row=r, col=1)
     if clear:
         _clearance_panel(fig, clear, lim, len(panels))
     s = prog.summary
-    fig.update_layout(title={"text": f"Program: order {' '.join(str(k) for k in s.get('order', []))}; {fmt(s.get('total_s'), 1)} s in total, "
-                                     f"{fmt(s.get('drilling_s'), 1)} s drilling", "font": {"size": 13}},
-                      barmode="overlay", height=220 + 250 * (len(panels) - 1), margin={"t": 70, "b": 40}, legend={"orientation": "h", "y": -0.06})  # fmt: skip
+    fig.update_layout(
+        title={
+            "text": f"Program: order {' '.join(str(k) for k in s.get('order', []))}; {fmt(s.get('total_s'), 1)} s in total, "
+            f"{fmt(s.get('drilling_s'), 1)} s drilling",
+            "font": {"size": 13},
+        },
+        barmode="overlay",
+        height=220 + 250 * (len(panels) - 1),
+        margin={"t": 70, "b": 40},
+        legend={"orientation": "h", "y": -0.06},
+    )
     fig.update_yaxes(showticklabels=False, row=1, col=1)
     fig.update_xaxes(title_text="time (s)", row=len(panels), col=1)
     return fig
 
 
-CLEARANCE_LINES = {"clearance_mm": ("body to anatomy", "#d62728", "clearance"), "tool_clearance_mm": ("tool to anatomy (transit)", "#7f7f7f", None),
-                   "self_clearance_mm": ("self", "#17becf", "self_clearance")}  # fmt: skip
+CLEARANCE_LINES = {
+    "clearance_mm": ("body to anatomy", "#d62728", "clearance"),
+    "tool_clearance_mm": ("tool to anatomy (transit)", "#7f7f7f", None),
+    "self_clearance_mm": ("self", "#17becf", "self_clearance"),
+}
 """The clearance series of program.json: label, colour, and the limit's key in ``limits`` (the tool's is 0)."""
 
 
@@ -107,8 +157,18 @@ def _clearance_panel(fig: go.Figure, clear: dict[str, Any], lim: dict[str, Any],
         y = np.array([np.nan if v is None else float(v) for v in clear.get(key) or []], dtype=float)
         if len(y) != len(t) or not np.isfinite(y).any():
             continue
-        fig.add_trace(go.Scatter(name=label, mode="lines", line={"width": 1.2, "color": colour}, legendgroup="clearance",
-                                 x=t.tolist(), y=[float(v) if math.isfinite(v) else None for v in y]), row=row, col=1)  # fmt: skip
+        fig.add_trace(
+            go.Scatter(
+                name=label,
+                mode="lines",
+                line={"width": 1.2, "color": colour},
+                legendgroup="clearance",
+                x=t.tolist(),
+                y=[float(v) if math.isfinite(v) else None for v in y],
+            ),
+            row=row,
+            col=1,
+        )
         level = 0.0 if limit_key is None else lim.get(limit_key)
         if isinstance(level, (int, float)):
             fig.add_hline(y=float(level), line={"color": colour, "width": 1, "dash": "dot"}, row=row, col=1)
@@ -143,27 +203,66 @@ def motors_figure(prog: ProgramFiles) -> go.Figure | None:
     for j, name in enumerate(JOINTS):
         speed, tau = np.abs(prog.q_dot_deg[:, j]), np.abs(prog.tau_Nm[:, j])
         keep = _operating_points(speed, tau)
-        fig.add_trace(go.Scattergl(name=f"{name} operating points", x=speed[keep].tolist(), y=tau[keep].tolist(), mode="markers", showlegend=False,
-                                   marker={"size": 3, "color": JOINT_COLOURS[j], "opacity": 0.5},
-                                   hovertemplate="%{x:.2f} deg/s, %{y:.3f} N·m<extra>" + name + "</extra>"), row=1, col=j + 1)  # fmt: skip
+        fig.add_trace(
+            go.Scattergl(
+                name=f"{name} operating points",
+                x=speed[keep].tolist(),
+                y=tau[keep].tolist(),
+                mode="markers",
+                showlegend=False,
+                marker={"size": 3, "color": JOINT_COLOURS[j], "opacity": 0.5},
+                hovertemplate="%{x:.2f} deg/s, %{y:.3f} N·m<extra>" + name + "</extra>",
+            ),
+            row=1,
+            col=j + 1,
+        )
         if not len(keep):
             continue
         peak = int(keep[np.argmax(tau[keep])])
-        fig.add_trace(go.Scatter(name=f"{name} peak", x=[float(speed[peak])], y=[float(tau[peak])], mode="markers", showlegend=False,
-                                 marker={"symbol": "star", "size": 13, "color": "#d62728"},
-                                 hovertemplate=f"peak |τ| %{{y:.3f}} N·m at t = {prog.t_s[peak]:.2f} s<extra>{name}</extra>"), row=1, col=j + 1)  # fmt: skip
+        fig.add_trace(
+            go.Scatter(
+                name=f"{name} peak",
+                x=[float(speed[peak])],
+                y=[float(tau[peak])],
+                mode="markers",
+                showlegend=False,
+                marker={"symbol": "star", "size": 13, "color": "#d62728"},
+                hovertemplate=f"peak |τ| %{{y:.3f}} N·m at t = {prog.t_s[peak]:.2f} s<extra>{name}</extra>",
+            ),
+            row=1,
+            col=j + 1,
+        )
         rms = _rms(prog.t_s, prog.tau_Nm[:, j])
-        fig.add_hline(y=rms, line={"color": "#333", "width": 1, "dash": "dash"}, row=1, col=j + 1, annotation_text=f"RMS {rms:.3g}",
-                      annotation_position="bottom right")  # fmt: skip
+        fig.add_hline(
+            y=rms,
+            line={"color": "#333", "width": 1, "dash": "dash"},
+            row=1,
+            col=j + 1,
+            annotation_text=f"RMS {rms:.3g}",
+            annotation_position="bottom right",
+        )
         sizing = motors.get(name, {}).get("torque_peak_Nm")
         if isinstance(sizing, (int, float)) and math.isfinite(sizing):
-            fig.add_hline(y=float(sizing), line={"color": "#d62728", "width": 1, "dash": "dot"}, row=1, col=j + 1,
-                          annotation_text=f"sizing peak {float(sizing):.3g}", annotation_position="top right")  # fmt: skip
+            fig.add_hline(
+                y=float(sizing),
+                line={"color": "#d62728", "width": 1, "dash": "dot"},
+                row=1,
+                col=j + 1,
+                annotation_text=f"sizing peak {float(sizing):.3g}",
+                annotation_position="top right",
+            )
         fig.update_xaxes(title_text="speed |q̇| (deg/s)", rangemode="tozero", row=1, col=j + 1)
     fig.update_yaxes(title_text="torque |τ| (N·m)", row=1, col=1)
     fig.update_yaxes(rangemode="tozero")
-    fig.update_layout(title={"text": "Actuator torque against speed along the program (star: peak |τ|; dashed: RMS τ; dotted: program.json's "
-                                     "sizing peak)", "font": {"size": 13}}, height=420, margin={"t": 80, "b": 50})  # fmt: skip
+    fig.update_layout(
+        title={
+            "text": "Actuator torque against speed along the program (star: peak |τ|; dashed: RMS τ; dotted: program.json's "
+            "sizing peak)",
+            "font": {"size": 13},
+        },
+        height=420,
+        margin={"t": 80, "b": 50},
+    )
     return fig
 
 
@@ -203,14 +302,38 @@ def limits_table(prog: ProgramFiles) -> str:
     s, lim = prog.summary, prog.limits
     speed, accel = s.get("joint_speed_max_deg_s"), s.get("joint_accel_max_deg_s2")
     rows = [  # (quantity, value, where, limit, kind)
-        ("body to anatomy, smallest (mm)", _num(s.get("clearance_min_mm")), s.get("clearance_min_at", ""), _num(lim.get("clearance")), "min"),
-        ("tool to anatomy in transit, smallest (mm)", _num(s.get("tool_clearance_min_mm")), s.get("tool_clearance_min_at", ""), 0.0, "min"),
-        ("self clearance, smallest (mm)", _num(s.get("self_clearance_min_mm")), s.get("self_clearance_min_at", ""), _num(lim.get("self_clearance")), "min"),
+        (
+            "body to anatomy, smallest (mm)",
+            _num(s.get("clearance_min_mm")),
+            s.get("clearance_min_at", ""),
+            _num(lim.get("clearance")),
+            "min",
+        ),
+        (
+            "tool to anatomy in transit, smallest (mm)",
+            _num(s.get("tool_clearance_min_mm")),
+            s.get("tool_clearance_min_at", ""),
+            0.0,
+            "min",
+        ),
+        (
+            "self clearance, smallest (mm)",
+            _num(s.get("self_clearance_min_mm")),
+            s.get("self_clearance_min_at", ""),
+            _num(lim.get("self_clearance")),
+            "min",
+        ),
         ("η_L, largest", _num(s.get("eta_L_max")), s.get("eta_L_max_at", ""), _num(lim.get("kappa_max")), "max"),
         ("joint rate, largest (deg/s)", *_largest(speed), _num(lim.get("max_joint_speed_deg")), "max"),
         ("joint acceleration, largest (deg/s²)", *_largest(accel), _num(lim.get("max_joint_accel_deg")), "max"),
-        ("tip speed in transit, largest (mm/s)", _num(s.get("tip_speed_max_transit_mm_s")), "", _num(lim.get("max_tip_speed")), "max"),
-    ]  # fmt: skip
+        (
+            "tip speed in transit, largest (mm/s)",
+            _num(s.get("tip_speed_max_transit_mm_s")),
+            "",
+            _num(lim.get("max_tip_speed")),
+            "max",
+        ),
+    ]
     out, fail = [], []
     for name, value, where, limit, kind in rows:
         margin = None if value is None or limit is None else (value - limit if kind == "min" else limit - value)
@@ -219,9 +342,15 @@ def limits_table(prog: ProgramFiles) -> str:
     return _table(("quantity", "value", "where", "limit", "margin"), out, fail)
 
 
-MOTOR_COLUMNS = (("torque_peak_Nm", "peak |τ| (N·m)"), ("torque_rms_Nm", "RMS τ (N·m)"), ("speed_peak_deg_s", "peak |q̇| (deg/s)"),
-                 ("power_peak_W", "peak power (W)"), ("energy_J", "energy (J)"), ("torque_peak_gravity_Nm", "peak gravity τ (N·m)"),
-                 ("torque_peak_loads_only_Nm", "peak τ without masses (N·m)"))  # fmt: skip
+MOTOR_COLUMNS = (
+    ("torque_peak_Nm", "peak |τ| (N·m)"),
+    ("torque_rms_Nm", "RMS τ (N·m)"),
+    ("speed_peak_deg_s", "peak |q̇| (deg/s)"),
+    ("power_peak_W", "peak power (W)"),
+    ("energy_J", "energy (J)"),
+    ("torque_peak_gravity_Nm", "peak gravity τ (N·m)"),
+    ("torque_peak_loads_only_Nm", "peak τ without masses (N·m)"),
+)
 """program.json's ``motors`` figures the table shows (the last two when present), with their headers."""
 
 
@@ -235,44 +364,85 @@ def motors_table(prog: ProgramFiles) -> str:
     for name, m in motors.items():
         speed = _num(m.get("speed_peak_deg_s"))
         rows.append((name, *(_num(m.get(key)) for key, _ in cols), None if speed is None else speed / 6.0))
-    return ("<h3>Motor sizing (program.json)</h3><p class='note'>Peak and RMS torques here include each actuator's worst lateral-force "
-            "term (model §18.2-18.3); the plot's marks are those of the CSV's torques (gravity, inertia, thrust).</p>"
-            + _table(("actuator", *(h for _, h in cols), "peak speed (rpm)"), rows))  # fmt: skip
+    return (
+        "<h3>Motor sizing (program.json)</h3><p class='note'>Peak and RMS torques here include each actuator's worst lateral-force "
+        "term (model §18.2-18.3); the plot's marks are those of the CSV's torques (gravity, inertia, thrust).</p>"
+        + _table(("actuator", *(h for _, h in cols), "peak speed (rpm)"), rows)
+    )
 
 
 def summary_table(prog: ProgramFiles) -> str:
     """The program's summary (program.json) and its per-trajectory and transit times."""
     s = prog.summary
-    items = [("order", " ".join(str(k) for k in s.get("order", [])) + (f" ({s['order_method']})" if s.get("order_method") else "")),
-             ("total / drilling / approach / retract / transit (s)", " / ".join(fmt(_num(s.get(k)), 2) for k in ("total_s", "drilling_s", "approach_s", "retract_s", "transit_s"))),
-             ("rows × dt", f"{len(prog.t_s)} × {fmt(_num(s.get('dt_s')), 3)} s"), ("working mode", s.get("mode", "—")),
-             ("plan", s.get("plan", "—")), ("anatomy", s.get("anatomy") or "none"), ("folder", str(prog.folder))]  # fmt: skip
+    items = [
+        (
+            "order",
+            " ".join(str(k) for k in s.get("order", [])) + (f" ({s['order_method']})" if s.get("order_method") else ""),
+        ),
+        (
+            "total / drilling / approach / retract / transit (s)",
+            " / ".join(
+                fmt(_num(s.get(k)), 2) for k in ("total_s", "drilling_s", "approach_s", "retract_s", "transit_s")
+            ),
+        ),
+        ("rows × dt", f"{len(prog.t_s)} × {fmt(_num(s.get('dt_s')), 3)} s"),
+        ("working mode", s.get("mode", "—")),
+        ("plan", s.get("plan", "—")),
+        ("anatomy", s.get("anatomy") or "none"),
+        ("folder", str(prog.folder)),
+    ]
     out = "<table>" + "".join(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in items) + "</table>"
     per = [t for t in s.get("trajectories", []) if isinstance(t, dict)]
     if per:
-        keys = ("trajectory", "level", "side", "start_s", "approach_s", "drill_s", "retract_s", "drilled_mm", "standoff_mm")
-        out += "<h3>Per trajectory</h3>" + _table(keys, [tuple(_num(t.get(k)) if k.endswith(("_s", "_mm")) else t.get(k, "") for k in keys) for t in per])
+        keys = (
+            "trajectory",
+            "level",
+            "side",
+            "start_s",
+            "approach_s",
+            "drill_s",
+            "retract_s",
+            "drilled_mm",
+            "standoff_mm",
+        )
+        out += "<h3>Per trajectory</h3>" + _table(
+            keys, [tuple(_num(t.get(k)) if k.endswith(("_s", "_mm")) else t.get(k, "") for k in keys) for t in per]
+        )
     tr = [t for t in s.get("transits", []) if isinstance(t, dict)]
     if tr:
         keys = ("from", "to", "start_s", "duration_s", "method", "waypoints")
-        out += "<h3>Transits</h3>" + _table(keys, [tuple(_num(t.get(k)) if k.endswith("_s") else t.get(k, "") for k in keys) for t in tr])
+        out += "<h3>Transits</h3>" + _table(
+            keys, [tuple(_num(t.get(k)) if k.endswith("_s") else t.get(k, "") for k in keys) for t in tr]
+        )
     return out
 
 
-def program_section(prog: ProgramFiles, params: Any = None, anatomy_meshes: Any = None, c_z: float | None = None, include_js: bool = False,
-                    note: str = "") -> str:  # fmt: skip
+def program_section(
+    prog: ProgramFiles,
+    params: Any = None,
+    anatomy_meshes: Any = None,
+    c_z: float | None = None,
+    include_js: bool = False,
+    note: str = "",
+) -> str:
     """The program's part of a report page (HTML): summary, timeline, limits, motors, and the playback
     for the design ``params`` ``(27,)`` (skipped with a note when None). ``include_js``: put plotly.js inline
     (the page's first figure); ``note``: a line shown above the playback (e.g. why the anatomy is missing)."""
     from arcube.report.program_scene import playback_figure
 
-    parts = ["<h2>Drilling program</h2><p class='note'>Read from the program's files (program.csv, program.json; model §17): "
-             "the robot runs these rows in its working mode.</p>", summary_table(prog)]  # fmt: skip
+    parts = [
+        "<h2>Drilling program</h2><p class='note'>Read from the program's files (program.csv, program.json; model §17): "
+        "the robot runs these rows in its working mode.</p>",
+        summary_table(prog),
+    ]
     parts += ["<h3>Timeline</h3>", plotly_div(timeline_figure(prog), DIV_IDS["timeline"], include_js)]
-    parts += ["<h3>Limits along the program</h3>", limits_table(prog),
-              "<p class='note'>The smallest clearances are over every state the program was checked at (model §17.2, "
-              "no part moving more than 0.5 mm between two); the timeline's clearances are at up to 2000 of the rows. "
-              "Accelerations in the timeline are central differences of the CSV's rates; the table's are program.json's.</p>"]  # fmt: skip
+    parts += [
+        "<h3>Limits along the program</h3>",
+        limits_table(prog),
+        "<p class='note'>The smallest clearances are over every state the program was checked at (model §17.2, "
+        "no part moving more than 0.5 mm between two); the timeline's clearances are at up to 2000 of the rows. "
+        "Accelerations in the timeline are central differences of the CSV's rates; the table's are program.json's.</p>",
+    ]
     motors = motors_figure(prog)
     if motors is not None:
         parts += ["<h3>Motors</h3>", plotly_div(motors, DIV_IDS["motors"], False), motors_table(prog)]
@@ -282,15 +452,22 @@ def program_section(prog: ProgramFiles, params: Any = None, anatomy_meshes: Any 
     if note:
         parts.append(f"<p class='note'>{esc(note)}</p>")
     if params is None:
-        parts.append("<p class='note'>No playback: program.json does not record the design; give it (arcube report DIR --design D.json).</p>")
+        parts.append(
+            "<p class='note'>No playback: program.json does not record the design; give it (arcube report DIR --design D.json).</p>"
+        )
     else:
         play = playback_figure(prog, params, anatomy_meshes, c_z)
-        parts.append(f"<p class='note'>The robot at {len(play.rows)} of the program's {len(prog.t_s)} rows (every segment's first and last, "
-                     "the others spread over time and joint motion); patient frame, mm.</p>" + plotly_div(play.figure, DIV_IDS["playback"], False))  # fmt: skip
+        parts.append(
+            f"<p class='note'>The robot at {len(play.rows)} of the program's {len(prog.t_s)} rows (every segment's first and last, "
+            "the others spread over time and joint motion); patient frame, mm.</p>"
+            + plotly_div(play.figure, DIV_IDS["playback"], False)
+        )
     return "\n".join(parts)
 
 
-def write_program_report(folder: str | os.PathLike[str], design: Any = None, anatomy: Any = None, anatomy_frame: str = "LPS") -> Path:
+def write_program_report(
+    folder: str | os.PathLike[str], design: Any = None, anatomy: Any = None, anatomy_frame: str = "LPS"
+) -> Path:
     """Write ``folder/report.html`` for a program folder (program.csv, program.json); returns its path.
 
     ``design``: a :class:`~arcube.model.design.Design`, preset name or JSON path for the playback
@@ -314,9 +491,14 @@ def write_program_report(folder: str | os.PathLike[str], design: Any = None, ana
         anat, note = summary_anatomy(prog.summary)
     else:
         anat, note = resolve_anatomy(anatomy, anatomy_frame, prog.summary.get("plan")), ""
-    section = program_section(prog, None if d is None else d.to_vector(), None if anat is None else anat.meshes, include_js=True, note=note)
+    section = program_section(
+        prog, None if d is None else d.to_vector(), None if anat is None else anat.meshes, include_js=True, note=note
+    )
     title = f"AR-CUBE drilling program: {prog.summary.get('plan', prog.folder.name)}"
     out = prog.folder / "report.html"
-    atomic_write_text(out, f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title><style>{CSS}</style></head>"
-                           f"<body><h1>{esc(title)}</h1>{section}</body></html>")  # fmt: skip
+    atomic_write_text(
+        out,
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title><style>{CSS}</style></head>"
+        f"<body><h1>{esc(title)}</h1>{section}</body></html>",
+    )
     return out

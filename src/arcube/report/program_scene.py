@@ -81,8 +81,9 @@ def _title(prog: ProgramFiles, k: int) -> str:
     return f"t = {prog.t_s[k]:.2f} s · {prog.segment[k]} {prog.trajectory[k]} · q = ({q}) deg ({', '.join(JOINTS)})"
 
 
-def playback_figure(prog: ProgramFiles, params: ArrayLike, anatomy_meshes: Any = None, c_z: float | None = None,
-                    n_frames: int = FRAMES) -> Playback:  # fmt: skip
+def playback_figure(
+    prog: ProgramFiles, params: ArrayLike, anatomy_meshes: Any = None, c_z: float | None = None, n_frames: int = FRAMES
+) -> Playback:
     """The 3D playback of ``prog`` for the design ``params`` ``(27,)`` (mm, deg): one plotly frame per
     row of :func:`playback_rows`, named ``r<row>``, with a slider (labelled by time) and play / pause
     buttons; the tip's path and the drilled lines (static); the anatomy (triangle meshes) if given.
@@ -102,43 +103,121 @@ def playback_figure(prog: ProgramFiles, params: ArrayLike, anatomy_meshes: Any =
     gap, unreached = _angle_gap(prog, rows, sol)
     note = ""
     if unreached or not gap <= ANGLE_TOL_DEG:
-        note = (f"The design does not reproduce this program in mode {mode_text}: " + (f"{unreached} of {len(rows)} frames have no IK solution; "
-                if unreached else "") + (f"joint angles differ by up to {gap:.3g} deg. " if np.isfinite(gap) else "") + "Is it the program's design?")  # fmt: skip
+        note = (
+            f"The design does not reproduce this program in mode {mode_text}: "
+            + (f"{unreached} of {len(rows)} frames have no IK solution; " if unreached else "")
+            + (f"joint angles differ by up to {gap:.3g} deg. " if np.isfinite(gap) else "")
+            + "Is it the program's design?"
+        )
     fig = go.Figure()
     step = max(1, int(np.ceil(len(prog.t_s) / PATH_POINTS)))
     path_rows = np.unique(np.r_[np.arange(0, len(prog.t_s), step), len(prog.t_s) - 1])
-    fig.add_trace(go.Scatter3d(name="tip path", mode="lines", line={"color": "#17becf", "width": 2}, hoverinfo="skip", **xyz([prog.E[path_rows]])))
+    fig.add_trace(
+        go.Scatter3d(
+            name="tip path",
+            mode="lines",
+            line={"color": "#17becf", "width": 2},
+            hoverinfo="skip",
+            **xyz([prog.E[path_rows]]),
+        )
+    )
     drills = [prog.E[[s.first, s.last]] for s in prog.spans() if s.segment == "drill"]
-    fig.add_trace(go.Scatter3d(name="drilled", mode="lines", line={"color": "#8c1c13", "width": 6}, hoverinfo="skip",
-                               **xyz(drills or [np.full((1, 3), np.nan)])))  # fmt: skip
+    fig.add_trace(
+        go.Scatter3d(
+            name="drilled",
+            mode="lines",
+            line={"color": "#8c1c13", "width": 6},
+            hoverinfo="skip",
+            **xyz(drills or [np.full((1, 3), np.nan)]),
+        )
+    )
     for name, data in zip(SCENE_TRACES, mechanism_traces(mp, 0)):
         fig.add_trace(go.Scatter3d(name=name, hoverinfo="name", **STYLE[name], **data))
     dyn = list(range(N_STATIC, N_STATIC + len(SCENE_TRACES)))
     frames, steps = [], []
     for i, k in enumerate(rows):
-        frames.append(go.Frame(name=f"r{int(k)}", traces=dyn, data=[go.Scatter3d(**d) for d in mechanism_traces(mp, i)],
-                               layout={"title": {"text": _title(prog, int(k))}}))  # fmt: skip
-        steps.append({"label": f"{prog.t_s[k]:.2f}", "method": "animate",
-                      "args": [[f"r{int(k)}"], {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}}]})  # fmt: skip
+        frames.append(
+            go.Frame(
+                name=f"r{int(k)}",
+                traces=dyn,
+                data=[go.Scatter3d(**d) for d in mechanism_traces(mp, i)],
+                layout={"title": {"text": _title(prog, int(k))}},
+            )
+        )
+        steps.append(
+            {
+                "label": f"{prog.t_s[k]:.2f}",
+                "method": "animate",
+                "args": [
+                    [f"r{int(k)}"],
+                    {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}},
+                ],
+            }
+        )
     fig.frames = frames
     if anatomy_meshes:
         fig.add_trace(mesh_trace(anatomy_meshes))  # after the animated traces: frames address those by index
     allp = np.concatenate([prog.E, mechanism_extent(mp, np.arange(len(rows)))])
     lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
     pad = 0.05 * float(np.max(hi - lo)) + 1.0
-    axes = {f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"} for j, a in enumerate("xyz")}
-    play = {"label": "▶ play", "method": "animate", "args": [None, {"frame": {"duration": 120, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}}]}
-    pause = {"label": "❚❚ pause", "method": "animate", "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}]}
+    axes = {
+        f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"}
+        for j, a in enumerate("xyz")
+    }
+    play = {
+        "label": "▶ play",
+        "method": "animate",
+        "args": [
+            None,
+            {"frame": {"duration": 120, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}},
+        ],
+    }
+    pause = {
+        "label": "❚❚ pause",
+        "method": "animate",
+        "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}],
+    }
     fig.update_layout(
         title={"text": _title(prog, int(rows[0])), "font": {"size": 13}},
-        scene={"aspectmode": "data", **axes, "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}}},
-        height=760, margin={"l": 0, "r": 0, "t": 50, "b": 0}, legend={"x": 0.0, "y": 0.95},
-        updatemenus=[{"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.06, "xanchor": "left", "direction": "left"}],
-        sliders=[{"active": 0, "steps": steps, "x": 0.15, "len": 0.83, "y": 0.06, "font": {"color": "rgba(0,0,0,0)", "size": 6},
-                  "currentvalue": {"prefix": "t (s) = ", "font": {"size": 12, "color": "#333"}}, "ticklen": 2}],
-        annotations=[{"text": note, "showarrow": False, "xref": "paper", "yref": "paper", "x": 1.0, "y": 1.0, "xanchor": "right",
-                      "yanchor": "top", "font": {"color": "#d62728"}}] if note else [],
-    )  # fmt: skip
+        scene={
+            "aspectmode": "data",
+            **axes,
+            "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}},
+        },
+        height=760,
+        margin={"l": 0, "r": 0, "t": 50, "b": 0},
+        legend={"x": 0.0, "y": 0.95},
+        updatemenus=[
+            {"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.06, "xanchor": "left", "direction": "left"}
+        ],
+        sliders=[
+            {
+                "active": 0,
+                "steps": steps,
+                "x": 0.15,
+                "len": 0.83,
+                "y": 0.06,
+                "font": {"color": "rgba(0,0,0,0)", "size": 6},
+                "currentvalue": {"prefix": "t (s) = ", "font": {"size": 12, "color": "#333"}},
+                "ticklen": 2,
+            }
+        ],
+        annotations=[
+            {
+                "text": note,
+                "showarrow": False,
+                "xref": "paper",
+                "yref": "paper",
+                "x": 1.0,
+                "y": 1.0,
+                "xanchor": "right",
+                "yanchor": "top",
+                "font": {"color": "#d62728"},
+            }
+        ]
+        if note
+        else [],
+    )
     return Playback(fig, rows, note)
 
 

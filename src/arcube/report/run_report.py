@@ -73,9 +73,14 @@ def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path, in
             pat = patients[index]
             ids = [str(i) for i in pat["ids"]]
             n = len(ids)
-            return TrajectorySet(ids=tuple(ids), levels=tuple(pat.get("levels", [""] * n)), sides=tuple(pat.get("sides", [""] * n)),
-                                 entry=np.asarray(pat["entry"], float), target=np.asarray(pat["target"], float),
-                                 source=str(pat.get("source", "run")))  # fmt: skip
+            return TrajectorySet(
+                ids=tuple(ids),
+                levels=tuple(pat.get("levels", [""] * n)),
+                sides=tuple(pat.get("sides", [""] * n)),
+                entry=np.asarray(pat["entry"], float),
+                target=np.asarray(pat["target"], float),
+                source=str(pat.get("source", "run")),
+            )
         specs = settings.get("trajectories") or []
         spec = specs[0] if isinstance(specs, list) and specs else specs
         if not spec:
@@ -101,12 +106,32 @@ def _mode(settings: dict[str, Any], summary: dict[str, Any], where: Path) -> np.
 
 def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
     info: dict[str, Any] = {"run_id": cfg.get("run_id"), "created": cfg.get("created")}
-    for key in ("algorithm", "population", "generations", "seed", "points", "mode", "guards", "setups", "aggregate", "engine_resolved"):
+    for key in (
+        "algorithm",
+        "population",
+        "generations",
+        "seed",
+        "points",
+        "mode",
+        "guards",
+        "setups",
+        "aggregate",
+        "engine_resolved",
+    ):
         if key in settings:
             info[key] = settings[key]
     if "free" in settings:
         info["free variables"] = ", ".join(settings["free"]) if len(settings["free"]) < 23 else "all 23"
-    for key in ("generations", "evaluations", "stopped_by", "feasible", "eta_G", "wall_s", "links_sum_mm", "bbox_volume_L"):
+    for key in (
+        "generations",
+        "evaluations",
+        "stopped_by",
+        "feasible",
+        "eta_G",
+        "wall_s",
+        "links_sum_mm",
+        "bbox_volume_L",
+    ):
         if key in summary:
             info[f"result: {key}"] = summary[key]
     if "rerun" in cfg:
@@ -114,8 +139,9 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
     return {k: v for k, v in info.items() if v is not None}
 
 
-def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_known: float | None = None,
-                     anatomy_frame: str = "LPS") -> Path:  # fmt: skip
+def write_run_report(
+    run_dir: str | os.PathLike[str], anatomy: Any = None, best_known: float | None = None, anatomy_frame: str = "LPS"
+) -> Path:
     """Write ``run_dir/report.html`` (and its PNGs) for an optimization run; returns its path.
 
     ``anatomy``: None (the run's own, copied into its folder); an :class:`~arcube.evaluation.anatomy.Anatomy`
@@ -148,8 +174,10 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
     info = _run_info(cfg, settings, summary)
     n_patients = len(cfg["patients"]) if isinstance(cfg.get("patients"), list) and cfg["patients"] else 1
     if n_patients > 1:
-        info["note: patients"] = (f"{n_patients} patients in the run: this report shows the first; report_p2.html ... the others"
-                                  + (", each with its own placement (per-patient docking)" if (run / "best_design_p2.json").exists() else ""))  # fmt: skip
+        info["note: patients"] = (
+            f"{n_patients} patients in the run: this report shows the first; report_p2.html ... the others"
+            + (", each with its own placement (per-patient docking)" if (run / "best_design_p2.json").exists() else "")
+        )
     history: Path | None = run / "history.csv"
     if not history.exists():  # type: ignore[union-attr]
         info["note: history"] = "no convergence plot (the run folder has no history.csv)"
@@ -158,11 +186,15 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
         try:
             read_history(history)  # type: ignore[arg-type]
         except InputError as exc:
-            raise InputError(f"{exc} (a damaged run folder: restore history.csv, or delete it for a report without the convergence plot)") from None
+            raise InputError(
+                f"{exc} (a damaged run folder: restore history.csv, or delete it for a report without the convergence plot)"
+            ) from None
     two_sides = settings.get("setups") == 2 and (run / "best_design_L.json").exists()  # per-patient runs write it too
     if two_sides:
         info["note: setups"] = "two placements: this report covers the R trajectories; report_L.html the L ones"
-    if anatomy is not None and not (isinstance(anatomy, (list, tuple)) and anatomy and not isinstance(anatomy[0], (str, os.PathLike))):
+    if anatomy is not None and not (
+        isinstance(anatomy, (list, tuple)) and anatomy and not isinstance(anatomy[0], (str, os.PathLike))
+    ):
         if not (isinstance(anatomy, str) and anatomy == "none"):
             from arcube.evaluation.anatomy import resolve_anatomy
 
@@ -170,12 +202,16 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
             anatomy = [resolve_anatomy(anatomy, anatomy_frame, plan) or "none" for plan in plans]  # each patient's own
     pareto = run / "pareto.csv"
     main = run / "report.html"
-    program = run / "program" if (run / "program" / "program.json").is_file() else None  # the first patient's (a design job's)
+    program = (
+        run / "program" if (run / "program" / "program.json").is_file() else None
+    )  # the first patient's (a design job's)
     for i in range(n_patients):
         ts = _trajectories(cfg, settings, run / "config.toml", i)
         stem = "report" if i == 0 else f"report_p{i + 1}"
         given = anatomy[min(i, len(anatomy) - 1)] if isinstance(anatomy, (list, tuple)) else anatomy
-        patient_anatomy = _run_anatomy(run, settings, i) if given is None else (None if isinstance(given, str) else given)
+        patient_anatomy = (
+            _run_anatomy(run, settings, i) if given is None else (None if isinstance(given, str) else given)
+        )
         sides = [("R", ""), ("L", "_L")] if two_sides else [(None, "")]
         per_patient = settings.get("docking") == "per-patient" and n_patients > 1
         for side, suffix in sides:
@@ -185,10 +221,16 @@ def write_run_report(run_dir: str | os.PathLike[str], anatomy: Any = None, best_
             design = Design.from_json(path)
             plan = select(ts, side=side) if side else ts
             patient_info = info if i == 0 else {**info, "patient": f"{i + 1} of {n_patients} ({ts.source})"}
-            write_evaluation_report(evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
-                                    run / f"{stem}{suffix}.html", history_csv=history, run_info=patient_info,
-                                    pareto_csv=pareto if pareto.exists() and i == 0 and not suffix else None, limits=limits,
-                                    best_known=best_known, program=program if i == 0 and not suffix else None)  # fmt: skip
+            write_evaluation_report(
+                evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
+                run / f"{stem}{suffix}.html",
+                history_csv=history,
+                run_info=patient_info,
+                pareto_csv=pareto if pareto.exists() and i == 0 and not suffix else None,
+                limits=limits,
+                best_known=best_known,
+                program=program if i == 0 and not suffix else None,
+            )
     return main
 
 
@@ -214,7 +256,9 @@ def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[s
         options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True))
     except (InputError, TypeError, ValueError):  # a hand-edited or older config: the guards alone
         options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
-    limits = {str(lim[0]): float(lim[2]) for lim in settings.get("limits", []) if isinstance(lim, list) and len(lim) == 3}
+    limits = {
+        str(lim[0]): float(lim[2]) for lim in settings.get("limits", []) if isinstance(lim, list) and len(lim) == 3
+    }
     return options, _run_anatomy(run, settings, 0), limits
 
 

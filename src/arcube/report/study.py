@@ -41,4 +41,6 @@ def write_study_convergence(study_dir: str | os.PathLike[str]) -> Path:
             histories[seed] = read_history(seed_dir(study_dir, seed) / "history.csv")
         except InputError:
             continue
-    return study_convergence_png(histories, study_dir / STUDY_CONVERGENCE, best_seed=best_seed, best_known=study.get("best_known"))
+    return study_convergence_png(
+        histories, study_dir / STUDY_CONVERGENCE, best_seed=best_seed, best_known=study.get("best_known")
+    )

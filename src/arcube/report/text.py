@@ -24,17 +24,25 @@ def _console() -> Console:
 def print_evaluation(report: Evaluation, console: Console | None = None) -> None:
     """Per-trajectory table, failure counts and the summary."""
     out = console or _console()
-    table = Table(title=f"{report.trajectories.source}: {len(report.task.ids)} trajectories x {report.task.n_points} points, mode {report.mode}")
+    table = Table(
+        title=f"{report.trajectories.source}: {len(report.task.ids)} trajectories x {report.task.n_points} points, mode {report.mode}"
+    )
     with_anatomy = report.anatomy is not None
     cols = ["traj", "level", "side", "reachable", "dex min %", "dex mean %", "dex max %", "limiting", "first failure"]
     for col in cols + (["clearance mm"] if with_anatomy else []):
         table.add_column(col, justify="right" if col.startswith(("reach", "dex", "clear")) else "left")
     for row in report.per_trajectory():
         cells = [
-            row.id, row.level, row.side, f"{100 * row.reachable_fraction:.0f}%",
-            f"{row.dexterity_min:.2f}", f"{row.dexterity_mean:.2f}", f"{row.dexterity_max:.2f}",
-            row.limiting_jacobian or "-", row.first_failure or "-",
-        ]  # fmt: skip
+            row.id,
+            row.level,
+            row.side,
+            f"{100 * row.reachable_fraction:.0f}%",
+            f"{row.dexterity_min:.2f}",
+            f"{row.dexterity_mean:.2f}",
+            f"{row.dexterity_max:.2f}",
+            row.limiting_jacobian or "-",
+            row.first_failure or "-",
+        ]
         if with_anatomy:
             cells.append("-" if row.clearance_min_mm is None else f"{row.clearance_min_mm:.1f}")
         table.add_row(*cells)
@@ -49,17 +57,21 @@ def print_evaluation(report: Evaluation, console: Console | None = None) -> None
     dex = s["dexterity_pct"]
     out.print(
         f"w_G = {int(s['w_G'])}   reachable {100 * s['reachable_fraction']:.1f}% of {s['n_points']} points   "
-        f"eta_G = {eta:.4f} (100/eta_G = {100 / eta:.2f}%)" if eta is not None and math.isfinite(eta) else
-        f"w_G = {int(s['w_G'])}   reachable {100 * s['reachable_fraction']:.1f}% of {s['n_points']} points   eta_G = inf (not every point is reachable)"
-    )  # fmt: skip
+        f"eta_G = {eta:.4f} (100/eta_G = {100 / eta:.2f}%)"
+        if eta is not None and math.isfinite(eta)
+        else f"w_G = {int(s['w_G'])}   reachable {100 * s['reachable_fraction']:.1f}% of {s['n_points']} points   eta_G = inf (not every point is reachable)"
+    )
     out.print(
         f"inverted dexterity %: min {dex['min']:.2f}  mean {dex['mean']:.2f}  max {dex['max']:.2f}   "
         f"(paper, Table 2: {PAPER_DEXTERITY_PCT[0]} / {PAPER_DEXTERITY_PCT[1]} / {PAPER_DEXTERITY_PCT[2]}; 0 counted at unreachable points)"
     )
     if report.anatomy is not None or s["self_clearance_min_mm"] is not None:
         clear = s["clearance_min_mm"]
-        anat = "no anatomy" if report.anatomy is None else (
-            "no reachable point" if clear is None else f"{clear:.1f} mm ({s['clearance_min_part']})")
+        anat = (
+            "no anatomy"
+            if report.anatomy is None
+            else ("no reachable point" if clear is None else f"{clear:.1f} mm ({s['clearance_min_part']})")
+        )
         selfc = s["self_clearance_min_mm"]
         out.print(
             f"clearance to the anatomy: min {anat}   self clearance: min "
@@ -76,8 +88,12 @@ def print_tip_performance(report: Evaluation, console: Console | None = None, su
     out = console or _console()
     o = report.options.loads
     enc = o.encoder_deg[0] if len(set(o.encoder_deg)) == 1 else ",".join(f"{v:g}" for v in o.encoder_deg)
-    table = Table(title=(f"at the drill tip, worst case (encoders {enc} deg, thrust {o.thrust_N:g} N, "
-                         f"lateral {o.lateral_force_N:g} N)"))  # fmt: skip
+    table = Table(
+        title=(
+            f"at the drill tip, worst case (encoders {enc} deg, thrust {o.thrust_N:g} N, "
+            f"lateral {o.lateral_force_N:g} N)"
+        )
+    )
     cols = ["traj", "tip error mm", "lateral mm", "axial mm", "axis deg", "torque N·m", "deflection mm"]
     for col in cols:
         table.add_column(col, justify="left" if col == "traj" else "right")

@@ -35,26 +35,50 @@ def tip_figure(report: Evaluation, limits: dict[str, float] | None = None) -> go
     pts = report.results.points
     panels = [p for p in PANELS if p[0] != "clearance_mm" or np.isfinite(pts.clearance_mm).any()]
     rows = (len(panels) + 1) // 2
-    fig = make_subplots(rows=rows, cols=2, subplot_titles=[p[1] for p in panels], vertical_spacing=0.12 / max(rows - 1, 1) * 1.5)
+    fig = make_subplots(
+        rows=rows, cols=2, subplot_titles=[p[1] for p in panels], vertical_spacing=0.12 / max(rows - 1, 1) * 1.5
+    )
     hover = [f"traj {s.labels[int(t)]}, k={int(k)}" for t, k in zip(report.task.trajectory, report.task.k)]
     for j, (field, title, name) in enumerate(panels):
         r, c = j // 2 + 1, j % 2 + 1
         y = np.where(pts.reachable, getattr(pts, field), np.nan)
-        fig.add_trace(go.Scatter(x=s.index.tolist(), y=[None if not np.isfinite(v) else float(v) for v in y], mode="lines+markers",
-                                 marker={"size": 4}, line={"width": 1}, name=title, text=hover, showlegend=False,
-                                 hovertemplate="%{text}<br>%{y:.4g}<extra></extra>"), row=r, col=c)  # fmt: skip
+        fig.add_trace(
+            go.Scatter(
+                x=s.index.tolist(),
+                y=[None if not np.isfinite(v) else float(v) for v in y],
+                mode="lines+markers",
+                marker={"size": 4},
+                line={"width": 1},
+                name=title,
+                text=hover,
+                showlegend=False,
+                hovertemplate="%{text}<br>%{y:.4g}<extra></extra>",
+            ),
+            row=r,
+            col=c,
+        )
         for b in s.boundaries:
             fig.add_vline(x=float(b), line={"color": "#999", "width": 1, "dash": "dot"}, row=r, col=c)
         if limits and name in limits:
-            fig.add_hline(y=float(limits[name]), line={"color": "#d62728", "width": 2}, row=r, col=c,
-                          annotation_text=f"limit {limits[name]:g}", annotation_position="top left")  # fmt: skip
+            fig.add_hline(
+                y=float(limits[name]),
+                line={"color": "#d62728", "width": 2},
+                row=r,
+                col=c,
+                annotation_text=f"limit {limits[name]:g}",
+                annotation_position="top left",
+            )
     o = report.options.loads
     enc = ", ".join(f"{v:g}" for v in sorted(set(o.encoder_deg)))
     fig.update_layout(
-        title={"text": f"At the drill tip, per reachable point (encoders {enc} deg, thrust {o.thrust_N:g} N, lateral force "
-                       f"{o.lateral_force_N:g} N; model §15)", "font": {"size": 13}},
-        height=300 * rows, margin={"t": 80, "b": 40},
-    )  # fmt: skip
+        title={
+            "text": f"At the drill tip, per reachable point (encoders {enc} deg, thrust {o.thrust_N:g} N, lateral force "
+            f"{o.lateral_force_N:g} N; model §15)",
+            "font": {"size": 13},
+        },
+        height=300 * rows,
+        margin={"t": 80, "b": 40},
+    )
     return fig
 
 

@@ -57,9 +57,12 @@ from arcube.model.mechanism import DEFAULT_MODE
 __all__ = ["clear_cache", "evaluate_task_numba", "warm_up"]
 
 _INTEGER_EXTRAS: dict[str, type] = {
-    "clearance_part": np.intp, "envelope_part": np.intp, "envelope_region": np.intp, "torque_actuator": np.int64,
+    "clearance_part": np.intp,
+    "envelope_part": np.intp,
+    "envelope_region": np.intp,
+    "torque_actuator": np.int64,
     "holding_torque_actuator": np.int64,
-}  # fmt: skip
+}
 """PointResults fields held as floats in the extra rows, and their dtypes."""
 
 
@@ -77,7 +80,7 @@ def _rows(layout: Layout, values: dict[str, Any], lead: tuple[int, ...]) -> np.n
     out = np.empty(lead + (layout.size,))
     for name, width in layout.entries:
         at = layout.offset[name]
-        out[..., at:at + width] = np.reshape(values[name], lead + (width,))
+        out[..., at : at + width] = np.reshape(values[name], lead + (width,))
     return out
 
 
@@ -92,13 +95,26 @@ def _geometry(params: np.ndarray, c_z: np.ndarray | None = None) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):  # degenerate arcs (phi = 0): NaN, as in the reference
         a, b = slerp_coefficients(phi)  # (D, 4, 13), as arcube.evaluation.mass_bodies samples the arcs
     values = {
-        "m": g.m, "f": g.f, "p": g.p, "d": g.d, "c": g.c, "t": g.t, "r": g.r, "o": g.o,
-        "sin_alpha": np.sin(g.alpha), "cos_alpha": np.cos(g.alpha), "cos_beta": np.cos(g.beta), "sin_beta": np.sin(g.beta),
-        "rot": frames.mount_rotation(g), "L": g.L, "flat": frames.is_unrotated(g),
+        "m": g.m,
+        "f": g.f,
+        "p": g.p,
+        "d": g.d,
+        "c": g.c,
+        "t": g.t,
+        "r": g.r,
+        "o": g.o,
+        "sin_alpha": np.sin(g.alpha),
+        "cos_alpha": np.cos(g.alpha),
+        "cos_beta": np.cos(g.beta),
+        "sin_beta": np.sin(g.beta),
+        "rot": frames.mount_rotation(g),
+        "L": g.L,
+        "flat": frames.is_unrotated(g),
         "arc_chord": np.sin(phi / (2 * N_CHORDS)),
-        "arc_a": np.sum(0.5 * (a[..., :-1] + a[..., 1:]), axis=-1), "arc_b": np.sum(0.5 * (b[..., :-1] + b[..., 1:]), axis=-1),
+        "arc_a": np.sum(0.5 * (a[..., :-1] + a[..., 1:]), axis=-1),
+        "arc_b": np.sum(0.5 * (b[..., :-1] + b[..., 1:]), axis=-1),
         "c_z": np.full(params.shape[0], np.nan) if c_z is None else c_z,
-    }  # fmt: skip
+    }
     return _rows(GEOMETRY, values, (params.shape[0],))
 
 
@@ -162,7 +178,9 @@ _NO_GRID = (np.zeros(3), 1.0, np.zeros((2, 2, 2)))
 _NO_BLOCKS = np.zeros((1, 1, 1, 3))
 # Primitives tried first by the anatomy search (a good early bound prunes the rest): the spherical
 # arcs and the four-bar outputs sit nearest the centre C, then the couplers, inputs and the rest.
-_ORDER = np.array([23, 24, 25, 26, 10, 11, 8, 9, 6, 7, 14, 15, 16, 17, 12, 13, 21, 22, 3, 4, 5, 18, 19, 20, 0, 1, 2], dtype=np.int64)
+_ORDER = np.array(
+    [23, 24, 25, 26, 10, 11, 8, 9, 6, 7, 14, 15, 16, 17, 12, 13, 21, 22, 3, 4, 5, 18, 19, 20, 0, 1, 2], dtype=np.int64
+)
 assert sorted(_ORDER.tolist()) == list(range(len(PRIMITIVES)))
 
 
@@ -180,8 +198,16 @@ def _grids(distance: Any) -> tuple[Any, ...]:
     if blocks is None or blocks[0] is not distance:
         blocks = (distance, block_gradients(f.values, f.spacing), block_gradients(c.values, c.spacing))
         _BLOCKS[id(distance)] = blocks
-    return (_owned(f.origin), float(f.spacing), _owned(f.values), _owned(c.origin), float(c.spacing), _owned(c.values),
-            blocks[1], blocks[2])  # fmt: skip
+    return (
+        _owned(f.origin),
+        float(f.spacing),
+        _owned(f.values),
+        _owned(c.origin),
+        float(c.spacing),
+        _owned(c.values),
+        blocks[1],
+        blocks[2],
+    )
 
 
 def _body_context(options: Options, anatomy: Any) -> tuple[tuple[Any, ...], tuple[np.ndarray, ...]]:
@@ -201,10 +227,18 @@ def _envelope_context(envelope: Any) -> tuple[Any, ...]:
 
 
 def evaluate_task_numba(
-    params: ArrayLike, E: ArrayLike, e: ArrayLike, mode: ArrayLike = DEFAULT_MODE,
-    options: Options = Options(), want_points: bool = True, *, exact: bool = False, anatomy: Any = None,
-    envelope: Any = None, c_z: ArrayLike | None = None,
-) -> TaskResults:  # fmt: skip
+    params: ArrayLike,
+    E: ArrayLike,
+    e: ArrayLike,
+    mode: ArrayLike = DEFAULT_MODE,
+    options: Options = Options(),
+    want_points: bool = True,
+    *,
+    exact: bool = False,
+    anatomy: Any = None,
+    envelope: Any = None,
+    c_z: ArrayLike | None = None,
+) -> TaskResults:
     """Same results as :func:`arcube.evaluation.reference.evaluate_task`, compiled (see the module doc).
 
     ``params`` ``(..., 27)`` (or ``(..., 23)``) mm/deg; ``E``, ``e`` ``(P, 3)``; ``mode`` broadcasting as ``(..., 4)``;
@@ -243,7 +277,9 @@ def evaluate_task_numba(
     same_e = np.zeros(n_pts, dtype=np.bool_)
     bits = ec.view(np.int64)  # bitwise: -0.0 and 0.0 may take different RTS branches
     same_e[1:] = np.all(bits[1:] == bits[:-1], axis=-1)
-    geometry = _geometry(pf, None if c_z is None else np.broadcast_to(np.asarray(c_z, dtype=float), batch).reshape(n_des))
+    geometry = _geometry(
+        pf, None if c_z is None else np.broadcast_to(np.asarray(c_z, dtype=float), batch).reshape(n_des)
+    )
     # the fast path's angle-sum identities hold for signs only; other values (meaningless,
     # but accepted by the reference) take the reference's formulas
     exact = exact or not bool(np.all(np.abs(mf) == 1.0))
@@ -261,11 +297,36 @@ def evaluate_task_numba(
     assembly = np.empty(shp, np.int8)
     extra = np.empty(shp + (EXTRA.size,))
     dp = (n_des, n_pts) if full else (1, 1)
-    detail = (np.empty(dp + (7,)), np.empty(dp + (3,)), np.empty(dp + (2,)), np.empty(dp + (2,)))  # kappa, rho, delta, sigma
+    detail = (
+        np.empty(dp + (7,)),
+        np.empty(dp + (3,)),
+        np.empty(dp + (2,)),
+        np.empty(dp + (2,)),
+    )  # kappa, rho, delta, sigma
     summary = np.empty((n_des, SUMMARY.size))
     _cache.ensure_fresh()
-    _kernel(geometry, mf, Ec, ec, same_e, opt, full, split, CHUNK, grids, body, env,
-            failure, eta, excess, dexterity, assembly, extra, detail, summary)  # fmt: skip
+    _kernel(
+        geometry,
+        mf,
+        Ec,
+        ec,
+        same_e,
+        opt,
+        full,
+        split,
+        CHUNK,
+        grids,
+        body,
+        env,
+        failure,
+        eta,
+        excess,
+        dexterity,
+        assembly,
+        extra,
+        detail,
+        summary,
+    )
 
     out_shape = batch + (n_pts,)
     points = None

@@ -44,8 +44,40 @@ def _seg(g, lines, i, a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True, error_model="numpy")
-def _body_world(g, c_z, motor_length, C0, C1, C2, e0, e1, e2, cr0, sr0, cr1, sr1, cr2, sr2,
-                cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c):  # fmt: skip
+def _body_world(
+    g,
+    c_z,
+    motor_length,
+    C0,
+    C1,
+    C2,
+    e0,
+    e1,
+    e2,
+    cr0,
+    sr0,
+    cr1,
+    sr1,
+    cr2,
+    sr2,
+    cd0,
+    sd0,
+    cd1,
+    sd1,
+    ss0,
+    cs0,
+    ss1,
+    cs1,
+    xb0,
+    xb1,
+    xb2,
+    yb0,
+    yb1,
+    yb2,
+    lines,
+    arcs,
+    arc_c,
+):
     """Fill ``lines``, ``arcs``, ``arc_c`` (see the module doc); (C0, C1, C2) and (e0, e1, e2) in R_m."""
     f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]

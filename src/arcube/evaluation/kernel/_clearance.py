@@ -42,7 +42,10 @@ def block_gradients(values: np.ndarray, spacing: float) -> np.ndarray:
         # each cell's 4 edges along ``axis``: max over the two nodes in each other direction
         for other in range(3):
             if other != axis:
-                d = np.maximum(np.take(d, range(0, d.shape[other] - 1), axis=other), np.take(d, range(1, d.shape[other]), axis=other))
+                d = np.maximum(
+                    np.take(d, range(0, d.shape[other] - 1), axis=other),
+                    np.take(d, range(1, d.shape[other]), axis=other),
+                )
         cells = d  # (nx - 1, ny - 1, nz - 1)
         pad = [(0, (-n) % BLOCK) for n in cells.shape]
         cells = np.pad(cells, pad, constant_values=0.0)
@@ -144,7 +147,16 @@ def _curve_point(is_arc, a, b, c, r, nrm, s, out):
 def _lipschitz(grids, p, q, sag, is_arc):
     """Lipschitz bound of the looked-up field along the piece from p to q (an arc piece: its chord
     grown by its sag, any direction)."""
-    fine_origin, fine_spacing, fine_values, coarse_origin, coarse_spacing, coarse_values, fine_gradients, coarse_gradients = grids
+    (
+        fine_origin,
+        fine_spacing,
+        fine_values,
+        coarse_origin,
+        coarse_spacing,
+        coarse_values,
+        fine_gradients,
+        coarse_gradients,
+    ) = grids
     lo0 = min(p[0], q[0]) - sag
     lo1 = min(p[1], q[1]) - sag
     lo2 = min(p[2], q[2]) - sag
@@ -163,16 +175,27 @@ def _lipschitz(grids, p, q, sag, is_arc):
         u0 = d0 / n
         u1 = d1 / n
         u2 = d2 / n
-    bound = _block_bound(fine_origin, fine_spacing, fine_values, fine_gradients, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
+    bound = _block_bound(
+        fine_origin, fine_spacing, fine_values, fine_gradients, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2
+    )
     if bound == math.inf:
         # outside the fine box entirely: the coarse grid's blocks; across its boundary: 1
         nx, ny, nz = fine_values.shape
         fhi0 = fine_origin[0] + fine_spacing * (nx - 1)
         fhi1 = fine_origin[1] + fine_spacing * (ny - 1)
         fhi2 = fine_origin[2] + fine_spacing * (nz - 1)
-        apart = hi0 < fine_origin[0] or lo0 > fhi0 or hi1 < fine_origin[1] or lo1 > fhi1 or hi2 < fine_origin[2] or lo2 > fhi2
+        apart = (
+            hi0 < fine_origin[0]
+            or lo0 > fhi0
+            or hi1 < fine_origin[1]
+            or lo1 > fhi1
+            or hi2 < fine_origin[2]
+            or lo2 > fhi2
+        )
         if apart:
-            bound = _block_bound(coarse_origin, coarse_spacing, coarse_values, coarse_gradients, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2)
+            bound = _block_bound(
+                coarse_origin, coarse_spacing, coarse_values, coarse_gradients, lo0, lo1, lo2, hi0, hi1, hi2, u0, u1, u2
+            )
     return min(bound, 1.0)
 
 
@@ -245,7 +268,25 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
             a = lines[k, 0]
             b = lines[k, 1]
             length = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
-            best, lower[k] = _search(False, a, b, a, 0.0, nrm, 1.0, length, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf, enough)
+            best, lower[k] = _search(
+                False,
+                a,
+                b,
+                a,
+                0.0,
+                nrm,
+                1.0,
+                length,
+                radius[k],
+                grids,
+                best,
+                stack_lo,
+                stack_hi,
+                pt,
+                pbuf,
+                qbuf,
+                enough,
+            )
         else:
             j = k - n_lines
             a = arcs[j, 0]
@@ -260,7 +301,25 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
                 angle = math.atan2(nn, dot)
             else:
                 angle = 0.0
-            best, lower[k] = _search(True, a, b, arc_c, arc_r, nrm, angle, arc_r, radius[k], grids, best, stack_lo, stack_hi, pt, pbuf, qbuf, enough)
+            best, lower[k] = _search(
+                True,
+                a,
+                b,
+                arc_c,
+                arc_r,
+                nrm,
+                angle,
+                arc_r,
+                radius[k],
+                grids,
+                best,
+                stack_lo,
+                stack_hi,
+                pt,
+                pbuf,
+                qbuf,
+                enough,
+            )
         if best < before:
             best_k = k
         if best <= enough:

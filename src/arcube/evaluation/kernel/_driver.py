@@ -16,8 +16,28 @@ from arcube.evaluation.kernel._summary import _finalize
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body, envelope,
-            failure, eta, excess, dexterity, assembly, extra, detail, summary):  # fmt: skip
+def _kernel(
+    geometry,
+    modes,
+    E,
+    e,
+    same_e,
+    opt,
+    full,
+    split,
+    chunk,
+    grids,
+    body,
+    envelope,
+    failure,
+    eta,
+    excess,
+    dexterity,
+    assembly,
+    extra,
+    detail,
+    summary,
+):
     """All designs x all points: ``_design_points`` then ``_finalize`` per design (their docs give the
     arguments). Per-point outputs are (D, P) arrays (``extra`` (D, P, N_EXTRA)), ``summary`` (D, N_SUMM).
     With ``split`` (few designs) each design's points run in tiles of ``chunk`` over the threads, in the
@@ -39,15 +59,73 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             i = tile // n_chunk
             k0 = (tile % n_chunk) * chunk
             k1 = min(n_pts, k0 + chunk)
-            _design_points(np.int64(i), np.int64(k0), np.int64(k1), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
-                           failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
+            _design_points(
+                np.int64(i),
+                np.int64(k0),
+                np.int64(k1),
+                geometry,
+                modes,
+                E,
+                e,
+                same_e,
+                opt,
+                full,
+                grids,
+                body,
+                envelope,
+                failure[i],
+                eta[i],
+                excess[i],
+                assembly[i],
+                extra[i],
+                detail,
+            )
         for i in prange(n_des):
-            _finalize(single_assembly_mode, ik_last[i], failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
+            _finalize(
+                single_assembly_mode,
+                ik_last[i],
+                failure[i],
+                eta[i],
+                excess[i],
+                assembly[i],
+                dexterity[i],
+                extra[i],
+                summary[i],
+            )
     elif full:
         for i in prange(n_des):
-            _design_points(np.int64(i), np.int64(0), np.int64(n_pts), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
-                           failure[i], eta[i], excess[i], assembly[i], extra[i], detail)  # fmt: skip
-            _finalize(single_assembly_mode, ik_last[i], failure[i], eta[i], excess[i], assembly[i], dexterity[i], extra[i], summary[i])
+            _design_points(
+                np.int64(i),
+                np.int64(0),
+                np.int64(n_pts),
+                geometry,
+                modes,
+                E,
+                e,
+                same_e,
+                opt,
+                full,
+                grids,
+                body,
+                envelope,
+                failure[i],
+                eta[i],
+                excess[i],
+                assembly[i],
+                extra[i],
+                detail,
+            )
+            _finalize(
+                single_assembly_mode,
+                ik_last[i],
+                failure[i],
+                eta[i],
+                excess[i],
+                assembly[i],
+                dexterity[i],
+                extra[i],
+                summary[i],
+            )
     else:
         for i in prange(n_des):
             failure_i = np.empty(n_pts, np.int16)
@@ -56,6 +134,35 @@ def _kernel(geometry, modes, E, e, same_e, opt, full, split, chunk, grids, body,
             assembly_i = np.empty(n_pts, np.int8)
             dexterity_i = np.empty(n_pts)
             extra_i = np.empty((n_pts, _N_EXTRA))
-            _design_points(np.int64(i), np.int64(0), np.int64(n_pts), geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
-                           failure_i, eta_i, excess_i, assembly_i, extra_i, detail)  # fmt: skip
-            _finalize(single_assembly_mode, ik_last[i], failure_i, eta_i, excess_i, assembly_i, dexterity_i, extra_i, summary[i])
+            _design_points(
+                np.int64(i),
+                np.int64(0),
+                np.int64(n_pts),
+                geometry,
+                modes,
+                E,
+                e,
+                same_e,
+                opt,
+                full,
+                grids,
+                body,
+                envelope,
+                failure_i,
+                eta_i,
+                excess_i,
+                assembly_i,
+                extra_i,
+                detail,
+            )
+            _finalize(
+                single_assembly_mode,
+                ik_last[i],
+                failure_i,
+                eta_i,
+                excess_i,
+                assembly_i,
+                dexterity_i,
+                extra_i,
+                summary[i],
+            )

@@ -203,7 +203,16 @@ def _envelope_regions(lines, arc_c, arc_r, arcs, radius, boxes, table_z, has_ski
             at = tr * N_PRIMS + N_LINES + j
             if st[lo + at] >= best + _SKIP_MM:
                 continue
-            low = _arc_lowest_z(arcs[j, 0, 0], arcs[j, 0, 1], arcs[j, 0, 2], arcs[j, 1, 0], arcs[j, 1, 1], arcs[j, 1, 2], arc_c[2], arc_r)
+            low = _arc_lowest_z(
+                arcs[j, 0, 0],
+                arcs[j, 0, 1],
+                arcs[j, 0, 2],
+                arcs[j, 1, 0],
+                arcs[j, 1, 1],
+                arcs[j, 1, 2],
+                arc_c[2],
+                arc_r,
+            )
             v = low - table_z - radius[N_LINES + j]
             st[vals + at] = v
             st[lo + at] = v
@@ -242,9 +251,24 @@ def _envelope_regions(lines, arc_c, arc_r, arcs, radius, boxes, table_z, has_ski
         j = k - N_LINES
         r = arc_r
         if lower == -_INF:
-            b = _piece_ball(arc_c[0] + r * arcs[j, 0, 0], arc_c[1] + r * arcs[j, 0, 1], arc_c[2] + r * arcs[j, 0, 2],
-                            arc_c[0] + r * arcs[j, 1, 0], arc_c[1] + r * arcs[j, 1, 1], arc_c[2] + r * arcs[j, 1, 2], r,
-                            c0, c1, c2, h0, h1, h2) - off  # fmt: skip
+            b = (
+                _piece_ball(
+                    arc_c[0] + r * arcs[j, 0, 0],
+                    arc_c[1] + r * arcs[j, 0, 1],
+                    arc_c[2] + r * arcs[j, 0, 2],
+                    arc_c[0] + r * arcs[j, 1, 0],
+                    arc_c[1] + r * arcs[j, 1, 1],
+                    arc_c[2] + r * arcs[j, 1, 2],
+                    r,
+                    c0,
+                    c1,
+                    c2,
+                    h0,
+                    h1,
+                    h2,
+                )
+                - off
+            )
             if b >= best + _SKIP_MM:
                 st[lo + pair] = b
                 continue

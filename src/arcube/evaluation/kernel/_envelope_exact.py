@@ -187,7 +187,9 @@ def _bound(p0, p1, p2, q0, q1, q2, c0, c1, c2, h0, h1, h2):
     e0 = q0 - p0
     e1 = q1 - p1
     e2 = q2 - p2
-    mid = _box_sd(0.5 * (p0 + q0), 0.5 * (p1 + q1), 0.5 * (p2 + q2), c0, c1, c2, h0, h1, h2) - 0.5 * math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    mid = _box_sd(0.5 * (p0 + q0), 0.5 * (p1 + q1), 0.5 * (p2 + q2), c0, c1, c2, h0, h1, h2) - 0.5 * math.sqrt(
+        e0 * e0 + e1 * e1 + e2 * e2
+    )
     gap = g0 * g0 + g1 * g1 + g2 * g2
     return max(math.sqrt(gap), mid) if gap > 0.0 else mid
 
@@ -198,6 +200,6 @@ def _piece_ball(p0, p1, p2, q0, q1, q2, r, c0, c1, c2, h0, h1, h2):
     its points p and q, and over its chord: at the chord's midpoint, less sqrt(half chord^2 + sag^2)."""
     half = 0.5 * math.sqrt((q0 - p0) ** 2 + (q1 - p1) ** 2 + (q2 - p2) ** 2)
     sag = r - math.sqrt(max(r * r - half * half, 0.0))
-    return _box_sd(0.5 * (p0 + q0), 0.5 * (p1 + q1), 0.5 * (p2 + q2), c0, c1, c2, h0, h1, h2) - math.sqrt(half * half + sag * sag)
-
-
+    return _box_sd(0.5 * (p0 + q0), 0.5 * (p1 + q1), 0.5 * (p2 + q2), c0, c1, c2, h0, h1, h2) - math.sqrt(
+        half * half + sag * sag
+    )

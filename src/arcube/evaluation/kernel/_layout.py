@@ -97,46 +97,68 @@ def _width(at: slice | int) -> int:
     return 1 if isinstance(at, int) else at.stop - at.start
 
 
-GEOMETRY = Layout("G", (
-    *((key, _width(SLICES[key])) for key in ("m", "f", "p", "d", "c", "t", "r")),  # mm, as in the design array
-    ("o", _width(SLICES["o"])),  # transmitting offsets, rad
-    ("sin_alpha", _width(SLICES["alpha"])), ("cos_alpha", _width(SLICES["alpha"])),
-    ("cos_beta", _width(SLICES["beta"])), ("sin_beta", _width(SLICES["beta"])),
-    ("rot", 9),  # the mounting rotation R, row-major (model §13.1)
-    ("L", 1),  # tool offset, mm (model §13.2)
-    ("flat", 1),  # 1.0 where R = I exactly (the stages then see E - m unrotated, bit for bit)
-    # the spherical links as 12 chords each (model §18.1), in the order alpha_x, alpha_y, beta_x, beta_y:
-    ("arc_chord", 4),  # sin(phi / 24): a chord is 2 r sin(phi / 24) long
-    ("arc_a", 4), ("arc_b", 4),  # sum over the chords of the slerp coefficients of their midpoints (kernel._masses)
-    ("c_z", 1),  # the z dyad's second link, mm: the design's own (model §19.1); NaN: Guards.c_z's, else d_z
-))  # fmt: skip
+GEOMETRY = Layout(
+    "G",
+    (
+        *((key, _width(SLICES[key])) for key in ("m", "f", "p", "d", "c", "t", "r")),  # mm, as in the design array
+        ("o", _width(SLICES["o"])),  # transmitting offsets, rad
+        ("sin_alpha", _width(SLICES["alpha"])),
+        ("cos_alpha", _width(SLICES["alpha"])),
+        ("cos_beta", _width(SLICES["beta"])),
+        ("sin_beta", _width(SLICES["beta"])),
+        ("rot", 9),  # the mounting rotation R, row-major (model §13.1)
+        ("L", 1),  # tool offset, mm (model §13.2)
+        ("flat", 1),  # 1.0 where R = I exactly (the stages then see E - m unrotated, bit for bit)
+        # the spherical links as 12 chords each (model §18.1), in the order alpha_x, alpha_y, beta_x, beta_y:
+        ("arc_chord", 4),  # sin(phi / 24): a chord is 2 r sin(phi / 24) long
+        ("arc_a", 4),
+        ("arc_b", 4),  # sum over the chords of the slerp coefficients of their midpoints (kernel._masses)
+        ("c_z", 1),  # the z dyad's second link, mm: the design's own (model §19.1); NaN: Guards.c_z's, else d_z
+    ),
+)
 """One design's geometry row ``(N_GEO,)``: mm, rad and the trig of the spherical angles."""
 
-OPTIONS = Layout("O", (
-    # guards (model §8.2, 14.3); an optional threshold is a pair <name>_on (1.0: active), <name>
-    ("z_dyad", 1), ("c_z", 1),  # c_z in mm, NaN: c_z = d_z (a design's own c_z, in its geometry row, comes first)
-    ("rho_max_on", 1), ("rho_max", 1),  # rad
-    ("transmission_on", 1), ("transmission", 1),  # sine of the smallest transmission angle
-    ("kappa_max_on", 1), ("kappa_max", 1),
-    ("single_assembly_mode", 1),
-    ("clearance_on", 1), ("clearance", 1),  # mm
-    ("self_clearance_on", 1), ("self_clearance", 1),  # mm
-    ("envelope_on", 1), ("envelope", 1),  # mm, the clearance to the envelope of the whole patient (model §19.5)
-    # body (model §14.1)
-    ("motor_length", 1),  # mm
-    # loads (model §15)
-    ("encoder", 5),  # rad, per actuator
-    ("thrust", 1), ("lateral_force", 1),  # N
-    ("stiffness", 5),  # N·mm/rad, per actuator
-    # masses (model §18.1)
-    ("link_mass", 1),  # kg/mm, lambda of a link's tube
-    ("m_delta", 1), ("m_motor", 1),  # kg
-    ("gravity", 3),  # m/s^2, patient frame
-    # what to compute (1.0: yes)
-    ("exact", 1), ("do_clearance", 1), ("do_self_clearance", 1), ("tip_metrics", 1), ("clearance_min_exact", 1),
-    ("holding_torque", 1),  # with tip_metrics: the holding torque of model §18.2
-    ("do_envelope", 1),  # the clearance to the envelope (model §19.5), given one
-))  # fmt: skip
+OPTIONS = Layout(
+    "O",
+    (
+        # guards (model §8.2, 14.3); an optional threshold is a pair <name>_on (1.0: active), <name>
+        ("z_dyad", 1),
+        ("c_z", 1),  # c_z in mm, NaN: c_z = d_z (a design's own c_z, in its geometry row, comes first)
+        ("rho_max_on", 1),
+        ("rho_max", 1),  # rad
+        ("transmission_on", 1),
+        ("transmission", 1),  # sine of the smallest transmission angle
+        ("kappa_max_on", 1),
+        ("kappa_max", 1),
+        ("single_assembly_mode", 1),
+        ("clearance_on", 1),
+        ("clearance", 1),  # mm
+        ("self_clearance_on", 1),
+        ("self_clearance", 1),  # mm
+        ("envelope_on", 1),
+        ("envelope", 1),  # mm, the clearance to the envelope of the whole patient (model §19.5)
+        # body (model §14.1)
+        ("motor_length", 1),  # mm
+        # loads (model §15)
+        ("encoder", 5),  # rad, per actuator
+        ("thrust", 1),
+        ("lateral_force", 1),  # N
+        ("stiffness", 5),  # N·mm/rad, per actuator
+        # masses (model §18.1)
+        ("link_mass", 1),  # kg/mm, lambda of a link's tube
+        ("m_delta", 1),
+        ("m_motor", 1),  # kg
+        ("gravity", 3),  # m/s^2, patient frame
+        # what to compute (1.0: yes)
+        ("exact", 1),
+        ("do_clearance", 1),
+        ("do_self_clearance", 1),
+        ("tip_metrics", 1),
+        ("clearance_min_exact", 1),
+        ("holding_torque", 1),  # with tip_metrics: the holding torque of model §18.2
+        ("do_envelope", 1),  # the clearance to the envelope (model §19.5), given one
+    ),
+)
 """The option vector ``(N_OPT,)``: the settings as numbers, thresholds as the reference compares them."""
 
 assert TaskResults._fields[:2] == ("points", "w_G")
@@ -145,7 +167,17 @@ SUMMARY_FIELDS: tuple[str, ...] = ("n_bad", *TaskResults._fields[2:])
 SUMMARY = Layout("S", ((name, 1) for name in SUMMARY_FIELDS))
 """One design's summary row ``(N_SUMM,)``."""
 
-POINT_ARRAYS: tuple[str, ...] = ("reachable", "failure", "kappa", "eta_L", "dexterity_pct", "excess", "rho", "delta", "sigma")
+POINT_ARRAYS: tuple[str, ...] = (
+    "reachable",
+    "failure",
+    "kappa",
+    "eta_L",
+    "dexterity_pct",
+    "excess",
+    "rho",
+    "delta",
+    "sigma",
+)
 """PointResults fields with arrays of their own in the kernel (``reachable`` is failure == 0)."""
 EXTRA_FIELDS: tuple[str, ...] = tuple(name for name in PointResults._fields if name not in POINT_ARRAYS)
 """Columns of an extra row: every other PointResults field (the guard grade, model §16; body clearances, 14.3;
@@ -161,5 +193,7 @@ N_GEO, N_OPT, N_SUMM, N_EXTRA = GEOMETRY.size, OPTIONS.size, SUMMARY.size, EXTRA
 METRIC_COLUMNS = np.array([EXTRA.offset[name] for name in MAXIMUM_FIELDS], dtype=np.int64)
 """Extra columns of the tip metrics of model §15 and the holding torque of 18.2 that have a maximum (all but
 the actuators)."""
-MAXIMA = np.array([(SUMMARY.offset[name.rsplit("_", 1)[0] + "_max"], EXTRA.offset[name]) for name in MAXIMUM_FIELDS], dtype=np.int64)
+MAXIMA = np.array(
+    [(SUMMARY.offset[name.rsplit("_", 1)[0] + "_max"], EXTRA.offset[name]) for name in MAXIMUM_FIELDS], dtype=np.int64
+)
 """(summary column, extra column) of each maximum over the reachable points (model §15.5, 18.2), ``(7, 2)``."""

@@ -34,7 +34,15 @@ import math
 from numba import njit
 
 from arcube.evaluation.kernel._layout import G_ARC_A, G_ARC_B, G_ARC_CHORD, G_C, G_D, G_F, G_P, G_R, G_T, NAN
-from arcube.evaluation.kernel._layout import O_GRAVITY, O_LATERAL_FORCE, O_LINK_MASS, O_M_DELTA, O_M_MOTOR, O_MOTOR_LENGTH, O_THRUST
+from arcube.evaluation.kernel._layout import (
+    O_GRAVITY,
+    O_LATERAL_FORCE,
+    O_LINK_MASS,
+    O_M_DELTA,
+    O_M_MOTOR,
+    O_MOTOR_LENGTH,
+    O_THRUST,
+)
 from arcube.evaluation.kernel._layout import X_HOLDING_TORQUE_ACTUATOR, X_HOLDING_TORQUE_NM
 from arcube.evaluation.kernel._scalar import rot, rot_t, z_link
 
@@ -67,8 +75,40 @@ def _dyad(g, cz, C0, C1, C2, pcr2, sr2, G0, G1, G2, dz1, dz2):
 
 
 @njit(cache=True, error_model="numpy")
-def _holding_torque(g, opt, C0, C1, C2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1,
-                    xb0, xb1, xb2, yb0, yb1, yb2, jas0, jas1, em0, em1, em2, J, row):  # fmt: skip
+def _holding_torque(
+    g,
+    opt,
+    C0,
+    C1,
+    C2,
+    pcr0,
+    pcr1,
+    pcr2,
+    sr0,
+    sr1,
+    sr2,
+    cd0,
+    sd0,
+    cd1,
+    sd1,
+    ss0,
+    cs0,
+    ss1,
+    cs1,
+    xb0,
+    xb1,
+    xb2,
+    yb0,
+    yb1,
+    yb2,
+    jas0,
+    jas1,
+    em0,
+    em1,
+    em2,
+    J,
+    row,
+):
     """Write the holding torque (N m) and its actuator to the extra row ``row`` of a point whose tip metrics
     ``_performance._tip_metrics`` just computed (``J`` (2, 3, 5): J_E, J_e in R_w). The rest in mechanism
     coordinates: the centre C, sines and cosines of rho, delta and sigma (p cos rho as ``pcr``), u_beta of
@@ -81,19 +121,43 @@ def _holding_torque(g, opt, C0, C1, C2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd
     cz = z_link(g, opt)
     # one chord's mass (kg) of the links alpha_x, alpha_y, beta_x, beta_y, and the chords' slerp sums (no array temporaries)
     lr2 = 2.0 * r * lam
-    mu0, mu1, mu2, mu3 = lr2 * g[G_ARC_CHORD], lr2 * g[G_ARC_CHORD + 1], lr2 * g[G_ARC_CHORD + 2], lr2 * g[G_ARC_CHORD + 3]
+    mu0, mu1, mu2, mu3 = (
+        lr2 * g[G_ARC_CHORD],
+        lr2 * g[G_ARC_CHORD + 1],
+        lr2 * g[G_ARC_CHORD + 2],
+        lr2 * g[G_ARC_CHORD + 3],
+    )
     closes, jd, h0, h1, h2 = _dyad(g, cz, C0, C1, C2, pcr2, sr2, G0, G1, G2, -p2 * sr2, -pcr2)
     half_z = lam * cz / 2.0 if closes else lam * (d2 + cz) / 2.0  # the dyad's share at Q_z (moves with C) and at D_z
-    M_C = (((lam * (c0 + c1) / 2.0 + lam * (t0 + t1)) + 3.0 * lam * _SQRT2 * r) + 12.0 * (mu0 + mu1 + mu2 + mu3)) + mm + half_z
+    M_C = (
+        (((lam * (c0 + c1) / 2.0 + lam * (t0 + t1)) + 3.0 * lam * _SQRT2 * r) + 12.0 * (mu0 + mu1 + mu2 + mu3))
+        + mm
+        + half_z
+    )
     M_e = r * (mu2 * g[G_ARC_B + 2] + mu3 * g[G_ARC_B + 3]) + mm * (r + Lm / 2.0)
-    s_x = (G2 * xb1 - G1 * xb2) * r * (mu0 * g[G_ARC_B] + mu2 * g[G_ARC_A + 2]) + t0 * (cs0 * G1 + ss0 * G2) * lam * (c0 + t0) / 2.0
-    s_y = (G0 * yb2 - G2 * yb0) * r * (mu1 * g[G_ARC_B + 1] + mu3 * g[G_ARC_A + 3]) + t1 * (cs1 * G2 + ss1 * G0) * lam * (c1 + t1) / 2.0
+    s_x = (G2 * xb1 - G1 * xb2) * r * (mu0 * g[G_ARC_B] + mu2 * g[G_ARC_A + 2]) + t0 * (cs0 * G1 + ss0 * G2) * lam * (
+        c0 + t0
+    ) / 2.0
+    s_y = (G0 * yb2 - G2 * yb0) * r * (mu1 * g[G_ARC_B + 1] + mu3 * g[G_ARC_A + 3]) + t1 * (
+        cs1 * G2 + ss1 * G0
+    ) * lam * (c1 + t1) / 2.0
     kx, ky = -s_x / jas0, -s_y / jas1  # times u_beta . J_e: the sigma_dot terms
     elbow = lam * (d2 + cz) / 2.0 if closes else 0.0  # the elbow's rods (the rods' Q_z ends are in M_C)
-    gD0 = (lam * p0 / 2.0 + lam * d0 + lam * c0 / 2.0 + md) * -(pcr0 * G0 + p0 * sr0 * G2) - M_C * G0 * pcr0 - elbow * h0 * pcr0
-    gD1 = (lam * p1 / 2.0 + lam * d1 + lam * c1 / 2.0 + md) * -(pcr1 * G1 + p1 * sr1 * G0) - M_C * G1 * pcr1 - elbow * h1 * pcr1
-    gD2 = ((lam * p2 / 2.0 + (lam * d2 / 2.0 if closes else half_z)) * -(p2 * sr2 * G1 + pcr2 * G2) - M_C * G2 * pcr2
-           + elbow * (jd - h2 * pcr2))  # fmt: skip
+    gD0 = (
+        (lam * p0 / 2.0 + lam * d0 + lam * c0 / 2.0 + md) * -(pcr0 * G0 + p0 * sr0 * G2)
+        - M_C * G0 * pcr0
+        - elbow * h0 * pcr0
+    )
+    gD1 = (
+        (lam * p1 / 2.0 + lam * d1 + lam * c1 / 2.0 + md) * -(pcr1 * G1 + p1 * sr1 * G0)
+        - M_C * G1 * pcr1
+        - elbow * h1 * pcr1
+    )
+    gD2 = (
+        (lam * p2 / 2.0 + (lam * d2 / 2.0 if closes else half_z)) * -(p2 * sr2 * G1 + pcr2 * G2)
+        - M_C * G2 * pcr2
+        + elbow * (jd - h2 * pcr2)
+    )
     gK3 = lam * (d0 + c0) / 2.0 * d0 * (cd0 * G1 + sd0 * G2)
     gK4 = lam * (d1 + c1) / 2.0 * d1 * (cd1 * G2 + sd1 * G0)
     e0, e1, e2 = rot(g, em0, em1, em2)
@@ -103,7 +167,11 @@ def _holding_torque(g, opt, C0, C1, C2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd
     finite = True
     for j in range(5):
         w0, w1, w2 = rot_t(g, J[1, 0, j], J[1, 1, j], J[1, 2, j])  # J_e column j, mechanism axes
-        W = M_e * (G0 * w0 + G1 * w1 + G2 * w2) + kx * (xb0 * w0 + xb1 * w1 + xb2 * w2) + ky * (yb0 * w0 + yb1 * w1 + yb2 * w2)
+        W = (
+            M_e * (G0 * w0 + G1 * w1 + G2 * w2)
+            + kx * (xb0 * w0 + xb1 * w1 + xb2 * w2)
+            + ky * (yb0 * w0 + yb1 * w1 + yb2 * w2)
+        )
         W += gD0 if j == 0 else (gD1 if j == 1 else (gD2 if j == 2 else (gK3 if j == 3 else gK4)))
         a = e0 * J[0, 0, j] + e1 * J[0, 1, j] + e2 * J[0, 2, j]
         l0, l1, l2 = J[0, 0, j] - a * e0, J[0, 1, j] - a * e1, J[0, 2, j] - a * e2

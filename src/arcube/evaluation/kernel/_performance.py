@@ -20,7 +20,13 @@ from numba import njit
 
 from arcube.evaluation.kernel._layout import G_L, METRIC_COLUMNS, NAN, O_ENCODER, O_LATERAL_FORCE, O_STIFFNESS, O_THRUST
 from arcube.evaluation.kernel._layout import X_AXIAL_ERROR_MM, X_AXIS_ERROR_DEG, X_DEFLECTION_MM, X_LATERAL_ERROR_MM
-from arcube.evaluation.kernel._layout import X_HOLDING_TORQUE_ACTUATOR, X_HOLDING_TORQUE_NM, X_TIP_ERROR_MM, X_TORQUE_ACTUATOR, X_TORQUE_NM
+from arcube.evaluation.kernel._layout import (
+    X_HOLDING_TORQUE_ACTUATOR,
+    X_HOLDING_TORQUE_NM,
+    X_TIP_ERROR_MM,
+    X_TORQUE_ACTUATOR,
+    X_TORQUE_NM,
+)
 from arcube.evaluation.kernel._scalar import rot
 
 
@@ -73,8 +79,36 @@ def _box_maxima(J, eps, e0, e1, e2):
 
 
 @njit(cache=True, error_model="numpy")
-def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
-                 xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, J, row):  # fmt: skip
+def _tip_metrics(
+    g,
+    pcr0,
+    pcr1,
+    pcr2,
+    F0,
+    F1,
+    G0,
+    G1,
+    D0,
+    D1,
+    E0,
+    E1,
+    H0,
+    H1,
+    jas0,
+    jas1,
+    xb0,
+    xb1,
+    xb2,
+    yb0,
+    yb1,
+    yb2,
+    em0,
+    em1,
+    em2,
+    opt,
+    J,
+    row,
+):
     """Write the metrics of one point to its extra row ``row`` (the ``X_*`` columns of the PointResults
     fields tip_error_mm .. deflection_mm; the holding torque's NaN and -1, which ``_masses`` overwrites
     when it is on), with the loads of the option vector ``opt``: encoder (rad), thrust, lateral force (N),
@@ -120,10 +154,10 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
         J[1, 0, i] = -x0
         J[1, 1, i] = -x1
         J[1, 2, i] = -x2
-    eps = opt[O_ENCODER:O_ENCODER + 5]
+    eps = opt[O_ENCODER : O_ENCODER + 5]
     F_t = opt[O_THRUST]
     F_l = opt[O_LATERAL_FORCE]
-    k = opt[O_STIFFNESS:O_STIFFNESS + 5]
+    k = opt[O_STIFFNESS : O_STIFFNESS + 5]
     tip, lat, axis = _box_maxima(J, eps, e0, e1, e2)
     row[X_TIP_ERROR_MM] = tip
     row[X_LATERAL_ERROR_MM] = lat
@@ -165,4 +199,3 @@ def _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, ja
     row[X_DEFLECTION_MM] = F_t * math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + F_l * lam
     row[X_HOLDING_TORQUE_NM] = NAN
     row[X_HOLDING_TORQUE_ACTUATOR] = -1.0
-

@@ -15,23 +15,85 @@ from numba import njit
 from arcube.evaluation.clearance import ARC_CHORDS
 from arcube.model.body import N_SEGMENTS, N_SPHERES, PRIMITIVE_PART
 from arcube.evaluation.kernel._layout import GRADE_CLEARANCE, GRADE_ENVELOPE, GRADE_RHO, GRADE_SINE, GRADE_Z_DYAD
-from arcube.evaluation.kernel._layout import CODE_ENVELOPE, CODE_KAPPA, CODE_PATIENT, CODE_RHO, CODE_SELF, CODE_SINGULAR, CODE_TRANS, CODE_Z_DYAD
-from arcube.evaluation.kernel._layout import G_C, G_C_Z, G_COS_ALPHA, G_COS_BETA, G_D, G_F, G_L, G_M, G_O, G_P, G_R, G_SIN_ALPHA, G_SIN_BETA, G_T
+from arcube.evaluation.kernel._layout import (
+    CODE_ENVELOPE,
+    CODE_KAPPA,
+    CODE_PATIENT,
+    CODE_RHO,
+    CODE_SELF,
+    CODE_SINGULAR,
+    CODE_TRANS,
+    CODE_Z_DYAD,
+)
+from arcube.evaluation.kernel._layout import (
+    G_C,
+    G_C_Z,
+    G_COS_ALPHA,
+    G_COS_BETA,
+    G_D,
+    G_F,
+    G_L,
+    G_M,
+    G_O,
+    G_P,
+    G_R,
+    G_SIN_ALPHA,
+    G_SIN_BETA,
+    G_T,
+)
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import NAN as _NAN
-from arcube.evaluation.kernel._layout import O_EXACT, O_KAPPA_MAX, O_KAPPA_MAX_ON, O_RHO_MAX, O_RHO_MAX_ON, O_SINGLE_ASSEMBLY_MODE
+from arcube.evaluation.kernel._layout import (
+    O_EXACT,
+    O_KAPPA_MAX,
+    O_KAPPA_MAX_ON,
+    O_RHO_MAX,
+    O_RHO_MAX_ON,
+    O_SINGLE_ASSEMBLY_MODE,
+)
 from arcube.evaluation.kernel._layout import O_TRANSMISSION, O_TRANSMISSION_ON, O_Z_DYAD
-from arcube.evaluation.kernel._layout import O_CLEARANCE, O_CLEARANCE_MIN_EXACT, O_CLEARANCE_ON, O_DO_CLEARANCE, O_DO_SELF_CLEARANCE
-from arcube.evaluation.kernel._layout import O_HOLDING_TORQUE, O_MOTOR_LENGTH, O_SELF_CLEARANCE, O_SELF_CLEARANCE_ON, O_TIP_METRICS
+from arcube.evaluation.kernel._layout import (
+    O_CLEARANCE,
+    O_CLEARANCE_MIN_EXACT,
+    O_CLEARANCE_ON,
+    O_DO_CLEARANCE,
+    O_DO_SELF_CLEARANCE,
+)
+from arcube.evaluation.kernel._layout import (
+    O_HOLDING_TORQUE,
+    O_MOTOR_LENGTH,
+    O_SELF_CLEARANCE,
+    O_SELF_CLEARANCE_ON,
+    O_TIP_METRICS,
+)
 from arcube.evaluation.kernel._layout import X_CLEARANCE_MM, X_CLEARANCE_PART, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
-from arcube.evaluation.kernel._layout import O_DO_ENVELOPE, O_ENVELOPE, O_ENVELOPE_ON, X_ENVELOPE_CLEARANCE_MM, X_ENVELOPE_PART, X_ENVELOPE_REGION
+from arcube.evaluation.kernel._layout import (
+    O_DO_ENVELOPE,
+    O_ENVELOPE,
+    O_ENVELOPE_ON,
+    X_ENVELOPE_CLEARANCE_MM,
+    X_ENVELOPE_PART,
+    X_ENVELOPE_REGION,
+)
 from arcube.evaluation.kernel._envelope import _envelope_pick, _envelope_regions, _envelope_skin, state_size
 from arcube.evaluation.kernel._body import _body_world
 from arcube.evaluation.kernel._clearance import _anatomy_clearance, _carry_bounds
 from arcube.evaluation.kernel._self import _self_clearance, self_moves
 from arcube.evaluation.kernel._masses import _holding_torque
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
-from arcube.evaluation.kernel._scalar import _clip_excess, _harmonic, _kdiag2, _kdiag3, _kinv, _nan_to_num, _pos, _term, _wrap, rot_t, z_link
+from arcube.evaluation.kernel._scalar import (
+    _clip_excess,
+    _harmonic,
+    _kdiag2,
+    _kdiag3,
+    _kinv,
+    _nan_to_num,
+    _pos,
+    _term,
+    _wrap,
+    rot_t,
+    z_link,
+)
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
 
 N_LINES = N_SEGMENTS + N_SPHERES
@@ -220,8 +282,27 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
 
 
 @njit(cache=True, error_model="numpy")
-def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, body, envelope,
-                   failure, eta, excess, assembly, extra, detail):  # fmt: skip
+def _design_points(
+    i,
+    k0,
+    k1,
+    geometry,
+    modes,
+    E,
+    e,
+    same_e,
+    opt,
+    full,
+    grids,
+    body,
+    envelope,
+    failure,
+    eta,
+    excess,
+    assembly,
+    extra,
+    detail,
+):
     """Points k0..k1-1 of design i, in the reference's order.
 
     Inputs: ``geometry`` (D, N_GEO) and ``modes`` (D, 4) of every design; the task's ``E`` (P, 3) mm and
@@ -289,16 +370,31 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
     prev = np.empty((N_LINES, 2, 3))
     have_prev = False
     floor = opt[O_CLEARANCE] if opt[O_CLEARANCE_ON] != 0.0 else -_INF
-    track_min = opt[O_CLEARANCE_MIN_EXACT] != 0.0 or opt[O_CLEARANCE_ON] == 0.0  # else only the guard's decision matters
+    track_min = (
+        opt[O_CLEARANCE_MIN_EXACT] != 0.0 or opt[O_CLEARANCE_ON] == 0.0
+    )  # else only the guard's decision matters
     track_self = opt[O_CLEARANCE_MIN_EXACT] != 0.0 or opt[O_SELF_CLEARANCE_ON] == 0.0
     for k in range(k0, k1):
         if not (have and same_e[k]):
             have = True
             em0, em1, em2 = rot_t(g, e[k, 0], e[k, 1], e[k, 2])
-            sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2 = _rts_direction(
-                em0, em1, em2, g[G_SIN_ALPHA], g[G_COS_ALPHA], g[G_COS_BETA], g[G_O], epsR0,
-                g[G_SIN_ALPHA + 1], g[G_COS_ALPHA + 1], g[G_COS_BETA + 1], g[G_O + 1], epsR1,
-            )  # fmt: skip
+            sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2 = (
+                _rts_direction(
+                    em0,
+                    em1,
+                    em2,
+                    g[G_SIN_ALPHA],
+                    g[G_COS_ALPHA],
+                    g[G_COS_BETA],
+                    g[G_O],
+                    epsR0,
+                    g[G_SIN_ALPHA + 1],
+                    g[G_COS_ALPHA + 1],
+                    g[G_COS_BETA + 1],
+                    g[G_O + 1],
+                    epsR1,
+                )
+            )
 
         # TLS (Eq 1), at the centre C in mechanism coordinates
         Em0, Em1, Em2 = _centre_m(g, E[k, 0], E[k, 1], E[k, 2], e[k, 0], e[k, 1], e[k, 2])
@@ -310,8 +406,12 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
         pcr2 = p2 * cr2
 
         # TMS (Eq 3): leg x (v, w) = (y, z), leg y (v, w) = (z, x)
-        del0, marg0, F0, G0, D0, E0, H0, cd0, sd0 = _tms_leg(Em1, Em2, pcr0, sr0, ss0, cs0, p0, d0, c0, t0, epsT0, full, exact)
-        del1, marg1, F1, G1, D1, E1, H1, cd1, sd1 = _tms_leg(Em2, Em0, pcr1, sr1, ss1, cs1, p1, d1, c1, t1, epsT1, full, exact)
+        del0, marg0, F0, G0, D0, E0, H0, cd0, sd0 = _tms_leg(
+            Em1, Em2, pcr0, sr0, ss0, cs0, p0, d0, c0, t0, epsT0, full, exact
+        )
+        del1, marg1, F1, G1, D1, E1, H1, cd1, sd1 = _tms_leg(
+            Em2, Em0, pcr1, sr1, ss1, cs1, p1, d1, c1, t1, epsT1, full, exact
+        )
 
         fc = _stage_failure(ta0, ta1, ta2, rarg0, rarg1, marg0, marg1)
         ex = ((0.0 + _clip_excess(ta0)) + _clip_excess(ta1)) + _clip_excess(ta2)
@@ -320,31 +420,107 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
 
         eta_raw = _INF
         if fc == 0:
-            eta_raw, fc = _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_o[i, k] if full else kappa_o[0, 0])
+            eta_raw, fc = _eta(
+                pcr0,
+                pcr1,
+                pcr2,
+                F0,
+                F1,
+                G0,
+                G1,
+                D0,
+                D1,
+                E0,
+                E1,
+                H0,
+                H1,
+                kAS,
+                kAP,
+                full,
+                kappa_o[i, k] if full else kappa_o[0, 0],
+            )
             solved = fc == 0  # the IK solves the point: its guards are graded (model §16)
-            fc, gr, zs = _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det)
+            fc, gr, zs = _local_guards(
+                fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det
+            )
             if dyad_ik and zs > 0.0:  # an open z dyad is a point the IK does not reach: its excess, no guard grade
                 ex = ex + zs
                 solved = False
             clr = selfc = env = _NAN
             part = env_part = env_region = -1.0
             if do_clr or do_self or do_env:
-                arc_r = _body_world(g, z_link(g, opt), opt[O_MOTOR_LENGTH], Em0, Em1, Em2, em0, em1, em2, cr0, sr0, cr1, sr1, cr2, sr2,
-                                    cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1, xb0, xb1, xb2, yb0, yb1, yb2, lines, arcs, arc_c)  # fmt: skip
+                arc_r = _body_world(
+                    g,
+                    z_link(g, opt),
+                    opt[O_MOTOR_LENGTH],
+                    Em0,
+                    Em1,
+                    Em2,
+                    em0,
+                    em1,
+                    em2,
+                    cr0,
+                    sr0,
+                    cr1,
+                    sr1,
+                    cr2,
+                    sr2,
+                    cd0,
+                    sd0,
+                    cd1,
+                    sd1,
+                    ss0,
+                    cs0,
+                    ss1,
+                    cs1,
+                    xb0,
+                    xb1,
+                    xb2,
+                    yb0,
+                    yb1,
+                    yb2,
+                    lines,
+                    arcs,
+                    arc_c,
+                )
                 if do_self:
                     self_cap = _INF if full or track_self else opt[O_SELF_CLEARANCE]
-                    self_enough = -_INF if self_cap == _INF else self_cap - GRADE_CLEARANCE  # past it a shortfall counts 1 (16)
+                    self_enough = (
+                        -_INF if self_cap == _INF else self_cap - GRADE_CLEARANCE
+                    )  # past it a shortfall counts 1 (16)
                     self_moves(lines, prev_self, have_prev_self, move)
                     have_prev_self = True
-                    selfc = _self_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, pairs, chords, self_cap, self_enough,
-                                            pair_lower, move)  # fmt: skip
+                    selfc = _self_clearance(
+                        lines,
+                        arc_c,
+                        arc_r,
+                        arcs,
+                        radius,
+                        N_LINES,
+                        pairs,
+                        chords,
+                        self_cap,
+                        self_enough,
+                        pair_lower,
+                        move,
+                    )
                 if do_clr:
                     # single_assembly_mode may fail a point later: with it on, an exact summary minimum searches every point
-                    cap = _INF if full else (floor if not track_min else (_INF if opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else max(floor, run_min)))
+                    cap = (
+                        _INF
+                        if full
+                        else (
+                            floor
+                            if not track_min
+                            else (_INF if opt[O_SINGLE_ASSEMBLY_MODE] != 0.0 else max(floor, run_min))
+                        )
+                    )
                     _carry_bounds(lower, lines, prev, have_prev and cap < _INF)
                     have_prev = True
                     enough = floor - GRADE_CLEARANCE if cap == floor else -_INF
-                    clr, kbest = _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap, lower, enough)
+                    clr, kbest = _anatomy_clearance(
+                        lines, arc_c, arc_r, arcs, radius, N_LINES, grids, order, work, cap, lower, enough
+                    )
                     part = float(PRIM_PART[kbest]) if kbest >= 0 else -1.0
                     if opt[O_CLEARANCE_ON] != 0.0:
                         short = _pos(opt[O_CLEARANCE] - clr)
@@ -357,10 +533,14 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                         fc = CODE_SELF
                     gr = gr + _nan_to_num(_term(short, GRADE_CLEARANCE))
                 if do_env:  # model §19.5
-                    least = _envelope_regions(lines, arc_c, arc_r, arcs, radius, env_boxes, env_table, env_skin, have_prev_env, env_state)
+                    least = _envelope_regions(
+                        lines, arc_c, arc_r, arcs, radius, env_boxes, env_table, env_skin, have_prev_env, env_state
+                    )
                     have_prev_env = not math.isnan(least)  # a finite body: the next point carries its bounds
                     if env_skin and have_prev_env:
-                        least = _envelope_skin(lines, arc_c, arc_r, arcs, radius, envelope, order, env_work, env_lower, env_state, least)
+                        least = _envelope_skin(
+                            lines, arc_c, arc_r, arcs, radius, envelope, order, env_work, env_lower, env_state, least
+                        )
                     env, env_k, env_r = _envelope_pick(env_state, env_boxes.shape[0], env_regions, least)
                     if env_k >= 0:
                         env_part = float(PRIM_PART[env_k])
@@ -383,11 +563,71 @@ def _design_points(i, k0, k1, geometry, modes, E, e, same_e, opt, full, grids, b
                 have_prev = False
                 have_prev_self = False
             if fc == 0 and do_perf:
-                _tip_metrics(g, pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, jas0, jas1,
-                             xb0, xb1, xb2, yb0, yb1, yb2, em0, em1, em2, opt, jbuf, extra[k])  # fmt: skip
+                _tip_metrics(
+                    g,
+                    pcr0,
+                    pcr1,
+                    pcr2,
+                    F0,
+                    F1,
+                    G0,
+                    G1,
+                    D0,
+                    D1,
+                    E0,
+                    E1,
+                    H0,
+                    H1,
+                    jas0,
+                    jas1,
+                    xb0,
+                    xb1,
+                    xb2,
+                    yb0,
+                    yb1,
+                    yb2,
+                    em0,
+                    em1,
+                    em2,
+                    opt,
+                    jbuf,
+                    extra[k],
+                )
                 if do_hold:  # model §18.2
-                    _holding_torque(g, opt, Em0, Em1, Em2, pcr0, pcr1, pcr2, sr0, sr1, sr2, cd0, sd0, cd1, sd1, ss0, cs0, ss1, cs1,
-                                    xb0, xb1, xb2, yb0, yb1, yb2, jas0, jas1, em0, em1, em2, jbuf, extra[k])  # fmt: skip
+                    _holding_torque(
+                        g,
+                        opt,
+                        Em0,
+                        Em1,
+                        Em2,
+                        pcr0,
+                        pcr1,
+                        pcr2,
+                        sr0,
+                        sr1,
+                        sr2,
+                        cd0,
+                        sd0,
+                        cd1,
+                        sd1,
+                        ss0,
+                        cs0,
+                        ss1,
+                        cs1,
+                        xb0,
+                        xb1,
+                        xb2,
+                        yb0,
+                        yb1,
+                        yb2,
+                        jas0,
+                        jas1,
+                        em0,
+                        em1,
+                        em2,
+                        jbuf,
+                        extra[k],
+                    )
             else:
                 _no_metrics(extra[k])
         else:

@@ -24,10 +24,8 @@ def rot(g, x0, x1, x2):
     tip metrics always have; x itself where R = I exactly (``G_FLAT``)."""
     if g[G_FLAT] != 0.0:
         return x0, x1, x2
-    R = g[G_ROT:G_ROT + 9]
-    return (R[0] * x0 + R[1] * x1 + R[2] * x2,
-            R[3] * x0 + R[4] * x1 + R[5] * x2,
-            R[6] * x0 + R[7] * x1 + R[8] * x2)  # fmt: skip
+    R = g[G_ROT : G_ROT + 9]
+    return (R[0] * x0 + R[1] * x1 + R[2] * x2, R[3] * x0 + R[4] * x1 + R[5] * x2, R[6] * x0 + R[7] * x1 + R[8] * x2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -39,10 +37,12 @@ def rot_t(g, a0, a1, a2):
     where R = I exactly (``G_FLAT``)."""
     if g[G_FLAT] != 0.0:
         return a0, a1, a2
-    R = g[G_ROT:G_ROT + 9]
-    return ((R[0] * a0 + R[6] * a2) + R[3] * a1,
-            (R[1] * a0 + R[7] * a2) + R[4] * a1,
-            (R[2] * a0 + R[8] * a2) + R[5] * a1)  # fmt: skip
+    R = g[G_ROT : G_ROT + 9]
+    return (
+        (R[0] * a0 + R[6] * a2) + R[3] * a1,
+        (R[1] * a0 + R[7] * a2) + R[4] * a1,
+        (R[2] * a0 + R[8] * a2) + R[5] * a1,
+    )
 
 
 @njit(cache=True, error_model="numpy")
@@ -250,8 +250,6 @@ def _pairwise_sum(a):
         ns[top] = n2
         states[top] = 0
     return 0.0 + ret
-
-
 
 
 @njit(cache=True, error_model="numpy")

@@ -140,8 +140,10 @@ def _self_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, pairs, chords, c
             bx = chords[a, n, 0] - arc_c[0]
             by = chords[a, n, 1] - arc_c[1]
             bz = chords[a, n, 2] - arc_c[2]
-            half = 0.5 * math.atan2(math.sqrt((ay * bz - az * by) ** 2 + (az * bx - ax * bz) ** 2 + (ax * by - ay * bx) ** 2),
-                                    ax * bx + ay * by + az * bz)  # fmt: skip
+            half = 0.5 * math.atan2(
+                math.sqrt((ay * bz - az * by) ** 2 + (az * bx - ax * bz) ** 2 + (ax * by - ay * bx) ** 2),
+                ax * bx + ay * by + az * bz,
+            )
             sag = arc_r * (1.0 - math.cos(half))
             if _segment_distance(lines[i, 0], lines[i, 1], chords[a, 0], chords[a, n]) - sag - rad >= best:
                 continue

@@ -72,5 +72,3 @@ def _tls_leg(u, f, r, p, want_rho, exact):
     if abs(arg) == 1.0:
         return arg, rho, math.cos(math.asin(arg)), -arg
     return arg, rho, math.sqrt((1.0 - arg) * (1.0 + arg)), -arg
-
-

@@ -9,9 +9,21 @@ from numba import njit
 from arcube.evaluation.kernel._layout import CODE_SAM as _CODE_SAM
 from arcube.evaluation.kernel._layout import INF as _INF
 from arcube.evaluation.kernel._layout import MAXIMA, NAN as _NAN
-from arcube.evaluation.kernel._layout import S_CLEARANCE_MIN, S_DEXTERITY_MAX, S_DEXTERITY_MEAN, S_DEXTERITY_MIN, S_ETA_G
+from arcube.evaluation.kernel._layout import (
+    S_CLEARANCE_MIN,
+    S_DEXTERITY_MAX,
+    S_DEXTERITY_MEAN,
+    S_DEXTERITY_MIN,
+    S_ETA_G,
+)
 from arcube.evaluation.kernel._layout import S_ENVELOPE_CLEARANCE_MIN, X_ENVELOPE_CLEARANCE_MM
-from arcube.evaluation.kernel._layout import S_GUARD_GRADE, S_N_BAD, S_REACHABLE_FRACTION, S_SELF_CLEARANCE_MIN, S_VIOLATION
+from arcube.evaluation.kernel._layout import (
+    S_GUARD_GRADE,
+    S_N_BAD,
+    S_REACHABLE_FRACTION,
+    S_SELF_CLEARANCE_MIN,
+    S_VIOLATION,
+)
 from arcube.evaluation.kernel._layout import S_VIOLATION_REACH, X_CLEARANCE_MM, X_GUARD_GRADE, X_SELF_CLEARANCE_MM
 from arcube.evaluation.kernel._performance import _no_metrics
 from arcube.evaluation.kernel._scalar import _pairwise_sum

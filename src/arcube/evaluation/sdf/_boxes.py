@@ -37,7 +37,7 @@ def _box_arrays(boxes: Iterable[Any]) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 def _boxes_bounds(centres: np.ndarray, halves: np.ndarray, rots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    ext = np.einsum("bij,bj->bi", np.abs(rots), halves)   # half-size of each box's axis-aligned bounds
+    ext = np.einsum("bij,bj->bi", np.abs(rots), halves)  # half-size of each box's axis-aligned bounds
     return (centres - ext).min(axis=0), (centres + ext).max(axis=0)
 
 
@@ -70,11 +70,23 @@ def _boxes_grid(origin, spacing, nx, ny, nz, centres, halves, rots, ext, min_hal
             last = 0
             for k in range(nz):
                 z = origin[2] + spacing * k
-                best = _box_sd(x - centres[last, 0], y - centres[last, 1], z - centres[last, 2],
-                               rots[last, 0, 0], rots[last, 0, 1], rots[last, 0, 2],
-                               rots[last, 1, 0], rots[last, 1, 1], rots[last, 1, 2],
-                               rots[last, 2, 0], rots[last, 2, 1], rots[last, 2, 2],
-                               halves[last, 0], halves[last, 1], halves[last, 2])
+                best = _box_sd(
+                    x - centres[last, 0],
+                    y - centres[last, 1],
+                    z - centres[last, 2],
+                    rots[last, 0, 0],
+                    rots[last, 0, 1],
+                    rots[last, 0, 2],
+                    rots[last, 1, 0],
+                    rots[last, 1, 1],
+                    rots[last, 1, 2],
+                    rots[last, 2, 0],
+                    rots[last, 2, 1],
+                    rots[last, 2, 2],
+                    halves[last, 0],
+                    halves[last, 1],
+                    halves[last, 2],
+                )
                 arg = last
                 for b in range(nb):
                     if b == last:
@@ -88,11 +100,23 @@ def _boxes_grid(origin, spacing, nx, ny, nz, centres, halves, rots, ext, min_hal
                             continue
                     elif lb2 > 0.0 or -min_half[b] >= best:
                         continue
-                    d = _box_sd(x - centres[b, 0], y - centres[b, 1], z - centres[b, 2],
-                                rots[b, 0, 0], rots[b, 0, 1], rots[b, 0, 2],
-                                rots[b, 1, 0], rots[b, 1, 1], rots[b, 1, 2],
-                                rots[b, 2, 0], rots[b, 2, 1], rots[b, 2, 2],
-                                halves[b, 0], halves[b, 1], halves[b, 2])
+                    d = _box_sd(
+                        x - centres[b, 0],
+                        y - centres[b, 1],
+                        z - centres[b, 2],
+                        rots[b, 0, 0],
+                        rots[b, 0, 1],
+                        rots[b, 0, 2],
+                        rots[b, 1, 0],
+                        rots[b, 1, 1],
+                        rots[b, 1, 2],
+                        rots[b, 2, 0],
+                        rots[b, 2, 1],
+                        rots[b, 2, 2],
+                        halves[b, 0],
+                        halves[b, 1],
+                        halves[b, 2],
+                    )
                     if d < best:
                         best = d
                         arg = b
@@ -100,12 +124,23 @@ def _boxes_grid(origin, spacing, nx, ny, nz, centres, halves, rots, ext, min_hal
                 last = arg
 
 
-def _boxes_on_grid(origin: np.ndarray, shape: tuple[int, int, int], spacing: float,
-                   arrays: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+def _boxes_on_grid(
+    origin: np.ndarray, shape: tuple[int, int, int], spacing: float, arrays: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> np.ndarray:
     centres, halves, rots = arrays
     out = np.empty(shape, dtype=np.float64)
     ext = np.ascontiguousarray(np.einsum("bij,bj->bi", np.abs(rots), halves))
-    _boxes_grid(origin, float(spacing), shape[0], shape[1], shape[2], centres, halves, rots, ext,
-                np.ascontiguousarray(halves.min(axis=1)), out)
+    _boxes_grid(
+        origin,
+        float(spacing),
+        shape[0],
+        shape[1],
+        shape[2],
+        centres,
+        halves,
+        rots,
+        ext,
+        np.ascontiguousarray(halves.min(axis=1)),
+        out,
+    )
     return out
-

@@ -50,7 +50,7 @@ def _bvh(tri: np.ndarray) -> tuple[Any, ...]:
     next_id = len(starts)
     while len(current) > 1:
         m = len(current) // 2
-        a, b = current[0:2 * m:2], current[1:2 * m:2]
+        a, b = current[0 : 2 * m : 2], current[1 : 2 * m : 2]
         lo.append(np.minimum(all_lo[a], all_lo[b]))
         hi.append(np.maximum(all_hi[a], all_hi[b]))
         all_lo, all_hi = np.concatenate([all_lo, lo[-1]]), np.concatenate([all_hi, hi[-1]])
@@ -61,8 +61,16 @@ def _bvh(tri: np.ndarray) -> tuple[Any, ...]:
         ids = np.arange(next_id, next_id + m, dtype=np.int64)
         next_id += m
         current = np.append(ids, current[-1]) if len(current) % 2 else ids
-    return (order, np.ascontiguousarray(all_lo), np.ascontiguousarray(all_hi), np.concatenate(left),
-            np.concatenate(right), np.concatenate(first), np.concatenate(count), int(current[0]))
+    return (
+        order,
+        np.ascontiguousarray(all_lo),
+        np.ascontiguousarray(all_hi),
+        np.concatenate(left),
+        np.concatenate(right),
+        np.concatenate(first),
+        np.concatenate(count),
+        int(current[0]),
+    )
 
 
 @njit(cache=True)
@@ -114,8 +122,9 @@ def _tri_dist2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):  # pragma: no co
 
 
 @njit(parallel=True, cache=True)
-def _mesh_grid_unsigned(origin, spacing, nx, ny, nz, skip, tri, order, node_lo, node_hi, left, right,
-                        first, count, root, out):  # pragma: no cover - compiled
+def _mesh_grid_unsigned(
+    origin, spacing, nx, ny, nz, skip, tri, order, node_lo, node_hi, left, right, first, count, root, out
+):  # pragma: no cover - compiled
     """Exact distance from every grid node (not ``skip``) to the nearest triangle (BVH, warm start)."""
     for i in prange(nx):
         stack = np.empty(128, dtype=np.int64)
@@ -130,9 +139,20 @@ def _mesh_grid_unsigned(origin, spacing, nx, ny, nz, skip, tri, order, node_lo, 
                 best = np.inf
                 best_t = -1
                 if last >= 0:  # the previous node's nearest triangle: a tight first bound
-                    best = _tri_dist2(px, py, pz, tri[last, 0, 0], tri[last, 0, 1], tri[last, 0, 2],
-                                      tri[last, 1, 0], tri[last, 1, 1], tri[last, 1, 2],
-                                      tri[last, 2, 0], tri[last, 2, 1], tri[last, 2, 2])
+                    best = _tri_dist2(
+                        px,
+                        py,
+                        pz,
+                        tri[last, 0, 0],
+                        tri[last, 0, 1],
+                        tri[last, 0, 2],
+                        tri[last, 1, 0],
+                        tri[last, 1, 1],
+                        tri[last, 1, 2],
+                        tri[last, 2, 0],
+                        tri[last, 2, 1],
+                        tri[last, 2, 2],
+                    )
                     best_t = last
                 stack[0] = root
                 sp = 1
@@ -147,9 +167,20 @@ def _mesh_grid_unsigned(origin, spacing, nx, ny, nz, skip, tri, order, node_lo, 
                     if count[nd] > 0:
                         for m in range(first[nd], first[nd] + count[nd]):
                             t = order[m]
-                            d2 = _tri_dist2(px, py, pz, tri[t, 0, 0], tri[t, 0, 1], tri[t, 0, 2],
-                                            tri[t, 1, 0], tri[t, 1, 1], tri[t, 1, 2],
-                                            tri[t, 2, 0], tri[t, 2, 1], tri[t, 2, 2])
+                            d2 = _tri_dist2(
+                                px,
+                                py,
+                                pz,
+                                tri[t, 0, 0],
+                                tri[t, 0, 1],
+                                tri[t, 0, 2],
+                                tri[t, 1, 0],
+                                tri[t, 1, 1],
+                                tri[t, 1, 2],
+                                tri[t, 2, 0],
+                                tri[t, 2, 1],
+                                tri[t, 2, 2],
+                            )
                             if d2 < best:
                                 best = d2
                                 best_t = t
@@ -213,8 +244,13 @@ class _Shells:
         depth = np.zeros(shape)
         inside = np.zeros(shape, dtype=bool)
         for v, f, tri, lo, hi, bvh in self.shells:
-            sl = tuple(slice(int(np.searchsorted(axes[a], lo[a], side="left")),
-                             int(np.searchsorted(axes[a], hi[a], side="right"))) for a in range(3))
+            sl = tuple(
+                slice(
+                    int(np.searchsorted(axes[a], lo[a], side="left")),
+                    int(np.searchsorted(axes[a], hi[a], side="right")),
+                )
+                for a in range(3)
+            )
             sub_shape = tuple(s.stop - s.start for s in sl)
             if min(sub_shape) <= 0:
                 if tick is not None:
@@ -222,8 +258,17 @@ class _Shells:
                 continue  # no node inside the shell's bounding box
             sub_origin = origin + spacing * np.array([s.start for s in sl], dtype=np.float64)
             d = np.empty(sub_shape)
-            _mesh_grid_unsigned(sub_origin, float(spacing), sub_shape[0], sub_shape[1], sub_shape[2],
-                                np.zeros(sub_shape, dtype=bool), tri, *bvh, d)
+            _mesh_grid_unsigned(
+                sub_origin,
+                float(spacing),
+                sub_shape[0],
+                sub_shape[1],
+                sub_shape[2],
+                np.zeros(sub_shape, dtype=bool),
+                tri,
+                *bvh,
+                d,
+            )
             safe = d > 0.5 * spacing * (1.0 + 1e-9)
             labels, n_comp = ndimage.label(safe)
             ins = np.zeros(sub_shape, dtype=bool)
@@ -240,7 +285,7 @@ class _Shells:
                 ins.ravel()[band] = is_in[: len(band)]
                 if n_comp:
                     comp_in = np.zeros(n_comp + 1, dtype=bool)
-                    comp_in[labels.ravel()[flat_idx[len(band):]]] = is_in[len(band):]
+                    comp_in[labels.ravel()[flat_idx[len(band) :]]] = is_in[len(band) :]
                     ins |= comp_in[labels] & safe
             if ins.any():
                 depth[sl] = np.where(ins, np.maximum(depth[sl], d), depth[sl])
@@ -253,4 +298,3 @@ class _Shells:
         if tick is not None:
             tick()
         return out
-

@@ -93,8 +93,9 @@ class DistanceGrid:
         return tuple(self.origin[a] + self.spacing * np.arange(self.values.shape[a]) for a in range(3))  # type: ignore[return-value]
 
 
-def grid_for_bounds(lo: Sequence[float], hi: Sequence[float], spacing: float,
-                    margin: float) -> tuple[np.ndarray, tuple[int, int, int]]:
+def grid_for_bounds(
+    lo: Sequence[float], hi: Sequence[float], spacing: float, margin: float
+) -> tuple[np.ndarray, tuple[int, int, int]]:
     """Origin and shape of the grid of the given spacing that covers [lo − margin, hi + margin].
 
     Nodes sit on multiples of ``spacing``: origin = floor((lo − margin) / spacing) · spacing.
@@ -143,8 +144,14 @@ class AnatomyDistance:
         return int(self.fine.values.nbytes + self.coarse.values.nbytes)
 
     @classmethod
-    def from_meshes(cls, meshes: Sequence[Any], fine_spacing: float = 1.0, fine_margin: float = 30.0,
-                    coarse_spacing: float = 6.0, coarse_margin: float = 400.0) -> AnatomyDistance:
+    def from_meshes(
+        cls,
+        meshes: Sequence[Any],
+        fine_spacing: float = 1.0,
+        fine_margin: float = 30.0,
+        coarse_spacing: float = 6.0,
+        coarse_margin: float = 400.0,
+    ) -> AnatomyDistance:
         """Grids of the union of closed meshes (each connected shell is one solid).
 
         Node values are exact: the distance to each shell at the nodes of its bounding box and
@@ -163,27 +170,65 @@ class AnatomyDistance:
             tell(GRIDS, done[0], total)
 
         tell(GRIDS, 0, total)
-        return cls._build(shells.lo, shells.hi, lambda o, sh, h: shells.on_grid(o, sh, h, tick), fine_spacing, fine_margin,
-                          coarse_spacing, coarse_margin)
+        return cls._build(
+            shells.lo,
+            shells.hi,
+            lambda o, sh, h: shells.on_grid(o, sh, h, tick),
+            fine_spacing,
+            fine_margin,
+            coarse_spacing,
+            coarse_margin,
+        )
 
     @classmethod
-    def from_boxes(cls, boxes: Iterable[Any], fine_spacing: float = 1.0, fine_margin: float = 30.0,
-                   coarse_spacing: float = 6.0, coarse_margin: float = 400.0) -> AnatomyDistance:
+    def from_boxes(
+        cls,
+        boxes: Iterable[Any],
+        fine_spacing: float = 1.0,
+        fine_margin: float = 30.0,
+        coarse_spacing: float = 6.0,
+        coarse_margin: float = 400.0,
+    ) -> AnatomyDistance:
         """Grids of a union of boxes, each ``(centre, half_extents, rotation)``, by the exact box formula."""
         arrays = _box_arrays(boxes)
         lo, hi = _boxes_bounds(*arrays)
-        return cls._build(lo, hi, lambda o, s, h: _boxes_on_grid(o, s, h, arrays), fine_spacing, fine_margin,
-                          coarse_spacing, coarse_margin)
+        return cls._build(
+            lo,
+            hi,
+            lambda o, s, h: _boxes_on_grid(o, s, h, arrays),
+            fine_spacing,
+            fine_margin,
+            coarse_spacing,
+            coarse_margin,
+        )
 
     @classmethod
-    def _build(cls, lo: np.ndarray, hi: np.ndarray, fill: Any, fine_spacing: float, fine_margin: float,
-               coarse_spacing: float, coarse_margin: float) -> AnatomyDistance:
-        layout = [(spacing, *grid_for_bounds(lo, hi, spacing, margin)) for spacing, margin in ((fine_spacing, fine_margin), (coarse_spacing, coarse_margin))]
+    def _build(
+        cls,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        fill: Any,
+        fine_spacing: float,
+        fine_margin: float,
+        coarse_spacing: float,
+        coarse_margin: float,
+    ) -> AnatomyDistance:
+        layout = [
+            (spacing, *grid_for_bounds(lo, hi, spacing, margin))
+            for spacing, margin in ((fine_spacing, fine_margin), (coarse_spacing, coarse_margin))
+        ]
         need = sum(8 * int(np.prod(shape, dtype=np.float64)) for _, _, shape in layout)
         if need > MAX_GRID_BYTES:  # checked before anything is allocated
             extent = np.asarray(hi, float) - np.asarray(lo, float)
-            raise InputError.of("anatomy", f"spans {extent[0]:.4g} x {extent[1]:.4g} x {extent[2]:.4g} mm: its distance grids would need "
-                                f"{need / 2**30:.1f} GiB (at most {MAX_GRID_BYTES / 2**30:.0f}); is it in mm "
-                                "(not um or m) and only the operated region?")  # fmt: skip
-        grids = [DistanceGrid(origin, spacing, fill(origin, shape, float(spacing))) for spacing, origin, shape in layout]
-        return cls(grids[0], grids[1], (np.asarray(lo, dtype=np.float64).copy(), np.asarray(hi, dtype=np.float64).copy()))
+            raise InputError.of(
+                "anatomy",
+                f"spans {extent[0]:.4g} x {extent[1]:.4g} x {extent[2]:.4g} mm: its distance grids would need "
+                f"{need / 2**30:.1f} GiB (at most {MAX_GRID_BYTES / 2**30:.0f}); is it in mm "
+                "(not um or m) and only the operated region?",
+            )
+        grids = [
+            DistanceGrid(origin, spacing, fill(origin, shape, float(spacing))) for spacing, origin, shape in layout
+        ]
+        return cls(
+            grids[0], grids[1], (np.asarray(lo, dtype=np.float64).copy(), np.asarray(hi, dtype=np.float64).copy())
+        )

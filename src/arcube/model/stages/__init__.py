@@ -15,7 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 
-def solve_harmonic(A: ArrayLike, B: ArrayLike, C: ArrayLike, eps: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def solve_harmonic(
+    A: ArrayLike, B: ArrayLike, C: ArrayLike, eps: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Solve ``A cos x + B sin x = C`` on branch ``eps`` (+1/-1): x = atan2(B, A) + eps acos(C/R).
 
     Returns ``(x, arg)`` with ``arg = C / R`` (R = sqrt(A^2 + B^2)); a solution exists iff

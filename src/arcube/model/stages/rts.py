@@ -26,7 +26,9 @@ _AXES: NDArray[np.float64] = np.eye(3)[:2]
 """Proximal axes x_alpha = +x, y_alpha = +y, ``(2, 3)``."""
 
 
-def ik(e: ArrayLike, alpha: ArrayLike, beta: ArrayLike, o: ArrayLike, eps_R: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def ik(
+    e: ArrayLike, alpha: ArrayLike, beta: ArrayLike, o: ArrayLike, eps_R: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Input angles sigma_u reaching drill axis ``e`` (model §5.2), working mode eps_R = -sign J_AS,u.
 
     Parameters: ``e`` ``(..., 3)`` unit; ``alpha``, ``beta``, ``o``, ``eps_R`` ``(..., 2)`` (rad, signs).
@@ -74,7 +76,9 @@ def det_beta(e: ArrayLike, ub: ArrayLike) -> NDArray[np.float64]:
     return np.einsum("...j,...j->...", np.cross(ub_[..., 0, :], ub_[..., 1, :]), np.asarray(e, dtype=float))
 
 
-def fk(sigma: ArrayLike, alpha: ArrayLike, beta: ArrayLike, o: ArrayLike, eps_P: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def fk(
+    sigma: ArrayLike, alpha: ArrayLike, beta: ArrayLike, o: ArrayLike, eps_P: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Drill axis e given the inputs sigma (model §5.4), assembly mode eps_P = sign det[x_b, y_b, e].
 
     Returns ``(e, radicand)``: ``e`` ``(..., 3)`` (NaN where it does not assemble) and the

@@ -22,9 +22,16 @@ from arcube.model.stages import solve_harmonic
 
 
 def ik(
-    v: ArrayLike, w: ArrayLike, rho: ArrayLike, sigma: ArrayLike,
-    p: ArrayLike, d: ArrayLike, c: ArrayLike, t: ArrayLike, eps_T: ArrayLike,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    v: ArrayLike,
+    w: ArrayLike,
+    rho: ArrayLike,
+    sigma: ArrayLike,
+    p: ArrayLike,
+    d: ArrayLike,
+    c: ArrayLike,
+    t: ArrayLike,
+    eps_T: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Eq 3: delta_u = atan2(B, A) + eps_T acos(C / sqrt(A^2 + B^2)), wrapped to [-pi, pi).
 
     Shapes ``(..., 2)``; lengths mm, angles rad, ``eps_T`` in {+1, -1} (= sign F_u).
@@ -41,9 +48,16 @@ def ik(
 
 
 def fk(
-    v: ArrayLike, w: ArrayLike, rho: ArrayLike, delta: ArrayLike,
-    p: ArrayLike, d: ArrayLike, c: ArrayLike, t: ArrayLike, eps_H: ArrayLike,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    v: ArrayLike,
+    w: ArrayLike,
+    rho: ArrayLike,
+    delta: ArrayLike,
+    p: ArrayLike,
+    d: ArrayLike,
+    c: ArrayLike,
+    t: ArrayLike,
+    eps_H: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Output angle sigma_u given the input delta_u (model §4.4), assembly mode eps_H = sign H_u.
 
     Shapes ``(..., 2)``. Returns ``(sigma, arg)``; assembled iff |arg| <= 1.
@@ -70,9 +84,15 @@ class TMSJacobianTerms(NamedTuple):
 
 
 def jacobian_terms(
-    v: ArrayLike, w: ArrayLike, rho: ArrayLike, delta: ArrayLike, sigma: ArrayLike,
-    p: ArrayLike, d: ArrayLike, t: ArrayLike,
-) -> TMSJacobianTerms:  # fmt: skip
+    v: ArrayLike,
+    w: ArrayLike,
+    rho: ArrayLike,
+    delta: ArrayLike,
+    sigma: ArrayLike,
+    p: ArrayLike,
+    d: ArrayLike,
+    t: ArrayLike,
+) -> TMSJacobianTerms:
     """F, G, D, E, H of model §7.2 from the coupler vector T_u - K_u = (a_v, a_w)."""
     d_ = np.asarray(d, dtype=float)
     t_ = np.asarray(t, dtype=float)
@@ -91,14 +111,23 @@ def jacobian_terms(
 
 
 def constraint(
-    v: ArrayLike, w: ArrayLike, rho: ArrayLike, delta: ArrayLike, sigma: ArrayLike,
-    p: ArrayLike, d: ArrayLike, c: ArrayLike, t: ArrayLike,
-) -> NDArray[np.float64]:  # fmt: skip
+    v: ArrayLike,
+    w: ArrayLike,
+    rho: ArrayLike,
+    delta: ArrayLike,
+    sigma: ArrayLike,
+    p: ArrayLike,
+    d: ArrayLike,
+    c: ArrayLike,
+    t: ArrayLike,
+) -> NDArray[np.float64]:
     """Phi_u of Eq 2 (mm^2), zero on the closed four-bar; ``(..., 2)``."""
     d_ = np.asarray(d, dtype=float)
     t_ = np.asarray(t, dtype=float)
     a_v = np.asarray(v, dtype=float) - d_ * np.sin(delta) + t_ * np.sin(sigma)
-    a_w = np.asarray(w, dtype=float) + d_ * np.cos(delta) - t_ * np.cos(sigma) - np.asarray(p, dtype=float) * np.cos(rho)
+    a_w = (
+        np.asarray(w, dtype=float) + d_ * np.cos(delta) - t_ * np.cos(sigma) - np.asarray(p, dtype=float) * np.cos(rho)
+    )
     return a_v * a_v + a_w * a_w - np.asarray(c, dtype=float) ** 2
 
 
