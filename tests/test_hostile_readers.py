@@ -183,6 +183,19 @@ def damaged_csv(draw: Any, lines: list[str]) -> str:
     return "\n".join(",".join(x) for x in [header, *rows]) + "\n"
 
 
+def _dumps(value: object) -> str:
+    """JSON text of ``value``, an integer of 5,000 digits included (Python refuses to print one by default; the
+    reader under test must still say what is wrong with it, with the default limit back in place)."""
+    import sys
+
+    limit = sys.get_int_max_str_digits()
+    sys.set_int_max_str_digits(0)
+    try:
+        return json.dumps(value)
+    finally:
+        sys.set_int_max_str_digits(limit)
+
+
 # ----------------------------------------------------------------------------- the reader
 
 
@@ -203,12 +216,23 @@ def test_program_reader_returns_or_says_what_is_wrong(
         (folder / CSV_NAME).write_text((source / CSV_NAME).read_text())
         key = data.draw(st.sampled_from(SUMMARY_KEYS), "key")
         summary[key] = data.draw(JSON_HOSTILE, "value")
-        (folder / JSON_NAME).write_text(json.dumps(summary))
+        (folder / JSON_NAME).write_text(_dumps(summary))
     got = _read_or_input_error(folder)
     if not isinstance(got, InputError):  # accepted: what it holds is within the documented limits
         assert np.all(np.diff(got.t_s) > 0) and got.E.shape == (len(got.t_s), 3)
         finite = np.isfinite(got.q_deg)
         assert np.all(np.abs(got.q_deg[finite]) <= 1e6)
+
+
+def test_program_reader_says_what_is_wrong_with_a_5000_digit_number(
+    written: tuple[Program, Path], tmp_path: Path
+) -> None:
+    _, source = written
+    (tmp_path / CSV_NAME).write_text((source / CSV_NAME).read_text())
+    summary = json.loads((source / JSON_NAME).read_text())
+    summary["total_s"] = -(10**5000)
+    (tmp_path / JSON_NAME).write_text(_dumps(summary))
+    assert isinstance(_read_or_input_error(tmp_path), InputError)
 
 
 @pytest.mark.parametrize(

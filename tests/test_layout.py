@@ -69,6 +69,7 @@ LAYERS = (
     "arcube.interrupts",
     "arcube.progress",
     "arcube.errors",
+    "arcube.metrics",
     "arcube.io",
     "arcube.model",
     "arcube.validation",

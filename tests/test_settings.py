@@ -308,3 +308,26 @@ def test_in_memory_run_equals_the_folder_run_and_writes_nothing(
 def test_optimize_refuses_a_folder_in_place_of_settings(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="settings must be an arcube.RunSettings"):
         arcube.optimize("reference", tmp_path / "run")  # type: ignore[arg-type]
+
+
+def test_every_settings_field_has_a_description() -> None:
+    """Every field of every settings model (the subclasses of arcube.validation.Settings in every module) says what it
+    is: the help texts, the docs and the error messages read it."""
+    import importlib
+    import pkgutil
+
+    import arcube
+    from arcube.validation import Settings
+
+    for info in pkgutil.walk_packages(arcube.__path__, "arcube."):
+        importlib.import_module(info.name)
+
+    def subclasses(cls: type) -> list[type]:
+        return [c for s in cls.__subclasses__() for c in (s, *subclasses(s))]
+
+    classes = set(subclasses(Settings))
+    assert {"Options", "Guards", "RunSettings", "ToleranceSettings"} <= {c.__name__ for c in classes}
+    missing = [
+        f"{c.__name__}.{n}" for c in classes for n, f in c.model_fields.items() if not (f.description or "").strip()
+    ]
+    assert not missing, f"settings fields without a description: {missing}"

@@ -261,10 +261,15 @@ class Options(Settings):
     """
 
     guards: Guards = Guards()
+    """The guards of model §8.2 and the clearance limits of 14.3 and 19.5."""
     body: Body = Body()
+    """The robot's body: link and joint radii of model §14.1."""
     loads: Loads = Loads()
+    """The drilling loads of model §15.3."""
     masses: Masses = Masses()
+    """The masses of model §18.1."""
     outputs: Outputs = Outputs()
+    """What to compute beyond what the guards need."""
 
     @model_validator(mode="before")
     @classmethod

@@ -20,6 +20,7 @@ from arcube.cli.projection import Flag, Given, command, option
 from arcube.cli.study import SEED_DASK, SEED_WORKERS, SEEDS
 from arcube.design_job.requirements import DEFAULTS, PROGRAM_FIGURES
 from arcube.errors import InputError
+from arcube.metrics import requirements_help
 
 __all__ = ["COHORT", "DROPS", "MAXIMA", "MINIMA", "missed_line", "print_design", "register", "run_flags"]
 
@@ -65,16 +66,14 @@ _HELPS = {
 }
 MINIMA = option(
     "--min",
-    "Change a lower limit: clearance=5, self_clearance=2 (mm).",
+    requirements_help("min"),
     key="minima",
     multiple=True,
     params=("requirements.min",),
 )
 MAXIMA = option(
     "--max",
-    "Change or add an upper limit: lateral_error=0.5 (mm), axis_error=0.25 (deg), torque=20, holding_torque=20 (N m); "
-    "as built to --class / --tol (none by default): lateral_error_wc, lateral_error_rms (mm), breach_probability (0-1, model §22: checked on the robot chosen); "
-    "on the program (none by default): torque_peak (N m), power_peak (W).",
+    requirements_help("max"),
     key="maxima",
     multiple=True,
     params=("requirements.max",),

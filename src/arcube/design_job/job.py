@@ -53,7 +53,13 @@ from arcube.design_job.dockings import (
 )
 from arcube.design_job.folder import DESIGN_FORMAT, STUDY, is_design, read_design, read_study_summary
 from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
-from arcube.design_job.requirements import PROGRAM_FIGURES, Requirement, design_settings, write_requirements_csv
+from arcube.design_job.requirements import (
+    DOCKING_KEYS,
+    PROGRAM_FIGURES,
+    Requirement,
+    design_settings,
+    write_requirements_csv,
+)
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
 from arcube.model.design import Design
@@ -377,13 +383,7 @@ def _docking_summary(d: Docking) -> dict[str, Any]:
         "missed": [r["requirement"] for r in d.rows if not r["passed"]],
         "trajectories": list(d.plan.ids),
         **docking_entry(d),
-        "clearance_mm": value("clearance"),
-        "self_clearance_mm": value("self_clearance"),
-        "envelope_clearance_mm": value("envelope_clearance"),
-        "lateral_error_mm": value("lateral_error"),
-        "axis_error_deg": value("axis_error"),
-        "torque_Nm": value("torque"),
-        "holding_torque_Nm": value("holding_torque"),
+        **{key: value(name) for name, key in DOCKING_KEYS.items()},
         "breach_probability": d.breach.get("breach_probability"),
         "binding": None if bind is None else bind["requirement"],
         "binding_margin": None if bind is None else bind["margin"],

@@ -37,6 +37,7 @@ from arcube.evaluation.performance import ACTUATOR_NAMES
 from arcube.evaluation.reference import FAILURES
 from arcube.evaluation.standoff import approach_lines
 from arcube.evaluation.task import build_task
+from arcube.metrics import METRICS, metric
 from arcube.model.body import PART_NAMES
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Options
@@ -44,6 +45,7 @@ from arcube.options import GUARDED_OPTIONS, Options
 __all__ = [
     "CHECKED_AFTER",
     "DEFAULTS",
+    "DOCKING_KEYS",
     "PROGRAM_FIGURES",
     "REQUIREMENTS",
     "Requirement",
@@ -57,34 +59,17 @@ __all__ = [
 ]
 
 REQUIREMENTS: dict[str, tuple[str, str, str]] = {
-    "clearance": ("min", "mm", "whole line"),
-    "self_clearance": ("min", "mm", "whole line"),
-    "envelope_clearance": ("min", "mm", "whole line"),
-    "lateral_error": ("max", "mm", "drill"),
-    "axis_error": ("max", "deg", "drill"),
-    "torque": ("max", "N·m", "drill"),
-    "holding_torque": ("max", "N·m", "drill"),
-    "lateral_error_wc": ("max", "mm", "drill"),
-    "lateral_error_rms": ("max", "mm", "drill"),
-    "torque_peak": ("max", "N·m", "program"),
-    "power_peak": ("max", "W", "program"),
-    "breach_probability": ("max", "probability", "screws"),
-}
-"""Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds."""
-PROGRAM_FIGURES: dict[str, str] = {"torque_peak": "torque_peak_Nm", "power_peak": "power_peak_W"}
+    m.name: (m.requirement, m.unit, m.where) for m in METRICS if m.requirement
+}  # type: ignore[misc]
+"""Each requirement's kind (``min``: value >= limit, ``max``: value <= limit), unit and where it holds (:mod:`arcube.metrics`)."""
+PROGRAM_FIGURES: dict[str, str] = {m.name: m.program_key for m in METRICS if m.requirement and m.program_key}  # type: ignore[misc]
 """The requirements on the drilling program: their figure in each actuator's ``motors`` entry of program.json."""
-CHECKED_AFTER: tuple[str, ...] = (*PROGRAM_FIGURES, "breach_probability")
+CHECKED_AFTER: tuple[str, ...] = tuple(m.name for m in METRICS if m.requirement and m.checked_after)
 """The requirements checked on the chosen robot only, not searched for: the program's figures, and the breach probability
 (model §22.4: a Monte Carlo is too slow for every candidate; the search can bound it through lateral_error_rms)."""
-DEFAULTS: dict[str, float] = {
-    "clearance": 5.0,
-    "self_clearance": 2.0,
-    "envelope_clearance": 10.0,
-    "lateral_error": 0.5,
-    "axis_error": 0.25,
-    "torque": 20.0,
-    "holding_torque": 20.0,
-}
+DOCKING_KEYS: dict[str, str] = {m.name: m.docking_key for m in METRICS if m.requirement and m.docking_key}  # type: ignore[misc]
+"""The requirements each docking's entry of a design job's summary.json carries, and their fields there."""
+DEFAULTS: dict[str, float] = {m.name: m.default_limit for m in METRICS if m.requirement and m.default_limit is not None}
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
 _GUARDS = ("guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode")
 
@@ -126,7 +111,7 @@ def requirements_from(
                     param,
                     f"{name!r}: a {REQUIREMENTS[name][0]}imum requirement, give it as {REQUIREMENTS[name][0]} {name}=VALUE",
                 )
-            if name == "breach_probability" and not 0.0 < v <= 1.0:
+            if metric(name).unit == "probability" and not 0.0 < v <= 1.0:
                 raise InputError.of(param, f"{shown}: a probability, in (0, 1]")
             if not v >= 0.0 or (kind == "max" and v == 0.0):
                 raise InputError.of(
@@ -143,13 +128,10 @@ def requirements_from(
 
 
 def design_options(reqs: Sequence[Requirement], base: Options = GUARDED_OPTIONS) -> Options:
-    """The evaluation options of a design problem: the guards of 8.2 and the two clearance guards."""
+    """The evaluation options of a design problem: the guards of 8.2 and, for each ``min`` requirement the search meets
+    as a guard (:attr:`arcube.metrics.Metric.guard_option`: the clearances), its limit (None where dropped)."""
     limit = {r.name: r.limit for r in reqs}
-    return base.replace(
-        clearance_mm=limit.get("clearance"),
-        self_clearance_mm=limit.get("self_clearance"),
-        envelope_clearance_mm=limit.get("envelope_clearance"),
-    )
+    return base.replace(**{m.guard_option: limit.get(m.name) for m in METRICS if m.guard_option})
 
 
 def _where(patient: int, ids: Sequence[str], segment: str, n_points: int, index: int) -> dict[str, Any]:
@@ -286,7 +268,7 @@ def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, 
     return judge(rows)
 
 
-ROBUST_FIGURES = ("lateral_error_wc", "lateral_error_rms")
+ROBUST_FIGURES = tuple(m.name for m in METRICS if m.requirement and m.source == "robust")
 """The requirements on the robot as built (model §20.3), from the first order rather than a point result."""
 
 
@@ -317,26 +299,24 @@ def robust_figures(
 
 def requirement_figure(pts: Any, name: str, regions: Sequence[str] = ()) -> tuple[np.ndarray, Any]:
     """(values per point, index -> part or actuator name) of a requirement's figure, from a result's
-    ``points`` (:class:`arcube.evaluation.reference.PointResults`); ``regions``: the envelope's region names,
-    for ``envelope_clearance``'s part (``drill_motor vs head``)."""
-    if name == "envelope_clearance":
-        part, region = np.asarray(pts.envelope_part), np.asarray(pts.envelope_region)
+    ``points`` (:class:`arcube.evaluation.reference.PointResults`): the metric's ``point_field``, named by its
+    ``part_field`` (:mod:`arcube.metrics`); ``regions``: the envelope's region names, for ``envelope_clearance``'s
+    part (``drill_motor vs head``)."""
+    m = metric(name)
+    values = np.asarray(getattr(pts, m.point_field), float)  # type: ignore[arg-type]
+    if m.part_names == "envelope":
+        part, region = np.asarray(getattr(pts, m.part_field)), np.asarray(pts.envelope_region)  # type: ignore[arg-type]
 
         def where(i: int) -> str:
             body = PART_NAMES[part[i]] if part[i] >= 0 else ""
             return f"{body} vs {regions[region[i]]}" if body and regions and region[i] >= 0 else body
 
-        return np.asarray(pts.envelope_clearance_mm, float), where
-    if name == "clearance":
-        part = np.asarray(pts.clearance_part)
-        return np.asarray(pts.clearance_mm, float), lambda i: PART_NAMES[part[i]] if part[i] >= 0 else ""
-    if name == "self_clearance":
-        return np.asarray(pts.self_clearance_mm, float), lambda i: ""
-    if name in ("torque", "holding_torque"):
-        act = np.asarray(getattr(pts, f"{name}_actuator"))
-        return np.asarray(getattr(pts, f"{name}_Nm"), float), lambda i: ACTUATOR_NAMES[act[i]] if act[i] >= 0 else ""
-    field = {"lateral_error": "lateral_error_mm", "axis_error": "axis_error_deg"}[name]
-    return np.asarray(getattr(pts, field), float), lambda i: ""
+        return values, where
+    if m.part_field is None:
+        return values, lambda i: ""
+    names = {"parts": PART_NAMES, "actuators": ACTUATOR_NAMES}[m.part_names]
+    index = np.asarray(getattr(pts, m.part_field))
+    return values, lambda i: names[index[i]] if index[i] >= 0 else ""
 
 
 CSV_COLUMNS = (

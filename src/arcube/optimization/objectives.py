@@ -15,56 +15,15 @@ from typing import Any
 
 import numpy as np
 
-from arcube.accuracy.robust import ROBUST_NAMES
+from arcube.metrics import metric, objective_names
 
 
-OBJECTIVES: dict[str, str] = {
-    "eta_G": "the paper's global conditioning index (mean of the worst kappa), lower is better",
-    "tip_error": "largest drill-tip error over the plan, mm (model §15.2)",
-    "lateral_error": "largest error across the drill axis, mm (15.2)",
-    "axial_error": "largest error along the drill axis, mm (15.2)",
-    "axis_error": "largest drill-direction error, deg (15.2)",
-    "torque": "largest actuator torque under the drilling loads, N·m (15.3)",
-    "deflection": "largest lateral tip deflection under the loads, mm (15.4)",
-    "holding_torque": "largest actuator torque holding the robot's weight and the drilling loads, N·m (18.2)",
-    "mass": "moving mass of the robot, kg (18.1)",
-    "links": "sum of the 14 link lengths, mm",
-    "bbox": "largest bounding-box volume of the body over a task, litres",
-    "clearance": "smallest clearance to the anatomy, mm (maximized; needs --anatomy)",
-    "envelope_clearance": "smallest clearance to the envelope of the whole patient and the table, mm (maximized; model §19.5)",
-    "lateral_error_wc": "largest first-order worst-case lateral error of the robot as built to --class / --tol, mm (model §20.3)",
-    "lateral_error_rms": "largest RMS lateral error of the robot as built to --class / --tol, mm (model §20.3)",
-}
-"""Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure."""
+OBJECTIVES: dict[str, str] = {n: metric(n).description for n in objective_names()}
+"""Objective and constraint names (``--objectives``, ``--max``, ``--min``) and what they measure (:mod:`arcube.metrics`)."""
 
-MAXIMIZED = frozenset({"clearance", "envelope_clearance"})
-_SUMMARY = {
-    "tip_error": "tip_error_max",
-    "lateral_error": "lateral_error_max",
-    "axial_error": "axial_error_max",
-    "axis_error": "axis_error_max",
-    "torque": "torque_max",
-    "deflection": "deflection_max",
-    "holding_torque": "holding_torque_max",
-}
+MAXIMIZED = frozenset(n for n in OBJECTIVES if metric(n).maximized)
 
-SUMMARY_KEYS: dict[str, str] = {
-    "eta_G": "eta_G",
-    "tip_error": "tip_error_max_mm",
-    "lateral_error": "lateral_error_max_mm",
-    "axial_error": "axial_error_max_mm",
-    "axis_error": "axis_error_max_deg",
-    "torque": "torque_max_Nm",
-    "deflection": "deflection_max_mm",
-    "links": "links_sum_mm",
-    "bbox": "bbox_volume_L",
-    "clearance": "clearance_min_mm",
-    "holding_torque": "holding_torque_max_Nm",
-    "mass": "moving_mass_kg",
-    "envelope_clearance": "envelope_clearance_min_mm",
-    "lateral_error_wc": "lateral_error_wc_mm",
-    "lateral_error_rms": "lateral_error_rms_mm",
-}
+SUMMARY_KEYS: dict[str, str] = {n: metric(n).summary_key for n in OBJECTIVES}  # type: ignore[misc]
 """The field of a run's summary.json (and of arcube.evaluate's summary) that holds each objective's value."""
 
 
@@ -74,34 +33,39 @@ def summary_value(summary: dict[str, Any], name: str) -> float | None:
     return None if value is None else float(value)
 
 
+def needs(output: str, objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
+    """Whether these objectives and limits need ``output`` of the evaluation (:data:`arcube.metrics.OUTPUTS`)."""
+    return any(output in metric(n).needs for n in (*objectives, *(n for n, _, _ in limits)))
+
+
 def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the clearance to the anatomy must be computed for these objectives and limits."""
-    return "clearance" in objectives or any(n == "clearance" for n, _, _ in limits)
+    return needs("clearance", objectives, limits)
 
 
 def needs_envelope_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the clearance to the envelope (model §19.5) must be computed for these objectives and limits."""
-    return "envelope_clearance" in objectives or any(n == "envelope_clearance" for n, _, _ in limits)
+    return needs("envelope_clearance", objectives, limits)
 
 
 def needs_robust(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the accuracy under tolerances (model §20.3, :mod:`arcube.accuracy.robust`) must be computed."""
-    return any(n in ROBUST_NAMES for n in (*objectives, *(n for n, _, _ in limits)))
+    return needs("robust", objectives, limits)
 
 
 def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the metrics of model §15 must be computed for these objectives and limits."""
-    return any(n in _SUMMARY for n in objectives) or any(n in _SUMMARY for n, _, _ in limits)
+    return needs("tip_metrics", objectives, limits)
 
 
 def needs_holding_torque(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether the holding torque of model §18.2 must be computed for these objectives and limits."""
-    return "holding_torque" in objectives or any(n == "holding_torque" for n, _, _ in limits)
+    return needs("holding_torque", objectives, limits)
 
 
 def needs_masses(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether these objectives and limits use the mass model of model §18.1 (holding torque, moving mass)."""
-    return any(n in ("holding_torque", "mass") for n in (*objectives, *(n for n, _, _ in limits)))
+    return needs("masses", objectives, limits)
 
 
 def metric_values(
@@ -117,27 +81,24 @@ def metric_values(
     """Per design ``(n,)``, the value of each name over all tasks (NaN where no point is reachable);
     the clearance over ``clearance_results`` when given (the plan's and the approach lines' tasks);
     ``mass``: the moving mass per design (kg), needed for the name ``mass``; ``robust``: the values of
-    :data:`~arcube.accuracy.robust.ROBUST_NAMES` per design, needed for those names."""
+    :data:`~arcube.accuracy.robust.ROBUST_NAMES` per design, needed for those names. How each name's value is
+    found: its :class:`arcube.metrics.Metric` (``source``, ``batch_field``, ``maximized``, ``where``)."""
+    given = {"eta_G": eta, "mass": mass, "links": links, "bbox": vol}
     out: dict[str, np.ndarray] = {}
     for name in names:
-        if name in ROBUST_NAMES:
+        m = metric(name)
+        if m.source == "robust":
             assert robust is not None, "the robust objectives need the designs' accuracy under tolerances"
             out[name] = robust[name]
-        elif name == "eta_G":
-            out[name] = eta
-        elif name == "mass":
-            assert mass is not None, "the mass objective needs the designs' moving masses"
-            out[name] = mass
-        elif name == "links":
-            out[name] = links
-        elif name == "bbox":
-            out[name] = vol
-        elif name in ("clearance", "envelope_clearance"):
-            vals = np.stack([np.asarray(getattr(r, f"{name}_min"), float) for r in (clearance_results or results)])
-            out[name] = np.where(np.isnan(vals).any(axis=0), np.nan, vals.min(axis=0))
-        else:
-            vals = np.stack([np.asarray(getattr(r, _SUMMARY[name]), float) for r in results])
-            out[name] = np.where(np.isnan(vals).any(axis=0), np.nan, vals.max(axis=0))
+        elif m.source != "batch":
+            assert given[m.source] is not None, f"the {name} objective needs the designs' {m.source} values"
+            out[name] = given[m.source]  # type: ignore[assignment]
+        else:  # the worst over the tasks; a figure over the whole line reads the plan's and the approach lines' tasks
+            over = (clearance_results or results) if m.where == "whole line" else results
+            vals = np.stack([np.asarray(getattr(r, m.batch_field), float) for r in over])  # type: ignore[arg-type]
+            out[name] = np.where(
+                np.isnan(vals).any(axis=0), np.nan, vals.min(axis=0) if m.maximized else vals.max(axis=0)
+            )
     return out
 
 

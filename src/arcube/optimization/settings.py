@@ -25,6 +25,7 @@ from pydantic import BeforeValidator, Field, model_validator
 from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.accuracy.settings import ToleranceSettings, parse_tol
 from arcube.errors import InputError
+from arcube.metrics import objectives_help
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.design import PAPER_NAMES
 from arcube.coerce import limit_pairs, mode_text
@@ -194,8 +195,7 @@ class RunSettings(Settings):
     """The envelope of the whole patient and the table (model §19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files (closed, the patient inside, in the anatomy's frame)."""
     table_z: float | None = Field(default=None, allow_inf_nan=False)
     """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (model §19.5)."""
-    objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives)] = ()
-    """Objectives, comma-separated: eta_G (default), tip_error, lateral_error, axial_error, axis_error, torque, deflection, holding_torque, mass, links, bbox, clearance and envelope_clearance (maximized), lateral_error_wc and lateral_error_rms (as built to --class / --tol). Two or three: nsga2; more: nsga3."""
+    objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives), Field(description=objectives_help())] = ()
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
     """Upper limit NAME=VALUE (repeatable), e.g. --max lateral_error=0.2 --max torque=15 --max holding_torque=15 --max mass=3 --max lateral_error_rms=0.5."""
     minima: Annotated[dict[str, float], _limits("minima")] = {}

@@ -17,20 +17,13 @@ from pathlib import Path
 from typing import Any
 
 from arcube.io.files import atomic_write_text
+from arcube.metrics import METRICS
 from arcube.report.page import CSS, esc, fmt, plotly_div
 
 __all__ = ["write_dockings_report"]
 
-_FIGURES = (
-    "clearance",
-    "self_clearance",
-    "envelope_clearance",
-    "lateral_error",
-    "axis_error",
-    "torque",
-    "holding_torque",
-    "program",
-)
+_FIGURES = (*(m.name for m in METRICS if m.requirement and m.default_limit is not None), "program")
+"""The columns of the dockings table: the default requirements (:mod:`arcube.metrics`), then the program."""
 
 
 def _value(rows: Sequence[dict[str, Any]], name: str) -> str:
