@@ -62,7 +62,7 @@ def machine() -> str:
 
 def cli_args(args: argparse.Namespace, out: Path) -> list[str]:
     return ["optimize", "--trajectories", args.trajectories, "--out", str(out), "--algorithm", args.algorithm,
-            "--population", str(args.population), "--generations", str(args.generations), "--tolerance", "0",
+            "--population", str(args.population), "--generations", str(args.generations), "--ftol", "0",
             "--points", str(args.points), "--seed", str(args.seed), "--engine", args.engine, "--workers", str(args.workers),
             "--quiet"]  # fmt: skip
 
@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine  {machine()}")
     cfg = build_config(
         [args.trajectories], algorithm=args.algorithm, population=args.population, generations=args.generations,
-        tolerance=0.0, points=args.points, seed=args.seed, engine=args.engine, workers=args.workers,
+        ftol=0.0, points=args.points, seed=args.seed, engine=args.engine, workers=args.workers,
     )  # fmt: skip
     engine = cfg["settings"]["engine_resolved"]
     model = runmod.build_model(cfg)  # warm-up: numba compiles (or loads its cache) outside the timing

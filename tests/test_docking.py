@@ -1,4 +1,4 @@
-"""Per-patient docking (--docking per-patient|shared) of the robust problem over several trajectory sets.
+"""Per-patient placement (--placement per-patient|shared; --docking before 0.3) of the robust problem over several trajectory sets.
 
 Oracles: a per-patient design re-evaluated patient by patient with ``arcube.evaluate`` gives what the
 run (and the study) reports; the decoded designs of a patient differ from the first patient's only
@@ -32,7 +32,7 @@ SMALL = {
     "generations": 10,
     "points": 3,
     "engine": "numpy",
-    "tolerance": 0.0,
+    "ftol": 0.0,
     "side": "R",
     "design_from": str(START),
 }
@@ -53,8 +53,8 @@ def test_genes_and_decode_per_patient() -> None:
     base = arcube.Design.paper().to_vector()
     free = parse_free("all,mount")
     mode = np.ones(4)
-    per = VariableSpace(base=base, free=free, patients=3, docking="per-patient", setups=2, mode=mode)
-    shared = VariableSpace(base=base, free=free, patients=3, docking="shared", setups=2, mode=mode)
+    per = VariableSpace(base=base, free=free, patients=3, placement="per-patient", setups=2, mode=mode)
+    shared = VariableSpace(base=base, free=free, patients=3, placement="shared", setups=2, mode=mode)
     docked = ("m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz")
     assert shared.names == (*free, "m_x_L", "m_y_L", "m_z_L") and shared.n_slots == 2
     assert per.names == (
@@ -93,18 +93,18 @@ def test_genes_and_decode_per_patient() -> None:
 
 
 def test_one_patient_per_patient_docking_is_the_shared_problem(tmp_path: Path) -> None:
-    a = arcube.optimize("reference", out=tmp_path / "a", docking="per-patient", free="m_x,m_y,m_z,r", seed=3, **SMALL)
-    b = arcube.optimize("reference", out=tmp_path / "b", docking="shared", free="m_x,m_y,m_z,r", seed=3, **SMALL)
+    a = arcube.optimize("reference", out=tmp_path / "a", placement="per-patient", free="m_x,m_y,m_z,r", seed=3, **SMALL)
+    b = arcube.optimize("reference", out=tmp_path / "b", placement="shared", free="m_x,m_y,m_z,r", seed=3, **SMALL)
     assert (a.path / "best_design.json").read_bytes() == (b.path / "best_design.json").read_bytes()
     assert not list(a.path.glob("best_design_p*.json"))
 
 
 def test_configs_without_docking_share_the_placement(second_patient: Path) -> None:
     cfg = build_config(["reference", str(second_patient)], free="m_x,m_y,m_z,r", seed=1, **SMALL)
-    assert cfg["settings"]["docking"] == "per-patient" and "--docking per-patient" in cfg["rerun"]
+    assert cfg["settings"]["placement"] == "per-patient" and "--placement per-patient" in cfg["rerun"]
     assert build_model(cfg).space.n_var == 4 + 3
-    del cfg["settings"]["docking"]
-    assert build_model(cfg).space.docking == "shared" and build_model(cfg).space.n_var == 4
+    del cfg["settings"]["placement"]
+    assert build_model(cfg).space.placement == "shared" and build_model(cfg).space.n_var == 4
 
 
 def test_per_patient_study_re_evaluates_patient_by_patient(tmp_path: Path, second_patient: Path) -> None:
@@ -127,7 +127,7 @@ def test_per_patient_study_re_evaluates_patient_by_patient(tmp_path: Path, secon
         assert ev.summary["w_G"] and summary["tasks"][k]["eta_G"] == pytest.approx(ev.summary["eta_G"], rel=1e-12)
         etas.append(ev.summary["eta_G"])
     assert st.summary["best"] == pytest.approx(np.mean(etas), rel=1e-12)  # --aggregate mean over the patients
-    assert summary["docking"] == "per-patient"
+    assert summary["placement"] == "per-patient"
     report = arcube.write_report(run)
     assert report.name == "report.html" and (run.path / "report_p2.html").exists()
     assert second_patient.name in (run.path / "report_p2.html").read_text()
@@ -135,15 +135,20 @@ def test_per_patient_study_re_evaluates_patient_by_patient(tmp_path: Path, secon
 
 def test_shared_docking_keeps_one_placement(tmp_path: Path, second_patient: Path) -> None:
     run = arcube.optimize(
-        ["reference", str(second_patient)], out=tmp_path / "sh", docking="shared", free="m_x,m_y,m_z,r", seed=2, **SMALL
+        ["reference", str(second_patient)],
+        out=tmp_path / "sh",
+        placement="shared",
+        free="m_x,m_y,m_z,r",
+        seed=2,
+        **SMALL,
     )
     assert "placements" not in json.loads((run.path / "best_design.json").read_text())
     assert run.designs[0] == run.designs[1] == run.best_design
 
 
 def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patient: Path) -> None:
-    with pytest.raises(InputError, match="RunSettings.docking must be one of per-patient, shared"):
-        build_config(["reference", str(second_patient)], docking="each", seed=1, **SMALL)
+    with pytest.raises(InputError, match="RunSettings.placement must be one of per-patient, shared"):
+        build_config(["reference", str(second_patient)], placement="each", seed=1, **SMALL)
     out = tmp_path / "run"
     res = subprocess.run(
         [
@@ -154,7 +159,7 @@ def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patie
             "--trajectories",
             "reference",
             str(second_patient),
-            "--docking",
+            "--placement",
             "both",
             "--out",
             str(out),
@@ -164,7 +169,7 @@ def test_bad_docking_is_one_line_and_leaves_nothing(tmp_path: Path, second_patie
         text=True,
         timeout=120,
     )
-    assert res.returncode == 2 and res.stderr == "error: --docking must be one of per-patient, shared, got 'both'\n"
+    assert res.returncode == 2 and res.stderr == "error: --placement must be one of per-patient, shared, got 'both'\n"
     assert not out.exists()
     assert runmod.placement_file(1) == "best_design_p2.json" and runmod.placement_file(0, 1) == "best_design_p1_L.json"
 

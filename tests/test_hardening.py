@@ -26,7 +26,7 @@ SMALL = [
     "ga",
     "--population",
     "20",
-    "--tolerance",
+    "--ftol",
     "0",
     "--seed",
     "7",

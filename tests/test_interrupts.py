@@ -198,7 +198,7 @@ def test_ctrl_c_under_a_progress_bar_leaves_one_line_on_the_terminal(tmp_path: P
         "20",
         "--generations",
         "100000",
-        "--tolerance",
+        "--ftol",
         "0",
         "--engine",
         "numpy",

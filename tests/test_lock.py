@@ -23,7 +23,7 @@ SETTINGS = {
     "generations": 6,
     "points": 2,
     "engine": "numpy",
-    "tolerance": 0.0,
+    "ftol": 0.0,
     "side": "R",
     "seed": 3,
     "checkpoint_every": 2,

@@ -31,7 +31,7 @@ def _config(**kw: object) -> dict:
         "points": 3,
         "seed": 5,
         "engine": "numpy",
-        "tolerance": 0.0,
+        "ftol": 0.0,
         "side": "R",
         "checkpoint_every": 4,
     }

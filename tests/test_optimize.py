@@ -91,7 +91,7 @@ def _config(**kw: object) -> dict:
         "points": 4,
         "seed": 5,
         "engine": "numpy",
-        "tolerance": 0.0,
+        "ftol": 0.0,
         "side": "R",
     }
     base.update(kw)
@@ -177,13 +177,13 @@ def test_mechanism_points_are_the_joints_of_model_3_1() -> None:
     assert np.allclose(pts[:, 9], task.E) and np.allclose(pts[:, 10], task.E + r * task.e)
 
 
-def test_aggregate_worst_is_the_max_over_patients() -> None:
+def test_aggregate_max_is_the_worst_over_patients() -> None:
     t1 = _task()
     t2 = TaskData(1, 0, "shifted", t1.E + [0.0, 2.0, 0.0], t1.e)
     space = VariableSpace(base=PAPER, free=("m_x", "m_y", "m_z"), mode=np.ones(4))
     X = np.array([[88.2, 79.4, 56.9], [90.0, 80.0, 55.0]])
     per = [FitnessModel(space=space, tasks=(TaskData(0, 0, "", t.E, t.e),)).evaluate(X)["ETA"] for t in (t1, t2)]
-    worst = FitnessModel(space=space, tasks=(t1, t2), n_patients=2, aggregate="worst").evaluate(X)["ETA"]
+    worst = FitnessModel(space=space, tasks=(t1, t2), n_patients=2, aggregate="max").evaluate(X)["ETA"]
     mean = FitnessModel(space=space, tasks=(t1, t2), n_patients=2, aggregate="mean").evaluate(X)["ETA"]
     assert np.array_equal(worst, np.maximum(per[0], per[1]))
     assert np.allclose(mean[np.isfinite(mean)], ((per[0] + per[1]) / 2)[np.isfinite(mean)])
@@ -290,7 +290,7 @@ def test_several_trajectory_files_make_one_robust_problem(tmp_path: Path) -> Non
         "--side",
         "R",
         "--aggregate",
-        "worst",
+        "max",
         "--population",
         "20",
         "--generations",
@@ -299,13 +299,13 @@ def test_several_trajectory_files_make_one_robust_problem(tmp_path: Path) -> Non
         "3",
         "--seed",
         "1",
-        "--tolerance",
+        "--ftol",
         "0",
         *SMALL,
     )
     cfg = tomllib.loads((out / "config.toml").read_text())
     assert [p["source"] for p in cfg["patients"]] == ["reference", str(other)] and len(s["tasks"]) == 2
-    assert cfg["settings"]["aggregate"] == "worst"
+    assert cfg["settings"]["aggregate"] == "max"
 
 
 def test_subset_flags_reach_select_and_resume_cli_of_finished_run(tmp_path: Path) -> None:
@@ -337,8 +337,8 @@ def test_subset_flags_reach_select_and_resume_cli_of_finished_run(tmp_path: Path
 
 
 def test_tolerance_stops_early_and_zero_runs_every_generation(tmp_path: Path) -> None:
-    a = runmod.start(tmp_path / "a", _config(free="m_x,m_y,m_z", generations=200, tolerance=1e-3))
-    b = runmod.start(tmp_path / "b", _config(free="m_x,m_y,m_z", generations=50, tolerance=0.0))
+    a = runmod.start(tmp_path / "a", _config(free="m_x,m_y,m_z", generations=200, ftol=1e-3))
+    b = runmod.start(tmp_path / "b", _config(free="m_x,m_y,m_z", generations=50, ftol=0.0))
     assert a["stopped_by"] == "tolerance" and a["generations"] < 200
     assert b["stopped_by"] == "generations" and b["generations"] == 50 and b["evaluations"] == 50 * 20
 
@@ -466,7 +466,7 @@ def test_kill9_then_resume_is_bit_identical(tmp_path: Path) -> None:
         "10",
         "--seed",
         "7",
-        "--tolerance",
+        "--ftol",
         "0",
         "--checkpoint-every",
         "5",
@@ -570,7 +570,7 @@ def test_workers_and_dask_give_the_serial_result(tmp_path: Path) -> None:
         ["--algorithm", "sa"],
         ["--population", "1"],
         ["--generations", "0"],
-        ["--tolerance", "-1"],
+        ["--ftol", "-1"],
         ["--points", "1"],
         ["--mode=+,+"],
         ["--free", "m_x,q"],

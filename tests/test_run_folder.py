@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 import pytest
@@ -31,3 +32,41 @@ def test_unreachable_dask_scheduler_leaves_no_run_folder(tmp_path: Path, existin
     assert res.returncode == 2, res.stderr
     assert res.stderr.startswith("error: --dask 127.0.0.1:1") and res.stderr.count("\n") == 1
     assert (out.is_dir() and not any(out.iterdir())) if existing else not out.exists()
+
+
+def test_a_run_folder_of_0_2_killed_midway_resumes_to_the_uninterrupted_run(tmp_path: Path) -> None:
+    """tests/data/run_0_2_killed was written by arcube 0.2 (commit 10763fc: ``--tolerance 0 --aggregate worst``, the
+    names before 0.3) and killed with SIGKILL after its generation-10 checkpoint. Resumed by this version, it ends
+    where an uninterrupted run of the same settings under today's names ends: the same designs, the same history."""
+    import shutil
+    import warnings
+
+    import arcube as lib
+    from arcube.errors import RenamedWarning
+
+    old = tmp_path / "old"
+    shutil.copytree(Path(__file__).parent / "data" / "run_0_2_killed", old)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RenamedWarning)  # an old folder is read silently
+        resumed = lib.resume(old)
+    fresh = lib.optimize(
+        "reference",
+        out=tmp_path / "fresh",
+        points=30,
+        free="m_x,m_y,m_z",
+        algorithm="ga",
+        population=20,
+        generations=30,
+        checkpoint_every=5,
+        seed=1,
+        aggregate="max",
+        engine="numpy",
+        ftol=0.0,
+    )
+    assert (old / "best_design.json").read_bytes() == (fresh.path / "best_design.json").read_bytes()
+    untimed = [{k: v for k, v in row.items() if k != "seconds"} for row in csv.DictReader((old / "history.csv").open())]
+    assert len(untimed) == 30
+    assert untimed == [
+        {k: v for k, v in row.items() if k != "seconds"} for row in csv.DictReader((fresh.path / "history.csv").open())
+    ]
+    assert resumed.summary["eta_G"] == fresh.summary["eta_G"]

@@ -44,7 +44,7 @@ def test_flat_keywords_route_to_their_group() -> None:
         (lambda: Options(unknown_guard=True), "Options.unknown_guard"),
         (lambda: RunSettings(population=0), "RunSettings.population"),
         (lambda: RunSettings(population=8.5), "RunSettings.population"),
-        (lambda: RunSettings(docking="each"), "RunSettings.docking"),
+        (lambda: RunSettings(placement="each"), "RunSettings.placement"),
         (lambda: RunSettings(free=["all", "nope"]), "RunSettings.free"),
         (lambda: RunSettings(bounds={"L": (-10.0, -1.0)}), "RunSettings.bounds"),
         (lambda: RunSettings(maxima={"torque": -1}), "RunSettings.maxima"),
@@ -152,7 +152,7 @@ def test_table_round_trip() -> None:
         maxima={"torque": 12},
         minima={"clearance": 3},
         kappa_max=80.0,
-        docking="shared",
+        placement="shared",
     )
     table = s.to_table()
     assert RunSettings.from_config({"settings": table, "bounds": s.all_bounds}) == s
@@ -228,7 +228,7 @@ def test_a_table_written_before_docking_loads_and_duplicates_reads_as_those_runs
         "trajectories": ["reference"],
     }
     s = RunSettings.from_table(old)
-    assert s.docking == "shared" and s.eliminate_duplicates is True and s.options == Options()
+    assert s.placement == "shared" and s.eliminate_duplicates is True and s.options == Options() and s.ftol == 1e-5
     assert s.free == ("m_x", "m_y", "m_z") and s.seed == 7
 
 
@@ -271,7 +271,7 @@ SMALL = {
     "algorithm": "ga",
     "population": 16,
     "generations": 4,
-    "tolerance": 0.0,
+    "ftol": 0.0,
     "points": 5,
     "ids": "1,2",
     "seed": 3,
@@ -331,3 +331,76 @@ def test_every_settings_field_has_a_description() -> None:
         f"{c.__name__}.{n}" for c in classes for n, f in c.model_fields.items() if not (f.description or "").strip()
     ]
     assert not missing, f"settings fields without a description: {missing}"
+
+
+# --------------------------------------------------------------------------- renamed settings (one release)
+def test_an_old_name_is_taken_with_a_warning_and_never_beside_its_new_one() -> None:
+    from arcube.errors import RenamedWarning
+
+    with pytest.warns(RenamedWarning, match="RunSettings.tolerance is now RunSettings.ftol"):
+        assert RunSettings(tolerance=0.5).ftol == 0.5
+    with pytest.warns(RenamedWarning, match="RunSettings.docking is now RunSettings.placement"):
+        assert RunSettings(docking="shared").placement == "shared"
+    with pytest.warns(RenamedWarning, match="'worst' is now spelt 'max'"):
+        assert RunSettings(aggregate="worst").aggregate == "max"
+    with pytest.warns(RenamedWarning):
+        assert RunSettings().replace(tolerance=0.25).ftol == 0.25  # replace() takes the old name too
+    with pytest.raises(InputError, match="RunSettings.tolerance and RunSettings.ftol are one setting"):
+        RunSettings(tolerance=0.5, ftol=0.1)
+
+
+def test_an_old_run_folders_keys_are_read_silently() -> None:
+    import warnings
+
+    from arcube.errors import RenamedWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RenamedWarning)
+        s = RunSettings.from_table({"tolerance": 0.0, "docking": "per-patient", "aggregate": "worst"})
+    assert s.ftol == 0.0 and s.placement == "per-patient" and s.aggregate == "max"
+    table = s.to_table()
+    assert table["ftol"] == 0.0 and table["placement"] == "per-patient" and "tolerance" not in table
+
+
+def test_the_old_flag_warns_in_the_users_words_and_the_run_records_the_new_name(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+    import tomllib
+
+    out = tmp_path / "run"
+    args = [
+        "optimize",
+        "--trajectories",
+        "reference",
+        "--ids",
+        "1",
+        "--points",
+        "3",
+        "--free",
+        "m_x",
+        "--algorithm",
+        "ga",
+    ]
+    args += ["--population", "4", "--generations", "1", "--seed", "1", "--quiet", "--out", str(out)]
+    done = subprocess.run(
+        [sys.executable, "-m", "arcube", *args, "--tolerance", "0", "--aggregate", "worst"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    warned = [line for line in done.stderr.splitlines() if line.startswith("warning:")]
+    assert warned == [
+        "warning: --tolerance is now --ftol (the old name goes in the next release)",
+        "warning: --aggregate 'worst' is now spelt 'max' (the old spelling goes in the next release)",
+    ]
+    settings = tomllib.loads((out / "config.toml").read_text())["settings"]
+    assert settings["ftol"] == 0.0 and settings["aggregate"] == "max" and "tolerance" not in settings
+    both = subprocess.run(
+        [sys.executable, "-m", "arcube", *args[:-1], str(tmp_path / "b"), "--tolerance", "0", "--ftol", "0"],
+        capture_output=True,
+        text=True,
+    )
+    assert (
+        both.returncode == 2
+        and both.stderr.strip() == "error: --tolerance and --ftol are one setting (renamed): give --ftol"
+    )

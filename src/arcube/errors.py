@@ -21,3 +21,7 @@ class InputError(ValueError):
     def of(cls, param: str, problem: str) -> InputError:
         """``"<param> <problem>"``, e.g. ``InputError.of("points", "must be at least 2, got 1")``."""
         return cls(f"{param} {problem}", param=param)
+
+
+class RenamedWarning(FutureWarning):
+    """A setting, flag or value given by its old name, still taken for one release (the warning names the new one)."""

@@ -9,9 +9,9 @@ import types
 import typing
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator, model_validator
 
-from arcube.errors import InputError
+from arcube.errors import InputError, RenamedWarning
 
 __all__ = ["Settings", "settings_error", "validated"]
 
@@ -42,6 +42,51 @@ class Settings(BaseModel):
     """Field -> its short name, where the field's name carries a unit the user does not write
     (``thrust_N`` -> ``thrust``): the flat keyword of the Python API, the key of a run's config table,
     and (with dashes) the command-line flag. A field not listed is its own short name."""
+
+    RENAMED: ClassVar[dict[str, str]] = {}
+    """Old field name -> the field's name now: the old one is taken for one release, with a :class:`RenamedWarning`
+    (the command line keeps the old flag hidden beside the new one)."""
+    RENAMED_VALUES: ClassVar[dict[str, dict[str, str]]] = {}
+    """Field -> {old spelling: value now}: an old spelling of a value, taken likewise for one release."""
+
+    @classmethod
+    def renamed(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """``data`` with old names and spellings (:attr:`RENAMED`, :attr:`RENAMED_VALUES`) replaced, each with a
+        :class:`RenamedWarning`; an old name given beside its new one is refused (which one was meant?)."""
+        if not (cls.RENAMED or cls.RENAMED_VALUES):
+            return data
+        import warnings
+
+        data = dict(data)
+        for old, new in cls.RENAMED.items():
+            if old in data:
+                if new in data:
+                    raise InputError.of(
+                        f"{cls.__name__}.{old}",
+                        f"and {cls.__name__}.{new} are one setting (renamed): give {cls.__name__}.{new}",
+                    )
+                warnings.warn(
+                    f"{cls.__name__}.{old} is now {cls.__name__}.{new} (the old name goes in the next release)",
+                    RenamedWarning,
+                    stacklevel=4,
+                )
+                data[new] = data.pop(old)
+        for field, spellings in cls.RENAMED_VALUES.items():
+            value = data.get(field)
+            key = value.strip().lower() if isinstance(value, str) else None
+            if key in spellings:
+                warnings.warn(
+                    f"{cls.__name__}.{field} {key!r} is now spelt {spellings[key]!r} (the old spelling goes in the next release)",
+                    RenamedWarning,
+                    stacklevel=4,
+                )
+                data[field] = spellings[key]
+        return data
+
+    @model_validator(mode="before")
+    @classmethod
+    def _old_names(cls, data: Any) -> Any:
+        return cls.renamed(data) if isinstance(data, dict) else data
 
     @field_validator("*", mode="before")
     @classmethod
@@ -92,12 +137,12 @@ class Settings(BaseModel):
                 },
             }
 
-        return validated(type(self), merge(self.model_dump(), tree))
+        return validated(type(self), merge(self.model_dump(), type(self).renamed(tree)))
 
     def replace(self, **changes: Any) -> Any:
         """A validated copy with ``changes`` (InputError naming the field on a bad value)."""
         data = self.model_dump()
-        for key, value in changes.items():
+        for key, value in type(self).renamed(changes).items():
             data[key] = value.model_dump() if isinstance(value, BaseModel) else value
         return validated(type(self), data)
 

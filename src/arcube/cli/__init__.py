@@ -139,6 +139,24 @@ def _interrupted() -> None:
     sys.exit(130)
 
 
+def _show_warning(show: Any) -> Any:
+    """``warnings.showwarning`` that prints an old name's warning as one line with the user's flags
+    (``warning: --tolerance is now --ftol ...``) and leaves every other warning to ``show``."""
+    from arcube.errors import RenamedWarning
+
+    def show_warning(
+        message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None
+    ) -> None:
+        if issubclass(category, RenamedWarning):
+            from arcube.cli.projection import flag_message
+
+            sys.stderr.write(f"warning: {flag_message(InputError(str(message)))}\n")
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    return show_warning
+
+
 def _main_with_grid_bar(command: Any, args: list[str]) -> Any:
     """The command, with a bar while an anatomy's distance grids are built (:class:`arcube.cli.common.GridBar`)."""
     from arcube.cli.common import GridBar
@@ -162,6 +180,7 @@ def _run(argv: list[str] | None) -> None:
                 # numbers are checked where they matter (finite, in range); NumPy's and matplotlib's overflow
                 # warnings on extreme values would only precede the one line that says what is wrong
                 warnings.simplefilter("ignore", RuntimeWarning)
+            warnings.showwarning = _show_warning(warnings.showwarning)
             code = _main_with_grid_bar(command, args)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)

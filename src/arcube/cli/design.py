@@ -41,7 +41,7 @@ _RUN_FIELDS = (
     "setups",
     "population",
     "generations",
-    "tolerance",
+    "ftol",
     "algorithm",
     "engine",
     "tolerance_class",
@@ -58,7 +58,7 @@ _HELPS = {
     "another) or per-patient. [default: per-side]",
     "aggregate": "What the robot minimizes over its dockings: max (the worst docking's eta_G) or mean. [default: max]",
     "generations": "Generations (the budget is population x generations evaluations per seed). [default: 100]",
-    "tolerance": "ftol (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
+    "ftol": "Stop a seed when its best feasible eta_G moves less than this (see arcube optimize); 0 runs the whole budget. [default: 1e-05]",
     "algorithm": "The optimizer. [default: mscmaes]",
     "engine": "Evaluation engine of the optimizer: auto, numba or numpy (the check is always the NumPy reference). [default: auto]",
     "tolerance_class": "ISO 2768-1 class (f, m, c, v) of the robot as built: the accuracy budget reported (accuracy/) and the "

@@ -181,6 +181,19 @@ def model_flags(
                 negatable=negatable,
             )
         )
+    for old, new in getattr(model, "RENAMED", {}).items():  # the old flag, hidden, for one release
+        now = next((f for f in out if f.params == (f"{model.__name__}.{new}",)), None)
+        if now is not None:
+            out.append(
+                replace(
+                    now,
+                    name=model.flag(old),  # type: ignore[attr-defined]
+                    key=f"{key}.{old}" if key else old,
+                    help=f"Renamed {now.name}.",
+                    params=(f"{model.__name__}.{old}",),
+                    hidden=True,
+                )
+            )
     return out
 
 
@@ -258,13 +271,18 @@ class Given:
 
 
 def flag_text(exc: InputError, flags: Iterable[Flag]) -> InputError:
-    """``exc`` with the setting it names replaced by the flag that sets it (``exc`` itself if none does)."""
+    """``exc`` with the setting it names replaced by the flag that sets it, and the settings named inside its text by
+    theirs (``exc`` itself if none is)."""
     text, param = str(exc), exc.param
-    if param:
-        for f in flags:
-            if param in f.params and text.startswith(param):
-                return InputError(f.name + text[len(param) :], param=f.name)
-    return exc
+    flags = list(flags)
+    for f in flags:
+        if param and param in f.params and text.startswith(param):
+            text, param = f.name + text[len(param) :], f.name
+            break
+    inside = {p: f.name for f in flags for p in f.params if "." in p}
+    for key in sorted((k for k in inside if k in text), key=len, reverse=True):
+        text = re.sub(rf"(?<![\w.]){re.escape(key)}(?![\w])", inside[key], text)
+    return exc if text == str(exc) else InputError(text, param=param)
 
 
 def flag_table() -> dict[str, str]:

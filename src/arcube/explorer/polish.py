@@ -69,7 +69,7 @@ def polish(
             algorithm=algorithm,
             population=population,
             generations=generations,
-            tolerance=0.0,
+            ftol=0.0,
             points=model.points,
             mode=format_mode(model.mode),
             guards=model.guards,

@@ -2,7 +2,7 @@
 
 * ``mscmaes`` (default): multi-start CMA-ES, :mod:`arcube.optimization.multistart`; its budget is
   ``population * generations`` design evaluations (the GA's at the same flags), spent in batches
-  of 8 runs x cma's default population; ``--tolerance`` does not apply (its runs restart on their
+  of 8 runs x cma's default population; ``--ftol`` does not apply (its runs restart on their
   own stop criteria until the budget is spent).
 * ``ga`` (the paper's): real-coded GA, SBX crossover (prob 0.9, eta 15), polynomial
   mutation (eta 20), binary tournament that compares feasibility first (constraint violation,
@@ -174,7 +174,7 @@ def make_termination(
     if generations < 1:
         raise InputError.of("RunSettings.generations", f"must be at least 1, got {generations}")
     if not (tolerance >= 0.0 and np.isfinite(tolerance)):
-        raise InputError.of("RunSettings.tolerance", f"must be a finite number >= 0, got {tolerance}")
+        raise InputError.of("RunSettings.ftol", f"must be a finite number >= 0, got {tolerance}")
     if name in BUDGETED:
         return TerminationCollection(
             MaximumFunctionCallTermination(population * generations + (DOCKED_SLACK if name == "docked" else 0))

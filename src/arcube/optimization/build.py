@@ -141,7 +141,7 @@ def build_model(
         setups=rs.setups,
         mode=mode,
         patients=len(cfg["patients"]),
-        docking=rs.docking,
+        placement=rs.placement,
         base_c_z=cfg["design"].get("c_z"),
     )
     tasks: list[TaskData] = []

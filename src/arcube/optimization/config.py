@@ -162,7 +162,7 @@ def build_config(
         check_dask_address(dask)
     if dask and workers > 1:
         raise InputError.of("workers", "and dask exclude each other (the Dask cluster has its own workers)")
-    make_termination(s.algorithm, s.generations, s.tolerance)
+    make_termination(s.algorithm, s.generations, s.ftol)
     if s.seed is None:
         s = s.replace(seed=secrets.randbelow(2**31))
     engine_resolved = check_engine(s.engine)

@@ -25,7 +25,7 @@ from arcube.optimization.algorithms import MULTI_OBJECTIVE, PENALTY_ONLY, make_a
 from arcube.optimization.lean import column
 from arcube.optimization.objectives import MAXIMIZED
 from arcube.optimization.problem import ArcubeProblem, FitnessModel
-from arcube.optimization.settings import RunSettings
+from arcube.optimization.settings import RunSettings, table_placement
 
 __all__ = [
     "HISTORY_COLUMNS",
@@ -113,7 +113,7 @@ def run_algorithm(
         structure=structure,
     )
     problem = ArcubeProblem(model.space, model.n_obj, batch, penalty_only=s.algorithm in PENALTY_ONLY)
-    termination = make_termination(s.algorithm, s.generations, s.tolerance, s.period, s.population)
+    termination = make_termination(s.algorithm, s.generations, s.ftol, s.period, s.population)
     algo.setup(problem, termination=termination, seed=s.seed, verbose=False)
     loop = Loop(algo, termination)
     thresholds = gc.get_threshold()
@@ -292,7 +292,8 @@ def describe(
         "points": model.n_points,
         "files": {},
         "resumed": info["resumed"],
-        "docking": s.get("docking", "shared"),
+        "placement": table_placement(s),
+        "docking": table_placement(s),  # the field's name before 0.3, kept for one release
     }
     front = None
     if s["algorithm"] in MULTI_OBJECTIVE:

@@ -63,11 +63,11 @@ PENALTY = 1e6
 """F of an infeasible design: PENALTY * (1 + VIOL). Only CMA-ES (no constraint handling) sees it
 as a ranking; GA, DE and NSGA-II compare infeasible designs by the constraint (feasibility first)."""
 COMPACTNESS = ("links", "bbox")
-DOCKINGS = ("per-patient", "shared")
-"""``--docking`` over several trajectory sets: each patient its own placement (and mounting when free), or one for all."""
+PLACEMENTS = ("per-patient", "shared")
+"""``--placement`` over several trajectory sets: each patient its own placement (and mounting when free), or one for all."""
 DOCKING_KEYS = ("VIOL_D", "ETA_D")
 """What a batch of a model with ``by_docking`` holds beside F, VIOL and ETA: each docking's violation and eta_G ``(n, K)``."""
-AGGREGATES = ("mean", "worst", "max")
+AGGREGATES = ("mean", "max")
 """How eta_G is combined over patients or dockings: the mean, or the worst (``max`` is the same as ``worst``)."""
 
 
@@ -99,14 +99,16 @@ class VariableSpace:
     setups: int = 1
     mode: Array | None = None  # (4,) fixed working mode; None lets the optimizer choose
     patients: int = 1
-    docking: str = "shared"  # "per-patient": each patient has its own placement (and mounting, when free)
+    placement: str = "shared"  # "per-patient": each patient has its own placement (and mounting, when free)
     base_c_z: float | None = None  # the start design's c_z (mm): a fixed c_z keeps it; None: d_z (model §6)
 
     def __post_init__(self) -> None:
         if self.setups not in (1, 2):
             raise InputError.of("RunSettings.setups", f"must be 1 or 2, got {self.setups}")
-        if self.docking not in DOCKINGS:
-            raise InputError.of("RunSettings.docking", f"must be one of {', '.join(DOCKINGS)}, got {self.docking!r}")
+        if self.placement not in PLACEMENTS:
+            raise InputError.of(
+                "RunSettings.placement", f"must be one of {', '.join(PLACEMENTS)}, got {self.placement!r}"
+            )
         for n in self.free:
             lo, hi = self._bound(n)
             if not lo < hi:
@@ -120,7 +122,7 @@ class VariableSpace:
     @property
     def per_patient(self) -> bool:
         """True when each patient has its own placement (per-patient docking over several patients)."""
-        return self.docking == "per-patient" and self.patients > 1
+        return self.placement == "per-patient" and self.patients > 1
 
     @property
     def docked(self) -> tuple[str, ...]:
@@ -658,7 +660,7 @@ __all__ = [
     "COMPACTNESS",
     "DEFAULT_BOUNDS",
     "DOCKING_KEYS",
-    "DOCKINGS",
+    "PLACEMENTS",
     "LINK_NAMES",
     "MODE_GENES",
     "N_PARAMS",

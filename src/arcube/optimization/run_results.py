@@ -18,6 +18,7 @@ from arcube.io.inputs import parse_decimal
 from arcube.io.tables import read_table
 from arcube.model.design import Design
 from arcube.optimization.folder import placement_file, read_config, read_study, seed_dir
+from arcube.optimization.settings import table_placement
 
 __all__ = ["OptimizeResult", "Study"]
 
@@ -85,7 +86,7 @@ class OptimizeResult:
             return self._held[1]
         cfg = read_config(self.path)[0]
         n = len(cfg["patients"])
-        if cfg["settings"].get("docking", "shared") == "per-patient" and n > 1:
+        if table_placement(cfg["settings"]) == "per-patient" and n > 1:
             return [Design.from_json(self.path / placement_file(p)) for p in range(n)]  # each must exist
         return [Design.from_json(self.path / "best_design.json") for _ in range(n)]
 

@@ -50,6 +50,7 @@ __all__ = [
     "parse_bounds",
     "parse_free",
     "resolve_bounds",
+    "table_placement",
 ]
 
 ALGORITHMS: tuple[str, ...] = ("mscmaes", "ga", "de", "cmaes", "nsga2", "nsga3", "docked")
@@ -138,6 +139,8 @@ class RunSettings(Settings):
     """Everything that decides an optimization run except the plans themselves."""
 
     SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min", "tolerance_class": "class"}
+    RENAMED: ClassVar[dict[str, str]] = {"tolerance": "ftol", "docking": "placement"}
+    RENAMED_VALUES: ClassVar[dict[str, dict[str, str]]] = {"aggregate": {"worst": "max"}}
 
     algorithm: str = DEFAULT_ALGORITHM
     """mscmaes (default: multi-start CMA-ES, population x generations evaluations), ga (the paper's), de, cmaes, nsga2 / nsga3 (several objectives), or docked (with dockings: the robot at its first docking, then every other docking's placement, then all together; model §19.3)."""
@@ -145,8 +148,8 @@ class RunSettings(Settings):
     """Population size (at most 10,000: each generation is evaluated as one batch)."""
     generations: int = Field(default=300, ge=1)
     """Maximum number of generations."""
-    tolerance: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
-    """ftol: stop when the best feasible eta_G moves less than this over 30 generations; 0 runs every generation."""
+    ftol: float = Field(default=1e-5, ge=0, allow_inf_nan=False)
+    """Stop when the best feasible eta_G moves less than this over 30 generations; 0 runs every generation."""
     period: int = Field(default=DEFAULT_PERIOD, ge=1)
     """Generations over which the ftol criterion must hold (pymoo's period)."""
     points: int = Field(default=30, ge=2, le=MAX_POINTS)
@@ -163,8 +166,8 @@ class RunSettings(Settings):
     """Random seed (drawn and recorded when omitted)."""
     engine: str = "auto"
     """Evaluation engine: auto, numba or numpy."""
-    aggregate: Literal["mean", "worst", "max"] = "mean"
-    """Over several trajectory sets (or dockings): mean or worst (max: the same) eta_G."""
+    aggregate: Literal["mean", "max"] = "mean"
+    """Over several trajectory sets (or dockings): the mean or the largest (the worst) eta_G."""
     compactness: Literal["links", "bbox"] = "links"
     """nsga2's second objective: links (sum of link lengths) or bbox (bounding-box volume)."""
     checkpoint_every: int = Field(default=10, ge=1)
@@ -204,7 +207,7 @@ class RunSettings(Settings):
     """ISO 2768-1 class of the lengths and angles under which lateral_error_wc and lateral_error_rms are computed (model §20.1): f, m, c or v."""
     tol: Annotated[dict[str, float], BeforeValidator(lambda v: parse_tol(v, "RunSettings.tol"))] = {}
     """Tolerances set by hand for lateral_error_wc and lateral_error_rms, NAME=T (mm or deg): a source (r=0.02) or a group (lengths=0.05, angles=0.01, q0=0.05)."""
-    docking: Literal["per-patient", "shared"] = "per-patient"
+    placement: Literal["per-patient", "shared"] = "per-patient"
     """Over several trajectory sets: per-patient (each patient its own placement m, and mounting angles when free; the links shared) or shared (one placement for all, the paper's robust problem)."""
     dockings: Literal["per-side", "per-patient"] | None = None
     """One robot, several dockings (model §19): per-side (each plan's R trajectories one docking, its L ones another) or per-patient; each docking its own placement m and mounting angles, the rest shared; the violation the sum over dockings."""
@@ -221,8 +224,9 @@ class RunSettings(Settings):
         data = dict(data)
         if isinstance(data.get("algorithm"), str):
             data["algorithm"] = data["algorithm"].strip().lower()
-        if isinstance(data.get("docking"), str):
-            data["docking"] = data["docking"].strip().lower()
+        for key in ("placement", "docking"):  # docking: its name before 0.3
+            if isinstance(data.get(key), str):
+                data[key] = data[key].strip().lower()
         _route_flat(data)
         names = _objectives(data.get("objectives"))
         if len(names) > 1:  # model §15.5: two or three objectives -> NSGA-II, more -> NSGA-III
@@ -243,7 +247,7 @@ class RunSettings(Settings):
         check_algorithm(self.algorithm, self.population)
         if self.algorithm == "docked" and self.dockings is None:
             raise InputError.of("RunSettings.algorithm", "docked needs dockings (per-side or per-patient)")
-        if self.dockings is not None and (self.setups != 1 or self.docking != "per-patient"):
+        if self.dockings is not None and (self.setups != 1 or self.placement != "per-patient"):
             raise InputError.of(
                 "RunSettings.dockings",
                 "gives every docking its own placement: it needs setups 1 and docking per-patient",
@@ -328,7 +332,7 @@ class RunSettings(Settings):
             "algorithm": self.algorithm,
             "population": self.population,
             "generations": self.generations,
-            "tolerance": self.tolerance,
+            "ftol": self.ftol,
             "period": self.period,
             "points": self.points,
             "mode": self.mode,
@@ -361,7 +365,7 @@ class RunSettings(Settings):
             "thrust": ld.thrust_N,
             "lateral_force": ld.lateral_force_N,
             "actuator_stiffness": list(ld.actuator_stiffness),
-            "docking": self.docking,
+            "placement": self.placement,
         }
         for name in _TABLE_GUARDS:
             if getattr(g, name) not in (None, False):
@@ -392,8 +396,11 @@ class RunSettings(Settings):
     def from_table(cls, table: Mapping[str, Any]) -> RunSettings:
         """Read a ``[settings]`` table, of this version or an older one (missing keys: what those
         runs ran: shared docking, duplicates eliminated, default body and loads)."""
-        t = {k: v for k, v in table.items() if k not in _DERIVED}
-        t.setdefault("docking", "shared")  # runs before per-patient docking shared one placement
+        t = {_OLD_KEYS.get(k, k): v for k, v in table.items() if k not in _DERIVED}  # a table of 0.2 or before
+        t.setdefault("placement", "shared")  # runs before per-patient placement shared one
+        for field, spellings in cls.RENAMED_VALUES.items():
+            if isinstance(t.get(field), str) and t[field] in spellings:
+                t[field] = spellings[t[field]]
         t.setdefault("eliminate_duplicates", True)  # and ran pymoo's default
         return cls(**t)
 
@@ -407,6 +414,15 @@ class RunSettings(Settings):
 
 _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
 """Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
+
+
+def table_placement(table: Mapping[str, Any]) -> str:
+    """The placement of a config.toml ``[settings]`` table, of this version or an older one."""
+    return str(table.get("placement", table.get("docking", "shared")))
+
+
+_OLD_KEYS = {"tolerance": "ftol", "docking": "placement"}
+"""Keys of the tables older runs wrote -> their names now (read silently: a run folder is not a user's typing)."""
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
 FLAT_OPTIONS: dict[str, tuple[str, str]] = {

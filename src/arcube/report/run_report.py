@@ -42,6 +42,7 @@ from arcube.errors import InputError
 from arcube.evaluation.result import evaluate_design
 from arcube.options import GUARDED_OPTIONS, Options
 from arcube.model.mechanism import parse_mode
+from arcube.optimization.settings import table_placement
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
 from arcube.io import TrajectorySet, load_trajectories, select
@@ -213,7 +214,7 @@ def write_run_report(
             _run_anatomy(run, settings, i) if given is None else (None if isinstance(given, str) else given)
         )
         sides = [("R", ""), ("L", "_L")] if two_sides else [(None, "")]
-        per_patient = settings.get("docking") == "per-patient" and n_patients > 1
+        per_patient = table_placement(settings) == "per-patient" and n_patients > 1
         for side, suffix in sides:
             path = run / (f"best_design_p{i + 1}{suffix}.json" if per_patient else f"best_design{suffix}.json")
             if not path.exists():
