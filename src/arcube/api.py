@@ -95,16 +95,19 @@ def evaluate(
         points: N samples per trajectory (>= 2), both ends included.
         mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``;
             None: the design's own (:attr:`Design.mode`), else ``+,+,+,+``.
-        side, levels, ids: keep only some trajectories (``"R"``, ``"C3-C5"`` or ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``).
+        side: keep only some trajectories (``"R"``, ``"C3-C5"`` or ``["C3", "C4"]``, ``"1,3"`` or ``["1", "3"]``).
+        levels: see ``side``.
+        ids: see ``side``.
         transform: a JSON 4x4 rigid transform from the file's frame to the patient frame (file plans only).
         engine: ``auto`` (compiled kernel when available), ``numba`` or ``numpy`` (the reference).
         anatomy: an :class:`~arcube.evaluation.anatomy.Anatomy`, ``"default"`` (the plan's default
             anatomy, model §14.2), mesh files (STL/OBJ/PLY) in ``anatomy_frame`` (LPS, RAS or
             patient), or None: then no clearance to the anatomy is computed; or a segmentation
             (``.seg.nrrd``, ``.nii``, ``.nii.gz``), of which ``segments`` keeps some (names or label values).
-        envelope, table_z: the envelope of the whole patient and the table (model §19.5): ``"default"`` (a
+        envelope: the envelope of the whole patient and the table (model §19.5): ``"default"`` (a
             coarse body on the plan's landmarks), skin mesh files, or None / ``"none"``; with one, the clearance to
             it at every point (and its guard, ``envelope_clearance_mm=MM``).
+        table_z: see ``envelope``.
         **changes: settings of ``options`` by name or short name (``clearance=5``, ``thrust=25``,
             ``link_radius=6``, ``encoder_deg=0.02``; see :data:`arcube.options.FLAT`).
 
@@ -256,12 +259,20 @@ def tolerance(
     source's share, and the Monte Carlo over built robots (p95 of each robot's largest lateral error).
 
     Args:
-        design, plan, points, mode, side, levels, ids, transform: as :func:`evaluate` takes them (``mode``
+        design: as :func:`evaluate` takes them (``mode``
             None: the design's own).
+        plan: see ``design``.
+        points: see ``design``.
+        mode: see ``design``.
+        side: see ``design``.
+        levels: see ``design``.
+        ids: see ``design``.
+        transform: see ``design``.
         out: a folder to create (new or empty) with ``tolerance.json``, ``tolerance_points.csv``,
             ``sensitivity.csv`` and the pictures; None writes nothing.
-        settings, fields: an :class:`arcube.ToleranceSettings` and changes to it by field name
+        settings: an :class:`arcube.ToleranceSettings` and changes to it by field name
             (``tolerance_class="f"``, ``tol={"r": 0.02}``, ``samples=300``).
+        fields: see ``settings``.
         engine: the first order's: ``numba`` (compiled), ``numpy`` (the reference) or ``auto``.
     """
     from arcube.accuracy import ToleranceSettings as Tolerances
@@ -334,7 +345,8 @@ def optimize(
             objectives, limits, docking, options); None: the defaults.
         out: the run folder to create (must be absent or empty); None runs in memory and writes nothing.
         progress: called with each generation's history row and timing.
-        workers, dask: evaluate each population over local processes or a dask.distributed scheduler.
+        workers: evaluate each population over local processes or a dask.distributed scheduler.
+        dask: see ``workers``.
         **fields: changes to ``settings`` by field name (``population=40``, ``free=["all", "L"]``);
             the options' short names ``clearance``, ``thrust``, ``link_radius``, ... are accepted.
 
@@ -417,11 +429,14 @@ def study(
     """Run the same optimization once per seed and compare: how much does the optimum depend on luck?
 
     Args:
-        plan, settings, fields: as :func:`optimize` takes them (every setting but ``seed``).
+        plan: as :func:`optimize` takes them (every setting but ``seed``).
+        settings: see ``plan``.
+        fields: see ``plan``.
         out: the study folder to create (must be absent or empty).
         seeds: ``"1-5"``, ``"1,3,7"``, ``"1-3,10"`` or a sequence of integers.
-        workers, dask: run that many seeds at once in local processes, or each seed as a task on a
+        workers: run that many seeds at once in local processes, or each seed as a task on a
             dask.distributed scheduler (its workers must see ``out``); each seed's run itself uses one process.
+        dask: see ``workers``.
         best_known: an eta_G to draw on the convergence figure.
         progress: each generation's history row, when the seeds run one after another in this process.
         on_seed: called with (seed, the run's summary) as each seed finishes.
@@ -480,16 +495,20 @@ def design(
         cohort: a cohort file instead of ``plan`` (:mod:`arcube.design_job.cohort`): the patients, each with its own
             plan, anatomy and envelope (paths relative to the file).
         seeds: one optimization per seed (``"1-3"`` or a sequence).
-        minima, maxima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``, or
+        minima: change a requirement's limit (``{"clearance": 8}``, ``{"torque": 15}``, or
             ``["torque=15"]`` as the command line gives them: each name once);
             the defaults are clearance >= 5 mm, self_clearance >= 2 mm, lateral_error <= 0.5 mm,
             axis_error <= 0.25 deg, torque <= 20 N m.
+        maxima: see ``minima``.
         drop: requirements to drop (``["torque"]``).
-        settings, fields: the optimization's budget, engine, anatomy, objectives, standoff (as
+        settings: the optimization's budget, engine, anatomy, objectives, standoff (as
             :func:`optimize` takes them); the free parameters, working mode, guards and limits are
             the design job's.
-        progress, on_seed, on_stage: told each generation's history row, each finished seed's summary
+        fields: see ``settings``.
+        progress: told each generation's history row, each finished seed's summary
             and each stage after the search (``"building the drilling program ..."``).
+        on_seed: see ``progress``.
+        on_stage: see ``progress``.
         validate: a held-out cohort file, docked by the robot chosen into ``validation/`` (coverage: model §19.6).
 
     Returns:

@@ -438,9 +438,13 @@ def dock(
         cohort: a cohort file (:mod:`arcube.design_job.cohort`) instead of ``plan``.
         seed: the searches' seed (each side's search is seeded by it and the side's label).
         starts: CMA-ES runs per side (>= 1); evaluations: each side's search budget.
-        minima, maxima, drop: the requirements, as :func:`arcube.design` takes them (the same defaults).
-        settings, fields: the design job's other settings (anatomy, envelope, standoff, points, side, class, ...).
-        workers, dask: the sides over local processes, or as tasks of a dask.distributed scheduler.
+        minima: the requirements, as :func:`arcube.design` takes them (the same defaults).
+        maxima: see ``minima``.
+        drop: see ``minima``.
+        settings: the design job's other settings (anatomy, envelope, standoff, points, side, class, ...).
+        fields: see ``settings``.
+        workers: the sides over local processes, or as tasks of a dask.distributed scheduler.
+        dask: see ``workers``.
         on_docking: told each side's :class:`~arcube.design_job.dock.DockingOutcome` as it is found.
 
     Returns:

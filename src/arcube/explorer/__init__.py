@@ -101,9 +101,12 @@ def explore(
         anatomy: ``"default"``, mesh files (in ``anatomy_frame``), an Anatomy, or None.
         options: the :class:`arcube.Options` whose body radii the robot starts with (``**changes``: its
             settings by name, e.g. ``link_radius=6``).
-        mode, points, guards: the starting working mode, points per trajectory and whether the guards
+        mode: the starting working mode, points per trajectory and whether the guards
             of ``arcube design`` apply.
-        port, host: where the app listens (InputError naming ``port`` when it is taken).
+        points: see ``mode``.
+        guards: see ``mode``.
+        port: where the app listens (InputError naming ``port`` when it is taken).
+        host: see ``port``.
         html: write the standalone static scene (at ``point`` of the lines) there instead of serving;
             returns its path.
         save_path: the panel's default file for "Save design JSON".

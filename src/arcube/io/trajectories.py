@@ -174,8 +174,9 @@ def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray
     Args:
         labels: per trajectory, where it came from (``"plan.csv row 4"``), for messages.
         ids: trajectory ids; must be non-empty and unique.
-        entry, target: (T, 3) arrays, mm; must be finite, within ±1e5 mm
+        entry: (T, 3) arrays, mm; must be finite, within ±1e5 mm
             (:data:`arcube.io.inputs.COORDINATE_LIMIT_MM`) and distinct per row.
+        target: see ``entry``.
     """
     seen: dict[str, str] = {}
     for i, tid in enumerate(ids):

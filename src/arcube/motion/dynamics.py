@@ -98,7 +98,8 @@ def program_torques(
 
     Args:
         params: the design ``(27,)``.
-        E, e: the rows' tip and axis ``(n, 3)`` in the patient frame (mm), on a time grid of step ``dt`` (s).
+        E: the rows' tip and axis ``(n, 3)`` in the patient frame (mm), on a time grid of step ``dt`` (s).
+        e: see ``E``.
         mode: the working mode ``(4,)``.
         drilling: ``(n,)`` bool, the rows of drill segments (the thrust acts there).
         model: the mass model (18.1); thrust_N, lateral_N: F_t and F_l (N, 15.3).

@@ -96,12 +96,17 @@ def breach(
 
     Args:
         design: a design file (or a design job's ``design.json``: each side from its docking), a Design, or a preset.
-        plan, side, levels, ids, transform: the plan and which of its screws (as :func:`arcube.evaluate` takes them).
+        plan: the plan and which of its screws (as :func:`arcube.evaluate` takes them).
+        side: see ``plan``.
+        levels: see ``plan``.
+        ids: see ``plan``.
+        transform: see ``plan``.
         out: a folder to create (new or empty): breach.csv, summary.json and the pictures; None writes nothing.
         calibration: the folder of ``arcube calibrate identify`` instead of (or with the same) ``design``.
         mode: the working mode (None: the design's own; a design without one needs it).
         tolerances: an :class:`arcube.ToleranceSettings` (class m by default) for a robot that is not calibrated.
-        settings, fields: a :class:`BreachSettings` and changes to it (``registration_mm=1.0``, ``samples=2000``).
+        settings: a :class:`BreachSettings` and changes to it (``registration_mm=1.0``, ``samples=2000``).
+        fields: see ``settings``.
         loads: an :class:`arcube.Loads` (the thrust and the actuators' stiffness); default 30 N, 1e4 N m/rad.
 
     Returns:
