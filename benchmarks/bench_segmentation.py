@@ -1,7 +1,7 @@
 """Segmentations in (issue 33): cost of reading a label map and of its distance grids, and the clearances it gives.
 
 The mean patient's default anatomy (the bundled reference patient's, MODEL.md 14.2) written as a
-``.seg.nrrd`` and a ``.nii.gz`` at ``--spacing`` mm (:mod:`arcube.patients.segmentation`), then:
+``.seg.nrrd`` and a ``.nii.gz`` at ``--spacing`` mm (:mod:`arcube.patients.anatomy_segments`), then:
 
 * write, read (marching cubes of every segment) and distance-grid times, and the triangle count;
 * the process cache: loading the same file again returns the same anatomy (no second read, no second grid);
@@ -29,7 +29,7 @@ from arcube.evaluation.anatomy import Anatomy, load_anatomy
 from arcube.io.segmentations import read_segmentation
 from arcube.patients import draw_parameters
 from arcube.patients.anatomy import reference_anatomy_boxes
-from arcube.patients.segmentation import write_anatomy_as
+from arcube.patients.anatomy_segments import write_anatomy_as
 
 
 def main() -> None:

@@ -26,7 +26,7 @@ from arcube.io.segmentations import read_segmentation
 from arcube.patients import draw_parameters
 from arcube.patients.anatomy import default_anatomy_layout
 from arcube.patients.cohort import write_patients
-from arcube.patients.segmentation import anatomy_segments, write_anatomy_as
+from arcube.patients.anatomy_segments import anatomy_segments, write_anatomy_as
 
 SPACING = 1.0
 LEVELS = ("C3", "C4", "C5", "C6", "C7")

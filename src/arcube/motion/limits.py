@@ -13,6 +13,7 @@ from typing import ClassVar
 
 from pydantic import Field
 
+from arcube.metrics import metric
 from arcube.options import Settings
 
 __all__ = ["ORDERS", "Planner", "ProgramLimits", "RESOLUTION_MM"]
@@ -53,13 +54,15 @@ class ProgramLimits(Settings):
     """Radius of the tool E -> H, which clears the anatomy in transit, mm."""
     dt: float = Field(default=0.01, gt=0, le=1.0, allow_inf_nan=False)
     """Time step of the rows, s."""
-    clearance: float = Field(default=5.0, ge=0, le=1000.0, allow_inf_nan=False)
-    """Body to anatomy everywhere, mm (with an anatomy)."""
-    self_clearance: float = Field(default=2.0, ge=-1000.0, le=1000.0, allow_inf_nan=False)
+    clearance: float = Field(default=metric("clearance").default_limit, ge=0, le=1000.0, allow_inf_nan=False)
+    """Body to anatomy everywhere, mm (with an anatomy; the design job's default limit, :mod:`arcube.metrics`)."""
+    self_clearance: float = Field(
+        default=metric("self_clearance").default_limit, ge=-1000.0, le=1000.0, allow_inf_nan=False
+    )
     """Between the body's own parts everywhere, mm (negative: an overlap the caller accepts, e.g. a skeleton design)."""
     kappa_max: float = Field(default=100.0, ge=1, le=1e12, allow_inf_nan=False)
     """Largest eta_L everywhere."""
-    envelope_clearance: float = Field(default=10.0, allow_inf_nan=False)
+    envelope_clearance: float = Field(default=metric("envelope_clearance").default_limit, allow_inf_nan=False)
     """Body to the envelope of the whole patient and the table everywhere, mm (with an envelope; model §19.5)."""
 
     @property

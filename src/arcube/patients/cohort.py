@@ -13,7 +13,7 @@ from arcube.errors import InputError
 from arcube.io.files import atomic_write_files
 from arcube.io.inputs import short_repr
 from arcube.io.trajectories import read_csv
-from arcube.patients.segmentation import anatomy_suffix, write_anatomy_as
+from arcube.patients.anatomy_segments import anatomy_suffix, write_anatomy_as
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
 
 __all__ = ["COHORT_FILE", "cohort_toml", "patient_name", "write_patients"]
@@ -49,7 +49,7 @@ def write_patients(
         anatomy_format: ``stl`` (default), ``seg.nrrd`` (3D Slicer segmentation, LPS) or ``nii.gz``
             (NIfTI label map, RAS): the anatomy file is then ``<stem>.anatomy.seg.nrrd`` or
             ``<stem>.anatomy.nii.gz``, one segment per vertebra and one for soft tissue
-            (:mod:`arcube.patients.segmentation`).
+            (:mod:`arcube.patients.anatomy_segments`).
         anatomy_spacing_mm: voxel size of a label-map anatomy, mm (> 0).
     """
     anatomy_suffix(anatomy_format)
