@@ -77,6 +77,7 @@ LAYERS = (
     "arcube.patients",
     "arcube.evaluation",
     "arcube.coerce",
+    "arcube.request",
     "arcube.accuracy",
     "arcube.optimization",
     "arcube.motion",

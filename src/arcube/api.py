@@ -25,13 +25,11 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 
-from arcube.coerce import design_mode, engine_name, points as checked_points, seeds as checked_seeds
+from arcube.coerce import engine_name, points as checked_points, seeds as checked_seeds
 from arcube.errors import InputError
 from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.evaluation.result import Evaluation, evaluate_design
-from arcube.evaluation.envelope import resolve_envelope
-from arcube.io.load import load_plan
-from arcube.io.trajectories import TrajectorySet, select
+from arcube.io.trajectories import TrajectorySet
 from arcube.model.design import Design
 from arcube.optimization.settings import RunSettings
 from arcube.options import Options, request_options
@@ -169,23 +167,21 @@ def _request(
     envelope: Any = None,
     table_z: Any = None,
 ) -> _Request:
-    from arcube.model.robot import design_at_side
+    from arcube.request import Request, with_design_c_z
 
-    d = Design.coerce(design_at_side(design, side))
-    signs = design_mode(d, mode)
-    n = checked_points(points)
-    full = load_plan(plan, transform=transform)
-    ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
-    opts = request_options(options, guards, **changes)
-    if d.c_z is not None and opts.guards.c_z is None:  # the design's own z dyad (model §19.1)
-        opts = opts.replace(c_z=d.c_z)
-    anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
-    if opts.guards.clearance_mm is not None and anat is None:
+    req = Request(design, plan, side, levels, ids, transform, anatomy, anatomy_frame, segments, envelope, table_z, mode)
+    own: dict[str, Any] = {}
+
+    def before_anatomy(_: TrajectorySet) -> None:  # the request's own arguments, checked before the slow anatomy
+        own.update(n=checked_points(points), opts=request_options(options, guards, **changes))
+
+    r = req.resolve(before_anatomy)
+    n, opts = own["n"], with_design_c_z(own["opts"], r.design)
+    if opts.guards.clearance_mm is not None and r.anatomy is None:
         raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
-    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # model §19.5: placed on the whole plan
-    if opts.guards.envelope_clearance_mm is not None and env is None:
+    if opts.guards.envelope_clearance_mm is not None and r.envelope is None:
         raise InputError.of("Guards.envelope_clearance_mm", "needs an envelope (envelope default or a skin mesh)")
-    return _Request(d, ts, n, signs, opts, anat, env)
+    return _Request(r.design, r.plan, n, r.signs, opts, r.anatomy, r.envelope)
 
 
 def joints(

@@ -417,6 +417,6 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
         envelope=envelope,
         dockings=dockings,
         aggregate=aggregate,
-        docking="per-patient",
+        placement="per-patient",
         algorithm=algorithm,
     )

@@ -45,26 +45,20 @@ def live_model(
     **changes: Any,
 ) -> LiveModel:
     """The explorer's :class:`~arcube.explorer.live.LiveModel` from what :func:`explore` takes (InputError on bad input)."""
-    from arcube.coerce import design_mode, points as checked_points
-    from arcube.evaluation.anatomy import resolve_anatomy
+    from arcube.coerce import points as checked_points
     from arcube.explorer.live import LiveModel
-    from arcube.evaluation.envelope import resolve_envelope
-    from arcube.io.load import load_plan
-    from arcube.io.trajectories import select
-    from arcube.model.design import Design
     from arcube.options import request_options
 
-    n = checked_points(points)
-    from arcube.model.robot import design_at_side
+    from arcube.request import Request
 
-    d = Design.coerce(design_at_side(design, side))
-    signs = design_mode(d, mode)
-    opts = request_options(options, **changes)
-    full = load_plan(plan)
-    ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
-    anat = resolve_anatomy(anatomy, anatomy_frame, plan, segments=segments)
-    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)  # model §19.5, as arcube design checks it
-    return LiveModel(d, ts, anat, mode=signs, points=n, radii=opts.body.radii, guards=bool(guards), envelope=env)
+    n = checked_points(points)
+    req = Request(design, plan, side, levels, ids, None, anatomy, anatomy_frame, segments, envelope, table_z, mode)
+    own: dict[str, Any] = {}
+    r = req.resolve(lambda _: own.update(opts=request_options(options, **changes)))  # model §19.5 as design checks it
+    radii = own["opts"].body.radii
+    return LiveModel(
+        r.design, r.plan, r.anatomy, mode=r.signs, points=n, radii=radii, guards=bool(guards), envelope=r.envelope
+    )
 
 
 def explore(

@@ -107,13 +107,8 @@ def program(
             ``out``, ...), or no program: one line naming the segment and the constraint (``transit 3 -> 5
             blocked: collision/patient at E = (...)``). Nothing is written then.
     """
-    from arcube.coerce import design_mode, engine_name
-    from arcube.evaluation.anatomy import resolve_anatomy
+    from arcube.coerce import engine_name
     from arcube.evaluation.mass_bodies import MassModel
-    from arcube.evaluation.envelope import resolve_envelope
-    from arcube.io.load import load_plan
-    from arcube.io.trajectories import select
-    from arcube.model.design import Design
     from arcube.motion.assemble import build_program
     from arcube.motion.output import prepare_folder, remove_folder
     from arcube.motion.rows import check_rows
@@ -125,23 +120,20 @@ def program(
     engine = engine_name(engine)
     if order not in ORDERS:
         raise InputError.of("order", f"must be one of {', '.join(ORDERS)}, got {order!r}")
-    from arcube.model.robot import design_at_side
+    from arcube.request import Request, with_design_c_z
 
-    d = Design.coerce(design_at_side(design, side))
-    signs = design_mode(d, mode)
-    plan_settings = planner if planner is not None else Planner()
-    if seed is not None:
-        plan_settings = plan_settings.replace(seed=seed)
-    if (
-        d.c_z is not None and opts.guards.c_z is None
-    ):  # the design's own z dyad (model §19.2): its masses are the two real links
-        opts = opts.replace(c_z=d.c_z)
+    req = Request(design, plan, side, levels, ids, transform, anatomy, anatomy_frame, segments, envelope, table_z, mode)
+    own: dict[str, Any] = {}
+
+    def before_anatomy(ts: TrajectorySet) -> None:  # before the anatomy, the planning and any folder
+        plan_settings = planner if planner is not None else Planner()
+        own["planner"] = plan_settings.replace(seed=seed) if seed is not None else plan_settings
+        check_rows(lim, ts)
+
+    r = req.resolve(before_anatomy)
+    d, signs, ts, anat, env, plan_settings = r.design, r.signs, r.plan, r.anatomy, r.envelope, own["planner"]
+    opts = with_design_c_z(opts, d)  # the design's own z dyad (model §19.2): its masses are the two real links
     mass_model = MassModel.of(opts) if opts.mass_model_on(masses) else None
-    full = load_plan(plan, transform=transform)
-    ts = select(full, side=side, levels=levels, ids=ids) if (side, levels, ids) != (None, None, None) else full
-    check_rows(lim, ts)  # before the anatomy, the planning and any folder
-    anat = resolve_anatomy(anatomy, anatomy_frame, None if isinstance(plan, TrajectorySet) else plan, segments=segments)
-    env = resolve_envelope(envelope, full, anat, table_z, anatomy_frame)
     if out is None:
         return build_program(
             d, ts, anat, signs, order, lim, opts.body, plan_settings, log, mass_model, opts.loads, engine, env

@@ -1,0 +1,90 @@
+"""One request: a design on a plan, with the patient around it, resolved once for every command that evaluates one
+design (``evaluate``, ``joints``, ``program``, ``explore``).
+
+A :class:`Request` holds what the caller gave (a design or its file, a plan or its file, the selection of its
+trajectories, the anatomy, the envelope, the working mode), as given; :meth:`Request.resolve` loads and checks it
+in one order (the design and the side's docking, the mode, the plan and its selection, then the anatomy and the
+envelope of model §19.5, placed on the whole plan) and returns a :class:`Resolved`. The keyword functions of
+:mod:`arcube.api`, :func:`arcube.motion.program` and :func:`arcube.explorer.live_model` build a Request from
+their keywords and read the Resolved; what is their own (points, options, limits) stays with them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Request", "Resolved", "with_design_c_z"]
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """A request, loaded and checked.
+
+    Attributes:
+        design: the :class:`~arcube.model.design.Design` (a robot file's docking for the side asked).
+        signs: the working mode ``(4,)`` (the caller's, else the design's own, else +,+,+,+).
+        full: the plan as loaded, before any selection (the envelope's landmarks come from all of it).
+        plan: the trajectories selected by side, levels and ids.
+        anatomy: the :class:`~arcube.evaluation.anatomy.Anatomy`, or None.
+        envelope: the :class:`~arcube.evaluation.envelope.Envelope` of model §19.5, or None.
+    """
+
+    design: Any
+    signs: np.ndarray
+    full: Any
+    plan: Any
+    anatomy: Any
+    envelope: Any
+
+
+@dataclass(frozen=True)
+class Request:
+    """A design on a plan, as the caller gave them (see :func:`arcube.evaluate` for each field's forms)."""
+
+    design: Any = "paper"
+    plan: Any = "reference"
+    side: str | None = None
+    levels: str | Sequence[str] | None = None
+    ids: str | Sequence[str] | None = None
+    transform: Any = None
+    anatomy: Any = None
+    anatomy_frame: str = "LPS"
+    segments: Any = None
+    envelope: Any = None
+    table_z: float | None = None
+    mode: Any = None
+
+    def resolve(self, before_anatomy: Callable[[Any], None] | None = None) -> Resolved:
+        """Load and check everything, in the order a user's mistakes are best reported: the design, the mode, the
+        plan and its selection, then ``before_anatomy(plan)`` (a caller's own check of the selected plan, before the
+        slow anatomy is read), the anatomy and the envelope. InputError naming the argument on bad input."""
+        from arcube.coerce import design_mode
+        from arcube.evaluation.anatomy import resolve_anatomy
+        from arcube.evaluation.envelope import resolve_envelope
+        from arcube.io.load import load_plan
+        from arcube.io.trajectories import select
+        from arcube.model.design import Design
+        from arcube.model.robot import design_at_side
+
+        d = Design.coerce(design_at_side(self.design, self.side))
+        signs = design_mode(d, self.mode)
+        full = load_plan(self.plan, transform=self.transform)
+        chosen = (self.side, self.levels, self.ids) != (None, None, None)
+        ts = select(full, side=self.side, levels=self.levels, ids=self.ids) if chosen else full
+        if before_anatomy is not None:
+            before_anatomy(ts)
+        anat = resolve_anatomy(self.anatomy, self.anatomy_frame, self.plan, segments=self.segments)
+        env = resolve_envelope(self.envelope, full, anat, self.table_z, self.anatomy_frame)
+        return Resolved(d, signs, full, ts, anat, env)
+
+
+def with_design_c_z(options: Any, design: Any) -> Any:
+    """``options`` with the design's own z-dyad link c_z (model §19.1) where the options set none: the one rule of
+    which c_z a request evaluates with (an explicit ``c_z`` option wins, then the design's, then d_z)."""
+    if design.c_z is not None and options.guards.c_z is None:
+        return options.replace(c_z=design.c_z)
+    return options
