@@ -11,9 +11,9 @@ than a ``prange`` one and loads from the cache without starting a thread pool.
 
 Functions an evaluation kernel can call per point (item "robust design" of issue 31), all ``njit``:
 
-* :func:`point_jacobians` (geometry row, the IK's C_m, e_m and sines/cosines -> G ``(2, 3, n)``);
+* :func:`point_jacobians` (geometry row, the IK's C_m, e_m and sines/cosines as an :class:`IKPoint` -> G ``(2, 3, n)``);
 * :func:`point_budget` (G, e, T, sigma -> worst lateral, worst axis, worst axial, RMS lateral, shares);
-* :func:`lateral_errors` (both: -> (lateral_error_wc, lateral_error_rms), mm).
+* :func:`lateral_errors` (both, from the IK's values one by one: -> (lateral_error_wc, lateral_error_rms), mm).
 
 Their inputs are plain arrays made in Python once per design: :func:`geometry_rows` (the design's
 dimensions, rotation, mounting axes) and, from :class:`~arcube.accuracy.settings.ToleranceSettings`,
@@ -25,6 +25,7 @@ file, cannot go stale.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -71,6 +72,32 @@ _PARAM_ORDER = (
 )
 # the column numbers below are written for this order
 assert PARAM_NAMES == _PARAM_ORDER, "arcube.accuracy._kernel: the design parameter order changed"
+
+
+class IKPoint(NamedTuple):
+    """The IK's values at one point that :func:`point_jacobians` reads (as :func:`_ik_point` returns them), in the
+    mechanism frame. A namedtuple: Numba passes it as one struct and compiles ``ik.sr0`` to a read of its field."""
+
+    Cm0: float  # the centre C_m (mm)
+    Cm1: float
+    Cm2: float
+    em0: float  # the drill axis e_m
+    em1: float
+    em2: float
+    sr0: float  # sin, cos of rho_x, then of rho_y and rho_z
+    cr0: float
+    sr1: float
+    cr1: float
+    sr2: float
+    cr2: float
+    sd0: float  # sin, cos of delta_x, then of delta_y
+    cd0: float
+    sd1: float
+    cd1: float
+    ss0: float  # sin, cos of sigma_x, then of sigma_y
+    cs0: float
+    ss1: float
+    cs1: float
 
 
 def geometry_rows(params: ArrayLike) -> NDArray[np.float64]:
@@ -135,54 +162,28 @@ def _columns(geo, ctx, seeds, cols):
 
 
 @njit(cache=True, error_model="numpy")
-def point_jacobians(
-    geo,
-    Cm0,
-    Cm1,
-    Cm2,
-    em0,
-    em1,
-    em2,
-    sr0,
-    cr0,
-    sr1,
-    cr1,
-    sr2,
-    cr2,
-    sd0,
-    cd0,
-    sd1,
-    cd1,
-    ss0,
-    cs0,
-    ss1,
-    cs1,
-    col,
-    scale,
-    ctx,
-    cols,
-    G,
-):
-    """G_E = G[0], G_e = G[1] ``(3, n)`` in R_w per source unit, at a point the IK solved: the centre C_m and axis
-    e_m in the mechanism frame, sin/cos of rho (3), delta (2) and sigma (2). ``col``, ``scale`` from
-    :func:`source_map`; ``ctx`` ``(18,)`` and ``cols`` ``(2, 3, 32)`` are work buffers. Returns False where the
-    derivatives do not exist (H_u = 0 or det[x_b, y_b, e] = 0: a singularity), G then NaN."""
+def point_jacobians(geo, ik, col, scale, ctx, cols, G):
+    """G_E = G[0], G_e = G[1] ``(3, n)`` in R_w per source unit, at a point the IK solved: ``ik`` its
+    :class:`IKPoint` (the centre C_m and axis e_m in the mechanism frame, sin/cos of rho (3), delta (2) and sigma (2)).
+    ``col``, ``scale`` from :func:`source_map`; ``ctx`` ``(18,)`` and ``cols`` ``(2, 3, 32)`` are work buffers.
+    Returns False where the derivatives do not exist (H_u = 0 or det[x_b, y_b, e] = 0: a singularity), G then NaN."""
+    em0, em1, em2 = ik.em0, ik.em1, ik.em2
     p, d, c, t = geo[_P : _P + 3], geo[_D : _D + 2], geo[_C : _C + 2], geo[_T : _T + 2]
     # TMS coupler terms (model §7.2): a_v = D, a_w = E
-    av0 = Cm1 - d[0] * sd0 + t[0] * ss0
-    aw0 = Cm2 + d[0] * cd0 - t[0] * cs0 - p[0] * cr0
-    av1 = Cm2 - d[1] * sd1 + t[1] * ss1
-    aw1 = Cm0 + d[1] * cd1 - t[1] * cs1 - p[1] * cr1
-    H0 = t[0] * (av0 * cs0 + aw0 * ss0)
-    H1 = t[1] * (av1 * cs1 + aw1 * ss1)
-    F0 = d[0] * (av0 * cd0 + aw0 * sd0)
-    F1 = d[1] * (av1 * cd1 + aw1 * sd1)
-    G0 = -p[0] * aw0 * sr0
-    G1 = -p[1] * aw1 * sr1
+    av0 = ik.Cm1 - d[0] * ik.sd0 + t[0] * ik.ss0
+    aw0 = ik.Cm2 + d[0] * ik.cd0 - t[0] * ik.cs0 - p[0] * ik.cr0
+    av1 = ik.Cm2 - d[1] * ik.sd1 + t[1] * ik.ss1
+    aw1 = ik.Cm0 + d[1] * ik.cd1 - t[1] * ik.cs1 - p[1] * ik.cr1
+    H0 = t[0] * (av0 * ik.cs0 + aw0 * ik.ss0)
+    H1 = t[1] * (av1 * ik.cs1 + aw1 * ik.ss1)
+    F0 = d[0] * (av0 * ik.cd0 + aw0 * ik.sd0)
+    F1 = d[1] * (av1 * ik.cd1 + aw1 * ik.sd1)
+    G0 = -p[0] * aw0 * ik.sr0
+    G1 = -p[1] * aw1 * ik.sr1
     # RTS: lambda = sigma + o; u_beta in mechanism axes (leg y's local (u, v, w) is world (y, z, x))
     so0, co0, so1, co1 = math.sin(geo[_O]), math.cos(geo[_O]), math.sin(geo[_O + 1]), math.cos(geo[_O + 1])
-    sl0, cl0 = ss0 * co0 + cs0 * so0, cs0 * co0 - ss0 * so0
-    sl1, cl1 = ss1 * co1 + cs1 * so1, cs1 * co1 - ss1 * so1
+    sl0, cl0 = ik.ss0 * co0 + ik.cs0 * so0, ik.cs0 * co0 - ik.ss0 * so0
+    sl1, cl1 = ik.ss1 * co1 + ik.cs1 * so1, ik.cs1 * co1 - ik.ss1 * so1
     sa0, ca0, sa1, ca1 = math.sin(geo[_AL]), math.cos(geo[_AL]), math.sin(geo[_AL + 1]), math.cos(geo[_AL + 1])
     xb0, xb1, xb2 = ca0, sa0 * sl0, -sa0 * cl0
     yb0, yb1, yb2 = -sa1 * cl1, ca1, sa1 * sl1
@@ -202,26 +203,26 @@ def point_jacobians(
     ctx[17] = (em0 * xb1 - em1 * xb0) / det
     seeds = np.zeros((N_COLS, 11))  # rows: the 27 parameters, then the 5 joints; the frame's rows stay 0 here
     seeds[3, 0] = seeds[4, 1] = seeds[5, 2] = -1.0  # f_u (d_z, row 11, does not move the tool: all 0)
-    seeds[6, 0], seeds[6, 3] = -sr0, -aw0 * cr0  # p_x: the crank tip's u and w
-    seeds[7, 1], seeds[7, 4] = -sr1, -aw1 * cr1  # p_y
-    seeds[8, 2] = -sr2  # p_z
-    seeds[9, 3] = -av0 * sd0 + aw0 * cd0  # d_x
-    seeds[10, 4] = -av1 * sd1 + aw1 * cd1  # d_y
+    seeds[6, 0], seeds[6, 3] = -ik.sr0, -aw0 * ik.cr0  # p_x: the crank tip's u and w
+    seeds[7, 1], seeds[7, 4] = -ik.sr1, -aw1 * ik.cr1  # p_y
+    seeds[8, 2] = -ik.sr2  # p_z
+    seeds[9, 3] = -av0 * ik.sd0 + aw0 * ik.cd0  # d_x
+    seeds[10, 4] = -av1 * ik.sd1 + aw1 * ik.cd1  # d_y
     seeds[12, 3], seeds[13, 4] = -c[0], -c[1]  # c_u
-    seeds[14, 3] = av0 * ss0 - aw0 * cs0  # t_x
-    seeds[15, 4] = av1 * ss1 - aw1 * cs1  # t_y
+    seeds[14, 3] = av0 * ik.ss0 - aw0 * ik.cs0  # t_x
+    seeds[15, 4] = av1 * ik.ss1 - aw1 * ik.cs1  # t_y
     seeds[16, 0] = seeds[16, 1] = seeds[16, 2] = -1.0  # r
     seeds[17, 5], seeds[18, 6] = 1.0, 1.0  # o_u: lambda_u
     seeds[19, 7], seeds[20, 8] = 1.0, 1.0  # alpha_u
     seeds[21, 9], seeds[22, 10] = 1.0, 1.0  # beta_u
-    seeds[27, 0], seeds[27, 3] = -p[0] * cr0, -G0  # rho_x
-    seeds[28, 1], seeds[28, 4] = -p[1] * cr1, -G1  # rho_y
-    seeds[29, 2] = -p[2] * cr2  # rho_z
+    seeds[27, 0], seeds[27, 3] = -p[0] * ik.cr0, -G0  # rho_x
+    seeds[28, 1], seeds[28, 4] = -p[1] * ik.cr1, -G1  # rho_y
+    seeds[29, 2] = -p[2] * ik.cr2  # rho_z
     seeds[30, 3], seeds[31, 4] = -F0, -F1  # delta_u
     _columns(geo, ctx, seeds, cols)
     # the frame: m, the mounting angles (a rotation about omega_k through m) and L act on (E, e) in R_w
     e0, e1, e2 = _to_world(geo, em0, em1, em2)
-    C0, C1, C2 = _to_world(geo, Cm0, Cm1, Cm2)
+    C0, C1, C2 = _to_world(geo, ik.Cm0, ik.Cm1, ik.Cm2)
     L = geo[_L]
     r0, r1, r2 = C0 - L * e0, C1 - L * e1, C2 - L * e2  # E - m
     for k in range(3):
@@ -312,7 +313,7 @@ def _harmonic(A, B, C, eps):
 @njit(cache=True, error_model="numpy")
 def _ik_point(geo, mode, E0, E1, E2, e0, e1, e2):
     """IK of model §3-5 at the pose (E, e) in R_w, mechanism frame at the centre C = E + L e:
-    (ok, C_m (3), e_m (3), sin/cos of rho (6), of delta (4), of sigma (4))."""
+    (ok, :class:`IKPoint`)."""
     L = geo[_L]
     R = geo[_ROT : _ROT + 9]
     a0, a1, a2 = E0 + L * e0 - geo[_M], E1 + L * e1 - geo[_M + 1], E2 + L * e2 - geo[_M + 2]
@@ -343,7 +344,7 @@ def _ik_point(geo, mode, E0, E1, E2, e0, e1, e2):
     a, b = C2 + t1 * ss1, C0 - t1 * cs1 - p1 * cr1  # leg y: (v, w) = (z, x)
     sd1, cd1, ok3 = _harmonic(2.0 * d1 * b, -2.0 * d1 * a, geo[_C + 1] ** 2 - a * a - b * b - d1 * d1, mode[1])
     ok = ok and ok0 and ok1 and ok2 and ok3
-    return ok, C0, C1, C2, m0, m1, m2, -g0, cr0, -g1, cr1, -g2, cr2, sd0, cd0, sd1, cd1, ss0, cs0, ss1, cs1
+    return ok, IKPoint(C0, C1, C2, m0, m1, m2, -g0, cr0, -g1, cr1, -g2, cr2, sd0, cd0, sd1, cd1, ss0, cs0, ss1, cs1)
 
 
 @njit(cache=True, error_model="numpy")
@@ -381,38 +382,12 @@ def lateral_errors(
     ang,
     share,
 ):
-    """(lateral_error_wc, lateral_error_rms) in mm at a point an IK solved (its values as :func:`point_jacobians`
-    takes them), under tolerances T and sigmas ``(n,)``: what an evaluation kernel needs for the objectives and
+    """(lateral_error_wc, lateral_error_rms) in mm at a point an IK solved (the fields of an :class:`IKPoint`, one
+    argument each), under tolerances T and sigmas ``(n,)``: what an evaluation kernel needs for the objectives and
     limits ``lateral_error_wc`` and ``lateral_error_rms``. NaN at a singular point. The rest are work buffers:
     ctx (18,), cols (2, 3, 32), G (2, 3, n), hx, hy, ang, share (n,)."""
-    if not point_jacobians(
-        geo,
-        Cm0,
-        Cm1,
-        Cm2,
-        em0,
-        em1,
-        em2,
-        sr0,
-        cr0,
-        sr1,
-        cr1,
-        sr2,
-        cr2,
-        sd0,
-        cd0,
-        sd1,
-        cd1,
-        ss0,
-        cs0,
-        ss1,
-        cs1,
-        col,
-        scale,
-        ctx,
-        cols,
-        G,
-    ):
+    ik = IKPoint(Cm0, Cm1, Cm2, em0, em1, em2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1, ss0, cs0, ss1, cs1)
+    if not point_jacobians(geo, ik, col, scale, ctx, cols, G):
         return math.nan, math.nan
     e0, e1, e2 = _to_world(geo, em0, em1, em2)
     lateral, _, _, rms = point_budget(G, e0, e1, e2, T, sig, hx, hy, ang, share)
@@ -430,38 +405,9 @@ def _first_order_points(geo, mode, E, e, T, sig, col, scale, valid, out, share, 
     for k in range(E.shape[0]):
         ne = math.sqrt(e[k, 0] ** 2 + e[k, 1] ** 2 + e[k, 2] ** 2)
         e0, e1, e2 = e[k, 0] / ne, e[k, 1] / ne, e[k, 2] / ne
-        ok, C0, C1, C2, m0, m1, m2, sr0, cr0, sr1, cr1, sr2, cr2, sd0, cd0, sd1, cd1, ss0, cs0, ss1, cs1 = _ik_point(
-            geo, mode, E[k, 0], E[k, 1], E[k, 2], e0, e1, e2
-        )
+        ok, ik = _ik_point(geo, mode, E[k, 0], E[k, 1], E[k, 2], e0, e1, e2)
         if ok:
-            ok = point_jacobians(
-                geo,
-                C0,
-                C1,
-                C2,
-                m0,
-                m1,
-                m2,
-                sr0,
-                cr0,
-                sr1,
-                cr1,
-                sr2,
-                cr2,
-                sd0,
-                cd0,
-                sd1,
-                cd1,
-                ss0,
-                cs0,
-                ss1,
-                cs1,
-                col,
-                scale,
-                ctx,
-                cols,
-                G[k],
-            )
+            ok = point_jacobians(geo, ik, col, scale, ctx, cols, G[k])
             ok = ok and np.all(np.isfinite(G[k]))
         valid[k] = ok
         if ok:

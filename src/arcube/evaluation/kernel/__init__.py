@@ -46,6 +46,7 @@ from arcube.evaluation.kernel._cache import clear_cache
 from arcube.evaluation.kernel._clearance import block_gradients
 from arcube.evaluation.kernel._driver import _kernel
 from arcube.evaluation.kernel._layout import CHUNK, EXTRA, GEOMETRY, OPTIONS, SUMMARY, Layout
+from arcube.evaluation.kernel._state import Inputs, Rows
 from arcube.evaluation.mass_bodies import N_CHORDS, MassModel, slerp_coefficients
 from arcube.evaluation.reference import Options, PointResults, TaskResults
 from arcube.evaluation.reference import evaluate_task as _evaluate_task_numpy
@@ -305,28 +306,9 @@ def evaluate_task_numba(
     )  # kappa, rho, delta, sigma
     summary = np.empty((n_des, SUMMARY.size))
     _cache.ensure_fresh()
-    _kernel(
-        geometry,
-        mf,
-        Ec,
-        ec,
-        same_e,
-        opt,
-        full,
-        split,
-        CHUNK,
-        grids,
-        body,
-        env,
-        failure,
-        eta,
-        excess,
-        dexterity,
-        assembly,
-        extra,
-        detail,
-        summary,
-    )
+    inputs = Inputs(geometry, mf, Ec, ec, same_e, opt, full)
+    per_point = Rows(failure, eta, excess, assembly, dexterity, extra)
+    _kernel(inputs, grids, body, env, split, CHUNK, per_point, detail, summary)
 
     out_shape = batch + (n_pts,)
     points = None

@@ -44,41 +44,12 @@ def _seg(g, lines, i, a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True, error_model="numpy")
-def _body_world(
-    g,
-    c_z,
-    motor_length,
-    C0,
-    C1,
-    C2,
-    e0,
-    e1,
-    e2,
-    cr0,
-    sr0,
-    cr1,
-    sr1,
-    cr2,
-    sr2,
-    cd0,
-    sd0,
-    cd1,
-    sd1,
-    ss0,
-    cs0,
-    ss1,
-    cs1,
-    xb0,
-    xb1,
-    xb2,
-    yb0,
-    yb1,
-    yb2,
-    lines,
-    arcs,
-    arc_c,
-):
-    """Fill ``lines``, ``arcs``, ``arc_c`` (see the module doc); (C0, C1, C2) and (e0, e1, e2) in R_m."""
+def _body_world(g, c_z, motor_length, tls, tms, rts, lines, arcs, arc_c):
+    """Fill ``lines``, ``arcs``, ``arc_c`` (see the module doc) from the point's stage values ``tls``, ``tms``,
+    ``rts`` (:mod:`~arcube.evaluation.kernel._state`: the centre C, the axis e, the joint angles' sines and cosines,
+    u_beta of legs x and y, in R_m); returns the arcs' radius r."""
+    C0, C1, C2 = tls.C0, tls.C1, tls.C2
+    e0, e1, e2 = rts.em0, rts.em1, rts.em2
     f0, f1, f2 = g[G_F], g[G_F + 1], g[G_F + 2]
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
     d0, d1, d2 = g[G_D], g[G_D + 1], g[G_D + 2]
@@ -86,17 +57,17 @@ def _body_world(
     r = g[G_R]
     cz = c_z
     # TLS: P_u = -f_u u, D_u = P_u + p_u (-sin rho u + cos rho w); Q_u = C + r u
-    Dx0, Dx1, Dx2 = -f0 - p0 * sr0, 0.0, p0 * cr0
-    Dy0, Dy1, Dy2 = p1 * cr1, -f1 - p1 * sr1, 0.0
-    Dz0, Dz1, Dz2 = 0.0, p2 * cr2, -f2 - p2 * sr2
+    Dx0, Dx1, Dx2 = -f0 - p0 * tls.sr0, 0.0, p0 * tls.cr0
+    Dy0, Dy1, Dy2 = p1 * tls.cr1, -f1 - p1 * tls.sr1, 0.0
+    Dz0, Dz1, Dz2 = 0.0, p2 * tls.cr2, -f2 - p2 * tls.sr2
     Qx0, Qx1, Qx2 = C0 + r, C1, C2
     Qy0, Qy1, Qy2 = C0, C1 + r, C2
     Qz0, Qz1, Qz2 = C0, C1, C2 + r
     # TMS: K = D + d n(delta), T = Q + t n(sigma), n(phi) = sin phi v - cos phi w
-    Kx0, Kx1, Kx2 = Dx0, Dx1 + d0 * sd0, Dx2 - d0 * cd0
-    Ky0, Ky1, Ky2 = Dy0 - d1 * cd1, Dy1, Dy2 + d1 * sd1
-    Tx0, Tx1, Tx2 = Qx0, Qx1 + t0 * ss0, Qx2 - t0 * cs0
-    Ty0, Ty1, Ty2 = Qy0 - t1 * cs1, Qy1, Qy2 + t1 * ss1
+    Kx0, Kx1, Kx2 = Dx0, Dx1 + d0 * tms.sd0, Dx2 - d0 * tms.cd0
+    Ky0, Ky1, Ky2 = Dy0 - d1 * tms.cd1, Dy1, Dy2 + d1 * tms.sd1
+    Tx0, Tx1, Tx2 = Qx0, Qx1 + t0 * rts.ss0, Qx2 - t0 * rts.cs0
+    Ty0, Ty1, Ty2 = Qy0 - t1 * rts.cs1, Qy1, Qy2 + t1 * rts.ss1
     # z dyad elbow (model §6 and 14.1: on the z_m x (Q_z - D_z) side); open: D_z -> Q_z
     q0 = Qz0 - Dz0
     q1 = Qz1 - Dz1
@@ -141,12 +112,12 @@ def _body_world(
     _seg(g, lines, 22, Dy0, Dy1, Dy2, Dy0, Dy1, Dy2)
     # arcs: alpha_x, alpha_y (u -> u_beta), beta_x, beta_y (u_beta -> e), unit directions in R_w
     _dir(g, arcs, 0, 0, 1.0, 0.0, 0.0)
-    _dir(g, arcs, 0, 1, xb0, xb1, xb2)
+    _dir(g, arcs, 0, 1, rts.xb0, rts.xb1, rts.xb2)
     _dir(g, arcs, 1, 0, 0.0, 1.0, 0.0)
-    _dir(g, arcs, 1, 1, yb0, yb1, yb2)
-    _dir(g, arcs, 2, 0, xb0, xb1, xb2)
+    _dir(g, arcs, 1, 1, rts.yb0, rts.yb1, rts.yb2)
+    _dir(g, arcs, 2, 0, rts.xb0, rts.xb1, rts.xb2)
     _dir(g, arcs, 2, 1, e0, e1, e2)
-    _dir(g, arcs, 3, 0, yb0, yb1, yb2)
+    _dir(g, arcs, 3, 0, rts.yb0, rts.yb1, rts.yb2)
     _dir(g, arcs, 3, 1, e0, e1, e2)
     c0, c1, c2 = rot(g, C0, C1, C2)
     arc_c[0] = c0 + g[G_M]

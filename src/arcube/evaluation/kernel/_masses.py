@@ -75,44 +75,14 @@ def _dyad(g, cz, C0, C1, C2, pcr2, sr2, G0, G1, G2, dz1, dz2):
 
 
 @njit(cache=True, error_model="numpy")
-def _holding_torque(
-    g,
-    opt,
-    C0,
-    C1,
-    C2,
-    pcr0,
-    pcr1,
-    pcr2,
-    sr0,
-    sr1,
-    sr2,
-    cd0,
-    sd0,
-    cd1,
-    sd1,
-    ss0,
-    cs0,
-    ss1,
-    cs1,
-    xb0,
-    xb1,
-    xb2,
-    yb0,
-    yb1,
-    yb2,
-    jas0,
-    jas1,
-    em0,
-    em1,
-    em2,
-    J,
-    row,
-):
+def _holding_torque(g, opt, tls, tms, rts, J, row):
     """Write the holding torque (N m) and its actuator to the extra row ``row`` of a point whose tip metrics
-    ``_performance._tip_metrics`` just computed (``J`` (2, 3, 5): J_E, J_e in R_w). The rest in mechanism
-    coordinates: the centre C, sines and cosines of rho, delta and sigma (p cos rho as ``pcr``), u_beta of
-    legs x and y, J_AS, the drill axis e."""
+    ``_performance._tip_metrics`` just computed (``J`` (2, 3, 5): J_E, J_e in R_w). The point's stage values
+    ``tls``, ``tms``, ``rts`` (:mod:`~arcube.evaluation.kernel._state`) in mechanism coordinates: the centre C,
+    sines and cosines of rho, delta and sigma (p cos rho as ``pcr``), u_beta of legs x and y, J_AS, the drill axis e."""
+    pcr0, pcr1, pcr2 = tls.pcr0, tls.pcr1, tls.pcr2
+    sr0, sr1, sr2 = tls.sr0, tls.sr1, tls.sr2
+    xb0, xb1, xb2, yb0, yb1, yb2 = rts.xb0, rts.xb1, rts.xb2, rts.yb0, rts.yb1, rts.yb2
     lam, md, mm, Lm = opt[O_LINK_MASS], opt[O_M_DELTA], opt[O_M_MOTOR], opt[O_MOTOR_LENGTH]
     G0, G1, G2 = rot_t(g, opt[O_GRAVITY], opt[O_GRAVITY + 1], opt[O_GRAVITY + 2])
     p0, p1, p2 = g[G_P], g[G_P + 1], g[G_P + 2]
@@ -127,7 +97,7 @@ def _holding_torque(
         lr2 * g[G_ARC_CHORD + 2],
         lr2 * g[G_ARC_CHORD + 3],
     )
-    closes, jd, h0, h1, h2 = _dyad(g, cz, C0, C1, C2, pcr2, sr2, G0, G1, G2, -p2 * sr2, -pcr2)
+    closes, jd, h0, h1, h2 = _dyad(g, cz, tls.C0, tls.C1, tls.C2, pcr2, sr2, G0, G1, G2, -p2 * sr2, -pcr2)
     half_z = lam * cz / 2.0 if closes else lam * (d2 + cz) / 2.0  # the dyad's share at Q_z (moves with C) and at D_z
     M_C = (
         (((lam * (c0 + c1) / 2.0 + lam * (t0 + t1)) + 3.0 * lam * _SQRT2 * r) + 12.0 * (mu0 + mu1 + mu2 + mu3))
@@ -135,13 +105,13 @@ def _holding_torque(
         + half_z
     )
     M_e = r * (mu2 * g[G_ARC_B + 2] + mu3 * g[G_ARC_B + 3]) + mm * (r + Lm / 2.0)
-    s_x = (G2 * xb1 - G1 * xb2) * r * (mu0 * g[G_ARC_B] + mu2 * g[G_ARC_A + 2]) + t0 * (cs0 * G1 + ss0 * G2) * lam * (
-        c0 + t0
-    ) / 2.0
+    s_x = (G2 * xb1 - G1 * xb2) * r * (mu0 * g[G_ARC_B] + mu2 * g[G_ARC_A + 2]) + t0 * (
+        rts.cs0 * G1 + rts.ss0 * G2
+    ) * lam * (c0 + t0) / 2.0
     s_y = (G0 * yb2 - G2 * yb0) * r * (mu1 * g[G_ARC_B + 1] + mu3 * g[G_ARC_A + 3]) + t1 * (
-        cs1 * G2 + ss1 * G0
+        rts.cs1 * G2 + rts.ss1 * G0
     ) * lam * (c1 + t1) / 2.0
-    kx, ky = -s_x / jas0, -s_y / jas1  # times u_beta . J_e: the sigma_dot terms
+    kx, ky = -s_x / rts.jas0, -s_y / rts.jas1  # times u_beta . J_e: the sigma_dot terms
     elbow = lam * (d2 + cz) / 2.0 if closes else 0.0  # the elbow's rods (the rods' Q_z ends are in M_C)
     gD0 = (
         (lam * p0 / 2.0 + lam * d0 + lam * c0 / 2.0 + md) * -(pcr0 * G0 + p0 * sr0 * G2)
@@ -158,9 +128,9 @@ def _holding_torque(
         - M_C * G2 * pcr2
         + elbow * (jd - h2 * pcr2)
     )
-    gK3 = lam * (d0 + c0) / 2.0 * d0 * (cd0 * G1 + sd0 * G2)
-    gK4 = lam * (d1 + c1) / 2.0 * d1 * (cd1 * G2 + sd1 * G0)
-    e0, e1, e2 = rot(g, em0, em1, em2)
+    gK3 = lam * (d0 + c0) / 2.0 * d0 * (tms.cd0 * G1 + tms.sd0 * G2)
+    gK4 = lam * (d1 + c1) / 2.0 * d1 * (tms.cd1 * G2 + tms.sd1 * G0)
+    e0, e1, e2 = rot(g, rts.em0, rts.em1, rts.em2)
     F_t, F_l = opt[O_THRUST], opt[O_LATERAL_FORCE]
     best = -1.0
     which = -1.0

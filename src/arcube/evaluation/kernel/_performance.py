@@ -79,40 +79,15 @@ def _box_maxima(J, eps, e0, e1, e2):
 
 
 @njit(cache=True, error_model="numpy")
-def _tip_metrics(
-    g,
-    pcr0,
-    pcr1,
-    pcr2,
-    F0,
-    F1,
-    G0,
-    G1,
-    D0,
-    D1,
-    E0,
-    E1,
-    H0,
-    H1,
-    jas0,
-    jas1,
-    xb0,
-    xb1,
-    xb2,
-    yb0,
-    yb1,
-    yb2,
-    em0,
-    em1,
-    em2,
-    opt,
-    J,
-    row,
-):
+def _tip_metrics(g, tls, tms, rts, opt, J, row):
     """Write the metrics of one point to its extra row ``row`` (the ``X_*`` columns of the PointResults
     fields tip_error_mm .. deflection_mm; the holding torque's NaN and -1, which ``_masses`` overwrites
-    when it is on), with the loads of the option vector ``opt``: encoder (rad), thrust, lateral force (N),
+    when it is on), from the point's stage values ``tls``, ``tms``, ``rts`` (:mod:`~arcube.evaluation.kernel._state`)
+    with the loads of the option vector ``opt``: encoder (rad), thrust, lateral force (N),
     stiffness (N·mm/rad); ``J``: (2, 3, 5) work buffer, filled with (J_E, J_e) in R_w."""
+    em0, em1, em2 = rts.em0, rts.em1, rts.em2
+    xb0, xb1, xb2, yb0, yb1, yb2 = rts.xb0, rts.xb1, rts.xb2, rts.yb0, rts.yb1, rts.yb2
+    pcr0, pcr1, pcr2 = tls.pcr0, tls.pcr1, tls.pcr2
     # J_AP rows q = u_beta x e (mechanism axes)
     qx0 = xb1 * em2 - xb2 * em1
     qx1 = xb2 * em0 - xb0 * em2
@@ -127,11 +102,11 @@ def _tip_metrics(
     py0 = (em1 * qx2 - em2 * qx1) / det
     py1 = (em2 * qx0 - em0 * qx2) / det
     py2 = (em0 * qx1 - em1 * qx0) / det
-    rx = jas0 / H0
-    ry = jas1 / H1
+    rx = rts.jas0 / tms.H0
+    ry = rts.jas1 / tms.H1
     # rows M_x, M_y of M = [J_rho - J_AV J_LV | J_delta], J_LV = diag(-p cos rho)
-    mx = (rx * G0, rx * D0 * pcr1, rx * E0 * pcr2, rx * F0, 0.0)
-    my = (ry * E1 * pcr0, ry * G1, ry * D1 * pcr2, 0.0, ry * F1)
+    mx = (rx * tms.G0, rx * tms.D0 * pcr1, rx * tms.E0 * pcr2, rx * tms.F0, 0.0)
+    my = (ry * tms.E1 * pcr0, ry * tms.G1, ry * tms.D1 * pcr2, 0.0, ry * tms.F1)
     lv = (-pcr0, -pcr1, -pcr2)
     L = g[G_L]
     e0, e1, e2 = rot(g, em0, em1, em2)

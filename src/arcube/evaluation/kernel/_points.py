@@ -3,7 +3,8 @@ numbers, the local guards, the IK domain excess (model §3-8, 12.2) and each poi
 (model §16), in the reference's order.
 
 Long module: one scalarized pass per point (IK, guards, clearances, the envelope of 19.5, the tip metrics' hand-off)
-that Numba compiles as one unit; splitting it would pass dozens of scalars between functions."""
+that Numba compiles as one unit; splitting its loop would hand what it carries from point to point (the RTS of the
+last direction, the clearance caps, bounds and flags) between functions."""
 
 from __future__ import annotations
 
@@ -95,6 +96,7 @@ from arcube.evaluation.kernel._scalar import (
     z_link,
 )
 from arcube.evaluation.kernel._stages import _tls_leg, _tms_leg
+from arcube.evaluation.kernel._state import RTS, TLS, TMS
 
 N_LINES = N_SEGMENTS + N_SPHERES
 N_PRIMS = N_LINES + 4  # and the four spherical arcs
@@ -102,21 +104,24 @@ PRIM_PART = PRIMITIVE_PART.astype(np.int64)
 
 
 @njit(cache=True, error_model="numpy")
-def _rts_direction(e0, e1, e2, sa0, ca0, cb0, o0, epsR0, sa1, ca1, cb1, o1, epsR1):
-    """RTS IK (model §5.2) and its Jacobian invariants for one drill direction (mechanism axes).
+def _rts_direction(g, e0, e1, e2, epsR0, epsR1):
+    """RTS IK (model §5.2) and its Jacobian invariants for one drill direction (e0, e1, e2) in mechanism axes.
 
-    Returns sigma_x, sigma_y, their arguments, sin/cos of both sigmas, the J_AS diagonal, det[x_b, y_b, e],
-    kappa(J_AS), kappa(J_AP) and the axes x_beta, y_beta (world components of R_m).
+    Returns the :class:`~arcube.evaluation.kernel._state.RTS` of that direction: e, sigma_x, sigma_y, their
+    arguments, sin/cos of both sigmas, the J_AS diagonal, det[x_b, y_b, e], kappa(J_AS), kappa(J_AP) and the
+    axes x_beta, y_beta (world components of R_m).
     """
+    sa0, ca0, cb0, o0 = g[G_SIN_ALPHA], g[G_COS_ALPHA], g[G_COS_BETA], g[G_O]
+    sa1, ca1, cb1, o1 = g[G_SIN_ALPHA + 1], g[G_COS_ALPHA + 1], g[G_COS_BETA + 1], g[G_O + 1]
     # leg x: (e_u, e_v, e_w) = (e0, e1, e2)
-    lam, rarg0 = _harmonic((-sa0) * e2, sa0 * e1, cb0 - ca0 * e0, epsR0)
+    lam, arg0 = _harmonic((-sa0) * e2, sa0 * e1, cb0 - ca0 * e0, epsR0)
     sig0 = _wrap(lam - o0)
     lam2 = sig0 + o0
     xb0 = ca0 + 0.0 * lam2
     xb1 = sa0 * math.sin(lam2)
     xb2 = (-sa0) * math.cos(lam2)
     # leg y: (e_u, e_v, e_w) = (e1, e2, e0); local (u, v, w) -> world (y, z, x)
-    lam, rarg1 = _harmonic((-sa1) * e0, sa1 * e2, cb1 - ca1 * e1, epsR1)
+    lam, arg1 = _harmonic((-sa1) * e0, sa1 * e2, cb1 - ca1 * e1, epsR1)
     sig1 = _wrap(lam - o1)
     lam2 = sig1 + o1
     yb1 = ca1 + 0.0 * lam2
@@ -147,7 +152,9 @@ def _rts_direction(e0, e1, e2, sa0, ca0, cb0, o0, epsR0, sa1, ca1, cb1, o1, epsR
     det = ((xb1 * yb2 - xb2 * yb1) * e0 + (xb0 * yb1 - xb1 * yb0) * e2) + (xb2 * yb0 - xb0 * yb2) * e1
     kAS = _kdiag2(jas0, jas1)
     kAP = _kinv(F_ap, abs(det))
-    return sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2
+    return RTS(
+        e0, e1, e2, sig0, sig1, arg0, arg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2
+    )
 
 
 @njit(cache=True, error_model="numpy")
@@ -182,18 +189,19 @@ def _stage_failure(ta0, ta1, ta2, rarg0, rarg1, marg0, marg1):
 
 
 @njit(cache=True, error_model="numpy")
-def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, full, kappa_row):
+def _eta(tls, tms, rts, full, kappa_row):
     """eta_raw = max of the seven kappas (NaN -> inf) and the code of the first singular one (0 if none).
 
     With ``full`` the kappas are written to ``kappa_row`` (7,) in JACOBIAN_NAMES order.
     """
-    k_lv = _kdiag3(pcr0, pcr1, pcr2)  # |-p cos rho|
+    k_lv = _kdiag3(tls.pcr0, tls.pcr1, tls.pcr2)  # |-p cos rho|
+    D0, D1, E0, E1 = tms.D0, tms.D1, tms.E0, tms.E1
     F_av = ((D0 * D0 + E0 * E0) + E1 * E1) + D1 * D1
     g_av = math.sqrt(((D0 * E1) * (D0 * E1) + (E0 * E1) * (E0 * E1)) + (D0 * D1) * (D0 * D1))
     k_av = _kinv(F_av, g_av)
-    k_sg = _kdiag2(H0, H1)
-    k_rh = _kdiag2(G0, G1)
-    k_dl = _kdiag2(F0, F1)
+    k_sg = _kdiag2(tms.H0, tms.H1)
+    k_rh = _kdiag2(tms.G0, tms.G1)
+    k_dl = _kdiag2(tms.F0, tms.F1)
     eta_raw = 0.0
     sing = 0
     for j in range(7):
@@ -204,9 +212,9 @@ def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, ful
         elif j == 2:
             kj = k_sg
         elif j == 3:
-            kj = kAS
+            kj = rts.kAS
         elif j == 4:
-            kj = kAP
+            kj = rts.kAP
         elif j == 5:
             kj = k_rh
         else:
@@ -224,7 +232,7 @@ def _eta(pcr0, pcr1, pcr2, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1, kAS, kAP, ful
 
 
 @njit(cache=True, error_model="numpy")
-def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det):
+def _local_guards(fc, g, opt, eta_raw, tls, tms, rts):
     """The active local guards of model §8.2 in FAILURES order: (failure code, grade, z-dyad shortfall), the
     grade being the sum of their model §16 terms min(s / S, 1) (a guard's NaN counts 0), as
     ``reference._guard_checks``; the z dyad's closure shortfall is 0 when its guard is off."""
@@ -234,7 +242,7 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
         d2 = g[G_D + 2]
         cz = z_link(g, opt)
         reach_z = d2 + cz
-        L = math.hypot(Em0, Em1 - pcr2)
+        L = math.hypot(tls.C0, tls.C1 - tls.pcr2)
         short = (_pos(L - reach_z) + _pos(abs(d2 - cz) - L)) / reach_z
         if short > 0.0 and fc == 0:
             fc = CODE_Z_DYAD
@@ -242,32 +250,32 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
         zs = short
     if opt[O_RHO_MAX_ON] != 0.0:
         rho_th = opt[O_RHO_MAX]
-        short = ((0.0 + _pos(abs(rho0) - rho_th)) + _pos(abs(rho1) - rho_th)) + _pos(abs(rho2) - rho_th)
+        short = ((0.0 + _pos(abs(tls.rho0) - rho_th)) + _pos(abs(tls.rho1) - rho_th)) + _pos(abs(tls.rho2) - rho_th)
         if short > 0.0 and fc == 0:
             fc = CODE_RHO
         gr = gr + _nan_to_num(_term(short, GRADE_RHO))
     if opt[O_TRANSMISSION_ON] != 0.0:
         s0 = opt[O_TRANSMISSION]
         sb0, sb1 = g[G_SIN_BETA], g[G_SIN_BETA + 1]
-        q = _pos(s0 - abs(F0 / (g[G_D] * g[G_C])))
+        q = _pos(s0 - abs(tms.F0 / (g[G_D] * g[G_C])))
         short = 0.0 + q
         tg = 0.0 + _term(q, GRADE_SINE)
-        q = _pos(s0 - abs(F1 / (g[G_D + 1] * g[G_C + 1])))
+        q = _pos(s0 - abs(tms.F1 / (g[G_D + 1] * g[G_C + 1])))
         short += q
         tg += _term(q, GRADE_SINE)
-        q = _pos(s0 - abs(H0 / (g[G_T] * g[G_C])))
+        q = _pos(s0 - abs(tms.H0 / (g[G_T] * g[G_C])))
         short += q
         tg += _term(q, GRADE_SINE)
-        q = _pos(s0 - abs(H1 / (g[G_T + 1] * g[G_C + 1])))
+        q = _pos(s0 - abs(tms.H1 / (g[G_T + 1] * g[G_C + 1])))
         short += q
         tg += _term(q, GRADE_SINE)
-        q = _pos(s0 - abs(jas0 / (g[G_SIN_ALPHA] * sb0)))
+        q = _pos(s0 - abs(rts.jas0 / (g[G_SIN_ALPHA] * sb0)))
         short += q
         tg += _term(q, GRADE_SINE)
-        q = _pos(s0 - abs(jas1 / (g[G_SIN_ALPHA + 1] * sb1)))
+        q = _pos(s0 - abs(rts.jas1 / (g[G_SIN_ALPHA + 1] * sb1)))
         short += q
         tg += _term(q, GRADE_SINE)
-        q = _pos(s0 - abs(det / (sb0 * sb1)))
+        q = _pos(s0 - abs(rts.det / (sb0 * sb1)))
         short += q
         tg += _term(q, GRADE_SINE)
         if short > 0.0 and fc == 0:
@@ -282,41 +290,25 @@ def _local_guards(fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1,
 
 
 @njit(cache=True, error_model="numpy")
-def _design_points(
-    i,
-    k0,
-    k1,
-    geometry,
-    modes,
-    E,
-    e,
-    same_e,
-    opt,
-    full,
-    grids,
-    body,
-    envelope,
-    failure,
-    eta,
-    excess,
-    assembly,
-    extra,
-    detail,
-):
+def _design_points(i, k0, k1, inputs, grids, body, envelope, rows, detail):
     """Points k0..k1-1 of design i, in the reference's order.
 
-    Inputs: ``geometry`` (D, N_GEO) and ``modes`` (D, 4) of every design; the task's ``E`` (P, 3) mm and
-    ``e`` (P, 3) unit, ``same_e`` (P,) true where e[k] equals e[k - 1] bitwise; the option vector ``opt``;
+    ``inputs``: an :class:`~arcube.evaluation.kernel._state.Inputs`, ``geometry`` (D, N_GEO) and ``modes`` (D, 4)
+    of every design, the task's ``E`` (P, 3) mm and ``e`` (P, 3) unit, ``same_e`` (P,) true where e[k] equals
+    e[k - 1] bitwise, the option vector ``opt`` and ``full``;
     ``grids``: the anatomy's fine and coarse grids (origin (3,) mm, spacing mm, values (nx, ny, nz) mm, for
     each), then their block gradient bounds (kernel._clearance); ``body``: the primitives' radii (27,) mm,
     their search order and the self-clearance pairs (model §14.1-14.3); ``envelope``: the envelope of the whole
     patient (model §19.5) as ``_envelope._envelope_clearance`` takes it.
-    Writes this design's rows (P,): ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
+    Writes this design's :class:`~arcube.evaluation.kernel._state.Rows` ``rows`` (P,) but its dexterity:
+    ``failure`` (int16 code, before the global guard), ``eta`` (eta_raw),
     ``excess`` (the IK domain excess of 12.2), ``assembly`` (int8: 4 [H_x > 0] + 2 [H_y > 0] + [det > 0])
     and ``extra`` (P, N_EXTRA: the guard grade of model §16 before the global guard, the clearances, the
     tip metrics and the holding torque of 18.2); with
     ``full`` also row i of ``detail`` = (kappa (D, P, 7), rho (D, P, 3), delta (D, P, 2), sigma (D, P, 2)), rad.
     """
+    geometry, modes, E, e, same_e, opt, full = inputs
+    failure, eta, excess, assembly, _, extra = rows
     g = geometry[i]
     radius, order, pairs = body
     kappa_o, rho_o, delta_o, sigma_o = detail
@@ -348,13 +340,8 @@ def _design_points(
     need_rho = full or opt[O_RHO_MAX_ON] != 0.0
     dyad_ik = opt[O_Z_DYAD] != 0.0 and g[G_C_Z] == g[G_C_Z]  # model §16's amendment: the design's own c_z
 
-    # RTS cache (depends on the direction only)
+    # RTS cache (depends on the direction only): ``rts`` is set at the first point, ``have`` being False
     have = False
-    sig0 = sig1 = rarg0 = rarg1 = 0.0
-    ss0 = cs0 = ss1 = cs1 = 0.0
-    jas0 = jas1 = det = kAS = kAP = 0.0
-    xb0 = xb1 = xb2 = yb0 = yb1 = yb2 = 0.0
-    em0 = em1 = em2 = 0.0
 
     # Summaries need a point's clearance exactly only when it is below the guard's limit (its shortfall)
     # or below the smallest so far over passing points: each search starts at that cap, so parts far
@@ -378,111 +365,44 @@ def _design_points(
         if not (have and same_e[k]):
             have = True
             em0, em1, em2 = rot_t(g, e[k, 0], e[k, 1], e[k, 2])
-            sig0, sig1, rarg0, rarg1, ss0, cs0, ss1, cs1, jas0, jas1, det, kAS, kAP, xb0, xb1, xb2, yb0, yb1, yb2 = (
-                _rts_direction(
-                    em0,
-                    em1,
-                    em2,
-                    g[G_SIN_ALPHA],
-                    g[G_COS_ALPHA],
-                    g[G_COS_BETA],
-                    g[G_O],
-                    epsR0,
-                    g[G_SIN_ALPHA + 1],
-                    g[G_COS_ALPHA + 1],
-                    g[G_COS_BETA + 1],
-                    g[G_O + 1],
-                    epsR1,
-                )
-            )
+            rts = _rts_direction(g, em0, em1, em2, epsR0, epsR1)
 
         # TLS (Eq 1), at the centre C in mechanism coordinates
-        Em0, Em1, Em2 = _centre_m(g, E[k, 0], E[k, 1], E[k, 2], e[k, 0], e[k, 1], e[k, 2])
-        ta0, rho0, cr0, sr0 = _tls_leg(Em0, f0, r, p0, need_rho, exact)
-        ta1, rho1, cr1, sr1 = _tls_leg(Em1, f1, r, p1, need_rho, exact)
-        ta2, rho2, cr2, sr2 = _tls_leg(Em2, f2, r, p2, need_rho, exact)
+        C0, C1, C2 = _centre_m(g, E[k, 0], E[k, 1], E[k, 2], e[k, 0], e[k, 1], e[k, 2])
+        ta0, rho0, cr0, sr0 = _tls_leg(C0, f0, r, p0, need_rho, exact)
+        ta1, rho1, cr1, sr1 = _tls_leg(C1, f1, r, p1, need_rho, exact)
+        ta2, rho2, cr2, sr2 = _tls_leg(C2, f2, r, p2, need_rho, exact)
         pcr0 = p0 * cr0
         pcr1 = p1 * cr1
         pcr2 = p2 * cr2
 
         # TMS (Eq 3): leg x (v, w) = (y, z), leg y (v, w) = (z, x)
         del0, marg0, F0, G0, D0, E0, H0, cd0, sd0 = _tms_leg(
-            Em1, Em2, pcr0, sr0, ss0, cs0, p0, d0, c0, t0, epsT0, full, exact
+            C1, C2, pcr0, sr0, rts.ss0, rts.cs0, p0, d0, c0, t0, epsT0, full, exact
         )
         del1, marg1, F1, G1, D1, E1, H1, cd1, sd1 = _tms_leg(
-            Em2, Em0, pcr1, sr1, ss1, cs1, p1, d1, c1, t1, epsT1, full, exact
+            C2, C0, pcr1, sr1, rts.ss1, rts.cs1, p1, d1, c1, t1, epsT1, full, exact
         )
 
-        fc = _stage_failure(ta0, ta1, ta2, rarg0, rarg1, marg0, marg1)
+        fc = _stage_failure(ta0, ta1, ta2, rts.arg0, rts.arg1, marg0, marg1)
         ex = ((0.0 + _clip_excess(ta0)) + _clip_excess(ta1)) + _clip_excess(ta2)
-        ex = ex + ((0.0 + _clip_excess(rarg0)) + _clip_excess(rarg1))
+        ex = ex + ((0.0 + _clip_excess(rts.arg0)) + _clip_excess(rts.arg1))
         ex = ex + ((0.0 + _clip_excess(marg0)) + _clip_excess(marg1))
 
         eta_raw = _INF
         if fc == 0:
-            eta_raw, fc = _eta(
-                pcr0,
-                pcr1,
-                pcr2,
-                F0,
-                F1,
-                G0,
-                G1,
-                D0,
-                D1,
-                E0,
-                E1,
-                H0,
-                H1,
-                kAS,
-                kAP,
-                full,
-                kappa_o[i, k] if full else kappa_o[0, 0],
-            )
+            tls = TLS(C0, C1, C2, rho0, rho1, rho2, cr0, sr0, cr1, sr1, cr2, sr2, pcr0, pcr1, pcr2)
+            tms = TMS(cd0, sd0, cd1, sd1, F0, F1, G0, G1, D0, D1, E0, E1, H0, H1)
+            eta_raw, fc = _eta(tls, tms, rts, full, kappa_o[i, k] if full else kappa_o[0, 0])
             solved = fc == 0  # the IK solves the point: its guards are graded (model §16)
-            fc, gr, zs = _local_guards(
-                fc, g, opt, eta_raw, Em0, Em1, pcr2, rho0, rho1, rho2, F0, F1, H0, H1, jas0, jas1, det
-            )
+            fc, gr, zs = _local_guards(fc, g, opt, eta_raw, tls, tms, rts)
             if dyad_ik and zs > 0.0:  # an open z dyad is a point the IK does not reach: its excess, no guard grade
                 ex = ex + zs
                 solved = False
             clr = selfc = env = _NAN
             part = env_part = env_region = -1.0
             if do_clr or do_self or do_env:
-                arc_r = _body_world(
-                    g,
-                    z_link(g, opt),
-                    opt[O_MOTOR_LENGTH],
-                    Em0,
-                    Em1,
-                    Em2,
-                    em0,
-                    em1,
-                    em2,
-                    cr0,
-                    sr0,
-                    cr1,
-                    sr1,
-                    cr2,
-                    sr2,
-                    cd0,
-                    sd0,
-                    cd1,
-                    sd1,
-                    ss0,
-                    cs0,
-                    ss1,
-                    cs1,
-                    xb0,
-                    xb1,
-                    xb2,
-                    yb0,
-                    yb1,
-                    yb2,
-                    lines,
-                    arcs,
-                    arc_c,
-                )
+                arc_r = _body_world(g, z_link(g, opt), opt[O_MOTOR_LENGTH], tls, tms, rts, lines, arcs, arc_c)
                 if do_self:
                     self_cap = _INF if full or track_self else opt[O_SELF_CLEARANCE]
                     self_enough = (
@@ -563,71 +483,9 @@ def _design_points(
                 have_prev = False
                 have_prev_self = False
             if fc == 0 and do_perf:
-                _tip_metrics(
-                    g,
-                    pcr0,
-                    pcr1,
-                    pcr2,
-                    F0,
-                    F1,
-                    G0,
-                    G1,
-                    D0,
-                    D1,
-                    E0,
-                    E1,
-                    H0,
-                    H1,
-                    jas0,
-                    jas1,
-                    xb0,
-                    xb1,
-                    xb2,
-                    yb0,
-                    yb1,
-                    yb2,
-                    em0,
-                    em1,
-                    em2,
-                    opt,
-                    jbuf,
-                    extra[k],
-                )
+                _tip_metrics(g, tls, tms, rts, opt, jbuf, extra[k])
                 if do_hold:  # model §18.2
-                    _holding_torque(
-                        g,
-                        opt,
-                        Em0,
-                        Em1,
-                        Em2,
-                        pcr0,
-                        pcr1,
-                        pcr2,
-                        sr0,
-                        sr1,
-                        sr2,
-                        cd0,
-                        sd0,
-                        cd1,
-                        sd1,
-                        ss0,
-                        cs0,
-                        ss1,
-                        cs1,
-                        xb0,
-                        xb1,
-                        xb2,
-                        yb0,
-                        yb1,
-                        yb2,
-                        jas0,
-                        jas1,
-                        em0,
-                        em1,
-                        em2,
-                        jbuf,
-                        extra[k],
-                    )
+                    _holding_torque(g, opt, tls, tms, rts, jbuf, extra[k])
             else:
                 _no_metrics(extra[k])
         else:
@@ -649,12 +507,12 @@ def _design_points(
         failure[k] = fc
         eta[k] = eta_raw
         excess[k] = ex
-        assembly[k] = (4 if H0 > 0.0 else 0) + (2 if H1 > 0.0 else 0) + (1 if det > 0.0 else 0)
+        assembly[k] = (4 if H0 > 0.0 else 0) + (2 if H1 > 0.0 else 0) + (1 if rts.det > 0.0 else 0)
         if full:
             rho_o[i, k, 0] = rho0
             rho_o[i, k, 1] = rho1
             rho_o[i, k, 2] = rho2
             delta_o[i, k, 0] = del0
             delta_o[i, k, 1] = del1
-            sigma_o[i, k, 0] = sig0
-            sigma_o[i, k, 1] = sig1
+            sigma_o[i, k, 0] = rts.sig0
+            sigma_o[i, k, 1] = rts.sig1

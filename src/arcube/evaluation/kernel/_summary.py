@@ -30,8 +30,9 @@ from arcube.evaluation.kernel._scalar import _pairwise_sum
 
 
 @njit(cache=True, error_model="numpy")
-def _finalize(single_assembly_mode, ik_last, failure, eta, excess, assembly, dexterity, extra, summary):
-    """The global guard, then eta_L, dexterity and the summaries of one design, from its rows (P,).
+def _finalize(single_assembly_mode, ik_last, rows, summary):
+    """The global guard, then eta_L, dexterity and the summaries of one design, from its
+    :class:`~arcube.evaluation.kernel._state.Rows` ``rows`` (P,).
 
     ``failure`` gains the single-assembly-mode failures; ``eta`` holds eta_raw and gets eta_L (+inf where
     unreachable); ``excess`` and ``assembly`` as ``_points._design_points`` wrote them; ``dexterity`` gets
@@ -40,6 +41,7 @@ def _finalize(single_assembly_mode, ik_last, failure, eta, excess, assembly, dex
     ``reference._single_assembly_mode``); ``summary`` (N_SUMM,) gets the ``S_*`` columns. Failure codes
     1 .. ``ik_last`` are IK failures (CODE_IK_LAST, or CODE_Z_DYAD under model §16's amendment).
     """
+    failure, eta, excess, assembly, dexterity, extra = rows
     n = failure.shape[0]
     if single_assembly_mode:
         counts = np.zeros(8, np.int64)
