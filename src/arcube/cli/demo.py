@@ -2,7 +2,7 @@
 
 1. Evaluate the paper's design (Table 2) and say what it cannot reach and why.
 2. Keep Table 2's links and search only the placement m for the right side.
-3. Run the paper's GA (population 400, up to 300 generations, tolerance 1e-5) with all 23
+3. Run the paper's GA (population 400, up to 300 generations, ftol 1e-5) with all 23
    parameters free on both sides.
 4. ``arcube design`` on both sides: one robot, docked once per side (model §19), that clears the
    patient, its whole body, the table and itself and meets every default requirement at both dockings,
@@ -108,7 +108,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
     scale = (
         "tiny population (--quick)"
         if quick
-        else "the paper's GA: population 400, up to 300 generations, tolerance 1e-5"
+        else "the paper's GA: population 400, up to 300 generations, ftol 1e-5"
     )
     typer.echo(f"\n3/4  All 23 dimensions free, both sides ({scale})")
     reports.append(
