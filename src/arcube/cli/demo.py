@@ -105,11 +105,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
             algorithm="ga",
         ),
     ]
-    scale = (
-        "tiny population (--quick)"
-        if quick
-        else "the paper's GA: population 400, up to 300 generations, ftol 1e-5"
-    )
+    scale = "tiny population (--quick)" if quick else "the paper's GA: population 400, up to 300 generations, ftol 1e-5"
     typer.echo(f"\n3/4  All 23 dimensions free, both sides ({scale})")
     reports.append(
         _optimize(
