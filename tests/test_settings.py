@@ -408,3 +408,61 @@ def test_the_old_flag_warns_in_the_users_words_and_the_run_records_the_new_name(
         both.returncode == 2
         and both.stderr.strip() == "error: --tolerance and --ftol are one setting (renamed): give --ftol"
     )
+
+
+# every RunSettings field, set alone to a value that is not its default (a new field must be added here)
+_NOT_DEFAULT = {
+    "algorithm": "ga",
+    "population": 40,
+    "generations": 12,
+    "ftol": 0.0,
+    "period": 7,
+    "points": 9,
+    "mode": "+,-,+,-",
+    "setups": 2,
+    "guards": True,
+    "margin": 5.0,
+    "seed": 11,
+    "engine": "numpy",
+    "aggregate": "max",
+    "compactness": "bbox",
+    "checkpoint_every": 3,
+    "eliminate_duplicates": True,
+    "design_from": "tests/data/one_robot.json",
+    "free": ("m_x", "m_y", "L"),
+    "bounds": {"m_x": (10.0, 20.0)},
+    "side": "L",
+    "levels": "C3-C5",
+    "ids": "1,3",
+    "transform": "T.json",
+    "anatomy": ("default",),
+    "anatomy_frame": "RAS",
+    "segments": ("C3", "C4"),
+    "envelope": ("default",),
+    "table_z": -200.0,
+    "objectives": ("eta_G", "torque"),
+    "maxima": {"torque": 12.0},
+    "minima": {"links": 100.0},
+    "tolerance_class": "f",
+    "tol": {"lengths": 0.05},
+    "placement": "shared",
+    "dockings": "per-side",
+    "standoff": 15.0,
+    "options": Options(loads=Loads(thrust_N=22.0), guards=Guards(kappa_max=90.0), body=Body(link_radius=7.0)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(RunSettings.model_fields))
+def test_every_run_setting_survives_config_toml(name: str) -> None:
+    """House II: a run folder records every setting. Each field, set alone to a value other than its default, is read
+    back equal from the config's [settings] and [bounds] tables (the envelope guard was once lost on this way)."""
+    assert set(_NOT_DEFAULT) == set(RunSettings.model_fields), "give the new field a value in _NOT_DEFAULT"
+    s = RunSettings(**{name: _NOT_DEFAULT[name]})
+    assert getattr(s, name) != getattr(RunSettings(), name)
+    back = RunSettings.from_config({"settings": s.to_table(), "bounds": s.all_bounds})
+    assert back == s
+
+
+def test_the_envelope_guard_survives_config_toml() -> None:
+    s = RunSettings(envelope=("default",), options=Options(guards=Guards(envelope_clearance_mm=8.0)))
+    assert RunSettings.from_config({"settings": s.to_table(), "bounds": s.all_bounds}) == s
