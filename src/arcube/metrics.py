@@ -21,7 +21,6 @@ __all__ = [
     "metric",
     "objective_names",
     "objectives_help",
-    "requirement_names",
     "requirements_help",
 ]
 
@@ -62,7 +61,6 @@ class Metric:
             set to its limit.
         program_key: the figure in each actuator's ``motors`` entry of ``program.json`` (``program`` source).
         docking_key: the field of each docking's entry in a design job's ``summary.json`` that holds its value.
-        section: the model section that defines it (help texts cite it).
     """
 
     name: str
@@ -83,7 +81,6 @@ class Metric:
     guard_option: str | None = None
     program_key: str | None = None
     docking_key: str | None = None
-    section: str = ""
 
     @property
     def checked_after(self) -> bool:
@@ -96,52 +93,50 @@ METRICS: tuple[Metric, ...] = (
     Metric("clearance", "mm", "smallest clearance to the anatomy, mm (maximized; needs --anatomy)", "clearance_min_mm",
            maximized=True, batch_field="clearance_min", needs=frozenset({"clearance"}), requirement="min", default_limit=5.0,
            where="whole line", point_field="clearance_mm", part_field="clearance_part", part_names="parts",
-           guard_option="clearance_mm", docking_key="clearance_mm", section="14.3"),
+           guard_option="clearance_mm", docking_key="clearance_mm"),
     Metric("self_clearance", "mm", "smallest clearance between the robot's own parts, mm", objective=False,
            requirement="min", default_limit=2.0, where="whole line", point_field="self_clearance_mm",
-           guard_option="self_clearance_mm", docking_key="self_clearance_mm", section="14.3"),
+           guard_option="self_clearance_mm", docking_key="self_clearance_mm"),
     Metric("envelope_clearance", "mm", "smallest clearance to the envelope of the whole patient and the table, mm "
            "(maximized; model §19.5)", "envelope_clearance_min_mm", maximized=True, batch_field="envelope_clearance_min",
            needs=frozenset({"envelope_clearance"}), requirement="min", default_limit=10.0, where="whole line",
            point_field="envelope_clearance_mm", part_field="envelope_part", part_names="envelope",
-           guard_option="envelope_clearance_mm", docking_key="envelope_clearance_mm", section="19.5"),
+           guard_option="envelope_clearance_mm", docking_key="envelope_clearance_mm"),
     Metric("lateral_error", "mm", "largest error across the drill axis, mm (15.2)", "lateral_error_max_mm",
            batch_field="lateral_error_max", needs=_TIP, requirement="max", default_limit=0.5, where="drill",
-           point_field="lateral_error_mm", docking_key="lateral_error_mm", section="15.2"),
+           point_field="lateral_error_mm", docking_key="lateral_error_mm"),
     Metric("axis_error", "deg", "largest drill-direction error, deg (15.2)", "axis_error_max_deg",
            batch_field="axis_error_max", needs=_TIP, requirement="max", default_limit=0.25, where="drill",
-           point_field="axis_error_deg", docking_key="axis_error_deg", section="15.2"),
+           point_field="axis_error_deg", docking_key="axis_error_deg"),
     Metric("torque", "N·m", "largest actuator torque under the drilling loads, N·m (15.3)", "torque_max_Nm",
            batch_field="torque_max", needs=_TIP, requirement="max", default_limit=20.0, where="drill",
-           point_field="torque_Nm", part_field="torque_actuator", part_names="actuators", docking_key="torque_Nm",
-           section="15.3"),
+           point_field="torque_Nm", part_field="torque_actuator", part_names="actuators", docking_key="torque_Nm"),
     Metric("holding_torque", "N·m", "largest actuator torque holding the robot's weight and the drilling loads, N·m (18.2)",
            "holding_torque_max_Nm", batch_field="holding_torque_max",
            needs=frozenset({"tip_metrics", "holding_torque", "masses"}), requirement="max", default_limit=20.0,
            where="drill", point_field="holding_torque_Nm", part_field="holding_torque_actuator", part_names="actuators",
-           docking_key="holding_torque_Nm", section="18.2"),
+           docking_key="holding_torque_Nm"),
     Metric("lateral_error_wc", "mm", "largest first-order worst-case lateral error of the robot as built to --class / "
            "--tol, mm (model §20.3)", "lateral_error_wc_mm", source="robust", needs=frozenset({"robust"}),
-           requirement="max", where="drill", section="20.3"),
+           requirement="max", where="drill"),
     Metric("lateral_error_rms", "mm", "largest RMS lateral error of the robot as built to --class / --tol, mm (model §20.3)",
-           "lateral_error_rms_mm", source="robust", needs=frozenset({"robust"}), requirement="max", where="drill",
-           section="20.3"),
+           "lateral_error_rms_mm", source="robust", needs=frozenset({"robust"}), requirement="max", where="drill"),
     Metric("torque_peak", "N·m", "largest actuator torque over the drilling program, N·m (model §18.3)", objective=False,
-           source="program", requirement="max", where="program", program_key="torque_peak_Nm", section="18.3"),
+           source="program", requirement="max", where="program", program_key="torque_peak_Nm"),
     Metric("power_peak", "W", "largest actuator power over the drilling program, W (model §18.3)", objective=False,
-           source="program", requirement="max", where="program", program_key="power_peak_W", section="18.3"),
+           source="program", requirement="max", where="program", program_key="power_peak_W"),
     Metric("breach_probability", "probability", "largest probability that a screw leaves its pedicle (model §22)",
-           objective=False, source="breach", requirement="max", where="screws", section="22"),
+           objective=False, source="breach", requirement="max", where="screws"),
     Metric("eta_G", "", "the paper's global conditioning index (mean of the worst kappa), lower is better", "eta_G",
-           source="eta_G", section="11"),
+           source="eta_G"),
     Metric("tip_error", "mm", "largest drill-tip error over the plan, mm (model §15.2)", "tip_error_max_mm",
-           batch_field="tip_error_max", needs=_TIP, section="15.2"),
+           batch_field="tip_error_max", needs=_TIP),
     Metric("axial_error", "mm", "largest error along the drill axis, mm (15.2)", "axial_error_max_mm",
-           batch_field="axial_error_max", needs=_TIP, section="15.2"),
+           batch_field="axial_error_max", needs=_TIP),
     Metric("deflection", "mm", "largest lateral tip deflection under the loads, mm (15.4)", "deflection_max_mm",
-           batch_field="deflection_max", needs=_TIP, section="15.4"),
+           batch_field="deflection_max", needs=_TIP),
     Metric("mass", "kg", "moving mass of the robot, kg (18.1)", "moving_mass_kg", source="mass",
-           needs=frozenset({"masses"}), section="18.1"),
+           needs=frozenset({"masses"})),
     Metric("links", "mm", "sum of the 14 link lengths, mm", "links_sum_mm", source="links"),
     Metric("bbox", "L", "largest bounding-box volume of the body over a task, litres", "bbox_volume_L", source="bbox"),
 )  # fmt: skip
@@ -158,11 +153,6 @@ def metric(name: str) -> Metric:
 def objective_names() -> tuple[str, ...]:
     """The objectives and limits of the optimizer: the paper's index eta_G first, then in registry order."""
     return ("eta_G", *(m.name for m in METRICS if m.objective and m.name != "eta_G"))
-
-
-def requirement_names(default_only: bool = False) -> tuple[str, ...]:
-    """The requirements of ``arcube design`` (only those on by default when ``default_only``), in registry order."""
-    return tuple(m.name for m in METRICS if m.requirement and (m.default_limit is not None or not default_only))
 
 
 def objectives_help() -> str:

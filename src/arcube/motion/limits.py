@@ -54,8 +54,9 @@ class ProgramLimits(Settings):
     """Radius of the tool E -> H, which clears the anatomy in transit, mm."""
     dt: float = Field(default=0.01, gt=0, le=1.0, allow_inf_nan=False)
     """Time step of the rows, s."""
+    # the three clearance defaults are the design job's limits, kept once in arcube.metrics
     clearance: float = Field(default=metric("clearance").default_limit, ge=0, le=1000.0, allow_inf_nan=False)
-    """Body to anatomy everywhere, mm (with an anatomy; the design job's default limit, :mod:`arcube.metrics`)."""
+    """Body to anatomy everywhere, mm (with an anatomy)."""
     self_clearance: float = Field(
         default=metric("self_clearance").default_limit, ge=-1000.0, le=1000.0, allow_inf_nan=False
     )

@@ -396,7 +396,7 @@ class RunSettings(Settings):
     def from_table(cls, table: Mapping[str, Any]) -> RunSettings:
         """Read a ``[settings]`` table, of this version or an older one (missing keys: what those
         runs ran: shared docking, duplicates eliminated, default body and loads)."""
-        t = {_OLD_KEYS.get(k, k): v for k, v in table.items() if k not in _DERIVED}  # a table of 0.2 or before
+        t = {cls.RENAMED.get(k, k): v for k, v in table.items() if k not in _DERIVED}  # a table of 0.2 or before
         t.setdefault("placement", "shared")  # runs before per-patient placement shared one
         for field, spellings in cls.RENAMED_VALUES.items():
             if isinstance(t.get(field), str) and t[field] in spellings:
@@ -421,8 +421,6 @@ def table_placement(table: Mapping[str, Any]) -> str:
     return str(table.get("placement", table.get("docking", "shared")))
 
 
-_OLD_KEYS = {"tolerance": "ftol", "docking": "placement"}
-"""Keys of the tables older runs wrote -> their names now (read silently: a run folder is not a user's typing)."""
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
 FLAT_OPTIONS: dict[str, tuple[str, str]] = {
