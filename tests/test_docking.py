@@ -21,6 +21,7 @@ from arcube.errors import InputError
 from arcube.model.design import INDEX, PARAM_NAMES
 from arcube.optimization import run as runmod
 from arcube.optimization.config import build_config
+from arcube.optimization.run_config import RunConfig
 from arcube.optimization.build import build_model
 from arcube.optimization.problem import VariableSpace, parse_free
 
@@ -101,9 +102,11 @@ def test_one_patient_per_patient_docking_is_the_shared_problem(tmp_path: Path) -
 
 def test_configs_without_docking_share_the_placement(second_patient: Path) -> None:
     cfg = build_config(["reference", str(second_patient)], free="m_x,m_y,m_z,r", seed=1, **SMALL)
-    assert cfg["settings"]["placement"] == "per-patient" and "--placement per-patient" in cfg["rerun"]
+    assert cfg.to_toml()["settings"]["placement"] == "per-patient" and "--placement per-patient" in cfg.rerun
     assert build_model(cfg).space.n_var == 4 + 3
-    del cfg["settings"]["placement"]
+    table = cfg.to_toml()
+    del table["settings"]["placement"]  # a config written before placement existed
+    cfg = RunConfig.from_toml(table)
     assert build_model(cfg).space.placement == "shared" and build_model(cfg).space.n_var == 4
 
 

@@ -131,8 +131,8 @@ def test_batch_cma_samples_what_cma_samples_and_stops_when_it_stops() -> None:
 
 def test_default_is_mscmaes_and_spends_the_budget_in_full_batches(tmp_path: Path) -> None:
     cfg = _config()
-    assert cfg["settings"]["algorithm"] == "mscmaes"
-    s = runmod.start(tmp_path / "a", dict(cfg))
+    assert cfg.to_toml()["settings"]["algorithm"] == "mscmaes"
+    s = runmod.start(tmp_path / "a", cfg)
     assert RUNS * default_popsize(23) == 104 and POLISH_RUNS * default_popsize(23) == 52
     rows = _rows(tmp_path / "a/history.csv")
     evals = [int(r["evaluations"]) for r in rows]
@@ -144,12 +144,12 @@ def test_default_is_mscmaes_and_spends_the_budget_in_full_batches(tmp_path: Path
 def test_seed_gives_the_same_run_whatever_the_global_generator(tmp_path: Path) -> None:
     cfg = _config(generations=40, seed=11)
     np.random.seed(1)
-    runmod.start(tmp_path / "a", dict(cfg))
+    runmod.start(tmp_path / "a", cfg)
     state = np.random.get_state()
     np.random.seed(999)  # a different global state: no effect on the run, and the run does not touch it
     np.random.random(17)
     before = np.random.get_state()
-    runmod.start(tmp_path / "b", dict(cfg))
+    runmod.start(tmp_path / "b", cfg)
     after = np.random.get_state()
     assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y for x, y in zip(before, after))
     assert state[1].tobytes() != before[1].tobytes()

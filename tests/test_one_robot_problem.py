@@ -172,7 +172,7 @@ def test_per_side_dockings_split_each_plan_by_side() -> None:
 
 def test_a_run_without_these_settings_writes_the_config_it_always_did() -> None:
     s = RunSettings(seed=3)
-    cfg = build_config(["reference"], s)
+    cfg = build_config(["reference"], s).to_toml()
     assert "c_z" not in cfg["bounds"] and "c_z" not in cfg["design"] and "dockings" not in cfg["settings"]
     assert all("name" not in p and "side" not in p for p in cfg["patients"])
     assert RunSettings.from_config(cfg) == s

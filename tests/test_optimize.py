@@ -27,6 +27,7 @@ from arcube.evaluation.reference import evaluate_task
 from arcube.optimization import run as runmod
 from arcube.cli.optimize import register
 from arcube.optimization.config import build_config
+from arcube.optimization.run_config import RunConfig
 from arcube.optimization.problem import (
     DEFAULT_BOUNDS,
     FitnessModel,
@@ -386,13 +387,13 @@ def test_lean_bookkeeping_equals_pymoo_stock_components(algorithm: str, duplicat
 
 
 def test_duplicates_setting_is_recorded_and_old_configs_keep_pymoo_default(tmp_path: Path) -> None:
-    assert _config()["settings"]["eliminate_duplicates"] is False
+    assert _config().to_toml()["settings"]["eliminate_duplicates"] is False
     cfg = _config(eliminate_duplicates=True, generations=3)
-    assert cfg["settings"]["eliminate_duplicates"] is True and "--eliminate-duplicates" in cfg["rerun"]
+    assert cfg.to_toml()["settings"]["eliminate_duplicates"] is True and "--eliminate-duplicates" in cfg.rerun
     runmod.start(tmp_path / "dup", cfg)
-    old = _config(generations=3, seed=cfg["settings"]["seed"])
+    old = _config(generations=3, seed=cfg.settings.seed).to_toml()
     del old["settings"]["eliminate_duplicates"]  # a config written before the setting existed
-    runmod.start(tmp_path / "old", old)
+    runmod.start(tmp_path / "old", RunConfig.from_toml(old))
     assert (tmp_path / "old/best_design.json").read_bytes() == (tmp_path / "dup/best_design.json").read_bytes()
     assert _history(tmp_path / "old/history.csv") == _history(tmp_path / "dup/history.csv")
 
@@ -407,14 +408,14 @@ class _Crash(Exception):
 )  # mscmaes: 20 x 100 evaluations = 21 batches
 def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str, generations: int) -> None:
     cfg = _config(algorithm=algorithm, checkpoint_every=4, generations=generations)
-    ref = runmod.start(tmp_path / "ref", dict(cfg))
+    ref = runmod.start(tmp_path / "ref", cfg)
 
     def crash(row: dict) -> None:
         if row["generation"] == 14:
             raise _Crash
 
     with pytest.raises(_Crash):
-        runmod.start(tmp_path / "cut", dict(cfg), on_generation=crash)
+        runmod.start(tmp_path / "cut", cfg, on_generation=crash)
     assert json.loads((tmp_path / "cut/checkpoint/state.json").read_text())["generation"] == 12
     got = runmod.resume(tmp_path / "cut")
     assert got is not None and got["resumed"] == 1
@@ -435,15 +436,15 @@ def test_crash_then_resume_equals_uninterrupted(tmp_path: Path, algorithm: str, 
 def test_crash_then_resume_with_objectives_equals_uninterrupted(tmp_path: Path, extra: dict) -> None:
     """Runs with --objectives (NSGA-II, NSGA-III) and limits resume bit for bit like the others."""
     cfg = _config(checkpoint_every=4, generations=10, **extra)
-    assert cfg["settings"]["algorithm"] == ("nsga3" if len(extra["objectives"].split(",")) > 3 else "nsga2")
-    ref = runmod.start(tmp_path / "ref", dict(cfg))
+    assert cfg.settings.algorithm == ("nsga3" if len(extra["objectives"].split(",")) > 3 else "nsga2")
+    ref = runmod.start(tmp_path / "ref", cfg)
 
     def crash(row: dict) -> None:
         if row["generation"] == 6:
             raise _Crash
 
     with pytest.raises(_Crash):
-        runmod.start(tmp_path / "cut", dict(cfg), on_generation=crash)
+        runmod.start(tmp_path / "cut", cfg, on_generation=crash)
     got = runmod.resume(tmp_path / "cut")
     assert got is not None and got["resumed"] == 1
     for name in ("best_design.json", "pareto.csv"):
@@ -549,8 +550,8 @@ def test_corrupt_or_foreign_checkpoint_is_refused(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------------- executors
 def test_workers_and_dask_give_the_serial_result(tmp_path: Path) -> None:
     cfg = _config(population=24, generations=6, points=3, side=None)
-    runmod.start(tmp_path / "serial", dict(cfg))
-    runmod.start(tmp_path / "workers", dict(cfg), workers=2)
+    runmod.start(tmp_path / "serial", cfg)
+    runmod.start(tmp_path / "workers", cfg, workers=2)
     want = (tmp_path / "serial/best_design.json").read_bytes()
     assert (tmp_path / "workers/best_design.json").read_bytes() == want
     assert _history(tmp_path / "workers/history.csv") == _history(tmp_path / "serial/history.csv")
@@ -558,7 +559,7 @@ def test_workers_and_dask_give_the_serial_result(tmp_path: Path) -> None:
     from distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        runmod.start(tmp_path / "dask", dict(cfg), dask=cluster.scheduler_address)
+        runmod.start(tmp_path / "dask", cfg, dask=cluster.scheduler_address)
     assert (tmp_path / "dask/best_design.json").read_bytes() == want
     assert _history(tmp_path / "dask/history.csv") == _history(tmp_path / "serial/history.csv")
 

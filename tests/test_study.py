@@ -278,9 +278,7 @@ def test_study_refuses_a_used_folder_and_a_seed_setting(tmp_path: Path) -> None:
         arcube.study("reference", tmp_path / "s", seeds="1", seed=4, **SETTINGS)
     assert not (tmp_path / "s").exists()
     cfg = build_config(["reference"], seed=9, **SETTINGS)
-    assert (
-        studymod.seed_config(cfg, 3)["settings"]["seed"] == 3 and "--seed 3 " in studymod.seed_config(cfg, 3)["rerun"]
-    )
+    assert studymod.seed_config(cfg, 3).settings.seed == 3 and "--seed 3 " in studymod.seed_config(cfg, 3).rerun
 
 
 def test_best_known_line_on_the_convergence_plots(tmp_path: Path) -> None:

@@ -363,9 +363,9 @@ def optimize(
             if s.anatomy
             else []
         )
-        anatomies = tuple(by_plan[p.get("plan_index", i)] for i, p in enumerate(cfg["patients"])) if by_plan else ()
-        for p, anatomy in zip(cfg["patients"], anatomies):
-            p["anatomy_source"] = anatomy.source
+        anatomies = tuple(by_plan[p.get("plan_index", i)] for i, p in enumerate(cfg.patients)) if by_plan else ()
+        if anatomies:
+            cfg = cfg.with_patients([{**cfg.patient(i), "anatomy_source": a.source} for i, a in enumerate(anatomies)])
         grids = {id(a): stl_roundtrip(a) for a in by_plan}
         return runmod.run_in_memory(cfg, tuple(grids[id(a)] for a in anatomies), progress)
     run_dir = Path(out)

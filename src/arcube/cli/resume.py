@@ -15,7 +15,6 @@ from arcube.cli.optimize import Progress, print_summary
 from arcube.cli.projection import Given, command
 from arcube.cli.study import SeedProgress, print_study
 from arcube.errors import InputError
-from arcube.optimization.settings import RunSettings
 
 __all__ = ["register"]
 
@@ -50,12 +49,8 @@ def resume(given: Given) -> None:
     if is_design(run_dir):
         from arcube.cli.design_progress import DesignProgress
 
-        study, base = folder.read_study(run_dir / STUDY) if folder.is_study(run_dir / STUDY) else ({}, {})
-        run = base.get("settings") if isinstance(base.get("settings"), dict) else {}
-        try:
-            budget = max(int(run.get("population", 1)) * int(run.get("generations", 1)), 1)
-        except (TypeError, ValueError, OverflowError):  # a damaged config: resume itself refuses it, with the reason
-            budget = 1
+        study, base = folder.read_study(run_dir / STUDY) if folder.is_study(run_dir / STUDY) else ({}, None)
+        budget = max(base.settings.population * base.settings.generations, 1) if base is not None else 1
         with DesignProgress(study.get("seeds", []), budget, enabled=not quiet) as bar:
             bar.watch(run_dir / STUDY)
             result = resume_api(
@@ -76,7 +71,7 @@ def resume(given: Given) -> None:
     if folder.is_finished(run_dir):
         sys.stderr.write(f"{run_dir}: the run had already finished; nothing to resume\n")
         return
-    settings = RunSettings.from_config(cfg)
+    settings = cfg.settings
     with Progress(settings.population * settings.generations, enabled=not quiet) as bar:
         run = resume_api(run_dir, progress=bar, workers=workers, dask=dask)
     print_summary(run_dir, run.summary)

@@ -235,8 +235,8 @@ def _problem(job: DockingJob) -> tuple[Any, Docking, RunSettings, np.ndarray, np
 
     s = docking_settings(job.settings, job.robot, job.side, job.seed)
     cfg = build_config([job.patient], s)
-    cfg["design"] = {**job.robot.design.to_dict(), "c_z": float(job.robot.design.c_z_mm)}
-    entry = cfg["patients"][0]
+    cfg = cfg.replace(design={**job.robot.design.to_dict(), "c_z": float(job.robot.design.c_z_mm)})
+    entry = cfg.patients[0]
     ps = patient_settings(s, own_settings(entry))
     spec = job.patient.plan
     plan = select(load_trajectories(spec, s.transform), side=job.side, levels=s.levels, ids=s.ids)

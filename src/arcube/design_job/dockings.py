@@ -23,6 +23,7 @@ from arcube.evaluation.anatomy import resolve_anatomy
 from arcube.io import load_trajectories, select
 from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
 from arcube.optimization.config import own_settings, patient_settings
+from arcube.optimization.run_config import RunConfig
 from arcube.optimization.settings import RunSettings
 
 __all__ = [
@@ -64,20 +65,20 @@ class Docking:
         return bool(self.rows) and all(r["passed"] for r in self.rows)
 
 
-def run_dockings(cfg: dict[str, Any], run: Any, mode: str) -> list[Docking]:
+def run_dockings(cfg: RunConfig, run: Any, mode: str) -> list[Docking]:
     """The dockings of a finished run (``run``: its :class:`~arcube.optimization.run_results.OptimizeResult`), each with
     the run's design for it (with c_z and ``mode``), its plan as the run selected it, and its anatomy and envelope."""
     from arcube.optimization.build import run_envelopes
 
-    s = RunSettings.from_config(cfg)
+    s = cfg.settings
     designs = run.designs
     envelopes = run_envelopes(cfg, run.path)
     plans: dict[int, Any] = {}
     anatomies: dict[int, Any] = {}
     out = []
-    for k, entry in enumerate(cfg["patients"]):
+    for k, entry in enumerate(cfg.patients):
         plan = entry.get("plan_index", k)
-        spec = cfg["settings"]["trajectories"][plan]
+        spec = cfg.trajectories[plan]
         if plan not in plans:
             plans[plan] = load_trajectories(spec, s.transform)
             ps = patient_settings(s, own_settings(entry))

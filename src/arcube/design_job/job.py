@@ -200,7 +200,7 @@ def seed_dockings(out: Path, seed: int) -> tuple[OptimizeResult, RunSettings, di
     run = OptimizeResult(studymod.seed_dir(Path(out) / STUDY, seed))
     cfg = runmod.read_config(run.path)[0]
     summary = run.summary
-    return run, RunSettings.from_config(cfg), summary, run_dockings(cfg, run, summary["mode"])
+    return run, cfg.settings, summary, run_dockings(cfg, run, summary["mode"])
 
 
 def finish_design(

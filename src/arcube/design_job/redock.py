@@ -13,7 +13,6 @@ from __future__ import annotations
 import shutil
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob
 from arcube.design_job.dockings import Docking, warm_starts
@@ -21,16 +20,17 @@ from arcube.design_job.outputs import PROGRAM
 from arcube.design_job.requirements import Requirement
 from arcube.model.robot import BuiltRobot
 from arcube.optimization.config import PatientPlan, own_settings
+from arcube.optimization.run_config import RunConfig
 from arcube.optimization.settings import RunSettings
 
 __all__ = ["docking_patient", "redock", "redock_budget"]
 
 
-def docking_patient(cfg: dict[str, Any], k: int) -> PatientPlan:
+def docking_patient(cfg: RunConfig, k: int) -> PatientPlan:
     """The patient of a run's config entry ``k`` (a docking of a design job): its name, its plan as the user gave it,
     and the settings that are its own (anatomy, envelope, ...)."""
-    entry = cfg["patients"][k]
-    spec = cfg["settings"]["trajectories"][entry.get("plan_index", k)]
+    entry = cfg.patients[k]
+    spec = cfg.trajectories[entry.get("plan_index", k)]
     own = {key: (tuple(v) if isinstance(v, list) else v) for key, v in own_settings(entry).items()}
     return PatientPlan(str(entry.get("name", f"patient_{k + 1}")), spec, **own)
 
@@ -47,7 +47,7 @@ def redock_budget(s: RunSettings) -> int:
 
 
 def redock(
-    cfg: dict[str, Any],
+    cfg: RunConfig,
     dockings: list[Docking],
     which: Sequence[int],
     folders: Sequence[Path],

@@ -3,9 +3,8 @@ resume, an in-memory run and a report)."""
 
 from __future__ import annotations
 
-from typing import Any
-
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,6 +15,9 @@ from arcube.evaluation.task import build_task
 from arcube.model.design import PARAM_NAMES
 from arcube.optimization.problem import DEFAULT_BOUNDS, FitnessModel, TaskData, VariableSpace
 from arcube.optimization.settings import RunSettings
+
+if TYPE_CHECKING:
+    from arcube.optimization.run_config import RunConfig
 
 __all__ = ["ANATOMY_FILES", "anatomy_file", "build_model", "check_engine", "load_run_anatomies", "stl_roundtrip"]
 
@@ -35,17 +37,17 @@ def envelope_file(i: int) -> str:
     return f"envelope_{i}.stl"
 
 
-def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ...] | None = None) -> tuple[Any, ...]:
+def run_envelopes(cfg: RunConfig, run_dir: Any = None, skins: tuple[Any, ...] | None = None) -> tuple[Any, ...]:
     """Per patient (or docking), the envelope of the whole patient (model §19.5) its config records (() without one);
     a skin mesh is read from the run folder, or given as ``skins`` (one mesh list per patient)."""
     import json
 
     from arcube.evaluation.envelope import Envelope
 
-    if not any("envelope" in p for p in cfg["patients"]):
+    if not any("envelope" in p for p in cfg.patients):
         return ()
     out = []
-    for i, p in enumerate(cfg["patients"]):
+    for i, p in enumerate(cfg.patients):
         record = json.loads(p["envelope"])
         skin: Any = ()
         if record.get("skin"):
@@ -64,11 +66,10 @@ def run_envelopes(cfg: dict[str, Any], run_dir: Any = None, skins: tuple[Any, ..
     return tuple(out)
 
 
-def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
+def load_run_anatomies(cfg: RunConfig, run_dir: Any) -> tuple[Any, ...]:
     """Per patient, the distance grids of the anatomy copied into the run folder (() without anatomy; None for a
     patient without one, in a cohort, model §19); the dockings of one plan share one file and one grid."""
-    s = cfg["settings"]
-    if not s.get("anatomy") and not any(p.get("anatomy") for p in cfg["patients"]):
+    if not cfg.settings.anatomy and not any(p.get("anatomy") for p in cfg.patients):
         return ()
     from pathlib import Path
 
@@ -79,8 +80,8 @@ def load_run_anatomies(cfg: dict[str, Any], run_dir: Any) -> tuple[Any, ...]:
         return ()
     out: list[Any] = []
     loaded: dict[str, Any] = {}
-    for i, p in enumerate(cfg["patients"]):
-        if not p.get("anatomy", s.get("anatomy")):
+    for i, p in enumerate(cfg.patients):
+        if not cfg.own(i, "anatomy"):
             out.append(None)
             continue
         name = p.get("anatomy_file", anatomy_file(i))
@@ -118,7 +119,7 @@ def stl_roundtrip(anatomy: Any) -> Any:
 
 
 def build_model(
-    cfg: dict[str, Any],
+    cfg: RunConfig,
     run_dir: Any = None,
     anatomies: tuple[Any, ...] | None = None,
     settings: RunSettings | None = None,
@@ -126,13 +127,12 @@ def build_model(
 ) -> FitnessModel:
     """The fitness model a config describes (the same for a new run and a resume); the anatomy is read
     from the run folder (None: not loaded, for validating a config), or given as ``anatomies``;
-    ``settings``: the config's settings when already read (:meth:`RunSettings.from_config`)."""
-    s = cfg["settings"]
-    rs = settings if settings is not None else RunSettings.from_config(cfg)
+    ``settings``: other settings than the config's (a docking's own)."""
+    rs = settings if settings is not None else cfg.settings
     mode = None if rs.mode == "free" else mode_signs(rs.mode)
     # configs written before model §13 have 23 parameters: the four additions are then 0
-    bounds = {**DEFAULT_BOUNDS, **{k: (float(v[0]), float(v[1])) for k, v in cfg["bounds"].items()}}
-    base = np.array([float(cfg["design"].get(n, 0.0)) for n in PARAM_NAMES])
+    bounds = {**DEFAULT_BOUNDS, **cfg.bounds}
+    base = np.array([float(cfg.design.get(n, 0.0)) for n in PARAM_NAMES])
     # configs written before --docking existed shared one placement among patients
     space = VariableSpace(
         base=base,
@@ -140,12 +140,12 @@ def build_model(
         bounds=bounds,
         setups=rs.setups,
         mode=mode,
-        patients=len(cfg["patients"]),
+        patients=len(cfg.patients),
         placement=rs.placement,
-        base_c_z=cfg["design"].get("c_z"),
+        base_c_z=cfg.design.get("c_z"),
     )
     tasks: list[TaskData] = []
-    for i, pat in enumerate(cfg["patients"]):
+    for i, pat in enumerate(cfg.patients):
         entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
         groups = (
             [("", np.ones(len(sides), bool))]
@@ -165,15 +165,15 @@ def build_model(
     return FitnessModel(
         space=space,
         tasks=tuple(tasks),
-        n_patients=len(cfg["patients"]),
+        n_patients=len(cfg.patients),
         options=rs.evaluation_options(),
-        engine=s["engine_resolved"],
+        engine=cfg.engine_resolved,
         aggregate=rs.aggregate,
         anatomies=load_run_anatomies(cfg, run_dir) if anatomies is None else anatomies,
         envelopes=run_envelopes(cfg, run_dir, skins),
         margin_deg=rs.margin,
         by_docking=rs.dockings is not None,
-        docking_plans=tuple((np.array(p["entry"], float), np.array(p["target"], float)) for p in cfg["patients"])
+        docking_plans=tuple((np.array(p["entry"], float), np.array(p["target"], float)) for p in cfg.patients)
         if rs.dockings is not None
         else (),
         objectives=rs.run_objectives,

@@ -22,13 +22,15 @@ import json
 import time
 from collections import deque
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes, atomic_write_text
-from arcube.optimization.settings import RunSettings
+
+if TYPE_CHECKING:
+    from arcube.optimization.run_config import RunConfig
 
 CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
 FORMAT_VERSION = 1
@@ -131,7 +133,7 @@ def _state_digest(state: dict[str, Any]) -> str:
 
 
 def load_checkpoint(
-    run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes
+    run_dir: Path, cfg: RunConfig, cfg_raw: bytes
 ) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
     """(state, replay entries); (None, []) when the run was killed before its first checkpoint."""
     path = run_dir / "checkpoint" / "state.json"
@@ -147,7 +149,7 @@ def load_checkpoint(
         or state.get("format_version") != FORMAT_VERSION
     ):
         raise InputError(f"{path}: not an arcube optimize checkpoint")
-    if state.get("run_id") != cfg["run_id"] or state.get("config_sha256") != _sha(cfg_raw):
+    if state.get("run_id") != cfg.run_id or state.get("config_sha256") != _sha(cfg_raw):
         raise InputError(
             f"{path}: checkpoint of another run or config (run_id/config.toml do not match); refusing to resume"
         )
@@ -166,7 +168,7 @@ def load_checkpoint(
                 f"{run_dir / 'history.csv'}: edited or corrupt (its first {state['generation']} rows do not match the checkpoint); refusing to resume"
             )
     entries: list[tuple[bytes, Batch]] = []
-    n_obj = len(RunSettings.from_table(cfg["settings"]).run_objectives)
+    n_obj = len(cfg.settings.run_objectives)
     try:
         for ch in state["chunks"]:
             f = path.parent / str(ch["file"])

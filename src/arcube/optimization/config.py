@@ -2,8 +2,8 @@
 
 :func:`build_config` takes the plans and a :class:`~arcube.optimization.settings.RunSettings`
 (or its fields as keywords), loads the trajectory sets and the start design, checks the anatomy
-can be read, and returns the config dict that :mod:`arcube.optimization.run` writes to
-``config.toml`` and runs.
+can be read, and returns the :class:`~arcube.optimization.run_config.RunConfig` that
+:mod:`arcube.optimization.run` runs (and writes to ``config.toml`` for a run folder).
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ from arcube.evaluation.envelope import resolve_envelope
 from arcube.evaluation.standoff import standoff_points
 from arcube.io import TrajectorySet, load_trajectories, select
 from arcube.model.design import Design
-from arcube.optimization import run as runmod
 from arcube.optimization.algorithms import make_termination
 from arcube.optimization.build import check_engine
+from arcube.optimization.folder import versions
+from arcube.optimization.run_config import RunConfig
 from arcube.optimization.settings import RunSettings
 from arcube.options import Options, validated
 
@@ -146,7 +147,7 @@ def build_config(
     workers: int = 1,
     dask: str | None = None,
     **fields: Any,
-) -> dict[str, Any]:
+) -> RunConfig:
     """The run's config for these plans (each a TrajectorySet or what ``load_trajectories`` reads).
 
     ``workers`` and ``dask`` say where the evaluations run (recorded, not part of the settings).
@@ -169,16 +170,21 @@ def build_config(
     design = Design.load(s.design_from)
     patients = _load_patients(trajectories, s)  # reads every anatomy: a bad file stops the run before its folder exists
     plans = [t.plan if isinstance(t, PatientPlan) else t for t in trajectories]
-    table = {
-        **s.to_table(),
-        "engine_resolved": engine_resolved,
-        "trajectories": [t.source if isinstance(t, TrajectorySet) else str(t) for t in plans],
-    }
-    cfg = runmod.new_run_config(table, s.all_bounds, design, patients, {"workers": workers, "dask": dask or ""})
+    sources = tuple(t.source if isinstance(t, TrajectorySet) else str(t) for t in plans)
+    start = design.to_dict()
     if design.c_z is not None:  # the start design's own z dyad (model §19.1): fixed parameters keep it
-        cfg["design"]["c_z"] = design.c_z
-    cfg["rerun"] = _rerun_command(s, table["trajectories"])
-    return cfg
+        start["c_z"] = design.c_z
+    return RunConfig(
+        settings=s,
+        patients=tuple(patients),
+        design=start,
+        bounds=s.all_bounds,
+        trajectories=sources,
+        engine_resolved=engine_resolved,
+        executor={"workers": workers, "dask": dask or ""},
+        versions=versions(),
+        rerun=_rerun_command(s, list(sources)),
+    )
 
 
 def _text(value: Any) -> str:

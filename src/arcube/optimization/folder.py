@@ -23,6 +23,7 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.optimization.build import build_model, check_engine
 from arcube.optimization.checkpoint import FORMAT_VERSION
+from arcube.optimization.run_config import RUN_FORMAT, RunConfig
 
 __all__ = [
     "RUN_FORMAT",
@@ -39,9 +40,6 @@ __all__ = [
     "to_toml",
     "versions",
 ]
-
-
-RUN_FORMAT = "arcube-optimize-run"
 
 
 def versions() -> dict[str, str]:
@@ -88,7 +86,9 @@ def to_toml(cfg: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
+def read_config(run_dir: Path) -> tuple[RunConfig, bytes]:
+    """(the run's config, config.toml's bytes) of a run folder; InputError naming the file when it is not one
+    or holds a bad setting."""
     path = run_dir / "config.toml"
     if not run_dir.is_dir():
         raise InputError(f"{run_dir}: no such run folder")
@@ -99,13 +99,20 @@ def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
         raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"{path}: unreadable config ({exc})") from None
+    return _validated(path, cfg), raw
+
+
+def _validated(path: Path, cfg: dict[str, Any]) -> RunConfig:
+    """The run config a config.toml's tables describe, checked as far as a run needs (its engine, its model);
+    InputError naming the file (and the [settings] key) otherwise."""
     if cfg.get("format") != RUN_FORMAT or cfg.get("format_version") != FORMAT_VERSION:
         raise InputError(
             f"{path}: not an arcube optimize config (format {cfg.get('format')!r} version {cfg.get('format_version')!r})"
         )
     try:
-        check_engine(cfg["settings"]["engine_resolved"])
-        build_model(cfg)
+        config = RunConfig.from_toml(cfg)
+        check_engine(config.engine_resolved)
+        build_model(config)
     except InputError as exc:  # a setting the file holds: name the file and its [settings] key, not RunSettings
         text = str(exc)
         if text.startswith("RunSettings."):
@@ -113,7 +120,7 @@ def read_config(run_dir: Path) -> tuple[dict[str, Any], bytes]:
         raise InputError(f"{path}: {text}") from None
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise InputError(f"{path}: incomplete or invalid config ({type(exc).__name__}: {exc})") from None
-    return cfg, raw
+    return config
 
 
 def placement_file(patient: int, setup: int = 0) -> str:
@@ -164,7 +171,7 @@ def is_study(path: Path) -> bool:
     return (Path(path) / "study.toml").is_file()
 
 
-def read_study(study_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+def read_study(study_dir: Path) -> tuple[dict[str, Any], RunConfig]:
     """(study.toml, base config) of a study folder; InputError when it is not one."""
     study_dir = Path(study_dir)
     if not study_dir.is_dir():
@@ -184,4 +191,4 @@ def read_study(study_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
     seeds = study.get("seeds")
     if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
         raise InputError(f"{path}: no seeds list")
-    return study, base
+    return study, _validated(study_dir / "base_config.toml", base)

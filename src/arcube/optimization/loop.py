@@ -16,7 +16,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,7 +25,10 @@ from arcube.optimization.algorithms import MULTI_OBJECTIVE, PENALTY_ONLY, make_a
 from arcube.optimization.lean import column
 from arcube.optimization.objectives import MAXIMIZED
 from arcube.optimization.problem import ArcubeProblem, FitnessModel
-from arcube.optimization.settings import RunSettings, table_placement
+from arcube.optimization.settings import RunSettings
+
+if TYPE_CHECKING:
+    from arcube.optimization.run_config import RunConfig
 
 __all__ = [
     "HISTORY_COLUMNS",
@@ -250,29 +253,29 @@ _EXTRA = ("moving_mass_kg", "lateral_error_wc_mm", "lateral_error_rms_mm", "tole
 
 
 def describe(
-    cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]
+    cfg: RunConfig, model: FitnessModel, algorithm: Any, info: dict[str, Any]
 ) -> tuple[dict[str, Any], list[np.ndarray], list[dict[str, Any]] | None]:
     """(summary, the best design of each slot ``(27,)``, the front's rows or None) of a finished run."""
     rep = model.report(pick_best(algorithm).X)
     designs = rep.pop("designs")
-    s = cfg["settings"]
+    s = cfg.settings
     summary: dict[str, Any] = {
         "feasible": rep["feasible"],
         "eta_G": rep["eta_G"],
         "dexterity_pct": rep["dexterity_pct"],
         "generations": info["generations"],
         "evaluations": info["evaluations"],
-        "seed": s["seed"],
+        "seed": s.seed,
         "wall_s": round(info["wall_s"], 3),
         "eval_s": round(info["eval_s"], 3),
         "stopped_by": info["stopped_by"],
-        "algorithm": s["algorithm"],
-        "population": s["population"],
-        "engine": s["engine_resolved"],
+        "algorithm": s.algorithm,
+        "population": s.population,
+        "engine": cfg.engine_resolved,
         "mode": rep["mode"],
-        "setups": s["setups"],
-        "aggregate": s["aggregate"],
-        "free": s["free"],
+        "setups": s.setups,
+        "aggregate": s.aggregate,
+        "free": list(s.free),
         "violation": rep["violation"],
         "margin_shortfall_rad": rep["margin_shortfall_rad"],
         "links_sum_mm": rep["links_sum_mm"],
@@ -287,16 +290,16 @@ def describe(
         **({"c_z": rep["c_z"]} if "c_z" in rep else {}),
         "objectives": list(model.objectives),
         "limits": [list(lim) for lim in model.limits],
-        "anatomy": [p.get("anatomy_source") for p in cfg["patients"]] if s.get("anatomy") else None,
+        "anatomy": [p.get("anatomy_source") for p in cfg.patients] if s.anatomy else None,
         "tasks": rep["tasks"],
         "points": model.n_points,
         "files": {},
         "resumed": info["resumed"],
-        "placement": table_placement(s),
-        "docking": table_placement(s),  # the field's name before 0.3, kept for one release
+        "placement": s.placement,
+        "docking": s.placement,  # the field's name before 0.3, kept for one release
     }
     front = None
-    if s["algorithm"] in MULTI_OBJECTIVE:
+    if s.algorithm in MULTI_OBJECTIVE:
         front = front_rows(model, algorithm)
-        summary["front_size"], summary["compactness"] = len(front), s["compactness"]
+        summary["front_size"], summary["compactness"] = len(front), s.compactness
     return summary, designs, front

@@ -22,7 +22,6 @@ import json
 import math
 import sys
 import time
-import uuid
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -56,8 +55,8 @@ from arcube.optimization.folder import (  # noqa: F401  (the folder's files, use
 )
 from arcube.optimization.executors import make_executor
 from arcube.optimization.problem import FitnessModel
+from arcube.optimization.run_config import RunConfig
 from arcube.optimization.run_results import OptimizeResult
-from arcube.optimization.settings import RunSettings
 
 
 # ----------------------------------------------------------------------------- config.toml
@@ -74,7 +73,7 @@ def reset_history(path: Path, keep_rows: int) -> None:
 
 
 def write_outputs(
-    run_dir: Path, cfg: dict[str, Any], model: FitnessModel, algorithm: Any, info: dict[str, Any]
+    run_dir: Path, cfg: RunConfig, model: FitnessModel, algorithm: Any, info: dict[str, Any]
 ) -> dict[str, Any]:
     """Write the best design(s), pareto.csv (multi-objective) and summary.json; returns the summary."""
     summary, designs, front = describe(cfg, model, algorithm, info)
@@ -111,7 +110,7 @@ def run_design(vector: np.ndarray, summary: dict[str, Any]) -> Design:
 
 
 def write_placements(
-    run_dir: Path, cfg: dict[str, Any], model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None
+    run_dir: Path, cfg: RunConfig, model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None
 ) -> dict[str, str]:
     """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
     design (placed for the first patient) with a ``placements`` list: each patient's m and mounting.
@@ -119,7 +118,7 @@ def write_placements(
     space, placements, files = model.space, [], {"best_design": "best_design.json"}
     own = [n for n in PARAM_NAMES if n in (*space.docked, *space.free_m)] or ["m_x", "m_y", "m_z"]
     extra = {} if c_z is None else {"c_z": c_z}
-    for p, patient in enumerate(cfg["patients"]):
+    for p, patient in enumerate(cfg.patients):
         for setup in range(space.setups):
             values = Design.from_vector(designs[space.slot(p, setup)]).to_dict()
             name = placement_file(p, setup)
@@ -138,7 +137,7 @@ def write_placements(
 
 
 # ----------------------------------------------------------------------------- the run loop
-def execute(run_dir: Path, cfg: dict[str, Any], cfg_raw: bytes, **kwargs: Any) -> dict[str, Any]:
+def execute(run_dir: Path, cfg: RunConfig, cfg_raw: bytes, **kwargs: Any) -> dict[str, Any]:
     """Run (or resume) the optimization described by ``cfg`` in ``run_dir`` holding the folder's lock
     (:mod:`arcube.optimization.lock`); returns the summary. See :func:`_execute` for the arguments."""
     lock = acquire(run_dir)
@@ -188,7 +187,7 @@ class _Checkpoint(Observer):
 
 def _execute(
     run_dir: Path,
-    cfg: dict[str, Any],
+    cfg: RunConfig,
     cfg_raw: bytes,
     *,
     resume: bool = False,
@@ -200,13 +199,13 @@ def _execute(
 
     ``on_generation`` gets each new generation's history row and timing (:class:`~arcube.optimization.loop.Observer`).
     """
-    settings = RunSettings.from_config(cfg)
+    settings = cfg.settings
     state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
     if state is None:
         state = {
             "format": CHECKPOINT_FORMAT,
             "format_version": FORMAT_VERSION,
-            "run_id": cfg["run_id"],
+            "run_id": cfg.run_id,
             "config_sha256": _sha(cfg_raw),
             "generation": 0,
             "elapsed_s": 0.0,
@@ -219,7 +218,7 @@ def _execute(
     state["sessions"] = int(state.get("sessions", 0)) + 1
     reset_history(run_dir / "history.csv", done_gen)
     model = build_model(cfg, run_dir, settings=settings)
-    ex = cfg.get("executor", {})
+    ex = cfg.executor
     executor = make_executor(
         model,
         workers if workers is not None else int(ex.get("workers", 1)),
@@ -267,18 +266,18 @@ class _Rows(Observer):
 
 
 def run_in_memory(
-    cfg: dict[str, Any], anatomies: tuple[Any, ...], on_generation: Callable[[dict[str, Any]], None] | None = None
+    cfg: RunConfig, anatomies: tuple[Any, ...], on_generation: Callable[[dict[str, Any]], None] | None = None
 ) -> OptimizeResult:
     """Run ``cfg`` with nothing written (``anatomies``: each patient's distance grids, as the run
     folder's ``anatomy.stl`` gives them): the same designs, summary and history as a run folder's."""
-    settings = RunSettings.from_config(cfg)
+    settings = cfg.settings
     skins = None
-    if any(json.loads(p["envelope"]).get("skin") for p in cfg["patients"] if "envelope" in p):
+    if any(json.loads(p["envelope"]).get("skin") for p in cfg.patients if "envelope" in p):
         from arcube.io.meshes import read_meshes
 
-        skins = tuple(tuple(read_meshes(list(settings.envelope), settings.anatomy_frame)) for _ in cfg["patients"])
+        skins = tuple(tuple(read_meshes(list(settings.envelope), settings.anatomy_frame)) for _ in cfg.patients)
     model = build_model(cfg, anatomies=anatomies, settings=settings, skins=skins)
-    ex = cfg["executor"]
+    ex = cfg.executor
     executor = make_executor(model, int(ex.get("workers", 1)), ex.get("dask") or None)
     log, rows = EvalLog(executor, [], keep=False), _Rows()
     t0 = time.perf_counter()
@@ -302,37 +301,16 @@ def run_in_memory(
     )
 
 
-def new_run_config(
-    settings: dict[str, Any],
-    bounds: dict[str, tuple[float, float]],
-    design: Design,
-    patients: list[dict[str, Any]],
-    executor: dict[str, Any],
-) -> dict[str, Any]:
-    return {
-        "format": RUN_FORMAT,
-        "format_version": FORMAT_VERSION,
-        "run_id": uuid.uuid4().hex,
-        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "command": " ".join(sys.argv),
-        "versions": versions(),
-        "settings": settings,
-        "bounds": {k: [float(lo), float(hi)] for k, (lo, hi) in bounds.items()},
-        "design": design.to_dict(),
-        "executor": executor,
-        "patients": patients,
-    }
-
-
-def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
-    """Copy each patient's anatomy into the run folder (patient frame), so that resume and report need nothing else.
-    A patient's own anatomy (a cohort's, model §19) is that entry's; the dockings of one plan share one file."""
+def write_anatomy(run_dir: Path, cfg: RunConfig) -> RunConfig:
+    """Copy each patient's anatomy into the run folder (patient frame), so that resume and report need nothing else;
+    returns the config with each docking's record naming its file. A patient's own anatomy (a cohort's, model §19) is
+    that entry's; the dockings of one plan share one file."""
     from arcube.evaluation.anatomy import resolve_anatomy
 
-    s = cfg["settings"]
     written: dict[int, tuple[str, str]] = {}
-    for i, p in enumerate(cfg["patients"]):
-        spec_anatomy = p.get("anatomy", s.get("anatomy"))
+    patients = [cfg.patient(i) for i in range(len(cfg.patients))]
+    for i, p in enumerate(patients):
+        spec_anatomy = cfg.own(i, "anatomy")
         if not spec_anatomy:
             continue
         plan = p.get("plan_index", i)
@@ -340,34 +318,32 @@ def write_anatomy(run_dir: Path, cfg: dict[str, Any]) -> None:
             p["anatomy_file"], p["anatomy_source"] = written[plan]
             continue
         anatomy = resolve_anatomy(
-            spec_anatomy,
-            p.get("anatomy_frame", s.get("anatomy_frame", "LPS")),
-            s["trajectories"][plan],
-            segments=p.get("segments", s.get("segments")),
+            list(spec_anatomy),
+            cfg.own(i, "anatomy_frame"),
+            cfg.trajectories[plan],
+            segments=cfg.own(i, "segments"),
         )
         anatomy.write_stl(run_dir / anatomy_file(i))
         p["anatomy_source"] = anatomy.source
         if "plan_index" in p:
             p["anatomy_file"] = anatomy_file(i)
             written[plan] = (p["anatomy_file"], anatomy.source)
+    return cfg.with_patients(patients)
 
 
-def write_envelopes(run_dir: Path, cfg: dict[str, Any]) -> None:
+def write_envelopes(run_dir: Path, cfg: RunConfig) -> None:
     """Copy a skin-mesh envelope (model §19.5) into the run folder (patient frame), beside its record in config.toml."""
-    s = cfg["settings"]
-    if not any(json.loads(p["envelope"]).get("skin") for p in cfg["patients"] if "envelope" in p):
+    if not any(json.loads(p["envelope"]).get("skin") for p in cfg.patients if "envelope" in p):
         return
     from arcube.io.meshes import read_meshes, write_stl
 
-    for i, p in enumerate(cfg["patients"]):
+    for i, p in enumerate(cfg.patients):
         if "envelope" in p and json.loads(p["envelope"]).get("skin"):
-            meshes = read_meshes(
-                list(p.get("envelope_spec", s["envelope"])), p.get("anatomy_frame", s.get("anatomy_frame", "LPS"))
-            )
+            meshes = read_meshes(list(cfg.own(i, "envelope")), cfg.own(i, "anatomy_frame"))
             write_stl(meshes, run_dir / envelope_file(i))
 
 
-def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
+def start(run_dir: Path, cfg: RunConfig, **kwargs: Any) -> dict[str, Any]:
     """Create the run folder (anatomy files, config.toml, empty history.csv) and run.
 
     The folder's lock is taken before anything is written: of two runs started into one folder at
@@ -383,7 +359,7 @@ def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
         if any(p.name != LOCK_FILE for p in run_dir.iterdir()):  # another run started and finished here meanwhile
             raise InputError.of("out", f"{run_dir}: exists and is not an empty folder (another run wrote it)")
         try:
-            return _execute(run_dir, cfg, prepare(run_dir, cfg), **kwargs)
+            return _execute(run_dir, *prepare(run_dir, cfg), **kwargs)
         except Exception:
             if not (run_dir / "checkpoint").exists():
                 remove_folder(run_dir, created)
@@ -392,16 +368,17 @@ def start(run_dir: Path, cfg: dict[str, Any], **kwargs: Any) -> dict[str, Any]:
         release(lock)
 
 
-def prepare(run_dir: Path, cfg: dict[str, Any]) -> bytes:
-    """Write a new run folder's anatomy files and config.toml (nothing run yet); returns the config's bytes.
+def prepare(run_dir: Path, cfg: RunConfig) -> tuple[RunConfig, bytes]:
+    """Write a new run folder's anatomy files and config.toml (nothing run yet); returns the config as the folder
+    holds it (its dockings naming their anatomy files) and config.toml's bytes.
 
     :func:`resume` runs such a folder from its first generation (it has no checkpoint)."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    write_anatomy(run_dir, cfg)
+    cfg = write_anatomy(run_dir, cfg)
     write_envelopes(run_dir, cfg)
-    text = to_toml(cfg)
+    text = to_toml(cfg.to_toml())
     atomic_write_text(run_dir / "config.toml", text)
-    return text.encode("utf-8")
+    return cfg, text.encode("utf-8")
 
 
 def resume(run_dir: Path, **kwargs: Any) -> dict[str, Any] | None:
@@ -409,7 +386,7 @@ def resume(run_dir: Path, **kwargs: Any) -> dict[str, Any] | None:
     cfg, raw = read_config(run_dir)
     if is_finished(run_dir):
         return None
-    old = cfg.get("versions", {})
+    old = cfg.versions
     now = versions()
     changed = [f"{k} {old[k]} -> {now.get(k)}" for k in ("pymoo", "numpy", "cma") if k in old and old[k] != now.get(k)]
     if changed:

@@ -18,7 +18,7 @@ from arcube.io.inputs import parse_decimal
 from arcube.io.tables import read_table
 from arcube.model.design import Design
 from arcube.optimization.folder import placement_file, read_config, read_study, seed_dir
-from arcube.optimization.settings import table_placement
+from arcube.optimization.run_config import RunConfig
 
 __all__ = ["OptimizeResult", "Study"]
 
@@ -42,7 +42,7 @@ class OptimizeResult:
         designs: list[Design] | None = None,
         history: dict[str, np.ndarray] | None = None,
         pareto: dict[str, np.ndarray] | None = None,
-        config: dict[str, Any] | None = None,
+        config: RunConfig | None = None,
     ) -> None:
         if path is None and (summary is None or designs is None or history is None or config is None):
             raise InputError.of("path", "is required for a run that is not held in memory")
@@ -85,8 +85,8 @@ class OptimizeResult:
         if self._held is not None:
             return self._held[1]
         cfg = read_config(self.path)[0]
-        n = len(cfg["patients"])
-        if table_placement(cfg["settings"]) == "per-patient" and n > 1:
+        n = len(cfg.patients)
+        if cfg.settings.placement == "per-patient" and n > 1:
             return [Design.from_json(self.path / placement_file(p)) for p in range(n)]  # each must exist
         return [Design.from_json(self.path / "best_design.json") for _ in range(n)]
 
@@ -113,8 +113,8 @@ class OptimizeResult:
         return _read_columns(path) if path.exists() else None
 
     @property
-    def config(self) -> dict[str, Any]:
-        """What ``config.toml`` holds (would hold, in memory)."""
+    def config(self) -> RunConfig:
+        """The run's configuration (what ``config.toml`` holds, or would hold in memory: :meth:`RunConfig.to_toml`)."""
         if self._held is not None:
             return self._held[4]
         return read_config(self.path)[0]

@@ -21,13 +21,11 @@ interruption, on the order the seeds ran in, or on how they were spread over pro
 
 from __future__ import annotations
 
-import copy
 import csv
 import io
 import json
 import math
 import os
-import re
 import statistics
 import sys
 import time
@@ -41,23 +39,17 @@ from arcube.io.files import atomic_write_text
 from arcube.optimization import run as runmod
 from arcube.optimization.folder import STUDY_FORMAT, STUDY_VERSION, is_study, read_study, seed_dir  # noqa: F401  (the folder's files)
 from arcube.optimization.objectives import MAXIMIZED, summary_value
-from arcube.optimization.settings import RunSettings
+from arcube.optimization.run_config import RunConfig
 
 __all__ = ["is_study", "read_study", "resume_study", "run_summary", "seed_dir", "start_study", "study_rows"]
 
 
-def seed_config(base: dict[str, Any], seed: int) -> dict[str, Any]:
+def seed_config(base: RunConfig, seed: int) -> RunConfig:
     """The run config of one seed: the study's base config with this seed and its own run id."""
-    cfg = copy.deepcopy(base)
-    cfg["settings"]["seed"] = int(seed)
-    cfg["run_id"] = uuid.uuid4().hex
-    if "rerun" in cfg:
-        flag = RunSettings.flag("seed")
-        cfg["rerun"] = re.sub(rf"{flag} \d+", f"{flag} {int(seed)}", cfg["rerun"])
-    return cfg
+    return base.with_seed(seed)
 
 
-def _prepare_seeds(study_dir: Path, base: dict[str, Any], seeds: list[int]) -> None:
+def _prepare_seeds(study_dir: Path, base: RunConfig, seeds: list[int]) -> None:
     """Write the run folder of every seed that has none yet (config.toml and anatomy, nothing run)."""
     for seed in seeds:
         d = seed_dir(study_dir, seed)
@@ -67,7 +59,7 @@ def _prepare_seeds(study_dir: Path, base: dict[str, Any], seeds: list[int]) -> N
 
 def start_study(
     study_dir: Path,
-    base: dict[str, Any],
+    base: RunConfig,
     seeds: list[int],
     *,
     workers: int = 1,
@@ -96,7 +88,7 @@ def start_study(
     created = not study_dir.exists()
     try:
         study_dir.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(study_dir / "base_config.toml", runmod.to_toml(base))
+        atomic_write_text(study_dir / "base_config.toml", runmod.to_toml(base.to_toml()))
         study = {
             "format": STUDY_FORMAT,
             "format_version": STUDY_VERSION,

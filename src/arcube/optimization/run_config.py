@@ -1,0 +1,168 @@
+"""One run's configuration as one frozen object: :class:`RunConfig`.
+
+What an optimization run is (its settings, the dockings it optimizes over, the start design, the bounds)
+and what records it (run id, versions, the command that reruns it). The optimizer, resume, the study,
+the design job and the reports take this object; ``config.toml`` is written from it and read into it
+here and only here (:meth:`RunConfig.to_toml`, :meth:`RunConfig.from_toml`), so an in-memory run
+builds no table at all. A ``config.toml`` of an earlier version reads into the same object
+(:meth:`~arcube.optimization.settings.RunSettings.from_table` maps its old keys and values).
+
+```python
+from arcube.optimization.config import build_config
+cfg = build_config(["reference"], generations=3, seed=1)
+cfg.settings.seed, len(cfg.patients), cfg.bounds["d_x"]      # 1, 1, (lo, hi) in mm
+```
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from arcube.optimization.checkpoint import FORMAT_VERSION
+from arcube.optimization.settings import RunSettings
+
+__all__ = ["RUN_FORMAT", "RunConfig"]
+
+RUN_FORMAT = "arcube-optimize-run"
+"""config.toml's ``format``."""
+
+
+def _frozen(value: Any) -> Any:
+    """``value`` with every dict read-only and every list a tuple (a config's records cannot be changed in place)."""
+    if isinstance(value, Mapping):
+        return MappingProxyType({k: _frozen(v) for k, v in value.items()})
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
+
+
+def _plain(value: Any) -> Any:
+    """The TOML-ready form of a frozen record: dicts and lists."""
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Everything one optimization run needs and records, read-only.
+
+    ``patients`` holds one record per docking (model §19.1: a patient, or one side of one): its plan's
+    ``source``, the trajectories' ``ids``/``levels``/``sides``, their ``entry``/``target`` points (mm,
+    patient frame, shape (n, 3) as nested tuples) and, where set, its ``name``, ``side``, ``plan_index``,
+    its own settings (``anatomy``, ``anatomy_frame``, ``segments``, ``envelope_spec``, ``table_z``), the
+    ``standoff`` points of model §17.1, the placed ``envelope`` record of 19.5 (JSON text) and the
+    anatomy file the run folder holds (``anatomy_file``, ``anatomy_source``).
+    """
+
+    settings: RunSettings
+    """The run's settings (its seed is set: :func:`~arcube.optimization.config.build_config` draws one)."""
+    patients: tuple[Mapping[str, Any], ...]
+    """One read-only record per docking (above)."""
+    design: Mapping[str, float]
+    """The start design's parameters (mm, rad; model §13), with its ``c_z`` when it has one (19.1)."""
+    bounds: Mapping[str, tuple[float, float]]
+    """Every parameter's search bounds (lo, hi) as the run searches them."""
+    trajectories: tuple[str, ...]
+    """The plans as given (files, folders, ``reference``), one per patient."""
+    engine_resolved: str
+    """The evaluation engine found (``numba`` or ``numpy``)."""
+    executor: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({"workers": 1, "dask": ""}))
+    """Where the evaluations run (``workers``, ``dask``): recorded, not part of the result."""
+    run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+    created: str = field(default_factory=lambda: time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+    command: str = field(default_factory=lambda: " ".join(sys.argv))
+    versions: Mapping[str, str] = field(default_factory=dict)
+    """Python's and the numerical packages' versions at the start."""
+    rerun: str | None = None
+    """The command line that reruns this run."""
+
+    def __post_init__(self) -> None:
+        for name in ("design", "bounds", "executor", "versions"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        object.__setattr__(self, "patients", tuple(_frozen(p) for p in self.patients))
+        object.__setattr__(self, "trajectories", tuple(self.trajectories))
+
+    def replace(self, **changes: Any) -> RunConfig:
+        """A copy with ``changes`` (fields by name)."""
+        return dataclasses.replace(self, **changes)
+
+    def with_seed(self, seed: int) -> RunConfig:
+        """This run with another seed and its own run id (a study's seed, model-wise the same run)."""
+        import re
+
+        rerun = self.rerun
+        if rerun is not None:
+            flag = RunSettings.flag("seed")
+            rerun = re.sub(rf"{flag} \d+", f"{flag} {int(seed)}", rerun)
+        return self.replace(settings=self.settings.replace(seed=int(seed)), run_id=uuid.uuid4().hex, rerun=rerun)
+
+    def with_patients(self, patients: list[dict[str, Any]]) -> RunConfig:
+        """A copy with these docking records (as a run folder's files complete them)."""
+        return self.replace(patients=tuple(patients))
+
+    def patient(self, i: int) -> dict[str, Any]:
+        """Docking ``i``'s record as a plain, changeable dict."""
+        return _plain(self.patients[i])
+
+    def own(self, i: int, name: str) -> Any:
+        """Docking ``i``'s own value of a per-patient setting (``anatomy``, ``anatomy_frame``, ``segments``,
+        ``table_z``; the envelope's spec is ``envelope_spec``), else the run's."""
+        p = self.patients[i]
+        key = "envelope_spec" if name == "envelope" else name
+        return p[key] if key in p else getattr(self.settings, name)
+
+    # ------------------------------------------------------------------ the run-folder edge
+    def to_toml(self) -> dict[str, Any]:
+        """config.toml's tables (what :func:`arcube.optimization.folder.to_toml` writes), in the order every
+        earlier run wrote them."""
+        table = {
+            "format": RUN_FORMAT,
+            "format_version": FORMAT_VERSION,
+            "run_id": self.run_id,
+            "created": self.created,
+            "command": self.command,
+            "versions": dict(self.versions),
+            "settings": {
+                **self.settings.to_table(),
+                "engine_resolved": self.engine_resolved,
+                "trajectories": list(self.trajectories),
+            },
+            "bounds": {k: [float(lo), float(hi)] for k, (lo, hi) in self.bounds.items()},
+            "design": dict(self.design),
+            "executor": dict(self.executor),
+            "patients": [_plain(p) for p in self.patients],
+        }
+        if self.rerun is not None:
+            table["rerun"] = self.rerun
+        return table
+
+    @classmethod
+    def from_toml(cls, table: Mapping[str, Any]) -> RunConfig:
+        """The config a config.toml's tables describe (of this version or an earlier one); pydantic's
+        errors and KeyError/TypeError/ValueError on a malformed table (the reader names the file)."""
+        settings_table = table["settings"]
+        bounds = {k: (float(v[0]), float(v[1])) for k, v in (table.get("bounds") or {}).items()}
+        return cls(
+            settings=RunSettings.from_config(table),
+            patients=tuple(table["patients"]),
+            design=dict(table.get("design") or {}),
+            bounds=bounds,
+            trajectories=tuple(str(t) for t in settings_table.get("trajectories", ())),
+            engine_resolved=str(settings_table["engine_resolved"]),
+            executor=dict(table.get("executor") or {}),
+            run_id=str(table["run_id"]),
+            created=str(table.get("created", "")),
+            command=str(table.get("command", "")),
+            versions=dict(table.get("versions") or {}),
+            rerun=table.get("rerun"),
+        )

@@ -1,0 +1,76 @@
+"""House II: a run's configuration is one frozen object (RunConfig); config.toml is only its edge."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import arcube
+from arcube.optimization import run as runmod
+from arcube.optimization.config import build_config
+from arcube.optimization.folder import read_config
+from arcube.optimization.run_config import RunConfig
+from arcube.optimization.settings import RunSettings
+
+SMALL = {"population": 8, "generations": 2, "points": 3, "free": "m_x,m_y,m_z", "seed": 5}
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {},
+        {"placement": "per-patient", "aggregate": "max", "thrust": 25.0, "maxima": {"torque": 2.0}},
+        {"setups": 2, "side": None, "maxima": {"mass": 9.0, "links": 900.0}, "self_clearance": 2.0, "m_motor": 2.5},
+        {"free": "m_x,m_y,m_z,c_z", "guards": True, "tolerance_class": "f", "ftol": 0.0},
+    ],
+)
+def test_the_config_survives_its_file(fields: dict, tmp_path: Path) -> None:
+    """Written to config.toml and read back, the config is the same object, and writes the same tables again."""
+    plans = ["reference", "reference"] if fields.get("placement") else ["reference"]
+    cfg = build_config(plans, **{**SMALL, **fields})
+    table = cfg.to_toml()
+    back = RunConfig.from_toml(table)
+    assert back == cfg and back.to_toml() == table
+    cfg2, raw = runmod.prepare(tmp_path / "run", cfg)
+    assert cfg2 == cfg  # no anatomy: the folder adds nothing to the dockings' records
+    read, raw_again = read_config(tmp_path / "run")
+    assert read == cfg and raw_again == raw
+
+
+def test_an_in_memory_run_writes_no_table(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """The optimizer takes the object: with config.toml's writers broken, an in-memory run still runs, to the
+    same design as a run folder's (which writes them)."""
+    folder = arcube.optimize("reference", out=tmp_path / "run", **SMALL)
+
+    def refuse(*_: object) -> None:
+        raise AssertionError("an in-memory run built config.toml's tables")
+
+    monkeypatch.setattr(RunSettings, "to_table", refuse)
+    monkeypatch.setattr(RunConfig, "to_toml", refuse)
+    memory = arcube.optimize("reference", **SMALL)
+    assert np.array_equal(memory.best_design.to_vector(), folder.best_design.to_vector())
+    assert isinstance(memory.config, RunConfig) and memory.config.settings.seed == SMALL["seed"]
+
+
+def test_the_config_cannot_be_changed_in_place() -> None:
+    cfg = build_config(["reference"], **SMALL)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.settings = RunSettings()  # type: ignore[misc]
+    with pytest.raises(TypeError):
+        cfg.patients[0]["ids"] = ["1"]  # type: ignore[index]
+    with pytest.raises(TypeError):
+        cfg.design["d_x"] = 1.0  # type: ignore[index]
+    assert cfg.with_seed(7).settings.seed == 7 and cfg.settings.seed == 5
+    assert cfg.with_seed(7).run_id != cfg.run_id and "--seed 7 " in cfg.with_seed(7).rerun
+
+
+def test_a_config_of_0_2_reads_into_todays_names() -> None:
+    """tests/data/run_0_2_killed/config.toml spells ``tolerance`` and ``aggregate = "worst"`` (arcube 0.2)."""
+    cfg, _ = read_config(DATA / "run_0_2_killed")
+    assert cfg.settings.ftol == 0.0 and cfg.settings.aggregate == "max" and cfg.settings.seed == 1
+    assert cfg.trajectories == ("reference",) and cfg.engine_resolved == "numpy"
+    assert cfg.to_toml()["settings"]["ftol"] == 0.0 and "tolerance" not in cfg.to_toml()["settings"]
