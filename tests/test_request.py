@@ -48,3 +48,33 @@ def test_which_c_z_a_request_evaluates_with() -> None:
     assert with_design_c_z(Options(), own).guards.c_z == 300.0  # the design's own link
     assert with_design_c_z(Options().replace(c_z=250.0), own).guards.c_z == 250.0  # an explicit option wins
     assert with_design_c_z(Options(), plain).guards.c_z is None  # neither: d_z, decided by the model
+
+
+def test_one_request_asked_of_evaluate_joints_program_and_the_explorer_is_their_keywords() -> None:
+    """A public arcube.Request given as ``design`` is the same question as its fields given as keywords."""
+    import arcube
+    from arcube.explorer import live_model
+
+    opts = Options().replace(thrust=25.0)
+    fields = {"side": "R", "levels": "C3-C5", "mode": "+,+,-,+", "points": 7, "options": opts}
+    req = arcube.Request(ROBOT, "reference", **fields)
+    a, b = arcube.evaluate(req), arcube.evaluate(ROBOT, "reference", **fields)
+    assert a.summary == b.summary
+    for name in ("reachable", "eta_L", "lateral_error_mm"):
+        np.testing.assert_array_equal(getattr(a.points, name), getattr(b.points, name))
+    ja, jb = arcube.joints(req, speed=2.0), arcube.joints(ROBOT, "reference", speed=2.0, **fields)
+    assert ja.to_csv() == jb.to_csv() and np.isfinite(ja.q_deg).any()
+    plan_fields = {k: v for k, v in fields.items() if k != "points"}
+    pa = arcube.program(arcube.Request(ROBOT, "reference", **plan_fields), seed=1)
+    pb = arcube.program(ROBOT, "reference", seed=1, **plan_fields)
+    assert pa.to_csv() == pb.to_csv()
+    la, lb = live_model(req), live_model(ROBOT, "reference", **fields)
+    assert la.points == lb.points == 7 and la.plan.ids == lb.plan.ids and np.array_equal(la.mode, lb.mode)
+
+
+@pytest.mark.parametrize("keyword", [{"points": 12}, {"side": "L"}, {"anatomy": "default"}, {"options": Options()}])
+def test_a_request_and_a_keyword_it_holds_are_refused_together(keyword: dict) -> None:
+    import arcube
+
+    with pytest.raises(InputError, match=rf"^{next(iter(keyword))} is the request's: set it on the arcube.Request"):
+        arcube.evaluate(arcube.Request("paper", "reference", side="R"), **keyword)

@@ -29,24 +29,11 @@ __version__ = "0.2.0"
 _caches.configure()
 
 _SOURCES: dict[str, str] = {
+    **dict.fromkeys(("OptimizeResult", "Planner", "Program", "ProgramLimits", "Study"), "arcube.api"),
     **dict.fromkeys(
-        (
-            "OptimizeResult",
-            "Planner",
-            "Program",
-            "ProgramLimits",
-            "Study",
-            "design",
-            "evaluate",
-            "joints",
-            "optimize",
-            "program",
-            "resume",
-            "study",
-            "tolerance",
-        ),
-        "arcube.api",
+        ("design", "evaluate", "joints", "optimize", "program", "resume", "study", "tolerance"), "arcube.api"
     ),
+    "Request": "arcube.request",
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
     "InputError": "arcube.errors",
     "RunSettings": "arcube.optimization.settings",
@@ -101,6 +88,7 @@ if TYPE_CHECKING:
     from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options, Outputs
     from arcube.patients import generate_patient
     from arcube.report import write_report
+    from arcube.request import Request
 
 __all__ = [
     "GUARDED_OPTIONS",
@@ -123,6 +111,7 @@ __all__ = [
     "Planner",
     "Program",
     "ProgramLimits",
+    "Request",
     "RunSettings",
     "ToleranceResult",
     "ToleranceSettings",

@@ -33,6 +33,7 @@ from arcube.io.trajectories import TrajectorySet
 from arcube.model.design import Design
 from arcube.optimization.settings import RunSettings
 from arcube.options import Options, request_options
+from arcube.request import Request
 
 from arcube.design_job import DesignResult
 from arcube.motion import Planner, Program, ProgramLimits  # noqa: F401 (re-exported by arcube)
@@ -85,7 +86,9 @@ def evaluate(
     dexterity, clearances (14.3) and the drill-tip metrics (15).
 
     Args:
-        design: a :class:`Design`, a preset name (``"paper"``) or a design JSON path.
+        design: a :class:`Design`, a preset name (``"paper"``) or a design JSON path; or an :class:`arcube.Request`
+            (the design, plan, selection, anatomy, envelope, mode, points and options in one, for asking the same of
+            :func:`joints`, :func:`program` and :func:`arcube.explore` too; the keywords it holds then stay unset).
         plan: a :class:`TrajectorySet` or what :func:`arcube.load_trajectories` reads
             (CSV, Slicer ``.mrk.json`` file or folder, ``"reference"``).
         options: the :class:`arcube.Options` of the evaluation (guards, body, loads, masses); None:
@@ -112,25 +115,9 @@ def evaluate(
     Returns:
         An :class:`Evaluation` (``.summary``, ``.points``, ``.to_json()``, ``.to_dataframe()``).
     """
+    req = Request.of(locals(), evaluate)
     engine_resolved = engine_name(engine)
-    r = _request(
-        design,
-        plan,
-        options,
-        points,
-        mode,
-        guards,
-        side,
-        levels,
-        ids,
-        transform,
-        anatomy,
-        anatomy_frame,
-        changes,
-        segments,
-        envelope,
-        table_z,
-    )
+    r = _request(req, guards, changes)
     opts = r.options.replace(outputs=r.options.outputs.replace(clearances=True))
     return evaluate_design(
         r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy, envelope=r.envelope
@@ -149,31 +136,15 @@ class _Request(NamedTuple):
     envelope: Envelope | None
 
 
-def _request(
-    design: Any,
-    plan: Any,
-    options: Options | None,
-    points: Any,
-    mode: Any,
-    guards: bool,
-    side: Any,
-    levels: Any,
-    ids: Any,
-    transform: Any,
-    anatomy: Any,
-    anatomy_frame: str,
-    changes: dict[str, Any],
-    segments: Any = None,
-    envelope: Any = None,
-    table_z: Any = None,
-) -> _Request:
-    from arcube.request import Request, with_design_c_z
+def _request(req: Request, guards: bool, changes: dict[str, Any]) -> _Request:
+    """``req`` resolved (:meth:`Request.resolve`), its points and options checked before the slow anatomy (the options:
+    ``req.options``, else the paper's with the guards of model §8.2 when ``guards``, changed by ``changes``)."""
+    from arcube.request import with_design_c_z
 
-    req = Request(design, plan, side, levels, ids, transform, anatomy, anatomy_frame, segments, envelope, table_z, mode)
     own: dict[str, Any] = {}
 
     def before_anatomy(_: TrajectorySet) -> None:  # the request's own arguments, checked before the slow anatomy
-        own.update(n=checked_points(points), opts=request_options(options, guards, **changes))
+        own.update(n=checked_points(req.points), opts=request_options(req.options, guards, **changes))
 
     r = req.resolve(before_anatomy)
     n, opts = own["n"], with_design_c_z(own["opts"], r.design)
@@ -211,24 +182,10 @@ def joints(
     from arcube.evaluation.task import build_task
     from arcube.export.joints import joint_trajectory
 
+    req = Request.of(locals(), joints)
     if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0.0):
         raise InputError.of("speed", f"must be a finite positive number of mm/s, got {speed!r}")
-    r = _request(
-        design,
-        plan,
-        options,
-        points,
-        mode,
-        guards,
-        side,
-        levels,
-        ids,
-        transform,
-        anatomy,
-        anatomy_frame,
-        changes,
-        segments,
-    )
+    r = _request(req, guards, changes)
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
     return joint_trajectory(
         r.design, task, float(speed), r.signs, r.options, None if r.anatomy is None else r.anatomy.distance
@@ -295,7 +252,7 @@ def tolerance(
     return result
 
 
-def program(design: Any, plan: Any, out: PathLike | None = None, **kwargs: Any) -> Program:
+def program(design: Any, plan: Any = "reference", out: PathLike | None = None, **kwargs: Any) -> Program:
     """The drilling program of ``design`` for a plan (model §17): :func:`arcube.motion.program`, and
     with ``out`` its timeline ``program.png`` beside ``program.csv`` and ``program.json`` (the three
     written as one: all or none). Arguments: those of :func:`arcube.motion.program` (``options``,

@@ -11,11 +11,14 @@ their keywords and read the Resolved; what is their own (points, options, limits
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import inspect
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
+
+from arcube.errors import InputError
 
 __all__ = ["Request", "Resolved", "with_design_c_z"]
 
@@ -43,7 +46,14 @@ class Resolved:
 
 @dataclass(frozen=True)
 class Request:
-    """A design on a plan, as the caller gave them (see :func:`arcube.evaluate` for each field's forms)."""
+    """A design on a plan, as the caller gave them (see :func:`arcube.evaluate` for each field's forms).
+
+    ``arcube.evaluate``, ``joints``, ``program`` and ``explore`` take one in place of their ``design``, for the
+    same request asked of several commands::
+
+        req = arcube.Request("paper", "reference", side="R", anatomy="default")
+        arcube.evaluate(req).summary["reachable_pct"], arcube.joints(req, speed=2.0)
+    """
 
     design: Any = "paper"
     plan: Any = "reference"
@@ -57,6 +67,27 @@ class Request:
     envelope: Any = None
     table_z: float | None = None
     mode: Any = None
+    points: int = 30
+    """Samples per trajectory (model §9)."""
+    options: Any = None
+    """The :class:`arcube.Options` of the robot (None: the function's default)."""
+
+    @classmethod
+    def of(cls, arguments: Mapping[str, Any], function: Callable[..., Any]) -> Request:
+        """The request a keyword function was called with: ``arguments`` are its keywords (``locals()``), ``function``
+        itself (its defaults). A Request given as its ``design`` is that request; the function's other request
+        keywords must then keep their defaults (InputError naming the first that does not: it is the Request's)."""
+        names = [f.name for f in fields(cls) if f.name in arguments]
+        given = arguments.get("design")
+        if isinstance(given, Request):
+            defaults = inspect.signature(function).parameters
+            for name in names:
+                value, default = arguments[name], defaults[name].default if name in defaults else None
+                kept = value is default or (isinstance(value, (str, int, float)) and value == default)
+                if name != "design" and not kept:
+                    raise InputError.of(name, "is the request's: set it on the arcube.Request given as design")
+            return given
+        return cls(**{name: arguments[name] for name in names})
 
     def resolve(self, before_anatomy: Callable[[Any], None] | None = None) -> Resolved:
         """Load and check everything, in the order a user's mistakes are best reported: the design, the mode, the

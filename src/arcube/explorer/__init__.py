@@ -51,10 +51,12 @@ def live_model(
 
     from arcube.request import Request
 
-    n = checked_points(points)
-    req = Request(design, plan, side, levels, ids, None, anatomy, anatomy_frame, segments, envelope, table_z, mode)
+    req = Request.of(locals(), live_model)
+    n = checked_points(req.points)
     own: dict[str, Any] = {}
-    r = req.resolve(lambda _: own.update(opts=request_options(options, **changes)))  # model §19.5 as design checks it
+    r = req.resolve(
+        lambda _: own.update(opts=request_options(req.options, **changes))
+    )  # model §19.5 as design checks it
     radii = own["opts"].body.radii
     return LiveModel(
         r.design, r.plan, r.anatomy, mode=r.signs, points=n, radii=radii, guards=bool(guards), envelope=r.envelope
@@ -89,7 +91,8 @@ def explore(
     clearance, live figures against the requirements of ``arcube design``, save and polish.
 
     Args:
-        design: a :class:`~arcube.Design`, a preset name or a design JSON path.
+        design: a :class:`~arcube.Design`, a preset name or a design JSON path; or an :class:`arcube.Request`
+            (its keywords here then stay unset).
         plan: a :class:`~arcube.TrajectorySet` or what :func:`arcube.load_trajectories` reads; ``side``,
             ``levels``, ``ids`` keep some of its trajectories.
         anatomy: ``"default"``, mesh files (in ``anatomy_frame``), an Anatomy, or None.

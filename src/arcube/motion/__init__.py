@@ -46,7 +46,7 @@ def _limits(limits: ProgramLimits | None, changes: dict[str, Any]) -> ProgramLim
 
 def program(
     design: Any,
-    plan: Any,
+    plan: Any = "reference",
     out: str | os.PathLike[str] | None = None,
     *,
     options: Options | None = None,
@@ -73,7 +73,8 @@ def program(
     """The drilling program of ``design`` for a plan (model §17).
 
     Args:
-        design: a :class:`~arcube.Design`, a preset name or a design JSON path.
+        design: a :class:`~arcube.Design`, a preset name or a design JSON path; or an :class:`arcube.Request`
+            (design, plan, selection, anatomy, envelope, mode and options in one; its keywords here then stay unset).
         plan: a :class:`~arcube.io.TrajectorySet`, or what ``--trajectories`` takes (CSV,
             Slicer markups, ``"reference"``), subset by ``side``, ``levels``, ``ids`` (and ``transform``).
         out: a folder for ``program.csv`` and ``program.json`` (created); None writes nothing.
@@ -113,16 +114,15 @@ def program(
     from arcube.motion.output import prepare_folder, remove_folder
     from arcube.motion.rows import check_rows
     from arcube.options import request_options
+    from arcube.request import Request, with_design_c_z
 
+    req = Request.of(locals(), program)
     limit_changes = {ProgramLimits.field_of(k): changes.pop(k) for k in list(changes) if ProgramLimits.field_of(k)}
     lim = _limits(limits, limit_changes)
-    opts = request_options(options, **changes)
+    opts = request_options(req.options, **changes)
     engine = engine_name(engine)
     if order not in ORDERS:
         raise InputError.of("order", f"must be one of {', '.join(ORDERS)}, got {order!r}")
-    from arcube.request import Request, with_design_c_z
-
-    req = Request(design, plan, side, levels, ids, transform, anatomy, anatomy_frame, segments, envelope, table_z, mode)
     own: dict[str, Any] = {}
 
     def before_anatomy(ts: TrajectorySet) -> None:  # before the anatomy, the planning and any folder

@@ -16,6 +16,7 @@ mapping between the typed settings and the file's keys lives here and nowhere el
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
@@ -40,7 +41,7 @@ from arcube.optimization.objectives import (
     needs_tip_metrics,
 )
 from arcube.patients.settings import Segments
-from arcube.options import FLAT, GUARDED_OPTIONS, Masses, Options, Settings, route_flat
+from arcube.options import FLAT, GUARDED_OPTIONS, Options, Settings, route_flat
 
 __all__ = [
     "DEFAULT_BOUNDS",
@@ -325,72 +326,24 @@ class RunSettings(Settings):
 
     # ------------------------------------------------------------------ config.toml's [settings] table
     def to_table(self) -> dict[str, Any]:
-        """The flat ``[settings]`` table of config.toml (keys as every earlier run wrote them; a
-        guard of 8.2 set one by one adds its own key)."""
-        g, b, ld = self.options.guards, self.options.body, self.options.loads
-        table: dict[str, Any] = {
-            "algorithm": self.algorithm,
-            "population": self.population,
-            "generations": self.generations,
-            "ftol": self.ftol,
-            "period": self.period,
-            "points": self.points,
-            "mode": self.mode,
-            "setups": self.setups,
-            "guards": self.guards,
-            "margin": self.margin,
-            "seed": self.seed,
-            "engine": self.engine,
-            "aggregate": self.aggregate,
-            "compactness": self.compactness,
-            "checkpoint_every": self.checkpoint_every,
-            "eliminate_duplicates": self.eliminate_duplicates,
-            "design_from": self.design_from,
-            "free": list(self.free),
-            "side": self.side,
-            "levels": self.levels,
-            "ids": self.ids,
-            "transform": self.transform,
-            "anatomy": list(self.anatomy),
-            "anatomy_frame": self.anatomy_frame,
-            "clearance": g.clearance_mm,
-            "self_clearance": g.self_clearance_mm,
-            "link_radius": b.link_radius,
-            "actuator_radius": b.actuator_radius,
-            "motor_radius": b.motor_radius,
-            "motor_length": b.motor_length,
-            "objectives": list(self.objectives),
-            "limits": self.limits,
-            "encoder_deg": list(ld.encoder_deg),
-            "thrust": ld.thrust_N,
-            "lateral_force": ld.lateral_force_N,
-            "actuator_stiffness": list(ld.actuator_stiffness),
-            "placement": self.placement,
-        }
-        for name in _TABLE_GUARDS:
-            if getattr(g, name) not in (None, False):
-                table[name] = getattr(g, name)
-        if self.dockings is not None:  # model §19: written only when set
-            table["dockings"] = self.dockings
-        if self.standoff is not None:  # written only when set: earlier tables stay as they were
-            table["standoff"] = self.standoff
-        if self.segments is not None:
-            table["segments"] = list(self.segments)
-        if self.envelope != ("none",):  # model §19.5: written only when on, as runs before the envelope read it
-            table["envelope"] = list(self.envelope)
-        if self.table_z is not None:
-            table["table_z"] = self.table_z
-        if self.tolerance_class != "m" or self.tol:  # model §20: written only when not the defaults
-            table["tolerance_class"] = self.tolerance_class
-        if self.tol:
-            table["tol"] = dict(self.tol)
-        if g.envelope_clearance_mm is not None:  # its guard (model §19.5): written only when on
-            table["envelope_clearance"] = g.envelope_clearance_mm
-        for key, (_, name) in FLAT_OPTIONS.items():  # the masses of model §18.1: likewise, only when not the defaults
-            value = getattr(self.options.masses, name) if name in Masses.model_fields else None
-            if value is not None and value != getattr(_MASSES, name):
-                table[key] = list(value) if isinstance(value, tuple) else value
+        """The flat ``[settings]`` table of config.toml: every key of :data:`TABLE_KEYS` in its order, a key of
+        :data:`RECORDED` always, any other only when its value is not the default (so earlier tables stay as they
+        were). A field is its own key; an option is its short name (:data:`FLAT_OPTIONS`); the limits are one key."""
+        table: dict[str, Any] = {}
+        for key in TABLE_KEYS:
+            value, default = self._table_entry(key)
+            if key in RECORDED or value != default:
+                table[key] = _plain(value)
         return table
+
+    def _table_entry(self, key: str) -> tuple[Any, Any]:
+        """(this run's value, the default) of one key of config.toml's [settings]."""
+        if key in FLAT_OPTIONS:
+            group, name = FLAT_OPTIONS[key]
+            return getattr(getattr(self.options, group), name), getattr(getattr(_OPTIONS, group), name)
+        if key == "limits":
+            return self.limits, []
+        return getattr(self, key), getattr(_defaults(), key)
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any]) -> RunSettings:
@@ -414,6 +367,38 @@ class RunSettings(Settings):
 
 _TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
 """Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
+_MASS_KEYS = ("wall", "density", "m_delta", "m_motor", "gravity")
+"""The masses of model §18.1 (their short names)."""
+RECORDED = (
+    *("algorithm", "population", "generations", "ftol", "period", "points", "mode", "setups", "guards", "margin"),
+    *("seed", "engine", "aggregate", "compactness", "checkpoint_every", "eliminate_duplicates", "design_from", "free"),
+    *("side", "levels", "ids", "transform", "anatomy", "anatomy_frame", "clearance", "self_clearance"),
+    *("link_radius", "actuator_radius", "motor_radius", "motor_length", "objectives", "limits", "encoder_deg"),
+    *("thrust", "lateral_force", "actuator_stiffness", "placement"),
+)
+"""The keys of config.toml's [settings] that every run writes (those of the first runs, and placement)."""
+TABLE_KEYS = (
+    *RECORDED,
+    *_TABLE_GUARDS,
+    *("dockings", "standoff", "segments", "envelope", "table_z", "tolerance_class", "tol", "envelope_clearance"),
+    *_MASS_KEYS,
+)
+"""Every key of config.toml's [settings], in the order it is written; those past :data:`RECORDED` only when set."""
+
+
+@functools.cache
+def _defaults() -> RunSettings:
+    """The default settings (made once)."""
+    return RunSettings()
+
+
+def _plain(value: Any) -> Any:
+    """A settings value as TOML holds it: tuples as lists (nested too), dicts as plain dicts."""
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
 
 
 def table_placement(table: Mapping[str, Any]) -> str:
@@ -423,30 +408,9 @@ def table_placement(table: Mapping[str, Any]) -> str:
 
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
-FLAT_OPTIONS: dict[str, tuple[str, str]] = {
-    key: FLAT[key]
-    for key in (
-        *_TABLE_GUARDS,
-        "clearance",
-        "self_clearance",
-        "envelope_clearance",
-        "link_radius",
-        "actuator_radius",
-        "motor_radius",
-        "motor_length",
-        "encoder_deg",
-        "thrust",
-        "lateral_force",
-        "actuator_stiffness",
-        "wall",
-        "density",
-        "m_delta",
-        "m_motor",
-        "gravity",
-    )
-}
+FLAT_OPTIONS: dict[str, tuple[str, str]] = {key: FLAT[key] for key in TABLE_KEYS if key in FLAT}
 """The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names."""
-_MASSES = Masses()
+_OPTIONS = Options()
 
 
 def _route_flat(data: dict[str, Any]) -> None:
