@@ -10,12 +10,10 @@ import typer
 
 from arcube.accuracy.settings import ToleranceSettings
 from arcube.cli.common import (
+    SELECTION,
     DESIGN,
-    IDS,
-    LEVELS,
     MODE,
     OUT,
-    SIDE,
     TRAJECTORIES,
     one_plan,
     plan_request,
@@ -39,9 +37,7 @@ FLAGS = [
     with_help(DESIGN, "The robot: a design file, or a design job's design.json (each side drilled from its docking)."),
     CALIBRATION,
     with_help(TRAJECTORIES, TRAJECTORIES.help.split(" [")[0], required=True),
-    SIDE,
-    LEVELS,
-    IDS,
+    *SELECTION,
     MODE,
     *model_flags(
         ToleranceSettings, "tolerances", skip=("samples", "seed", "docking_mm", "docking_deg", "distribution")

@@ -10,13 +10,12 @@ import typer
 
 from arcube.calibrate.settings import IdentifySettings, PoseSettings, SimulateSettings
 from arcube.cli.common import (
+    SELECTION,
     ANATOMY,
     ANATOMY_FRAME,
     DESIGN,
     FORCE,
     check_replace,
-    IDS,
-    LEVELS,
     MODE,
     OUT,
     SEGMENTS,
@@ -48,9 +47,7 @@ POSES = option(
 POSE_FLAGS = [
     _DESIGN,
     with_help(TRAJECTORIES, "The plan whose points and approach lines the poses are chosen around.", required=True),
-    SIDE,
-    LEVELS,
-    IDS,
+    *SELECTION,
     MODE,
     ANATOMY,
     ANATOMY_FRAME,

@@ -149,6 +149,11 @@ PLAN: list[Flag] = [
 ]
 """The plan, its selection and what evaluates it: the request of ``evaluate``, ``joints``, ``export`` and ``explore``."""
 
+SELECTION: list[Flag] = [SIDE, LEVELS, IDS]
+"""The trajectories of a plan a command keeps (:func:`arcube.select`)."""
+PATIENT: list[Flag] = [ANATOMY, ANATOMY_FRAME, SEGMENTS, *ENVELOPE]
+"""The patient around a plan: the anatomy (model §14.2) and the envelope of the whole patient and the table (19.5)."""
+
 OPTION_FLAGS: dict[str, list[Flag]] = {
     "clearances": model_flags(
         Guards, "options.guards", only=("clearance_mm", "self_clearance_mm", "envelope_clearance_mm")

@@ -24,7 +24,7 @@ from arcube.metrics import requirements_help
 
 __all__ = ["COHORT", "DROPS", "MAXIMA", "MINIMA", "missed_line", "print_design", "register", "run_flags"]
 
-_RUN_FIELDS = (
+RUN_FIELDS = (
     "anatomy",
     "anatomy_frame",
     "segments",
@@ -48,6 +48,8 @@ _RUN_FIELDS = (
     "tol",
 )
 """The optimization settings a design job takes from the command line (the rest are the job's own)."""
+SEARCH_FIELDS = ("aggregate", "objectives", "setups", "population", "generations", "ftol", "algorithm")
+"""Those of :data:`RUN_FIELDS` that only the search of a robot takes (``arcube dock`` places a built robot)."""
 _HELPS = {
     "objectives": "What to minimize among the designs that meet the requirements: eta_G, or another objective name. [default: eta_G]",
     "standoff": "The drill waits this far outside the anatomy (model §17.1), mm. [default: 20]",
@@ -64,19 +66,9 @@ _HELPS = {
     "tolerance_class": "ISO 2768-1 class (f, m, c, v) of the robot as built: the accuracy budget reported (accuracy/) and the "
     "lateral_error_wc / lateral_error_rms requirements (model §20). [default: m]",
 }
-MINIMA = option(
-    "--min",
-    requirements_help("min"),
-    key="minima",
-    multiple=True,
-    params=("requirements.min",),
-)
-MAXIMA = option(
-    "--max",
-    requirements_help("max"),
-    key="maxima",
-    multiple=True,
-    params=("requirements.max",),
+MINIMA, MAXIMA = (
+    option(f"--{kind}", requirements_help(kind), key=f"{kind}ima", multiple=True, params=(f"requirements.{kind}",))
+    for kind in ("min", "max")
 )
 DROPS: list[Flag] = [
     option(
@@ -104,7 +96,7 @@ VALIDATE = option(
 )
 
 
-def run_flags(fields: tuple[str, ...] = _RUN_FIELDS) -> list[Flag]:
+def run_flags(fields: tuple[str, ...] = RUN_FIELDS) -> list[Flag]:
     """The flags of these RunSettings ``fields``, with the design job's help texts (and ``--objective``)."""
     by_field = {f.key.removeprefix("run."): f for f in RUN_FLAGS}
     out = []

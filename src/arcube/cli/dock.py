@@ -13,7 +13,7 @@ from typing import Any
 import typer
 
 from arcube.cli.common import DASK, OUT, QUIET, SEED, WORKERS, RichBar, request_flags, with_help
-from arcube.cli.design import COHORT, DROPS, MAXIMA, MINIMA, run_flags
+from arcube.cli.design import RUN_FIELDS, COHORT, DROPS, MAXIMA, MINIMA, SEARCH_FIELDS, run_flags
 from arcube.cli.optimize import PLANS
 from arcube.cli.projection import Given, command, option
 from arcube.design_job.requirements import DEFAULTS
@@ -21,22 +21,7 @@ from arcube.errors import InputError
 
 __all__ = ["print_dock", "register"]
 
-_FIELDS = (
-    "anatomy",
-    "anatomy_frame",
-    "segments",
-    "envelope",
-    "table_z",
-    "dockings",
-    "standoff",
-    "points",
-    "side",
-    "levels",
-    "ids",
-    "engine",
-    "tolerance_class",
-    "tol",
-)
+_FIELDS = tuple(name for name in RUN_FIELDS if name not in SEARCH_FIELDS)
 """The design job's settings that a docking takes from the command line (the robot's own are in its file)."""
 ROBOT = option(
     "--robot",

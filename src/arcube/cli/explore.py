@@ -9,16 +9,11 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
-    ANATOMY,
-    ANATOMY_FRAME,
+    PATIENT,
+    SELECTION,
     DESIGN,
-    ENVELOPE,
-    IDS,
-    LEVELS,
     MODE,
     POINTS,
-    SEGMENTS,
-    SIDE,
     TRAJECTORIES,
     with_help,
     one_plan,
@@ -33,10 +28,7 @@ __all__ = ["register"]
 FLAGS = [
     DESIGN,
     TRAJECTORIES,
-    ANATOMY,
-    ANATOMY_FRAME,
-    SEGMENTS,
-    *[with_help(f, f.help.replace("[default: none]", "[default: default, as arcube design]")) for f in ENVELOPE],
+    *[with_help(f, f.help.replace("[default: none]", "[default: default, as arcube design]")) for f in PATIENT],
     option("--port", "Port of the local web app. [default: 8080]", int, params=("port",)),
     option("--host", "Address to listen on (0.0.0.0: every interface). [default: 127.0.0.1]", params=("host",)),
     option(
@@ -60,9 +52,7 @@ FLAGS = [
     POINTS,
     MODE,
     option("--no-guards", "Start without the guards of 'arcube design' (the paper's model).", bool),
-    SIDE,
-    LEVELS,
-    IDS,
+    *SELECTION,
     *request_flags("body"),
 ]
 

@@ -9,19 +9,14 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
-    ANATOMY,
-    ANATOMY_FRAME,
+    PATIENT,
+    SELECTION,
     DESIGN,
-    ENVELOPE,
     FORCE,
     check_replace,
-    IDS,
-    LEVELS,
     MODE,
     OUT,
     POINTS,
-    SEGMENTS,
-    SIDE,
     TRAJECTORIES,
     masses_given,
     one_plan,
@@ -49,7 +44,7 @@ PROGRAM = option(
     Path,
     params=("program",),
 )
-PLAN_FLAGS = [TRAJECTORIES, AT, POINTS, MODE, SIDE, LEVELS, IDS]
+PLAN_FLAGS = [TRAJECTORIES, AT, POINTS, MODE, *SELECTION]
 """Flags that pick the task point; a program fixes its own (its first row, its working mode)."""
 FLAGS = [
     MODEL_OUT,
@@ -58,10 +53,7 @@ FLAGS = [
     FORMAT,
     *PLAN_FLAGS,
     *request_flags("c_z"),
-    ANATOMY,
-    ANATOMY_FRAME,
-    SEGMENTS,
-    *ENVELOPE,
+    *PATIENT,
     *request_flags("body", "masses"),
     PROGRAM,
 ]

@@ -326,6 +326,12 @@ def _parameter(f: Flag) -> inspect.Parameter:
     )
 
 
+def argument(name: str, help: str, kind: type = Path) -> inspect.Parameter:
+    """A positional argument of a command (its METAVAR is ``name`` upper-cased), for :func:`command`'s ``arguments``."""
+    info = typer.Argument(metavar=name.upper(), help=help)
+    return inspect.Parameter(name, inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=Annotated[kind, info])
+
+
 _EXCLUSIVE = {("workers", "dask"): "a Dask cluster has its own workers"}
 """Pairs of flags (by key) a command refuses together, naming both, and why (``--workers`` > 1 with ``--dask``)."""
 

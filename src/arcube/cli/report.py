@@ -3,15 +3,13 @@ drilling program folder (program.csv, program.json: DIR/report.html)."""
 
 from __future__ import annotations
 
-import inspect
 import sys
 from pathlib import Path
-from typing import Annotated
 
 import typer
 
 from arcube.cli.common import ANATOMY, ANATOMY_FRAME, DESIGN, with_help
-from arcube.cli.projection import Given, command
+from arcube.cli.projection import Given, argument, command
 from arcube.cli.study import BEST_KNOWN
 
 __all__ = ["register"]
@@ -29,16 +27,9 @@ FLAGS = [
         "or in the design job around it.",
     ),
 ]
-RUN_DIR = inspect.Parameter(
+RUN_DIR = argument(
     "run_dir",
-    inspect.Parameter.POSITIONAL_OR_KEYWORD,
-    annotation=Annotated[
-        Path,
-        typer.Argument(
-            metavar="RUN_DIR",
-            help="An optimization run folder (config.toml, best_design.json, history.csv), or a program folder (program.csv, program.json).",
-        ),
-    ],
+    "An optimization run folder (config.toml, best_design.json, history.csv), or a program folder (program.csv, program.json).",
 )
 
 

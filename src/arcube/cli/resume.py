@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import inspect
 import sys
 from pathlib import Path
-from typing import Annotated
 
 import typer
 
 from arcube.cli.common import DASK, QUIET, WORKERS, with_help
 from arcube.cli.design import print_design
 from arcube.cli.optimize import Progress, print_summary
-from arcube.cli.projection import Given, command
+from arcube.cli.projection import Given, argument, command
 from arcube.cli.study import SeedProgress, print_study
 from arcube.errors import InputError
 
@@ -23,16 +21,9 @@ RESUME_FLAGS = [
     with_help(DASK, "Override: send batches to this dask scheduler."),
     QUIET,
 ]
-RUN_DIR = inspect.Parameter(
+RUN_DIR = argument(
     "run_dir",
-    inspect.Parameter.POSITIONAL_OR_KEYWORD,
-    annotation=Annotated[
-        Path,
-        typer.Argument(
-            metavar="RUN_DIR",
-            help="Run folder of an interrupted 'arcube optimize', or the folder of an interrupted 'arcube study' or 'arcube design'.",
-        ),
-    ],
+    "Run folder of an interrupted 'arcube optimize', or the folder of an interrupted 'arcube study' or 'arcube design'.",
 )
 
 

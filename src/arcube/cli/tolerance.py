@@ -7,12 +7,10 @@ import typer
 from arcube.accuracy.settings import ToleranceSettings
 from arcube.cli.common import (
     DESIGN,
-    IDS,
-    LEVELS,
     MODE,
     OUT,
     POINTS,
-    SIDE,
+    SELECTION,
     TRAJECTORIES,
     one_plan,
     plan_request,
@@ -25,9 +23,7 @@ __all__ = ["register"]
 FLAGS = [
     with_help(DESIGN, DESIGN.help.split(" [")[0], required=True),
     with_help(TRAJECTORIES, TRAJECTORIES.help.split(" [")[0], required=True),
-    SIDE,
-    LEVELS,
-    IDS,
+    *SELECTION,
     POINTS,
     MODE,
     *model_flags(ToleranceSettings, "tolerances"),

@@ -250,20 +250,31 @@ def run_jobs(
     return [done[i] for i in range(len(jobs))]
 
 
-def _entry(outcome: DockingOutcome) -> dict[str, Any]:
-    """One side's line of summary.json."""
-    bind = binding_row(outcome.rows)
-    values = outcome.design.to_dict()
+def docking_verdict(label: str, patient: str, side: str, rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The first fields of a docking's line of summary.json (a design job's or ``arcube dock``'s): who, whether its
+    requirement rows are all met, and which are missed."""
+    met = bool(rows) and all(r["passed"] for r in rows)
+    missed = [r["requirement"] for r in rows if not r["passed"]]
+    return {"label": label, "patient": patient, "side": side, "meets_requirements": met, "missed": missed}
+
+
+def binding_fields(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The fields of a docking's line of summary.json naming the requirement that binds there (:func:`binding_row`)."""
+    bind = binding_row(rows)
     return {
-        "label": outcome.label,
-        "patient": outcome.patient,
-        "side": outcome.side,
-        "meets_requirements": outcome.met,
-        "missed": [r["requirement"] for r in outcome.rows if not r["passed"]],
         "binding": None if bind is None else bind["requirement"],
         "binding_margin": None if bind is None else bind["margin"],
         "binding_unit": None if bind is None else bind.get("unit"),
         "binding_where": None if bind is None else (bind.get("part") or None),
+    }
+
+
+def _entry(outcome: DockingOutcome) -> dict[str, Any]:
+    """One side's line of summary.json."""
+    values = outcome.design.to_dict()
+    return {
+        **docking_verdict(outcome.label, outcome.patient, outcome.side, outcome.rows),
+        **binding_fields(outcome.rows),
         **{n: values[n] for n in PLACEMENT},
         "eta_G": outcome.eta_G,
         "violation": outcome.violation,

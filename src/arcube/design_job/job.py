@@ -372,23 +372,15 @@ def _docking_summary(d: Docking) -> dict[str, Any]:
         r = rows.get(name)
         return None if r is None or not math.isfinite(r["value"]) else r["value"]
 
-    from arcube.design_job.coverage import binding_row
+    from arcube.design_job.coverage import binding_fields, docking_verdict
 
-    bind = binding_row(d.rows)
     return {
-        "label": d.label,
-        "patient": d.name,
-        "side": d.side,
-        "meets_requirements": d.met,
-        "missed": [r["requirement"] for r in d.rows if not r["passed"]],
+        **docking_verdict(d.label, d.name, d.side, d.rows),
         "trajectories": list(d.plan.ids),
         **docking_entry(d),
         **{key: value(name) for name, key in DOCKING_KEYS.items()},
         "breach_probability": d.breach.get("breach_probability"),
-        "binding": None if bind is None else bind["requirement"],
-        "binding_margin": None if bind is None else bind["margin"],
-        "binding_unit": None if bind is None else bind.get("unit"),
-        "binding_where": None if bind is None else (bind.get("part") or None),
+        **binding_fields(d.rows),
         "folder": f"{DOCKINGS}/{d.label}",
     }
 

@@ -143,25 +143,21 @@ def make_algorithm(
         from pymoo.util.ref_dirs import get_reference_directions  # noqa: PLC0415
 
         ref_dirs = get_reference_directions("energy", int(n_obj), int(population), seed=int(seed))
-        return NSGA3(
-            pop_size=population,
-            ref_dirs=ref_dirs,
-            sampling=SeededSampling(x0),
-            crossover=SBX(prob=0.9, eta=15),
-            mutation=PM(eta=20),
-            eliminate_duplicates=True,
-            **common,
-        )
+        return NSGA3(ref_dirs=ref_dirs, **_evolution(population, x0), **common)
     from pymoo.algorithms.moo.nsga2 import NSGA2  # noqa: PLC0415
 
-    return NSGA2(
-        pop_size=population,
-        sampling=SeededSampling(x0),
-        crossover=SBX(prob=0.9, eta=15),
-        mutation=PM(eta=20),
-        eliminate_duplicates=True,
-        **common,
-    )
+    return NSGA2(**_evolution(population, x0), **common)
+
+
+def _evolution(population: int, x0: Any) -> dict[str, Any]:
+    """NSGA-II's and NSGA-III's operators: the seeded start, SBX and polynomial mutation, duplicates eliminated."""
+    return {
+        "pop_size": population,
+        "sampling": SeededSampling(x0),
+        "crossover": SBX(prob=0.9, eta=15),
+        "mutation": PM(eta=20),
+        "eliminate_duplicates": True,
+    }
 
 
 def make_termination(

@@ -5,7 +5,7 @@ Every value is per design over all tasks of the run: the worst (largest) of the 
 model §15 and of the holding torque of 18.2 over the tasks' reachable points, the smallest
 clearance, eta_G as aggregated by the run, the sum of link lengths, the bounding-box volume and the
 moving mass of 18.1. ``clearance`` is maximized (its objective column is its negative). The holding
-torque is computed only when an objective or limit names it (:func:`needs_holding_torque`): every
+torque is computed only when an objective or limit names it (:func:`needs` ``"holding_torque"``): every
 other run keeps its speed and its results.
 """
 
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from arcube.metrics import metric, objective_names
+from arcube.metrics import OUTPUTS, metric, objective_names
 
 
 OBJECTIVES: dict[str, str] = {n: metric(n).description for n in objective_names()}
@@ -35,37 +35,11 @@ def summary_value(summary: dict[str, Any], name: str) -> float | None:
 
 def needs(output: str, objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
     """Whether these objectives and limits need ``output`` of the evaluation (:data:`arcube.metrics.OUTPUTS`)."""
+    if output not in OUTPUTS:
+        raise ValueError(
+            f"{output!r} is not an output an evaluation computes when asked ({', '.join(sorted(OUTPUTS))})"
+        )
     return any(output in metric(n).needs for n in (*objectives, *(n for n, _, _ in limits)))
-
-
-def needs_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the clearance to the anatomy must be computed for these objectives and limits."""
-    return needs("clearance", objectives, limits)
-
-
-def needs_envelope_clearance(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the clearance to the envelope (model §19.5) must be computed for these objectives and limits."""
-    return needs("envelope_clearance", objectives, limits)
-
-
-def needs_robust(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the accuracy under tolerances (model §20.3, :mod:`arcube.accuracy.robust`) must be computed."""
-    return needs("robust", objectives, limits)
-
-
-def needs_tip_metrics(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the metrics of model §15 must be computed for these objectives and limits."""
-    return needs("tip_metrics", objectives, limits)
-
-
-def needs_holding_torque(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether the holding torque of model §18.2 must be computed for these objectives and limits."""
-    return needs("holding_torque", objectives, limits)
-
-
-def needs_masses(objectives: tuple[str, ...], limits: list[list[Any]]) -> bool:
-    """Whether these objectives and limits use the mass model of model §18.1 (holding torque, moving mass)."""
-    return needs("masses", objectives, limits)
 
 
 def metric_values(

@@ -40,7 +40,7 @@ from arcube.errors import InputError
 from arcube.options import Options
 from arcube.accuracy.robust import ROBUST_NAMES
 from arcube.accuracy.settings import ToleranceSettings
-from arcube.optimization.objectives import SUMMARY_KEYS, limit_shortfall, metric_values, needs_masses, objective_columns
+from arcube.optimization.objectives import SUMMARY_KEYS, limit_shortfall, metric_values, needs, objective_columns
 from arcube.optimization.compactness import bounding_box, mechanism_points  # noqa: F401 (mechanism_points: still importable from here)
 from arcube.optimization.bounds import C_Z, C_Z_BOUNDS
 from arcube.optimization.settings import (  # noqa: F401 (DEFAULT_BOUNDS, FREE_GROUPS, parse_*: still importable from here)
@@ -506,8 +506,8 @@ class FitnessModel:
         """Full description of one optimizer vector: designs, mode, eta, dexterity, compactness, clearances, per task."""
         X = np.atleast_2d(np.asarray(x, dtype=float))
         params, modes = self.space.decode(X)
-        masses = needs_masses(
-            self.objectives, [list(lim) for lim in self.limits]
+        masses = needs(
+            "masses", self.objectives, [list(lim) for lim in self.limits]
         )  # else the summary stays as it always was
         outputs = self.options.outputs.replace(
             clearances=True, tip_metrics=True, clearance_min_exact=True, holding_torque=masses

@@ -137,12 +137,12 @@ def write_placements(
 
 
 # ----------------------------------------------------------------------------- the run loop
-def execute(run_dir: Path, cfg: RunConfig, cfg_raw: bytes, **kwargs: Any) -> dict[str, Any]:
-    """Run (or resume) the optimization described by ``cfg`` in ``run_dir`` holding the folder's lock
-    (:mod:`arcube.optimization.lock`); returns the summary. See :func:`_execute` for the arguments."""
+def execute(run_dir: Path, config: tuple[RunConfig, bytes], **kwargs: Any) -> dict[str, Any]:
+    """Run (or resume) the optimization ``config`` describes (the run's config and config.toml's bytes) in ``run_dir``
+    holding the folder's lock (:mod:`arcube.optimization.lock`); returns the summary. See :func:`_execute`."""
     lock = acquire(run_dir)
     try:
-        return _execute(run_dir, cfg, cfg_raw, **kwargs)
+        return _execute(run_dir, config, **kwargs)
     finally:
         release(lock)
 
@@ -187,18 +187,19 @@ class _Checkpoint(Observer):
 
 def _execute(
     run_dir: Path,
-    cfg: RunConfig,
-    cfg_raw: bytes,
+    config: tuple[RunConfig, bytes],
     *,
     resume: bool = False,
     workers: int | None = None,
     dask: str | None = None,
     on_generation: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
-    """Run (or resume) the optimization described by ``cfg`` in ``run_dir``; returns the summary.
+    """Run (or resume) the optimization ``config`` describes (the run's config, config.toml's bytes) in ``run_dir``;
+    returns the summary.
 
     ``on_generation`` gets each new generation's history row and timing (:class:`~arcube.optimization.loop.Observer`).
     """
+    cfg, cfg_raw = config
     settings = cfg.settings
     state, replay = load_checkpoint(run_dir, cfg, cfg_raw) if resume else (None, [])
     if state is None:
@@ -359,7 +360,7 @@ def start(run_dir: Path, cfg: RunConfig, **kwargs: Any) -> dict[str, Any]:
         if any(p.name != LOCK_FILE for p in run_dir.iterdir()):  # another run started and finished here meanwhile
             raise InputError.of("out", f"{run_dir}: exists and is not an empty folder (another run wrote it)")
         try:
-            return _execute(run_dir, *prepare(run_dir, cfg), **kwargs)
+            return _execute(run_dir, prepare(run_dir, cfg), **kwargs)
         except Exception:
             if not (run_dir / "checkpoint").exists():
                 remove_folder(run_dir, created)
@@ -393,4 +394,4 @@ def resume(run_dir: Path, **kwargs: Any) -> dict[str, Any] | None:
         sys.stderr.write(
             f"warning: versions changed since the run started ({', '.join(changed)}); the replay will check\n"
         )
-    return execute(run_dir, cfg, raw, resume=True, **kwargs)
+    return execute(run_dir, (cfg, raw), resume=True, **kwargs)

@@ -34,11 +34,7 @@ from arcube.optimization.bounds import DEFAULT_BOUNDS, FREE_GROUPS, parse_bounds
 from arcube.evaluation.envelope import envelope_spec
 from arcube.optimization.objectives import (
     OBJECTIVES,
-    needs_clearance,
-    needs_envelope_clearance,
-    needs_holding_torque,
-    needs_masses,
-    needs_tip_metrics,
+    needs,
 )
 from arcube.patients.settings import Segments
 from arcube.options import FLAT, GUARDED_OPTIONS, Options, Settings, route_flat
@@ -258,16 +254,16 @@ class RunSettings(Settings):
         if not self.anatomy:
             if self.options.guards.clearance_mm is not None:
                 raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
-            if needs_clearance(self.objectives, self.limits):
+            if needs("clearance", self.objectives, self.limits):
                 raise InputError(
                     "the clearance objective or limit needs an anatomy (default or mesh files)",
                     param="RunSettings.anatomy",
                 )
-        if needs_masses(self.objectives, self.limits):
+        if needs("masses", self.objectives, self.limits):
             self.options.check_masses()
         if self.envelope == ("none",) and (
             self.options.guards.envelope_clearance_mm is not None
-            or needs_envelope_clearance(self.objectives, self.limits)
+            or needs("envelope_clearance", self.objectives, self.limits)
         ):
             raise InputError.of(
                 "RunSettings.envelope",
@@ -312,13 +308,13 @@ class RunSettings(Settings):
                 "c_z" in self.free
             ):  # model §19.2: a design with a z-dyad link of its own has a z leg that can be assembled
                 guards = guards.replace(z_dyad=True)
-        clearance = needs_clearance(self.run_objectives, self.limits)
+        clearance = needs("clearance", self.run_objectives, self.limits)
         outputs = self.options.outputs.replace(
             anatomy_clearance=clearance and guards.clearance_mm is None,
-            tip_metrics=needs_tip_metrics(self.run_objectives, self.limits),
+            tip_metrics=needs("tip_metrics", self.run_objectives, self.limits),
             clearance_min_exact=clearance,
-            holding_torque=needs_holding_torque(self.run_objectives, self.limits),
-            envelope_clearance=needs_envelope_clearance(self.run_objectives, self.limits),
+            holding_torque=needs("holding_torque", self.run_objectives, self.limits),
+            envelope_clearance=needs("envelope_clearance", self.run_objectives, self.limits),
         )
         return Options(
             guards=guards, body=self.options.body, loads=self.options.loads, masses=self.options.masses, outputs=outputs
