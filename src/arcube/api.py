@@ -233,6 +233,7 @@ def tolerance(
     from arcube.evaluation.task import build_task
     from arcube.options import validated
 
+    req = Request.of(locals(), tolerance)
     if settings is not None and not isinstance(settings, Tolerances):
         raise InputError.of("settings", f"must be an arcube.ToleranceSettings, got {type(settings).__name__}")
     s = (
@@ -240,7 +241,7 @@ def tolerance(
         if fields or settings is None
         else settings
     )
-    r = _request(design, plan, None, points, mode, False, side, levels, ids, transform, None, "LPS", {})
+    r = _request(req, False, {})
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
     result = budget(
         r.design, task.E, task.e, r.signs, s, [task.ids[i] for i in task.trajectory], task.k, engine=engine_name(engine)

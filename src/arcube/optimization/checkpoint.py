@@ -22,18 +22,15 @@ import json
 import time
 from collections import deque
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes, atomic_write_text
-
-if TYPE_CHECKING:
-    from arcube.optimization.run_config import RunConfig
+from arcube.optimization.run_config import FORMAT_VERSION, RunConfig
 
 CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
-FORMAT_VERSION = 1
 Batch = dict[str, np.ndarray]
 LOG_KEYS = ("F", "VIOL", "ETA")
 EXTRA_KEYS = ("VIOL_D", "ETA_D")

@@ -25,13 +25,14 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
-from arcube.optimization.checkpoint import FORMAT_VERSION
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["RUN_FORMAT", "RunConfig"]
+__all__ = ["FORMAT_VERSION", "RUN_FORMAT", "RunConfig"]
 
 RUN_FORMAT = "arcube-optimize-run"
 """config.toml's ``format``."""
+FORMAT_VERSION = 1
+"""The version of a run folder's format: config.toml's and the checkpoint's."""
 
 
 def _frozen(value: Any) -> Any:
