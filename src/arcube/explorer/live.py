@@ -204,27 +204,19 @@ class LiveModel:
         t0 = time.perf_counter()
         opts = self.options()
         with _one_thread():
-            drill = evaluate_task(
-                self.x,
-                self.task.E,
-                self.task.e,
-                self.mode,
-                opts,
-                engine=self.engine,
-                want_points=True,
-                anatomy=self.distance,
-                envelope=self.envelope,
-            )
-            app = evaluate_task(
-                self.x,
-                self.E_app,
-                self.e_app,
-                self.mode,
-                opts,
-                engine=self.engine,
-                want_points=True,
-                anatomy=self.distance,
-                envelope=self.envelope,
+            drill, app = (
+                evaluate_task(
+                    self.x,
+                    E,
+                    e,
+                    self.mode,
+                    opts,
+                    engine=self.engine,
+                    want_points=True,
+                    anatomy=self.distance,
+                    envelope=self.envelope,
+                )
+                for E, e in ((self.task.E, self.task.e), (self.E_app, self.e_app))
             )
         seconds = time.perf_counter() - t0
         p = drill.points

@@ -87,6 +87,22 @@ def _lines(segments: NDArray[np.float64]) -> dict[str, list[float | None]]:
     return out
 
 
+def _mesh(V: NDArray[np.float64], F: NDArray[np.int64], **style: Any) -> Any:
+    """A plotly ``Mesh3d`` of vertices ``V`` ``(n, 3)`` (mm) and triangles ``F`` ``(m, 3)``, styled by ``style``."""
+    import plotly.graph_objects as go
+
+    return go.Mesh3d(x=V[:, 0], y=V[:, 1], z=V[:, 2], i=F[:, 0], j=F[:, 1], k=F[:, 2], **style)
+
+
+def _line_trace(name: str, color: str, width: float, segments: NDArray[np.float64]) -> Any:
+    """A plotly ``Scatter3d`` of the line segments ``(n, 2, 3)`` (mm), hovered by its name."""
+    import plotly.graph_objects as go
+
+    return go.Scatter3d(
+        mode="lines", name=name, line={"color": color, "width": width}, hoverinfo="name", **_lines(segments)
+    )
+
+
 def scene_figure(model: LiveModel, view: View) -> Any:
     """The plotly 3D scene of ``view``: body solids coloured by clearance, anatomy, plan, closest pairs."""
     import plotly.graph_objects as go
@@ -94,55 +110,21 @@ def scene_figure(model: LiveModel, view: View) -> Any:
     fig = go.Figure()
     if model.anatomy is not None:
         V, F = model.anatomy.vertices_faces()
-        fig.add_trace(
-            go.Mesh3d(
-                x=V[:, 0],
-                y=V[:, 1],
-                z=V[:, 2],
-                i=F[:, 0],
-                j=F[:, 1],
-                k=F[:, 2],
-                color="#e8d6aa",
-                opacity=0.45,
-                name="anatomy",
-                hoverinfo="name",
-                showlegend=True,
-            )
-        )
+        fig.add_trace(_mesh(V, F, color="#e8d6aa", opacity=0.45, name="anatomy", hoverinfo="name", showlegend=True))
     if model.envelope is not None:
         from arcube.report.mechanism3d import envelope_trace
 
         fig.add_trace(envelope_trace(model.envelope))
     plan = model.plan
-    fig.add_trace(
-        go.Scatter3d(
-            mode="lines",
-            name="drill lines",
-            line={"color": "#00aac8", "width": 5},
-            hoverinfo="name",
-            **_lines(np.stack([plan.entry, plan.target], 1)),
-        )
-    )
     standoff = model.E_app.reshape(len(plan.ids), model.points, 3)[:, 0]
-    fig.add_trace(
-        go.Scatter3d(
-            mode="lines",
-            name="approach lines",
-            line={"color": "#96c8d7", "width": 3},
-            hoverinfo="name",
-            **_lines(np.stack([standoff, plan.entry], 1)),
-        )
-    )
+    fig.add_trace(_line_trace("drill lines", "#00aac8", 5, np.stack([plan.entry, plan.target], 1)))
+    fig.add_trace(_line_trace("approach lines", "#96c8d7", 3, np.stack([standoff, plan.entry], 1)))
     if np.all(np.isfinite(view.solids.cylinders)):
         V, F, rgb = _body_mesh(view)
         fig.add_trace(
-            go.Mesh3d(
-                x=V[:, 0],
-                y=V[:, 1],
-                z=V[:, 2],
-                i=F[:, 0],
-                j=F[:, 1],
-                k=F[:, 2],
+            _mesh(
+                V,
+                F,
                 name="robot (colour: clearance)",
                 facecolor=[f"rgb({r},{g},{b})" for r, g, b in rgb],
                 flatshading=False,
@@ -150,15 +132,7 @@ def scene_figure(model: LiveModel, view: View) -> Any:
                 showlegend=True,
             )
         )
-        fig.add_trace(
-            go.Scatter3d(
-                mode="lines",
-                name="tool E–H",
-                line={"color": "#3c3c46", "width": 6},
-                hoverinfo="name",
-                **_lines(np.stack([view.E, view.mp.H])[None]),
-            )
-        )
+        fig.add_trace(_line_trace("tool E–H", "#3c3c46", 6, np.stack([view.E, view.mp.H])[None]))
         for pair, colour, name in (
             (view.patient, "#dc143c", "closest to the anatomy"),
             (view.self_, "#a028c8", "closest parts"),
@@ -241,19 +215,18 @@ def write_static(model: LiveModel, path: str | os.PathLike[str], index: int | No
     i = model.points if index is None else int(index)
     fig = model.evaluate()
     view = model.view(i)
-    scene_div = pio.to_html(
-        scene_figure(model, view),
-        full_html=False,
-        include_plotlyjs=True,
-        div_id=DIV_SCENE,
-        config={"displaylogo": False, "responsive": True},
-    )
-    points_div = pio.to_html(
-        points_figure(model, fig, view.index),
-        full_html=False,
-        include_plotlyjs=False,
-        div_id=DIV_POINTS,
-        config={"displaylogo": False, "responsive": True},
+    scene_div, points_div = (
+        pio.to_html(
+            figure,
+            full_html=False,
+            include_plotlyjs=first,  # plotly.js once, in the first div
+            div_id=div_id,
+            config={"displaylogo": False, "responsive": True},
+        )
+        for figure, first, div_id in (
+            (scene_figure(model, view), True, DIV_SCENE),
+            (points_figure(model, fig, view.index), False, DIV_POINTS),
+        )
     )
     key = "".join(f"<span style='background:rgb{COLOURS[c]}'>{c}</span>" for c in CLASSES)
     esc = html.escape

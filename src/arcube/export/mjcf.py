@@ -263,93 +263,10 @@ def model_xml(
     2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment; ``envelope``:
     the envelope of the whole patient (model §19.5), drawn (:func:`envelope_geoms`).
     """
-    model = mass_model_for(masses, radii, c_z)
-    return _build_xml(
-        params, E, e, signs, c_z, radii, mesh_items(anatomy), where, model, actuated or {}, note, envelope
-    )
-
-
-def envelope_geoms(root: ET.Element, envelope: Any) -> None:
-    """Draw the envelope of model §19.5 in the model's world (``root``), faint and not colliding (group 3): each
-    rounded box as the box of its half extents plus its radius (the rounded box's bounding box: a drawing,
-    not the distance the design is checked with), the table as a slab under its plane, a skin mesh as meshes."""
-    world, asset = root.find("worldbody"), root.find("asset")
-    rgba = COLORS["envelope"]
-    for name, box in zip(envelope.names, envelope.boxes):
-        half = box[3:6] + box[6]
-        ET.SubElement(
-            world,
-            "geom",
-            {
-                "name": f"envelope_{name}",
-                "type": "box",
-                "pos": vec(box[:3]),
-                "size": vec(half),
-                "rgba": rgba,
-                "group": "3",
-                "contype": "0",
-                "conaffinity": "0",
-                "mass": "0",
-            },
-        )
-    for i, m in enumerate(envelope.skin):
-        ET.SubElement(
-            asset,
-            "mesh",
-            {
-                "name": f"envelope_skin_{i}",
-                "vertex": " ".join(num(x) for x in np.asarray(m.vertices, float).reshape(-1)),
-                "face": " ".join(str(int(x)) for x in np.asarray(m.faces, np.int64).reshape(-1)),
-            },
-        )
-        ET.SubElement(
-            world,
-            "geom",
-            {
-                "name": f"envelope_skin_{i}",
-                "type": "mesh",
-                "mesh": f"envelope_skin_{i}",
-                "rgba": rgba,
-                "group": "3",
-                "contype": "0",
-                "conaffinity": "0",
-                "mass": "0",
-            },
-        )
-    if envelope.table_z is not None:
-        ET.SubElement(
-            world,
-            "geom",
-            {
-                "name": "envelope_table",
-                "type": "box",
-                "pos": vec(np.array([0.0, 0.0, envelope.table_z - 10.0])),
-                "size": "1500 1500 10",
-                "rgba": rgba,
-                "group": "3",
-                "contype": "0",
-                "conaffinity": "0",
-                "mass": "0",
-            },
-        )
-
-
-def _build_xml(
-    params: NDArray[np.float64],
-    E: NDArray[np.float64],
-    e: NDArray[np.float64],
-    signs: NDArray[np.float64],
-    c_z: float,
-    radii: BodyRadii,
-    meshes: list[Any],
-    where: str,
-    masses: MassModel,
-    actuated: dict[str, float],
-    note: str,
-    envelope: Any = None,
-) -> str:
+    masses = mass_model_for(masses, radii, c_z)
+    meshes = mesh_items(anatomy)
     mp = mechanism_points(params, E, e, signs, c_z=c_z, motor_length=radii.motor_length, arc_samples=9)
-    q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()} | actuated
+    q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()} | (actuated or {})
     inertials = body_inertials(params, E, e, signs, masses)
     U, V, W, R = axes_world(params)
     zm = R[:, 2]
@@ -565,3 +482,56 @@ def _build_xml(
         + (f"\n     {note} " if note else "")
     )
     return "<!--" + header + "-->\n" + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def envelope_geoms(root: ET.Element, envelope: Any) -> None:
+    """Draw the envelope of model §19.5 in the model's world (``root``), faint and not colliding (group 3): each
+    rounded box as the box of its half extents plus its radius (the rounded box's bounding box: a drawing,
+    not the distance the design is checked with), the table as a slab under its plane, a skin mesh as meshes."""
+    world, asset = root.find("worldbody"), root.find("asset")
+    drawn = {"rgba": COLORS["envelope"], "group": "3", "contype": "0", "conaffinity": "0", "mass": "0"}
+    for name, box in zip(envelope.names, envelope.boxes):
+        half = box[3:6] + box[6]
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": f"envelope_{name}",
+                "type": "box",
+                "pos": vec(box[:3]),
+                "size": vec(half),
+                **drawn,
+            },
+        )
+    for i, m in enumerate(envelope.skin):
+        ET.SubElement(
+            asset,
+            "mesh",
+            {
+                "name": f"envelope_skin_{i}",
+                "vertex": " ".join(num(x) for x in np.asarray(m.vertices, float).reshape(-1)),
+                "face": " ".join(str(int(x)) for x in np.asarray(m.faces, np.int64).reshape(-1)),
+            },
+        )
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": f"envelope_skin_{i}",
+                "type": "mesh",
+                "mesh": f"envelope_skin_{i}",
+                **drawn,
+            },
+        )
+    if envelope.table_z is not None:
+        ET.SubElement(
+            world,
+            "geom",
+            {
+                "name": "envelope_table",
+                "type": "box",
+                "pos": vec(np.array([0.0, 0.0, envelope.table_z - 10.0])),
+                "size": "1500 1500 10",
+                **drawn,
+            },
+        )

@@ -123,17 +123,8 @@ def read_program(folder: str | os.PathLike[str]) -> Program:
             "program",
             f"{path / CSV_NAME}: data row {int(bad[0]) + 1} has an empty or non-finite pose, angle or rate (the replay needs every one)",
         )
-    return Program(
-        t_s=files.t_s,
-        segment=files.segment,
-        trajectory=files.trajectory,
-        E=files.E,
-        e=files.e,
-        q_deg=files.q_deg,
-        q_dot_deg=files.q_dot_deg,
-        summary=files.summary,
-        path=path,
-    )
+    kept = ("t_s", "segment", "trajectory", "E", "e", "q_deg", "q_dot_deg", "summary")  # not tau_Nm
+    return Program(**{name: getattr(files, name) for name in kept}, path=path)
 
 
 def _rows_of(program: Any) -> Program:

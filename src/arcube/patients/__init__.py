@@ -6,28 +6,6 @@ checks them (MORPHOMETRY.md section 4).
 
 from __future__ import annotations
 
-from arcube.patients.virtual import (
-    LEVELS,
-    TECHNIQUES,
-    PatientCheck,
-    build_patient,
-    check_patient,
-    draw_parameters,
-    format_check,
-    generate_patient,
-    level_frames,
-    write_patient,
-)
-
-__all__ = [
-    "LEVELS",
-    "TECHNIQUES",
-    "PatientCheck",
-    "build_patient",
-    "check_patient",
-    "draw_parameters",
-    "format_check",
-    "generate_patient",
-    "level_frames",
-    "write_patient",
-]
+# The package's names are those of arcube.patients.virtual, listed once there.
+from arcube.patients.virtual import *  # noqa: F403
+from arcube.patients.virtual import __all__  # noqa: F401

@@ -43,9 +43,13 @@ from arcube.report.figures import (
 from arcube.model.body import PART_NAMES, MechanismPoints, mechanism_points
 from arcube.report.mechanism3d import (
     SCENE_TRACES,
-    STYLE as _STYLE,
+    add_body,
+    animation_controls,
+    body_frames,
     mechanism_extent,
     mechanism_traces as _mechanism_traces,
+    note_annotations,
+    scene_layout,
     xyz as _xyz,
 )
 from arcube.report.page import CSS as _CSS, esc as _esc, fmt as _fmt, plotly_div
@@ -120,121 +124,34 @@ def scene_figure(report: Evaluation) -> go.Figure:
     first = (
         _mechanism_traces(mp, int(shown[0])) if len(shown) else [_xyz([np.full((1, 3), np.nan)])] * len(SCENE_TRACES)
     )
-    for name, data in zip(SCENE_TRACES, first):
-        fig.add_trace(go.Scatter3d(name=name, hoverinfo="name", **_STYLE[name], **data))
-    dyn = list(range(_N_STATIC, _N_STATIC + len(SCENE_TRACES)))
-    frames, steps = [], []
-    for i in shown:
-        name = f"p{int(i)}"
-        title = _frame_title(report, int(i), mp, series)
-        frames.append(
-            go.Frame(
-                name=name,
-                traces=dyn,
-                data=[go.Scatter3d(**d) for d in _mechanism_traces(mp, int(i))],
-                layout={"title": {"text": title}},
-            )
+    add_body(fig, first)
+    poses = (
+        (
+            int(i),
+            f"p{int(i)}",
+            _frame_title(report, int(i), mp, series),
+            f"{task.ids[int(task.trajectory[i])]}:{int(task.k[i])}",
         )
-        label = f"{task.ids[int(task.trajectory[i])]}:{int(task.k[i])}"
-        steps.append(
-            {
-                "label": label,
-                "method": "animate",
-                "args": [
-                    [name],
-                    {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}},
-                ],
-            }
-        )
-    fig.frames = frames
+        for i in shown
+    )
+    fig.frames, steps = body_frames(mp, poses, _N_STATIC)
     anatomy = anatomy_trace(report)
     if anatomy is not None:  # after the animated traces: frames address those by index
         fig.add_trace(anatomy)
     envelope = envelope_trace(report.envelope)
     if envelope is not None:
         fig.add_trace(envelope)
-    # Fixed axis ranges from everything ever drawn, so the view does not jump between frames.
     pts = [np.asarray(ts.entry), np.asarray(ts.target)]
     if len(shown):
         pts.append(mechanism_extent(mp, shown))
-    allp = np.concatenate(pts)
-    lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
-    pad = 0.05 * float(np.max(hi - lo)) + 1.0
-    axes = {
-        f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"}
-        for j, a in enumerate("xyz")
-    }
     n_skip = len(task) - len(shown)
     note = (f"{n_skip} of {len(task)} points are unreachable: they have no slider step." if n_skip else "") + (
         " No reachable point: only the trajectories are drawn." if not len(shown) else ""
     )
-    fig.update_layout(
-        title={
-            "text": _frame_title(report, int(shown[0]), mp, series) if len(shown) else TITLES["scene"],
-            "font": {"size": 13},
-        },
-        scene={
-            "aspectmode": "data",
-            **axes,
-            "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}},
-        },
-        height=760,
-        margin={"l": 0, "r": 0, "t": 50, "b": 0},
-        legend={"x": 0.0, "y": 0.95},
-        annotations=[
-            {
-                "text": note,
-                "showarrow": False,
-                "xref": "paper",
-                "yref": "paper",
-                "x": 1.0,
-                "y": 1.0,
-                "xanchor": "right",
-                "yanchor": "top",
-                "font": {"color": UNREACHABLE_COLOR},
-            }
-        ]
-        if note
-        else [],
-    )
+    title = _frame_title(report, int(shown[0]), mp, series) if len(shown) else TITLES["scene"]
+    fig.update_layout(**scene_layout(title, np.concatenate(pts)), annotations=note_annotations(note, UNREACHABLE_COLOR))
     if steps:
-        play = {
-            "label": "▶ play",
-            "method": "animate",
-            "args": [
-                None,
-                {"frame": {"duration": 150, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}},
-            ],
-        }
-        pause = {
-            "label": "❚❚ pause",
-            "method": "animate",
-            "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}],
-        }
-        fig.update_layout(
-            updatemenus=[
-                {
-                    "type": "buttons",
-                    "buttons": [play, pause],
-                    "x": 0.0,
-                    "y": 0.06,
-                    "xanchor": "left",
-                    "direction": "left",
-                }
-            ],
-            sliders=[
-                {
-                    "active": 0,
-                    "steps": steps,
-                    "x": 0.15,
-                    "len": 0.83,
-                    "y": 0.06,
-                    "font": {"color": "rgba(0,0,0,0)", "size": 6},
-                    "currentvalue": {"prefix": "trajectory:k = ", "font": {"size": 12, "color": "#333"}},
-                    "ticklen": 2,
-                }
-            ],
-        )
+        fig.update_layout(**animation_controls(steps, 150, "trajectory:k = "))
     return fig
 
 
@@ -437,6 +354,17 @@ def summary_html(report: Evaluation) -> str:
     return out
 
 
+def _bbox_marker(front: ParetoFront, size: int) -> dict[str, Any]:
+    """The front's markers, coloured by the bounding-box volume (L) on a Viridis scale with its colour bar."""
+    return {
+        "size": size,
+        "color": front.bbox_volume_L.tolist(),
+        "colorscale": "Viridis",
+        "showscale": True,
+        "colorbar": {"title": "bbox (L)"},
+    }
+
+
 def pareto_figure(front: ParetoFront) -> go.Figure:
     """eta_G against the sum of link lengths, colored by the bounding-box volume (an NSGA-II run's front);
     with the run's objectives: the front in each pair of them, the chosen design (best_design.json) marked."""
@@ -453,13 +381,7 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
                     y=front.objectives[a].tolist(),
                     mode="markers",
                     name="front",
-                    marker={
-                        "size": 7,
-                        "color": front.bbox_volume_L.tolist(),
-                        "colorscale": "Viridis",
-                        "showscale": True,
-                        "colorbar": {"title": "bbox (L)"},
-                    },
+                    marker=_bbox_marker(front, 7),
                 )
             )
             fig.add_trace(
@@ -494,13 +416,7 @@ def pareto_figure(front: ParetoFront) -> go.Figure:
             y=front.eta_G.tolist(),
             mode="markers+lines",
             name="front",
-            marker={
-                "size": 8,
-                "color": front.bbox_volume_L.tolist(),
-                "colorscale": "Viridis",
-                "showscale": True,
-                "colorbar": {"title": "bbox (L)"},
-            },
+            marker=_bbox_marker(front, 8),
             line={"color": "#bbb", "width": 1},
             hovertemplate="links %{x:.0f} mm<br>η_G %{y:.4f}<br>bbox %{marker.color:.1f} L<extra></extra>",
         )

@@ -5,12 +5,17 @@
 The body is drawn from :func:`arcube.model.body.mechanism_points` as lines (frame, cranks, four-bars,
 z dyad, platform, spherical links as great-circle arcs, drill): :data:`SCENE_TRACES` in order, each
 with its :data:`STYLE`; :func:`mechanism_traces` gives their coordinates at one pose.
+
+Both figures animate the body the same way: :func:`add_body` draws it at the first pose,
+:func:`body_frames` gives a plotly frame and a slider step per pose, :func:`scene_layout` the fixed
+axes, camera and title, :func:`animation_controls` the slider and the play / pause buttons, and
+:func:`note_annotations` the figure's note.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -18,7 +23,18 @@ from numpy.typing import NDArray
 
 from arcube.model.body import MechanismPoints
 
-__all__ = ["SCENE_TRACES", "STYLE", "mechanism_traces", "mesh_trace", "xyz"]
+__all__ = [
+    "SCENE_TRACES",
+    "STYLE",
+    "add_body",
+    "animation_controls",
+    "body_frames",
+    "mechanism_traces",
+    "mesh_trace",
+    "note_annotations",
+    "scene_layout",
+    "xyz",
+]
 
 SCENE_TRACES = (
     "frame",
@@ -95,6 +111,123 @@ def mechanism_extent(mp: MechanismPoints, rows: NDArray[np.intp]) -> NDArray[np.
     """Every drawn joint position of ``mp`` at ``rows``, ``(n, 3)`` (NaN where there is none): for fixed axis ranges."""
     parts = (mp.P, mp.D, mp.Q, mp.K, mp.T, mp.arc_alpha, mp.arc_beta, mp.drill_end, mp.O, mp.J_z)
     return np.concatenate([a[rows].reshape(-1, 3) for a in parts])
+
+
+def add_body(fig: Any, traces: Sequence[dict[str, Any]]) -> None:
+    """Add the :data:`SCENE_TRACES` to ``fig``, each with its :data:`STYLE` and coordinates ``traces`` (as
+    :func:`mechanism_traces` gives them): the traces the frames of :func:`body_frames` move."""
+    import plotly.graph_objects as go
+
+    for name, data in zip(SCENE_TRACES, traces):
+        fig.add_trace(go.Scatter3d(name=name, hoverinfo="name", **STYLE[name], **data))
+
+
+def body_frames(
+    mp: MechanismPoints, poses: Iterable[tuple[int, str, str, str]], first: int
+) -> tuple[list[Any], list[dict[str, Any]]]:
+    """(plotly frames, slider steps), one of each per pose ``(i, name, title, label)``: the frame ``name`` draws
+    the body at point ``i`` of 1-D ``mp`` into the figure's traces ``first`` on (those of :func:`add_body`) and
+    shows ``title``; its step, labelled ``label``, jumps to it."""
+    import plotly.graph_objects as go
+
+    dyn = list(range(first, first + len(SCENE_TRACES)))
+    frames, steps = [], []
+    for i, name, title, label in poses:
+        frames.append(
+            go.Frame(
+                name=name,
+                traces=dyn,
+                data=[go.Scatter3d(**d) for d in mechanism_traces(mp, i)],
+                layout={"title": {"text": title}},
+            )
+        )
+        steps.append(
+            {
+                "label": label,
+                "method": "animate",
+                "args": [
+                    [name],
+                    {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}},
+                ],
+            }
+        )
+    return frames, steps
+
+
+def scene_layout(title: str, points: NDArray[np.float64]) -> dict[str, Any]:
+    """Layout of an animated 3D scene titled ``title``: axis ranges (mm) fixed to everything ever drawn,
+    ``points`` ``(n, 3)`` (NaN ignored), so that the view does not jump between frames."""
+    lo, hi = np.nanmin(points, axis=0), np.nanmax(points, axis=0)
+    pad = 0.05 * float(np.max(hi - lo)) + 1.0
+    axes = {
+        f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"}
+        for j, a in enumerate("xyz")
+    }
+    return {
+        "title": {"text": title, "font": {"size": 13}},
+        "scene": {
+            "aspectmode": "data",
+            **axes,
+            "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}},
+        },
+        "height": 760,
+        "margin": {"l": 0, "r": 0, "t": 50, "b": 0},
+        "legend": {"x": 0.0, "y": 0.95},
+    }
+
+
+def animation_controls(steps: list[dict[str, Any]], frame_ms: int, prefix: str) -> dict[str, Any]:
+    """Layout of the play / pause buttons (``frame_ms`` per frame when playing) and the slider of ``steps``,
+    whose current value is shown after ``prefix``."""
+    play = {
+        "label": "▶ play",
+        "method": "animate",
+        "args": [
+            None,
+            {"frame": {"duration": frame_ms, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}},
+        ],
+    }
+    pause = {
+        "label": "❚❚ pause",
+        "method": "animate",
+        "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}],
+    }
+    return {
+        "updatemenus": [
+            {"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.06, "xanchor": "left", "direction": "left"}
+        ],
+        "sliders": [
+            {
+                "active": 0,
+                "steps": steps,
+                "x": 0.15,
+                "len": 0.83,
+                "y": 0.06,
+                "font": {"color": "rgba(0,0,0,0)", "size": 6},
+                "currentvalue": {"prefix": prefix, "font": {"size": 12, "color": "#333"}},
+                "ticklen": 2,
+            }
+        ],
+    }
+
+
+def note_annotations(note: str, color: str) -> list[dict[str, Any]]:
+    """The figure's ``note`` in ``color`` at its top right corner; none when ``note`` is empty."""
+    if not note:
+        return []
+    return [
+        {
+            "text": note,
+            "showarrow": False,
+            "xref": "paper",
+            "yref": "paper",
+            "x": 1.0,
+            "y": 1.0,
+            "xanchor": "right",
+            "yanchor": "top",
+            "font": {"color": color},
+        }
+    ]
 
 
 ENVELOPE_COLOR = "#8fa8c8"

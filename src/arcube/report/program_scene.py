@@ -21,7 +21,17 @@ from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
 from arcube.model.body import mechanism_points
 from arcube.model.mechanism import inverse_kinematics, parse_mode
-from arcube.report.mechanism3d import SCENE_TRACES, STYLE, mechanism_extent, mechanism_traces, mesh_trace, xyz
+from arcube.report.mechanism3d import (
+    add_body,
+    animation_controls,
+    body_frames,
+    mechanism_extent,
+    mechanism_traces,
+    mesh_trace,
+    note_annotations,
+    scene_layout,
+    xyz,
+)
 from arcube.report.program_data import JOINTS, ProgramFiles
 
 if TYPE_CHECKING:
@@ -112,111 +122,24 @@ def playback_figure(
     fig = go.Figure()
     step = max(1, int(np.ceil(len(prog.t_s) / PATH_POINTS)))
     path_rows = np.unique(np.r_[np.arange(0, len(prog.t_s), step), len(prog.t_s) - 1])
-    fig.add_trace(
-        go.Scatter3d(
-            name="tip path",
-            mode="lines",
-            line={"color": "#17becf", "width": 2},
-            hoverinfo="skip",
-            **xyz([prog.E[path_rows]]),
-        )
-    )
     drills = [prog.E[[s.first, s.last]] for s in prog.spans() if s.segment == "drill"]
-    fig.add_trace(
-        go.Scatter3d(
-            name="drilled",
-            mode="lines",
-            line={"color": "#8c1c13", "width": 6},
-            hoverinfo="skip",
-            **xyz(drills or [np.full((1, 3), np.nan)]),
+    for name, color, width, lines in (
+        ("tip path", "#17becf", 2, [prog.E[path_rows]]),
+        ("drilled", "#8c1c13", 6, drills or [np.full((1, 3), np.nan)]),
+    ):
+        fig.add_trace(
+            go.Scatter3d(name=name, mode="lines", line={"color": color, "width": width}, hoverinfo="skip", **xyz(lines))
         )
-    )
-    for name, data in zip(SCENE_TRACES, mechanism_traces(mp, 0)):
-        fig.add_trace(go.Scatter3d(name=name, hoverinfo="name", **STYLE[name], **data))
-    dyn = list(range(N_STATIC, N_STATIC + len(SCENE_TRACES)))
-    frames, steps = [], []
-    for i, k in enumerate(rows):
-        frames.append(
-            go.Frame(
-                name=f"r{int(k)}",
-                traces=dyn,
-                data=[go.Scatter3d(**d) for d in mechanism_traces(mp, i)],
-                layout={"title": {"text": _title(prog, int(k))}},
-            )
-        )
-        steps.append(
-            {
-                "label": f"{prog.t_s[k]:.2f}",
-                "method": "animate",
-                "args": [
-                    [f"r{int(k)}"],
-                    {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}},
-                ],
-            }
-        )
-    fig.frames = frames
+    add_body(fig, mechanism_traces(mp, 0))
+    poses = ((i, f"r{int(k)}", _title(prog, int(k)), f"{prog.t_s[k]:.2f}") for i, k in enumerate(rows))
+    fig.frames, steps = body_frames(mp, poses, N_STATIC)
     if anatomy_meshes:
         fig.add_trace(mesh_trace(anatomy_meshes))  # after the animated traces: frames address those by index
     allp = np.concatenate([prog.E, mechanism_extent(mp, np.arange(len(rows)))])
-    lo, hi = np.nanmin(allp, axis=0), np.nanmax(allp, axis=0)
-    pad = 0.05 * float(np.max(hi - lo)) + 1.0
-    axes = {
-        f"{a}axis": {"range": [float(lo[j] - pad), float(hi[j] + pad)], "title": f"{a} (mm)"}
-        for j, a in enumerate("xyz")
-    }
-    play = {
-        "label": "▶ play",
-        "method": "animate",
-        "args": [
-            None,
-            {"frame": {"duration": 120, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}},
-        ],
-    }
-    pause = {
-        "label": "❚❚ pause",
-        "method": "animate",
-        "args": [[None], {"frame": {"duration": 0, "redraw": False}, "mode": "immediate"}],
-    }
     fig.update_layout(
-        title={"text": _title(prog, int(rows[0])), "font": {"size": 13}},
-        scene={
-            "aspectmode": "data",
-            **axes,
-            "camera": {"up": {"x": 0, "y": 0, "z": 1}, "eye": {"x": 1.4, "y": -1.6, "z": 0.9}},
-        },
-        height=760,
-        margin={"l": 0, "r": 0, "t": 50, "b": 0},
-        legend={"x": 0.0, "y": 0.95},
-        updatemenus=[
-            {"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.06, "xanchor": "left", "direction": "left"}
-        ],
-        sliders=[
-            {
-                "active": 0,
-                "steps": steps,
-                "x": 0.15,
-                "len": 0.83,
-                "y": 0.06,
-                "font": {"color": "rgba(0,0,0,0)", "size": 6},
-                "currentvalue": {"prefix": "t (s) = ", "font": {"size": 12, "color": "#333"}},
-                "ticklen": 2,
-            }
-        ],
-        annotations=[
-            {
-                "text": note,
-                "showarrow": False,
-                "xref": "paper",
-                "yref": "paper",
-                "x": 1.0,
-                "y": 1.0,
-                "xanchor": "right",
-                "yanchor": "top",
-                "font": {"color": "#d62728"},
-            }
-        ]
-        if note
-        else [],
+        **scene_layout(_title(prog, int(rows[0])), allp),
+        **animation_controls(steps, 120, "t (s) = "),
+        annotations=note_annotations(note, "#d62728"),
     )
     return Playback(fig, rows, note)
 
