@@ -41,34 +41,9 @@ from arcube.model.sensitivity import mount_axes
 _M, _F, _P, _D, _C, _T, _R, _O, _AL, _BE, _ROT, _OM, _L = 0, 3, 6, 9, 11, 13, 15, 16, 18, 20, 22, 31, 40
 N_GEO = 41
 N_COLS = 32  # the 27 parameters (PARAM_NAMES order), then the 5 joints
-_PARAM_ORDER = (
-    "m_x",
-    "m_y",
-    "m_z",
-    "f_x",
-    "f_y",
-    "f_z",
-    "p_x",
-    "p_y",
-    "p_z",
-    "d_x",
-    "d_y",
-    "d_z",
-    "c_x",
-    "c_y",
-    "t_x",
-    "t_y",
-    "r",
-    "o_x",
-    "o_y",
-    "alpha_x",
-    "alpha_y",
-    "beta_x",
-    "beta_y",
-    "mount_rx",
-    "mount_ry",
-    "mount_rz",
-    "L",
+_PARAM_ORDER = tuple(
+    "m_x m_y m_z f_x f_y f_z p_x p_y p_z d_x d_y d_z c_x c_y t_x t_y r o_x o_y"
+    " alpha_x alpha_y beta_x beta_y mount_rx mount_ry mount_rz L".split()
 )
 # the column numbers below are written for this order
 assert PARAM_NAMES == _PARAM_ORDER, "arcube.accuracy._kernel: the design parameter order changed"

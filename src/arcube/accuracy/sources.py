@@ -26,22 +26,7 @@ from arcube.model.design import INDEX, PARAM_NAMES, full_params
 JOINTS: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated joints (the columns of J_E, model §15.1)."""
 
-LENGTHS: tuple[str, ...] = (
-    "f_x",
-    "f_y",
-    "f_z",
-    "p_x",
-    "p_y",
-    "p_z",
-    "d_x",
-    "d_y",
-    "c_x",
-    "c_y",
-    "t_x",
-    "t_y",
-    "r",
-    "L",
-)
+LENGTHS: tuple[str, ...] = tuple("f_x f_y f_z p_x p_y p_z d_x d_y c_x c_y t_x t_y r L".split())
 """The group ``lengths``: the 13 lengths that move the tip, and the tool offset L (ISO 2768-1 linear)."""
 ANGLES: tuple[str, ...] = ("o_x", "o_y", "alpha_x", "alpha_y", "beta_x", "beta_y")
 """The group ``angles``: ISO 2768-1 angular, with r as the shorter leg."""

@@ -187,6 +187,16 @@ def _default_for(plan: str | None, segments: tuple[str, ...] | None = None) -> A
     return _cached(key, lambda: _from_files([str(path)], "patient", segments, f"default ({path})"))
 
 
+def names_default(items: Sequence[str], param: str) -> bool:
+    """Whether the words and paths ``items`` of ``--anatomy`` or ``--envelope`` (``param``) are ``default``; False
+    for files. An :class:`InputError` when ``none`` or ``default`` stands with anything else."""
+    if "none" not in items and "default" not in items:
+        return False
+    if list(items) != ["default"]:
+        raise InputError.of(param, "'none' and 'default' stand alone (not with mesh files)")
+    return True
+
+
 def load_anatomy(
     spec: Sequence[str] | str | None,
     frame: str = "LPS",
@@ -206,9 +216,7 @@ def load_anatomy(
         if selection is not None:
             raise InputError.of("segments", "needs an anatomy (a segmentation file, or 'default')")
         return None
-    if "none" in items or "default" in items:
-        if items != ["default"]:
-            raise InputError.of("anatomy", "'none' and 'default' stand alone (not with mesh files)")
+    if names_default(items, "anatomy"):
         return _default_for(plan, selection)
     key = ("files", tuple(_file_key(os.fspath(i)) for i in items), frame, selection)
     return _cached(key, lambda: _from_files([os.fspath(i) for i in items], frame, selection))

@@ -304,16 +304,15 @@ def resolve_envelope(
         if table is not None:
             raise InputError.of("table_z", "is set but the envelope is 'none' (no envelope to hold a table)")
         return None
-    if "none" in items or "default" in items:
-        if items != ["default"]:
-            raise InputError.of("envelope", "'none' and 'default' stand alone (not with mesh files)")
+    from arcube.evaluation.anatomy import FRAMES, names_default
+
+    if names_default(items, "envelope"):
         if plan is None:
             raise InputError.of(
                 "envelope",
                 "'default' needs the plan's entry points to place its landmarks (model §19.5); give the trajectories, or 'none', or a skin mesh with table_z",
             )
         return default_envelope(landmarks(plan.entry, plan.target, anatomy), table)
-    from arcube.evaluation.anatomy import FRAMES
     from arcube.io.meshes import read_meshes
 
     if anatomy_frame not in FRAMES:

@@ -59,7 +59,7 @@ from arcube.errors import InputError
 from arcube.evaluation.performance import jacobians_of_solution
 from arcube.io.inputs import short_repr
 from arcube.model import frames
-from arcube.model.body import U_HAT, V_HAT, Z_ELBOW_SIGN, mechanism_points
+from arcube.model.body import FOUR_BAR_PARTS, U_HAT, V_HAT, Z_ELBOW_SIGN, mechanism_points
 from arcube.model.design import unpack
 from arcube.model.mechanism import IKSolution
 from arcube.options import Body, Masses, Options
@@ -70,12 +70,7 @@ _LINKS = (
     "crank_x",
     "crank_y",
     "crank_z",
-    "input_x",
-    "input_y",
-    "coupler_x",
-    "coupler_y",
-    "output_x",
-    "output_y",
+    *FOUR_BAR_PARTS,
     "zdyad_d",
     "zdyad_c",
     "platform_xy",

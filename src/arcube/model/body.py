@@ -205,6 +205,8 @@ def mechanism_points(
 
 # ----------------------------------------------------------------------------- model §14.1: parts
 
+FOUR_BAR_PARTS: tuple[str, ...] = ("input_x", "input_y", "coupler_x", "coupler_y", "output_x", "output_y")
+"""The links of the TMS four-bars x and y (model §4): a part each, and a moving body each (model §18.1)."""
 PART_NAMES: tuple[str, ...] = (
     "frame_x",
     "frame_y",
@@ -217,12 +219,7 @@ PART_NAMES: tuple[str, ...] = (
     "crank_z",
     "actuator_D_x",
     "actuator_D_y",
-    "input_x",
-    "input_y",
-    "coupler_x",
-    "coupler_y",
-    "output_x",
-    "output_y",
+    *FOUR_BAR_PARTS,
     "zdyad",
     "platform",
     "spherical_alpha_x",

@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit
 
+from arcube.evaluation.kernel._self import line_move
+
 TOL_MM = 0.1
 """How far above the interpolated field's minimum over the body the search may stop (mm)."""
 _STACK = 96
@@ -264,29 +266,14 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
         before = best
         if lower[k] >= best - TOL_MM:
             continue
-        if k < n_lines:
+        # the curve of _curve_point: the segment a -> b over s in [0, 1] (its length in mm per unit of s), or the
+        # arc about arc_c over the angle s in [0, angle] (arc_r mm per radian)
+        is_arc = k >= n_lines
+        if not is_arc:
             a = lines[k, 0]
             b = lines[k, 1]
-            length = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
-            best, lower[k] = _search(
-                False,
-                a,
-                b,
-                a,
-                0.0,
-                nrm,
-                1.0,
-                length,
-                radius[k],
-                grids,
-                best,
-                stack_lo,
-                stack_hi,
-                pt,
-                pbuf,
-                qbuf,
-                enough,
-            )
+            centre, r, total = a, 0.0, 1.0
+            scale = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
         else:
             j = k - n_lines
             a = arcs[j, 0]
@@ -301,25 +288,26 @@ def _anatomy_clearance(lines, arc_c, arc_r, arcs, radius, n_lines, grids, order,
                 angle = math.atan2(nn, dot)
             else:
                 angle = 0.0
-            best, lower[k] = _search(
-                True,
-                a,
-                b,
-                arc_c,
-                arc_r,
-                nrm,
-                angle,
-                arc_r,
-                radius[k],
-                grids,
-                best,
-                stack_lo,
-                stack_hi,
-                pt,
-                pbuf,
-                qbuf,
-                enough,
-            )
+            centre, r, total, scale = arc_c, arc_r, angle, arc_r
+        best, lower[k] = _search(
+            is_arc,
+            a,
+            b,
+            centre,
+            r,
+            nrm,
+            total,
+            scale,
+            radius[k],
+            grids,
+            best,
+            stack_lo,
+            stack_hi,
+            pt,
+            pbuf,
+            qbuf,
+            enough,
+        )
         if best < before:
             best_k = k
         if best <= enough:
@@ -336,18 +324,7 @@ def _carry_bounds(lower, lines, prev, valid):
     ``lines`` (n, 2, 3): the segments and points (the first n entries of ``lower``; the arcs' follow)."""
     n_lines = lines.shape[0]
     for j in range(n_lines):
-        if valid:
-            m = 0.0
-            for end in range(2):
-                dx = lines[j, end, 0] - prev[j, end, 0]
-                dy = lines[j, end, 1] - prev[j, end, 1]
-                dz = lines[j, end, 2] - prev[j, end, 2]
-                m = max(m, math.sqrt(dx * dx + dy * dy + dz * dz))
-            lower[j] = lower[j] - m
-        else:
-            lower[j] = -math.inf
-        for end in range(2):
-            for q in range(3):
-                prev[j, end, q] = lines[j, end, q]
+        m = line_move(lines, prev, j)
+        lower[j] = lower[j] - m if valid else -math.inf
     for j in range(n_lines, lower.shape[0]):
         lower[j] = -math.inf

@@ -27,7 +27,7 @@ from arcube.evaluation.kernel._layout import (
     X_TORQUE_ACTUATOR,
     X_TORQUE_NM,
 )
-from arcube.evaluation.kernel._scalar import rot
+from arcube.evaluation.kernel._scalar import cross, rot
 
 
 @njit(cache=True, error_model="numpy")
@@ -89,12 +89,8 @@ def _tip_metrics(g, tls, tms, rts, opt, J, row):
     xb0, xb1, xb2, yb0, yb1, yb2 = rts.xb0, rts.xb1, rts.xb2, rts.yb0, rts.yb1, rts.yb2
     pcr0, pcr1, pcr2 = tls.pcr0, tls.pcr1, tls.pcr2
     # J_AP rows q = u_beta x e (mechanism axes)
-    qx0 = xb1 * em2 - xb2 * em1
-    qx1 = xb2 * em0 - xb0 * em2
-    qx2 = xb0 * em1 - xb1 * em0
-    qy0 = yb1 * em2 - yb2 * em1
-    qy1 = yb2 * em0 - yb0 * em2
-    qy2 = yb0 * em1 - yb1 * em0
+    qx0, qx1, qx2 = cross(xb0, xb1, xb2, em0, em1, em2)
+    qy0, qy1, qy2 = cross(yb0, yb1, yb2, em0, em1, em2)
     det = (qx1 * qy2 - qx2 * qy1) * em0 + (qx2 * qy0 - qx0 * qy2) * em1 + (qx0 * qy1 - qx1 * qy0) * em2
     px0 = (qy1 * em2 - qy2 * em1) / det
     px1 = (qy2 * em0 - qy0 * em2) / det

@@ -84,6 +84,7 @@ from arcube.evaluation.kernel._masses import _holding_torque
 from arcube.evaluation.kernel._performance import _no_metrics, _tip_metrics
 from arcube.evaluation.kernel._scalar import (
     _clip_excess,
+    cross,
     _harmonic,
     _kdiag2,
     _kdiag3,
@@ -104,6 +105,22 @@ PRIM_PART = PRIMITIVE_PART.astype(np.int64)
 
 
 @njit(cache=True, error_model="numpy")
+def _rts_leg(sa, ca, cb, o, eu, ev, ew, eps):
+    """RTS IK of one leg (model §5.2) in its own axes (u, v, w), from sin/cos of alpha, cos beta, o (rad) and
+    the drill axis (eu, ev, ew): the harmonic equation's argument, sigma, sin/cos of sigma (NaN where sigma
+    is) and u_beta's components (u, v, w)."""
+    lam, arg = _harmonic((-sa) * ew, sa * ev, cb - ca * eu, eps)
+    sig = _wrap(lam - o)
+    lam2 = sig + o
+    if sig == sig:
+        ss = math.sin(sig)
+        cs = math.cos(sig)
+    else:
+        ss = cs = _NAN
+    return arg, sig, ss, cs, ca + 0.0 * lam2, sa * math.sin(lam2), (-sa) * math.cos(lam2)
+
+
+@njit(cache=True, error_model="numpy")
 def _rts_direction(g, e0, e1, e2, epsR0, epsR1):
     """RTS IK (model §5.2) and its Jacobian invariants for one drill direction (e0, e1, e2) in mechanism axes.
 
@@ -114,39 +131,15 @@ def _rts_direction(g, e0, e1, e2, epsR0, epsR1):
     sa0, ca0, cb0, o0 = g[G_SIN_ALPHA], g[G_COS_ALPHA], g[G_COS_BETA], g[G_O]
     sa1, ca1, cb1, o1 = g[G_SIN_ALPHA + 1], g[G_COS_ALPHA + 1], g[G_COS_BETA + 1], g[G_O + 1]
     # leg x: (e_u, e_v, e_w) = (e0, e1, e2)
-    lam, arg0 = _harmonic((-sa0) * e2, sa0 * e1, cb0 - ca0 * e0, epsR0)
-    sig0 = _wrap(lam - o0)
-    lam2 = sig0 + o0
-    xb0 = ca0 + 0.0 * lam2
-    xb1 = sa0 * math.sin(lam2)
-    xb2 = (-sa0) * math.cos(lam2)
+    arg0, sig0, ss0, cs0, xb0, xb1, xb2 = _rts_leg(sa0, ca0, cb0, o0, e0, e1, e2, epsR0)
     # leg y: (e_u, e_v, e_w) = (e1, e2, e0); local (u, v, w) -> world (y, z, x)
-    lam, arg1 = _harmonic((-sa1) * e0, sa1 * e2, cb1 - ca1 * e1, epsR1)
-    sig1 = _wrap(lam - o1)
-    lam2 = sig1 + o1
-    yb1 = ca1 + 0.0 * lam2
-    yb2 = sa1 * math.sin(lam2)
-    yb0 = (-sa1) * math.cos(lam2)
-    if sig0 == sig0:
-        ss0 = math.sin(sig0)
-        cs0 = math.cos(sig0)
-    else:
-        ss0 = cs0 = _NAN
-    if sig1 == sig1:
-        ss1 = math.sin(sig1)
-        cs1 = math.cos(sig1)
-    else:
-        ss1 = cs1 = _NAN
+    arg1, sig1, ss1, cs1, yb1, yb2, yb0 = _rts_leg(sa1, ca1, cb1, o1, e1, e2, e0, epsR1)
     # J_AS = (u_alpha x u_beta) . e, as np.cross + einsum
     jas0 = ((0.0 * xb2 - 0.0 * xb1) * e0 + (xb1 - 0.0 * xb0) * e2) + (0.0 * xb0 - xb2) * e1
     jas1 = ((yb2 - 0.0 * yb1) * e0 + (0.0 * yb1 - yb0) * e2) + (0.0 * yb0 - 0.0 * yb2) * e1
     # J_AP rows u_beta x e
-    q0 = xb1 * e2 - xb2 * e1
-    q1 = xb2 * e0 - xb0 * e2
-    q2 = xb0 * e1 - xb1 * e0
-    q3 = yb1 * e2 - yb2 * e1
-    q4 = yb2 * e0 - yb0 * e2
-    q5 = yb0 * e1 - yb1 * e0
+    q0, q1, q2 = cross(xb0, xb1, xb2, e0, e1, e2)
+    q3, q4, q5 = cross(yb0, yb1, yb2, e0, e1, e2)
     F_ap = ((((q0 * q0 + q1 * q1) + q2 * q2) + q3 * q3) + q4 * q4) + q5 * q5
     # det[x_b, y_b, e] = (x_b x y_b) . e; NumPy's einsum sums 3 products as (p0 + p2) + p1
     det = ((xb1 * yb2 - xb2 * yb1) * e0 + (xb0 * yb1 - xb1 * yb0) * e2) + (xb2 * yb0 - xb0 * yb2) * e1

@@ -46,6 +46,12 @@ def rot_t(g, a0, a1, a2):
 
 
 @njit(cache=True, error_model="numpy")
+def cross(a0, a1, a2, b0, b1, b2):
+    """a x b, each component a difference of two products as np.cross computes it."""
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True, error_model="numpy")
 def _wrap(x):
     """(x + pi) % (2 pi) - pi with Python/NumPy modulo semantics (result in [-pi, pi))."""
     return (x + _PI) % _TWO_PI - _PI

@@ -83,19 +83,26 @@ def _chords(arc_c, arc_r, arcs, n, out, j):
 
 
 @njit(cache=True, error_model="numpy")
+def line_move(lines, prev, j):
+    """How far straight primitive ``j`` of ``lines`` (n, 2, 3) moved since ``prev`` (same shape), mm: the larger
+    move of its ends (every point of a segment moves by at most that). ``prev[j]`` then takes ``lines[j]``."""
+    m = 0.0
+    for end in range(2):
+        dx = lines[j, end, 0] - prev[j, end, 0]
+        dy = lines[j, end, 1] - prev[j, end, 1]
+        dz = lines[j, end, 2] - prev[j, end, 2]
+        m = max(m, math.sqrt(dx * dx + dy * dy + dz * dz))
+        for q in range(3):
+            prev[j, end, q] = lines[j, end, q]
+    return m
+
+
+@njit(cache=True, error_model="numpy")
 def self_moves(lines, prev, valid, move):
-    """How far each straight primitive moved since the previous body ``prev`` (the larger move of its
-    ends: every point of a segment moves by at most that), into ``move`` (n_lines,); +inf without a
-    previous body (``valid`` false). ``prev`` then takes this body."""
+    """How far each straight primitive moved since the previous body ``prev`` (:func:`line_move`), into
+    ``move`` (n_lines,); +inf without a previous body (``valid`` false). ``prev`` then takes this body."""
     for j in range(lines.shape[0]):
-        m = 0.0
-        for end in range(2):
-            dx = lines[j, end, 0] - prev[j, end, 0]
-            dy = lines[j, end, 1] - prev[j, end, 1]
-            dz = lines[j, end, 2] - prev[j, end, 2]
-            m = max(m, math.sqrt(dx * dx + dy * dy + dz * dz))
-            for q in range(3):
-                prev[j, end, q] = lines[j, end, q]
+        m = line_move(lines, prev, j)
         move[j] = m if valid else math.inf
 
 

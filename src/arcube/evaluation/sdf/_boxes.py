@@ -53,6 +53,30 @@ def _box_sd(dx, dy, dz, r00, r01, r02, r10, r11, r12, r20, r21, r22, hx, hy, hz)
     return math.sqrt(ox * ox + oy * oy + oz * oz) + min(max(qx, max(qy, qz)), 0.0)
 
 
+# inlined (numba IR) where it is called: a call with arrays from the parallel loop would cost an atomic
+# reference count per call, which the threads fight over
+@njit(cache=True, inline="always")
+def _box_sd_of(x, y, z, centres, rots, halves, b):  # pragma: no cover
+    """:func:`_box_sd` of the point (x, y, z) to box ``b`` of the arrays of :func:`_box_arrays`."""
+    return _box_sd(
+        x - centres[b, 0],
+        y - centres[b, 1],
+        z - centres[b, 2],
+        rots[b, 0, 0],
+        rots[b, 0, 1],
+        rots[b, 0, 2],
+        rots[b, 1, 0],
+        rots[b, 1, 1],
+        rots[b, 1, 2],
+        rots[b, 2, 0],
+        rots[b, 2, 1],
+        rots[b, 2, 2],
+        halves[b, 0],
+        halves[b, 1],
+        halves[b, 2],
+    )
+
+
 @njit(parallel=True, cache=True)
 def _boxes_grid(origin, spacing, nx, ny, nz, centres, halves, rots, ext, min_half, out):  # pragma: no cover
     """min over boxes of the exact box distance at every node.
@@ -70,23 +94,7 @@ def _boxes_grid(origin, spacing, nx, ny, nz, centres, halves, rots, ext, min_hal
             last = 0
             for k in range(nz):
                 z = origin[2] + spacing * k
-                best = _box_sd(
-                    x - centres[last, 0],
-                    y - centres[last, 1],
-                    z - centres[last, 2],
-                    rots[last, 0, 0],
-                    rots[last, 0, 1],
-                    rots[last, 0, 2],
-                    rots[last, 1, 0],
-                    rots[last, 1, 1],
-                    rots[last, 1, 2],
-                    rots[last, 2, 0],
-                    rots[last, 2, 1],
-                    rots[last, 2, 2],
-                    halves[last, 0],
-                    halves[last, 1],
-                    halves[last, 2],
-                )
+                best = _box_sd_of(x, y, z, centres, rots, halves, last)
                 arg = last
                 for b in range(nb):
                     if b == last:
@@ -100,23 +108,7 @@ def _boxes_grid(origin, spacing, nx, ny, nz, centres, halves, rots, ext, min_hal
                             continue
                     elif lb2 > 0.0 or -min_half[b] >= best:
                         continue
-                    d = _box_sd(
-                        x - centres[b, 0],
-                        y - centres[b, 1],
-                        z - centres[b, 2],
-                        rots[b, 0, 0],
-                        rots[b, 0, 1],
-                        rots[b, 0, 2],
-                        rots[b, 1, 0],
-                        rots[b, 1, 1],
-                        rots[b, 1, 2],
-                        rots[b, 2, 0],
-                        rots[b, 2, 1],
-                        rots[b, 2, 2],
-                        halves[b, 0],
-                        halves[b, 1],
-                        halves[b, 2],
-                    )
+                    d = _box_sd_of(x, y, z, centres, rots, halves, b)
                     if d < best:
                         best = d
                         arg = b

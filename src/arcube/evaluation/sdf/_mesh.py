@@ -74,6 +74,23 @@ def _bvh(tri: np.ndarray) -> tuple[Any, ...]:
 
 
 @njit(cache=True)
+def _corner(s, t, u, v, qx, qy, qz, apx, apy, apz, ex, ey, ez):  # pragma: no cover - compiled
+    """Ericson's tests of the regions of corner b and of edge ab, in :func:`_tri_dist2`'s order, with b and c
+    swapped those of corner c and edge ac: (in one of them, squared distance, the barycentric area vc or vb).
+
+    q = p - b, ap = p - a, e = b - a; s, t: (b - a).q and (c - a).q; u, v: (b - a).ap and (c - a).ap.
+    """
+    if s >= 0.0 and t <= s:
+        return True, qx * qx + qy * qy + qz * qz, 0.0
+    area = u * t - s * v
+    if area <= 0.0 and u >= 0.0 and s <= 0.0:
+        x = u / (u - s)
+        rx, ry, rz = apx - x * ex, apy - x * ey, apz - x * ez
+        return True, rx * rx + ry * ry + rz * rz, area
+    return False, 0.0, area
+
+
+@njit(cache=True)
 def _tri_dist2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):  # pragma: no cover - compiled
     """Squared distance from p to triangle abc (Ericson, Real-Time Collision Detection 5.1.5).
 
@@ -83,30 +100,19 @@ def _tri_dist2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):  # pragma: no co
     abx, aby, abz = bx - ax, by - ay, bz - az
     acx, acy, acz = cx - ax, cy - ay, cz - az
     apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
+    d1, d2 = abx * apx + aby * apy + abz * apz, acx * apx + acy * apy + acz * apz
     if d1 <= 0.0 and d2 <= 0.0:
         return apx * apx + apy * apy + apz * apz
     bpx, bpy, bpz = px - bx, py - by, pz - bz
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    if d3 >= 0.0 and d4 <= d3:
-        return bpx * bpx + bpy * bpy + bpz * bpz
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        v = d1 / (d1 - d3)
-        qx, qy, qz = apx - v * abx, apy - v * aby, apz - v * abz
-        return qx * qx + qy * qy + qz * qz
+    d3, d4 = abx * bpx + aby * bpy + abz * bpz, acx * bpx + acy * bpy + acz * bpz
+    hit, dist2, vc = _corner(d3, d4, d1, d2, bpx, bpy, bpz, apx, apy, apz, abx, aby, abz)
+    if hit:
+        return dist2
     cpx, cpy, cpz = px - cx, py - cy, pz - cz
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
-    if d6 >= 0.0 and d5 <= d6:
-        return cpx * cpx + cpy * cpy + cpz * cpz
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        w = d2 / (d2 - d6)
-        qx, qy, qz = apx - w * acx, apy - w * acy, apz - w * acz
-        return qx * qx + qy * qy + qz * qz
+    d5, d6 = abx * cpx + aby * cpy + abz * cpz, acx * cpx + acy * cpy + acz * cpz
+    hit, dist2, vb = _corner(d6, d5, d2, d1, cpx, cpy, cpz, apx, apy, apz, acx, acy, acz)
+    if hit:
+        return dist2
     va = d3 * d6 - d5 * d4
     if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
         w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
@@ -119,6 +125,27 @@ def _tri_dist2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):  # pragma: no co
     qy = apy - v * aby - w * acy
     qz = apz - v * abz - w * acz
     return qx * qx + qy * qy + qz * qz
+
+
+# inlined (numba IR) where it is called: a call with arrays from the parallel loop would cost an atomic
+# reference count per call (see _tri_dist2)
+@njit(cache=True, inline="always")
+def _tri_dist2_of(px, py, pz, tri, t):  # pragma: no cover - compiled
+    """:func:`_tri_dist2` from p to triangle ``t`` of ``tri`` (n, 3, 3)."""
+    return _tri_dist2(
+        px,
+        py,
+        pz,
+        tri[t, 0, 0],
+        tri[t, 0, 1],
+        tri[t, 0, 2],
+        tri[t, 1, 0],
+        tri[t, 1, 1],
+        tri[t, 1, 2],
+        tri[t, 2, 0],
+        tri[t, 2, 1],
+        tri[t, 2, 2],
+    )
 
 
 @njit(parallel=True, cache=True)
@@ -139,20 +166,7 @@ def _mesh_grid_unsigned(
                 best = np.inf
                 best_t = -1
                 if last >= 0:  # the previous node's nearest triangle: a tight first bound
-                    best = _tri_dist2(
-                        px,
-                        py,
-                        pz,
-                        tri[last, 0, 0],
-                        tri[last, 0, 1],
-                        tri[last, 0, 2],
-                        tri[last, 1, 0],
-                        tri[last, 1, 1],
-                        tri[last, 1, 2],
-                        tri[last, 2, 0],
-                        tri[last, 2, 1],
-                        tri[last, 2, 2],
-                    )
+                    best = _tri_dist2_of(px, py, pz, tri, last)
                     best_t = last
                 stack[0] = root
                 sp = 1
@@ -167,20 +181,7 @@ def _mesh_grid_unsigned(
                     if count[nd] > 0:
                         for m in range(first[nd], first[nd] + count[nd]):
                             t = order[m]
-                            d2 = _tri_dist2(
-                                px,
-                                py,
-                                pz,
-                                tri[t, 0, 0],
-                                tri[t, 0, 1],
-                                tri[t, 0, 2],
-                                tri[t, 1, 0],
-                                tri[t, 1, 1],
-                                tri[t, 1, 2],
-                                tri[t, 2, 0],
-                                tri[t, 2, 1],
-                                tri[t, 2, 2],
-                            )
+                            d2 = _tri_dist2_of(px, py, pz, tri, t)
                             if d2 < best:
                                 best = d2
                                 best_t = t
