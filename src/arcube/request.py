@@ -52,7 +52,7 @@ class Request:
     same request asked of several commands::
 
         req = arcube.Request("paper", "reference", side="R", anatomy="default")
-        arcube.evaluate(req).summary["reachable_pct"], arcube.joints(req, speed=2.0)
+        arcube.evaluate(req).summary["eta_G"], arcube.joints(req, speed=2.0)
     """
 
     design: Any = "paper"

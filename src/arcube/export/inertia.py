@@ -35,8 +35,8 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from arcube.arrays import Floats
 from arcube.errors import InputError
 from arcube.evaluation.mass_bodies import BODY_NAMES, MOTOR, MassModel, bodies_of_solution
 from arcube.model.body import BodyRadii
@@ -82,8 +82,8 @@ class Inertial:
     ``inertia`` ``(3, 3)`` about the centre of mass, in R_w's axes (kg mm^2)."""
 
     mass: float
-    com: NDArray[np.float64]
-    inertia: NDArray[np.float64]
+    com: Floats
+    inertia: Floats
 
 
 def mass_model_for(masses: MassModel | Options | None, radii: BodyRadii, c_z: float) -> MassModel:
@@ -104,10 +104,10 @@ def mass_model_for(masses: MassModel | Options | None, radii: BodyRadii, c_z: fl
 
 
 def body_inertials(
-    params: NDArray[np.float64],
-    E: NDArray[np.float64],
-    e: NDArray[np.float64],
-    signs: NDArray[np.float64],
+    params: Floats,
+    E: Floats,
+    e: Floats,
+    signs: Floats,
     model: MassModel,
 ) -> dict[str, Inertial]:
     """The :class:`Inertial` of every MuJoCo body that carries a part of 18.1, at the pose (E, e) ``(3,)``
@@ -145,7 +145,7 @@ def body_inertials(
     return out
 
 
-def principal_axes(inertia: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def principal_axes(inertia: Floats) -> tuple[Floats, Floats]:
     """The principal moments ``(3,)`` (>= 0, kg mm^2) and axes ``(3, 3)`` (columns, a right-handed
     rotation) of a symmetric inertia tensor ``(3, 3)``: inertia = axes diag(moments) axes^T.
 

@@ -61,8 +61,9 @@ import xml.etree.ElementTree as ET
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from arcube.arrays import Floats
 from arcube.errors import InputError
 from arcube.evaluation.mass_bodies import MassModel
 from arcube.coerce import design_mode
@@ -203,7 +204,7 @@ def export_masses(options: Options, masses: bool | None) -> MassModel:
 
 def checked_inputs(
     design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None
-) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+) -> tuple[Floats, Floats, float]:
     """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
     ``mode`` None: the design's own; ``c_z`` None: the design's, else d_z."""
     d = Design.coerce(design)  # a design file keeps its c_z and mode (a vector has neither); validates (InputError)
@@ -216,10 +217,10 @@ def checked_inputs(
 
 
 def check_z_dyad(
-    params: NDArray[np.float64],
-    E: NDArray[np.float64],
-    e: NDArray[np.float64],
-    signs: NDArray[np.float64],
+    params: Floats,
+    E: Floats,
+    e: Floats,
+    signs: Floats,
     c_z: float,
     what: str,
 ) -> None:
@@ -243,10 +244,10 @@ def check_z_dyad(
 
 
 def model_xml(
-    params: NDArray[np.float64],
-    E: NDArray[np.float64],
-    e: NDArray[np.float64],
-    signs: NDArray[np.float64],
+    params: Floats,
+    E: Floats,
+    e: Floats,
+    signs: Floats,
     c_z: float,
     radii: BodyRadii,
     anatomy: Any,

@@ -31,6 +31,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from arcube.arrays import Floats
 from arcube.evaluation.mass_bodies import MassModel, bodies_of_solution
 from arcube.evaluation.performance import jacobians_of_solution
 from arcube.model import frames
@@ -46,20 +47,20 @@ _CHUNK = 1024
 class ProgramTorques(NamedTuple):
     """Actuator torques per row ``(n, 5)`` in N m (positive along q_i, JOINTS order), and their parts."""
 
-    tau_Nm: NDArray[np.float64]  # gravity + inertia - J_E^T f
-    gravity_Nm: NDArray[np.float64]  # dV/dq
-    inertia_Nm: NDArray[np.float64]  # M q_ddot + c
-    thrust_Nm: NDArray[np.float64]  # -J_E^T f (zero off the drill rows)
-    lateral_Nm: NDArray[np.float64]  # F_l |P_perp J_E,i| on drill rows, else 0 (sizing only, 18.3)
+    tau_Nm: Floats  # gravity + inertia - J_E^T f
+    gravity_Nm: Floats  # dV/dq
+    inertia_Nm: Floats  # M q_ddot + c
+    thrust_Nm: Floats  # -J_E^T f (zero off the drill rows)
+    lateral_Nm: Floats  # F_l |P_perp J_E,i| on drill rows, else 0 (sizing only, 18.3)
 
 
 def _points(
-    params: NDArray[np.float64],
-    E: NDArray[np.float64],
-    e: NDArray[np.float64],
-    mode: NDArray[np.float64],
+    params: Floats,
+    E: Floats,
+    e: Floats,
+    mode: Floats,
     model: MassModel,
-) -> tuple[NDArray[np.float64], ...]:
+) -> tuple[Floats, ...]:
     """Point masses of the rows: positions ``(m, 3 K, 3)``, Jacobians ``(m, 3 K, 3, 5)``, masses ``(3 K,)``, and
     e ``(m, 3)``, J_e, J_E ``(m, 3, 5)`` in R_w."""
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -18,8 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from arcube.arrays import Floats
 from arcube.motion.limits import ProgramLimits
 from arcube.motion.output import JOINTS
 from arcube.motion.rows import check_piece
@@ -47,9 +47,9 @@ def cruise_problem(piece: Piece, limits: ProgramLimits) -> str | None:
 
 
 def _ratio(
-    E: NDArray[np.float64],
-    q: NDArray[np.float64],
-    qd: NDArray[np.float64],
+    E: Floats,
+    q: Floats,
+    qd: Floats,
     dt: float,
     limits: ProgramLimits,
     speed: float,
@@ -64,7 +64,7 @@ def _ratio(
     return max(rate, acc / limits.qdd_max), tip
 
 
-def sample_piece(piece: Piece, limits: ProgramLimits, line: bool) -> dict[str, NDArray[np.float64]]:
+def sample_piece(piece: Piece, limits: ProgramLimits, line: bool) -> dict[str, Floats]:
     """Time ``piece`` (sets ``piece.law``) and return its rows at t = 0, dt, ..., n dt (the last at rest):
     ``t`` (from the piece's start), ``E``, ``e``, ``q``, ``qd`` (rad, rad/s). Raises TimingError."""
     dt = limits.dt
