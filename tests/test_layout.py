@@ -66,6 +66,7 @@ CLI_ALLOWED_MODULES = {"arcube.__main__"}
 
 LAYERS = (
     "arcube.caches",
+    "arcube.arrays",
     "arcube.interrupts",
     "arcube.progress",
     "arcube.errors",

@@ -74,3 +74,34 @@ def test_a_config_of_0_2_reads_into_todays_names() -> None:
     assert cfg.settings.ftol == 0.0 and cfg.settings.aggregate == "max" and cfg.settings.seed == 1
     assert cfg.trajectories == ("reference",) and cfg.engine_resolved == "numpy"
     assert cfg.to_toml()["settings"]["ftol"] == 0.0 and "tolerance" not in cfg.to_toml()["settings"]
+
+
+@pytest.mark.parametrize("name", sorted(RunSettings.model_fields))
+def test_every_run_setting_survives_the_written_file(name: str, tmp_path: Path) -> None:
+    """Each setting, set alone, through config.toml's text as a run folder holds it (``tol``, a table of numbers,
+    once stopped every run that set it: the file writer refused it)."""
+    import tomllib
+
+    from arcube.optimization.folder import to_toml
+    from test_settings import _NOT_DEFAULT
+
+    s = RunSettings(**{name: _NOT_DEFAULT[name]})
+    text = to_toml({"settings": s.to_table(), "bounds": {k: list(v) for k, v in s.all_bounds.items()}})
+    assert RunSettings.from_config(tomllib.loads(text)) == s
+
+
+def test_the_rerun_line_reruns_the_same_settings(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """config.toml's ``rerun`` line, given to the command line, starts a run with the same settings (its tolerances
+    were written as a Python dict once, a line the command line refused)."""
+    import shlex
+
+    from harness import run_cli
+
+    fields = {"tol": {"r": 0.02, "lengths": 0.05}, "maxima": {"torque": 5.0}, "bounds": {"m_x": (10.0, 200.0)}}
+    cfg = build_config(["reference"], **SMALL, **fields, thrust=25.0, tolerance_class="f")
+    argv = shlex.split(cfg.rerun.replace(" DIR ", f" {tmp_path / 'again'} "))
+    assert argv[:2] == ["arcube", "optimize"]
+    code, _, err = run_cli([*argv[1:], "--quiet"], capsys)
+    assert code == 0, err
+    again, _ = read_config(tmp_path / "again")
+    assert again.settings == cfg.settings

@@ -12,6 +12,7 @@ their keywords and read the Resolved; what is their own (points, options, limits
 from __future__ import annotations
 
 import inspect
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any
@@ -75,19 +76,27 @@ class Request:
     @classmethod
     def of(cls, arguments: Mapping[str, Any], function: Callable[..., Any]) -> Request:
         """The request a keyword function was called with: ``arguments`` are its keywords (``locals()``), ``function``
-        itself (its defaults). A Request given as its ``design`` is that request; the function's other request
-        keywords must then keep their defaults (InputError naming the first that does not: it is the Request's)."""
+        itself (its defaults). A Request given as its ``design`` is that request: the function's other request
+        keywords must then keep their defaults (or say what the Request says), and the Request must leave unset what
+        the function does not take (``program`` takes no ``points``); InputError naming the first that does not."""
         names = [f.name for f in fields(cls) if f.name in arguments]
+        for name in names[1:]:
+            if isinstance(arguments[name], Request):
+                raise InputError.of(name, "is a Request: give it as the first argument (design)")
         given = arguments.get("design")
-        if isinstance(given, Request):
-            defaults = inspect.signature(function).parameters
-            for name in names:
-                value, default = arguments[name], defaults[name].default if name in defaults else None
-                kept = value is default or (isinstance(value, (str, int, float)) and value == default)
-                if name != "design" and not kept:
-                    raise InputError.of(name, "is the request's: set it on the arcube.Request given as design")
-            return given
-        return cls(**{name: arguments[name] for name in names})
+        if not isinstance(given, Request):
+            return cls(**{name: arguments[name] for name in names})
+        defaults = inspect.signature(function).parameters
+        for name in names[1:]:
+            value = arguments[name]
+            if not (_same(value, defaults[name].default) or _same(value, getattr(given, name))):
+                raise InputError.of(name, "is the request's: set it on the arcube.Request given as design")
+        for f in fields(cls):
+            if f.name not in names and not _same(getattr(given, f.name), f.default):
+                raise InputError.of(
+                    f.name, f"is set on the Request, but {function.__name__} does not take it: leave it unset"
+                )
+        return given
 
     def resolve(self, before_anatomy: Callable[[Any], None] | None = None) -> Resolved:
         """Load and check everything, in the order a user's mistakes are best reported: the design, the mode, the
@@ -111,6 +120,12 @@ class Request:
         anat = resolve_anatomy(self.anatomy, self.anatomy_frame, self.plan, segments=self.segments)
         env = resolve_envelope(self.envelope, full, anat, self.table_z, self.anatomy_frame)
         return Resolved(d, signs, full, ts, anat, env)
+
+
+def _same(value: Any, other: Any) -> bool:
+    """Whether a keyword's value is ``other`` (the same object, or an equal plain number or text)."""
+    plain = (str, numbers.Number, np.generic)
+    return value is other or (isinstance(value, plain) and isinstance(other, plain) and bool(value == other))
 
 
 def with_design_c_z(options: Any, design: Any) -> Any:

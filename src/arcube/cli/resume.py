@@ -40,7 +40,9 @@ def resume(given: Given) -> None:
     if is_design(run_dir):
         from arcube.cli.design_progress import DesignProgress
 
-        study, base = folder.read_study(run_dir / STUDY) if folder.is_study(run_dir / STUDY) else ({}, None)
+        study, base = (
+            folder.read_study(run_dir / STUDY, config=True) if folder.is_study(run_dir / STUDY) else ({}, None)
+        )
         budget = max(base.settings.population * base.settings.generations, 1) if base is not None else 1
         with DesignProgress(study.get("seeds", []), budget, enabled=not quiet) as bar:
             bar.watch(run_dir / STUDY)

@@ -215,6 +215,8 @@ def _rerun_command(s: RunSettings, trajectories: list[str]) -> str:
             parts.append(flag)
         elif name in ("maxima", "minima"):
             parts += [f"{flag} {n}={v!r}" for n, v in value.items()]
+        elif name == "tol":
+            parts.append(f"{flag} " + ",".join(f"{n}={v!r}" for n, v in value.items()))
         elif name == "bounds":
             parts.append(f"{flag} " + ",".join(f"{k}={lo!r}:{hi!r}" for k, (lo, hi) in value.items()))
         elif name == "anatomy":

@@ -15,6 +15,7 @@ import platform
 import shutil
 import tomllib
 from importlib import metadata
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +65,8 @@ def _toml_value(v: Any) -> str:
         return json.dumps(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):  # an inline table (e.g. the tolerances' ``tol``)
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}" for k, x in v.items()) + "}"
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
@@ -171,8 +174,10 @@ def is_study(path: Path) -> bool:
     return (Path(path) / "study.toml").is_file()
 
 
-def read_study(study_dir: Path) -> tuple[dict[str, Any], RunConfig]:
-    """(study.toml, base config) of a study folder; InputError when it is not one."""
+def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any], RunConfig | None]:
+    """(study.toml, the base config every seed shares) of a study folder; InputError when it is not one. The base
+    config is read and checked as a run's (:func:`read_config`) only with ``config`` (what a resume needs); else
+    None (a report or a study opened to be read evaluates nothing, on any machine)."""
     study_dir = Path(study_dir)
     if not study_dir.is_dir():
         raise InputError(f"{study_dir}: no such study or run folder")
@@ -191,4 +196,4 @@ def read_study(study_dir: Path) -> tuple[dict[str, Any], RunConfig]:
     seeds = study.get("seeds")
     if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
         raise InputError(f"{path}: no seeds list")
-    return study, _validated(study_dir / "base_config.toml", base)
+    return study, _validated(study_dir / "base_config.toml", base) if config else None

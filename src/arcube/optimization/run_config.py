@@ -87,11 +87,17 @@ class RunConfig:
     rerun: str | None = None
     """The command line that reruns this run."""
 
+    __hash__ = None  # type: ignore[assignment]  # its records are mappings: equal configs, not hashable ones
+
     def __post_init__(self) -> None:
         for name in ("design", "bounds", "executor", "versions"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
         object.__setattr__(self, "patients", tuple(_frozen(p) for p in self.patients))
         object.__setattr__(self, "trajectories", tuple(self.trajectories))
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled (and deep-copied) as its fields' plain values, frozen again on the way back."""
+        return type(self), tuple(_plain(getattr(self, f.name)) for f in dataclasses.fields(self))
 
     def replace(self, **changes: Any) -> RunConfig:
         """A copy with ``changes`` (fields by name)."""

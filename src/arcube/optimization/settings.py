@@ -37,7 +37,7 @@ from arcube.optimization.objectives import (
     needs,
 )
 from arcube.patients.settings import Segments
-from arcube.options import FLAT, GUARDED_OPTIONS, Options, Settings, route_flat
+from arcube.options import FLAT, GUARDED_OPTIONS, Options, Outputs, Settings, route_flat
 
 __all__ = [
     "DEFAULT_BOUNDS",
@@ -309,7 +309,7 @@ class RunSettings(Settings):
             ):  # model §19.2: a design with a z-dyad link of its own has a z leg that can be assembled
                 guards = guards.replace(z_dyad=True)
         clearance = needs("clearance", self.run_objectives, self.limits)
-        outputs = self.options.outputs.replace(
+        outputs = Outputs(  # what the run computes follows from its objectives and limits alone (config.toml keeps no outputs)
             anatomy_clearance=clearance and guards.clearance_mm is None,
             tip_metrics=needs("tip_metrics", self.run_objectives, self.limits),
             clearance_min_exact=clearance,

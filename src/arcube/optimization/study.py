@@ -121,7 +121,7 @@ def resume_study(
 
     ``workers`` / ``dask`` override how the study started (the result does not depend on them)."""
     study_dir = Path(study_dir)
-    study, base = read_study(study_dir)
+    study, base = read_study(study_dir, config=True)
     seeds = [int(s) for s in study["seeds"]]
     if dask is None and workers is None:
         workers, dask = int(study.get("workers", 1)), study.get("dask") or None
