@@ -78,3 +78,20 @@ def test_a_request_and_a_keyword_it_holds_are_refused_together(keyword: dict) ->
 
     with pytest.raises(InputError, match=rf"^{next(iter(keyword))} is the request's: set it on the arcube.Request"):
         arcube.evaluate(arcube.Request("paper", "reference", side="R"), **keyword)
+
+
+def test_a_request_where_it_does_not_belong_is_refused() -> None:
+    """A Request as the plan; one that sets what the function does not take (program has no points, tolerance no
+    anatomy, joints no envelope); a keyword saying what the Request says is accepted."""
+    import arcube
+
+    req = arcube.Request("paper", "reference", side="R", points=8)
+    with pytest.raises(InputError, match=r"^plan is a Request: give it as the first argument"):
+        arcube.evaluate("paper", plan=req)
+    with pytest.raises(InputError, match=r"^points is set on the Request, but program does not take it"):
+        arcube.program(req)
+    with pytest.raises(InputError, match=r"^anatomy is set on the Request, but tolerance does not take it"):
+        arcube.tolerance(arcube.Request("paper", "reference", anatomy="default"))
+    with pytest.raises(InputError, match=r"^envelope is set on the Request, but joints does not take it"):
+        arcube.joints(arcube.Request("paper", "reference", envelope="default"))
+    assert arcube.evaluate(req, points=np.int64(8), side="R").summary["n_points"] == 40

@@ -105,3 +105,19 @@ def test_the_rerun_line_reruns_the_same_settings(tmp_path: Path, capsys: pytest.
     assert code == 0, err
     again, _ = read_config(tmp_path / "again")
     assert again.settings == cfg.settings
+
+
+def test_the_config_pickles_as_itself_and_the_run_ignores_requested_outputs() -> None:
+    """An in-memory result goes through pickle (processes, dask) with its config; and what the run evaluates follows
+    from its objectives alone, as config.toml records them (a fresh run and its resume alike)."""
+    import copy
+    import pickle
+
+    from arcube.options import Options, Outputs
+
+    cfg = build_config(["reference"], **SMALL, tol={"r": 0.02})
+    assert pickle.loads(pickle.dumps(cfg)) == cfg and copy.deepcopy(cfg) == cfg
+    with pytest.raises(TypeError, match="unhashable"):
+        hash(cfg)
+    asked = RunSettings(options=Options(outputs=Outputs(clearances=True)))
+    assert asked.evaluation_options() == RunSettings().evaluation_options()
