@@ -67,6 +67,7 @@ CLI_ALLOWED_MODULES = {"arcube.__main__"}
 LAYERS = (
     "arcube.caches",
     "arcube.arrays",
+    "arcube.summary",
     "arcube.interrupts",
     "arcube.progress",
     "arcube.errors",

@@ -95,3 +95,22 @@ def test_a_request_where_it_does_not_belong_is_refused() -> None:
     with pytest.raises(InputError, match=r"^envelope is set on the Request, but joints does not take it"):
         arcube.joints(arcube.Request("paper", "reference", envelope="default"))
     assert arcube.evaluate(req, points=np.int64(8), side="R").summary["n_points"] == 40
+
+
+def test_an_evaluations_summary_is_typed_and_still_its_json() -> None:
+    """Every field of an evaluation's summary is declared (with and without the optional outputs), each an attribute."""
+    import json
+
+    import arcube
+    from arcube.evaluation.result import EvaluationSummary
+    from arcube.options import Outputs
+
+    plain = arcube.evaluate("paper", "reference", side="R", points=6)
+    full = arcube.evaluate(
+        ROBOT, "reference", side="R", points=6, options=Options(outputs=Outputs(holding_torque=True))
+    )
+    for e in (plain, full):
+        assert isinstance(e.summary, EvaluationSummary) and tuple(e.summary) == EvaluationSummary.fields()
+        assert all(getattr(e.summary, k) == e.summary[k] for k in e.summary)
+        assert json.loads(json.dumps(e.to_json()))["summary"] == e.summary
+    assert full.summary.moving_mass_kg is not None and plain.summary.moving_mass_kg is None

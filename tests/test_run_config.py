@@ -121,3 +121,25 @@ def test_the_config_pickles_as_itself_and_the_run_ignores_requested_outputs() ->
         hash(cfg)
     asked = RunSettings(options=Options(outputs=Outputs(clearances=True)))
     assert asked.evaluation_options() == RunSettings().evaluation_options()
+
+
+def test_a_runs_summary_is_typed_and_still_its_json(tmp_path: Path) -> None:
+    """House II: results get attributes. Every field of a run's summary (a single-objective run, a multi-objective
+    one with c_z free and the holding torque) is declared by RunSummary; each reads as an attribute, the same value
+    as the key; a field the run does not have reads None; the summary equals summary.json and dumps as it."""
+    import json
+
+    from arcube.optimization.run_results import RunSummary
+
+    single = arcube.optimize("reference", out=tmp_path / "a", **SMALL)
+    multi = arcube.optimize(
+        "reference", **{**SMALL, "free": "m_x,m_y,m_z,c_z"}, objectives="eta_G,torque,holding_torque"
+    )
+    for summary in (single.summary, multi.summary):
+        assert isinstance(summary, RunSummary) and set(summary) <= set(RunSummary.fields())
+        assert all(getattr(summary, k) == summary[k] for k in summary)
+    assert single.summary == json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert json.loads(json.dumps(single.summary)) == single.summary
+    assert single.summary.front_size is None and multi.summary.front_size == multi.summary["front_size"]
+    with pytest.raises(AttributeError, match="has no field 'etaG'"):
+        single.summary.etaG  # noqa: B018

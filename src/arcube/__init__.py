@@ -34,6 +34,9 @@ _SOURCES: dict[str, str] = {
         ("design", "evaluate", "joints", "optimize", "program", "resume", "study", "tolerance"), "arcube.api"
     ),
     "Request": "arcube.request",
+    "RunConfig": "arcube.optimization.run_config",
+    "RunSummary": "arcube.optimization.run_results",
+    "EvaluationSummary": "arcube.evaluation.result",
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
     "InputError": "arcube.errors",
     "RunSettings": "arcube.optimization.settings",
@@ -89,6 +92,9 @@ if TYPE_CHECKING:
     from arcube.patients import generate_patient
     from arcube.report import write_report
     from arcube.request import Request
+    from arcube.evaluation.result import EvaluationSummary
+    from arcube.optimization.run_config import RunConfig
+    from arcube.optimization.run_results import RunSummary
 
 __all__ = [
     "GUARDED_OPTIONS",
@@ -100,6 +106,7 @@ __all__ = [
     "DesignResult",
     "DockResult",
     "Evaluation",
+    "EvaluationSummary",
     "Guards",
     "InputError",
     "JointTrajectory",
@@ -112,7 +119,9 @@ __all__ = [
     "Program",
     "ProgramLimits",
     "Request",
+    "RunConfig",
     "RunSettings",
+    "RunSummary",
     "ToleranceResult",
     "ToleranceSettings",
     "Study",

@@ -9,7 +9,6 @@ and a pandas DataFrame. The HTML report is drawn by :func:`arcube.report.write_r
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -24,10 +23,62 @@ from arcube.evaluation.task import Task, build_task
 from arcube.io import TrajectorySet
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode
+from arcube.summary import Summary
 
 if TYPE_CHECKING:
     from arcube.evaluation.anatomy import Anatomy
     from arcube.evaluation.envelope import Envelope
+
+
+class EvaluationSummary(Summary):
+    """The summary of one evaluation (``Evaluation.summary``, the ``summary`` of ``arcube evaluate --json``)."""
+
+    n_points: int
+    """Points of the task (trajectories x points per trajectory)."""
+    w_G: bool
+    """Whether every point is reachable (model §8.3)."""
+    reachable_fraction: float
+    """Share of the points reachable, 0-1."""
+    eta_G: float | None
+    """The global index eta_G (model §8.3); None unless every point is reachable."""
+    dexterity_pct: dict[str, float]
+    """Inverted condition number over the points, percent: ``min``, ``mean``, ``max``."""
+    inverted_eta_G_pct: float | None
+    """100 / eta_G, percent."""
+    failures: dict[str, int]
+    """Points that fail, per reason (model §8.2 and 14.3)."""
+    clearance_min_mm: float | None
+    """Smallest clearance to the anatomy, mm (model §14.3); None without one."""
+    clearance_min_part: str | None
+    """The robot's part where it is smallest."""
+    self_clearance_min_mm: float | None
+    """Smallest clearance between the robot's own parts, mm."""
+    envelope_clearance_min_mm: float | None
+    """Smallest clearance to the envelope of the whole patient and the table, mm (model §19.5); None without one."""
+    envelope_clearance_min_part: str | None
+    """The robot's part where it is smallest."""
+    envelope_clearance_min_region: str | None
+    """The envelope's region there (neck, head, torso, table, skin)."""
+    tip_error_max_mm: float | None
+    """Largest drill-tip position error from the encoders, mm (model §15.2)."""
+    lateral_error_max_mm: float | None
+    """Largest lateral error under the drilling loads, mm (model §15)."""
+    axial_error_max_mm: float | None
+    """Largest axial error, mm."""
+    axis_error_max_deg: float | None
+    """Largest drill-axis angle error, deg."""
+    torque_max_Nm: float | None
+    """Largest actuator torque holding the drilling loads, N m (model §15.3)."""
+    torque_max_actuator: str | None
+    """The actuator that needs it."""
+    deflection_max_mm: float | None
+    """Largest drill-tip deflection from the actuators' stiffness, mm (model §15.4)."""
+    holding_torque_max_Nm: float | None
+    """Largest holding torque, gravity and loads, N m (model §18.2); None unless asked."""
+    holding_torque_max_actuator: str | None
+    """The actuator that needs it."""
+    moving_mass_kg: float | None
+    """The design's moving mass, kg (model §18.3); None unless the holding torque is asked."""
 
 
 @dataclass(frozen=True)
@@ -69,7 +120,7 @@ class Evaluation:
         return self.results.points
 
     @cached_property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> EvaluationSummary:
         """The summary of the JSON output: eta_G (None when not every point is reachable), w_G, dexterity, failures,
         the maxima of model §15 and 18.2 and (with ``Outputs.holding_torque``) the moving mass.
 
@@ -79,7 +130,7 @@ class Evaluation:
             from arcube.evaluation.masses import moving_mass_kg
 
             mass = float(moving_mass_kg(self.design.to_vector(), self.options))
-        return tables.summary(self.results, len(self.task), mass, self.regions)
+        return EvaluationSummary(tables.summary(self.results, len(self.task), mass, self.regions))
 
     @property
     def regions(self) -> tuple[str, ...]:
@@ -88,7 +139,7 @@ class Evaluation:
 
     def summary_json(self) -> dict[str, Any]:
         """A fresh copy of :attr:`summary` (the ``summary`` of :meth:`to_json`), safe to modify."""
-        return copy.deepcopy(self.summary)
+        return self.summary.to_json()
 
     def to_dataframe(self) -> Any:
         """One row per task point (the fields of :meth:`to_json` ``points``, lists spread into columns); needs pandas."""

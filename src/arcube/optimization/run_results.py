@@ -19,10 +19,82 @@ from arcube.io.tables import read_table
 from arcube.model.design import Design
 from arcube.optimization.folder import placement_file, read_config, read_study, seed_dir
 from arcube.optimization.run_config import RunConfig
+from arcube.summary import Summary
 
-__all__ = ["OptimizeResult", "Study"]
+__all__ = ["OptimizeResult", "RunSummary", "Study"]
 
 PathLike = str | os.PathLike[str]
+
+
+class RunSummary(Summary):
+    """The summary of an optimization run (``summary.json``, ``OptimizeResult.summary``); fields a run does not
+    have (a single-objective run's front, a run without c_z ...) read None."""
+
+    feasible: bool
+    """Whether the best design meets every guard and limit."""
+    eta_G: float
+    """The best design's eta_G (model §8.3; over the run's tasks as ``aggregate`` says)."""
+    dexterity_pct: dict[str, float]
+    """Inverted condition number over the points, percent: ``min``, ``mean``, ``max``."""
+    generations: int
+    evaluations: int
+    seed: int
+    wall_s: float
+    """Wall time of the run over all its sessions, s."""
+    eval_s: float
+    """Time spent evaluating designs, s."""
+    stopped_by: str
+    """What ended the run (``generations``, ``evaluations``, ``ftol`` ...)."""
+    algorithm: str
+    population: int
+    engine: str
+    """The evaluation engine used (``numba`` or ``numpy``)."""
+    mode: str
+    """The working mode of the best design (model §4.3, 5.3)."""
+    setups: int
+    aggregate: str
+    free: list[str]
+    """The free parameters."""
+    violation: float
+    """The best design's constraint violation (0: feasible)."""
+    margin_shortfall_rad: float
+    links_sum_mm: float
+    bbox_volume_L: float
+    clearance_min_mm: float | None
+    self_clearance_min_mm: float | None
+    envelope_clearance_min_mm: float | None
+    tip_error_max_mm: float | None
+    lateral_error_max_mm: float | None
+    axial_error_max_mm: float | None
+    axis_error_max_deg: float | None
+    torque_max_Nm: float | None
+    deflection_max_mm: float | None
+    holding_torque_max_Nm: float | None
+    moving_mass_kg: float | None
+    lateral_error_wc_mm: float | None
+    """Worst-case lateral error under the run's tolerances, mm (model §20.3); None unless an objective or limit."""
+    lateral_error_rms_mm: float | None
+    tolerance_class: str | None
+    c_z: float | None
+    """The run's z-dyad link, mm (model §19.1), when it has its own."""
+    objectives: list[str]
+    limits: list[list[Any]]
+    """``[name, "max" | "min", value]`` per limit."""
+    anatomy: list[str | None] | None
+    """Each patient's anatomy source, None without anatomy."""
+    tasks: list[dict[str, Any]]
+    """One entry per task (patient, side, approach): its label and figures."""
+    points: int
+    files: dict[str, str]
+    """The run folder's files by role."""
+    resumed: int
+    """Sessions after the first."""
+    placement: str
+    docking: str
+    """``placement``'s name before 0.3 (kept for one release)."""
+    front_size: int | None
+    """Designs on the feasible front (multi-objective runs)."""
+    compactness: str | None
 
 
 class OptimizeResult:
@@ -68,14 +140,19 @@ class OptimizeResult:
         return cls(p)
 
     @property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> RunSummary:
         """``summary.json``: feasible, eta_G, dexterity, generations, wall time, per-task details."""
         if self._held is not None:
-            return self._held[0]
+            return RunSummary(self._held[0])
         try:
-            return json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
+            data = json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise InputError(f"{self.path}: the run has not finished (no summary.json)") from None
+        except ValueError as exc:  # not JSON, or not UTF-8
+            raise InputError(f"{self.path / 'summary.json'}: unreadable ({exc})") from None
+        if not isinstance(data, dict):
+            raise InputError(f"{self.path / 'summary.json'}: not a run's summary (a JSON object)")
+        return RunSummary(data)
 
     @property
     def designs(self) -> list[Design]:
