@@ -37,6 +37,7 @@ _SOURCES: dict[str, str] = {
     "RunConfig": "arcube.optimization.run_config",
     "RunSummary": "arcube.optimization.run_results",
     "EvaluationSummary": "arcube.evaluation.result",
+    "ToleranceSummary": "arcube.accuracy.budget",
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
     "InputError": "arcube.errors",
     "RunSettings": "arcube.optimization.settings",
@@ -95,6 +96,7 @@ if TYPE_CHECKING:
     from arcube.evaluation.result import EvaluationSummary
     from arcube.optimization.run_config import RunConfig
     from arcube.optimization.run_results import RunSummary
+    from arcube.accuracy.budget import ToleranceSummary
 
 __all__ = [
     "GUARDED_OPTIONS",
@@ -124,6 +126,7 @@ __all__ = [
     "RunSummary",
     "ToleranceResult",
     "ToleranceSettings",
+    "ToleranceSummary",
     "Study",
     "TrajectorySet",
     "__version__",

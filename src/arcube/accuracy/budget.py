@@ -22,15 +22,28 @@ from arcube.errors import InputError
 from arcube.model.design import Design
 from arcube.model.mechanism import DEFAULT_MODE, format_mode, inverse_kinematics, parse_mode
 from arcube.io.json_values import finite
+from arcube.summary import Summary
 
-SUMMARY_KEYS: tuple[str, ...] = (
-    "lateral_error_wc_mm",
-    "axis_error_wc_deg",
-    "axial_error_wc_mm",
-    "lateral_error_rms_mm",
-    "lateral_error_p95_mm",
-    "axis_error_p95_deg",
-)
+
+class ToleranceSummary(Summary):
+    """The summary of an accuracy budget (``ToleranceResult.summary``, ``tolerance.json``'s ``summary``): the first
+    four the largest over the plan's reachable points (model §20.3), the last two over the built robots (20.4)."""
+
+    lateral_error_wc_mm: float
+    """First-order worst case of the drill tip's error across the axis, mm."""
+    axis_error_wc_deg: float
+    """First-order worst case of the drill axis' angle error, deg."""
+    axial_error_wc_mm: float
+    """First-order worst case of the error along the axis, mm."""
+    lateral_error_rms_mm: float
+    """First-order RMS of the lateral error (independent sources), mm."""
+    lateral_error_p95_mm: float
+    """95th percentile over the Monte Carlo robots of each robot's largest lateral error, mm."""
+    axis_error_p95_deg: float
+    """95th percentile over the robots of each robot's largest axis error, deg."""
+
+
+SUMMARY_KEYS: tuple[str, ...] = ToleranceSummary.fields()
 """The summaries of ``tolerance.json`` (the first four: the maximum over the plan's points)."""
 POINT_COLUMNS: tuple[str, ...] = (
     "trajectory",
@@ -95,18 +108,18 @@ class ToleranceResult:
         return [(SOURCE_NAMES[i], float(self.tolerances[i]), UNITS[i], float(self.share[i])) for i in order]
 
     @property
-    def summary(self) -> dict[str, float]:
+    def summary(self) -> ToleranceSummary:
         """The summaries of model §20.3-20.4 (:data:`SUMMARY_KEYS`)."""
         r = self.reachable
         f = self.first
-        return {
-            "lateral_error_wc_mm": float(np.max(f.lateral_wc_mm[r])),
-            "axis_error_wc_deg": float(np.max(f.axis_wc_deg[r])),
-            "axial_error_wc_mm": float(np.max(f.axial_wc_mm[r])),
-            "lateral_error_rms_mm": float(np.max(f.lateral_rms_mm[r])),
-            "lateral_error_p95_mm": float(percentiles(self.robot_lateral_max_mm, [95.0])[0]),
-            "axis_error_p95_deg": float(percentiles(self.robot_axis_max_deg, [95.0])[0]),
-        }
+        return ToleranceSummary(
+            lateral_error_wc_mm=float(np.max(f.lateral_wc_mm[r])),
+            axis_error_wc_deg=float(np.max(f.axis_wc_deg[r])),
+            axial_error_wc_mm=float(np.max(f.axial_wc_mm[r])),
+            lateral_error_rms_mm=float(np.max(f.lateral_rms_mm[r])),
+            lateral_error_p95_mm=float(percentiles(self.robot_lateral_max_mm, [95.0])[0]),
+            axis_error_p95_deg=float(percentiles(self.robot_axis_max_deg, [95.0])[0]),
+        )
 
     def monte_carlo_summary(self) -> dict[str, Any]:
         """Percentiles over robots of each robot's largest error over the plan (lateral, axial, axis)."""
