@@ -114,3 +114,20 @@ def test_an_evaluations_summary_is_typed_and_still_its_json() -> None:
         assert all(getattr(e.summary, k) == e.summary[k] for k in e.summary)
         assert json.loads(json.dumps(e.to_json()))["summary"] == e.summary
     assert full.summary.moving_mass_kg is not None and plain.summary.moving_mass_kg is None
+
+
+def test_a_request_exports_the_model_its_selection_and_placement_give() -> None:
+    """export_mjcf takes a Request too: its plan selected by side and levels, its mode, points and options; the MJCF
+    is the one the same design, selected plan and keywords give."""
+    import arcube
+    from arcube.io import load_trajectories, select
+
+    opts = Options().replace(link_radius=6.0)
+    req = arcube.Request(ROBOT, "reference", side="R", levels="C4-C5", mode="+,+,-,+", points=5, options=opts)
+    from arcube.model.robot import design_at_side
+
+    plan = select(load_trajectories("reference"), side="R", levels="C4-C5")
+    docked = design_at_side(ROBOT, "R")  # a robot file and a side: that side's docking, as the request resolves it
+    assert arcube.export_mjcf(req) == arcube.export_mjcf(docked, plan, mode="+,+,-,+", points=5, options=opts)
+    with pytest.raises(InputError, match=r"^points is the request's"):
+        arcube.export_mjcf(req, points=7)

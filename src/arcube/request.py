@@ -74,11 +74,12 @@ class Request:
     """The :class:`arcube.Options` of the robot (None: the function's default)."""
 
     @classmethod
-    def of(cls, arguments: Mapping[str, Any], function: Callable[..., Any]) -> Request:
+    def of(cls, arguments: Mapping[str, Any], function: Callable[..., Any], taken: Sequence[str] = ()) -> Request:
         """The request a keyword function was called with: ``arguments`` are its keywords (``locals()``), ``function``
         itself (its defaults). A Request given as its ``design`` is that request: the function's other request
         keywords must then keep their defaults (or say what the Request says), and the Request must leave unset what
-        the function does not take (``program`` takes no ``points``); InputError naming the first that does not."""
+        the function does not take (``program`` takes no ``points``; ``taken``: the fields it takes through the
+        request alone, as ``export_mjcf`` its selection); InputError naming the first that does not."""
         names = [f.name for f in fields(cls) if f.name in arguments]
         for name in names[1:]:
             if isinstance(arguments[name], Request):
@@ -92,7 +93,7 @@ class Request:
             if not (_same(value, defaults[name].default) or _same(value, getattr(given, name))):
                 raise InputError.of(name, "is the request's: set it on the arcube.Request given as design")
         for f in fields(cls):
-            if f.name not in names and not _same(getattr(given, f.name), f.default):
+            if f.name not in (*names, *taken) and not _same(getattr(given, f.name), f.default):
                 raise InputError.of(
                     f.name, f"is set on the Request, but {function.__name__} does not take it: leave it unset"
                 )

@@ -76,6 +76,7 @@ from arcube.model.body import BodyRadii, mechanism_points
 from arcube.model.design import Design, unpack
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
+from arcube.request import Request
 
 __all__ = [
     "ACTUATED",
@@ -107,10 +108,12 @@ SOLIMP = "0.9999 0.9999 0.001 0.5 2"
 that the closures carry the links' weight without sagging (MuJoCo issues 1818, 701, 278)."""
 
 _FLOAT_MAX = float(np.finfo(float).max)
+_SELECTION = ("side", "levels", "ids", "transform", "anatomy_frame", "segments", "table_z")
+"""What a Request given to :func:`export_mjcf` holds that its keywords do not: they are resolved with the request."""
 
 
 def export_mjcf(
-    design: Design | ArrayLike,
+    design: Design | ArrayLike | Request,
     plan: Any = None,
     *,
     at: str | tuple[Any, int] | None = None,
@@ -127,7 +130,9 @@ def export_mjcf(
 
     Parameters
     ----------
-    design : a :class:`Design` or a ``(27,)`` / ``(23,)`` vector (mm, deg).
+    design : a :class:`Design` or a ``(27,)`` / ``(23,)`` vector (mm, deg); or an :class:`arcube.Request` (its plan
+        and selection, mode, points, options, anatomy and envelope, resolved as :func:`arcube.evaluate` resolves
+        them; the keywords it holds then stay unset).
     plan : a :class:`~arcube.io.TrajectorySet`, a path that :func:`arcube.load_trajectories` reads, or
         None / ``"reference"`` (the bundled reference patient); sampled at ``points`` per trajectory.
     at : ``"ID:K"``, trajectory id and sample index k; default the first point of the plan that the
@@ -148,6 +153,11 @@ def export_mjcf(
 
     Raises :class:`InputError` for a bad ``at``, no IK solution at ``at``, or a z dyad that cannot close.
     """
+    if isinstance(design, Request):  # its plan selected, its anatomy and envelope placed, as evaluate resolves them
+        req = Request.of(locals(), export_mjcf, taken=_SELECTION)
+        r = req.resolve()
+        design, plan, mode, anatomy, envelope = r.design, r.plan, r.signs, r.anatomy, r.envelope
+        points, options = req.points, req.options
     opts = request_options(options, **changes)
     params, signs, cz = checked_inputs(design, mode, c_z)
     pl = plan_points(plan, points)
