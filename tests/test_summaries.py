@@ -35,3 +35,13 @@ def test_a_summary_reads_its_declared_fields_only() -> None:
     copy = s.to_json()
     copy["a"] = 9.0
     assert s.a == 1.5 and type(copy) is dict
+
+
+def test_a_studys_summary_is_typed(tmp_path: Path) -> None:
+    st = arcube.study(
+        "reference", tmp_path / "st", seeds="1-2", population=8, generations=2, points=3, free="m_x,m_y,m_z"
+    )
+    s = arcube.Study.load(tmp_path / "st").summary
+    assert isinstance(s, arcube.StudySummary) and tuple(s) == arcube.StudySummary.fields()
+    assert s.best_seed in (1, 2) and s.seeds == [1, 2] and s == st.summary
+    assert json.loads((tmp_path / "st" / "summary.json").read_text()) == s

@@ -36,6 +36,7 @@ _SOURCES: dict[str, str] = {
     "Request": "arcube.request",
     "RunConfig": "arcube.optimization.run_config",
     "RunSummary": "arcube.optimization.run_results",
+    "StudySummary": "arcube.optimization.run_results",
     "EvaluationSummary": "arcube.evaluation.result",
     "ToleranceSummary": "arcube.accuracy.budget",
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
@@ -95,7 +96,7 @@ if TYPE_CHECKING:
     from arcube.request import Request
     from arcube.evaluation.result import EvaluationSummary
     from arcube.optimization.run_config import RunConfig
-    from arcube.optimization.run_results import RunSummary
+    from arcube.optimization.run_results import RunSummary, StudySummary
     from arcube.accuracy.budget import ToleranceSummary
 
 __all__ = [
@@ -128,6 +129,7 @@ __all__ = [
     "ToleranceSettings",
     "ToleranceSummary",
     "Study",
+    "StudySummary",
     "TrajectorySet",
     "__version__",
     "breach",

@@ -9,7 +9,7 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -21,9 +21,10 @@ from arcube.optimization.folder import placement_file, read_config, read_study, 
 from arcube.optimization.run_config import RunConfig
 from arcube.summary import Summary
 
-__all__ = ["OptimizeResult", "RunSummary", "Study"]
+__all__ = ["OptimizeResult", "RunSummary", "Study", "StudySummary"]
 
 PathLike = str | os.PathLike[str]
+S = TypeVar("S", bound=Summary)
 
 
 class RunSummary(Summary):
@@ -97,6 +98,28 @@ class RunSummary(Summary):
     compactness: str | None
 
 
+class StudySummary(Summary):
+    """The summary of a study (``summary.json`` of a study folder, ``Study.summary``): one optimization per seed."""
+
+    format: str
+    objective: str
+    """The objective the seeds are ranked by (the run's first)."""
+    seeds: list[int]
+    feasible_seeds: int
+    """Seeds whose best design meets every guard and limit."""
+    best: float | None
+    """The best seed's objective value (None: no seed feasible)."""
+    median: float | None
+    worst: float | None
+    best_seed: int
+    spread_pct: float | None
+    """(worst - best) / best over the feasible seeds, percent."""
+    wall_s: float
+    """The seeds' wall times summed, s."""
+    rows: list[dict[str, Any]]
+    """One row per seed (study.csv's)."""
+
+
 class OptimizeResult:
     """An optimization run: what :func:`arcube.optimize` returns, with or without a run folder.
 
@@ -144,15 +167,7 @@ class OptimizeResult:
         """``summary.json``: feasible, eta_G, dexterity, generations, wall time, per-task details."""
         if self._held is not None:
             return RunSummary(self._held[0])
-        try:
-            data = json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError(f"{self.path}: the run has not finished (no summary.json)") from None
-        except ValueError as exc:  # not JSON, or not UTF-8
-            raise InputError(f"{self.path / 'summary.json'}: unreadable ({exc})") from None
-        if not isinstance(data, dict):
-            raise InputError(f"{self.path / 'summary.json'}: not a run's summary (a JSON object)")
-        return RunSummary(data)
+        return _read_summary(self.path, RunSummary, "run")
 
     @property
     def designs(self) -> list[Design]:
@@ -197,6 +212,21 @@ class OptimizeResult:
         return read_config(self.path)[0]
 
 
+def _read_summary(folder: Path, kind: type[S], what: str) -> S:
+    """``folder``'s summary.json as a ``kind``; InputError when the ``what`` (run, study) has not finished or the file
+    is not a summary."""
+    path = folder / "summary.json"
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{folder}: the {what} has not finished (no summary.json)") from None
+    except ValueError as exc:  # not JSON, or not UTF-8
+        raise InputError(f"{path}: unreadable ({exc})") from None
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: not a {what}'s summary (a JSON object)")
+    return kind(data)
+
+
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
     """A CSV of numbers (and a few text columns) as name -> array; a column of numbers (empty cells
     NaN) as float, any other as text. Read as every CSV is (:mod:`arcube.io.tables`)."""
@@ -224,12 +254,9 @@ class Study:
         return cls(Path(path))
 
     @property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> StudySummary:
         """``summary.json``: objective, best / median / worst, best_seed, spread_pct, wall_s, one row per seed."""
-        try:
-            return json.loads((self.path / "summary.json").read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError(f"{self.path}: the study has not finished (no summary.json)") from None
+        return _read_summary(self.path, StudySummary, "study")
 
     @property
     def table(self) -> dict[str, np.ndarray]:
