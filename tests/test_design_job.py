@@ -668,3 +668,15 @@ def test_resume_of_a_damaged_design_job_is_one_line_exit_2(
     assert out.returncode == 2 and out.stderr.startswith("error: ") and out.stderr.count("\n") == 1, out.stderr
     assert needle in out.stderr and file.split("/")[-1] in out.stderr, out.stderr
     assert sorted(p.relative_to(copy) for p in copy.rglob("*")) == before  # nothing written or removed
+
+
+def test_the_design_summary_is_typed(met_design: Path) -> None:
+    """House II: every field of the design job's summary.json is declared (arcube.DesignSummary: the run's fields and
+    the job's), each an attribute."""
+    import json
+
+    summary = json.loads((met_design / "summary.json").read_text())
+    assert set(summary) <= set(arcube.DesignSummary.fields())
+    typed = arcube.DesignSummary(summary)
+    assert typed.meets_requirements == summary["meets_requirements"] and typed.robot == summary["robot"]
+    assert typed.eta_G == summary.get("eta_G") and typed.held_out is None

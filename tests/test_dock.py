@@ -349,3 +349,14 @@ def test_a_held_out_cohort_that_shares_a_patient_is_refused(tmp_path: Path, monk
         code == 2 and err.count("\n") == 1 and "--validate" in err and "'seed8' is also in the training cohort" in err
     ), err
     assert not (tmp_path / "d").exists()
+
+
+def test_the_dock_summary_is_typed(docked: Path) -> None:
+    """House II: every field of dock's summary.json is declared (arcube.DockSummary), each an attribute."""
+    import arcube
+    from arcube.design_job.coverage import DockResult
+
+    summary = json.loads((docked / "summary.json").read_text())
+    result = DockResult(docked, True, summary)
+    assert isinstance(result.summary, arcube.DockSummary) and set(summary) <= set(arcube.DockSummary.fields())
+    assert result.summary.coverage == result.coverage == 1.0 and result.summary.dockings == summary["dockings"]

@@ -37,6 +37,8 @@ _SOURCES: dict[str, str] = {
     "RunConfig": "arcube.optimization.run_config",
     "RunSummary": "arcube.optimization.run_results",
     "StudySummary": "arcube.optimization.run_results",
+    "DockSummary": "arcube.design_job.coverage",
+    "DesignSummary": "arcube.design_job.job",
     "EvaluationSummary": "arcube.evaluation.result",
     "ToleranceSummary": "arcube.accuracy.budget",
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
@@ -98,6 +100,8 @@ if TYPE_CHECKING:
     from arcube.optimization.run_config import RunConfig
     from arcube.optimization.run_results import RunSummary, StudySummary
     from arcube.accuracy.budget import ToleranceSummary
+    from arcube.design_job.coverage import DockSummary
+    from arcube.design_job.job import DesignSummary
 
 __all__ = [
     "GUARDED_OPTIONS",
@@ -107,7 +111,9 @@ __all__ = [
     "BreachSettings",
     "Design",
     "DesignResult",
+    "DesignSummary",
     "DockResult",
+    "DockSummary",
     "Evaluation",
     "EvaluationSummary",
     "Guards",
