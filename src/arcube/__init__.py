@@ -37,8 +37,7 @@ _SOURCES: dict[str, str] = {
     "RunConfig": "arcube.optimization.run_config",
     "RunSummary": "arcube.optimization.run_results",
     "StudySummary": "arcube.optimization.run_results",
-    "DockSummary": "arcube.design_job.coverage",
-    "DesignSummary": "arcube.design_job.job",
+    **dict.fromkeys(("DockSummary", "DesignSummary"), "arcube.design_job.summaries"),
     "EvaluationSummary": "arcube.evaluation.result",
     "ToleranceSummary": "arcube.accuracy.budget",
     **dict.fromkeys(("ToleranceResult", "ToleranceSettings"), "arcube.accuracy"),
@@ -100,8 +99,7 @@ if TYPE_CHECKING:
     from arcube.optimization.run_config import RunConfig
     from arcube.optimization.run_results import RunSummary, StudySummary
     from arcube.accuracy.budget import ToleranceSummary
-    from arcube.design_job.coverage import DockSummary
-    from arcube.design_job.job import DesignSummary
+    from arcube.design_job.summaries import DesignSummary, DockSummary
 
 __all__ = [
     "GUARDED_OPTIONS",

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from arcube.summary import Summary
+from arcube.design_job.summaries import DockSummary
 from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob, DockingOutcome, solve_docking
 from arcube.design_job.dockings import PLACEMENT, Docking
 from arcube.design_job.requirements import REQUIREMENTS, Requirement, write_requirements_csv
@@ -61,34 +61,6 @@ COVERAGE_COLUMNS = ("patient", "side", "met", "binding", "margin", "unit", "miss
 """The columns of coverage.csv, one row per side."""
 Z95 = 1.959963984540054
 """The normal quantile of a two-sided 95 % interval."""
-
-
-class DockSummary(Summary):
-    """The summary of ``arcube dock`` (its summary.json, ``DockResult.summary``): the robot, each side's docking, the
-    coverage with its 95 % Wilson interval (model §19.6)."""
-
-    format: str
-    format_version: int
-    robot_file: str
-    """The robot as given (a design job's design.json or a docking file)."""
-    robot: dict[str, float]
-    """The robot's 22 parameters (mm, deg), unchanged at every docking."""
-    mode: str
-    zdyad_elbow: int
-    c_z_assumed: bool
-    """Whether the robot's c_z was not in its file (then d_z)."""
-    dockings: list[dict[str, Any]]
-    """One entry per side: who, met, missed, binding requirement and margin, the placement, the search's figures."""
-    coverage: float
-    """Sides served / sides."""
-    coverage_low: float
-    coverage_high: float
-    sides: int
-    met: int
-    """Sides served."""
-    settings: dict[str, Any]
-    """The docking's own settings (seed, starts, evaluations, requirements, tolerance class, points, standoff)."""
-    wall_s: float
 
 
 @dataclass(frozen=True)

@@ -67,7 +67,8 @@ from arcube.model.robot import write_docking
 from arcube.optimization import run as runmod
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
-from arcube.optimization.run_results import OptimizeResult, RunSummary
+from arcube.optimization.run_results import OptimizeResult
+from arcube.design_job.summaries import DesignSummary
 from arcube.optimization.settings import RunSettings
 from arcube.io.json_values import finite
 
@@ -88,38 +89,6 @@ DESIGN_GENERATIONS = 100
 DOCKINGS = "dockings"
 
 
-class DesignSummary(RunSummary):
-    """The summary of ``arcube design`` (its summary.json, ``DesignResult.summary``): the chosen seed's run summary
-    (:class:`~arcube.optimization.run_results.RunSummary`'s fields, but its files, tasks, objectives, limits and
-    sessions) and the job's verdict, robot, dockings and coverage."""
-
-    meets_requirements: bool
-    """Whether the chosen robot meets every requirement at every docking."""
-    objective: str
-    docking_mode: str | None
-    """The dockings (model §19): per-side, per-patient, or None (one placement)."""
-    missed: list[str]
-    """The requirements missed somewhere."""
-    missed_at: dict[str, str]
-    """Each missed requirement -> the docking where it is tightest."""
-    robot: dict[str, float]
-    """The chosen robot's parameters (mm, deg) with its c_z."""
-    dockings: list[dict[str, Any]]
-    """One entry per docking: who, met, the figures of model §19.4's table, binding requirement, folder."""
-    requirements: list[dict[str, Any]]
-    """requirements.csv's rows."""
-    accuracy: dict[str, Any]
-    """The accuracy as built (model §20) of the docking where it is worst."""
-    training: dict[str, Any]
-    """The coverage of the dockings the robot was designed on (met / all, the Wilson interval)."""
-    held_out: dict[str, Any] | None
-    """The same on a held-out cohort (``--validate``)."""
-    breach: dict[str, Any]
-    """The breach figures (model §22) of the docking where it is most likely."""
-    redocked: list[str]
-    """The dockings docked anew after the search."""
-
-
 @dataclass(frozen=True)
 class DesignResult:
     """What ``arcube design`` decided: whether the chosen robot meets every requirement at every docking, the
@@ -130,9 +99,6 @@ class DesignResult:
     met: bool
     summary: DesignSummary
     rows: list[dict[str, Any]]
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "summary", DesignSummary(self.summary))
 
     @property
     def design(self) -> Design:
@@ -583,4 +549,4 @@ def _write_outputs(
         )
     write_requirements_csv(out / "requirements.csv", rows)
     atomic_write_text(out / "summary.json", json.dumps(finite(result), indent=2, allow_nan=False) + "\n")
-    return DesignResult(out, met, result, rows)
+    return DesignResult(out, met, DesignSummary(result), rows)
