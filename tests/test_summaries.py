@@ -45,3 +45,12 @@ def test_a_studys_summary_is_typed(tmp_path: Path) -> None:
     assert isinstance(s, arcube.StudySummary) and tuple(s) == arcube.StudySummary.fields()
     assert s.best_seed in (1, 2) and s.seeds == [1, 2] and s == st.summary
     assert json.loads((tmp_path / "st" / "summary.json").read_text()) == s
+
+
+def test_the_breach_summary_is_typed() -> None:
+    from arcube.pedicles.run import robot_dockings
+
+    r = arcube.breach(robot_dockings(ROBOT)["R"], "reference", side="R", samples=200, seed=1)
+    s = r.summary()
+    assert isinstance(s, arcube.BreachSummary) and tuple(s) == arcube.BreachSummary.fields()
+    assert s.breach_probability == s["breach_probability"] and s.samples == 200

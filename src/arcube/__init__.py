@@ -57,6 +57,7 @@ _SOURCES: dict[str, str] = {
     "DesignResult": "arcube.design_job",
     "JointTrajectory": "arcube.export.joints",
     **dict.fromkeys(("BreachResult", "BreachSettings", "breach"), "arcube.pedicles"),
+    "BreachSummary": "arcube.pedicles.monte_carlo",
 }
 """Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
 
@@ -86,6 +87,7 @@ if TYPE_CHECKING:
     from arcube.design_job.coverage import DockResult, dock
     from arcube.export.joints import JointTrajectory
     from arcube.pedicles import BreachResult, BreachSettings, breach
+    from arcube.pedicles.monte_carlo import BreachSummary
     from arcube.explorer import explore
     from arcube.export.mjcf import export_mjcf
     from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
@@ -107,6 +109,7 @@ __all__ = [
     "Body",
     "BreachResult",
     "BreachSettings",
+    "BreachSummary",
     "Design",
     "DesignResult",
     "DesignSummary",

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from arcube.summary import Summary
 from arcube.pedicles.geometry import DIRECTIONS, Pedicles, classify
 from arcube.pedicles.sources import (
     Draws,
@@ -27,7 +28,7 @@ from arcube.pedicles.sources import (
     robot_displacements_reference,
 )
 
-__all__ = ["BREACH_COLUMNS", "BreachResult", "monte_carlo", "wilson"]
+__all__ = ["BREACH_COLUMNS", "BreachResult", "BreachSummary", "monte_carlo", "wilson"]
 
 BREACH_COLUMNS = (
     "trajectory",
@@ -65,6 +66,28 @@ def wilson(k: NDArray[np.float64] | float, n: int, z: float = Z95) -> tuple[Any,
     return np.where(k_a == 0, 0.0, np.maximum(centre - half, 0.0)), np.where(
         k_a == n, 1.0, np.minimum(centre + half, 1.0)
     )
+
+
+class BreachSummary(Summary):
+    """The summary of a breach computation (``BreachResult.summary()``, the ``summary.json`` of ``arcube breach``,
+    model §22)."""
+
+    breach_probability: float | None
+    """The largest probability that a screw leaves its pedicle, over the screws not wider than their pedicle."""
+    worst_screw: str | None
+    """The trajectory where it is largest."""
+    too_wide: list[str]
+    """Screws wider than their pedicle (they always breach)."""
+    not_reached: list[str]
+    """Trajectories the robot does not reach."""
+    expected_breaches: float
+    """Sum of the probabilities over the screws."""
+    per_level_side: dict[str, float]
+    """The largest probability per level and side (``"C3 R"``)."""
+    per_docking: dict[str, dict[str, Any]]
+    """Per docking: its largest probability, its expected breaches, its screws."""
+    samples: int
+    settings: dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -122,7 +145,7 @@ class BreachResult:
             )
         return out
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> BreachSummary:
         """``breach_probability`` (the largest P over the screws that are not too wide), ``too_wide`` (their ids), the
         largest P per level and side, per docking the largest and the expected breaches, and the settings."""
         p, wide = self.pedicles, self.pedicles.too_wide
@@ -140,17 +163,17 @@ class BreachResult:
                 "expected_breaches": float(np.sum(self.p_breach[mine])),
                 "screws": int(mine.sum()),
             }
-        return {
-            "breach_probability": None if worst is None else float(self.p_breach[worst]),
-            "worst_screw": None if worst is None else p.ids[worst],
-            "too_wide": [p.ids[j] for j in np.flatnonzero(wide)],
-            "not_reached": [p.ids[j] for j in np.flatnonzero(~self.reached)],
-            "expected_breaches": float(np.sum(self.p_breach)),
-            "per_level_side": per_level,
-            "per_docking": per_docking,
-            "samples": self.samples,
-            "settings": self.settings,
-        }
+        return BreachSummary(
+            breach_probability=None if worst is None else float(self.p_breach[worst]),
+            worst_screw=None if worst is None else p.ids[worst],
+            too_wide=[p.ids[j] for j in np.flatnonzero(wide)],
+            not_reached=[p.ids[j] for j in np.flatnonzero(~self.reached)],
+            expected_breaches=float(np.sum(self.p_breach)),
+            per_level_side=per_level,
+            per_docking=per_docking,
+            samples=self.samples,
+            settings=self.settings,
+        )
 
 
 def _stats(offsets: NDArray[np.float64], p: Pedicles) -> tuple[NDArray[np.float64], ...]:
