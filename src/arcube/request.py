@@ -1,12 +1,13 @@
 """One request: a design on a plan, with the patient around it, resolved once for every command that evaluates one
-design (``evaluate``, ``joints``, ``program``, ``explore``).
+design (``evaluate``, ``joints``, ``program``, ``tolerance``, ``explore``, ``export_mjcf``).
 
 A :class:`Request` holds what the caller gave (a design or its file, a plan or its file, the selection of its
-trajectories, the anatomy, the envelope, the working mode), as given; :meth:`Request.resolve` loads and checks it
-in one order (the design and the side's docking, the mode, the plan and its selection, then the anatomy and the
-envelope of model §19.5, placed on the whole plan) and returns a :class:`Resolved`. The keyword functions of
-:mod:`arcube.api`, :func:`arcube.motion.program` and :func:`arcube.explorer.live_model` build a Request from
-their keywords and read the Resolved; what is their own (points, options, limits) stays with them.
+trajectories, the anatomy, the envelope, the working mode, the points, the options), as given;
+:meth:`Request.resolve` loads and checks it in one order (the design and the side's docking, the mode, the plan and
+its selection, then the anatomy and the envelope of model §19.5, placed on the whole plan) and returns a
+:class:`Resolved`. The keyword functions of :mod:`arcube.api`, :func:`arcube.motion.program`,
+:func:`arcube.explorer.live_model` and :func:`arcube.export_mjcf` build it from their keywords
+(:meth:`Request.of`), or take the one given as their design; what is their own (speed, limits, ...) stays with them.
 """
 
 from __future__ import annotations
@@ -49,8 +50,8 @@ class Resolved:
 class Request:
     """A design on a plan, as the caller gave them (see :func:`arcube.evaluate` for each field's forms).
 
-    ``arcube.evaluate``, ``joints``, ``program`` and ``explore`` take one in place of their ``design``, for the
-    same request asked of several commands::
+    ``arcube.evaluate``, ``joints``, ``program``, ``tolerance``, ``export_mjcf`` and ``explore`` take one in place of
+    their ``design``, for the same request asked of several commands::
 
         req = arcube.Request("paper", "reference", side="R", anatomy="default")
         arcube.evaluate(req).summary["eta_G"], arcube.joints(req, speed=2.0)

@@ -10,6 +10,7 @@ Each kind of result declares its fields once, in its own module (:class:`arcube.
 from __future__ import annotations
 
 import copy
+import functools
 import inspect
 from typing import Any
 
@@ -24,11 +25,7 @@ class Summary(dict[str, Any]):
     @classmethod
     def fields(cls) -> tuple[str, ...]:
         """The declared fields, in declaration order (a subclass's after its bases')."""
-        names: list[str] = []
-        for klass in reversed(cls.__mro__):
-            if issubclass(klass, Summary) and klass is not Summary:
-                names += [n for n in inspect.get_annotations(klass) if n not in names]
-        return tuple(names)
+        return _fields(cls)
 
     def __getattr__(self, name: str) -> Any:
         if name in type(self).fields():
@@ -38,3 +35,13 @@ class Summary(dict[str, Any]):
     def to_json(self) -> dict[str, Any]:
         """A plain, independent copy (a dict of JSON values), safe to change."""
         return copy.deepcopy(dict(self))
+
+
+@functools.cache
+def _fields(cls: type[Summary]) -> tuple[str, ...]:
+    """:meth:`Summary.fields`, read from the annotations once per class (every attribute read asks)."""
+    names: list[str] = []
+    for klass in reversed(cls.__mro__):
+        if issubclass(klass, Summary) and klass is not Summary:
+            names += [n for n in inspect.get_annotations(klass) if n not in names]
+    return tuple(names)

@@ -54,9 +54,8 @@ def live_model(
     req = Request.of(locals(), live_model)
     n = checked_points(req.points)
     own: dict[str, Any] = {}
-    r = req.resolve(
-        lambda _: own.update(opts=request_options(req.options, **changes))
-    )  # model §19.5 as design checks it
+    # the options checked before the slow anatomy; the envelope of model §19.5 placed as design places it
+    r = req.resolve(lambda _: own.update(opts=request_options(req.options, **changes)))
     radii = own["opts"].body.radii
     return LiveModel(
         r.design, r.plan, r.anatomy, mode=r.signs, points=n, radii=radii, guards=bool(guards), envelope=r.envelope

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
-from arcube.optimization.settings import RunSettings
+from arcube.optimization.settings import RunSettings, plain_values
 
 __all__ = ["FORMAT_VERSION", "RUN_FORMAT", "RunConfig"]
 
@@ -41,15 +41,6 @@ def _frozen(value: Any) -> Any:
         return MappingProxyType({k: _frozen(v) for k, v in value.items()})
     if isinstance(value, (list, tuple)):
         return tuple(_frozen(v) for v in value)
-    return value
-
-
-def _plain(value: Any) -> Any:
-    """The TOML-ready form of a frozen record: dicts and lists."""
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, tuple):
-        return [_plain(v) for v in value]
     return value
 
 
@@ -97,7 +88,7 @@ class RunConfig:
 
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         """Pickled (and deep-copied) as its fields' plain values, frozen again on the way back."""
-        return type(self), tuple(_plain(getattr(self, f.name)) for f in dataclasses.fields(self))
+        return type(self), tuple(plain_values(getattr(self, f.name)) for f in dataclasses.fields(self))
 
     def replace(self, **changes: Any) -> RunConfig:
         """A copy with ``changes`` (fields by name)."""
@@ -119,7 +110,7 @@ class RunConfig:
 
     def patient(self, i: int) -> dict[str, Any]:
         """Docking ``i``'s record as a plain, changeable dict."""
-        return _plain(self.patients[i])
+        return plain_values(self.patients[i])
 
     def own(self, i: int, name: str) -> Any:
         """Docking ``i``'s own value of a per-patient setting (``anatomy``, ``anatomy_frame``, ``segments``,
@@ -147,7 +138,7 @@ class RunConfig:
             "bounds": {k: [float(lo), float(hi)] for k, (lo, hi) in self.bounds.items()},
             "design": dict(self.design),
             "executor": dict(self.executor),
-            "patients": [_plain(p) for p in self.patients],
+            "patients": [plain_values(p) for p in self.patients],
         }
         if self.rerun is not None:
             table["rerun"] = self.rerun

@@ -329,7 +329,7 @@ class RunSettings(Settings):
         for key in TABLE_KEYS:
             value, default = self._table_entry(key)
             if key in RECORDED or value != default:
-                table[key] = _plain(value)
+                table[key] = plain_values(value)
         return table
 
     def _table_entry(self, key: str) -> tuple[Any, Any]:
@@ -388,12 +388,13 @@ def _defaults() -> RunSettings:
     return RunSettings()
 
 
-def _plain(value: Any) -> Any:
-    """A settings value as TOML holds it: tuples as lists (nested too), dicts as plain dicts."""
+def plain_values(value: Any) -> Any:
+    """A value as TOML holds it: tuples as lists (nested too), mappings as plain dicts (a settings value, a run
+    config's frozen record)."""
     if isinstance(value, (tuple, list)):
-        return [_plain(v) for v in value]
+        return [plain_values(v) for v in value]
     if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
+        return {k: plain_values(v) for k, v in value.items()}
     return value
 
 
