@@ -142,19 +142,21 @@ def test_a_calibrated_design_commands_ik_less_q0_in_joints_and_program(
     with open(tmp_path / "prog" / "program.csv", newline="") as fh:
         first = next(csv.DictReader(fh))
     assert float(first["rho_x"]) == pytest.approx(prog.q_deg[0, 0], abs=1e-9)
-    from arcube.export.replay import export_program
+    from arcube.export.replay import export_program, read_program, recorded_design
 
     with pytest.raises(
         InputError, match="closes the z-leg dyad"
     ) as info:  # d_z alone cannot close it: the message names the range
-        export_program(tmp_path / "prog", c_z=None)
+        export_program(tmp_path / "prog")
     lo, hi = (float(v) for v in str(info.value).split("[")[1].split("]")[0].split(","))
     c_z = 0.5 * (lo + hi)
-    replay = export_program(tmp_path / "prog", c_z=c_z)
+    recorded = recorded_design(read_program(tmp_path / "prog"))
+    assert recorded is not None and recorded.c_z is None
+    replay = export_program(tmp_path / "prog", recorded.with_extras(c_z=c_z))
     lines = replay.replay_csv.splitlines()
     header, row0 = lines[0].split(","), lines[1].split(",")
     target = float(row0[header.index("ctrl_rho_x")])
     assert np.degrees(target) == pytest.approx(prog.q_deg[0, 0] + q0[0], abs=1e-9)
     # a design without the offsets does not run the calibrated program
     with pytest.raises(InputError, match="does not run this program"):
-        export_program(tmp_path / "prog", PROGRAMMED, c_z=c_z)
+        export_program(tmp_path / "prog", PROGRAMMED.with_extras(c_z=c_z))

@@ -226,9 +226,8 @@ def test_the_api_checks_what_the_cli_checks() -> None:
         arcube.RunSettings(population=8.5)
     # a preset name is a design for the MuJoCo export too (it used to fail converting 'paper' to float)
     xml = arcube.export_mjcf(
-        arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89),
+        arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89).with_extras(c_z=160.0),
         arcube.select(arcube.load_trajectories("reference"), side="R"),
-        c_z=160.0,
     )
     assert "<mujoco" in xml and xml.rstrip().endswith("</mujoco>")
     with pytest.raises(InputError, match="reaches no point"):

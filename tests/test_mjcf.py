@@ -98,7 +98,7 @@ def _closure_gap(model, data) -> float:
 def test_mujoco_kinematics_reproduce_the_model_at_every_reachable_point(designs, which) -> None:
     design, c_z = designs[which]
     ts, task = _plan()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, c_z=c_z))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design.with_extras(c_z=c_z), ts))
     data = mujoco.MjData(model)
     x = design.to_vector()
     L, r = design["L"], design["r"]
@@ -144,7 +144,7 @@ def test_mujoco_kinematics_reproduce_the_model_at_every_reachable_point(designs,
 def test_model_structure_five_dof_named_actuators_and_assembled_key(designs) -> None:
     design, c_z = designs["rotated_offset"]
     ts, task = _plan()
-    xml = export_mjcf(design, ts, at="5:7", c_z=c_z)
+    xml = export_mjcf(design.with_extras(c_z=c_z), ts, at="5:7")
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
     assert [model.joint(j).name for j in range(model.njnt)] == list(JOINT_NAMES)
@@ -170,7 +170,7 @@ def test_model_structure_five_dof_named_actuators_and_assembled_key(designs) -> 
 def test_mujoco_dynamics_track_the_trajectory_with_five_actuators(designs, which, tid) -> None:
     design, c_z = designs[which]
     ts, task = _plan()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, at=f"{tid}:0", c_z=c_z))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design.with_extras(c_z=c_z), ts, at=f"{tid}:0"))
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("assembled").id)
@@ -199,16 +199,16 @@ def test_z_dyad_that_cannot_close_names_the_c_z_range_or_says_none_can() -> None
     with pytest.raises(InputError, match=r"^c_z in \[153\.9\d, 170\.2\d\] mm closes the z-leg dyad at every point"):
         export_mjcf(d)  # c_z = d_z = 53.6 mm is far too short
     with pytest.raises(InputError, match="no c_z closes it at every point"):
-        export_mjcf(d.replace(d_z=30.0), c_z=100.0)
-    export_mjcf(d, c_z=154.0)
-    export_mjcf(d, c_z=170.0)
+        export_mjcf(d.replace(d_z=30.0).with_extras(c_z=100.0))
+    export_mjcf(d.with_extras(c_z=154.0))
+    export_mjcf(d.with_extras(c_z=170.0))
 
 
 def test_anatomy_meshes_become_static_mesh_geoms() -> None:
     from arcube.patients.anatomy import reference_anatomy
 
     meshes = reference_anatomy()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(_design_a(), c_z=C_Z_PAPER, anatomy=meshes))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(_design_a().with_extras(c_z=C_Z_PAPER), anatomy=meshes))
     assert model.nmesh == len(meshes)
     geoms = [g for g in range(model.ngeom) if model.geom(g).name.startswith("anatomy_")]
     assert len(geoms) == len(meshes) and all(model.geom_bodyid[g] == 0 for g in geoms)
@@ -260,7 +260,7 @@ def test_body_masses_and_moving_mass_are_the_mass_model(designs, which) -> None:
             gravity=masses.gravity,
         )
     )
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z, options=options))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design.with_extras(c_z=c_z), options=options))
     got = {
         model.body(b).name: float(model.body_mass[b]) for b in range(2, model.nbody)
     }  # after world and the static base
@@ -279,7 +279,7 @@ def test_inertias_of_the_motor_and_of_a_spherical_link(designs) -> None:
     (its spin is the spindle's, 18.2); beta_x: 12 equal rods on the great circle from u_beta to e about C."""
     design, c_z = designs["rotated_offset"]
     m = MassModel()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, c_z=c_z))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design.with_extras(c_z=c_z)))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
@@ -333,7 +333,7 @@ def test_mujoco_gravity_torques_through_the_loops_equal_ours(designs, which, gra
     cz = design["d_z"] if c_z is None else c_z
     ts, task = _plan()
     model = mujoco.MjModel.from_xml_string(
-        export_mjcf(design, ts, c_z=c_z, options=Options(masses=Masses(gravity=gravity)))
+        export_mjcf(design.with_extras(c_z=c_z), ts, options=Options(masses=Masses(gravity=gravity)))
     )
     model.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
     data = mujoco.MjData(model)
@@ -366,7 +366,7 @@ def test_our_gravity_torques_hold_the_pose_in_mujoco(designs, which, tid) -> Non
     design, c_z = designs[which]
     cz = design["d_z"] if c_z is None else c_z
     ts, task = _plan()
-    model = mujoco.MjModel.from_xml_string(export_mjcf(design, ts, at=f"{tid}:5", c_z=c_z))
+    model = mujoco.MjModel.from_xml_string(export_mjcf(design.with_extras(c_z=c_z), ts, at=f"{tid}:5"))
     data = mujoco.MjData(model)
     i = int(np.flatnonzero((task.trajectory == ts.ids.index(tid)) & (task.k == 5))[0])
     tau = gravity_torque_Nm(design.to_vector(), task.E[i], task.e[i], np.ones(4), MassModel(c_z_mm=cz))

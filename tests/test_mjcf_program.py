@@ -164,12 +164,17 @@ def test_example_script_replays_the_exported_program(prog, exported) -> None:
     assert float(value) < 0.05
 
 
+def _with_c_z() -> Design:
+    """The program's design with the c_z that closes its z dyad at every row (c_z is the design's, model §19.1)."""
+    return Design.from_dict(DESIGN).with_extras(c_z=float(C_Z))
+
+
 def test_design_from_the_folder_and_unknown_columns(prog, tmp_path: Path) -> None:
     """An ``arcube design`` job folder (summary.json lists program/), a design.json in the folder or
     program.json's ``design`` give the design; columns beyond MODEL.md 17.3 (``tau_*_Nm``) are ignored;
     a Program object exports alike."""
     built, folder, design_file = prog
-    reference = export_program(folder, Design.from_dict(DESIGN), c_z=float(C_Z))
+    reference = export_program(folder, _with_c_z())
     job = tmp_path / "job"
     shutil.copytree(folder, job / "program")
     shutil.copy(design_file, job / "design.json")
@@ -188,13 +193,14 @@ def test_design_from_the_folder_and_unknown_columns(prog, tmp_path: Path) -> Non
     alone = tmp_path / "alone"
     shutil.copytree(folder, alone)
     summary = json.loads((alone / "program.json").read_text())
-    (alone / "program.json").write_text(json.dumps({**summary, "design": DESIGN}))
-    assert export_program(alone, c_z=float(C_Z)).replay_csv == reference.replay_csv
+    (alone / "program.json").write_text(json.dumps({**summary, "design": {**DESIGN, "c_z": float(C_Z)}}))
+    assert export_program(alone).replay_csv == reference.replay_csv  # the recorded design carries its c_z
     inside = tmp_path / "inside"
     shutil.copytree(folder, inside)
-    shutil.copy(design_file, inside / "design.json")
-    assert export_program(inside, c_z=float(C_Z)).replay_csv == reference.replay_csv
-    assert export_program(built, Design.from_dict(DESIGN), c_z=float(C_Z)).replay_csv == reference.replay_csv
+    _with_c_z().to_json(inside / "design.json")  # the design file beside the program, when program.json records none
+    (inside / "program.json").write_text(json.dumps({k: v for k, v in summary.items() if k != "design"}))
+    assert export_program(inside).replay_csv == reference.replay_csv
+    assert export_program(built, _with_c_z()).replay_csv == reference.replay_csv
 
 
 def test_whole_turns_of_delta_are_the_program_s(prog) -> None:
@@ -204,7 +210,7 @@ def test_whole_turns_of_delta_are_the_program_s(prog) -> None:
     _, folder, _ = prog
     rows = read_program(folder)
     turned = dataclasses.replace(rows, q_deg=rows.q_deg + np.array([0.0, 0.0, 0.0, 360.0, -720.0]))
-    ex = export_program(turned, Design.from_dict(DESIGN), c_z=float(C_Z))
+    ex = export_program(turned, _with_c_z())
     model = mujoco.MjModel.from_xml_string(ex.xml)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
@@ -220,7 +226,7 @@ def test_whole_turns_of_delta_are_the_program_s(prog) -> None:
         InputError,
         match=r"^design does not run this program: it gives delta_y = .* deg at row 7 \(t = 0\.07 s, approach 1\)",
     ):
-        export_program(off, Design.from_dict(DESIGN), c_z=float(C_Z))
+        export_program(off, _with_c_z())
 
 
 @pytest.mark.parametrize(

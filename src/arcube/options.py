@@ -83,7 +83,7 @@ class Guards(Settings):
     z_dyad: bool = False
     """Check the z-leg dyad closure (model §6)."""
     c_z: float | None = Field(default=None, gt=0, allow_inf_nan=False)
-    """Second link of the z dyad (mm); None means c_z = d_z."""
+    """Second link of the z dyad (mm) for the guard of model §6 on a design vector that has none of its own; None means c_z = d_z. A design's own c_z (``Design.c_z``, model §19.1) is c_z's home: every command and run sets it there (``--c-z``), and an evaluation of a design takes it from there."""
     rho_max_deg: float | None = Field(default=None, gt=0, le=90)
     """|rho_u| <= rho_max (deg), away from the TLS singularity cos rho = 0."""
     min_transmission_deg: float | None = Field(default=None, gt=0, le=90)

@@ -18,6 +18,7 @@ from arcube.patients.settings import SegmentSelection
 
 __all__ = [
     "ANATOMY",
+    "C_Z",
     "ANATOMY_FRAME",
     "DASK",
     "DESIGN",
@@ -37,6 +38,7 @@ __all__ = [
     "QUIET",
     "RichBar",
     "check_replace",
+    "with_given_c_z",
     "SEED",
     "SIDE",
     "TRAJECTORIES",
@@ -158,22 +160,38 @@ OPTION_FLAGS: dict[str, list[Flag]] = {
     "clearances": model_flags(
         Guards, "options.guards", only=("clearance_mm", "self_clearance_mm", "envelope_clearance_mm")
     ),
-    "guards": model_flags(Guards, "options.guards"),
-    "c_z": [
-        replace(f, params=(*f.params, "c_z"))
-        for f in model_flags(
-            Guards,
-            "options.guards",
-            only=("c_z",),
-            helps={"c_z": "Second link of the z-leg dyad, mm (default d_z; model §6)."},
-        )
-    ],
+    "guards": model_flags(Guards, "options.guards", skip=("c_z",)),
     "body": model_flags(Body, "options.body"),
     "loads": model_flags(Loads, "options.loads"),
     "masses": model_flags(Masses, "options.masses"),
 }
 """The flags of :class:`arcube.Options`' groups, by group (``clearances``: the clearance guards of 14.3
-alone; ``guards``: every guard, 8.2's too)."""
+alone; ``guards``: every guard, 8.2's too, but c_z: it is the design's, :data:`C_Z`)."""
+
+C_Z = option(
+    "--c-z",
+    "Second link of the z-leg dyad, mm: sets the design's c_z (default the design file's, else d_z; model §6, 19.1).",
+    float,
+    key="c_z",
+    params=("c_z",),
+)
+"""The design's z-dyad link (model §19.1): the one flag of c_z, which sets the design's value (:func:`with_given_c_z`)."""
+
+
+def with_given_c_z(given: Given, design: Any) -> Any:
+    """``design`` (a Design, preset, file or vector) with ``--c-z``'s value when given, else as it is; InputError
+    naming ``--c-z`` unless a finite length > 0 mm."""
+    import math
+
+    from arcube.errors import InputError
+    from arcube.model.design import Design
+
+    c_z = given.get("c_z")
+    if c_z is None:
+        return design
+    if not (math.isfinite(c_z) and c_z > 0):
+        raise InputError.of("c_z", f"must be a finite length > 0 mm, got {c_z:g}")
+    return Design.coerce(design).with_extras(c_z=float(c_z))
 
 
 def request_flags(*groups: str) -> list[Flag]:

@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from arcube.cli.common import (
+    C_Z,
     PATIENT,
     SELECTION,
     DESIGN,
@@ -22,6 +23,7 @@ from arcube.cli.common import (
     one_plan,
     options_of,
     request_flags,
+    with_given_c_z,
     with_help,
 )
 from arcube.cli.projection import Given, command, option
@@ -52,7 +54,7 @@ FLAGS = [
     DESIGN,
     FORMAT,
     *PLAN_FLAGS,
-    *request_flags("c_z"),
+    C_Z,
     *PATIENT,
     *request_flags("body", "masses"),
     PROGRAM,
@@ -85,9 +87,8 @@ def export(given: Given) -> None:
             f"{options.masses.wall_mm:g} mm wall: exported without the masses of model §18.1 "
             f"(give {request_flags('masses')[0].name} to have them)\n"
         )
-    c_z = options.guards.c_z
     if "program" in given:
-        _export_program(given, out, options, c_z, asked)
+        _export_program(given, out, options, asked)
         return
     plan = one_plan(given)
     anat = (
@@ -108,9 +109,8 @@ def export(given: Given) -> None:
     from arcube.model.robot import design_at_side
 
     text = export_mjcf(
-        design_at_side(given.get("design", "paper"), given.get("side")),
+        with_given_c_z(given, design_at_side(given.get("design", "paper"), given.get("side"))),
         ts,
-        c_z=c_z,
         options=options,
         anatomy=anat,
         masses=asked,
@@ -124,10 +124,10 @@ def export(given: Given) -> None:
     sys.stdout.write(f"{out}\n")
 
 
-def _export_program(given: Given, out: Path, options: object, c_z: float | None, masses: bool | None) -> None:
+def _export_program(given: Given, out: Path, options: object, masses: bool | None) -> None:
     """``--program``: the model at the program's first row and its replay (written atomically, both or none)."""
     from arcube.evaluation.anatomy import resolve_anatomy
-    from arcube.export.replay import export_program, read_program, replay_path, write_program_export
+    from arcube.export.replay import export_program, read_program, recorded_design, replay_path, write_program_export
     from arcube.io.files import check_targets
 
     clash = [f.name for f in PLAN_FLAGS if f.key in given]
@@ -151,7 +151,11 @@ def _export_program(given: Given, out: Path, options: object, c_z: float | None,
         check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
     except OSError as exc:
         raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename} ({exc.strerror})") from None
-    result = export_program(rows, given.get("design"), c_z=c_z, options=options, anatomy=anat, masses=masses)  # type: ignore[arg-type]
+    design = given.get("design")
+    if given.get("c_z") is not None:  # --c-z sets the c_z of the design the program runs (its own, else recorded)
+        design = design or recorded_design(rows)
+        design = None if design is None else with_given_c_z(given, design)
+    result = export_program(rows, design, options=options, anatomy=anat, masses=masses)  # type: ignore[arg-type]
     try:
         xml_path, csv_path = write_program_export(result, out)
     except OSError as exc:

@@ -57,6 +57,7 @@ feed-forward (ctrl = q + tau / KP) it stays within ~0.01 mm.
 
 from __future__ import annotations
 
+import warnings
 import xml.etree.ElementTree as ET
 from typing import Any
 
@@ -64,7 +65,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from arcube.arrays import Floats
-from arcube.errors import InputError
+from arcube.errors import InputError, RenamedWarning
 from arcube.evaluation.mass_bodies import MassModel
 from arcube.coerce import design_mode
 from arcube.export.angles import ACTUATED, JOINT_NAMES, axes_world, joint_values, z_dyad_range
@@ -138,9 +139,10 @@ def export_mjcf(
     at : ``"ID:K"``, trajectory id and sample index k; default the first point of the plan that the
         design reaches (trajectory order, then k).
     mode : working mode, ``"+,+,+,+"`` or four signs (model §4.3, 5.3); None: the design's own, else ``+,+,+,+``.
-    c_z : second link of the z-leg dyad (mm); default the design's (:attr:`Design.c_z`), else d_z (model §6). The dyad must close at every
-        point of the plan where the IK has a solution, else :class:`InputError` names the c_z range
-        that would (the intersection of [|L_z - d_z|, L_z + d_z]) or says that none can.
+    c_z : deprecated (one release, with a :class:`~arcube.errors.RenamedWarning`): the z-leg dyad's second link is
+        the design's own, :attr:`Design.c_z` (``design.with_extras(c_z=...)``), else d_z (model §6, 19.1). The dyad
+        must close at every point of the plan where the IK has a solution, else :class:`InputError` names the c_z
+        range that would (the intersection of [|L_z - d_z|, L_z + d_z]) or says that none can.
     options : the :class:`arcube.Options` of the robot: its body radii (model §14.1) and its mass model
         (18.1: every body's mass and inertia and the model's gravity, :mod:`arcube.export.inertia`);
         ``**changes``: its settings by name (``link_radius=6``, ``wall=1.5``).
@@ -159,7 +161,7 @@ def export_mjcf(
         design, plan, mode, anatomy, envelope = r.design, r.plan, r.signs, r.anatomy, r.envelope
         points, options = req.points, req.options
     opts = request_options(options, **changes)
-    params, signs, cz = checked_inputs(design, mode, c_z)
+    params, signs, cz = checked_inputs(with_c_z(design, c_z, "export_mjcf"), mode)
     pl = plan_points(plan, points)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, pl.E, pl.e, signs)
@@ -212,18 +214,28 @@ def export_masses(options: Options, masses: bool | None) -> MassModel:
     return MassModel(link_radius_mm=link, wall_mm=link / 2, density_kg_m3=0.0, m_delta_kg=0.0, m_motor_kg=0.0)
 
 
-def checked_inputs(
-    design: Design | ArrayLike, mode: str | ArrayLike | None, c_z: float | None
-) -> tuple[Floats, Floats, float]:
+def with_c_z(design: Design | ArrayLike, c_z: Any, function: str) -> Design | ArrayLike:
+    """``design`` with the c_z given by the deprecated keyword of ``function`` (None: ``design`` as given). c_z's one
+    home is the design (:attr:`Design.c_z`, model §19.1); the keyword is taken for one release, with a
+    :class:`~arcube.errors.RenamedWarning`. InputError naming ``c_z`` unless a finite length > 0 mm."""
+    if c_z is None:
+        return design
+    warnings.warn(
+        f"{function}(c_z=...) is now the design's c_z: give design.with_extras(c_z=...) (the keyword goes in the next release)",
+        RenamedWarning,
+        stacklevel=3,
+    )
+    if isinstance(c_z, bool) or not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
+        raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
+    return Design.coerce(design).with_extras(c_z=float(c_z))
+
+
+def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None) -> tuple[Floats, Floats, float]:
     """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
-    ``mode`` None: the design's own; ``c_z`` None: the design's, else d_z."""
+    ``mode`` None: the design's own; c_z: the design's (model §19.1), else d_z (model §6)."""
     d = Design.coerce(design)  # a design file keeps its c_z and mode (a vector has neither); validates (InputError)
     params = d.to_vector()
-    signs = design_mode(d, mode)
-    c_z = d.c_z if c_z is None else c_z
-    if c_z is not None and not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
-        raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
-    return params, signs, float(unpack(params).d[2]) if c_z is None else float(c_z)
+    return params, design_mode(d, mode), float(unpack(params).d[2]) if d.c_z is None else float(d.c_z)
 
 
 def check_z_dyad(

@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
 from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
-from arcube.export.mjcf import check_z_dyad, checked_inputs, export_masses, model_xml
+from arcube.export.mjcf import check_z_dyad, checked_inputs, export_masses, model_xml, with_c_z
 from arcube.io.files import atomic_write_files
 from arcube.io.inputs import load_json
 from arcube.io.program_files import CSV_NAME, read_program_files
@@ -198,7 +198,8 @@ def export_program(
     program : a program folder (``program.csv``, ``program.json``) or a :class:`~arcube.motion.Program`.
     design : a :class:`Design`, preset name, design JSON path or vector; None: the one the program
         records (:func:`recorded_design`), else InputError naming ``design``.
-    c_z, options, anatomy, masses, changes : as in :func:`~arcube.export.mjcf.export_mjcf`.
+    c_z, options, anatomy, masses, changes : as in :func:`~arcube.export.mjcf.export_mjcf` (``c_z`` deprecated: the
+        design's own).
 
     Raises :class:`InputError` for an unreadable program, no design, a design whose IK does not give
     the program's angles, or a z dyad that cannot close with c_z at every row.
@@ -214,9 +215,9 @@ def export_program(
                 "design",
                 "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)",
             )
-    d = Design.coerce(design)
+    d = Design.coerce(with_c_z(design, c_z, "export_program"))
     mode = rows.summary.get("mode", DEFAULT_MODE_TEXT)
-    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT, c_z)
+    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT)
     _check_angles(params, rows, signs, d.q0)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
     real_deg = rows.q_deg + d.q0  # the joints' real angles: the commanded ones plus a calibrated design's zero offsets

@@ -168,6 +168,8 @@ def build_config(
         s = s.replace(seed=secrets.randbelow(2**31))
     engine_resolved = check_engine(s.engine)
     design = Design.load(s.design_from)
+    if s.c_z is not None:  # the one home of c_z is the design (model §19.1): --c-z sets the start design's
+        design = design.with_extras(c_z=s.c_z)
     patients = _load_patients(trajectories, s)  # reads every anatomy: a bad file stops the run before its folder exists
     plans = [t.plan if isinstance(t, PatientPlan) else t for t in trajectories]
     sources = tuple(t.source if isinstance(t, TrajectorySet) else str(t) for t in plans)

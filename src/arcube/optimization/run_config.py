@@ -150,10 +150,14 @@ class RunConfig:
         errors and KeyError/TypeError/ValueError on a malformed table (the reader names the file)."""
         settings_table = table["settings"]
         bounds = {k: (float(v[0]), float(v[1])) for k, v in (table.get("bounds") or {}).items()}
+        settings = RunSettings.from_config(table)
+        design = dict(table.get("design") or {})
+        if settings.c_z is not None and design.get("c_z") is None:  # a folder of 0.3 or before: --c-z set the
+            design["c_z"] = settings.c_z  # z-dyad guard's c_z; it is the design's now (model §19.1)
         return cls(
-            settings=RunSettings.from_config(table),
+            settings=settings,
             patients=tuple(table["patients"]),
-            design=dict(table.get("design") or {}),
+            design=design,
             bounds=bounds,
             trajectories=tuple(str(t) for t in settings_table.get("trajectories", ())),
             engine_resolved=str(settings_table["engine_resolved"]),

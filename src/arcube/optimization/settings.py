@@ -173,6 +173,8 @@ class RunSettings(Settings):
     """ga: drop offspring equal to a design already in the population (pymoo's default; Matlab's ga, the paper's, keeps them)."""
     design_from: str = "paper"
     """Start design: 'paper' or a design JSON; fixed parameters keep its values."""
+    c_z: float | None = Field(default=None, gt=0, allow_inf_nan=False)
+    """Second link of the z-leg dyad, mm: sets the start design's c_z (default the design file's, else d_z; model §6, 19.1)."""
     free: Annotated[tuple[str, ...], BeforeValidator(parse_free)] = PAPER_NAMES
     """Parameters to optimize, comma-separated names and groups: all (the paper's 23), mount (the three mounting angles), e.g. all,mount,L."""
     bounds: Annotated[dict[str, tuple[float, float]], BeforeValidator(parse_bounds)] = {}
@@ -248,6 +250,11 @@ class RunSettings(Settings):
             raise InputError.of(
                 "RunSettings.dockings",
                 "gives every docking its own placement: it needs setups 1 and docking per-patient",
+            )
+        if self.options.guards.c_z is not None:
+            raise InputError.of(
+                "RunSettings.options.guards.c_z",
+                "is the design's in a run (model §19.1): give RunSettings.c_z, which sets the start design's c_z",
             )
         if self.setups == 2 and self.side is not None:
             raise InputError.of("RunSettings.setups", "2 uses both sides (one placement each); drop side")
@@ -361,7 +368,7 @@ class RunSettings(Settings):
         return cls.from_table({**cfg["settings"], "bounds": {k: v for k, v in bounds.items() if v != defaults.get(k)}})
 
 
-_TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
+_TABLE_GUARDS = ("z_dyad", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
 """Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
 _MASS_KEYS = ("wall", "density", "m_delta", "m_motor", "gravity")
 """The masses of model §18.1 (their short names)."""
@@ -375,7 +382,9 @@ RECORDED = (
 """The keys of config.toml's [settings] that every run writes (those of the first runs, and placement)."""
 TABLE_KEYS = (
     *RECORDED,
-    *_TABLE_GUARDS,
+    "z_dyad",
+    "c_z",  # the start design's (it was the z-dyad guard's before 0.4, at this place: old tables keep their order)
+    *_TABLE_GUARDS[1:],
     *("dockings", "standoff", "segments", "envelope", "table_z", "tolerance_class", "tol", "envelope_clearance"),
     *_MASS_KEYS,
 )
@@ -405,8 +414,11 @@ def table_placement(table: Mapping[str, Any]) -> str:
 
 _DERIVED = ("engine_resolved", "trajectories")
 """Keys of the table that describe the run, not its settings (the engine found, the plans' sources)."""
-FLAT_OPTIONS: dict[str, tuple[str, str]] = {key: FLAT[key] for key in TABLE_KEYS if key in FLAT}
-"""The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names."""
+FLAT_OPTIONS: dict[str, tuple[str, str]] = {
+    key: FLAT[key] for key in TABLE_KEYS if key in FLAT and key not in RunSettings.model_fields
+}
+"""The table's (and the optimize keywords') flat names of :class:`~arcube.options.Options` fields: their short names
+(a run's own field of that name, ``c_z``, is the field)."""
 _OPTIONS = Options()
 
 

@@ -1,0 +1,97 @@
+"""House II item 4: c_z, the z-leg dyad's second link (model §6, 19.1), has one home, the design. ``--c-z`` sets the
+design's value (export, optimize); a run records it in its start design and its result; export's keyword is an
+alias for one release; a run's options never hold one; a folder of 0.3 (where --c-z set the guard's c_z) reads into
+today's home."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import arcube
+from arcube.errors import InputError, RenamedWarning
+from arcube.export.mjcf import export_mjcf
+from arcube.optimization.build import build_model
+from arcube.optimization.config import build_config
+from arcube.optimization.run_config import RunConfig
+from arcube.optimization.settings import RunSettings
+
+PLACED = arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)
+"""The paper's robot placed where it reaches the reference patient's right side (tests/test_hardening.py)."""
+
+
+def _right() -> arcube.TrajectorySet:
+    return arcube.select(arcube.load_trajectories("reference"), side="R")
+
+
+def test_export_takes_c_z_from_the_design_and_the_old_keyword_warns() -> None:
+    own = export_mjcf(PLACED.with_extras(c_z=160.0), _right())
+    with pytest.warns(RenamedWarning, match=r"^export_mjcf\(c_z=\.\.\.\) is now the design's c_z"):
+        old = export_mjcf(PLACED, _right(), c_z=160.0)
+    assert old == own and "c_z = 160 mm" in own
+    other = export_mjcf(PLACED.with_extras(c_z=165.0), _right())
+    assert other != own  # the design's c_z is what is built
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RenamedWarning)
+        with pytest.raises(InputError, match=r"^c_z must be a finite number of mm > 0, got -1"):
+            export_mjcf(PLACED, _right(), c_z=-1.0)
+
+
+def _cli(args: list[str]) -> int:
+    from arcube.cli import main
+
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def test_the_c_z_flag_of_export_sets_the_design_s(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    design = tmp_path / "d.json"
+    PLACED.with_extras(c_z=150.0).to_json(design)  # the flag wins over the file's own, as it sets the design's value
+    out = tmp_path / "robot.xml"
+    args = ["export", "--design", str(design), "--side", "R", "--c-z", "160", "--out", str(out)]
+    assert _cli(args) == 0
+    assert out.read_text() == export_mjcf(PLACED.with_extras(c_z=160.0), _right())
+    assert _cli(["export", "--design", str(design), "--side", "R", "--c-z", "-3", "--out", str(out), "--force"]) == 2
+    assert "error: --c-z must be a finite length > 0 mm, got -3" in capsys.readouterr().err
+
+
+def test_a_run_s_c_z_is_its_start_design_s(tmp_path: Path) -> None:
+    """``--c-z`` sets the start design's c_z: config.toml's [design] carries it, the search evaluates every design
+    with it (the problem's c_z of each candidate), and it wins over a design file's own."""
+    cfg = build_config([arcube.load_trajectories("reference")], RunSettings(c_z=250.0, population=8, generations=1))
+    assert cfg.design["c_z"] == 250.0 and cfg.settings.c_z == 250.0
+    X = np.zeros((3, build_model(cfg).space.n_var))
+    np.testing.assert_array_equal(build_model(cfg).space.c_z(X), [250.0] * 3)
+    design = tmp_path / "d.json"
+    PLACED.with_extras(c_z=150.0).to_json(design)
+    own = build_config([arcube.load_trajectories("reference")], RunSettings(design_from=str(design)))
+    assert own.design["c_z"] == 150.0
+    flag = build_config(
+        [arcube.load_trajectories("reference")], RunSettings(design_from=str(design), c_z=250.0, population=8)
+    )
+    assert flag.design["c_z"] == 250.0
+    assert RunConfig.from_toml(flag.to_toml()) == flag
+
+
+def test_a_run_s_options_hold_no_c_z() -> None:
+    with pytest.raises(InputError, match=r"^RunSettings.options.guards.c_z is the design's in a run") as info:
+        RunSettings(options=arcube.Options(c_z=300.0))
+    assert info.value.param == "RunSettings.options.guards.c_z"
+    assert RunSettings(c_z=300.0).options.guards.c_z is None  # the keyword is the run's own field, not the guard's
+
+
+def test_a_folder_of_0_3_with_c_z_reads_it_as_the_design_s() -> None:
+    """Before 0.4, ``--c-z`` wrote ``c_z`` in [settings] and nothing in [design]; read now, the start design holds
+    it (where a run writes it today), the settings say the same."""
+    cfg = build_config([arcube.load_trajectories("reference")], RunSettings(population=8))
+    table = cfg.to_toml()
+    table["settings"] = {**table["settings"], "c_z": 320.0}
+    assert "c_z" not in table["design"]
+    back = RunConfig.from_toml(table)
+    assert back.design["c_z"] == 320.0 and back.settings.c_z == 320.0
