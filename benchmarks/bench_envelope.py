@@ -69,7 +69,7 @@ def main() -> None:
     job_tip = Options(guards=guards, outputs={"clearance_min_exact": False, "tip_metrics": True, "holding_torque": True})
     cases = {
         "paper (no body)": (Options(), None),
-        "--clearance 5 --self-clearance 2 --guards": (job, dist),
+        "--clearance 5 --self-clearance 2 --guarded": (job, dist),
         "  + tip metrics and holding torque": (job_tip, dist),
     }
     for opts, d in cases.values():  # compile every path first

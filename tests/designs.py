@@ -241,7 +241,7 @@ PROGRAM_DESIGN = {
     "L": 129.15885510671012,
 }
 """A design an optimizer found for the right side of the reference plan with its lines from 25 mm outside the
-entry (``arcube optimize --free all,mount,L --self-clearance 3 --guards``, seed 4): one the program's default
+entry (``arcube optimize --free all,mount,L --self-clearance 3 --guarded``, seed 4): one the program's default
 limits accept without anatomy, in mode +,+,+,+."""
 PROGRAM_COLUMNS = [
     "t_s",

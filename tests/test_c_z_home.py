@@ -1,6 +1,6 @@
 """House II item 4: c_z, the z-leg dyad's second link (model §6, 19.1), has one home, the design. ``--c-z`` sets the
 design's value (export, optimize); a run records it in its start design and its result; export's keyword is an
-alias for one release; a run's options never hold one; a folder of 0.3 (where --c-z set the guard's c_z) reads into
+alias for one release; a run's options never hold one; an older folder (where --c-z set the guard's c_z) reads into
 today's home."""
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from harness import run_cli
 
 import arcube
 from arcube.errors import InputError, RenamedWarning
@@ -40,25 +41,17 @@ def test_export_takes_c_z_from_the_design_and_the_old_keyword_warns() -> None:
             export_mjcf(PLACED, _right(), c_z=-1.0)
 
 
-def _cli(args: list[str]) -> int:
-    from arcube.cli import main
-
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 def test_the_c_z_flag_of_export_sets_the_design_s(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     design = tmp_path / "d.json"
     PLACED.with_extras(c_z=150.0).to_json(design)  # the flag wins over the file's own, as it sets the design's value
     out = tmp_path / "robot.xml"
     args = ["export", "--design", str(design), "--side", "R", "--c-z", "160", "--out", str(out)]
-    assert _cli(args) == 0
+    assert run_cli(args, capsys)[0] == 0
     assert out.read_text() == export_mjcf(PLACED.with_extras(c_z=160.0), _right())
-    assert _cli(["export", "--design", str(design), "--side", "R", "--c-z", "-3", "--out", str(out), "--force"]) == 2
-    assert "error: --c-z must be a finite length > 0 mm, got -3" in capsys.readouterr().err
+    code, _, err = run_cli(
+        ["export", "--design", str(design), "--side", "R", "--c-z", "-3", "--out", str(out), "--force"], capsys
+    )
+    assert code == 2 and "error: --c-z must be a finite length > 0 mm, got -3" in err
 
 
 def test_a_run_s_c_z_is_its_start_design_s(tmp_path: Path) -> None:
@@ -86,8 +79,8 @@ def test_a_run_s_options_hold_no_c_z() -> None:
     assert RunSettings(c_z=300.0).options.guards.c_z is None  # the keyword is the run's own field, not the guard's
 
 
-def test_a_folder_of_0_3_with_c_z_reads_it_as_the_design_s() -> None:
-    """Before 0.4, ``--c-z`` wrote ``c_z`` in [settings] and nothing in [design]; read now, the start design holds
+def test_an_older_folder_s_c_z_reads_as_its_start_design_s() -> None:
+    """Before, ``--c-z`` wrote ``c_z`` in [settings] and nothing in [design]; read now, the start design holds
     it (where a run writes it today), the settings say the same."""
     cfg = build_config([arcube.load_trajectories("reference")], RunSettings(population=8))
     table = cfg.to_toml()

@@ -271,7 +271,7 @@ def test_a_met_design_meets_every_requirement_in_arcube_evaluate_and_the_numpy_r
     # the plan's lines (entry -> target), by the command a user would type, with the NumPy reference
     guards = [
         "--mode=" + summary["mode"],
-        "--guards",
+        "--guarded",
         "--anatomy",
         "default",
         "--clearance",

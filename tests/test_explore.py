@@ -300,7 +300,7 @@ def app(tmp_path_factory):
         side="R",
         anatomy="default",
         points=10,
-        guards=False,
+        guarded=False,
         port=free_port(),
         block=False,
         save_path=tmp_path_factory.mktemp("save") / "saved.json",
@@ -353,7 +353,7 @@ def test_save_and_polish(app):
     from arcube.explorer.polish import polish
 
     best, summary = polish(
-        live_model(PLACED, "reference", side="R", points=4, guards=False),
+        live_model(PLACED, "reference", side="R", points=4, guarded=False),
         population=4,
         generations=2,
         free="m_x,m_y,m_z",

@@ -166,7 +166,7 @@ def test_a_docking_the_job_reports_as_met_is_met_by_the_numpy_reference(job: Pat
                 design,
                 lines,
                 points=8,
-                guards=True,
+                guarded=True,
                 engine="numpy",
                 anatomy=anatomy,
                 envelope=envelope,

@@ -32,7 +32,7 @@ def _model(**fields):
     s = RunSettings(
         free="all,mount,L,c_z",
         mode="free",
-        guards=True,
+        guarded=True,
         points=5,
         seed=1,
         options=GUARDS,

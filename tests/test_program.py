@@ -21,7 +21,7 @@ The program's files are read back as text (``csv``), and every claim is re-deriv
   (:func:`arcube.evaluation.sdf.box_signed_distance`), not the program's grid.
 
 The design is one an optimizer found for the right side of the reference plan with its lines from 25 mm
-outside the entry (``arcube optimize --free all,mount,L --self-clearance 3 --guards``, seed 4): a design
+outside the entry (``arcube optimize --free all,mount,L --self-clearance 3 --guarded``, seed 4): a design
 the default limits accept without anatomy. The anatomy tests build their own walls (boxes).
 """
 

@@ -25,7 +25,7 @@ DATA = Path(__file__).parent / "data"
         {},
         {"placement": "per-patient", "aggregate": "max", "thrust": 25.0, "maxima": {"torque": 2.0}},
         {"setups": 2, "side": None, "maxima": {"mass": 9.0, "links": 900.0}, "self_clearance": 2.0, "m_motor": 2.5},
-        {"free": "m_x,m_y,m_z,c_z", "guards": True, "tolerance_class": "f", "ftol": 0.0},
+        {"free": "m_x,m_y,m_z,c_z", "guarded": True, "tolerance_class": "f", "ftol": 0.0},
     ],
 )
 def test_the_config_survives_its_file(fields: dict, tmp_path: Path) -> None:

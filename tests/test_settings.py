@@ -126,7 +126,7 @@ def test_python_values_equal_the_command_lines_text() -> None:
 
 
 def test_guards_add_the_papers_guards_to_the_options() -> None:
-    opts = RunSettings(guards=True, self_clearance=2.0).evaluation_options()
+    opts = RunSettings(guarded=True, self_clearance=2.0).evaluation_options()
     assert opts.guards == arcube.GUARDED_OPTIONS.guards.replace(self_clearance_mm=2.0)
 
 
@@ -141,7 +141,7 @@ def test_table_round_trip() -> None:
         bounds={"L": (10, 150)},
         mode="free",
         setups=2,
-        guards=True,
+        guarded=True,
         margin=3.0,
         anatomy="default",
         clearance=4.0,
@@ -261,7 +261,7 @@ def test_every_setting_with_a_flag_is_in_the_table() -> None:
     }  # period: pymoo's; options: the groups below; guards: a switch, not an error source
     run = {f"RunSettings.{n}" for n in RunSettings.model_fields if n not in no_flag}
     groups = {f"{cls.__name__}.{n}" for cls in (Guards, Body, Loads, Masses) for n in cls.model_fields}
-    groups -= {"Guards.z_dyad", "Guards.c_z", "Guards.single_assembly_mode"}  # set by --guards or not on the CLI
+    groups -= {"Guards.z_dyad", "Guards.c_z", "Guards.single_assembly_mode"}  # set by --guarded or not on the CLI
     assert sorted((run | groups) - flag_table().keys()) == []
     # and every flat optimize keyword of an option is a field of its group
     for key, (group, name) in FLAT_OPTIONS.items():
@@ -353,6 +353,32 @@ def test_an_old_name_is_taken_with_a_warning_and_never_beside_its_new_one() -> N
         assert RunSettings().replace(tolerance=0.25).ftol == 0.25  # replace() takes the old name too
     with pytest.raises(InputError, match="RunSettings.tolerance and RunSettings.ftol are one setting"):
         RunSettings(tolerance=0.5, ftol=0.1)
+    with pytest.warns(RenamedWarning, match="RunSettings.guards is now RunSettings.guarded"):
+        assert RunSettings(guards=True).guarded is True  # the bool; RunSettings.options.guards is the group
+    with pytest.raises(InputError, match="RunSettings.guards and RunSettings.guarded are one setting"):
+        RunSettings(guards=True, guarded=True)
+
+
+def test_the_guards_keyword_of_a_request_is_guarded_now() -> None:
+    """``guards=True`` (before 0.3) asks for the guards of model §8.2 as ``guarded=True`` does, with a warning;
+    both together are refused; the explorer's keyword likewise."""
+    import arcube
+    from arcube.errors import RenamedWarning
+    from arcube.explorer import live_model
+
+    placed = arcube.Design.paper().replace(m_x=88.23, m_y=79.40, m_z=56.89)  # reaches the right side's plan
+    new = arcube.evaluate(placed, "reference", side="R", points=6, guarded=True, engine="numpy")
+    with pytest.warns(RenamedWarning, match=r"^guards is now guarded \(the old name goes in the next release\)"):
+        old = arcube.evaluate(placed, "reference", side="R", points=6, guards=True, engine="numpy")
+    assert old.summary == new.summary and new.options.guards == arcube.GUARDED_OPTIONS.guards
+    plain = arcube.evaluate(placed, "reference", side="R", points=6, engine="numpy")
+    assert plain.summary["reachable_fraction"] == 1.0 and new.summary["failures"]["guard/rho_max"] > 0
+    with pytest.raises(InputError, match="^guards and guarded are one setting"):
+        arcube.evaluate("paper", "reference", points=4, guarded=True, guards=True)
+    with pytest.warns(RenamedWarning, match="^guards is now guarded"):
+        assert (
+            live_model("paper", "reference", side="R", ids="1", points=4, envelope=None, guards=False).guarded is False
+        )
 
 
 def test_an_old_run_folders_keys_are_read_silently() -> None:
@@ -366,6 +392,10 @@ def test_an_old_run_folders_keys_are_read_silently() -> None:
     assert s.ftol == 0.0 and s.placement == "per-patient" and s.aggregate == "max"
     table = s.to_table()
     assert table["ftol"] == 0.0 and table["placement"] == "per-patient" and "tolerance" not in table
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RenamedWarning)
+        guarded = RunSettings.from_table({"guards": True})  # the key before 0.3
+    assert guarded.guarded is True and guarded.to_table()["guarded"] is True and "guards" not in guarded.to_table()
 
 
 def test_the_old_flag_warns_in_the_users_words_and_the_run_records_the_new_name(tmp_path: Path) -> None:
@@ -412,6 +442,32 @@ def test_the_old_flag_warns_in_the_users_words_and_the_run_records_the_new_name(
     )
 
 
+def test_the_old_guards_flag_of_evaluate_warns_and_turns_the_guards_on(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+    import warnings
+
+    from arcube.cli import main
+    from arcube.errors import RenamedWarning
+
+    def run(*flags: str) -> int:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", RenamedWarning)  # the suite makes it an error; the CLI prints it
+            try:
+                main(["evaluate", "--side", "R", "--ids", "1", "--points", "4", "--engine", "numpy", "--json", *flags])
+            except SystemExit as exc:
+                return int(exc.code or 0)
+        return 0
+
+    assert run("--guarded") == 0
+    new = json.loads(capsys.readouterr().out)
+    assert run("--guards") == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == new and new["guards"]["kappa_max"] == 100.0
+    assert "warning: --guards is now --guarded (the old name goes in the next release)" in captured.err
+    assert run("--guards", "--guarded") == 2
+    assert "error: --guards and --guarded are one setting (renamed): give --guarded" in capsys.readouterr().err
+
+
 # every RunSettings field, set alone to a value that is not its default (a new field must be added here)
 _NOT_DEFAULT = {
     "algorithm": "ga",
@@ -422,7 +478,7 @@ _NOT_DEFAULT = {
     "points": 9,
     "mode": "+,-,+,-",
     "setups": 2,
-    "guards": True,
+    "guarded": True,
     "margin": 5.0,
     "seed": 11,
     "engine": "numpy",

@@ -23,12 +23,12 @@ from naive import oracle_config, rotation
 
 
 def test_the_guard_is_on_wherever_c_z_is_a_design_parameter() -> None:
-    """arcube design: c_z free and the z-dyad guard on; arcube optimize --guards: on when c_z is free, as before when not."""
+    """arcube design: c_z free and the z-dyad guard on; arcube optimize --guarded: on when c_z is free, as before when not."""
     s = design_settings(requirements_from(drop=["clearance", "envelope_clearance"]), RunSettings(envelope=("none",)))
     assert "c_z" in s.free and s.evaluation_options().guards.z_dyad
-    assert RunSettings(guards=True, free="all,c_z").evaluation_options().guards.z_dyad
+    assert RunSettings(guarded=True, free="all,c_z").evaluation_options().guards.z_dyad
     assert (
-        not RunSettings(guards=True).evaluation_options().guards.z_dyad
+        not RunSettings(guarded=True).evaluation_options().guards.z_dyad
     )  # c_z = d_z, not a parameter: MODEL.md 8.2 as it was
     assert not RunSettings(free="all,c_z").evaluation_options().guards.z_dyad  # no guards asked for
 

@@ -4,7 +4,7 @@
 import arcube
 design = arcube.Design.paper()                       # or arcube.Design.load("best_design.json")
 plan = arcube.load_trajectories("reference")         # CSV, Slicer markups, a folder
-ev = arcube.evaluate(design, plan, points=30, mode=(1, 1, 1, 1), guards=False)
+ev = arcube.evaluate(design, plan, points=30, mode=(1, 1, 1, 1), guarded=False)
 ev.summary["eta_G"], ev.points.dexterity_pct
 result = arcube.optimize(plan, arcube.RunSettings(population=40, generations=5, seed=1))   # in memory
 result.best_design, result.summary["eta_G"], result.history
@@ -69,7 +69,7 @@ def evaluate(
     options: Options | None = None,
     points: int = 30,
     mode: str | Sequence[float] | None = None,
-    guards: bool = False,
+    guarded: bool = False,
     side: str | None = None,
     levels: str | Sequence[str] | None = None,
     ids: str | Sequence[str] | None = None,
@@ -92,7 +92,7 @@ def evaluate(
         plan: a :class:`TrajectorySet` or what :func:`arcube.load_trajectories` reads
             (CSV, Slicer ``.mrk.json`` file or folder, ``"reference"``).
         options: the :class:`arcube.Options` of the evaluation (guards, body, loads, masses); None:
-            the paper's model, with the guards of model §8.2 when ``guards``.
+            the paper's model, with the guards of model §8.2 when ``guarded``.
         points: N samples per trajectory (>= 2), both ends included.
         mode: working mode, the signs of TMS x, TMS y, RTS x, RTS y: ``(1, 1, -1, 1)`` or ``"+,+,-,+"``;
             None: the design's own (:attr:`Design.mode`), else ``+,+,+,+``.
@@ -117,7 +117,7 @@ def evaluate(
     """
     req = Request.of(locals(), evaluate)
     engine_resolved = engine_name(engine)
-    r = _request(req, guards, changes)
+    r = _request(req, guarded, changes)
     opts = r.options.replace(outputs=r.options.outputs.replace(clearances=True))
     return evaluate_design(
         r.design, r.plan, r.points, r.signs, opts, engine_resolved, anatomy=r.anatomy, envelope=r.envelope
@@ -136,15 +136,15 @@ class _Request(NamedTuple):
     envelope: Envelope | None
 
 
-def _request(req: Request, guards: bool, changes: dict[str, Any]) -> _Request:
+def _request(req: Request, guarded: bool, changes: dict[str, Any]) -> _Request:
     """``req`` resolved (:meth:`Request.resolve`), its points and options checked before the slow anatomy (the options:
-    ``req.options``, else the paper's with the guards of model §8.2 when ``guards``, changed by ``changes``)."""
+    ``req.options``, else the paper's with the guards of model §8.2 when ``guarded``, changed by ``changes``)."""
     from arcube.request import with_design_c_z
 
     own: dict[str, Any] = {}
 
     def before_anatomy(_: TrajectorySet) -> None:  # the request's own arguments, checked before the slow anatomy
-        own.update(n=checked_points(req.points), opts=request_options(req.options, guards, **changes))
+        own.update(n=checked_points(req.points), opts=request_options(req.options, guarded, **changes))
 
     r = req.resolve(before_anatomy)
     n, opts = own["n"], with_design_c_z(own["opts"], r.design)
@@ -163,7 +163,7 @@ def joints(
     options: Options | None = None,
     points: int = 30,
     mode: str | Sequence[float] | None = None,
-    guards: bool = False,
+    guarded: bool = False,
     side: str | None = None,
     levels: str | Sequence[str] | None = None,
     ids: str | Sequence[str] | None = None,
@@ -185,7 +185,7 @@ def joints(
     req = Request.of(locals(), joints)
     if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0.0):
         raise InputError.of("speed", f"must be a finite positive number of mm/s, got {speed!r}")
-    r = _request(req, guards, changes)
+    r = _request(req, guarded, changes)
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
     return joint_trajectory(
         r.design, task, float(speed), r.signs, r.options, None if r.anatomy is None else r.anatomy.distance

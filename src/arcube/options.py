@@ -29,7 +29,7 @@ from pydantic import BaseModel, BeforeValidator, Field, model_validator
 
 from arcube.errors import InputError
 from arcube.model.body import BodyRadii
-from arcube.validation import Settings, settings_error, validated  # noqa: F401 (the base of every settings group, used from here)
+from arcube.validation import Settings, renamed_keyword, settings_error, validated  # noqa: F401 (the base of every settings group, used from here)
 
 __all__ = [
     "Body",
@@ -344,16 +344,17 @@ class Options(Settings):
 GUARDED_OPTIONS = Options(
     guards=Guards(rho_max_deg=75.0, min_transmission_deg=20.0, kappa_max=100.0, single_assembly_mode=True)
 )
-"""The guards of model §8.2 but z_dyad (``guards=True`` in the API)."""
+"""The guards of model §8.2 but z_dyad (``guarded=True`` in the API, ``--guarded``)."""
 
 
-def request_options(options: Options | None = None, guards: bool = False, **changes: Any) -> Options:
+def request_options(options: Options | None = None, guarded: bool = False, **changes: Any) -> Options:
     """The options of one request (an evaluation, a program, an export, the explorer): ``options``
-    (else the paper's, with the guards of model §8.2 when ``guards``), changed by flat keywords
+    (else the paper's, with the guards of model §8.2 when ``guarded``), changed by flat keywords
     (a field's name or short name: ``thrust=25``, ``link_radius=6``, ``clearance=5``)."""
     if options is not None and not isinstance(options, Options):
         raise InputError.of("options", f"must be an arcube.Options, got {type(options).__name__}")
-    base = options if options is not None else (GUARDED_OPTIONS if guards else Options())
+    guarded = renamed_keyword(changes, "guards", "guarded", guarded, False)  # its name before 0.3
+    base = options if options is not None else (GUARDED_OPTIONS if guarded else Options())
     unknown = [k for k in changes if k not in FLAT]
     if unknown:
         raise InputError.of(unknown[0], f"is not a setting (settings: {', '.join(sorted(FLAT))})")

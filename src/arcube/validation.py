@@ -13,7 +13,21 @@ from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, fie
 
 from arcube.errors import InputError, RenamedWarning
 
-__all__ = ["Settings", "settings_error", "validated"]
+__all__ = ["Settings", "renamed_keyword", "settings_error", "validated"]
+
+
+def renamed_keyword(keywords: dict[str, Any], old: str, new: str, value: Any, default: Any) -> Any:
+    """A function's keyword ``new`` as called: ``value``, or the old name's from ``keywords`` (a function's
+    ``**changes``; removed from them), taken for one release with a :class:`RenamedWarning`; the two names given
+    together are refused (which one was meant?)."""
+    if old not in keywords:
+        return value
+    if value != default:
+        raise InputError.of(old, f"and {new} are one setting (renamed): give {new}")
+    import warnings
+
+    warnings.warn(f"{old} is now {new} (the old name goes in the next release)", RenamedWarning, stacklevel=3)
+    return keywords.pop(old)
 
 
 def _leaves(annotation: Any) -> list[Any]:

@@ -7,11 +7,13 @@ command means something narrower), adds its own, and :func:`arcube.cli.projectio
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from arcube.cli.projection import Flag, Given, model_flags, option
+from arcube.errors import InputError, RenamedWarning
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options
 from arcube.evaluation.envelope import EnvelopeSettings
 from arcube.patients.settings import SegmentSelection
@@ -25,6 +27,7 @@ __all__ = [
     "ENGINE",
     "ENVELOPE",
     "GUARDS",
+    "OLD_GUARDS",
     "IDS",
     "LEVELS",
     "MODE",
@@ -71,8 +74,14 @@ MODE = option(
     params=("mode", "RunSettings.mode"),
 )
 GUARDS = option(
-    "--guards", "Turn on the guards of model §8.2 (all but z_dyad).", bool, params=("guards", "RunSettings.guards")
+    "--guarded",
+    "Turn on the guards of model §8.2 (all but z_dyad).",
+    bool,
+    key="guarded",
+    params=("guarded", "RunSettings.guarded"),
 )
+OLD_GUARDS = option("--guards", "Renamed --guarded.", bool, key="guards", params=("guards",), hidden=True)
+"""``--guarded``'s name before 0.3, taken for one release with a warning (:func:`options_of`)."""
 SIDE = option("--side", "Keep trajectories of one side: R or L.", params=("side", "RunSettings.side"))
 LEVELS = option("--levels", "Keep levels, e.g. C3-C5 or C3,C6.", params=("levels", "RunSettings.levels"))
 IDS = option("--ids", "Keep trajectory ids, e.g. 1,3,5.", params=("ids", "RunSettings.ids"))
@@ -140,6 +149,7 @@ PLAN: list[Flag] = [
     POINTS,
     MODE,
     GUARDS,
+    OLD_GUARDS,
     SIDE,
     LEVELS,
     IDS,
@@ -201,12 +211,17 @@ def request_flags(*groups: str) -> list[Flag]:
 
 def options_of(given: Given, guarded: bool | None = None, base: Options | None = None) -> Options:
     """The :class:`arcube.Options` of the flags given (``base``, else the paper's with the guards of
-    model §8.2 when ``--guards``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
-    start = (
-        base
-        if base is not None
-        else (GUARDED_OPTIONS if (given.get("guards") if guarded is None else guarded) else Options())
-    )
+    model §8.2 when ``--guarded``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
+    if given.get("guards"):
+        if given.get("guarded"):
+            raise InputError(f"{OLD_GUARDS.name} and {GUARDS.name} are one setting (renamed): give {GUARDS.name}")
+        warnings.warn(
+            f"{OLD_GUARDS.name} is now {GUARDS.name} (the old name goes in the next release)",
+            RenamedWarning,
+            stacklevel=2,
+        )
+    on = given.get("guarded") or given.get("guards")
+    start = base if base is not None else (GUARDED_OPTIONS if (on if guarded is None else guarded) else Options())
     tree = given.tree("options")
     return start.merged(tree) if tree else start
 

@@ -62,7 +62,7 @@ def explore(given: Given) -> None:
     from arcube.explorer import explore as explore_api
 
     common = {**{k: given.get(k) for k in ("mode", "points", "point") if k in given}, **plan_request(given)}
-    common.update(options=options_of(given, guarded=False), guards=not given.get("no_guards"))
+    common.update(options=options_of(given, guarded=False), guarded=not given.get("no_guards"))
     design, plan = given.get("design", "paper"), one_plan(given)
     if "html" in given:
         sys.stdout.write(f"{explore_api(design, plan, html=given.get('html'), **common)}\n")

@@ -452,11 +452,10 @@ def _write_outputs(
         c_z = d.design.c_z if d.design.c_z is not None else closing_c_z(d.design, d.plan, s, summary)
         try:
             xml = export_mjcf(
-                d.design,
+                d.design.with_extras(c_z=c_z),  # the design's own c_z, else the one that closes its z dyad
                 d.plan,
                 points=s.points,
                 mode=d.design.mode,
-                c_z=c_z,
                 options=s.options,
                 anatomy=d.anatomy,
                 envelope=d.envelope,

@@ -410,7 +410,7 @@ def design_settings(reqs: Sequence[Requirement], settings: RunSettings | None = 
     return s.replace(
         free=["all", "mount", "L", "c_z"],
         mode="free",
-        guards=True,
+        guarded=True,
         maxima={**s.maxima, **maxima},
         options=options,
         standoff=20.0 if s.standoff is None else s.standoff,

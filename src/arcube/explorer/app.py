@@ -264,7 +264,7 @@ class ExplorerApp:
             )
             self.guards = gui.add_checkbox(
                 "guards of arcube design",
-                m.guards,
+                m.guarded,
                 hint="model §8.2 and the clearance requirements as guards; off: the paper's model.",
             )
         with gui.add_folder("Body radii", expand_by_default=False):
@@ -297,7 +297,7 @@ class ExplorerApp:
         for h in self.radii.values():
             h.on_update(lambda _: self._set_radii())
         self.mode.on_update(lambda ev: self._set(mode=parse_mode(ev.target.value)))
-        self.guards.on_update(lambda ev: self._set(guards=bool(ev.target.value)))
+        self.guards.on_update(lambda ev: self._set(guarded=bool(ev.target.value)))
         self.point.on_update(lambda _: self.request(evaluate=False))
         self.play.on_update(lambda ev: self._start_play() if ev.target.value else None)
         self.save_button.on_click(self._on_save)

@@ -127,7 +127,7 @@ class LiveModel:
     mode: NDArray[np.float64] = field(default_factory=lambda: np.ones(4))
     points: int = 30
     radii: BodyRadii = BodyRadii()
-    guards: bool = True
+    guarded: bool = True
     requirements: Sequence[Requirement] = field(default_factory=requirements_from)
     standoff_mm: float = DEFAULT_STANDOFF_MM
     engine: str = "auto"
@@ -176,7 +176,7 @@ class LiveModel:
         """The kernel's options: with guards, those of ``arcube design`` (model §8.2 and the two
         clearance guards at the requirements' limits; no clearance guard without anatomy); the radii."""
         r = self.radii
-        if self.guards:
+        if self.guarded:
             base = design_options(self.requirements, GUARDED_OPTIONS)
             if self.anatomy is None:
                 base = base.replace(clearance_mm=None)
@@ -190,7 +190,7 @@ class LiveModel:
         if (
             self.design.c_z is not None
         ):  # the z dyad closed with the design's own c_z, and a guard when guarded (model §19.2)
-            base = base.replace(c_z=self.design.c_z, z_dyad=self.guards)
+            base = base.replace(c_z=self.design.c_z, z_dyad=self.guarded)
         holding = any(q.name == "holding_torque" for q in self.requirements)  # model §18.2, as arcube design's
         return base.replace(
             outputs=base.outputs.replace(
@@ -262,7 +262,7 @@ class LiveModel:
                 "passed": frac >= 1.0,
             }
         ]
-        if self.design.c_z is not None and self.guards:  # as arcube design's z_dyad row (model §19.2)
+        if self.design.c_z is not None and self.guarded:  # as arcube design's z_dyad row (model §19.2)
             code = FAILURES.index("guard/z_dyad") + 1
             bad = sum(int(np.sum(np.asarray(res.points.failure) == code)) for res in (drill, app))
             rows.append(

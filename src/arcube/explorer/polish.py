@@ -72,14 +72,14 @@ def polish(
             ftol=0.0,
             points=model.points,
             mode=format_mode(model.mode),
-            guards=model.guards,
+            guarded=model.guarded,
             seed=seed,
             design_from=str(start),
             free=list(names),
             bounds=bounds,
             anatomy=anatomy,
             anatomy_frame=frame,
-            standoff=model.standoff_mm if (model.guards and model.anatomy is not None) else None,
-            options=opts.replace(outputs=type(opts.outputs)()),
+            standoff=model.standoff_mm if (model.guarded and model.anatomy is not None) else None,
+            options=opts.replace(outputs=type(opts.outputs)(), c_z=None),  # c_z: the start design's (model §19.1)
         )
     return result.best_design, dict(result.summary)

@@ -152,7 +152,7 @@ class RunConfig:
         bounds = {k: (float(v[0]), float(v[1])) for k, v in (table.get("bounds") or {}).items()}
         settings = RunSettings.from_config(table)
         design = dict(table.get("design") or {})
-        if settings.c_z is not None and design.get("c_z") is None:  # a folder of 0.3 or before: --c-z set the
+        if settings.c_z is not None and design.get("c_z") is None:  # a folder written before: --c-z set the
             design["c_z"] = settings.c_z  # z-dyad guard's c_z; it is the design's now (model §19.1)
         return cls(
             settings=settings,

@@ -136,7 +136,7 @@ class RunSettings(Settings):
     """Everything that decides an optimization run except the plans themselves."""
 
     SHORT: ClassVar[dict[str, str]] = {"maxima": "max", "minima": "min", "tolerance_class": "class"}
-    RENAMED: ClassVar[dict[str, str]] = {"tolerance": "ftol", "docking": "placement"}
+    RENAMED: ClassVar[dict[str, str]] = {"tolerance": "ftol", "docking": "placement", "guards": "guarded"}
     RENAMED_VALUES: ClassVar[dict[str, dict[str, str]]] = {"aggregate": {"worst": "max"}}
 
     algorithm: str = DEFAULT_ALGORITHM
@@ -155,7 +155,7 @@ class RunSettings(Settings):
     """Working mode '+,+,+,+' (signs TMS x, TMS y, RTS x, RTS y) or 'free' (optimized)."""
     setups: Literal[1, 2] = 1
     """1, or 2: shared links, one placement per side (R and L)."""
-    guards: bool = False
+    guarded: bool = False
     """Turn on the guards of model §8.2 (the z dyad's too when c_z is free, model §19.2)."""
     margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
     """Orientation margin mu (deg) of the spherical stage's cone (model §12.2)."""
@@ -213,7 +213,7 @@ class RunSettings(Settings):
     standoff: float | None = Field(default=None, ge=0, le=MAX_STANDOFF_MM, allow_inf_nan=False)
     """Also hold reach, guards and clearances along each trajectory's approach line, from this far (mm) beyond where its axis leaves the anatomy to its entry (model §17.1)."""
     options: Options = Options()
-    """Clearance guards, body radii, loads and masses (the guards of ``guards`` are added on top)."""
+    """Clearance guards, body radii, loads and masses (the guards of ``guarded`` are added on top)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -303,7 +303,7 @@ class RunSettings(Settings):
         """The options the run's evaluations use: guards, body, loads, and only the outputs its
         objectives and limits need (the drill-tip metrics and the exact clearance cost time)."""
         guards = self.options.guards
-        if self.guards:
+        if self.guarded:
             on = GUARDED_OPTIONS.guards
             guards = guards.replace(
                 rho_max_deg=on.rho_max_deg,
@@ -369,11 +369,11 @@ class RunSettings(Settings):
 
 
 _TABLE_GUARDS = ("z_dyad", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
-"""Guards of 8.2 that a run can set one by one (beside ``guards``); written only when set."""
+"""Guards of 8.2 that a run can set one by one (beside ``guarded``); written only when set."""
 _MASS_KEYS = ("wall", "density", "m_delta", "m_motor", "gravity")
 """The masses of model §18.1 (their short names)."""
 RECORDED = (
-    *("algorithm", "population", "generations", "ftol", "period", "points", "mode", "setups", "guards", "margin"),
+    *("algorithm", "population", "generations", "ftol", "period", "points", "mode", "setups", "guarded", "margin"),
     *("seed", "engine", "aggregate", "compactness", "checkpoint_every", "eliminate_duplicates", "design_from", "free"),
     *("side", "levels", "ids", "transform", "anatomy", "anatomy_frame", "clearance", "self_clearance"),
     *("link_radius", "actuator_radius", "motor_radius", "motor_length", "objectives", "limits", "encoder_deg"),
@@ -383,7 +383,7 @@ RECORDED = (
 TABLE_KEYS = (
     *RECORDED,
     "z_dyad",
-    "c_z",  # the start design's (it was the z-dyad guard's before 0.4, at this place: old tables keep their order)
+    "c_z",  # the start design's (it was the z-dyad guard's before 0.3, at this place: old tables keep their order)
     *_TABLE_GUARDS[1:],
     *("dockings", "standoff", "segments", "envelope", "table_z", "tolerance_class", "tol", "envelope_clearance"),
     *_MASS_KEYS,

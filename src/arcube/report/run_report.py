@@ -114,7 +114,8 @@ def _run_info(cfg: dict[str, Any], settings: dict[str, Any], summary: dict[str, 
         "seed",
         "points",
         "mode",
-        "guards",
+        "guarded",
+        "guards",  # a folder's before 0.3
         "setups",
         "aggregate",
         "engine_resolved",
@@ -252,11 +253,13 @@ def _run_body(run: Path, settings: dict[str, Any]) -> tuple[Options, Any, dict[s
     patient's anatomy (the copy in the run folder) and its --max / --min limits by name."""
     from arcube.optimization.settings import RunSettings
 
+    guarded = settings.get("guarded", settings.get("guards")) is True  # guards: its key before 0.3
     try:
-        options = RunSettings.from_table({**settings, "guards": settings.get("guards") is True}).evaluation_options()
+        table = {k: v for k, v in settings.items() if k != "guards"}
+        options = RunSettings.from_table({**table, "guarded": guarded}).evaluation_options()
         options = options.replace(outputs=options.outputs.replace(clearances=True, tip_metrics=True))
     except (InputError, TypeError, ValueError):  # a hand-edited or older config: the guards alone
-        options = GUARDED_OPTIONS if settings.get("guards") is True else Options()
+        options = GUARDED_OPTIONS if guarded else Options()
     limits = {
         str(lim[0]): float(lim[2]) for lim in settings.get("limits", []) if isinstance(lim, list) and len(lim) == 3
     }
