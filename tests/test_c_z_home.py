@@ -88,3 +88,37 @@ def test_an_older_folder_s_c_z_reads_as_its_start_design_s() -> None:
     assert "c_z" not in table["design"]
     back = RunConfig.from_toml(table)
     assert back.design["c_z"] == 320.0 and back.settings.c_z == 320.0
+
+
+def test_a_run_s_report_evaluates_its_designs_with_their_c_z(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``arcube report`` takes c_z from the design the run wrote (it used to drop a design's own c_z and keep only
+    the guard's); a folder written before, whose best_design.json has none, takes its ``[settings]`` c_z."""
+    import json
+
+    from arcube.report import run_report
+
+    seen: list[tuple[float | None, float | None]] = []
+    real = run_report.evaluate_design
+
+    def spy(design, plan, points, signs, options, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003
+        seen.append((design.c_z, options.guards.c_z))
+        return real(design, plan, points, signs, options, *args, **kwargs)
+
+    monkeypatch.setattr(run_report, "evaluate_design", spy)
+    out = tmp_path / "run"
+    few = dict(algorithm="ga", population=4, generations=1, points=3, free="m_x", seed=1)
+    arcube.optimize("reference", out=out, ids="1", c_z=300.0, **few)
+    assert arcube.Design.load(str(out / "best_design.json")).c_z == 300.0  # the run's design carries it
+    run_report.write_run_report(out)
+    assert seen == [(300.0, 300.0)]
+    best = json.loads((out / "best_design.json").read_text())
+    del best["c_z"]  # as a run of before wrote it: c_z in [settings] alone
+    (out / "best_design.json").write_text(json.dumps(best))
+    seen.clear()
+    run_report.write_run_report(out)
+    assert seen == [(300.0, 300.0)]
+    plain = tmp_path / "plain"
+    arcube.optimize("reference", out=plain, ids="1", **few)
+    seen.clear()
+    run_report.write_run_report(plain)
+    assert seen == [(None, None)]

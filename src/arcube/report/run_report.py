@@ -45,6 +45,7 @@ from arcube.model.mechanism import parse_mode
 from arcube.optimization.settings import table_placement
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
+from arcube.request import with_design_c_z
 from arcube.io import TrajectorySet, load_trajectories, select
 
 
@@ -220,11 +221,12 @@ def write_run_report(
             path = run / (f"best_design_p{i + 1}{suffix}.json" if per_patient else f"best_design{suffix}.json")
             if not path.exists():
                 raise InputError(f"{run}: {path.name} is missing (the run's design for patient {i + 1})")
-            design = Design.from_json(path)
+            design = _with_run_c_z(Design.from_json(path), settings, run / "config.toml")
             plan = select(ts, side=side) if side else ts
             patient_info = info if i == 0 else {**info, "patient": f"{i + 1} of {n_patients} ({ts.source})"}
+            mine = with_design_c_z(options, design)  # the design's c_z (model §19.1), as arcube evaluate takes it
             write_evaluation_report(
-                evaluate_design(design, plan, points, signs, options, engine, anatomy=patient_anatomy),
+                evaluate_design(design, plan, points, signs, mine, engine, anatomy=patient_anatomy),
                 run / f"{stem}{suffix}.html",
                 history_csv=history,
                 run_info=patient_info,
@@ -234,6 +236,18 @@ def write_run_report(
                 program=program if i == 0 and not suffix else None,
             )
     return main
+
+
+def _with_run_c_z(design: Design, settings: dict[str, Any], where: Path) -> Design:
+    """``design`` with the run's ``c_z`` when its file has none: a run written before c_z was the design's alone
+    recorded ``--c-z`` in ``[settings]`` only (a run now writes it in its designs too)."""
+    c_z = settings.get("c_z")
+    if design.c_z is not None or c_z is None:
+        return design
+    try:
+        return design.with_extras(c_z=float(c_z))
+    except (InputError, TypeError, ValueError):
+        raise InputError(f"{where}: settings.c_z is not a length in mm ({c_z!r})") from None
 
 
 def _run_engine(settings: dict[str, Any]) -> str:
