@@ -297,6 +297,26 @@ def test_dir_of_the_package_shows_only_public_names_and_every_returned_type_is_e
         getattr(arcube, name)
 
 
+def test_every_type_a_public_function_returns_is_exported() -> None:
+    """House II: what an entry point returns can be named as ``arcube.X`` (``arcube.explore`` returned an
+    ExplorerApp that was not): every class its return annotation names is in ``dir(arcube)``."""
+    import inspect
+    import re
+
+    import arcube
+
+    plain = {"Path", "Any", "None", "NDArray"}  # the standard library's, typing's and NumPy's
+    missing = {}
+    for name in arcube.__all__:
+        obj = getattr(arcube, name)
+        if inspect.isclass(obj) or not callable(obj):
+            continue
+        returned = set(re.findall(r"\b[A-Z]\w*", str(inspect.signature(obj).return_annotation))) - plain
+        if returned - set(dir(arcube)):
+            missing[name] = sorted(returned - set(dir(arcube)))
+    assert not missing, f"returned but not exported: {missing}"
+
+
 def test_every_settings_field_has_a_description() -> None:
     """House II: a field without a docstring gave its flag the help text of its name (--segments showed 'segments')."""
     from arcube.accuracy import ToleranceSettings

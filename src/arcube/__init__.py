@@ -53,6 +53,7 @@ _SOURCES: dict[str, str] = {
     "generate_patient": "arcube.patients",
     "write_report": "arcube.report",
     "explore": "arcube.explorer",
+    "ExplorerApp": "arcube.explorer.app",
     **dict.fromkeys(("DockResult", "dock"), "arcube.design_job.coverage"),
     "DesignResult": "arcube.design_job",
     "JointTrajectory": "arcube.export.joints",
@@ -89,6 +90,7 @@ if TYPE_CHECKING:
     from arcube.pedicles import BreachResult, BreachSettings, breach
     from arcube.pedicles.monte_carlo import BreachSummary
     from arcube.explorer import explore
+    from arcube.explorer.app import ExplorerApp
     from arcube.export.mjcf import export_mjcf
     from arcube.io import TrajectorySet, load_trajectories, read_markups, select, write_csv, write_markups
     from arcube.model.design import PARAM_NAMES, Design
@@ -117,6 +119,7 @@ __all__ = [
     "DockSummary",
     "Evaluation",
     "EvaluationSummary",
+    "ExplorerApp",
     "Guards",
     "InputError",
     "JointTrajectory",
