@@ -1,7 +1,7 @@
 """House II item 4: c_z, the z-leg dyad's second link (model §6, 19.1), has one home, the design. ``--c-z`` sets the
 design's value (export, optimize); a run records it in its start design and its result; export's keyword is an
-alias for one release; a run's options never hold one; an older folder (where --c-z set the guard's c_z) reads into
-today's home."""
+alias for one release; a new run's options never hold one; an older folder (where --c-z set the guard's c_z) resumes
+as it ran."""
 
 from __future__ import annotations
 
@@ -72,22 +72,46 @@ def test_a_run_s_c_z_is_its_start_design_s(tmp_path: Path) -> None:
     assert RunConfig.from_toml(flag.to_toml()) == flag
 
 
-def test_a_run_s_options_hold_no_c_z() -> None:
+def test_a_new_run_s_options_hold_no_c_z() -> None:
     with pytest.raises(InputError, match=r"^RunSettings.options.guards.c_z is the design's in a run") as info:
-        RunSettings(options=arcube.Options(c_z=300.0))
+        build_config([arcube.load_trajectories("reference")], RunSettings(options=arcube.Options(c_z=300.0)))
     assert info.value.param == "RunSettings.options.guards.c_z"
     assert RunSettings(c_z=300.0).options.guards.c_z is None  # the keyword is the run's own field, not the guard's
 
 
-def test_an_older_folder_s_c_z_reads_as_its_start_design_s() -> None:
-    """Before, ``--c-z`` wrote ``c_z`` in [settings] and nothing in [design]; read now, the start design holds
-    it (where a run writes it today), the settings say the same."""
+def test_an_older_folder_s_c_z_stays_the_guard_s() -> None:
+    """Before, ``--c-z`` wrote ``c_z`` in [settings] and nothing in [design]: such a folder is read as it ran (the
+    z-dyad guard's c_z, model §6), and written back the same; a new run's c_z is in its [design] too."""
     cfg = build_config([arcube.load_trajectories("reference")], RunSettings(population=8))
     table = cfg.to_toml()
     table["settings"] = {**table["settings"], "c_z": 320.0}
     assert "c_z" not in table["design"]
     back = RunConfig.from_toml(table)
-    assert back.design["c_z"] == 320.0 and back.settings.c_z == 320.0
+    assert "c_z" not in back.design and back.settings.c_z is None and back.settings.options.guards.c_z == 320.0
+    assert back.settings.evaluation_options().guards.c_z == 320.0 and build_model(back).space.base_c_z is None
+    assert back.to_toml()["settings"]["c_z"] == 320.0 and RunConfig.from_toml(back.to_toml()) == back
+    assert RunConfig.from_toml(back.to_toml()).with_seed(5).settings.options.guards.c_z == 320.0  # a study's seed
+
+
+@pytest.mark.parametrize("case", ["fixed", "free"])
+def test_an_older_folder_with_c_z_killed_midway_resumes_as_it_ran(case: str, tmp_path: Path) -> None:
+    """tests/data/run_c_z_guard (its README): folders of the code before, with ``--c-z 300`` (c_z fixed with the
+    z-dyad guard on; c_z free from 300), killed after generation 3. Resumed here, each ends where the same run,
+    uninterrupted by that code, ended: the same best design (bytes) and the same history."""
+    import csv
+    import shutil
+
+    data = Path(__file__).parent / "data" / "run_c_z_guard"
+    old = tmp_path / "old"
+    shutil.copytree(data / f"{case}_killed", old)
+    arcube.resume(old)
+    whole = data / f"{case}_whole"
+    assert (old / "best_design.json").read_bytes() == (whole / "best_design.json").read_bytes()
+
+    def untimed(path: Path) -> list[dict[str, str]]:
+        return [{k: v for k, v in row.items() if k != "seconds"} for row in csv.DictReader(path.open())]
+
+    assert untimed(old / "history.csv") == untimed(whole / "history.csv") and len(untimed(whole / "history.csv")) == 8
 
 
 def test_a_run_s_report_evaluates_its_designs_with_their_c_z(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -359,6 +359,25 @@ def test_an_old_name_is_taken_with_a_warning_and_never_beside_its_new_one() -> N
         RunSettings(guards=True, guarded=True)
 
 
+def test_an_old_keyword_beside_a_settings_object_warns_at_the_caller_s_line() -> None:
+    """``arcube.optimize(plan, settings, guards=True)``: the settings object holds ``guarded`` (its default), the
+    keyword is the old name of the same field: taken with a warning (it was refused as both names), and the warning,
+    like every old name's, points at the caller's line, not into arcube or pydantic."""
+    import arcube
+    from arcube.errors import RenamedWarning
+    from arcube.optimization.config import run_settings
+
+    with pytest.warns(RenamedWarning, match="RunSettings.guards is now RunSettings.guarded") as record:
+        assert run_settings(RunSettings(population=8), guards=True) == RunSettings(population=8, guarded=True)
+    assert record[0].filename == __file__
+    with pytest.warns(RenamedWarning) as record:
+        RunSettings(tolerance=0.5)
+    assert record[0].filename == __file__
+    with pytest.warns(RenamedWarning, match="^guards is now guarded") as record:
+        arcube.evaluate("paper", "reference", ids="1", points=3, guards=True, engine="numpy")
+    assert record[0].filename == __file__
+
+
 def test_the_guards_keyword_of_a_request_is_guarded_now() -> None:
     """``guards=True`` (before 0.3) asks for the guards of model §8.2 as ``guarded=True`` does, with a warning;
     both together are refused; the explorer's keyword likewise."""

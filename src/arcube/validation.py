@@ -13,7 +13,19 @@ from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, fie
 
 from arcube.errors import InputError, RenamedWarning
 
-__all__ = ["Settings", "renamed_keyword", "settings_error", "validated"]
+__all__ = ["Settings", "caller_stacklevel", "renamed_keyword", "settings_error", "validated"]
+
+
+def caller_stacklevel() -> int:
+    """The ``stacklevel`` of :func:`warnings.warn`, called by the function that calls this one, that points at the
+    first frame outside arcube (and pydantic, whose validators call arcube's): an old name's warning names the
+    caller's line, however deep in arcube it was noticed."""
+    import sys
+
+    frame, level = sys._getframe(1), 1  # the frame that calls warnings.warn is stacklevel 1
+    while frame is not None and str(frame.f_globals.get("__name__", "")).split(".")[0] in ("arcube", "pydantic"):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def renamed_keyword(keywords: dict[str, Any], old: str, new: str, value: Any, default: Any) -> Any:
@@ -26,7 +38,9 @@ def renamed_keyword(keywords: dict[str, Any], old: str, new: str, value: Any, de
         raise InputError.of(old, f"and {new} are one setting (renamed): give {new}")
     import warnings
 
-    warnings.warn(f"{old} is now {new} (the old name goes in the next release)", RenamedWarning, stacklevel=3)
+    warnings.warn(
+        f"{old} is now {new} (the old name goes in the next release)", RenamedWarning, stacklevel=caller_stacklevel()
+    )
     return keywords.pop(old)
 
 
@@ -82,7 +96,7 @@ class Settings(BaseModel):
                 warnings.warn(
                     f"{cls.__name__}.{old} is now {cls.__name__}.{new} (the old name goes in the next release)",
                     RenamedWarning,
-                    stacklevel=4,
+                    stacklevel=caller_stacklevel(),
                 )
                 data[new] = data.pop(old)
         for field, spellings in cls.RENAMED_VALUES.items():
@@ -92,7 +106,7 @@ class Settings(BaseModel):
                 warnings.warn(
                     f"{cls.__name__}.{field} {key!r} is now spelt {spellings[key]!r} (the old spelling goes in the next release)",
                     RenamedWarning,
-                    stacklevel=4,
+                    stacklevel=caller_stacklevel(),
                 )
                 data[field] = spellings[key]
         return data

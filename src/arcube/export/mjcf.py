@@ -78,6 +78,7 @@ from arcube.model.design import Design, unpack
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
 from arcube.request import Request
+from arcube.validation import caller_stacklevel
 
 __all__ = [
     "ACTUATED",
@@ -223,7 +224,7 @@ def with_c_z(design: Design | ArrayLike, c_z: Any, function: str) -> Design | Ar
     warnings.warn(
         f"{function}(c_z=...) is now the design's c_z: give design.with_extras(c_z=...) (the keyword goes in the next release)",
         RenamedWarning,
-        stacklevel=3,
+        stacklevel=caller_stacklevel(),
     )
     if isinstance(c_z, bool) or not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
         raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")

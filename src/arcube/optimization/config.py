@@ -137,6 +137,7 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
 def run_settings(settings: RunSettings | None = None, **fields: Any) -> RunSettings:
     """``settings`` with ``fields`` changed (flat names accepted: ``thrust=25``), validated once."""
     base = settings.model_dump() if settings is not None else {}
+    fields = RunSettings.renamed(fields)  # an old keyword beside a settings object (which holds its new name)
     return validated(RunSettings, {**base, **fields}) if fields or settings is None else settings
 
 
@@ -153,6 +154,11 @@ def build_config(
     ``workers`` and ``dask`` say where the evaluations run (recorded, not part of the settings).
     """
     s = run_settings(settings, **fields)
+    if s.options.guards.c_z is not None:  # only a folder of before holds one (RunConfig.from_toml)
+        raise InputError.of(
+            "RunSettings.options.guards.c_z",
+            "is the design's in a run (model §19.1): give RunSettings.c_z, which sets the start design's c_z",
+        )
     if not trajectories:
         raise InputError.of("plan", "give at least one trajectory set (CSV, .mrk.json, folder or 'reference')")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:

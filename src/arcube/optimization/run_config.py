@@ -152,8 +152,11 @@ class RunConfig:
         bounds = {k: (float(v[0]), float(v[1])) for k, v in (table.get("bounds") or {}).items()}
         settings = RunSettings.from_config(table)
         design = dict(table.get("design") or {})
-        if settings.c_z is not None and design.get("c_z") is None:  # a folder written before: --c-z set the
-            design["c_z"] = settings.c_z  # z-dyad guard's c_z; it is the design's now (model §19.1)
+        if settings.c_z is not None and design.get("c_z") is None:
+            # a folder written before c_z was the design's alone: its --c-z was the z-dyad guard's c_z (model §6,
+            # graded in V_fit); it resumes as it ran (a new run's c_z is in its [design] too, model §19.1)
+            legacy = settings.options.replace(c_z=settings.c_z)
+            settings = settings.replace(c_z=None, options=legacy)
         return cls(
             settings=settings,
             patients=tuple(table["patients"]),

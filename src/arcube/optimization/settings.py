@@ -251,11 +251,6 @@ class RunSettings(Settings):
                 "RunSettings.dockings",
                 "gives every docking its own placement: it needs setups 1 and docking per-patient",
             )
-        if self.options.guards.c_z is not None:
-            raise InputError.of(
-                "RunSettings.options.guards.c_z",
-                "is the design's in a run (model §19.1): give RunSettings.c_z, which sets the start design's c_z",
-            )
         if self.setups == 2 and self.side is not None:
             raise InputError.of("RunSettings.setups", "2 uses both sides (one placement each); drop side")
         if not self.anatomy:
@@ -344,6 +339,8 @@ class RunSettings(Settings):
         if key in FLAT_OPTIONS:
             group, name = FLAT_OPTIONS[key]
             return getattr(getattr(self.options, group), name), getattr(getattr(_OPTIONS, group), name)
+        if key == "c_z" and self.c_z is None:  # a run of before: its --c-z was the z-dyad guard's (RunConfig.from_toml)
+            return self.options.guards.c_z, None
         if key == "limits":
             return self.limits, []
         return getattr(self, key), getattr(_defaults(), key)

@@ -9,7 +9,7 @@ What is read (everything defensively: the run format belongs to :mod:`arcube.opt
     ``best_design_p<k>.json`` when the run docked per patient. Without it, ``settings.trajectories[0]`` is reloaded with the subset flags
     ``settings.side`` / ``levels`` / ``ids`` / ``transform``;
   - ``[settings]``: ``points`` (default 30), ``mode`` (signs, or ``"free"``: then the mode the
-    optimizer picked, ``summary.json`` ``mode``), ``guards`` (bool), ``setups`` (1 or 2) and
+    optimizer picked, ``summary.json`` ``mode``), ``guarded`` (bool; ``guards`` in a folder of before), ``setups`` (1 or 2) and
     whatever else is shown in the run table;
 * ``best_design.json`` (required; :meth:`arcube.model.design.Design.from_json`). With ``setups = 2``
   it is the right-side placement and ``best_design_L.json`` the left one: the main report covers
