@@ -51,7 +51,7 @@ def test_the_c_z_flag_of_export_sets_the_design_s(tmp_path: Path, capsys: pytest
     code, _, err = run_cli(
         ["export", "--design", str(design), "--side", "R", "--c-z", "-3", "--out", str(out), "--force"], capsys
     )
-    assert code == 2 and "error: --c-z must be a finite length > 0 mm, got -3" in err
+    assert code == 2 and "error: --c-z must be a finite number of mm > 0, got -3.0" in err
 
 
 def test_a_run_s_c_z_is_its_start_design_s(tmp_path: Path) -> None:

@@ -189,19 +189,12 @@ C_Z = option(
 
 
 def with_given_c_z(given: Given, design: Any) -> Any:
-    """``design`` (a Design, preset, file or vector) with ``--c-z``'s value when given, else as it is; InputError
-    naming ``--c-z`` unless a finite length > 0 mm."""
-    import math
-
-    from arcube.errors import InputError
-    from arcube.model.design import Design
+    """``design`` (a Design, preset, file or vector) with ``--c-z``'s value when given, else as it is
+    (:func:`arcube.export.mjcf.design_with_c_z`: InputError naming ``--c-z`` unless a finite length > 0 mm)."""
+    from arcube.export.mjcf import design_with_c_z
 
     c_z = given.get("c_z")
-    if c_z is None:
-        return design
-    if not (math.isfinite(c_z) and c_z > 0):
-        raise InputError.of("c_z", f"must be a finite length > 0 mm, got {c_z:g}")
-    return Design.coerce(design).with_extras(c_z=float(c_z))
+    return design if c_z is None else design_with_c_z(design, c_z)
 
 
 def request_flags(*groups: str) -> list[Flag]:

@@ -87,6 +87,7 @@ __all__ = [
     "KV",
     "check_z_dyad",
     "checked_inputs",
+    "design_with_c_z",
     "export_masses",
     "export_mjcf",
     "joint_values",
@@ -226,6 +227,12 @@ def with_c_z(design: Design | ArrayLike, c_z: Any, function: str) -> Design | Ar
         RenamedWarning,
         stacklevel=caller_stacklevel(),
     )
+    return design_with_c_z(design, c_z)
+
+
+def design_with_c_z(design: Design | ArrayLike, c_z: Any) -> Design:
+    """``design`` (a Design, preset, file or vector) with c_z (mm, model §19.1) set: an export's ``--c-z``.
+    InputError naming ``c_z`` unless a finite length > 0 mm."""
     if isinstance(c_z, bool) or not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
         raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
     return Design.coerce(design).with_extras(c_z=float(c_z))

@@ -132,6 +132,7 @@ class RunConfig:
             "versions": dict(self.versions),
             "settings": {
                 **self.settings.to_table(),
+                **self._legacy_c_z(),
                 "engine_resolved": self.engine_resolved,
                 "trajectories": list(self.trajectories),
             },
@@ -143,6 +144,11 @@ class RunConfig:
         if self.rerun is not None:
             table["rerun"] = self.rerun
         return table
+
+    def _legacy_c_z(self) -> dict[str, float]:
+        """``{"c_z": ...}`` for a run of before whose c_z is the z-dyad guard's (:meth:`from_toml`), else nothing."""
+        c_z = self.settings.options.guards.c_z
+        return {} if self.settings.c_z is not None or c_z is None else {"c_z": c_z}
 
     @classmethod
     def from_toml(cls, table: Mapping[str, Any]) -> RunConfig:

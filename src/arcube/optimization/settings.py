@@ -339,8 +339,6 @@ class RunSettings(Settings):
         if key in FLAT_OPTIONS:
             group, name = FLAT_OPTIONS[key]
             return getattr(getattr(self.options, group), name), getattr(getattr(_OPTIONS, group), name)
-        if key == "c_z" and self.c_z is None:  # a run of before: its --c-z was the z-dyad guard's (RunConfig.from_toml)
-            return self.options.guards.c_z, None
         if key == "limits":
             return self.limits, []
         return getattr(self, key), getattr(_defaults(), key)
@@ -365,8 +363,9 @@ class RunSettings(Settings):
         return cls.from_table({**cfg["settings"], "bounds": {k: v for k, v in bounds.items() if v != defaults.get(k)}})
 
 
-_TABLE_GUARDS = ("z_dyad", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
-"""Guards of 8.2 that a run can set one by one (beside ``guarded``); written only when set."""
+_TABLE_GUARDS = ("z_dyad", "c_z", "rho_max_deg", "min_transmission_deg", "kappa_max", "single_assembly_mode")
+"""Guards of 8.2 that a run can set one by one (beside ``guarded``); written only when set. ``c_z`` is the run's own
+field now (the start design's, model §19.1), at the place the guard's c_z had."""
 _MASS_KEYS = ("wall", "density", "m_delta", "m_motor", "gravity")
 """The masses of model §18.1 (their short names)."""
 RECORDED = (
@@ -379,9 +378,7 @@ RECORDED = (
 """The keys of config.toml's [settings] that every run writes (those of the first runs, and placement)."""
 TABLE_KEYS = (
     *RECORDED,
-    "z_dyad",
-    "c_z",  # the start design's (it was the z-dyad guard's before 0.3, at this place: old tables keep their order)
-    *_TABLE_GUARDS[1:],
+    *_TABLE_GUARDS,
     *("dockings", "standoff", "segments", "envelope", "table_z", "tolerance_class", "tol", "envelope_clearance"),
     *_MASS_KEYS,
 )
