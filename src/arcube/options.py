@@ -25,7 +25,7 @@ import math
 from collections.abc import Sequence
 from typing import Annotated, Any, ClassVar
 
-from pydantic import BaseModel, BeforeValidator, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, Field
 
 from arcube.errors import InputError
 from arcube.model.body import BodyRadii
@@ -271,12 +271,10 @@ class Options(Settings):
     outputs: Outputs = Outputs()
     """What to compute beyond what the guards need."""
 
-    @model_validator(mode="before")
     @classmethod
-    def _route_flat(cls, data: Any) -> Any:
-        if not isinstance(data, dict):
-            return data
-        rest = dict(data)
+    def prepare(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """Flat names (``thrust``, ``clearance``) routed into their groups (:func:`route_flat`)."""
+        rest = data
         groups = {
             k: rest.pop(k) for k in list(rest) if k in _GROUPS and not (k == "body" and isinstance(rest[k], bool))
         }
@@ -318,22 +316,24 @@ class Options(Settings):
         self.check_masses()
         return True
 
+    def _wants(self, asked: bool, limit: float | None) -> bool:
+        # a clearance is computed when every clearance is asked for, when this one is, or when a guard limits it
+        return self.outputs.clearances or asked or limit is not None
+
     @property
     def wants_clearance(self) -> bool:
         """Whether the evaluation computes the clearance to the anatomy (when there is one)."""
-        o = self.outputs
-        return o.clearances or o.anatomy_clearance or self.guards.clearance_mm is not None
+        return self._wants(self.outputs.anatomy_clearance, self.guards.clearance_mm)
 
     @property
     def wants_self_clearance(self) -> bool:
         """Whether the evaluation computes the clearance between the body's own parts."""
-        return self.outputs.clearances or self.guards.self_clearance_mm is not None
+        return self._wants(False, self.guards.self_clearance_mm)
 
     @property
     def wants_envelope_clearance(self) -> bool:
         """Whether the evaluation computes the clearance to the envelope (when there is one, model §19.5)."""
-        o = self.outputs
-        return o.clearances or o.envelope_clearance or self.guards.envelope_clearance_mm is not None
+        return self._wants(self.outputs.envelope_clearance, self.guards.envelope_clearance_mm)
 
     @property
     def wants_body(self) -> bool:

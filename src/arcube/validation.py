@@ -114,7 +114,13 @@ class Settings(BaseModel):
     @model_validator(mode="before")
     @classmethod
     def _old_names(cls, data: Any) -> Any:
-        return cls.renamed(data) if isinstance(data, dict) else data
+        return cls.prepare(cls.renamed(dict(data))) if isinstance(data, dict) else data
+
+    @classmethod
+    def prepare(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """The keys as given, rewritten before validation (``data``: a copy, old names already replaced): a
+        subclass's place for flat names and spellings; as given here."""
+        return data
 
     @field_validator("*", mode="before")
     @classmethod

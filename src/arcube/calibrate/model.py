@@ -103,13 +103,14 @@ ASSEMBLIES: NDArray[np.float64] = np.array([[a, b, c] for a in (1.0, -1.0) for b
 def robot_assembly(
     design: ArrayLike,
     q0_deg: ArrayLike,
-    q_read_deg: ArrayLike,
-    E: ArrayLike,
-    e: ArrayLike,
+    rows: tuple[ArrayLike, ArrayLike, ArrayLike],
     sigma_mm: float,
     sigma_rad: float,
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """The robot's assembly mode ``(3,)`` and, per row, whether FK_p(q_read + q0) closes in it ``(N,)``.
+    where: object = None,
+) -> NDArray[np.float64]:
+    """The robot's assembly mode at each row ``(N, 3)`` of ``rows`` = (joint readings ``(N, 5)`` deg, measured tips
+    ``(N, 3)`` mm, measured axes ``(N, 3)``); InputError naming the first row where FK_p(q_read + q0) does not close
+    in it (``where(i)`` names row i; else "measurement i+1").
 
     The measurements do not record how the robot was assembled, but a robot keeps one assembly mode: it
     cannot change it without passing through a singularity (the design job's single-assembly-mode guard,
@@ -117,7 +118,8 @@ def robot_assembly(
     pose (in the weighted norm of the residuals) is the robot's, except near the boundary between two
     modes, where the nominal FK of the wrong one can come nearer than the robot's errors; the mode most
     rows choose (ties: the first of :data:`ASSEMBLIES`) is taken for every row."""
-    q = np.deg2rad(np.asarray(q_read_deg, dtype=float) + np.asarray(q0_deg, dtype=float))
+    q_read, E, e = rows
+    q = np.deg2rad(np.asarray(q_read, dtype=float) + np.asarray(q0_deg, dtype=float))
     with np.errstate(invalid="ignore", divide="ignore"):
         fk = forward_kinematics(design, q[None, :, :3], q[None, :, 3:], ASSEMBLIES[:, None, :])
         cost = np.sum((fk.E - E) ** 2, axis=-1) / sigma_mm**2 + np.sum((fk.e - e) ** 2, axis=-1) / sigma_rad**2
@@ -126,7 +128,14 @@ def robot_assembly(
     nearest = np.argmin(cost, axis=0)
     votes = np.bincount(nearest[np.isfinite(np.min(cost, axis=0))], minlength=len(ASSEMBLIES))
     best = int(np.argmax(votes))
-    return ASSEMBLIES[best].copy(), closes[best]
+    if not closes[best].all():
+        i = int(np.flatnonzero(~closes[best])[0])
+        name = where(i) if callable(where) else f"measurement {i + 1}"
+        raise InputError(
+            f"{name}: the design cannot take these joint angles (its forward kinematics does not close there in the "
+            "assembly mode of the other rows): angles of another robot, or in the wrong unit"
+        )
+    return np.broadcast_to(ASSEMBLIES[best], (q.shape[0], 3)).copy()
 
 
 @dataclass(frozen=True)
@@ -174,24 +183,16 @@ def make_problem(
     where: object = None,
 ) -> Problem:
     """The problem at the nominal design and zero offsets; the assembly mode is :func:`robot_assembly`'s unless
-    given. ``where(i)`` names row i in the InputError of a row whose nominal FK does not assemble in it (the
-    design cannot take these joint angles)."""
+    given (``where`` as there)."""
     x = np.asarray(design, dtype=float)
     q0 = np.asarray(q0_deg, dtype=float)
     q = np.asarray(q_read_deg, dtype=float)
     sigma_rad = float(np.deg2rad(sigma_deg))
-    if assembly is None:
-        mode, ok = robot_assembly(x, q0, q, E, e, sigma_mm, sigma_rad)
-        if not ok.all():
-            i = int(np.flatnonzero(~ok)[0])
-            name = where(i) if callable(where) else f"measurement {i + 1}"
-            raise InputError(
-                f"{name}: the design cannot take these joint angles (its forward kinematics does not close "
-                "there in the assembly mode of the other rows): a measurement of another robot, or angles in the wrong unit"
-            )
-        asm = np.broadcast_to(mode, (len(q), 3)).copy()
-    else:
-        asm = np.asarray(assembly, dtype=float)
+    asm = (
+        robot_assembly(x, q0, (q, E, e), sigma_mm, sigma_rad, where)
+        if assembly is None
+        else np.asarray(assembly, float)
+    )
     return Problem(
         x,
         unknown_values(x, q0),

@@ -81,14 +81,7 @@ def simulate(
             f"{m.source}: the poses were chosen for another design (digest {m.design}, this design's is {digest}); "
             "choose poses for this design (calibrate poses)"
         )
-    mode, ok = robot_assembly(x, start.q0_deg, m.q_deg, m.E, m.e, 0.15, np.deg2rad(0.1))
-    if not ok.all():
-        i = int(np.flatnonzero(~ok)[0])
-        raise InputError(
-            f"{m.where(i)}: the design cannot take these joint angles (its forward kinematics does not close "
-            "there in the assembly mode of the other rows)"
-        )
-    asm = np.broadcast_to(mode, (len(m), 3))
+    asm = robot_assembly(x, start.q0_deg, (m.q_deg, m.E, m.e), 0.15, np.deg2rad(0.1), m.where)
     tol = ToleranceSettings(
         tolerance_class=settings.tolerance_class,
         q0_deg=settings.q0_deg,

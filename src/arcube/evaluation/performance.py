@@ -26,6 +26,7 @@ from arcube.io.inputs import short_repr
 from arcube.model import frames
 from arcube.model.design import unpack
 from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics, velocity_model
+from arcube.options import Loads
 
 ACTUATOR_NAMES: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 """The five actuated joints, in the order of the Jacobians' columns and of ``torque_actuator``."""
@@ -270,12 +271,13 @@ model §15 and the holding torque of 18.2 (:mod:`arcube.evaluation.masses`, with
 def metrics_of_solution(
     sol: IKSolution,
     params: ArrayLike,
-    encoder_deg: ArrayLike = 0.01,
-    thrust_N: float = 30.0,
-    lateral_N: float = 10.0,
-    stiffness_Nm_per_rad: ArrayLike = 1e4,
+    loads: Loads | None = None,
+    jacobians: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> TipMetrics:
-    """:func:`tip_metrics` at the points of an IK solution (shapes as ``sol``), in the patient frame."""
-    J_E, J_e = jacobians_of_solution(sol, params)
+    """:func:`tip_metrics` at the points of an IK solution (shapes as ``sol``), in the patient frame, under ``loads``
+    (:class:`~arcube.options.Loads`, its defaults when None). ``jacobians``: (J_E, J_e) of ``sol`` when already
+    computed (:func:`jacobians_of_solution`)."""
+    J_E, J_e = jacobians_of_solution(sol, params) if jacobians is None else jacobians
     e_w = frames.directions_to_world(unpack(params), sol.e)
-    return tip_metrics(J_E, J_e, e_w, encoder_deg, thrust_N, lateral_N, stiffness_Nm_per_rad)
+    ld = Loads() if loads is None else loads
+    return tip_metrics(J_E, J_e, e_w, ld.encoder_deg, ld.thrust_N, ld.lateral_force_N, ld.actuator_stiffness)

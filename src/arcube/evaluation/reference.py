@@ -37,8 +37,7 @@ from arcube.model.mechanism import DEFAULT_MODE, IKSolution, inverse_kinematics
 from arcube.evaluation.clearance import Distance, anatomy_clearance, self_clearance
 from arcube.evaluation.envelope_clearance import envelope_clearance
 from arcube.evaluation.masses import holding_torque_of_solution
-from arcube.evaluation.performance import MAXIMUM_FIELDS, jacobians_of_solution, tip_metrics
-from arcube.model import frames
+from arcube.evaluation.performance import MAXIMUM_FIELDS, jacobians_of_solution, metrics_of_solution
 from arcube.model.body import body_parts, mechanism_points
 from arcube.options import GUARDED_OPTIONS, Options
 
@@ -415,12 +414,8 @@ def _performance(
     ``c_z``: each design's own z-dyad link (None: the options')."""
     if not options.outputs.tip_metrics:
         return None
-    loads = options.loads
     J_E, J_e = jacobians_of_solution(sol, params)
-    e_w = frames.directions_to_world(unpack(params), sol.e)
-    out: dict[str, Any] = tip_metrics(
-        J_E, J_e, e_w, loads.encoder_deg, loads.thrust_N, loads.lateral_force_N, loads.actuator_stiffness
-    )._asdict()
+    out: dict[str, Any] = metrics_of_solution(sol, params, options.loads, (J_E, J_e))._asdict()
     out["holding_torque_Nm"], out["holding_torque_actuator"] = np.nan, -1
     if options.outputs.holding_torque:
         hold = holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e), c_z=c_z)

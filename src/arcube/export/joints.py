@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from arcube.model import frames
 from arcube.model.design import Design, unpack
 from arcube.evaluation.masses import holding_torque_of_solution
-from arcube.evaluation.performance import ACTUATOR_NAMES, jacobians_of_solution, tip_metrics
+from arcube.evaluation.performance import ACTUATOR_NAMES, jacobians_of_solution, metrics_of_solution
 from arcube.evaluation.reference import Options, evaluate_task
 from arcube.io.files import atomic_write_text
 from arcube.model.mechanism import DEFAULT_MODE, inverse_kinematics, joint_rates, velocity_model
@@ -171,15 +171,7 @@ def joint_trajectory(
         J_E, J_e = jacobians_of_solution(sol, params)
         e_w = frames.directions_to_world(unpack(params), sol.e)
         tau = -np.einsum("...ij,...i->...j", J_E, options.loads.thrust_N * e_w) / 1000.0  # N·mm -> N·m
-        worst = tip_metrics(
-            J_E,
-            J_e,
-            e_w,
-            options.loads.encoder_deg,
-            options.loads.thrust_N,
-            options.loads.lateral_force_N,
-            options.loads.actuator_stiffness,
-        ).torque_per_actuator_Nm
+        worst = metrics_of_solution(sol, params, options.loads, (J_E, J_e)).torque_per_actuator_Nm
         hold = (
             holding_torque_of_solution(sol, params, options, jacobians=(J_E, J_e))
             if options.outputs.holding_torque

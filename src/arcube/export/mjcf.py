@@ -59,7 +59,7 @@ from __future__ import annotations
 
 import warnings
 import xml.etree.ElementTree as ET
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -73,7 +73,7 @@ from arcube.export.inertia import INERTIA_FLOOR_KG_MM2, MASS_FLOOR_KG, body_iner
 from arcube.export.plan_point import no_ik_reason, plan_points, resolve_point
 from arcube.export.xmltree import COLORS, XmlBody, mesh_items, num, vec
 from arcube.io.inputs import short_repr
-from arcube.model.body import BodyRadii, mechanism_points
+from arcube.model.body import mechanism_points
 from arcube.model.design import Design, unpack
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
@@ -86,6 +86,7 @@ __all__ = [
     "KP",
     "KV",
     "check_z_dyad",
+    "ExportedRobot",
     "checked_inputs",
     "design_with_c_z",
     "export_masses",
@@ -163,7 +164,8 @@ def export_mjcf(
         design, plan, mode, anatomy, envelope = r.design, r.plan, r.signs, r.anatomy, r.envelope
         points, options = req.points, req.options
     opts = request_options(options, **changes)
-    params, signs, cz = checked_inputs(with_c_z(design, c_z, "export_mjcf"), mode)
+    robot = checked_inputs(with_c_z(design, c_z, "export_mjcf"), mode)
+    params, signs, cz = robot
     pl = plan_points(plan, points)
     with np.errstate(invalid="ignore", divide="ignore"):
         sol = inverse_kinematics(params, pl.E, pl.e, signs)
@@ -193,18 +195,7 @@ def export_mjcf(
             load_plan("reference" if plan is None else plan),
             anatomy if hasattr(anatomy, "distance") else None,
         )
-    return model_xml(
-        params,
-        pl.E[idx],
-        pl.e[idx],
-        signs,
-        cz,
-        opts.body.radii,
-        anatomy,
-        export_masses(opts, masses),
-        where,
-        envelope=envelope,
-    )
+    return model_xml(robot, pl.E[idx], pl.e[idx], anatomy, where, options=opts, masses=masses, envelope=envelope)
 
 
 def export_masses(options: Options, masses: bool | None) -> MassModel:
@@ -238,12 +229,22 @@ def design_with_c_z(design: Design | ArrayLike, c_z: Any) -> Design:
     return Design.coerce(design).with_extras(c_z=float(c_z))
 
 
-def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None) -> tuple[Floats, Floats, float]:
-    """(design vector ``(27,)``, mode signs ``(4,)``, c_z in mm) of an export; InputError on bad input.
-    ``mode`` None: the design's own; c_z: the design's (model §19.1), else d_z (model §6)."""
+class ExportedRobot(NamedTuple):
+    """The robot an export draws, checked (:func:`checked_inputs`)."""
+
+    params: Floats
+    """Design vector ``(27,)`` (mm, deg)."""
+    signs: Floats
+    """Working mode ``(4,)``, signs."""
+    c_z: float
+    """The z dyad's link, mm: the design's (model §19.1), else d_z (model §6)."""
+
+
+def checked_inputs(design: Design | ArrayLike, mode: str | ArrayLike | None) -> ExportedRobot:
+    """The robot of an export; InputError on bad input. ``mode`` None: the design's own."""
     d = Design.coerce(design)  # a design file keeps its c_z and mode (a vector has neither); validates (InputError)
     params = d.to_vector()
-    return params, design_mode(d, mode), float(unpack(params).d[2]) if d.c_z is None else float(d.c_z)
+    return ExportedRobot(params, design_mode(d, mode), float(unpack(params).d[2]) if d.c_z is None else float(d.c_z))
 
 
 def check_z_dyad(
@@ -274,31 +275,31 @@ def check_z_dyad(
 
 
 def model_xml(
-    params: Floats,
+    robot: ExportedRobot,
     E: Floats,
     e: Floats,
-    signs: Floats,
-    c_z: float,
-    radii: BodyRadii,
     anatomy: Any,
-    masses: MassModel,
     where: str,
     *,
+    options: Options,
+    masses: bool | None,
     actuated: dict[str, float] | None = None,
     note: str = "",
     envelope: Any = None,
 ) -> str:
     """The MJCF text assembled at the pose (E, e) ``(3,)``, R_w; inputs checked by the caller (:func:`export_mjcf`).
 
-    ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
+    ``options``: the body radii and masses (:func:`export_masses` of ``masses``); ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
     2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment; ``envelope``:
     the envelope of the whole patient (model §19.5), drawn (:func:`envelope_geoms`).
     """
-    masses = mass_model_for(masses, radii, c_z)
+    params, signs, c_z = robot
+    radii = options.body.radii
+    model = mass_model_for(export_masses(options, masses), radii, c_z)
     meshes = mesh_items(anatomy)
     mp = mechanism_points(params, E, e, signs, c_z=c_z, motor_length=radii.motor_length, arc_samples=9)
     q = {k: float(v) for k, v in joint_values(params, E, e, signs, c_z=c_z).items()} | (actuated or {})
-    inertials = body_inertials(params, E, e, signs, masses)
+    inertials = body_inertials(params, E, e, signs, model)
     U, V, W, R = axes_world(params)
     zm = R[:, 2]
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -320,7 +321,7 @@ def model_xml(
             "boundinertia": num(INERTIA_FLOOR_KG_MM2),
         },
     )
-    gravity = vec(1000.0 * np.asarray(masses.gravity, dtype=float))  # m/s^2 -> mm/s^2, patient frame = model frame
+    gravity = vec(1000.0 * np.asarray(model.gravity, dtype=float))  # m/s^2 -> mm/s^2, patient frame = model frame
     opt = ET.SubElement(root, "option", {"timestep": "0.001", "integrator": "implicitfast", "gravity": gravity})
     ET.SubElement(opt, "flag", {"contact": "disable"})
     vis = ET.SubElement(root, "visual")

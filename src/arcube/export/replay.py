@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
 from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
-from arcube.export.mjcf import check_z_dyad, checked_inputs, export_masses, model_xml, with_c_z
+from arcube.export.mjcf import check_z_dyad, checked_inputs, model_xml, with_c_z
 from arcube.io.files import atomic_write_files
 from arcube.io.inputs import load_json
 from arcube.io.program_files import CSV_NAME, read_program_files
@@ -217,7 +217,8 @@ def export_program(
             )
     d = Design.coerce(with_c_z(design, c_z, "export_program"))
     mode = rows.summary.get("mode", DEFAULT_MODE_TEXT)
-    params, signs, cz = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT)
+    robot = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT)
+    params, signs, cz = robot
     _check_angles(params, rows, signs, d.q0)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")
     real_deg = rows.q_deg + d.q0  # the joints' real angles: the commanded ones plus a calibrated design's zero offsets
@@ -226,15 +227,13 @@ def export_program(
     where = f"row 0 of {source} (t = {rows.t_s[0]:.6g} s, {rows.segment[0]} {rows.trajectory[0]})"
     note = f"Replay: CSV beside this file (<name>.replay.csv), {len(rows.t_s)} rows: ctrl_* targets (rad) at t_s."
     xml = model_xml(
-        params,
+        robot,
         rows.E[0],
         rows.e[0],
-        signs,
-        cz,
-        opts.body.radii,
         anatomy,
-        export_masses(opts, masses),
         where,
+        options=opts,
+        masses=masses,
         actuated={n: float(q0[i]) for i, n in enumerate(ACTUATED)},
         note=note,
     )

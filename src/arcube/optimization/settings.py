@@ -215,15 +215,11 @@ class RunSettings(Settings):
     options: Options = Options()
     """Clearance guards, body radii, loads and masses (the guards of ``guarded`` are added on top)."""
 
-    @model_validator(mode="before")
     @classmethod
-    def _normalize(cls, data: Any) -> Any:
-        if not isinstance(data, dict):
-            return data
-        data = dict(data)
-        if isinstance(data.get("algorithm"), str):
-            data["algorithm"] = data["algorithm"].strip().lower()
-        for key in ("placement", "docking"):  # docking: its name before 0.3
+    def prepare(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """Names and spellings folded (``algorithm``, ``placement``), flat option keys routed into ``options``, and the
+        algorithm a list of objectives needs."""
+        for key in ("algorithm", "placement"):
             if isinstance(data.get(key), str):
                 data[key] = data[key].strip().lower()
         _route_flat(data)

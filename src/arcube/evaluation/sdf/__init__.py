@@ -54,6 +54,6 @@ anatomy sits ≥ 400 mm inside that box, so its excess is a few % of |p − q| a
 from __future__ import annotations
 
 from arcube.evaluation.sdf._boxes import box_signed_distance
-from arcube.evaluation.sdf.grid import AnatomyDistance, DistanceGrid, grid_for_bounds
+from arcube.evaluation.sdf.grid import AnatomyDistance, DistanceGrid, GridLayout, grid_for_bounds
 
-__all__ = ["AnatomyDistance", "DistanceGrid", "box_signed_distance", "grid_for_bounds"]
+__all__ = ["AnatomyDistance", "DistanceGrid", "GridLayout", "box_signed_distance", "grid_for_bounds"]

@@ -17,7 +17,7 @@ from arcube.progress import GRIDS, tell
 from arcube.evaluation.sdf._boxes import _box_arrays, _boxes_bounds, _boxes_on_grid
 from arcube.evaluation.sdf._mesh import _Shells
 
-__all__ = ["AnatomyDistance", "DistanceGrid", "MAX_GRID_BYTES", "grid_for_bounds"]
+__all__ = ["AnatomyDistance", "DistanceGrid", "GridLayout", "MAX_GRID_BYTES", "grid_for_bounds"]
 
 MAX_GRID_BYTES = 4 * 2**30
 """Largest memory the two distance grids of an anatomy may take (a few metres of mesh read in the
@@ -111,6 +111,21 @@ def grid_for_bounds(
 
 
 @dataclass(frozen=True)
+class GridLayout:
+    """Where the two distance grids of :class:`AnatomyDistance` lie, mm: a fine grid close around the anatomy (the
+    clearances that decide a design) and a coarse one far around it (a link well away from it)."""
+
+    fine_spacing: float = 1.0
+    """Node spacing of the fine grid, mm."""
+    fine_margin: float = 30.0
+    """How far the fine grid reaches beyond the anatomy's bounding box, mm."""
+    coarse_spacing: float = 6.0
+    """Node spacing of the coarse grid, mm."""
+    coarse_margin: float = 400.0
+    """How far the coarse grid reaches beyond the anatomy's bounding box, mm."""
+
+
+@dataclass(frozen=True)
 class AnatomyDistance:
     """Signed distance to the anatomy: a fine grid near it, a coarse one around it.
 
@@ -144,15 +159,9 @@ class AnatomyDistance:
         return int(self.fine.values.nbytes + self.coarse.values.nbytes)
 
     @classmethod
-    def from_meshes(
-        cls,
-        meshes: Sequence[Any],
-        fine_spacing: float = 1.0,
-        fine_margin: float = 30.0,
-        coarse_spacing: float = 6.0,
-        coarse_margin: float = 400.0,
-    ) -> AnatomyDistance:
-        """Grids of the union of closed meshes (each connected shell is one solid).
+    def from_meshes(cls, meshes: Sequence[Any], **layout: float) -> AnatomyDistance:
+        """Grids of the union of closed meshes (each connected shell is one solid), laid out by ``layout``: the fields
+        of :class:`GridLayout` (mm), e.g. ``coarse_margin=60.0``, its defaults for the others.
 
         Node values are exact: the distance to each shell at the nodes of its bounding box and
         the distance of every node outside all shells to the nearest triangle, both by an
@@ -174,48 +183,25 @@ class AnatomyDistance:
             shells.lo,
             shells.hi,
             lambda o, sh, h: shells.on_grid(o, sh, h, tick),
-            fine_spacing,
-            fine_margin,
-            coarse_spacing,
-            coarse_margin,
+            GridLayout(**layout),
         )
 
     @classmethod
-    def from_boxes(
-        cls,
-        boxes: Iterable[Any],
-        fine_spacing: float = 1.0,
-        fine_margin: float = 30.0,
-        coarse_spacing: float = 6.0,
-        coarse_margin: float = 400.0,
-    ) -> AnatomyDistance:
-        """Grids of a union of boxes, each ``(centre, half_extents, rotation)``, by the exact box formula."""
+    def from_boxes(cls, boxes: Iterable[Any], **layout: float) -> AnatomyDistance:
+        """Grids of a union of boxes, each ``(centre, half_extents, rotation)``, by the exact box formula; ``layout``
+        as in :meth:`from_meshes`."""
         arrays = _box_arrays(boxes)
         lo, hi = _boxes_bounds(*arrays)
-        return cls._build(
-            lo,
-            hi,
-            lambda o, s, h: _boxes_on_grid(o, s, h, arrays),
-            fine_spacing,
-            fine_margin,
-            coarse_spacing,
-            coarse_margin,
-        )
+        return cls._build(lo, hi, lambda o, s, h: _boxes_on_grid(o, s, h, arrays), GridLayout(**layout))
 
     @classmethod
-    def _build(
-        cls,
-        lo: np.ndarray,
-        hi: np.ndarray,
-        fill: Any,
-        fine_spacing: float,
-        fine_margin: float,
-        coarse_spacing: float,
-        coarse_margin: float,
-    ) -> AnatomyDistance:
+    def _build(cls, lo: np.ndarray, hi: np.ndarray, fill: Any, grids_at: GridLayout) -> AnatomyDistance:
         layout = [
             (spacing, *grid_for_bounds(lo, hi, spacing, margin))
-            for spacing, margin in ((fine_spacing, fine_margin), (coarse_spacing, coarse_margin))
+            for spacing, margin in (
+                (grids_at.fine_spacing, grids_at.fine_margin),
+                (grids_at.coarse_spacing, grids_at.coarse_margin),
+            )
         ]
         need = sum(8 * int(np.prod(shape, dtype=np.float64)) for _, _, shape in layout)
         if need > MAX_GRID_BYTES:  # checked before anything is allocated
