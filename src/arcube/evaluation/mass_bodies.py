@@ -202,18 +202,18 @@ def body_masses_kg(
 
 
 class Bodies(NamedTuple):
-    """The moving bodies at poses, in R_w; NaN where the IK (or the forward Jacobian) fails.
-
-    ``ends`` ``(..., 65, 2, 3)`` mm and ``J_ends`` ``(..., 65, 2, 3, 5)`` mm/rad: each body's end points
-    a, b and their Jacobians (da = J_a q_dot); centre of mass (a + b)/2. ``mass`` ``(..., 65)`` kg.
-    ``radial_inertia`` ``(...)``: the drill motor's inertia beyond a thin rod's, m rho_m^2 / 4 about
-    axes across e (kg mm^2; its spin about e, m rho_m^2 / 2, is the spindle's and is not counted, 18.2).
-    """
+    """The moving bodies at poses, in R_w; NaN where the IK (or the forward Jacobian) fails. Each body is a thin rod
+    from a to b, its centre of mass (a + b)/2."""
 
     mass: NDArray[np.float64]
+    """``(..., 65)`` each body's mass, kg, in :data:`BODY_NAMES` order."""
     ends: NDArray[np.float64]
+    """``(..., 65, 2, 3)`` its end points a, b, mm."""
     J_ends: NDArray[np.float64]
+    """``(..., 65, 2, 3, 5)`` their Jacobians (da = J_a q_dot), mm/rad."""
     radial_inertia: NDArray[np.float64]
+    """``(...)`` the drill motor's inertia beyond a thin rod's, m rho_m^2 / 4 about axes across e, kg mm^2 (its spin
+    about e, m rho_m^2 / 2, is the spindle's and is not counted, model §18.2)."""
 
     @property
     def com(self) -> NDArray[np.float64]:

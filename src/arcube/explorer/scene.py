@@ -88,19 +88,21 @@ def pose(
 
 @dataclass(frozen=True)
 class Solids:
-    """The body as capsules and spheres (mm, patient frame); NaN where the IK has no solution.
-
-    ``cylinders`` ``(N, 2, 3)`` axis end points, ``cylinder_radius`` ``(N,)``, ``cylinder_primitive``
-    ``(N,)`` index into :data:`arcube.model.body.PRIMITIVES`; the same for ``spheres`` ``(M, 3)``
-    centres (the caps: both ends of every segment, the chord ends along every arc; then the five actuators).
-    """
+    """The body as capsules and spheres (mm, patient frame); NaN where the IK has no solution."""
 
     cylinders: NDArray[np.float64]
+    """``(N, 2, 3)`` the capsules' axis end points: the segments, then the chords of the arcs."""
     cylinder_radius: NDArray[np.float64]
+    """``(N,)`` their radii."""
     cylinder_primitive: NDArray[np.intp]
+    """``(N,)`` the primitive each belongs to: an index into :data:`arcube.model.body.PRIMITIVES`."""
     spheres: NDArray[np.float64]
+    """``(M, 3)`` the spheres' centres: the caps (both ends of every segment, the chord ends along every arc), then
+    the five actuators."""
     sphere_radius: NDArray[np.float64]
+    """``(M,)`` their radii."""
     sphere_primitive: NDArray[np.intp]
+    """``(M,)`` the primitive each belongs to, as ``cylinder_primitive``."""
 
     @property
     def cylinder_part(self) -> NDArray[np.intp]:

@@ -298,20 +298,20 @@ SELF_PAIRS: NDArray[np.intp] = _self_pairs()
 
 
 class BodyParts(NamedTuple):
-    """The body as primitives in R_w (mm), leading shape ``(...)``; NaN where the IK has no solution.
-
-    ``segments`` ``(..., 18, 2, 3)`` end points; ``spheres`` ``(..., 5, 3)`` centres; arcs of the
-    spherical stage: ``arc_centre`` ``(..., 3)`` = C, ``arc_radius`` ``(...)`` = r, ``arc_ends``
-    ``(..., 4, 2, 3)`` unit start and end directions of the great-circle arcs. ``radius``
-    ``(27,)``: each primitive's radius, in :data:`PRIMITIVES` order.
-    """
+    """The body as primitives in R_w (mm), leading shape ``(...)``; NaN where the IK has no solution."""
 
     segments: NDArray[np.float64]
+    """``(..., 18, 2, 3)`` the links' end points."""
     spheres: NDArray[np.float64]
+    """``(..., 5, 3)`` the actuators' centres."""
     arc_centre: NDArray[np.float64]
+    """``(..., 3)`` the centre C of the spherical stage's arcs."""
     arc_radius: NDArray[np.float64]
+    """``(...)`` their radius r."""
     arc_ends: NDArray[np.float64]
+    """``(..., 4, 2, 3)`` unit start and end directions of the great-circle arcs."""
     radius: NDArray[np.float64]
+    """``(27,)`` each primitive's radius, in :data:`PRIMITIVES` order."""
 
 
 def body_parts(mp: MechanismPoints, radii: BodyRadii = BodyRadii()) -> BodyParts:

@@ -40,24 +40,29 @@ __all__ = ["CSV_COLUMNS", "JOINTS", "TORQUE_COLUMNS", "Program", "prepare_folder
 
 @dataclass(frozen=True, eq=False)
 class Program:
-    """A timed drilling program: its rows and its summary (model §17.3).
-
-    Rows ``(n, ...)``: ``t_s`` time, ``segment`` (approach, drill, retract, transit), ``trajectory``
-    (the plan's id, or ``"a->b"`` in a transit), ``E`` tip and ``e`` axis (patient frame, mm),
-    ``q_deg`` the five actuator angles and ``q_dot_deg`` their rates (deg, deg/s), in :data:`JOINTS` order;
-    ``tau_Nm`` the actuator torques (gravity, inertia, thrust; model §18.2) when masses were given.
-    """
+    """A timed drilling program: its rows ``(n, ...)`` and its summary (model §17.3)."""
 
     t_s: NDArray[np.float64]
+    """``(n,)`` time of each row, s."""
     segment: NDArray[np.str_]
+    """``(n,)`` the piece a row belongs to: approach, drill, retract or transit."""
     trajectory: NDArray[np.str_]
+    """``(n,)`` the plan's trajectory id, or ``"a->b"`` in a transit."""
     E: NDArray[np.float64]
+    """``(n, 3)`` drill tip, mm, patient frame."""
     e: NDArray[np.float64]
+    """``(n, 3)`` unit drill axis, patient frame."""
     q_deg: NDArray[np.float64]
+    """``(n, 5)`` the actuator angles, deg, in :data:`JOINTS` order."""
     q_dot_deg: NDArray[np.float64]
+    """``(n, 5)`` their rates, deg/s."""
     summary: dict[str, Any]
+    """program.json's object: the drilling order, the durations, the clearances and joint rates it keeps, its limits
+    and what it was built from."""
     path: Path | None = None
+    """The folder it was read from (None: built in memory)."""
     tau_Nm: NDArray[np.float64] | None = None
+    """``(n, 5)`` actuator torques (gravity, inertia, thrust; model §18.2), N m, when masses were given."""
 
     @property
     def order(self) -> list[str]:
