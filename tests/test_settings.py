@@ -347,6 +347,8 @@ def test_an_old_name_is_taken_with_a_warning_and_never_beside_its_new_one() -> N
         assert RunSettings(tolerance=0.5).ftol == 0.5
     with pytest.warns(RenamedWarning, match="RunSettings.docking is now RunSettings.placement"):
         assert RunSettings(docking="shared").placement == "shared"
+    with pytest.warns(RenamedWarning):  # the old name replaced first, then its value folded as the new one's
+        assert RunSettings(docking=" Per-Patient ").placement == "per-patient"
     with pytest.warns(RenamedWarning, match="'worst' is now spelt 'max'"):
         assert RunSettings(aggregate="worst").aggregate == "max"
     with pytest.warns(RenamedWarning):
