@@ -214,6 +214,8 @@ def test_zero_masses_give_zero_torque_and_the_15_3_torque():
     opts = Options(loads=Loads(thrust_N=25.0, lateral_force_N=7.0))
     sol = inverse_kinematics(x, E, e, mode)
     perf = metrics_of_solution(sol, x, opts.loads)
+    with pytest.raises(InputError, match="^loads must be an arcube.options.Loads"):  # not a load of before
+        metrics_of_solution(sol, x, 25.0)
     weightless = Options(loads=opts.loads, masses=Masses(gravity=(0, 0, 0)))
     for hold in (holding_torque(x, E, e, mode, opts, masses=massless), holding_torque(x, E, e, mode, weightless)):
         np.testing.assert_allclose(hold.per_actuator_Nm, perf.torque_per_actuator_Nm, rtol=1e-12)

@@ -202,8 +202,9 @@ def body_masses_kg(
 
 
 class Bodies(NamedTuple):
-    """The moving bodies at poses, in R_w; NaN where the IK (or the forward Jacobian) fails. Each body is a thin rod
-    from a to b, its centre of mass (a + b)/2."""
+    """The moving bodies at poses, in R_w: rods from a to b (a = b for a point mass: the delta actuators), each with
+    its centre of mass at (a + b)/2; the drill motor a solid cylinder (its extra inertia ``radial_inertia``). The
+    ends and their Jacobians are NaN where the IK (or the forward Jacobian) fails."""
 
     mass: NDArray[np.float64]
     """``(..., 65)`` each body's mass, kg, in :data:`BODY_NAMES` order."""

@@ -277,6 +277,8 @@ def metrics_of_solution(
     """:func:`tip_metrics` at the points of an IK solution (shapes as ``sol``), in the patient frame, under ``loads``
     (:class:`~arcube.options.Loads`, its defaults when None). ``jacobians``: (J_E, J_e) of ``sol`` when already
     computed (:func:`jacobians_of_solution`)."""
+    if loads is not None and not isinstance(loads, Loads):
+        raise InputError.of("loads", f"must be an arcube.options.Loads (Options.loads), got {short_repr(loads)}")
     J_E, J_e = jacobians_of_solution(sol, params) if jacobians is None else jacobians
     e_w = frames.directions_to_world(unpack(params), sol.e)
     ld = Loads() if loads is None else loads

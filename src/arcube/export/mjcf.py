@@ -85,8 +85,8 @@ __all__ = [
     "JOINT_NAMES",
     "KP",
     "KV",
-    "check_z_dyad",
     "ExportedRobot",
+    "check_z_dyad",
     "checked_inputs",
     "design_with_c_z",
     "export_masses",
@@ -289,8 +289,9 @@ def model_xml(
 ) -> str:
     """The MJCF text assembled at the pose (E, e) ``(3,)``, R_w; inputs checked by the caller (:func:`export_mjcf`).
 
-    ``options``: the body radii and masses (:func:`export_masses` of ``masses``); ``actuated``: angles (rad) of actuated hinges to use instead of the IK's (each congruent to it mod
-    2 pi: a program may turn delta by whole turns); ``note``: one more line of the header comment; ``envelope``:
+    ``options``: the body radii and masses (:func:`export_masses` of ``masses``); ``actuated``: angles (rad) of
+    actuated hinges to use instead of the IK's (each congruent to it mod 2 pi: a program may turn delta by whole
+    turns); ``note``: one more line of the header comment; ``envelope``:
     the envelope of the whole patient (model §19.5), drawn (:func:`envelope_geoms`).
     """
     params, signs, c_z = robot

@@ -301,7 +301,7 @@ class BodyParts(NamedTuple):
     """The body as primitives in R_w (mm), leading shape ``(...)``; NaN where the IK has no solution."""
 
     segments: NDArray[np.float64]
-    """``(..., 18, 2, 3)`` the links' end points."""
+    """``(..., 18, 2, 3)`` the segments' end points (frame, links, z dyad, drill motor), in :data:`PRIMITIVES` order."""
     spheres: NDArray[np.float64]
     """``(..., 5, 3)`` the actuators' centres."""
     arc_centre: NDArray[np.float64]

@@ -53,14 +53,15 @@ class Program:
     e: NDArray[np.float64]
     """``(n, 3)`` unit drill axis, patient frame."""
     q_deg: NDArray[np.float64]
-    """``(n, 5)`` the actuator angles, deg, in :data:`JOINTS` order."""
+    """``(n, 5)`` the commanded (encoder) actuator angles, deg, in :data:`JOINTS` order (a calibrated design's zero
+    offsets not added)."""
     q_dot_deg: NDArray[np.float64]
     """``(n, 5)`` their rates, deg/s."""
     summary: dict[str, Any]
     """program.json's object: the drilling order, the durations, the clearances and joint rates it keeps, its limits
     and what it was built from."""
     path: Path | None = None
-    """The folder it was read from (None: built in memory)."""
+    """The folder it was written to or read from (None: only in memory)."""
     tau_Nm: NDArray[np.float64] | None = None
     """``(n, 5)`` actuator torques (gravity, inertia, thrust; model §18.2), N m, when masses were given."""
 

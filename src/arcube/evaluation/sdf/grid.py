@@ -169,6 +169,7 @@ class AnatomyDistance:
         libigl's fast winding number near its surface and once per connected region away from
         it (see ``_Shells.on_grid``).
         """
+        grids_at = GridLayout(**layout)  # a wrong keyword before the slow work
         if not isinstance(meshes, (list, tuple)):
             meshes = [meshes]
         shells = _Shells(meshes)
@@ -183,16 +184,17 @@ class AnatomyDistance:
             shells.lo,
             shells.hi,
             lambda o, sh, h: shells.on_grid(o, sh, h, tick),
-            GridLayout(**layout),
+            grids_at,
         )
 
     @classmethod
     def from_boxes(cls, boxes: Iterable[Any], **layout: float) -> AnatomyDistance:
         """Grids of a union of boxes, each ``(centre, half_extents, rotation)``, by the exact box formula; ``layout``
         as in :meth:`from_meshes`."""
+        grids_at = GridLayout(**layout)
         arrays = _box_arrays(boxes)
         lo, hi = _boxes_bounds(*arrays)
-        return cls._build(lo, hi, lambda o, s, h: _boxes_on_grid(o, s, h, arrays), GridLayout(**layout))
+        return cls._build(lo, hi, lambda o, s, h: _boxes_on_grid(o, s, h, arrays), grids_at)
 
     @classmethod
     def _build(cls, lo: np.ndarray, hi: np.ndarray, fill: Any, grids_at: GridLayout) -> AnatomyDistance:
