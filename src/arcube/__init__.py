@@ -18,7 +18,6 @@ heavy is imported, and Numba's cache folder is chosen (:mod:`arcube.caches`) bef
 from __future__ import annotations
 
 import importlib
-import importlib.util
 
 from arcube import caches as _caches
 
@@ -165,10 +164,17 @@ __all__ = [
 ]
 
 
+def _is_submodule(name: str) -> bool:
+    """Whether ``arcube.<name>`` is a module or subpackage (found, not imported)."""
+    import importlib.util  # here: it costs the script's start-up a few milliseconds before its Ctrl-C handler
+
+    return importlib.util.find_spec(f"arcube.{name}") is not None
+
+
 def __getattr__(name: str) -> Any:
     if name in _SOURCES:
         value: Any = getattr(importlib.import_module(_SOURCES[name]), name)
-    elif not name.startswith("_") and importlib.util.find_spec(f"arcube.{name}") is not None:
+    elif not name.startswith("_") and _is_submodule(name):
         value = importlib.import_module(
             f"arcube.{name}"
         )  # a subpackage, as when this module imported them all (arcube.io, arcube.calibrate)

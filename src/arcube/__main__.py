@@ -10,7 +10,7 @@ from __future__ import annotations
 
 def main() -> None:
     """The ``arcube`` command: :func:`arcube.cli.main` under the Ctrl-C handling of :mod:`arcube.interrupts`."""
-    from arcube import interrupts
+    import arcube.interrupts as interrupts  # not ``from arcube import``: that asks the package's __getattr__ first
 
     interrupts.start_up()
     try:

@@ -2,8 +2,8 @@
 
 The ``arcube`` script goes through three phases, each with its own SIGINT handler:
 
-* **start-up** (:func:`start_up`, installed by :mod:`arcube.launch` before anything heavy is
-  imported): an interrupt writes ``error: interrupted`` and ends the process at once
+* **start-up** (:func:`start_up`, installed by the script's entry, :mod:`arcube.__main__`, before
+  anything heavy is imported): an interrupt writes ``error: interrupted`` and ends the process at once
   (``os._exit(130)``). Nothing has been written yet, and no exception exists that a dependency
   could swallow: trimesh's optional imports catch ``BaseException`` (a ``KeyboardInterrupt`` there
   used to vanish and the job ran to its end), and a C extension interrupted while it initialises
@@ -18,6 +18,9 @@ The ``arcube`` script goes through three phases, each with its own SIGINT handle
 A few system calls must not be split by an interrupt (a lock file created and written, the renames
 that put several output files in place): :func:`deferred` holds SIGINT off while they run; it is
 delivered when they are done.
+
+Before the entry's first line (Python's own start, then ``import arcube``: some milliseconds, kept
+light for that reason) Python's default handling applies, a ``KeyboardInterrupt`` traceback.
 
 Library use (Python, notebooks) installs none of this: :func:`check` is then a no-op.
 """
