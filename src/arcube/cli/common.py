@@ -7,16 +7,16 @@ command means something narrower), adds its own, and :func:`arcube.cli.projectio
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from arcube.cli.projection import Flag, Given, model_flags, option
-from arcube.errors import InputError, RenamedWarning
+from arcube.errors import InputError
 from arcube.options import GUARDED_OPTIONS, Body, Guards, Loads, Masses, Options
 from arcube.evaluation.envelope import EnvelopeSettings
 from arcube.patients.settings import SegmentSelection
+from arcube.validation import renamed_keyword
 
 __all__ = [
     "ANATOMY",
@@ -134,8 +134,6 @@ def check_replace(given: Given, *beside: Any) -> None:
     """InputError when the command's ``--out`` file (or a file it writes ``beside``) exists as a regular file and
     ``--force`` was not given: measurements a user took by hand are never overwritten silently. A FIFO or a device
     (/dev/stdout) is written into, not replaced."""
-    from arcube.errors import InputError
-
     if given.get("force"):
         return
     for path in (given.get("out"), *beside):
@@ -205,15 +203,8 @@ def request_flags(*groups: str) -> list[Flag]:
 def options_of(given: Given, guarded: bool | None = None, base: Options | None = None) -> Options:
     """The :class:`arcube.Options` of the flags given (``base``, else the paper's with the guards of
     model §8.2 when ``--guarded``), checked; the mass model applies as :meth:`Options.mass_model_on` says."""
-    if given.get("guards"):
-        if given.get("guarded"):
-            raise InputError(f"{OLD_GUARDS.name} and {GUARDS.name} are one setting (renamed): give {GUARDS.name}")
-        warnings.warn(
-            f"{OLD_GUARDS.name} is now {GUARDS.name} (the old name goes in the next release)",
-            RenamedWarning,
-            stacklevel=2,
-        )
-    on = given.get("guarded") or given.get("guards")
+    old = {OLD_GUARDS.name: True} if given.get("guards") else {}
+    on = renamed_keyword(old, OLD_GUARDS.name, GUARDS.name, bool(given.get("guarded")), False)
     start = base if base is not None else (GUARDED_OPTIONS if (on if guarded is None else guarded) else Options())
     tree = given.tree("options")
     return start.merged(tree) if tree else start
@@ -233,7 +224,6 @@ def plan_request(given: Given) -> dict[str, Any]:
 
 def one_plan(given: Given, default: str | None = "reference") -> Any:
     """The one trajectory set of a command that takes one (``--trajectories``); InputError for several."""
-    from arcube.errors import InputError
 
     plans = given.get("plan") or ([default] if default is not None else [])
     if not plans:
