@@ -251,6 +251,46 @@ def test_bad_input_one_line_and_nothing_written(tmp_path, chosen):
     )
 
 
+def test_measurements_the_fit_cannot_explain_are_refused_naming_the_worst_row(tmp_path, chosen):
+    """Hostile-input review (2026-11-28): joint angles in radians, or one mistyped axis, gave a calibrated design
+    with exit 0 (residuals 80 and 30 times the tracker's noise, a held-out row NaN). The same simulated robot's
+    honest measurements fit at its noise (sigma_hat ~ 1) and pass."""
+    sim = simulate(DEMO, chosen.measurements, SimulateSettings(seed=7))
+    m = sim.measurements
+    out = tmp_path / "out"
+    good = identify(DEMO, m, DEMO_MODE, IdentifySettings(**FAST))
+    assert good.sigma_hat < 3.0  # noise 1 by construction; the threshold (10) is far above it
+
+    radians = Measurements(np.deg2rad(m.q_deg), m.E, m.e, source="rad.csv")
+    _expect_refused(
+        lambda: identify(DEMO, radians, DEMO_MODE, IdentifySettings(**FAST), out=out),
+        out,
+        "rad.csv",
+        "times the tracker's noise",
+        "wrong unit",
+    )
+    i = int(np.flatnonzero(good.fitted)[2])  # a fitted row; its axis mistyped (e_x = 5: normalised, far off)
+    e = m.e.copy()
+    e[i] = np.array([5.0, *e[i, 1:]]) / np.linalg.norm([5.0, *e[i, 1:]])
+    typo = Measurements(m.q_deg, m.E, e, source="typo.csv", rows=tuple(range(2, len(m) + 2)))
+    _expect_refused(
+        lambda: identify(DEMO, typo, DEMO_MODE, IdentifySettings(**FAST), out=out),
+        out,
+        f"is typo.csv row {i + 2})",
+        "times the tracker's noise",
+    )
+    # a held-out row the calibrated robot cannot assemble at (the nominal one could: make_problem checks that):
+    # reported, not a NaN in the held-out figures
+    from arcube.calibrate.identify import _check_fit
+
+    j = int(np.flatnonzero(~good.fitted)[0])
+    valid = np.ones(len(m), dtype=bool)
+    valid[j] = False
+    with pytest.raises(InputError, match=rf"^typo.csv row {j + 2}: held out, and the calibrated robot cannot take"):
+        _check_fit(typo, IdentifySettings(), np.zeros((len(m), 6)), valid, good.fitted, 1.0)
+    _check_fit(typo, IdentifySettings(), np.zeros((len(m), 6)), np.ones(len(m), dtype=bool), good.fitted, 1.0)
+
+
 def test_a_poses_file_for_another_design_is_refused_a_plain_one_accepted(tmp_path, chosen):
     write_measurements(tmp_path / "poses.csv", chosen.measurements)
     other = DEMO.replace(L=DEMO["L"] + 1.0)

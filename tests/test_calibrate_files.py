@@ -73,7 +73,8 @@ def test_round_trip_and_normalisation(tmp_path):
         (HEAD + ",E_x\n" + ROW + ",1\n", ["E_x", "more than once"]),
         (HEAD + ",temperature\n" + ROW + ",1\n", ["unknown column", "temperature"]),
         (HEAD.replace("E_x", "e_X") + "\n" + ROW + "\n", ["unknown column", "case-sensitive"]),
-        ("pose,design," + HEAD + "\n1,aaaa," + ROW + "\n2,bbbb," + ROW + "\n", ["2 different digests"]),
+        ("pose,design," + HEAD + "\n1,aaaa," + ROW + "\n2,bbbb," + ROW[:-1] + "3\n", ["2 different digests"]),
+        (f"{HEAD}\n{ROW}\n{ROW.replace('0,0,2', '0,0,3')}\n{ROW}\n", ["row 4", "same 11 numbers as row 2"]),
         (f"{HEAD}\n1,2,3,4,500,10,20,30,0,0,1\n", ["row 2", "delta_y", "360"]),
     ],
 )

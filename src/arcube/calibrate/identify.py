@@ -107,6 +107,41 @@ a real robot measured by a real tracker is off by its errors and the noise (the 
 matched to 1e-13 mm)."""
 
 
+FIT_LIMIT = 10.0
+"""Largest sigma_hat accepted (the fitted residuals in the tracker's noise): beyond it the rows are no measurements
+of this robot (angles in the wrong unit, another robot, a mistyped row). The held-out rows are reported, not judged:
+few measurements predict them poorly without any being wrong."""
+
+
+def _check_fit(
+    meas: Measurements,
+    settings: IdentifySettings,
+    r: NDArray[np.float64],
+    valid: NDArray[np.bool_],
+    fitted: NDArray[np.bool_],
+    s2: float,
+) -> None:
+    """InputError when the identified model does not explain the fitted measurements (naming the worst row), or cannot
+    assemble at a held-out one: ``r`` ``(N, 6)`` weighted residuals at the solution, ``valid`` ``(N,)`` where it
+    assembles, ``s2`` sigma_hat^2 of the fitted rows."""
+    noise = f"IdentifySettings.sigma_mm {settings.sigma_mm:g}, IdentifySettings.sigma_deg {settings.sigma_deg:g}"
+    with np.errstate(invalid="ignore"):
+        per_row = np.sqrt(np.sum(r * r, axis=-1) / DOF_PER_MEASUREMENT)  # (N,) each measurement's, in the noise
+    if not math.sqrt(s2) <= FIT_LIMIT:
+        i = int(np.flatnonzero(fitted)[np.argmax(per_row[fitted])])
+        raise InputError(
+            f"{meas.source}: the calibrated model misses the fitted measurements by {math.sqrt(s2):.3g} times the "
+            f"tracker's noise ({noise}; at most {FIT_LIMIT:g} is a fit; the worst, {per_row[i]:.3g} times, is "
+            f"{meas.where(i)}): joint angles in the wrong unit (deg), rows of another robot or mistyped rows, or a "
+            "tracker noisier than that (give its noise)"
+        )
+    if not np.all(valid):  # the fitted rows assemble (checked with convergence): a held-out one does not
+        raise InputError(
+            f"{meas.where(int(np.flatnonzero(~valid)[0]))}: held out, and the calibrated robot cannot take its joint "
+            "angles: a wrong row, or one of another robot"
+        )
+
+
 def identify(
     design: Any,
     measurements: Measurements | str | os.PathLike[str],
@@ -207,6 +242,7 @@ def identify(
     r = full.residuals(pose1)[fitted]
     dof = DOF_PER_MEASUREMENT * n_fit - idx.size
     s2 = float(np.sum(r * r) / dof)
+    _check_fit(meas, settings, full.residuals(pose1), pose1.valid, fitted, s2)
     _, sv, Vt = np.linalg.svd(Jf, full_matrices=False)
     cov_z = s2 * (Vt.T / sv**2) @ Vt
     cov = np.zeros((N_UNKNOWNS, N_UNKNOWNS))

@@ -18,7 +18,7 @@ Two optional columns, which :func:`arcube.calibrate.poses` writes and a tracker'
 Any other column is refused (a misspelt column is a mistake, not data). The reader is strict: a
 one-line :class:`~arcube.errors.InputError` names the file, the row (line number, the header is row 1)
 and the problem (an empty file, a missing, unknown or repeated column, a row with more or fewer fields
-than the header, text in a number cell, NaN or infinity, an axis of length 0).
+than the header, text in a number cell, NaN or infinity, an axis of length 0, a row repeating another's numbers).
 """
 
 from __future__ import annotations
@@ -117,6 +117,7 @@ def parse_measurements(text: str, name: str) -> Measurements:
     poses: list[str] = []
     digests: set[str] = set()
     lines: list[int] = []
+    seen: dict[tuple[float, ...], int] = {}
     for line, row in table.rows:
         where = table.where(line)
         nums = [_cell(row[col[c]], where, c) for c in NUMBER_COLUMNS]
@@ -131,6 +132,12 @@ def parse_measurements(text: str, name: str) -> Measurements:
             raise InputError(f"{where}: {problem}")
         if not math.hypot(*e) > 0.0:
             raise InputError(f"{where}: the axis (e_x, e_y, e_z) is (0, 0, 0): a drill axis needs a direction")
+        first = seen.setdefault(tuple(nums), line)
+        if first != line:
+            raise InputError(
+                f"{where}: the same 11 numbers as row {first}: one measurement counted twice (a tracker never reads a "
+                "pose twice to the last digit; a repeated pose is measured again)"
+            )
         values.append(nums)
         lines.append(line)
         if "pose" in col:

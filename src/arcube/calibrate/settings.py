@@ -41,7 +41,7 @@ class PoseSettings(Settings):
     """Half width of the box the random candidates' tips are drawn in (each axis), mm."""
     radius_deg: float = Field(default=10.0, ge=0, lt=90.0, allow_inf_nan=False)
     """Largest tilt of a random candidate's axis about each of two axes perpendicular to the plan's axis, deg."""
-    standoff: float = Field(default=20.0, ge=0, le=1000.0, allow_inf_nan=False)
+    standoff: float = Field(default=20.0, gt=0, le=1000.0, allow_inf_nan=False)
     """s of model §17.1: the approach line starts this far outside the anatomy along the axis, mm."""
     sigma_mm: SigmaMm = 0.15
     """Tracker noise of the tip per axis, mm: the weight of the E rows of the Jacobian (model §21.1)."""

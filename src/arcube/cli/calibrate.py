@@ -25,6 +25,7 @@ from arcube.cli.common import (
     with_help,
 )
 from arcube.cli.projection import Given, command, model_flags, option
+from arcube.model.robot import design_at_side
 
 __all__ = ["register"]
 
@@ -58,6 +59,7 @@ POSE_FLAGS = [
 ]
 SIMULATE_FLAGS = [
     _DESIGN,
+    with_help(SIDE, "With a robot's design.json (robot and dockings): the side whose docking was measured."),
     POSES,
     *model_flags(SimulateSettings, "simulate"),
     with_help(
@@ -77,7 +79,7 @@ IDENTIFY_FLAGS = [
         TRAJECTORIES,
         "Optional plan: the calibrated robot's accuracy budget on its points (default: the measured poses).",
     ),
-    SIDE,
+    with_help(SIDE, "Keep the plan's trajectories of one side, R or L; with a robot's design.json, its docking there."),
     with_help(
         OUT,
         "Folder for design.json, calibration.json, residuals.csv and calibration.html (created; new or empty).",
@@ -110,7 +112,7 @@ def poses(given: Given) -> None:
         else None
     )
     sel = poses_api(
-        given.get("design"),
+        design_at_side(given.get("design"), given.get("side")),
         plan,
         given.get("mode"),
         PoseSettings().merged(given.tree("poses")),
@@ -136,7 +138,10 @@ def simulate(given: Given) -> None:
 
     check_replace(given, truth_path(given.get("out")))
     sim = simulate_api(
-        given.get("design"), given.get("poses"), SimulateSettings().merged(given.tree("simulate")), out=given.get("out")
+        design_at_side(given.get("design"), given.get("side")),
+        given.get("poses"),
+        SimulateSettings().merged(given.tree("simulate")),
+        out=given.get("out"),
     )
     typer.echo(
         f"{len(sim.measurements)} measurements of a robot built to ISO 2768-{sim.settings.tolerance_class} (seed {sim.settings.seed}) "
@@ -150,7 +155,7 @@ def identify(given: Given) -> None:
     from arcube.calibrate import identify as identify_api
 
     cal = identify_api(
-        given.get("design"),
+        design_at_side(given.get("design"), given.get("side")),
         given.get("measurements"),
         given.get("mode"),
         IdentifySettings().merged(given.tree("identify")),

@@ -121,7 +121,7 @@ ENVELOPE = [
 ]
 """``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (model §19.5)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
-SEED = option("--seed", "Random seed.", int, params=("seed",))
+SEED = option("--seed", "Random seed.", int, params=("seed", "RunSettings.seed"))
 WORKERS = option(
     "--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",)
 )

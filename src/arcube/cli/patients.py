@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import typer
 
-from arcube.cli.common import OUT, SEED, with_help
+from arcube.cli.common import FORCE, OUT, SEED, check_replace, with_help
 from arcube.cli.projection import Given, command, model_flags, option
-from arcube.patients.cohort import write_patients
+from arcube.patients.cohort import patient_files, patient_paths, write_patients
 from arcube.patients.settings import PatientAnatomyFormat
 
 __all__ = ["register"]
@@ -22,20 +22,25 @@ FLAGS = [
     option("--technique", "pedicle, roy-camille, magerl or an. [default: pedicle]", params=("technique",)),
     option("--count", "Number of patients K. [default: 1]", int, params=("count",)),
     *model_flags(PatientAnatomyFormat, "format"),
+    with_help(FORCE, "Replace files of the same names (patients are never written over a file without it)."),
 ]
 
 
 def patients(given: Given) -> None:
     """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check."""
-    from arcube.evaluation.envelope_drawing import write_plan_envelope
+    from arcube.evaluation.envelope_drawing import plan_envelope_path, write_plan_envelope
 
     fmt = PatientAnatomyFormat().merged(given.tree("format"))
+    out, count = given.get("out"), given.get("count", 1)
+    if out is not None and isinstance(count, int) and count >= 1:  # else write_patients names the problem
+        plans = patient_paths(out, count)
+        check_replace(given, *patient_files(out, count, fmt.anatomy_format), *map(plan_envelope_path, plans))
     for text in write_patients(
         bool(given.get("mean")),
         given.get("seed"),
         given.get("technique", "pedicle"),
-        given.get("count", 1),
-        given.get("out"),
+        count,
+        out,
         anatomy_format=fmt.anatomy_format,
         anatomy_spacing_mm=fmt.anatomy_spacing_mm,
         beside=write_plan_envelope,

@@ -26,6 +26,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import BeforeValidator, Field, field_validator
 
 from arcube.errors import InputError
@@ -102,58 +103,74 @@ COHORT_KEYS = tuple(CohortPatient.model_fields)
 """The keys of a ``[[patient]]`` entry (``name`` and ``plan`` required)."""
 
 
-def _existing(value: str, key: str, base: Path, where: str) -> str:
+def _existing(value: str, key: str, base: Path, where: str, what: str = "cohort") -> str:
     """An absolute path that exists (relative ones to the cohort file's folder); InputError naming the entry."""
     path = (base / value) if not os.path.isabs(value) else Path(value)
     if not path.exists():
-        raise InputError.of("cohort", f"{where}: {key} {value!r} does not exist ({path})")
+        raise InputError.of(what, f"{where}: {key} {value!r} does not exist ({path})")
     return str(path.resolve())
 
 
-def _entry(raw: Any, k: int, base: Path, source: Path) -> PatientPlan:
+def _entry(raw: Any, k: int, base: Path, source: Path, what: str = "cohort") -> PatientPlan:
     where = f"{source}: patient {k + 1}"
     if not isinstance(raw, dict):
-        raise InputError.of("cohort", f"{where}: expected a [[patient]] table, got {short_repr(raw)}")
+        raise InputError.of(what, f"{where}: expected a [[patient]] table, got {short_repr(raw)}")
     if isinstance(raw.get("name"), str) and raw["name"]:
         where = f"{source}: patient {k + 1} ({raw['name']})"
     unknown = [key for key in raw if key not in COHORT_KEYS]
     if unknown:
-        raise InputError.of("cohort", f"{where}: unknown key {unknown[0]!r} (known: {', '.join(COHORT_KEYS)})")
+        raise InputError.of(what, f"{where}: unknown key {unknown[0]!r} (known: {', '.join(COHORT_KEYS)})")
     missing = [key for key in ("name", "plan") if key not in raw]
     if missing:
-        raise InputError.of("cohort", f"{where}: {missing[0]} is missing")
+        raise InputError.of(what, f"{where}: {missing[0]} is missing")
     try:
         p = CohortPatient(**raw)
     except InputError as exc:
-        raise InputError.of("cohort", f"{where}: {str(exc).removeprefix('CohortPatient.')}") from None
-    plan = p.plan.strip() if p.plan.strip() == "reference" else _existing(p.plan, "plan", base, where)
+        raise InputError.of(what, f"{where}: {str(exc).removeprefix('CohortPatient.')}") from None
+    plan = p.plan.strip() if p.plan.strip() == "reference" else _existing(p.plan, "plan", base, where, what)
     anatomy = (
-        p.anatomy if p.anatomy[0] in WORDS else tuple(_existing(v, "anatomy file", base, where) for v in p.anatomy)
+        p.anatomy
+        if p.anatomy[0] in WORDS
+        else tuple(_existing(v, "anatomy file", base, where, what) for v in p.anatomy)
     )
     envelope = p.envelope
     if envelope is not None and envelope[0] not in WORDS:
-        envelope = tuple(_existing(v, "envelope file", base, where) for v in envelope)
+        envelope = tuple(_existing(v, "envelope file", base, where, what) for v in envelope)
     return PatientPlan(
         p.name, plan, () if anatomy == ("none",) else anatomy, p.anatomy_frame, p.segments, envelope, p.table_z
     )
 
 
+def plan_key(ts: Any) -> bytes:
+    """A plan's geometry (every entry and target point, in order), for telling one patient given twice."""
+    return (
+        np.ascontiguousarray(ts.entry, dtype=float).tobytes() + np.ascontiguousarray(ts.target, dtype=float).tobytes()
+    )
+
+
 def read_cohort(
-    path: str | os.PathLike[str], *, side: str | None = None, levels: Any = None, ids: Any = None, transform: Any = None
+    path: str | os.PathLike[str],
+    *,
+    side: str | None = None,
+    levels: Any = None,
+    ids: Any = None,
+    transform: Any = None,
+    what: str = "cohort",
 ) -> list[PatientPlan]:
     """The patients of a cohort file, checked (module docstring); each plan is read, and after the run's
-    selection (``side``, ``levels``, ``ids``) must keep a trajectory. InputError naming the file and the entry."""
+    selection (``side``, ``levels``, ``ids``) must keep a trajectory; two patients with the same plan (every entry and
+    target) are refused. InputError naming the file and the entry, and the setting ``what`` (the file's flag)."""
     from arcube.io import load_trajectories, select
 
     source = Path(path)
     try:
         data = tomllib.loads(source.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise InputError.of("cohort", f"{source}: no such file") from None
+        raise InputError.of(what, f"{source}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError.of("cohort", f"{source}: cannot read ({exc})") from None
+        raise InputError.of(what, f"{source}: cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise InputError.of("cohort", f"{source}: not valid TOML ({exc})") from None
+        raise InputError.of(what, f"{source}: not valid TOML ({exc})") from None
     unknown = [k for k in data if k != "patient"]
     if unknown:
         raise InputError.of(
@@ -161,9 +178,9 @@ def read_cohort(
         )
     raw = data.get("patient")
     if not isinstance(raw, list) or not raw:
-        raise InputError.of("cohort", f"{source}: no [[patient]] entries")
+        raise InputError.of(what, f"{source}: no [[patient]] entries")
     base = source.resolve().parent
-    patients = [_entry(r, k, base, source) for k, r in enumerate(raw)]
+    patients = [_entry(r, k, base, source, what) for k, r in enumerate(raw)]
     seen: dict[str, int] = {}
     for k, p in enumerate(patients):
         if p.name in seen:
@@ -171,16 +188,23 @@ def read_cohort(
                 "cohort", f"{source}: patient {k + 1} ({p.name}): the name is already patient {seen[p.name] + 1}'s"
             )
         seen[p.name] = k
+    geometry: dict[bytes, int] = {}
     for k, p in enumerate(patients):
         where = f"{source}: patient {k + 1} ({p.name})"
         try:
             ts = load_trajectories(p.plan, transform)
+            j = geometry.setdefault(plan_key(ts), k)
+            if j != k:
+                raise InputError(
+                    f"the same trajectories (every entry and target) as patient {j + 1} ({patients[j].name}): one "
+                    "patient given twice; a cohort's patients are different people"
+                )
             if side is not None or levels is not None or ids is not None:
                 ts = select(ts, side=side, levels=levels, ids=ids)
         except InputError as exc:
-            raise InputError.of("cohort", f"{where}: plan: {exc}") from None
+            raise InputError.of(what, f"{where}: plan: {exc}") from None
         if not len(ts.ids):
-            raise InputError.of("cohort", f"{where}: the plan has no trajectories")
+            raise InputError.of(what, f"{where}: the plan has no trajectories")
     return patients
 
 

@@ -23,10 +23,16 @@ VALIDATION = "validation"
 def check_held_out(validate: str | os.PathLike[str], patients: Sequence[Any], settings: RunSettings) -> str:
     """The held-out cohort file's absolute path, after reading it whole; InputError naming it when one of its patients
     has a training patient's name (a held-out patient is one the search never sees)."""
-    from arcube.design_job.cohort import read_cohort
+    from arcube.design_job.cohort import plan_key, read_cohort
+    from arcube.io import load_trajectories
 
     held = read_cohort(
-        validate, side=settings.side, levels=settings.levels, ids=settings.ids, transform=settings.transform
+        validate,
+        side=settings.side,
+        levels=settings.levels,
+        ids=settings.ids,
+        transform=settings.transform,
+        what="validate",
     )
     training = {p.name for p in patients}
     shared = [p.name for p in held if p.name in training]
@@ -34,8 +40,17 @@ def check_held_out(validate: str | os.PathLike[str], patients: Sequence[Any], se
         raise InputError.of(
             "validate",
             f"{validate}: patient {shared[0]!r} is also in the training cohort; a held-out patient is one the "
-            "search never sees (give it another name, or leave it out of one of the cohorts)",
+            "search never sees (leave it out of one of the cohorts)",
         )
+    trained = {plan_key(load_trajectories(p.plan, settings.transform)): p.name for p in patients}
+    for p in held:
+        twin = trained.get(plan_key(load_trajectories(p.plan, settings.transform)))
+        if twin is not None:
+            raise InputError.of(
+                "validate",
+                f"{validate}: patient {p.name!r} has the trajectories of training patient {twin!r} (every entry and "
+                "target); a held-out patient is one the search never sees (leave it out of one of the cohorts)",
+            )
     return str(Path(validate).resolve())
 
 

@@ -101,6 +101,12 @@ def write_envelope_mesh(envelope: Envelope, path: str | os.PathLike[str], frame:
     return write_stl([m for _, m in envelope_meshes(envelope)], path, frame)
 
 
+def plan_envelope_path(plan_csv: str | os.PathLike[str]) -> Path:
+    """Where :func:`write_plan_envelope` writes a plan's envelope: ``<stem>.envelope.stl`` beside it."""
+    path = Path(plan_csv)
+    return path.with_name(path.stem + ".envelope.stl")
+
+
 def write_plan_envelope(plan_csv: str | os.PathLike[str]) -> str:
     """Write the default envelope (model §19.5) of a plan CSV, placed on its landmarks with its default
     anatomy, beside it as ``<stem>.envelope.stl`` (patient frame); returns a note naming the file."""
@@ -110,6 +116,6 @@ def write_plan_envelope(plan_csv: str | os.PathLike[str]) -> str:
     path = Path(plan_csv)
     plan = load_trajectories(path)
     envelope = resolve_envelope("default", plan, resolve_anatomy("default", "patient", path))
-    out = path.with_name(path.stem + ".envelope.stl")
+    out = plan_envelope_path(path)
     write_envelope_mesh(envelope, out)  # type: ignore[arg-type]
     return f"; envelope: {out}"

@@ -215,11 +215,27 @@ def _depth(value: Any) -> int:
     return deepest
 
 
+class _RepeatedKey(ValueError):
+    """A key given twice in one JSON object (raised by :func:`_object`)."""
+
+
+def _object(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object as a dict; a key given twice is refused (which copy would count? ``json`` keeps the last)."""
+    data = dict(pairs)
+    if len(data) < len(pairs):
+        seen: set[str] = set()
+        key = next(k for k, _ in pairs if k in seen or seen.add(k))
+        raise _RepeatedKey(f"key {json.dumps(key)[:80]} appears more than once in one object: which copy would count?")
+    return data
+
+
 def parse_json(text: str, fail: Fail) -> Any:
-    """Parse JSON ``text`` within the limits of this module."""
+    """Parse JSON ``text`` within the limits of this module; a key given twice in one object is refused."""
     too_deep = f"JSON nested deeper than {MAX_JSON_DEPTH} levels"
     try:
-        data = json.loads(text, parse_int=_parse_int)
+        data = json.loads(text, parse_int=_parse_int, object_pairs_hook=_object)
+    except _RepeatedKey as exc:
+        raise fail(str(exc)) from None
     except json.JSONDecodeError as exc:
         raise fail(f"not valid JSON: {exc.msg} at line {exc.lineno} column {exc.colno}") from None
     except RecursionError:

@@ -36,7 +36,7 @@ class ProgramLimits(Settings):
         "max_joint_accel_deg": "max_joint_accel",
     }
 
-    standoff_mm: float = Field(default=20.0, ge=0, le=1000.0, allow_inf_nan=False)
+    standoff_mm: float = Field(default=20.0, gt=0, le=1000.0, allow_inf_nan=False)
     """The tip waits this far outside the anatomy along its axis (model §17.1), mm (at most a metre: beyond the robot's reach)."""
     approach_speed: float = Field(default=10.0, **_SPEED)
     """Standoff -> entry, mm/s (at most 1000)."""

@@ -16,7 +16,18 @@ from arcube.io.trajectories import read_csv
 from arcube.patients.anatomy_segments import anatomy_suffix, write_anatomy_as
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
 
-__all__ = ["COHORT_FILE", "cohort_toml", "patient_name", "write_patients"]
+__all__ = [
+    "COHORT_FILE",
+    "MAX_PATIENTS",
+    "cohort_toml",
+    "patient_files",
+    "patient_name",
+    "patient_paths",
+    "write_patients",
+]
+
+MAX_PATIENTS = 10_000
+"""The most patients one call writes (each is three or four files)."""
 
 
 def write_patients(
@@ -71,15 +82,7 @@ def write_patients(
         raise InputError.of("count", f"{count} for the mean patient would write identical patients")
     if seed is not None and seed < 0:
         raise InputError.of("seed", f"{seed}: expected a non-negative integer")
-    width = max(3, len(str(count - 1)))
-    if count == 1 and not out.is_dir() and out.suffix.lower() == ".csv":
-        paths = [out]
-    else:
-        if out.exists() and not out.is_dir():
-            raise InputError.of("out", f"{out}: exists and is not a folder (needed for more than one patient)")
-        paths = [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
-    if out.suffix.lower() == ".json":  # the parameters go to <stem>.json; a folder so named is a mistake too
-        raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")
+    paths = patient_paths(out, count)
     # Every file is made in a staging folder beside the output first; only when every patient is written
     # (and its anatomy read back by the envelope's writer) do they all go into place, as one output.
     parent = paths[0].parent
@@ -109,6 +112,32 @@ def write_patients(
         raise
     shutil.rmtree(stage, ignore_errors=True)
     return texts
+
+
+def patient_paths(out: Path, count: int) -> list[Path]:
+    """The plan CSVs :func:`write_patients` writes for ``count`` patients at ``out``: ``out`` itself (one patient,
+    a ``*.csv`` path), else ``out/patient_000.csv`` ...; InputError for an ``out`` that cannot hold them."""
+    if count > MAX_PATIENTS:
+        raise InputError.of("count", f"{count}: at most {MAX_PATIENTS} patients in one folder")
+    if out.suffix.lower() == ".json":  # the parameters go to <stem>.json; a folder so named is a mistake too
+        raise InputError.of("out", f"{out}: the CSV path must not end in .json (the parameters go there)")
+    if not out.is_dir() and out.suffix.lower() == ".csv":
+        if count == 1:
+            return [out]
+        raise InputError.of("out", f"{out}: a .csv path holds one patient; give a folder for {count}")
+    if out.exists() and not out.is_dir():
+        raise InputError.of("out", f"{out}: exists and is not a folder (needed for more than one patient)")
+    width = max(3, len(str(count - 1)))
+    return [out / f"patient_{k:0{width}d}.csv" for k in range(count)]
+
+
+def patient_files(out: Path, count: int, anatomy_format: str = "stl") -> list[Path]:
+    """Every file :func:`write_patients` writes (without what ``beside`` adds): each patient's CSV, its parameters
+    JSON and its anatomy, and a folder's ``cohort.toml``."""
+    paths = patient_paths(out, count)
+    suffix = anatomy_suffix(anatomy_format)
+    files = [f for p in paths for f in (p, p.with_suffix(".json"), p.with_suffix(suffix))]
+    return files + ([out / COHORT_FILE] if paths[0].parent == out else [])
 
 
 def _stage_patients(

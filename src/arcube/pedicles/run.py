@@ -218,7 +218,8 @@ def _groups(ts: Any, by_side: dict[str, Any]) -> list[tuple[str, np.ndarray, Any
         if side not in by_side:
             raise InputError.of(
                 "design",
-                f"has no docking for side {side!r} (its dockings: {', '.join(by_side)}); keep that side out (side)",
+                f"has no docking for side {side!r} (its dockings: {', '.join(by_side)}); keep to the side it has: "
+                f"RunSettings.side {next(iter(by_side))}",
             )
         out.append((side, np.array([i for i, sd in enumerate(ts.sides) if sd == side]), by_side[side]))
     return out
