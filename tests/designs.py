@@ -467,3 +467,15 @@ def program_object(n: int = 6, torques: bool = True) -> Program:
         },
         tau_Nm=rng.uniform(-5, 5, (n, 5)) if torques else None,
     )
+
+
+def reference_right_csv() -> list[str]:
+    """The lines of a plan CSV (header first) holding the reference patient's right-side trajectories, to the last
+    digit: a plan file that a test can copy, move or edit."""
+    ref = load_trajectories("reference")
+    lines = ["trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"]
+    return lines + [
+        f"{i},{lv},{sd}," + ",".join(repr(float(v)) for v in (*a, *b))
+        for i, lv, sd, a, b in zip(ref.ids, ref.levels, ref.sides, ref.entry, ref.target)
+        if sd == "R"
+    ]

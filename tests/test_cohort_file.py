@@ -16,21 +16,15 @@ from arcube.design_job.cohort import COHORT_KEYS, read_cohort
 from arcube.io import load_trajectories
 from arcube.patients.anatomy import reference_anatomy_path
 
+from designs import reference_right_csv
 from harness import run_cli as _run
 
 
 @pytest.fixture()
 def folder(tmp_path: Path) -> Path:
     """A folder with a plan (the reference patient's right side, C3-C4) and its anatomy mesh."""
-    ref = load_trajectories("reference")
-    lines = ["trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"]
-    lines += [
-        f"{i},{lv},{sd}," + ",".join(repr(float(v)) for v in (*a, *b))
-        for i, lv, sd, a, b in zip(ref.ids, ref.levels, ref.sides, ref.entry, ref.target)
-        if sd == "R"
-    ]
     (tmp_path / "plans").mkdir()
-    (tmp_path / "plans" / "right.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "plans" / "right.csv").write_text("\n".join(reference_right_csv()) + "\n")
     (tmp_path / "plans" / "anatomy.stl").write_bytes(reference_anatomy_path().read_bytes())
     return tmp_path
 

@@ -97,15 +97,9 @@ def test_patients_refuse_an_out_or_count_that_cannot_be_meant(tmp_path: Path, mo
 
 def _plan_copies(tmp_path: Path) -> None:
     """plans/a.csv and plans/b.csv: the reference patient's right side, the same numbers in two files."""
-    from arcube.io import load_trajectories
+    from designs import reference_right_csv
 
-    ref = load_trajectories("reference")
-    lines = ["trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"]
-    lines += [
-        f"{i},{lv},{sd}," + ",".join(repr(float(v)) for v in (*a, *b))
-        for i, lv, sd, a, b in zip(ref.ids, ref.levels, ref.sides, ref.entry, ref.target)
-        if sd == "R"
-    ]
+    lines = reference_right_csv()
     (tmp_path / "plans").mkdir()
     for name in ("a", "b"):
         (tmp_path / "plans" / f"{name}.csv").write_text("\n".join(lines) + "\n")
