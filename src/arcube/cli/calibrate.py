@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from arcube.calibrate.settings import IdentifySettings, PoseSettings, SimulateSettings
@@ -175,10 +176,18 @@ def identify(given: Given) -> None:
         cal.budget is not None
     ):  # the robot's accuracy before (its tip off by what the residuals say) and after calibration
         b = cal.budget.summary
+        robots = cal.budget.robot_lateral_max_mm
+        apart = int(np.sum(~np.isfinite(robots)))  # drawn robots that do not assemble at every point: error infinite
         typer.echo(
             f"accuracy: the tip was {fit['E_rms_mm_before']:.3g} mm RMS from where the nominal model put it; calibrated, the lateral "
-            f"error is {b['lateral_error_p95_mm']:.3g} mm (p95 over {cal.budget.robot_lateral_max_mm.size} robots drawn from the "
+            f"error is {b['lateral_error_p95_mm']:.3g} mm (p95 over {robots.size} robots drawn from the "
             f"identification, on the {cal.budget.where}'s points), RMS {b['lateral_error_rms_mm']:.3g} mm"
+            + (
+                f"; {apart} of the {robots.size} robots do not assemble at every point: the identification is that "
+                "uncertain (measure more poses: calibrate poses --count)"
+                if apart
+                else ""
+            )
         )
     hidden = [u["name"] for u in cal.unknown_rows() if not u["identifiable"]]
     typer.echo(
