@@ -174,3 +174,17 @@ def test_advice_and_settings_in_messages_are_the_commands_flags(tmp_path: Path, 
         ["calibrate", "simulate", "--design", str(robot), "--side", "L", "--poses", "p.csv", "--out", "n.csv"], capsys
     )
     assert code == 2 and "chosen for another design" in err, err  # the other side's docking is another design
+
+
+@pytest.mark.parametrize(
+    "command", [["export", "--out", "e.xml"], ["program", "--out", "p"], ["calibrate", "poses", "--out", "p.csv"]]
+)
+def test_a_mistyped_anatomy_frame_is_refused_without_an_anatomy_too(
+    tmp_path: Path, monkeypatch, capsys, command
+) -> None:
+    """The review: --anatomy-frame XYZ passed silently where no --anatomy was given (dock refused it)."""
+    monkeypatch.chdir(tmp_path)
+    argv = [*command, "--design", "paper", "--trajectories", "reference", "--anatomy-frame", "XYZ"]
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2 and err == "error: --anatomy-frame 'XYZ': expected one of LPS, RAS, patient\n", err
+    assert list(tmp_path.iterdir()) == []

@@ -103,10 +103,22 @@ ANATOMY = option(
     params=("anatomy", "RunSettings.anatomy"),
     spread=True,
 )
+
+
+def _frame(value: Any, flag: str) -> Any:
+    """An anatomy frame as given, checked even where no anatomy file is (a mistyped flag is not ignored)."""
+    from arcube.evaluation.anatomy import FRAMES
+
+    if value not in FRAMES:
+        raise InputError(f"{flag} {value!r}: expected one of {', '.join(FRAMES)}")
+    return value
+
+
 ANATOMY_FRAME = option(
     "--anatomy-frame",
     "Frame of the anatomy files: LPS (3D Slicer's default), RAS or patient. [default: LPS]",
     params=("anatomy_frame", "RunSettings.anatomy_frame"),
+    parse=_frame,
 )
 SEGMENTS = replace(
     model_flags(SegmentSelection, only=("segments",))[0],
