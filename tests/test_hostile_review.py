@@ -188,3 +188,29 @@ def test_a_mistyped_anatomy_frame_is_refused_without_an_anatomy_too(
     code, _, err = run_cli(argv, capsys)
     assert code == 2 and err == "error: --anatomy-frame 'XYZ': expected one of LPS, RAS, patient\n", err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "edit, needle",
+    [
+        (lambda d: d["dockings"][0].update(side="X"), "docking 1: side 'X': expected R, L or both"),
+        (lambda d: d["dockings"][0].update(foo=1), "docking 1: unknown key 'foo'"),
+        (
+            lambda d: d["dockings"].append(dict(d["dockings"][0])),
+            "docking 3: the same patient, side and placement as docking 1",
+        ),
+    ],
+)
+def test_a_robot_file_with_a_docking_that_cannot_be_meant_is_refused(tmp_path: Path, edit, needle) -> None:
+    """The review: dock --robot and breach --design took a docking of side "X", an unknown key in a docking, and one
+    docking twice."""
+    import json
+
+    from arcube.model.robot import read_robot
+
+    data = json.loads((Path(__file__).parent / "data" / "one_robot.json").read_text())
+    assert len(read_robot(Path(__file__).parent / "data" / "one_robot.json").starts) == 2
+    edit(data)
+    (tmp_path / "robot.json").write_text(json.dumps(data))
+    with pytest.raises(InputError, match=needle):
+        read_robot(tmp_path / "robot.json")

@@ -87,6 +87,26 @@ def _placement(entry: Any, where: str) -> np.ndarray:
     return np.array(out)
 
 
+DOCKING_KEYS = ("patient", "side", *PLACEMENT, "entry", "target")
+"""The keys of one entry of a robot's ``dockings`` list (what ``arcube design`` writes)."""
+
+
+def _check_docking(entry: dict[str, Any], label: str, place: np.ndarray, where: str, before: list[WarmStart]) -> None:
+    """InputError for an unknown key, a side other than R, L or both, or an earlier docking's patient, side and
+    placement (``label``: ``<patient>_<side>``; ``place`` ``(6,)``)."""
+    unknown = [k for k in entry if k not in DOCKING_KEYS]
+    if unknown:
+        raise InputError(f"{where}: unknown key {short_repr(unknown[0])} (known: {', '.join(DOCKING_KEYS)})")
+    side = entry.get("side")
+    if side is not None and side not in ("R", "L", "both"):
+        raise InputError(f"{where}: side {short_repr(side)}: expected R, L or both")
+    twin = next((k for k, w in enumerate(before) if w.label == label and np.array_equal(w.placement, place)), None)
+    if twin is not None:
+        raise InputError(
+            f"{where}: the same patient, side and placement as docking {twin + 1}: one docking given twice"
+        )
+
+
 def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
     """The robot of ``path`` (a design job's ``design.json`` or a docking file); one-line InputError naming the file
     and what is missing or wrong (a robot parameter, the working mode, a docking's placement)."""
@@ -118,6 +138,7 @@ def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
             else str(k + 1)
         )
         placement = _placement(entry, where)
+        _check_docking(entry, label, placement, where, starts)
         entry_pts, target_pts = (
             _points(entry.get("entry"), "entry", where),
             _points(entry.get("target"), "target", where),
