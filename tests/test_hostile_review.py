@@ -214,3 +214,22 @@ def test_a_robot_file_with_a_docking_that_cannot_be_meant_is_refused(tmp_path: P
     (tmp_path / "robot.json").write_text(json.dumps(data))
     with pytest.raises(InputError, match=needle):
         read_robot(tmp_path / "robot.json")
+
+
+def test_a_tolerance_or_a_body_size_beyond_a_metre_or_a_thousand_degrees_is_refused() -> None:
+    """The review: --tol r=1e9, --docking-deg 1e9, --q0-deg 1e9 and --link-radius 1e9 were taken (a p95 of inf)."""
+    from arcube.accuracy.settings import ToleranceSettings, parse_tol
+    from arcube.options import Body, Guards
+
+    assert parse_tol("r=1000") == {"r": 1000.0}
+    with pytest.raises(InputError, match=">= 0 and at most 1000"):
+        parse_tol("r=1e9")
+    for field in ("docking_deg", "q0_deg", "docking_mm"):
+        assert getattr(ToleranceSettings(**{field: 1000.0}), field) == 1000.0
+        with pytest.raises(InputError, match=field):
+            ToleranceSettings(**{field: 1e9})
+    assert Body(link_radius=1000.0).link_radius == 1000.0
+    with pytest.raises(InputError, match="link_radius"):
+        Body(link_radius=1e9)
+    with pytest.raises(InputError, match="clearance_mm"):
+        Guards(clearance_mm=1001.0)

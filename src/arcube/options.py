@@ -67,8 +67,10 @@ def _five(value: Any) -> tuple[float, ...]:
 PerActuator = Annotated[tuple[float, float, float, float, float], BeforeValidator(_five)]
 """Five positive finite numbers, one per actuator; one number means the same for all five."""
 
-Mm = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-PositiveMm = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+MAX_BODY_MM = 1000.0
+"""Largest clearance, radius or length of the body, mm: a metre is beyond any part of the robot (1e9 is a typo)."""
+Mm = Annotated[float, Field(ge=0, le=MAX_BODY_MM, allow_inf_nan=False)]
+PositiveMm = Annotated[float, Field(gt=0, le=MAX_BODY_MM, allow_inf_nan=False)]
 
 
 class Guards(Settings):

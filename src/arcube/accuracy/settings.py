@@ -25,6 +25,10 @@ MAX_ROBOT_POINTS = 5_000_000
 _FIELD = "ToleranceSettings.tol"
 
 
+MAX_TOLERANCE = 1000.0
+"""Largest tolerance of one source, mm or deg: beyond it no part is made to a tolerance (1e9 is a typo)."""
+
+
 def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
     """``{"r": 0.02, "lengths": 0.05}`` or ``["r=0.02", "lengths=0.05"]`` (the flag's text) -> a checked mapping;
     an error names ``field`` (the settings field that holds the mapping)."""
@@ -53,13 +57,15 @@ def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
             number = float(v)
         except (TypeError, ValueError):
             raise InputError.of(field, f"{shown!r}: the tolerance {str(v).strip()!r} is not a number") from None
-        if not (math.isfinite(number) and number >= 0.0):
-            raise InputError.of(field, f"{shown!r}: a tolerance must be a finite number >= 0 (mm or deg)")
+        if not (math.isfinite(number) and 0.0 <= number <= MAX_TOLERANCE):
+            raise InputError.of(
+                field, f"{shown!r}: a tolerance must be a finite number >= 0 and at most {MAX_TOLERANCE:g} (mm or deg)"
+            )
         out[name] = number
     return out
 
 
-Tolerance = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Tolerance = Annotated[float, Field(ge=0, le=MAX_TOLERANCE, allow_inf_nan=False)]
 
 
 class ToleranceSettings(Settings):
