@@ -233,3 +233,13 @@ def test_a_tolerance_or_a_body_size_beyond_a_metre_or_a_thousand_degrees_is_refu
         Body(link_radius=1e9)
     with pytest.raises(InputError, match="clearance_mm"):
         Guards(clearance_mm=1001.0)
+
+
+@pytest.mark.parametrize("command", [["export", "--out", "e.xml"], ["calibrate", "poses", "--out", "p.csv"]])
+def test_segments_without_an_anatomy_are_refused_not_ignored(tmp_path: Path, monkeypatch, capsys, command) -> None:
+    """The review: export and calibrate poses ignored --segments C3 given without --anatomy (program refused it)."""
+    monkeypatch.chdir(tmp_path)
+    argv = [*command, "--design", "paper", "--trajectories", "reference", "--segments", "C3"]
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2 and err == "error: --segments needs an anatomy (a segmentation file, or 'default')\n", err
+    assert list(tmp_path.iterdir()) == []

@@ -105,12 +105,9 @@ def poses(given: Given) -> None:
 
     check_replace(given)
     plan = _plan(given)
-    anatomy = (
-        resolve_anatomy(
-            given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments")
-        )
-        if given.get("anatomy")
-        else None
+    # called without an anatomy too: --segments alone is refused there, not ignored
+    anatomy = resolve_anatomy(
+        given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments")
     )
     sel = poses_api(
         design_at_side(given.get("design"), given.get("side")),

@@ -91,10 +91,9 @@ def export(given: Given) -> None:
         _export_program(given, out, options, asked)
         return
     plan = one_plan(given)
-    anat = (
-        resolve_anatomy(given.get("anatomy"), given.get("anatomy_frame", "LPS"), plan, segments=given.get("segments"))
-        if given.get("anatomy")
-        else None
+    # called without an anatomy too: --segments alone is refused there, not ignored
+    anat = resolve_anatomy(
+        given.get("anatomy"), given.get("anatomy_frame", "LPS"), plan, segments=given.get("segments")
     )
     kw = {k: given.get(k) for k in ("at", "points", "mode") if k in given}
     from arcube.io.load import load_plan
