@@ -139,6 +139,13 @@ def test_a_held_out_cohort_is_refused_when_it_renames_a_training_patient(tmp_pat
     assert check_held_out(_cohort(tmp_path / "other.toml", q="c"), training, RunSettings()).endswith("other.toml")
     with pytest.raises(InputError, match="^validate .*nosuch.toml: no such file") as info:
         check_held_out(tmp_path / "nosuch.toml", training, RunSettings())  # the file named as --validate's
+    (tmp_path / "twice.toml").write_text(_cohort(tmp_path / "t.toml", q="b", r="c").read_text().replace('"r"', '"q"'))
+    for bad in ("twice.toml", "t.toml"):  # a name given twice; a key the file does not take
+        if bad == "t.toml":
+            (tmp_path / bad).write_text("oops = 1\n")
+        with pytest.raises(InputError) as info:
+            check_held_out(tmp_path / bad, training, RunSettings())
+        assert info.value.param == "validate", info.value
 
 
 # ----------------------------------------------------------------------------- messages that name the user's flag

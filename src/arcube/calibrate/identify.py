@@ -239,10 +239,11 @@ def identify(
         ) from None
 
     Jf = full.jacobian(pose1)[fitted][..., idx].reshape(-1, idx.size)
-    r = full.residuals(pose1)[fitted]
+    r_all = full.residuals(pose1)
+    r = r_all[fitted]
     dof = DOF_PER_MEASUREMENT * n_fit - idx.size
     s2 = float(np.sum(r * r) / dof)
-    _check_fit(meas, settings, full.residuals(pose1), pose1.valid, fitted, s2)
+    _check_fit(meas, settings, r_all, pose1.valid, fitted, s2)
     _, sv, Vt = np.linalg.svd(Jf, full_matrices=False)
     cov_z = s2 * (Vt.T / sv**2) @ Vt
     cov = np.zeros((N_UNKNOWNS, N_UNKNOWNS))

@@ -106,12 +106,11 @@ ANATOMY = option(
 
 
 def _frame(value: Any, flag: str) -> Any:
-    """An anatomy frame as given, checked even where no anatomy file is (a mistyped flag is not ignored)."""
-    from arcube.evaluation.anatomy import FRAMES
+    """An anatomy frame as given, checked even where no anatomy file is (a mistyped flag is not ignored); the error
+    names ``anatomy_frame``, which the command shows as its flag."""
+    from arcube.evaluation.anatomy import check_frame
 
-    if value not in FRAMES:
-        raise InputError(f"{flag} {value!r}: expected one of {', '.join(FRAMES)}")
-    return value
+    return check_frame(value)
 
 
 ANATOMY_FRAME = option(

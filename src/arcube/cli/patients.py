@@ -32,9 +32,9 @@ def patients(given: Given) -> None:
 
     fmt = PatientAnatomyFormat().merged(given.tree("format"))
     out, count = given.get("out"), given.get("count", 1)
-    if out is not None and isinstance(count, int) and count >= 1:  # else write_patients names the problem
-        plans = patient_paths(out, count)
-        check_replace(given, *patient_files(out, count, fmt.anatomy_format), *map(plan_envelope_path, plans))
+    check_replace(
+        given, *patient_files(out, count, fmt.anatomy_format), *map(plan_envelope_path, patient_paths(out, count))
+    )
     for text in write_patients(
         bool(given.get("mean")),
         given.get("seed"),

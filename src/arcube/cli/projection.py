@@ -382,11 +382,14 @@ def command(
                     )
                     raise InputError(f"{f.name} is required{hint}")
                 continue
-            given.values[f.key] = (
-                [f.parse(v, f.name) for v in value]
-                if (f.parse and isinstance(value, list))
-                else (f.parse(value, f.name) if f.parse else value)
-            )
+            try:  # a parser may check with the library's own check, which names the setting: the flag is shown
+                given.values[f.key] = (
+                    [f.parse(v, f.name) for v in value]
+                    if (f.parse and isinstance(value, list))
+                    else (f.parse(value, f.name) if f.parse else value)
+                )
+            except InputError as exc:
+                raise flag_text(exc, flags) from None
         more = kw.pop("more_values", None) or []
         for p in extra:
             if p.name != "more_values":

@@ -173,9 +173,7 @@ def read_cohort(
         raise InputError.of(what, f"{source}: not valid TOML ({exc})") from None
     unknown = [k for k in data if k != "patient"]
     if unknown:
-        raise InputError.of(
-            "cohort", f"{source}: unknown key {unknown[0]!r} (a cohort file holds [[patient]] tables only)"
-        )
+        raise InputError.of(what, f"{source}: unknown key {unknown[0]!r} (a cohort file holds [[patient]] tables only)")
     raw = data.get("patient")
     if not isinstance(raw, list) or not raw:
         raise InputError.of(what, f"{source}: no [[patient]] entries")
@@ -185,7 +183,7 @@ def read_cohort(
     for k, p in enumerate(patients):
         if p.name in seen:
             raise InputError.of(
-                "cohort", f"{source}: patient {k + 1} ({p.name}): the name is already patient {seen[p.name] + 1}'s"
+                what, f"{source}: patient {k + 1} ({p.name}): the name is already patient {seen[p.name] + 1}'s"
             )
         seen[p.name] = k
     geometry: dict[bytes, int] = {}

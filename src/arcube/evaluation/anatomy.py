@@ -197,6 +197,13 @@ def names_default(items: Sequence[str], param: str) -> bool:
     return True
 
 
+def check_frame(frame: Any) -> str:
+    """``frame`` if it is one of :data:`FRAMES`, else InputError naming ``anatomy_frame``."""
+    if frame not in FRAMES:
+        raise InputError.of("anatomy_frame", f"{frame!r}: expected one of {', '.join(FRAMES)}")
+    return frame
+
+
 def load_anatomy(
     spec: Sequence[str] | str | None,
     frame: str = "LPS",
@@ -209,8 +216,7 @@ def load_anatomy(
     from arcube.io.segmentations import parse_segments
 
     items = [spec] if isinstance(spec, str) else list(spec or [])
-    if frame not in FRAMES:
-        raise InputError.of("anatomy_frame", f"{frame!r}: expected one of {', '.join(FRAMES)}")
+    check_frame(frame)
     selection = parse_segments(segments)
     if not items or items == ["none"]:
         if selection is not None:

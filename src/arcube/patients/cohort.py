@@ -76,8 +76,6 @@ def write_patients(
         raise InputError.of("seed", "is missing: give a seed for random patients, or ask for the mean patient")
     if technique not in TECHNIQUES:
         raise InputError.of("technique", f"{short_repr(technique)}: expected one of {', '.join(TECHNIQUES)}")
-    if count < 1:
-        raise InputError.of("count", f"{count}: expected at least 1")
     if mean and count > 1:
         raise InputError.of("count", f"{count} for the mean patient would write identical patients")
     if seed is not None and seed < 0:
@@ -117,6 +115,8 @@ def write_patients(
 def patient_paths(out: Path, count: int) -> list[Path]:
     """The plan CSVs :func:`write_patients` writes for ``count`` patients at ``out``: ``out`` itself (one patient,
     a ``*.csv`` path), else ``out/patient_000.csv`` ...; InputError for an ``out`` that cannot hold them."""
+    if count < 1:
+        raise InputError.of("count", f"{count}: expected at least 1")
     if count > MAX_PATIENTS:
         raise InputError.of("count", f"{count}: at most {MAX_PATIENTS} patients in one folder")
     if out.suffix.lower() == ".json":  # the parameters go to <stem>.json; a folder so named is a mistake too
