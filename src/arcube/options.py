@@ -48,24 +48,34 @@ __all__ = [
 ]
 
 
-def _five(value: Any) -> tuple[float, ...]:
-    """One number or five (one per actuator: rho_x, rho_y, rho_z, delta_x, delta_y) -> a 5-tuple."""
+def _five(value: Any, limit: float, unit: str) -> tuple[float, ...]:
+    """One number or five (one per actuator: rho_x, rho_y, rho_z, delta_x, delta_y) -> a 5-tuple, each in
+    (0, ``limit``]."""
+    what = f"must be one or five finite numbers > 0 and <= {limit:g} {unit}"
     if isinstance(value, (str, bytes)):
-        raise ValueError("must be one or five finite numbers > 0")
+        raise ValueError(what)
     items = list(value) if isinstance(value, Sequence) or hasattr(value, "__len__") else [value]
     if len(items) not in (1, 5):
-        raise ValueError(f"must be one or five finite numbers > 0 (got {len(items)} numbers)")
+        raise ValueError(f"{what} (got {len(items)} numbers)")
     try:
         numbers = [float(v) for v in items]
     except (TypeError, ValueError):
-        raise ValueError("must be one or five finite numbers > 0") from None
-    if not all(math.isfinite(v) and v > 0.0 for v in numbers):
-        raise ValueError("must be one or five finite numbers > 0")
+        raise ValueError(what) from None
+    if not all(math.isfinite(v) and 0.0 < v <= limit for v in numbers):
+        raise ValueError(what)
     return tuple(numbers * 5 if len(numbers) == 1 else numbers)
 
 
-PerActuator = Annotated[tuple[float, float, float, float, float], BeforeValidator(_five)]
-"""Five positive finite numbers, one per actuator; one number means the same for all five."""
+def per_actuator(limit: float, unit: str) -> Any:
+    """Five positive finite numbers up to ``limit`` (``unit``), one per actuator; one number means the same for all
+    five."""
+    return Annotated[tuple[float, float, float, float, float], BeforeValidator(lambda v: _five(v, limit, unit))]
+
+
+MAX_ENCODER_DEG = 10.0
+"""Largest encoder error bound, deg: beyond it the actuator is not positioned at all."""
+MAX_STIFFNESS = 1e9
+"""Largest actuator stiffness, N·m/rad: at 1e9 a 100 N·m torque deflects 1e-7 rad; more is a rigid actuator or a typo."""
 
 MAX_BODY_MM = 1000.0
 """Largest clearance, radius or length of the body, mm: a metre is beyond any part of the robot (1e9 is a typo)."""
@@ -130,13 +140,13 @@ class Loads(Settings):
 
     SHORT: ClassVar[dict[str, str]] = {"thrust_N": "thrust", "lateral_force_N": "lateral_force"}
 
-    encoder_deg: PerActuator = (0.01,) * 5
+    encoder_deg: per_actuator(MAX_ENCODER_DEG, "deg") = (0.01,) * 5
     """Position error bound of the actuators (model §15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y)."""
     thrust_N: float = Field(default=30.0, ge=0, le=1e5, allow_inf_nan=False)
     """Drilling thrust along the drill axis (model §15.3), N (at most 1e5: ten tonnes-force, beyond any drill)."""
     lateral_force_N: float = Field(default=10.0, ge=0, le=1e5, allow_inf_nan=False)
     """Largest lateral (skiving) force across the drill axis (model §15.3), N (at most 1e5)."""
-    actuator_stiffness: PerActuator = (1e4,) * 5
+    actuator_stiffness: per_actuator(MAX_STIFFNESS, "N m/rad") = (1e4,) * 5
     """Torsional stiffness of the actuators (model §15.4), N·m/rad: one value or five."""
 
 

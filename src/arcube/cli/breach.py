@@ -60,7 +60,13 @@ def breach(given: Given) -> None:
 
     if given.get("design") is None and given.get("calibration") is None:
         raise InputError(f"{DESIGN.name} or {CALIBRATION.name} is required")
-    tolerances = ToleranceSettings().merged(given.tree("tolerances"))
+    told = [given.flag(k) for k in given.values if k.startswith("tolerances.")]
+    if told and given.get("calibration") is not None:
+        raise InputError(
+            f"{CALIBRATION.name} and {', '.join(told)}: the calibration's covariance gives the robot's errors "
+            f"({CALIBRATION.name} is instead of {' and '.join(told)}); give one"
+        )
+    tolerances = ToleranceSettings().merged(given.tree("tolerances")) if told else None
     settings = BreachSettings().merged(given.tree("breach"))
     loads = Loads().merged(given.tree("options.loads"))
     result = breach_api(
@@ -87,7 +93,11 @@ def breach(given: Given) -> None:
             + ("  too wide" if r["too_wide"] else "")
         )
     worst = s["worst_screw"]
-    robot = "calibrated" if given.get("calibration") else f"built to ISO 2768-{tolerances.tolerance_class}"
+    robot = (
+        "calibrated"
+        if given.get("calibration")
+        else f"built to ISO 2768-{(tolerances or ToleranceSettings()).tolerance_class}"
+    )
     typer.echo(
         f"the robot {robot}, registration {settings.registration_mm:g} mm / {settings.registration_deg:g} deg RMS, thrust "
         f"{loads.thrust_N:g} N, {settings.samples} samples: the largest P(breach) is {_pct(s['breach_probability'])} (screw {worst}); "

@@ -136,7 +136,7 @@ def simulate(given: Given) -> None:
 
     check_replace(given, truth_path(given.get("out")))
     sim = simulate_api(
-        design_at_side(given.get("design"), given.get("side")),
+        design_at_side(given.get("design"), given.get("side"), alone=True),
         given.get("poses"),
         SimulateSettings().merged(given.tree("simulate")),
         out=given.get("out"),
@@ -152,12 +152,13 @@ def identify(given: Given) -> None:
     design.json (the calibrated design), calibration.json, residuals and the report page."""
     from arcube.calibrate import identify as identify_api
 
+    plan = _plan(given)
     cal = identify_api(
-        design_at_side(given.get("design"), given.get("side")),
+        design_at_side(given.get("design"), given.get("side"), alone=plan is None),
         given.get("measurements"),
         given.get("mode"),
         IdentifySettings().merged(given.tree("identify")),
-        trajectories=_plan(given),
+        trajectories=plan,
         out=given.get("out"),
     )
     rms = cal.residual_rms()

@@ -148,6 +148,10 @@ def plan_key(ts: Any) -> bytes:
     )
 
 
+def _given_twice(first: str) -> str:
+    return f"the same trajectories (every entry and target) as {first}: one patient given twice; a cohort's patients are different people"
+
+
 def read_cohort(
     path: str | os.PathLike[str],
     *,
@@ -193,10 +197,7 @@ def read_cohort(
             ts = load_trajectories(p.plan, transform)
             j = geometry.setdefault(plan_key(ts), k)
             if j != k:
-                raise InputError(
-                    f"the same trajectories (every entry and target) as patient {j + 1} ({patients[j].name}): one "
-                    "patient given twice; a cohort's patients are different people"
-                )
+                raise InputError(_given_twice(f"patient {j + 1} ({patients[j].name})"))
             if side is not None or levels is not None or ids is not None:
                 ts = select(ts, side=side, levels=levels, ids=ids)
         except InputError as exc:
@@ -220,7 +221,21 @@ def plans_as_cohort(plans: Sequence[Any]) -> list[PatientPlan] | None:
         names.append(stem if stem[0].isalnum() else f"p{stem}")
     if len(set(names)) != len(names):
         names = [f"patient_{k + 1}" for k in range(len(plans))]
+    if len(plans) > 1:
+        from arcube.io import load_trajectories
+
+        geometry: dict[bytes, int] = {}
+        for k, plan in enumerate(plans):
+            j = geometry.setdefault(plan_key(load_trajectories(plan)), k)
+            if j != k:
+                raise InputError.of(
+                    "plan", f"{_shown(plan)} (plan {k + 1}): {_given_twice(f'plan {j + 1} ({_shown(plans[j])})')}"
+                )
     return [PatientPlan(n, p) for n, p in zip(names, plans)]
+
+
+def _shown(plan: Any) -> str:
+    return os.fspath(plan) if isinstance(plan, (str, os.PathLike)) else str(getattr(plan, "source", "") or "a plan")
 
 
 def docking_count(plans: Sequence[Any] | None, cohort: Any, side: str | None = None, per_patient: bool = False) -> int:

@@ -48,13 +48,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from arcube.model.modes import DEFAULT_MODE_TEXT
+from arcube.model.modes import DEFAULT_MODE_TEXT, parse_mode
 from arcube.errors import InputError
 from arcube.export.angles import ACTUATED, JOINT_NAMES, joint_values
 from arcube.export.mjcf import check_z_dyad, checked_inputs, model_xml, with_c_z
 from arcube.io.files import atomic_write_files
 from arcube.io.inputs import load_json
-from arcube.io.program_files import CSV_NAME, read_program_files
+from arcube.io.program_files import CSV_NAME, JSON_NAME, read_program_files
 from arcube.model.design import Design
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
@@ -216,8 +216,14 @@ def export_program(
                 "is required: the program records no design (none in program.json, no design.json in the folder or in an 'arcube design' job around it)",
             )
     d = Design.coerce(with_c_z(design, c_z, "export_program"))
-    mode = rows.summary.get("mode", DEFAULT_MODE_TEXT)
-    robot = checked_inputs(d, mode if isinstance(mode, str) else DEFAULT_MODE_TEXT)
+    mode = rows.summary.get("mode")
+    mode = DEFAULT_MODE_TEXT if mode is None else mode
+    try:  # the program's own mode: a bad one is the program's fault, not a flag's
+        parse_mode(mode)
+    except ValueError as exc:
+        source = "program.json" if rows.path is None else rows.path / JSON_NAME
+        raise InputError.of("program", f"{source}: mode: {exc}") from None
+    robot = checked_inputs(d, mode)
     params, signs, cz = robot
     _check_angles(params, rows, signs, d.q0)
     check_z_dyad(params, rows.E, rows.e, signs, cz, "rows of the program")

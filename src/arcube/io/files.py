@@ -26,7 +26,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from arcube import interrupts
-from arcube.io.inputs import file_kind
+from arcube.io.inputs import file_kind, what_is
 
 __all__ = ["atomic_write_bytes", "atomic_write_files", "atomic_write_text", "check_targets", "write_folder"]
 
@@ -206,8 +206,10 @@ def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) ->
 
     out = Path(out_dir)
     if out.exists() or out.is_symlink():
-        if not out.is_dir() or out.is_symlink():
-            raise InputError.of("out", f"{out}: is not a folder (give a new or empty folder)")
+        if out.is_symlink():  # renaming onto it would replace the link, not fill the folder it points to
+            raise InputError.of("out", f"{out}: is a link, not a folder (give a new or empty folder)")
+        if not out.is_dir():
+            raise InputError.of("out", f"{out}: is {what_is(out)}, not a folder (give a new or empty folder)")
         if any(out.iterdir()):
             raise InputError.of("out", f"{out}: the folder is not empty (give a new or empty folder)")
     made = [a for a in reversed(out.parents) if not a.exists()]

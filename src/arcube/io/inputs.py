@@ -105,6 +105,12 @@ def file_kind(mode: int) -> str:
     return "a special file"
 
 
+def what_is(path: str | os.PathLike[str]) -> str:
+    """What stands at ``path`` (followed if a link), in words: ``"a file"``, ``"a folder"``, ``"a character device"``."""
+    mode = os.stat(path).st_mode
+    return "a file" if stat.S_ISREG(mode) else file_kind(mode)
+
+
 def _mib(n: int) -> str:
     return f"{n / 2**20:.0f} MiB" if n >= 2**20 else f"{n} bytes"
 

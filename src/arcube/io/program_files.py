@@ -322,7 +322,12 @@ def read_program_files(folder: str | os.PathLike[str]) -> ProgramFiles:
     bad = np.flatnonzero(np.r_[False, np.diff(t) <= 0.0] | (np.abs(t) > 1e9))
     if len(bad):
         raise InputError(
-            f"{table.where(table.rows[int(bad[0])][0])}: t_s must increase and stay within ±1e9 s, got {t[bad[0]]!r}"
+            f"{table.where(table.rows[int(bad[0])][0])}: t_s must increase and stay within ±1e9 s, got {float(t[bad[0]])!r}"
+        )
+    if summary.get("rows") is not None and summary["rows"] != len(t):
+        raise InputError(
+            f"{root / JSON_NAME}: rows is {summary['rows']!r}, but {CSV_NAME} has {len(t)}: the two files are not of one "
+            "program"
         )
     segment = [cells[table.index("segment")] for _, cells in table.rows]
     odd = next((k for k, s in enumerate(segment) if s not in SEGMENTS), None)

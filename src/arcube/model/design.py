@@ -219,6 +219,8 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
             raise InputError(f"{source}: length {name} must be positive, got {val:g} mm")
         if name.startswith(("alpha_", "beta_")) and not 0.0 < val < 180.0:
             raise InputError(f"{source}: spherical link angle {name} must lie in (0, 180) deg, got {val:g}")
+        if name in MOUNT_NAMES and abs(val) > 360.0:  # the same rotation mod 360, but no one writes it so: a typo
+            raise InputError(f"{source}: mounting angle {name} must lie within ±360 deg, got {val:g}")
         if name == "L" and val < 0.0:
             raise InputError(f"{source}: tool offset L must be >= 0 mm, got {val:g}")
         out[name] = val

@@ -179,19 +179,38 @@ def write_docking(design: Design, path: str | os.PathLike[str], patient: str, si
     atomic_write_text(path, json.dumps({**design.to_file_dict(), "patient": patient, "side": side}, indent=2) + "\n")
 
 
-def design_at_side(design: Any, side: str | None) -> Any:
-    """The design a command uses on ``side`` (R or L): a docking file whose ``side`` contradicts it is refused; a
-    robot's ``design.json`` (robot and dockings) gives its docking on that side, when it has exactly one there.
-    Anything else (a Design, a preset, a plain design file, no side) is returned as given."""
-    s = side.strip().upper() if isinstance(side, str) else None
-    if s not in ("R", "L") or not isinstance(design, (str, os.PathLike)):
-        return design
+def _design_data(design: Any) -> dict[str, Any] | None:
+    """The JSON object of a design file, None for anything else (a Design, a preset, another file)."""
+    if not isinstance(design, (str, os.PathLike)):
+        return None
     p = Path(design)
     if p.suffix.lower() != ".json" or not p.is_file():
-        return design
+        return None
     data = load_json(p)
-    if not isinstance(data, dict):
+    return data if isinstance(data, dict) else None
+
+
+def design_at_side(design: Any, side: str | None, *, alone: bool = False) -> Any:
+    """The design a command uses on ``side`` (R or L): a docking file whose ``side`` contradicts it is refused; a
+    robot's ``design.json`` (robot and dockings) gives its docking on that side, when it has exactly one there.
+    Anything else (a Design, a preset, a plain design file, no side) is returned as given, unless ``alone``: the
+    command has no plan that ``side`` would filter, so a design without a side would ignore it and is refused.
+    A side other than R or L is refused."""
+    if side is None:
         return design
+    s = side.strip().upper() if isinstance(side, str) else None
+    if s not in ("R", "L"):
+        raise InputError.of("side", f"{side!r}: expected R or L")
+    data = _design_data(design)
+    if data is None or (data.get("side") is None and not isinstance(data.get("dockings"), list)):
+        if alone:
+            raise InputError.of(
+                "side",
+                f"{s}: {design} has no side (a plain design, no docking) and there is no plan to keep to one side: "
+                "the side would be ignored",
+            )
+        return design
+    p = Path(design)
     own = data.get("side")
     if own in ("R", "L") and own != s:
         other = p.parent.parent / f"{data.get('patient', '<patient>')}_{s}" / "design.json"

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from arcube import interrupts
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_files
-from arcube.io.inputs import file_kind
+from arcube.io.inputs import file_kind, what_is
 from arcube.io.program_files import CSV_COLUMNS, CSV_NAME, JOINTS, JSON_NAME, PROGRAM_FILES, TORQUE_COLUMNS
 from arcube.optimization.lock import acquire, release
 
@@ -132,7 +132,7 @@ def prepare_folder(out: str | os.PathLike[str]) -> tuple[Path, bool, Path]:
     created, lock = False, None
     try:
         if folder.exists() and not folder.is_dir():
-            raise InputError.of("out", f"{folder}: is {'a file' if folder.is_file() else 'not a folder'}, not a folder")
+            raise InputError.of("out", f"{folder}: is {what_is(folder)}, not a folder")
         with interrupts.deferred():  # a folder made and its lock written, or neither
             created = not folder.exists()
             folder.mkdir(parents=True, exist_ok=True)

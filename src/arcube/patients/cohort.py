@@ -100,13 +100,15 @@ def write_patients(
             )
         staged = sorted(stage.iterdir(), key=lambda f: f.stat().st_mtime_ns)  # the order they were made in
         atomic_write_files({parent / f.name: f.read_bytes() for f in staged})
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(stage, ignore_errors=True)
         for folder in reversed(made):  # the folders this call made, if nothing went into them
             try:
                 folder.rmdir()
             except OSError:
                 break
+        if isinstance(exc, InputError) and str(stage) in str(exc):  # the file it was making, not the staging folder
+            raise InputError(str(exc).replace(str(stage), str(parent)), param=exc.param) from None
         raise
     shutil.rmtree(stage, ignore_errors=True)
     return texts

@@ -49,6 +49,16 @@ def read_calibration(folder: str | os.PathLike[str]) -> tuple[Any, np.ndarray, d
     info = load_json(d / "calibration.json")
     if not isinstance(info, dict) or not isinstance(info.get("settings"), dict):
         raise InputError(f"{d / 'calibration.json'}: not a calibration (no settings)")
+    identified = info.get("design")
+    if isinstance(identified, dict):  # the covariance belongs to this design: a design.json put there since is not it
+        own = load_json(d / "design.json")
+        own = own if isinstance(own, dict) else {}
+        differ = sorted(k for k in set(identified) | set(own) if own.get(k) != identified.get(k))
+        if differ:
+            raise InputError(
+                f"{d / 'design.json'}: is not the design that calibration.json identified ({', '.join(differ[:4])}"
+                f"{' ...' if len(differ) > 4 else ''} differ): give the folder as arcube calibrate identify wrote it"
+            )
     return Design.load(d / "design.json"), read_covariance(d / COVARIANCE_FILE), info["settings"]
 
 
@@ -104,7 +114,8 @@ def breach(
         out: a folder to create (new or empty): breach.csv, summary.json and the pictures; None writes nothing.
         calibration: the folder of ``arcube calibrate identify`` instead of (or with the same) ``design``.
         mode: the working mode (None: the design's own; a design without one needs it).
-        tolerances: an :class:`arcube.ToleranceSettings` (class m by default) for a robot that is not calibrated.
+        tolerances: an :class:`arcube.ToleranceSettings` (class m by default) for a robot that is not calibrated;
+            refused with ``calibration``.
         settings: a :class:`BreachSettings` and changes to it (``registration_mm=1.0``, ``samples=2000``).
         fields: see ``settings``.
         loads: an :class:`arcube.Loads` (the thrust and the actuators' stiffness); default 30 N, 1e4 N m/rad.
@@ -127,6 +138,10 @@ def breach(
     ld = Loads() if loads is None else loads
     cov, cal = None, None
     if calibration is not None:
+        if tolerances is not None:  # the covariance draws the robot's errors: tolerances would be ignored
+            raise InputError.of(
+                "tolerances", f"and a calibration ({calibration}): its covariance gives the robot's errors, give one"
+            )
         cal_design, cov, cal = read_calibration(calibration)
         if design is not None and not (
             isinstance(design, (str, os.PathLike))
