@@ -212,3 +212,19 @@ def test_patients_name_the_file_not_their_staging_folder(tmp_path: Path, monkeyp
     )
     assert err.startswith(f"error: {Path('pa') / 'patient_000.anatomy.seg.nrrd'}: segment") and ".tmp" not in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_plan_in_metres_is_refused_a_one_millimetre_trajectory_taken(tmp_path: Path) -> None:
+    """The reference plan written in metres (trajectories of some hundredths) was evaluated as a plan in mm."""
+    from arcube.io import load_trajectories
+
+    lines = reference_right_csv()
+    metres = [lines[0]] + [
+        ",".join(c[:3] + [repr(float(v) / 1000.0) for v in c[3:]]) for c in (r.split(",") for r in lines[1:])
+    ]
+    (tmp_path / "m.csv").write_text("\n".join(metres) + "\n")
+    with pytest.raises(InputError, match=r"m.csv row 2: the trajectory is 0.0\d+ mm long, shorter than any screw"):
+        load_trajectories(tmp_path / "m.csv")
+    head = "trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z\n"
+    (tmp_path / "one.csv").write_text(head + "1,C3,R,0,0,0,0,0,1\n")
+    assert load_trajectories(tmp_path / "one.csv").lengths[0] == 1.0

@@ -80,6 +80,9 @@ LEVEL_ORDER = ("C1", "C2", "C3", "C4", "C5", "C6", "C7")
 _SIDES = ("R", "L", "")
 # Below this an entry and a target are the same point: no drill axis can be defined.
 _MIN_LENGTH_MM = 1e-9
+SHORTEST_TRAJECTORY_MM = 1.0
+"""Shortest trajectory a plan may hold, mm: no screw or wire is shorter (cervical pedicle screws are 14-30 mm);
+a plan written in metres has trajectories of some hundredths."""
 _RIGID_TOL = 1e-6
 
 
@@ -175,7 +178,7 @@ def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray
         labels: per trajectory, where it came from (``"plan.csv row 4"``), for messages.
         ids: trajectory ids; must be non-empty and unique.
         entry: (T, 3) arrays, mm; must be finite, within ±1e5 mm
-            (:data:`arcube.io.inputs.COORDINATE_LIMIT_MM`) and distinct per row.
+            (:data:`arcube.io.inputs.COORDINATE_LIMIT_MM`) and at least :data:`SHORTEST_TRAJECTORY_MM` apart per row.
         target: see ``entry``.
     """
     seen: dict[str, str] = {}
@@ -191,8 +194,14 @@ def validate_points(labels: Sequence[str], ids: Sequence[str], entry: np.ndarray
             problem = coordinate_problem(point)
             if problem:
                 raise InputError(f"{labels[i]}: {role} {problem} (a unit mistake?)")
-        if float(np.linalg.norm(target[i] - entry[i])) < _MIN_LENGTH_MM:
+        length = float(np.linalg.norm(target[i] - entry[i]))
+        if length < _MIN_LENGTH_MM:
             raise InputError(f"{labels[i]}: zero-length trajectory (entry == target)")
+        if length < SHORTEST_TRAJECTORY_MM:
+            raise InputError(
+                f"{labels[i]}: the trajectory is {length:.3g} mm long, shorter than any screw "
+                f"({SHORTEST_TRAJECTORY_MM:g} mm): coordinates are in mm (a plan in metres?)"
+            )
 
 
 def _parse_csv_text(text: str, name: str, source: str) -> TrajectorySet:
