@@ -131,6 +131,12 @@ def test_one_patient_given_as_two_plans_is_refused(tmp_path: Path) -> None:
         plans_as_cohort(["reference", str(tmp_path / "a.csv"), "reference"])
     two = plans_as_cohort(["reference", str(tmp_path / "a.csv")])  # the whole patient and its right side differ
     assert [p.name for p in two] == ["reference", "a"]
+    from arcube.io import load_trajectories, select
+
+    ts = load_trajectories("reference")  # plans in memory, as arcube.dock and arcube.design take them
+    assert len(plans_as_cohort([ts, select(ts, side="R")])) == 2
+    with pytest.raises(InputError, match=r"reference \(plan 2\): the same trajectories"):
+        plans_as_cohort([ts, load_trajectories("reference")])
 
 
 def test_a_program_folder_whose_files_disagree_is_refused(tmp_path: Path) -> None:

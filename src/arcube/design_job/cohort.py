@@ -222,11 +222,11 @@ def plans_as_cohort(plans: Sequence[Any]) -> list[PatientPlan] | None:
     if len(set(names)) != len(names):
         names = [f"patient_{k + 1}" for k in range(len(plans))]
     if len(plans) > 1:
-        from arcube.io import load_trajectories
+        from arcube.io.load import load_plan
 
         geometry: dict[bytes, int] = {}
         for k, plan in enumerate(plans):
-            j = geometry.setdefault(plan_key(load_trajectories(plan)), k)
+            j = geometry.setdefault(plan_key(load_plan(plan)), k)
             if j != k:
                 raise InputError.of(
                     "plan", f"{_shown(plan)} (plan {k + 1}): {_given_twice(f'plan {j + 1} ({_shown(plans[j])})')}"

@@ -38,7 +38,8 @@ def load_trajectories(spec: str | os.PathLike[str], transform: str | os.PathLike
     """
     if not isinstance(spec, (str, os.PathLike)):
         raise InputError.of(
-            "plan", f"must be a trajectory file or folder, 'reference' or a TrajectorySet, got {type(spec).__name__}"
+            "plan",
+            f"must be a trajectory file or folder or 'reference', got {type(spec).__name__} (load_plan takes a TrajectorySet)",
         )
     if os.fspath(spec) == "reference":  # the word always means the bundled file; use ./reference for a path
         ts = read_reference()
