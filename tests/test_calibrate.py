@@ -158,6 +158,9 @@ def test_calibrated_design_file_and_the_ik_minus_q0_of_its_poses(tmp_path, plan,
     design, q0 = read_calibrated(tmp_path / "cal" / "design.json")
     np.testing.assert_array_equal(design.to_vector(), res.design)
     np.testing.assert_array_equal(q0, res.q0_deg)
+    from arcube.pedicles.run import read_calibration  # breach reads the folder as identify wrote it
+
+    np.testing.assert_array_equal(read_calibration(tmp_path / "cal")[0].to_vector(), res.design)
     report = json.loads((tmp_path / "cal" / "calibration.json").read_text())
     assert report["budget"]["points"] == "plan" and report["budget"]["count"] == 150
     assert [u["name"] for u in report["unknowns"]] == list(UNKNOWNS)

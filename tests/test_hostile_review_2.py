@@ -32,6 +32,8 @@ def test_a_side_that_nothing_would_use_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="the side would be ignored") as info:
         design_at_side("paper", "R", alone=True)
     assert info.value.param == "side"
+    with pytest.raises(InputError, match="R: the design has no side"):
+        design_at_side(Design.paper(), "R", alone=True)
     with pytest.raises(InputError, match="'X': expected R or L"):
         design_at_side("paper", "X")
     assert design_at_side("paper", "R") == "paper"  # a plan filters by the side: not alone
@@ -43,11 +45,20 @@ def test_a_side_that_nothing_would_use_is_refused(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "argv, refused",
+    "argv, says",
     [
-        (["calibrate", "simulate", "--poses", "none.csv", "--out", "m.csv", "--side", "L"], True),
-        (["calibrate", "simulate", "--poses", "none.csv", "--out", "m.csv", "--side", "X"], True),
-        (["calibrate", "identify", "--measurements", "none.csv", "--out", "o", "--side", "R"], True),
+        (
+            ["calibrate", "simulate", "--poses", "none.csv", "--out", "m.csv", "--side", "L"],
+            "--side L: paper has no side",
+        ),
+        (
+            ["calibrate", "simulate", "--poses", "none.csv", "--out", "m.csv", "--side", "X"],
+            "--side 'X': expected R or L",
+        ),
+        (
+            ["calibrate", "identify", "--measurements", "none.csv", "--out", "o", "--side", "R"],
+            "--side R: paper has no side",
+        ),
         (
             [
                 "calibrate",
@@ -61,17 +72,14 @@ def test_a_side_that_nothing_would_use_is_refused(tmp_path: Path) -> None:
                 "--trajectories",
                 "reference",
             ],
-            False,
+            "none.csv",  # with a plan, the side filters it: the command goes on to the (missing) measurements
         ),
     ],
 )
-def test_calibrate_refuses_a_side_it_would_ignore(tmp_path: Path, monkeypatch, capsys, argv, refused) -> None:
+def test_calibrate_refuses_a_side_it_would_ignore(tmp_path: Path, monkeypatch, capsys, argv, says) -> None:
     monkeypatch.chdir(tmp_path)
     err = _error([*argv, "--design", "paper"], capsys)
-    if refused:
-        assert err.startswith("error: --side ") and ("would be ignored" in err or "expected R or L" in err), err
-    else:  # with a plan, the side filters it: the command goes on to the (missing) measurements
-        assert "none.csv" in err and "--side" not in err, err
+    assert err.startswith(f"error: {says}"), err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -94,7 +102,7 @@ def test_a_calibration_folder_whose_design_was_replaced_is_refused(tmp_path: Pat
     assert design.to_dict() == DEMO.to_dict()
     read_calibration(_calibration_folder(tmp_path / "old", own, None))  # a calibration.json without its design
     swapped = _calibration_folder(tmp_path / "swapped", Design.paper().to_file_dict(), own)
-    with pytest.raises(InputError, match=r"swapped/design.json: is not the design that calibration.json identified"):
+    with pytest.raises(InputError, match=r"design.json: is not the design that calibration.json identified"):
         read_calibration(swapped)
     one = _calibration_folder(tmp_path / "one", {**own, "r": own["r"] + 0.5}, own)
     with pytest.raises(InputError, match=r"\(r differ\)"):
@@ -112,6 +120,10 @@ def test_breach_refuses_tolerances_beside_a_calibration(tmp_path: Path, monkeypa
         capsys,
     )
     assert err.startswith("error: --calibration and --class: ") and "give one" in err, err
+    err = _error(
+        ["breach", "--calibration", "cal", "--encoder-deg", "0.1", "--trajectories", "reference", "--out", "o"], capsys
+    )
+    assert err.startswith("error: --calibration and --encoder-deg: "), err
     with pytest.raises(InputError, match="its covariance gives the robot's errors") as info:
         breach(None, "reference", calibration="cal", tolerances=ToleranceSettings())
     assert info.value.param == "tolerances"
@@ -159,9 +171,12 @@ def test_a_bad_mode_in_a_program_is_the_programs_fault_not_the_flags(tmp_path: P
 
     prog = program_object()
     bad = dataclasses.replace(prog, summary={**prog.summary, "mode": "x,y"})
-    with pytest.raises(InputError, match=r"program.json: mode: working mode must be four signs") as info:
+    with pytest.raises(InputError, match=r"the program's summary: mode: working mode must be four signs") as info:
         export_program(bad, "paper")
     assert info.value.param == "program"
+    listed = dataclasses.replace(prog, summary={**prog.summary, "mode": [1, 1, 1, -1]})
+    with pytest.raises(InputError, match=r"mode: must be text like '\+,\+,-,\+', got list"):
+        export_program(listed, "paper")
 
 
 def test_time_that_does_not_increase_is_shown_as_a_plain_number(tmp_path: Path) -> None:

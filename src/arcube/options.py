@@ -76,6 +76,10 @@ MAX_ENCODER_DEG = 10.0
 """Largest encoder error bound, deg: beyond it the actuator is not positioned at all."""
 MAX_STIFFNESS = 1e9
 """Largest actuator stiffness, N·m/rad: at 1e9 a 100 N·m torque deflects 1e-7 rad; more is a rigid actuator or a typo."""
+EncoderDeg = per_actuator(MAX_ENCODER_DEG, "deg")
+"""Five encoder error bounds in (0, 10] deg."""
+Stiffness = per_actuator(MAX_STIFFNESS, "N m/rad")
+"""Five actuator stiffnesses in (0, 1e9] N·m/rad."""
 
 MAX_BODY_MM = 1000.0
 """Largest clearance, radius or length of the body, mm: a metre is beyond any part of the robot (1e9 is a typo)."""
@@ -140,13 +144,13 @@ class Loads(Settings):
 
     SHORT: ClassVar[dict[str, str]] = {"thrust_N": "thrust", "lateral_force_N": "lateral_force"}
 
-    encoder_deg: per_actuator(MAX_ENCODER_DEG, "deg") = (0.01,) * 5
+    encoder_deg: EncoderDeg = (0.01,) * 5
     """Position error bound of the actuators (model §15.2), deg: one value, or five (rho_x,rho_y,rho_z,delta_x,delta_y)."""
     thrust_N: float = Field(default=30.0, ge=0, le=1e5, allow_inf_nan=False)
     """Drilling thrust along the drill axis (model §15.3), N (at most 1e5: ten tonnes-force, beyond any drill)."""
     lateral_force_N: float = Field(default=10.0, ge=0, le=1e5, allow_inf_nan=False)
     """Largest lateral (skiving) force across the drill axis (model §15.3), N (at most 1e5)."""
-    actuator_stiffness: per_actuator(MAX_STIFFNESS, "N m/rad") = (1e4,) * 5
+    actuator_stiffness: Stiffness = (1e4,) * 5
     """Torsional stiffness of the actuators (model §15.4), N·m/rad: one value or five."""
 
 

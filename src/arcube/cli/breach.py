@@ -29,7 +29,7 @@ __all__ = ["register"]
 CALIBRATION = option(
     "--calibration",
     "The folder of arcube calibrate identify: its calibrated design, the robot's errors drawn from the "
-    "identification's covariance (instead of --class and --tol).",
+    "identification's covariance (instead of --class, --tol and the other tolerance flags).",
     Path,
     params=("calibration",),
 )

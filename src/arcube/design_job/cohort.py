@@ -208,8 +208,9 @@ def read_cohort(
 
 
 def plans_as_cohort(plans: Sequence[Any]) -> list[PatientPlan] | None:
-    """Several ``--trajectories`` as a cohort of patients named after their files (None for one plan: it keeps the run's own
-    settings, as every job before model §19)."""
+    """Several ``--trajectories`` as a cohort of patients named after their files (``patient_1`` ... where two names
+    clash); two plans with the same trajectories (every entry and target) are one patient given twice: InputError
+    naming ``plan``."""
     names = []
     for k, plan in enumerate(plans):
         stem = (

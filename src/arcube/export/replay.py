@@ -219,9 +219,11 @@ def export_program(
     mode = rows.summary.get("mode")
     mode = DEFAULT_MODE_TEXT if mode is None else mode
     try:  # the program's own mode: a bad one is the program's fault, not a flag's
+        if not isinstance(mode, str):
+            raise ValueError(f"must be text like '+,+,-,+', got {type(mode).__name__}")
         parse_mode(mode)
     except ValueError as exc:
-        source = "program.json" if rows.path is None else rows.path / JSON_NAME
+        source = "the program's summary" if rows.path is None else rows.path / JSON_NAME
         raise InputError.of("program", f"{source}: mode: {exc}") from None
     robot = checked_inputs(d, mode)
     params, signs, cz = robot

@@ -197,7 +197,7 @@ def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) ->
     into a temporary folder beside it, which is then renamed; returns its path.
 
     Raises:
-        InputError: ``out_dir`` is a file or a folder that is not empty (named ``out``).
+        InputError: ``out_dir`` is a link, a file or a folder that is not empty (named ``out``).
         OSError: the file system refuses (nothing is left behind, not even the parents it made).
     """
     import shutil

@@ -178,7 +178,8 @@ def unpack(params: ArrayLike) -> Geometry:
 
 def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[str, float]:
     """Check a name -> value mapping: the 23 names of model §2 (the four of 13.3 are optional, 0 when absent; but the
-    three mounting angles come together, and with L), finite numbers, positive lengths, L >= 0.
+    three mounting angles come together, and with L), finite numbers, positive lengths, L >= 0, mounting angles
+    within ±360 deg.
 
     Returns the values as floats in :data:`PARAM_NAMES` order. Raises :class:`InputError` with
     a one-line message naming ``source`` and the first problem found.

@@ -206,7 +206,8 @@ def design_at_side(design: Any, side: str | None, *, alone: bool = False) -> Any
         if alone:
             raise InputError.of(
                 "side",
-                f"{s}: {design} has no side (a plain design, no docking) and there is no plan to keep to one side: "
+                f"{s}: {design if isinstance(design, (str, os.PathLike)) else 'the design'} has no side (a plain "
+                "design, no docking) and there is no plan to keep to one side: "
                 "the side would be ignored",
             )
         return design
