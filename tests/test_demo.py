@@ -24,6 +24,7 @@ def test_quick_demo_writes_reports_and_reproducible_designs(tmp_path: Path) -> N
         timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
+    assert "warning" not in proc.stderr, proc.stderr  # the demo used --ftol's old name and warned on every run
     assert "TLS/x: 300" in proc.stdout  # step 1 says why Table 2 as printed reaches nothing
     for run, side in (("paper_links_right", "R"), ("all_free_bilateral", None)):
         folder = out / run

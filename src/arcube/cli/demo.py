@@ -101,7 +101,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
             side="R",
             population=100,
             generations=60,
-            tolerance=0.0,
+            ftol=0.0,
             algorithm="ga",
         ),
     ]
@@ -115,7 +115,7 @@ def run_demo(out: Path, seed: int = 1, engine: str = "auto", quick: bool = False
             quick=quick,
             population=400,
             generations=300,
-            tolerance=1e-5,
+            ftol=1e-5,
             algorithm="ga",
         )
     )
