@@ -12,6 +12,7 @@ from arcube import interrupts
 from arcube.errors import InputError
 from arcube.coerce import engine_name, mode_signs
 from arcube.evaluation.task import build_task
+from arcube.io.trajectories import validate_points
 from arcube.model.design import PARAM_NAMES
 from arcube.optimization.problem import DEFAULT_BOUNDS, FitnessModel, TaskData, VariableSpace
 from arcube.optimization.settings import RunSettings
@@ -118,6 +119,26 @@ def stl_roundtrip(anatomy: Any) -> Any:
     return Anatomy.from_meshes([mesh], anatomy.source).distance
 
 
+def _points(i: int, pat: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(entry, target ``(T, 3)`` mm, sides) of a run's ``[[patients]]`` table ``i``, checked as a plan file's are
+    (a config.toml edited by hand: an infinite point ran the whole run and failed writing its summary)."""
+    where = f"[[patients]] {i + 1} ({pat.get('name', pat.get('source', '?'))})"
+    try:
+        entry, target = np.array(pat["entry"], float), np.array(pat["target"], float)
+        ids, sides = [str(v) for v in pat["ids"]], [str(v) for v in pat["sides"]]
+    except (KeyError, TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"{where}: entry, target, ids and sides must be lists ({type(exc).__name__}: {exc})") from None
+    if (
+        entry.ndim != 2
+        or entry.shape[1:] != (3,)
+        or target.shape != entry.shape
+        or len(ids) != len(entry) != len(sides)
+    ):
+        raise InputError(f"{where}: entry and target must be one [x, y, z] per trajectory id")
+    validate_points([f"{where} trajectory {t}" for t in ids], ids, entry, target)
+    return entry, target, sides
+
+
 def build_model(
     cfg: RunConfig,
     run_dir: Any = None,
@@ -146,7 +167,7 @@ def build_model(
     )
     tasks: list[TaskData] = []
     for i, pat in enumerate(cfg.patients):
-        entry, target, sides = np.array(pat["entry"], float), np.array(pat["target"], float), list(pat["sides"])
+        entry, target, sides = _points(i, pat)
         groups = (
             [("", np.ones(len(sides), bool))]
             if space.setups == 1

@@ -28,6 +28,7 @@ import numpy as np
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_bytes, atomic_write_text
+from arcube.io.inputs import read_bytes
 from arcube.optimization.run_config import FORMAT_VERSION, RunConfig
 
 CHECKPOINT_FORMAT = "arcube-optimize-checkpoint"
@@ -129,16 +130,29 @@ def _state_digest(state: dict[str, Any]) -> str:
     )
 
 
+def read_run_file(path: Path) -> bytes:
+    """The bytes of a file of a run folder (arcube wrote it: a regular file only, never waiting on a FIFO put in its
+    place); InputError naming the file."""
+    return read_bytes(path, fail=lambda problem: InputError(f"{path}: {problem}"), pipes=False)
+
+
 def load_checkpoint(
     run_dir: Path, cfg: RunConfig, cfg_raw: bytes
 ) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
     """(state, replay entries); (None, []) when the run was killed before its first checkpoint."""
     path = run_dir / "checkpoint" / "state.json"
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
+        saved = sorted(path.parent.glob("evals_*.npz")) if path.parent.is_dir() else []
+        if len(saved) > 1:  # the second chunk is written after the first state.json: a state was there
+            raise InputError(
+                f"{path}: missing, but {path.parent} holds {len(saved)} saved chunks of generations: the state was "
+                "removed, and resuming would start the run over and lose its history; put state.json back, or run "
+                "again into a new folder"
+            )
         return None, []
     try:
-        state = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        state = json.loads(read_run_file(path).decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"{path}: corrupt checkpoint ({exc})") from None
     if (
         not isinstance(state, dict)
@@ -156,10 +170,7 @@ def load_checkpoint(
             f"{path}: edited or corrupt checkpoint state (it does not match its SHA-256); refusing to resume"
         )
     if "history_sha256" in state:
-        try:
-            data = (run_dir / "history.csv").read_bytes()
-        except OSError as exc:
-            raise InputError(f"{run_dir / 'history.csv'}: cannot read ({exc.strerror or exc})") from None
+        data = read_run_file(run_dir / "history.csv")
         if history_digest(data, int(state["generation"])) != state["history_sha256"]:
             raise InputError(
                 f"{run_dir / 'history.csv'}: edited or corrupt (its first {state['generation']} rows do not match the checkpoint); refusing to resume"
@@ -171,7 +182,7 @@ def load_checkpoint(
             f = path.parent / str(ch["file"])
             if f.parent != path.parent:
                 raise ValueError("bad chunk name")
-            data = f.read_bytes()
+            data = read_run_file(f)
             if _sha(data) != ch["sha256"]:
                 raise ValueError(f"{f.name} does not match its SHA-256")
             with np.load(io.BytesIO(data), allow_pickle=False) as z:

@@ -23,8 +23,8 @@ import numpy as np
 
 from arcube.errors import InputError
 from arcube.optimization.build import build_model, check_engine
-from arcube.optimization.checkpoint import FORMAT_VERSION
-from arcube.optimization.run_config import RUN_FORMAT, RunConfig
+from arcube.optimization.checkpoint import FORMAT_VERSION, read_run_file
+from arcube.optimization.run_config import RUN_FORMAT, RunConfig, executor_table
 
 __all__ = [
     "RUN_FORMAT",
@@ -95,14 +95,18 @@ def read_config(run_dir: Path) -> tuple[RunConfig, bytes]:
     path = run_dir / "config.toml"
     if not run_dir.is_dir():
         raise InputError(f"{run_dir}: no such run folder")
+    if not path.exists() and not path.is_symlink():
+        raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)")
+    raw = read_run_file(path)
+    return _validated(path, _toml(path, raw)), raw
+
+
+def _toml(path: Path, raw: bytes) -> dict[str, Any]:
+    """A run folder's TOML file, parsed; InputError naming it."""
     try:
-        raw = path.read_bytes()
-        cfg = tomllib.loads(raw.decode("utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: unreadable config ({exc})") from None
-    return _validated(path, cfg), raw
+        return tomllib.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{path}: unreadable ({exc})") from None
 
 
 def _validated(path: Path, cfg: dict[str, Any]) -> RunConfig:
@@ -152,9 +156,10 @@ def is_finished(run_dir: Path) -> bool:
     state_path = run_dir / "checkpoint" / "state.json"
     if state_path.exists() and (run_dir / "summary.json").exists():
         try:
-            return json.loads(state_path.read_text(encoding="utf-8")).get("finished") is True
-        except (OSError, ValueError):
+            state = json.loads(read_run_file(state_path).decode("utf-8"))
+        except (InputError, ValueError):  # not finished: the resume reads it again and says what is wrong
             return False
+        return isinstance(state, dict) and state.get("finished") is True
     return False
 
 
@@ -182,13 +187,11 @@ def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any]
     if not study_dir.is_dir():
         raise InputError(f"{study_dir}: no such study or run folder")
     path = study_dir / "study.toml"
-    try:
-        study = tomllib.loads(path.read_text(encoding="utf-8"))
-        base = tomllib.loads((study_dir / "base_config.toml").read_text(encoding="utf-8"))
-    except FileNotFoundError as exc:
-        raise InputError(f"{study_dir}: not a study (no {Path(exc.filename).name})") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: unreadable study ({exc})") from None
+    for name in ("study.toml", "base_config.toml"):
+        if not (study_dir / name).exists() and not (study_dir / name).is_symlink():
+            raise InputError(f"{study_dir}: not a study (no {name})")
+    study = _toml(path, read_run_file(path))
+    base = _toml(study_dir / "base_config.toml", read_run_file(study_dir / "base_config.toml"))
     if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
         raise InputError(
             f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})"
@@ -196,4 +199,13 @@ def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any]
     seeds = study.get("seeds")
     if not isinstance(seeds, list) or not seeds or not all(isinstance(s, int) for s in seeds):
         raise InputError(f"{path}: no seeds list")
+    odd = [s for s in seeds if isinstance(s, bool) or s < 0]
+    if odd:
+        raise InputError(f"{path}: seeds must be whole numbers >= 0, got {odd[0]!r}")
+    if len(set(seeds)) != len(seeds):
+        raise InputError(f"{path}: seed {next(s for s in seeds if seeds.count(s) > 1)} is listed twice")
+    try:
+        executor_table({"workers": study.get("workers", 1), "dask": study.get("dask", "")})
+    except ValueError as exc:
+        raise InputError(f"{path}: {str(exc).replace('executor.', '')}") from None
     return study, _validated(study_dir / "base_config.toml", base) if config else None

@@ -78,7 +78,7 @@ def write_outputs(
     """Write the best design(s), pareto.csv (multi-objective) and summary.json; returns the summary."""
     summary, designs, front = describe(cfg, model, algorithm, info)
     if model.space.per_patient:
-        files = write_placements(run_dir, cfg, model, designs, summary.get("c_z"))
+        files = write_placements(run_dir, cfg, model, designs, summary.get("c_z"), summary.get("mode"))
     else:
         run_design(designs[0], summary).to_json(run_dir / "best_design.json")
         files = {"best_design": "best_design.json"}
@@ -104,20 +104,26 @@ def front_csv(rows: list[dict[str, Any]]) -> str:
 
 
 def run_design(vector: np.ndarray, summary: dict[str, Any]) -> Design:
-    """The design of one slot ``(27,)`` with the run's c_z when it has one (model §19.1)."""
-    d = Design.from_vector(vector)
-    return d.with_extras(c_z=summary["c_z"]) if summary.get("c_z") is not None else d
+    """The design of one slot ``(27,)`` with the run's working mode (the one it chose, with ``--mode free``) and its
+    c_z when it has one (model §19.1): a design file carries what it needs to be used."""
+    extras = {k: summary[k] for k in ("c_z", "mode") if summary.get(k) is not None}
+    return Design.from_vector(vector).with_extras(**extras)
 
 
 def write_placements(
-    run_dir: Path, cfg: RunConfig, model: FitnessModel, designs: list[np.ndarray], c_z: float | None = None
+    run_dir: Path,
+    cfg: RunConfig,
+    model: FitnessModel,
+    designs: list[np.ndarray],
+    c_z: float | None = None,
+    mode: str | None = None,
 ) -> dict[str, str]:
     """Per-patient docking: one complete design per patient (and side), and best_design.json = the shared
     design (placed for the first patient) with a ``placements`` list: each patient's m and mounting.
-    ``c_z``: the run's (model §19.1), in every file when given."""
+    ``c_z`` (model §19.1) and ``mode``: the run's, in every file when given."""
     space, placements, files = model.space, [], {"best_design": "best_design.json"}
     own = [n for n in PARAM_NAMES if n in (*space.docked, *space.free_m)] or ["m_x", "m_y", "m_z"]
-    extra = {} if c_z is None else {"c_z": c_z}
+    extra = {k: v for k, v in (("c_z", c_z), ("mode", mode)) if v is not None}
     for p, patient in enumerate(cfg.patients):
         for setup in range(space.setups):
             values = Design.from_vector(designs[space.slot(p, setup)]).to_dict()
@@ -131,7 +137,7 @@ def write_placements(
     shared = {**Design.from_vector(designs[0]).to_dict(), **extra, "placements": placements}
     atomic_write_text(run_dir / "best_design.json", json.dumps(shared, indent=2) + "\n")
     if space.setups == 2:  # the first patient's left side, where runs with two setups always put it
-        Design.from_vector(designs[space.slot(0, 1)]).to_json(run_dir / "best_design_L.json")
+        Design.from_vector(designs[space.slot(0, 1)]).with_extras(**extra).to_json(run_dir / "best_design_L.json")
         files["best_design_L"] = "best_design_L.json"
     return files
 

@@ -44,6 +44,18 @@ def _frozen(value: Any) -> Any:
     return value
 
 
+def executor_table(table: Any) -> dict[str, Any]:
+    """A run folder's ``[executor]`` (``workers`` >= 1, ``dask`` an address or ""), checked: ValueError naming the key."""
+    if not isinstance(table, Mapping):
+        raise ValueError("executor must be a table (workers, dask)")
+    workers, dask = table.get("workers", 1), table.get("dask", "")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"executor.workers must be a whole number >= 1, got {workers!r}")
+    if not isinstance(dask, str):
+        raise ValueError(f'executor.dask must be a scheduler address or "", got {dask!r}')
+    return dict(table)
+
+
 @dataclass(frozen=True)
 class RunConfig:
     """Everything one optimization run needs and records, read-only.
@@ -170,7 +182,7 @@ class RunConfig:
             bounds=bounds,
             trajectories=tuple(str(t) for t in settings_table.get("trajectories", ())),
             engine_resolved=str(settings_table["engine_resolved"]),
-            executor=dict(table.get("executor") or {}),
+            executor=executor_table(table.get("executor") or {}),
             run_id=str(table["run_id"]),
             created=str(table.get("created", "")),
             command=str(table.get("command", "")),

@@ -124,13 +124,19 @@ def resume_study(
     study, base = read_study(study_dir, config=True)
     seeds = [int(s) for s in study["seeds"]]
     if dask is None and workers is None:
-        workers, dask = int(study.get("workers", 1)), study.get("dask") or None
+        workers, dask = study.get("workers", 1), study.get("dask") or None  # checked by read_study
     workers = 1 if workers is None else workers
     _check_parallel(workers, dask)
     for seed in seeds:  # refuse a corrupt or foreign run folder before running anything
         d = seed_dir(study_dir, seed)
         if (d / "config.toml").exists():
             cfg, raw = runmod.read_config(d)
+            own = seed_config(base, seed)
+            if (cfg.settings, cfg.design, cfg.bounds) != (own.settings, own.design, own.bounds):
+                raise InputError(
+                    f"{d / 'config.toml'}: not seed {seed} of this study (its settings, design or bounds differ from "
+                    f"{study_dir / 'base_config.toml'}'s): a run of another study; move it out to run the seed anew"
+                )
             runmod.load_checkpoint(d, cfg, raw)
     _prepare_seeds(study_dir, base, seeds)
     return _run(study_dir, seeds, workers, dask, on_seed, on_generation)

@@ -42,6 +42,7 @@ from arcube.errors import InputError
 from arcube.evaluation.result import evaluate_design
 from arcube.options import GUARDED_OPTIONS, Options
 from arcube.model.mechanism import parse_mode
+from arcube.optimization.checkpoint import read_run_file
 from arcube.optimization.settings import table_placement
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
@@ -50,21 +51,25 @@ from arcube.io import TrajectorySet, load_trajectories, select
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{path.parent}: not an optimization run (no config.toml)") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+    if not path.exists() and not path.is_symlink():
+        raise InputError(f"{path.parent}: not an optimization run (no config.toml)")
+    try:  # a regular file only: a FIFO put in its place is refused, not waited on
+        return tomllib.loads(read_run_file(path).decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"{path}: unreadable config ({exc})") from None
 
 
 def _read_json(path: Path) -> dict[str, Any]:
-    """summary.json as a dict; {} when absent or unreadable (it is optional)."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    """summary.json as a dict; {} when absent (a run not finished); InputError when it is there but damaged."""
+    if not path.exists() and not path.is_symlink():
         return {}
-    return data if isinstance(data, dict) else {}
+    try:
+        data = json.loads(read_run_file(path).decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{path}: damaged ({exc}); restore it, or delete it for a report without it") from None
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: damaged (not a JSON object); restore it, or delete it for a report without it")
+    return data
 
 
 def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path, index: int = 0) -> TrajectorySet:
@@ -96,10 +101,17 @@ def _trajectories(cfg: dict[str, Any], settings: dict[str, Any], where: Path, in
         raise InputError(f"{where}: cannot read the run's trajectories ({type(exc).__name__}: {exc})") from None
 
 
-def _mode(settings: dict[str, Any], summary: dict[str, Any], where: Path) -> np.ndarray:
+def _mode(settings: dict[str, Any], summary: dict[str, Any], where: Path, chosen: str | None = None) -> np.ndarray:
+    """The run's working mode: config.toml's, or with ``free`` the one the optimizer chose (summary.json's, else
+    the best design file's ``chosen``)."""
     text = str(settings.get("mode", DEFAULT_MODE_TEXT))
     if text.strip().lower() == "free":
-        text = str(summary.get("mode") or DEFAULT_MODE_TEXT)  # the mode the optimizer chose
+        text = str(summary.get("mode") or chosen or "")
+        if not text:
+            raise InputError(
+                f"{where}: the run chose its working mode (mode free), and neither summary.json nor best_design.json "
+                "records it"
+            )
     try:
         return parse_mode(text)
     except ValueError as exc:
@@ -161,7 +173,7 @@ def write_run_report(
     summary = _read_json(run / "summary.json")
     if not (run / "best_design.json").exists():
         raise InputError(f"{run}: no best_design.json yet (the run has not written its result)")
-    Design.from_json(run / "best_design.json")  # a bad design file stops the report before any work
+    best = Design.from_json(run / "best_design.json")  # a bad design file stops the report before any work
     try:
         points = int(settings.get("points", 30))
     except (TypeError, ValueError):
@@ -170,7 +182,7 @@ def write_run_report(
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
     if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
         raise InputError.of("best_known", f"must be a positive number (an eta_G), got {best_known}")
-    signs = _mode(settings, summary, run / "config.toml")
+    signs = _mode(settings, summary, run / "config.toml", best.mode)
     options, _, limits = _run_body(run, settings)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
     engine = _run_engine(settings)
