@@ -223,6 +223,9 @@ def test_out_messages_say_what_stands_there(tmp_path: Path) -> None:
         write_folder({"a": b"1"}, tmp_path / "link")
     with pytest.raises(InputError, match=r"x: is a file, not a folder"):
         write_folder({"a": b"1"}, tmp_path / "full" / "x")
+    with pytest.raises(InputError, match=r"^out .*x/new/t: cannot create \(.*x is a file, not a folder\)$") as info:
+        write_folder({"a": b"1"}, tmp_path / "full" / "x" / "new" / "t")  # named, not the temporary folder beside it
+    assert info.value.param == "out" and sorted(os.listdir(tmp_path / "full")) == ["x"]
 
 
 def test_patients_name_the_file_not_their_staging_folder(tmp_path: Path, monkeypatch, capsys) -> None:
@@ -249,3 +252,50 @@ def test_a_plan_in_metres_is_refused_a_one_millimetre_trajectory_taken(tmp_path:
     head = "trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z\n"
     (tmp_path / "one.csv").write_text(head + "1,C3,R,0,0,0,0,0,1\n")
     assert load_trajectories(tmp_path / "one.csv").lengths[0] == 1.0
+
+
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["optimize", "--bounds", "d_x=40:50,d_x=60:70"], "error: --bounds d_x: given twice"),
+        (
+            ["optimize", "--objectives", "eta_G,mass", "--algorithm", "ga"],
+            "error: --algorithm ga and --objectives eta_G,mass: 2 objectives are searched by nsga2",
+        ),
+        (
+            ["study", "--seeds", "1-2", "--objectives", "eta_G,mass", "--algorithm", "ga"],
+            "error: --algorithm ga and --objectives",
+        ),
+        (
+            ["optimize", "--dockings", "per-side", "--placement", "shared"],
+            "error: --dockings gives every docking its own placement: it needs --setups 1 and --placement per-patient",
+        ),
+        (
+            ["optimize", "--setups", "2", "--side", "R"],
+            "error: --setups 2 uses both sides (one placement each); leave --side out",
+        ),
+        (["tolerance", "--design", "paper", "--tol", "r=0.02,r=0.03"], "error: --tol 'r=0.03': r is given twice"),
+        (["joints", "--encoder-deg", "5"], "error: No such option: --encoder-deg"),  # joints ignored it
+        (["joints", "--envelope-clearance", "5"], "error: No such option: --envelope-clearance"),  # no --envelope
+    ],
+)
+def test_flags_given_twice_or_overridden_are_refused_naming_the_flags(
+    tmp_path: Path, monkeypatch, capsys, argv, says
+) -> None:
+    """The last of two bounds or tolerances won without a word; --algorithm ga with two objectives ran NSGA-II; two
+    messages advised a setting by its internal name (docking per-patient, drop side)."""
+    monkeypatch.chdir(tmp_path)
+    err = _error([*argv, "--trajectories", "reference", "--out", "o"], capsys)
+    assert err.startswith(says), err
+    assert list(tmp_path.iterdir()) == []
+    if "--objectives" in argv:  # without --algorithm the objectives choose it, as before
+        from arcube.optimization.settings import RunSettings
+
+        assert RunSettings(objectives="eta_G,mass").algorithm == "nsga2"
+
+
+def test_explore_refuses_server_flags_with_a_static_scene(tmp_path: Path, monkeypatch, capsys) -> None:
+    monkeypatch.chdir(tmp_path)
+    err = _error(["explore", "--html", "x.html", "--port", "9999", "--save", "d.json", "--points", "2"], capsys)
+    assert err == "error: --html writes a static scene, no app is served: leave --port, --save out\n", err
+    assert list(tmp_path.iterdir()) == []

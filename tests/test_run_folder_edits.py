@@ -20,11 +20,13 @@ from arcube.optimization.folder import is_finished, read_config, read_study
 from arcube.optimization.study import resume_study
 
 FLAGS = ["--trajectories", "reference", "--ids", "1,2", "--points", "3", "--algorithm", "ga", "--population", "8"]
+MODE = "-,+,+,-"
 
 
 def _study(folder: Path, generations: int) -> Path:
     out = subprocess.run(
-        [sys.executable, "-m", "arcube", "study", *FLAGS, "--generations", str(generations), "--checkpoint-every", "1"]
+        [sys.executable, "-m", "arcube", "study", *FLAGS, f"--mode={MODE}", "--generations", str(generations)]
+        + ["--checkpoint-every", "1"]
         + ["--seeds", "1-2", "--out", str(folder), "--quiet"],
         capture_output=True,
         text=True,
@@ -125,3 +127,31 @@ def test_a_seed_folder_of_another_study_is_refused(studies: tuple[Path, Path], s
     shutil.rmtree(study / "seed_2")
     shutil.copytree(studies[0] / "seed_2", study / "seed_2")  # its own: accepted (finished, nothing to run)
     assert resume_study(study)["seeds"] == [1, 2]
+
+
+def test_a_runs_best_design_carries_its_working_mode(study: Path) -> None:
+    """``arcube evaluate --design run/best_design.json`` evaluated a run of --mode -,+,+,- in +,+,+,+: the file did
+    not say its mode."""
+    import json
+
+    from arcube.model.design import Design
+
+    for seed in ("seed_1", "seed_2"):
+        assert json.loads((study / seed / "summary.json").read_text())["mode"] == MODE
+        assert Design.from_json(study / seed / "best_design.json").mode == MODE
+
+
+def test_the_report_refuses_a_damaged_summary_and_takes_a_free_runs_mode_from_its_design(study: Path) -> None:
+    import numpy as np
+
+    from arcube.model.mechanism import parse_mode
+    from arcube.report import run_report
+
+    (study / "seed_1" / "summary.json").write_text("{")
+    with pytest.raises(InputError, match=r"summary.json: damaged .*delete it for a report without it"):
+        run_report.write_run_report(study / "seed_1")
+    where = study / "seed_1" / "config.toml"
+    chosen = run_report._mode({"mode": "free"}, {}, where, MODE)
+    np.testing.assert_array_equal(chosen, parse_mode(MODE))
+    with pytest.raises(InputError, match="neither summary.json nor best_design.json records it"):
+        run_report._mode({"mode": "free"}, {}, where, None)

@@ -46,6 +46,8 @@ def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
             pairs.append((name.strip(), v, str(item)))
     out: dict[str, float] = {}
     for name, v, shown in pairs:
+        if name in out:  # the last copy would win without a word
+            raise InputError.of(field, f"{shown!r}: {name} is given twice")
         if name not in SOURCE_NAMES and name not in GROUPS:
             raise InputError.of(
                 field,

@@ -22,6 +22,7 @@ from arcube.cli.common import (
     request_flags,
 )
 from arcube.cli.projection import Given, command, option
+from arcube.errors import InputError
 
 __all__ = ["register"]
 
@@ -65,6 +66,9 @@ def explore(given: Given) -> None:
     common.update(options=options_of(given, guarded=False), guarded=not given.get("no_guards"))
     design, plan = given.get("design", "paper"), one_plan(given)
     if "html" in given:
+        served = [given.flag(k) for k in ("port", "host", "save_path") if k in given]
+        if served:  # a static scene serves nothing: those flags would be ignored
+            raise InputError(f"--html writes a static scene, no app is served: leave {', '.join(served)} out")
         sys.stdout.write(f"{explore_api(design, plan, html=given.get('html'), **common)}\n")
         return
     serve = {k: given.get(k) for k in ("port", "host", "save_path") if k in given}

@@ -27,12 +27,15 @@ __all__ = ["register"]
 
 CSV_OUT = with_help(OUT, "Output CSV file (written atomically).", required=True)
 SPEED = option("--speed", "Drilling speed along each trajectory, mm/s. [default: 1]", float, params=("speed",))
+_UNUSED = ("options.guards.envelope_clearance_mm", "options.loads.encoder_deg", "options.loads.actuator_stiffness")
+"""Option flags joints would take and ignore: no envelope (--envelope) to keep clear of, and no accuracy columns
+(the encoders and the actuators' stiffness enter the accuracy of model §15, which joints does not write)."""
 FLAGS = [
     CSV_OUT,
     FORCE,
     SPEED,
     *[f for f in PLAN if f is not ENGINE],
-    *request_flags("clearances", "body", "loads", "masses"),
+    *[f for f in request_flags("clearances", "body", "loads", "masses") if f.key not in _UNUSED],
 ]
 
 

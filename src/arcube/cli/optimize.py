@@ -15,6 +15,7 @@ import typer
 
 from arcube.cli.common import DASK, OUT, QUIET, TRAJECTORIES, WORKERS, RichBar, masses_given, request_flags, with_help
 from arcube.cli.projection import Flag, Given, command, model_flags
+from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
 
 __all__ = ["PLANS", "RUN_FLAGS", "Progress", "print_summary", "register", "run_settings"]
@@ -34,6 +35,15 @@ RUN_FLAGS: list[Flag] = [
 def run_settings(given: Given, **fields: Any) -> RunSettings:
     """The :class:`arcube.RunSettings` of the flags given (``fields`` on top), the mass flags checked."""
     settings = RunSettings(**{**given.tree("run"), **fields})
+    chosen = given.get("run.algorithm")
+    if isinstance(chosen, str) and chosen.strip().lower() != settings.algorithm:  # objectives pick the algorithm
+        objectives = given.get("run.objectives")
+        shown = ",".join(objectives) if isinstance(objectives, (list, tuple)) else objectives
+        raise InputError(
+            f"{given.flag('run.algorithm')} {chosen} and {given.flag('run.objectives')} {shown}: "
+            f"{len(settings.run_objectives)} objectives are searched by {settings.algorithm} (model §15.5); leave "
+            f"{given.flag('run.algorithm')} out"
+        )
     if masses_given(given) or given.tree("run.options.masses"):
         settings.options.check_masses()
     return settings

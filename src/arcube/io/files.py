@@ -197,8 +197,9 @@ def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) ->
     into a temporary folder beside it, which is then renamed; returns its path.
 
     Raises:
-        InputError: ``out_dir`` is a link, a file or a folder that is not empty (named ``out``).
-        OSError: the file system refuses (nothing is left behind, not even the parents it made).
+        InputError: ``out_dir`` is a link, a file or a folder that is not empty, or cannot be made there (a parent
+            is a file, no permission) (named ``out``).
+        OSError: the file system refuses a write (nothing is left behind, not even the parents it made).
     """
     import shutil
 
@@ -213,8 +214,12 @@ def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) ->
         if any(out.iterdir()):
             raise InputError.of("out", f"{out}: the folder is not empty (give a new or empty folder)")
     made = [a for a in reversed(out.parents) if not a.exists()]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    try:  # the folder is named, not the temporary one beside it: it is what the user gave
+        _make_parent(out.parent, out)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    except OSError as exc:
+        _remove_made(made)
+        raise InputError.of("out", f"{out}: cannot create ({exc.strerror or exc})") from None
     try:
         for name, data in files.items():
             (tmp / name).write_bytes(data)
@@ -225,10 +230,15 @@ def write_folder(files: Mapping[str, bytes], out_dir: str | os.PathLike[str]) ->
         os.replace(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
-        for folder in reversed(made):
-            try:
-                folder.rmdir()
-            except OSError:
-                break
+        _remove_made(made)
         raise
     return out
+
+
+def _remove_made(made: list[Path]) -> None:
+    """Remove the folders a writer made (parents first in ``made``), deepest first, while they are empty."""
+    for folder in reversed(made):
+        try:
+            folder.rmdir()
+        except OSError:
+            break

@@ -107,6 +107,8 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
     for name, pair in items:
         if name not in INDEX and name != C_Z:
             raise InputError.of("RunSettings.bounds", f"{name!r}: not one of the 27 parameters or {C_Z}")
+        if name in out:  # the last copy would win without a word
+            raise InputError.of("RunSettings.bounds", f"{name}: given twice")
         try:
             lo, hi = (float(v) for v in pair)
         except (TypeError, ValueError):

@@ -245,10 +245,13 @@ class RunSettings(Settings):
         if self.dockings is not None and (self.setups != 1 or self.placement != "per-patient"):
             raise InputError.of(
                 "RunSettings.dockings",
-                "gives every docking its own placement: it needs setups 1 and docking per-patient",
+                "gives every docking its own placement: it needs RunSettings.setups 1 and RunSettings.placement "
+                "per-patient",
             )
         if self.setups == 2 and self.side is not None:
-            raise InputError.of("RunSettings.setups", "2 uses both sides (one placement each); drop side")
+            raise InputError.of(
+                "RunSettings.setups", "2 uses both sides (one placement each); leave RunSettings.side out"
+            )
         if not self.anatomy:
             if self.options.guards.clearance_mm is not None:
                 raise InputError.of("Guards.clearance_mm", "needs an anatomy (anatomy default or mesh files)")
