@@ -80,9 +80,9 @@ LEVEL_ORDER = ("C1", "C2", "C3", "C4", "C5", "C6", "C7")
 _SIDES = ("R", "L", "")
 # Below this an entry and a target are the same point: no drill axis can be defined.
 _MIN_LENGTH_MM = 1e-9
+# The shortest trajectory a plan may hold, mm: no screw or wire is shorter (cervical pedicle screws are 14-30 mm);
+# a plan written in metres has trajectories of some hundredths.
 SHORTEST_TRAJECTORY_MM = 1.0
-"""Shortest trajectory a plan may hold, mm: no screw or wire is shorter (cervical pedicle screws are 14-30 mm);
-a plan written in metres has trajectories of some hundredths."""
 _RIGID_TOL = 1e-6
 
 
