@@ -259,6 +259,14 @@ def test_a_plan_in_metres_is_refused_a_one_millimetre_trajectory_taken(tmp_path:
     [
         (["optimize", "--bounds", "d_x=40:50,d_x=60:70"], "error: --bounds d_x: given twice"),
         (
+            ["optimize", "--bounds", "d_x=40:50", "--free", "m_x"],
+            "error: --bounds d_x: not free, so its bound would be ignored",
+        ),
+        (
+            ["optimize", "--bounds", "mount_rx=-720:720", "--free", "all,mount"],
+            "error: --bounds mount_rx: mounting angles must stay within ±360 deg",
+        ),
+        (
             ["optimize", "--objectives", "eta_G,mass", "--algorithm", "ga"],
             "error: --algorithm ga and --objectives eta_G,mass: 2 objectives are searched by nsga2",
         ),
@@ -299,3 +307,12 @@ def test_explore_refuses_server_flags_with_a_static_scene(tmp_path: Path, monkey
     err = _error(["explore", "--html", "x.html", "--port", "9999", "--save", "d.json", "--points", "2"], capsys)
     assert err == "error: --html writes a static scene, no app is served: leave --port, --save out\n", err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bound_on_a_free_parameter_is_taken() -> None:
+    from arcube.cli.optimize import run_settings
+    from arcube.cli.projection import Given
+
+    assert run_settings(Given({"run.bounds": "alpha_x=30:120"})).bounds == {"alpha_x": (30.0, 120.0)}  # free: all
+    both = run_settings(Given({"run.bounds": "mount_rx=-360:360", "run.free": "all,mount"}))
+    assert both.bounds["mount_rx"] == (-360.0, 360.0)

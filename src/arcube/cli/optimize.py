@@ -44,6 +44,12 @@ def run_settings(given: Given, **fields: Any) -> RunSettings:
             f"{len(settings.run_objectives)} objectives are searched by {settings.algorithm} (model §15.5); leave "
             f"{given.flag('run.algorithm')} out"
         )
+    fixed = [n for n in settings.bounds if n not in settings.free] if "run.bounds" in given else []
+    if fixed:  # a parameter the search does not move keeps its start value: its bound would be ignored
+        raise InputError(
+            f"{given.flag('run.bounds')} {fixed[0]}: not free, so its bound would be ignored; add it to "
+            f"{given.flag('run.free')} or leave its bound out"
+        )
     if masses_given(given) or given.tree("run.options.masses"):
         settings.options.check_masses()
     return settings

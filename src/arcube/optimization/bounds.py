@@ -117,6 +117,8 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
             raise InputError.of("RunSettings.bounds", f"{name}={lo!r}:{hi!r}: need finite lo < hi")
         if (name in LENGTH_NAMES or name == C_Z) and lo <= 0.0:
             raise InputError.of("RunSettings.bounds", f"{name}: a length needs a lower bound > 0, got {lo:g}")
+        if name in MOUNT_NAMES and not (-360.0 <= lo and hi <= 360.0):  # as a design file's (one turn either way)
+            raise InputError.of("RunSettings.bounds", f"{name}: mounting angles must stay within ±360 deg")
         if name == "L" and lo < 0.0:
             raise InputError.of("RunSettings.bounds", f"L: the tool offset needs a lower bound >= 0, got {lo:g}")
         if name in ANGLE_NAMES and name.startswith(("alpha", "beta")) and not (0.0 < lo and hi < 180.0):
