@@ -316,3 +316,18 @@ def test_a_bound_on_a_free_parameter_is_taken() -> None:
     assert run_settings(Given({"run.bounds": "alpha_x=30:120"})).bounds == {"alpha_x": (30.0, 120.0)}  # free: all
     both = run_settings(Given({"run.bounds": "mount_rx=-360:360", "run.free": "all,mount"}))
     assert both.bounds["mount_rx"] == (-360.0, 360.0)
+
+
+def test_explore_blames_a_bad_host_not_the_port() -> None:
+    """``--host 'bad host'`` said "--port 8080 on bad host is in use or not available"."""
+    import socket
+
+    from arcube.explorer.app import check_port
+
+    with pytest.raises(InputError, match=r"^host 'bad host': not an address to listen on") as info:
+        check_port("bad host", 8080)
+    assert info.value.param == "host"
+    with socket.socket() as s:  # a port that is free now
+        s.bind(("127.0.0.1", 0))
+        free = s.getsockname()[1]
+    check_port("127.0.0.1", free)

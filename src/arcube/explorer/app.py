@@ -13,6 +13,7 @@ The viewer works in metres (three.js' near and far planes suit them); the librar
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import logging
 import socket
@@ -53,15 +54,24 @@ _TOOL_RGB, _TIP_RGB, _PATIENT_RGB, _SELF_RGB = (60, 60, 70), (20, 20, 20), (220,
 
 
 def check_port(host: str, port: int) -> None:
-    """InputError naming ``port`` when it is not a port number or something listens on it already."""
+    """InputError naming ``port`` when it is not a port number or something listens on it already, ``host`` when it is
+    not an address of this machine."""
     if isinstance(port, bool) or not isinstance(port, int) or not 0 < port < 65536:
         raise InputError.of("port", f"must be an integer in 1..65535, got {port!r}")
+    try:
+        socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError) as exc:  # the address is wrong, not the port
+        raise InputError.of(
+            "host", f"{host!r}: not an address to listen on ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
     with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as probe:
         probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds: TIME_WAIT is no conflict
         try:
             probe.bind((host, port))
             probe.listen(1)
         except OSError as exc:
+            if exc.errno == errno.EADDRNOTAVAIL:  # not one of this machine's addresses
+                raise InputError.of("host", f"{host}: not an address of this machine ({exc.strerror})") from None
             raise InputError.of(
                 "port", f"{port} on {host} is in use or not available ({exc.strerror or exc}); choose another"
             ) from None
