@@ -155,3 +155,16 @@ def test_the_report_refuses_a_damaged_summary_and_takes_a_free_runs_mode_from_it
     np.testing.assert_array_equal(chosen, parse_mode(MODE))
     with pytest.raises(InputError, match="neither summary.json nor best_design.json records it"):
         run_report._mode({"mode": "free"}, {}, where, None)
+
+
+def test_a_start_design_that_is_not_finite_is_refused(study: Path) -> None:
+    """A NaN in config.toml's [design] ran the whole run and failed writing best_design.json."""
+    import re
+
+    config = study / "seed_1" / "config.toml"
+    text = config.read_text()
+    edited = re.sub(r"(\[design\]\nm_x = )[^\n]+", r"\1nan", text)
+    assert edited != text
+    config.write_text(edited)
+    with pytest.raises(InputError, match=r"config.toml: \[design\]: parameter m_x is not finite"):
+        read_config(study / "seed_1")

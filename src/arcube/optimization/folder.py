@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
+from arcube.model.design import Design
 from arcube.optimization.build import build_model, check_engine
 from arcube.optimization.checkpoint import FORMAT_VERSION, read_run_file
 from arcube.optimization.run_config import RUN_FORMAT, RunConfig, executor_table
@@ -118,6 +119,8 @@ def _validated(path: Path, cfg: dict[str, Any]) -> RunConfig:
         )
     try:
         config = RunConfig.from_toml(cfg)
+        if config.design:  # the start design: a value that is not finite ran the whole run and failed at its end
+            Design.from_dict(dict(config.design), source="[design]")
         check_engine(config.engine_resolved)
         build_model(config)
     except InputError as exc:  # a setting the file holds: name the file and its [settings] key, not RunSettings
