@@ -168,3 +168,15 @@ def test_a_start_design_that_is_not_finite_is_refused(study: Path) -> None:
     config.write_text(edited)
     with pytest.raises(InputError, match=r"config.toml: \[design\]: parameter m_x is not finite"):
         read_config(study / "seed_1")
+
+
+def test_a_patients_table_whose_lists_differ_in_length_is_refused() -> None:
+    """Three trajectory ids for two points: the check compared the lengths as a chain and let this one through."""
+    from arcube.optimization.build import _points
+
+    pat = {"source": "p", "ids": ["1", "2", "3"], "sides": ["R", "L"], "entry": [[0, 0, 0], [1, 0, 0]]}
+    pat["target"] = [[0, 0, 20], [1, 0, 20]]
+    with pytest.raises(InputError, match=r"\[\[patients\]\] 1 \(p\): entry and target must be one \[x, y, z\] per"):
+        _points(0, pat)
+    entry, target, sides = _points(0, {**pat, "ids": ["1", "2"]})
+    assert entry.shape == target.shape == (2, 3) and sides == ["R", "L"]

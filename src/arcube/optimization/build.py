@@ -132,7 +132,7 @@ def _points(i: int, pat: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
         entry.ndim != 2
         or entry.shape[1:] != (3,)
         or target.shape != entry.shape
-        or len(ids) != len(entry) != len(sides)
+        or not len(ids) == len(entry) == len(sides)
     ):
         raise InputError(f"{where}: entry and target must be one [x, y, z] per trajectory id")
     validate_points([f"{where} trajectory {t}" for t in ids], ids, entry, target)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import os
 import time
 from collections import deque
 from pathlib import Path
@@ -141,7 +142,7 @@ def load_checkpoint(
 ) -> tuple[dict[str, Any] | None, list[tuple[bytes, Batch]]]:
     """(state, replay entries); (None, []) when the run was killed before its first checkpoint."""
     path = run_dir / "checkpoint" / "state.json"
-    if not path.exists() and not path.is_symlink():
+    if not os.path.lexists(path):
         saved = sorted(path.parent.glob("evals_*.npz")) if path.parent.is_dir() else []
         if len(saved) > 1:  # the second chunk is written after the first state.json: a state was there
             raise InputError(

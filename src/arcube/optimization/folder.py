@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import platform
 import shutil
 import tomllib
@@ -37,6 +38,7 @@ __all__ = [
     "placement_file",
     "read_config",
     "read_study",
+    "read_toml",
     "remove_folder",
     "seed_dir",
     "to_toml",
@@ -96,16 +98,17 @@ def read_config(run_dir: Path) -> tuple[RunConfig, bytes]:
     path = run_dir / "config.toml"
     if not run_dir.is_dir():
         raise InputError(f"{run_dir}: no such run folder")
-    if not path.exists() and not path.is_symlink():
+    if not os.path.lexists(path):
         raise InputError(f"{run_dir}: not an optimization run or study (no config.toml or study.toml)")
+    table, raw = read_toml(path)
+    return _validated(path, table), raw
+
+
+def read_toml(path: Path) -> tuple[dict[str, Any], bytes]:
+    """(parsed, bytes) of a run folder's TOML file (a regular file: :func:`read_run_file`); InputError naming it."""
     raw = read_run_file(path)
-    return _validated(path, _toml(path, raw)), raw
-
-
-def _toml(path: Path, raw: bytes) -> dict[str, Any]:
-    """A run folder's TOML file, parsed; InputError naming it."""
     try:
-        return tomllib.loads(raw.decode("utf-8"))
+        return tomllib.loads(raw.decode("utf-8")), raw
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"{path}: unreadable ({exc})") from None
 
@@ -191,10 +194,10 @@ def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any]
         raise InputError(f"{study_dir}: no such study or run folder")
     path = study_dir / "study.toml"
     for name in ("study.toml", "base_config.toml"):
-        if not (study_dir / name).exists() and not (study_dir / name).is_symlink():
+        if not os.path.lexists(study_dir / name):
             raise InputError(f"{study_dir}: not a study (no {name})")
-    study = _toml(path, read_run_file(path))
-    base = _toml(study_dir / "base_config.toml", read_run_file(study_dir / "base_config.toml"))
+    study, _ = read_toml(path)
+    base, _ = read_toml(study_dir / "base_config.toml")
     if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
         raise InputError(
             f"{path}: not an arcube study (format {study.get('format')!r} version {study.get('format_version')!r})"
@@ -208,7 +211,7 @@ def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any]
     if len(set(seeds)) != len(seeds):
         raise InputError(f"{path}: seed {next(s for s in seeds if seeds.count(s) > 1)} is listed twice")
     try:
-        executor_table({"workers": study.get("workers", 1), "dask": study.get("dask", "")})
+        executor_table({"workers": study.get("workers", 1), "dask": study.get("dask", "")}, prefix="")
     except ValueError as exc:
-        raise InputError(f"{path}: {str(exc).replace('executor.', '')}") from None
+        raise InputError(f"{path}: {exc}") from None
     return study, _validated(study_dir / "base_config.toml", base) if config else None

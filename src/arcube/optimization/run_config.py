@@ -44,15 +44,16 @@ def _frozen(value: Any) -> Any:
     return value
 
 
-def executor_table(table: Any) -> dict[str, Any]:
-    """A run folder's ``[executor]`` (``workers`` >= 1, ``dask`` an address or ""), checked: ValueError naming the key."""
+def executor_table(table: Any, prefix: str = "executor.") -> dict[str, Any]:
+    """A run folder's ``[executor]`` (``workers`` >= 1, ``dask`` an address or ""), checked: ValueError naming the key
+    (after ``prefix``: a study.toml holds them at its top level)."""
     if not isinstance(table, Mapping):
         raise ValueError("executor must be a table (workers, dask)")
     workers, dask = table.get("workers", 1), table.get("dask", "")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"executor.workers must be a whole number >= 1, got {workers!r}")
+        raise ValueError(f"{prefix}workers must be a whole number >= 1, got {workers!r}")
     if not isinstance(dask, str):
-        raise ValueError(f'executor.dask must be a scheduler address or "", got {dask!r}')
+        raise ValueError(f'{prefix}dask must be a scheduler address or "", got {dask!r}')
     return dict(table)
 
 

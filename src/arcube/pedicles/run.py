@@ -49,17 +49,17 @@ def read_calibration(folder: str | os.PathLike[str]) -> tuple[Any, np.ndarray, d
     info = load_json(d / "calibration.json")
     if not isinstance(info, dict) or not isinstance(info.get("settings"), dict):
         raise InputError(f"{d / 'calibration.json'}: not a calibration (no settings)")
-    identified = info.get("design")
+    identified, own = info.get("design"), load_json(d / "design.json")
+    if not isinstance(own, dict):
+        raise InputError(f"{d / 'design.json'}: a design file must hold one JSON object keyed by parameter names")
     if isinstance(identified, dict):  # the covariance belongs to this design: a design.json put there since is not it
-        own = load_json(d / "design.json")
-        own = own if isinstance(own, dict) else {}
         differ = sorted(k for k in set(identified) | set(own) if own.get(k) != identified.get(k))
         if differ:
             raise InputError(
                 f"{d / 'design.json'}: is not the design that calibration.json identified ({', '.join(differ[:4])}"
                 f"{' ...' if len(differ) > 4 else ''} differ): give the folder as arcube calibrate identify wrote it"
             )
-    return Design.load(d / "design.json"), read_covariance(d / COVARIANCE_FILE), info["settings"]
+    return Design.from_dict(own, source=str(d / "design.json")), read_covariance(d / COVARIANCE_FILE), info["settings"]
 
 
 def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:

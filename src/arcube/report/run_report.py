@@ -30,7 +30,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +42,7 @@ from arcube.evaluation.result import evaluate_design
 from arcube.options import GUARDED_OPTIONS, Options
 from arcube.model.mechanism import parse_mode
 from arcube.optimization.checkpoint import read_run_file
+from arcube.optimization.folder import read_toml
 from arcube.optimization.settings import table_placement
 from arcube.report.figures import read_history
 from arcube.report.html import write_evaluation_report
@@ -51,17 +51,14 @@ from arcube.io import TrajectorySet, load_trajectories, select
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
-    if not path.exists() and not path.is_symlink():
+    if not os.path.lexists(path):
         raise InputError(f"{path.parent}: not an optimization run (no config.toml)")
-    try:  # a regular file only: a FIFO put in its place is refused, not waited on
-        return tomllib.loads(read_run_file(path).decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(f"{path}: unreadable config ({exc})") from None
+    return read_toml(path)[0]  # a regular file only: a FIFO put in its place is refused, not waited on
 
 
 def _read_json(path: Path) -> dict[str, Any]:
     """summary.json as a dict; {} when absent (a run not finished); InputError when it is there but damaged."""
-    if not path.exists() and not path.is_symlink():
+    if not os.path.lexists(path):
         return {}
     try:
         data = json.loads(read_run_file(path).decode("utf-8"))
