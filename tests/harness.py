@@ -91,3 +91,58 @@ def assert_csvs_read_back(folder: Path) -> int:
         frame = pd.read_csv(path)
         assert frame.shape == (len(rows) - 1, len(rows[0])), path
     return len(files)
+
+
+# ----------------------------------------------------------------------------- run folders written elsewhere
+def skip_unless_replays_here(killed: Path, reference: Path, tmp: Path) -> None:
+    """Skip a test resuming the killed run folder ``killed`` (a fixture written by older code on some machine) when
+    this machine's floating point does not reproduce it, instead of failing for a reason that is not the code.
+
+    A checkpoint logs the SHA-256 of each batch of designs the optimizer asked for, not the designs: a CPU with other
+    SIMD features (numpy's ``simd_extensions``) can compute the GA's crossover and the evaluation differently in the
+    last bits, and such a folder does not replay there. So the same configuration (``killed``'s config.toml, read by
+    this code) is run afresh into ``tmp`` for as many generations as the checkpoint holds, and its batches' digests
+    compared with the logged ones: other digests skip. A regression of the code would change them as well, so this
+    fresh run's history is first asserted (not skipped) to be that of ``reference`` (a history.csv of the old code's
+    run, generations 1 on; ``seconds`` left out), its numbers to 1e-9 relative: a regression breaks that on any
+    machine, last bits of another CPU do not."""
+    import csv
+    import json
+    import math
+
+    import numpy as np
+
+    from arcube.optimization.folder import read_config
+    from arcube.optimization.run import start
+
+    def digests(folder: Path) -> list[bytes]:
+        state = json.loads((folder / "checkpoint" / "state.json").read_text(encoding="utf-8"))
+        out = []
+        for chunk in state["chunks"]:
+            with np.load(folder / "checkpoint" / chunk["file"], allow_pickle=False) as z:
+                out += [d.tobytes() for d in z["digest"]]
+        return out
+
+    def rows(path: Path) -> list[dict[str, str]]:
+        with open(path, newline="", encoding="utf-8") as f:
+            return [{k: v for k, v in row.items() if k != "seconds"} for row in csv.DictReader(f)]
+
+    def close(a: str, b: str) -> bool:
+        return a == b or (a != "" and b != "" and math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=0.0))
+
+    generations = int(json.loads((killed / "checkpoint" / "state.json").read_text(encoding="utf-8"))["generation"])
+    cfg, _ = read_config(killed)
+    fresh = tmp / f"fresh_{generations}_generations"
+    start(fresh, cfg.replace(settings=cfg.settings.replace(generations=generations)))
+    ran, want = rows(fresh / "history.csv"), rows(reference)[:generations]
+    assert len(ran) == len(want) == generations, (len(ran), len(want), generations)
+    for got, old in zip(ran, want, strict=True):
+        assert got.keys() == old.keys() and all(close(got[k], old[k]) for k in got), (
+            f"{killed.name}: a fresh run of its config by this code is not the old code's run: {got} != {old}"
+        )
+    logged = digests(killed)
+    if digests(fresh)[: len(logged)] != logged:
+        pytest.skip(
+            f"{killed} does not replay on this machine: made on a CPU with other SIMD features (floating point "
+            "differs in the last bits; see the fixture's README or the test's docstring)"
+        )

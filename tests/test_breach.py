@@ -80,8 +80,10 @@ def test_a_screw_wider_than_its_pedicle_always_breaches() -> None:
         loads=Loads(thrust_N=0.0),
     )
     rows = r.rows()
-    assert all(row["too_wide"] and row["p_breach"] == 1.0 for row in rows)
-    assert r.summary()["too_wide"] == list(plan.ids) and r.summary()["breach_probability"] is None
+    assert all(row["too_wide"] and row["p_breach"] == 1.0 and row["status"] == "screw_too_wide" for row in rows)
+    # every screw too wide: P = 1 by geometry, never null (it was None, printed "largest P(breach) is - (screw None)")
+    assert r.summary()["too_wide"] == list(plan.ids) and r.summary()["breach_probability"] == 1.0
+    assert r.summary()["worst_screw"] == plan.ids[0] and r.summary()["deciding_source"] is None
     assert all(math.isnan(row["p_major"]) and math.isnan(row["p_medial"]) for row in rows)
 
 

@@ -27,10 +27,12 @@ from arcube.model.design import PARAM_NAMES
 from harness import CHROMIUM_SKIP, start_chromium
 from harness import arcube as run_arcube
 
-# Both sides of the reference patient at C3 (one trajectory a side), 8 points per line, 16,000 evaluations, seed 1:
+# Both sides of the reference patient at C3 (one trajectory a side), 8 points per line, 16,000 evaluations, seeds 1 and 2:
 # about 50 s; the robot it finds meets every requirement at docking reference_R, its program built (reference_L misses
 # some). (Seed 2's robot meets reference_R at the plan's points, but its program is blocked between them: not served.)
-_BUDGET = ["--levels", "C3", "--points", "8", "--generations", "40", "--seeds", "1", "--quiet"]
+_BUDGET = ["--levels", "C3", "--points", "8", "--generations", "40", "--seeds", "1,2", "--quiet"]
+"""Seeds 1 and 2: on a CPU without AVX-512 (an AMD EPYC) seed 1 alone finds no docking that meets everything (the
+search takes another path in the last bits); seed 2 meets both there, seed 1 at least one on the machines before."""
 _JOB = ["design", "--trajectories", "reference", "--anatomy", "default", *_BUDGET, "--out", "d"]
 _ENTRY_KEYS = ["patient", "side", "m_x", "m_y", "m_z", "mount_rx", "mount_ry", "mount_rz"]
 

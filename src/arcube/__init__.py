@@ -56,7 +56,8 @@ _SOURCES: dict[str, str] = {
     **dict.fromkeys(("DockResult", "dock"), "arcube.design_job.coverage"),
     "DesignResult": "arcube.design_job",
     "JointTrajectory": "arcube.export.joints",
-    **dict.fromkeys(("BreachResult", "BreachSettings", "breach"), "arcube.pedicles"),
+    **dict.fromkeys(("BreachResult", "BreachSettings"), "arcube.pedicles"),
+    "breach": "arcube.design_job.at_patient",
     "BreachSummary": "arcube.pedicles.monte_carlo",
 }
 """Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
@@ -86,7 +87,8 @@ if TYPE_CHECKING:
     from arcube.design_job import DesignResult
     from arcube.design_job.coverage import DockResult, dock
     from arcube.export.joints import JointTrajectory
-    from arcube.pedicles import BreachResult, BreachSettings, breach
+    from arcube.design_job.at_patient import breach
+    from arcube.pedicles import BreachResult, BreachSettings
     from arcube.pedicles.monte_carlo import BreachSummary
     from arcube.explorer import explore
     from arcube.explorer.app import ExplorerApp

@@ -1,7 +1,7 @@
-"""``python -m arcube`` and the ``arcube`` script: install the Ctrl-C handling, then import and run the CLI.
+"""``python -m arcube`` and the ``arcube`` script: install the Ctrl-C and SIGTERM handling, then import and run the CLI.
 
 Importing the CLI takes seconds (NumPy, SciPy, pydantic, the commands); an interrupt in that time ends
-the process with one line and exit code 130 (:func:`arcube.interrupts.start_up`), and so does one
+the process with one line and exit code 130 (SIGTERM: 143; :func:`arcube.interrupts.start_up`), and so does one
 after the command has finished, while Python shuts down.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 
 def main() -> None:
-    """The ``arcube`` command: :func:`arcube.cli.main` under the Ctrl-C handling of :mod:`arcube.interrupts`."""
+    """The ``arcube`` command: :func:`arcube.cli.main` under the Ctrl-C and SIGTERM handling of :mod:`arcube.interrupts`."""
     import arcube.interrupts as interrupts  # not ``from arcube import``: that asks the package's __getattr__ first
 
     interrupts.start_up()

@@ -8,7 +8,10 @@
   design subtracts q0 from its joint angles before the controller commands them;
 * ``mode``: the working mode the calibration used (``"+,+,+,-"``);
 * ``c_z``: the z dyad's second link (mm), only when the input design had one (it does not move the
-  tool and is not identified: copied).
+  tool and is not identified: copied);
+* ``patient``, ``side`` and ``plan_digest``: whose docking the robot was measured at, when the input design says
+  (a docking file, or a robot's ``design.json`` with a side): a calibration holds at that docking only, and
+  ``arcube breach`` refuses it on another side or another patient's plan.
 
 :func:`load_design` reads any design a calibration starts from (a :class:`Design`, a preset, 27
 numbers, a plain design JSON, or a calibrated one).
@@ -19,7 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +45,7 @@ class StartDesign:
     c_z: float | None  # the z dyad's second link, mm, when the file had one
     mode: str | None  # the working mode the file records, if any
     calibrated: bool  # the file held q0_* keys
+    labels: dict[str, Any] = field(default_factory=dict)  # patient, side, plan_digest: the docking measured at
 
     @property
     def vector(self) -> NDArray[np.float64]:
@@ -56,16 +60,33 @@ def load_design(spec: Any) -> StartDesign:
     if isinstance(spec, StartDesign):
         return spec
     d = Design.coerce(spec)
-    return StartDesign(d, d.q0, d.c_z, d.mode, d.q0_deg is not None)
+    return StartDesign(d, d.q0, d.c_z, d.mode, d.q0_deg is not None, file_labels(spec))
+
+
+def file_labels(spec: Any) -> dict[str, Any]:
+    """The docking a design file says it is (``patient``, ``side``, ``plan_digest``: :data:`LABEL_KEYS`), {} for
+    anything else."""
+    from arcube.io.inputs import load_json
+    from arcube.model.design import LABEL_KEYS
+
+    if not isinstance(spec, (str, os.PathLike)) or Path(spec).suffix.lower() != ".json" or not Path(spec).is_file():
+        return {}
+    data = load_json(Path(spec))
+    return {k: data[k] for k in LABEL_KEYS if isinstance(data, dict) and data.get(k) is not None}
 
 
 def calibrated_dict(
-    design: ArrayLike, q0_deg: ArrayLike, mode: ArrayLike | str, c_z: float | None = None
+    design: ArrayLike,
+    q0_deg: ArrayLike,
+    mode: ArrayLike | str,
+    c_z: float | None = None,
+    labels: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The object of a calibrated ``design.json``: 27 parameters, ``q0_*`` (deg), ``mode``, and ``c_z`` if given."""
+    """The object of a calibrated ``design.json``: 27 parameters, ``q0_*`` (deg), ``mode``, ``c_z`` if given, and the
+    docking's ``labels`` (patient, side, plan_digest) if given."""
     q0 = tuple(float(v) for v in np.asarray(q0_deg, dtype=float).reshape(5))
     text = mode if isinstance(mode, str) else format_mode(mode)
-    return Design.from_vector(design).with_extras(q0_deg=q0, mode=text, c_z=c_z).to_file_dict()
+    return {**Design.from_vector(design).with_extras(q0_deg=q0, mode=text, c_z=c_z).to_file_dict(), **(labels or {})}
 
 
 def write_calibrated(
@@ -100,6 +121,7 @@ __all__ = [
     "StartDesign",
     "calibrated_dict",
     "design_digest",
+    "file_labels",
     "load_design",
     "read_calibrated",
     "signs_of",

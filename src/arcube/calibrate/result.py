@@ -102,8 +102,9 @@ class Calibration:
         return Design.from_dict(self.design_json())
 
     def design_json(self) -> dict[str, Any]:
-        """The object of design.json (27 parameters, q0_* deg, mode, c_z when the input had one)."""
-        return calibrated_dict(self.design, self.q0_deg, self.mode, self.start.c_z)
+        """The object of design.json (27 parameters, q0_* deg, mode, c_z when the input had one, and the docking it
+        was measured at when the input said: patient, side, plan_digest)."""
+        return calibrated_dict(self.design, self.q0_deg, self.mode, self.start.c_z, self.start.labels)
 
     def unknown_rows(self) -> list[dict[str, Any]]:
         """One row per unknown: name, kind, unit, scale, nominal, identified, deviation, sigma, identifiable, pivot,

@@ -36,6 +36,7 @@ from arcube.cli import (
 )
 from arcube.cli.projection import REGISTRY
 from arcube.errors import InputError
+from arcube.optimization.executors import worker_processes
 
 __all__ = ["app", "main"]
 
@@ -123,11 +124,14 @@ def _check_empty_paths(args: list[str]) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``arcube`` script: one-line errors and exit code 2 on bad input; Ctrl-C: one
-    line and exit code 130, also when a dependency swallowed the interrupt (:mod:`arcube.interrupts`)."""
+    line and exit code 130, SIGTERM: one line and 143, also when a dependency swallowed the interrupt
+    (:mod:`arcube.interrupts`). The command's worker processes stop with it, however it ends
+    (:func:`arcube.optimization.executors.worker_processes`)."""
     previous = None
     try:
         previous = interrupts.arm()
-        _run(argv)
+        with worker_processes():
+            _run(argv)
     except KeyboardInterrupt:
         _interrupted()
     finally:
@@ -135,8 +139,10 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _interrupted() -> None:
-    sys.stderr.write("error: interrupted\n")
-    sys.exit(130)
+    """``error: interrupted`` and exit code 130 (Ctrl-C), ``error: terminated`` and 143 (SIGTERM)."""
+    message, code = interrupts.ending()
+    sys.stderr.write(message.decode())
+    sys.exit(code)
 
 
 def _show_warning(show: Any) -> Any:
@@ -197,7 +203,7 @@ def _run(argv: list[str] | None) -> None:
         _error(exc)
     if (
         code == 130 or interrupts.pending()
-    ):  # typer turns Ctrl-C into Exit(130), returned (not raised) without standalone mode
+    ):  # typer turns Ctrl-C (and SIGTERM, raised as Ctrl-C) into Exit(130), returned (not raised) without standalone mode
         _interrupted()
     if isinstance(code, int) and code:
         sys.exit(code)

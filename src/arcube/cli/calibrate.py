@@ -152,9 +152,17 @@ def identify(given: Given) -> None:
     design.json (the calibrated design), calibration.json, residuals and the report page."""
     from arcube.calibrate import identify as identify_api
 
+    from dataclasses import replace
+
+    from arcube.calibrate.design_file import load_design
+    from arcube.model.robot import docking_labels
+
     plan = _plan(given)
+    start = load_design(design_at_side(given.get("design"), given.get("side"), alone=plan is None))
+    if not start.labels:  # a robot's design.json and a side: that docking (design.json records where it was measured)
+        start = replace(start, labels=docking_labels(given.get("design"), given.get("side")))
     cal = identify_api(
-        design_at_side(given.get("design"), given.get("side"), alone=plan is None),
+        start,
         given.get("measurements"),
         given.get("mode"),
         IdentifySettings().merged(given.tree("identify")),

@@ -133,8 +133,22 @@ ENVELOPE = [
 """``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (model §19.5)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
 SEED = option("--seed", "Random seed.", int, params=("seed", "RunSettings.seed"))
+
+
+def _workers(value: Any, flag: str) -> Any:
+    """A worker count as given, refused above :func:`arcube.optimization.executors.max_workers` (4 x the CPUs);
+    the least (1) is each command's own check."""
+    from arcube.optimization.executors import check_workers
+
+    return check_workers(value, flag)
+
+
 WORKERS = option(
-    "--workers", "Local worker processes for each population batch. [default: 1]", int, params=("workers",)
+    "--workers",
+    "Local worker processes for each population batch. [default: 1]",
+    int,
+    params=("workers",),
+    parse=_workers,
 )
 DASK = option("--dask", "Address of a dask.distributed scheduler to send batches to.", params=("dask",))
 QUIET = option("--quiet", "No progress bar.", bool)

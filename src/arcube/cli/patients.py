@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import sys
+
 import typer
 
 from arcube.cli.common import FORCE, OUT, SEED, check_replace, with_help
 from arcube.cli.projection import Given, command, model_flags, option
-from arcube.patients.cohort import patient_files, patient_paths, write_patients
+from arcube.patients.cohort import narrow_summary, patient_files, patient_paths, write_patients
 from arcube.patients.settings import PatientAnatomyFormat
 
 __all__ = ["register"]
@@ -27,7 +29,10 @@ FLAGS = [
 
 
 def patients(given: Given) -> None:
-    """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check."""
+    """Write virtual patients (bilateral C3-C7 trajectories, CSV + parameters JSON) and print their check.
+
+    A pedicle drawn no wider (or taller) than the default screw is named in one warning line on stderr (the exit code
+    stays 0); a folder's cohort.toml records how many there are."""
     from arcube.evaluation.envelope_drawing import plan_envelope_path, write_plan_envelope
 
     fmt = PatientAnatomyFormat().merged(given.tree("format"))
@@ -35,7 +40,7 @@ def patients(given: Given) -> None:
     check_replace(
         given, *patient_files(out, count, fmt.anatomy_format), *map(plan_envelope_path, patient_paths(out, count))
     )
-    for text in write_patients(
+    written = write_patients(
         bool(given.get("mean")),
         given.get("seed"),
         given.get("technique", "pedicle"),
@@ -44,8 +49,14 @@ def patients(given: Given) -> None:
         anatomy_format=fmt.anatomy_format,
         anatomy_spacing_mm=fmt.anatomy_spacing_mm,
         beside=write_plan_envelope,
-    ):
+    )
+    for text in written:
         typer.echo(text)
+    if (
+        written.narrow
+    ):  # drawn from the published spread (MORPHOMETRY.md section 6): a fact of the patient, not an error
+        its = "its screw" if len(written.narrow) == 1 else "their screws"
+        sys.stderr.write(f"warning: {narrow_summary(written.narrow)}; arcube breach marks {its} too_wide\n")
 
 
 def register(app: typer.Typer) -> None:

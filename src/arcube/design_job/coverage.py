@@ -34,7 +34,12 @@ from typing import Any
 from arcube.design_job.summaries import DockSummary
 from arcube.design_job.dock import DOCK_EVALUATIONS, DockingJob, DockingOutcome, solve_docking
 from arcube.design_job.dockings import PLACEMENT, Docking
-from arcube.design_job.requirements import REQUIREMENTS, Requirement, write_requirements_csv
+from arcube.design_job.requirements import (
+    REQUIREMENTS,
+    Requirement,
+    normalized_shortfall,
+    write_requirements_csv,
+)
 from arcube.model.robot import BuiltRobot, read_robot, write_docking
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
@@ -50,6 +55,7 @@ __all__ = [
     "dock",
     "dock_patients",
     "docking_jobs",
+    "row_violation",
     "run_jobs",
     "solve_only",
     "wilson",
@@ -57,8 +63,20 @@ __all__ = [
 
 DOCK_FORMAT = "arcube-dock"
 DOCKINGS = "dockings"
-COVERAGE_COLUMNS = ("patient", "side", "met", "binding", "margin", "unit", "missed", "eta_G", *PLACEMENT)
-"""The columns of coverage.csv, one row per side."""
+COVERAGE_COLUMNS = (
+    "patient",
+    "side",
+    "met",
+    "binding",
+    "margin",
+    "unit",
+    "missed",
+    "eta_G",
+    *PLACEMENT,
+    "binding_violation",
+)
+"""The columns of coverage.csv, one row per side (``binding_violation``: the normalized violation of model §16 by which
+the binding requirement was chosen, :func:`binding_row`)."""
 Z95 = 1.959963984540054
 """The normal quantile of a two-sided 95 % interval."""
 
@@ -97,9 +115,12 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float, float]:
 
 
 def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
-    """The requirement that binds at a docking: of the failed rows the one with the least relative margin (margin over its
-    limit, or the margin itself where the limit is 0; an unmeasured one last), else of the named requirements (:data:`REQUIREMENTS`: clearance,
-    torque, ...; not the pass/fail rows of reach, the guards and the program) the tightest relative to its limit."""
+    """The requirement that binds at a docking. Of the failed rows, the one with the largest normalized violation of
+    model §16 (:func:`row_violation`, one scale for every unit): a point not reached first (the reach row with its
+    V_reach > 0, or the z dyad's row: §16's V_reach outranks every fit shortfall), then the largest term of G (a guard's or
+    a clearance's mean over the points of min(s / S, 1), a limit's normalized shortfall), a row not measured last; ties
+    in the rows' order. Without a failed row, of the named requirements (:data:`REQUIREMENTS`: clearance, torque, ...;
+    not the pass/fail rows of reach, the guards and the program) the tightest relative to its limit."""
 
     def rel(r: dict[str, Any]) -> float:
         m = r["margin"]
@@ -107,9 +128,15 @@ def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
             return -math.inf
         return m / abs(r["limit"]) if r["limit"] else m
 
+    def rank(r: dict[str, Any]) -> tuple[int, float]:
+        v = row_violation(r)
+        if r["requirement"] in _NOT_REACHED and v != 0.0:  # V_reach > 0, or a z dyad open (NaN: no figure)
+            return 0, -v if math.isfinite(v) else math.inf
+        return (1, -v) if math.isfinite(v) else (2, 0.0)
+
     failed = [r for r in rows if not r["passed"]]
-    if failed:  # a measured one before an unmeasured one (NaN: the points where it holds are not reached)
-        return min(failed, key=lambda r: (rel(r) == -math.inf, rel(r)))
+    if failed:
+        return min(failed, key=rank)
     limits = [
         r
         for r in rows
@@ -119,6 +146,22 @@ def binding_row(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
         and math.isfinite(r["margin"])
     ]
     return min(limits, key=rel) if limits else None
+
+
+_NOT_REACHED = ("reach", "z_dyad")
+"""The rows of model §16's V_reach: the points the inverse kinematics does not solve, the z dyad's among them (its
+amendment)."""
+
+
+def row_violation(row: dict[str, Any]) -> float:
+    """A requirement row's normalized violation (model §16): its ``violation``
+    (:func:`~arcube.design_job.requirements.assess`, :func:`~arcube.design_job.requirements.judge`), else the normalized
+    shortfall of its limit from its margin (the program's and the breach's rows); NaN when it has none (not measured)."""
+    v = row.get("violation")
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return float(v)
+    kind = row.get("kind") or REQUIREMENTS.get(row["requirement"], ("max",))[0]
+    return normalized_shortfall(kind, float(row.get("limit") or 0.0), row.get("margin"))  # type: ignore[arg-type]
 
 
 def docking_jobs(
@@ -163,28 +206,25 @@ def _dock_and_write(job: DockingJob) -> DockingOutcome:
 def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: RunSettings, seed: int) -> None:
     """The docking's own files: its design (the robot unchanged, at the docking), its requirement rows and its report
     (the verdict, the requirements, the accuracy as built to the job's tolerance class, the program when built)."""
-    from arcube.design_job.outputs import PROGRAM, accuracy_budget, breach_check
-    from arcube.evaluation.result import evaluate_design
-    from arcube.model.mechanism import parse_mode
+    from arcube.design_job.outputs import (
+        PROGRAM,
+        accuracy_budget,
+        breach_check,
+        breach_risk,
+        docking_evaluation,
+        trajectory_verdict,
+    )
     from arcube.report import write_report
     from arcube.report.design_job import design_preface
 
     folder.mkdir(parents=True, exist_ok=True)
-    write_docking(outcome.design, folder / "design.json", outcome.patient, outcome.side)
+    write_docking(outcome.design, folder / "design.json", outcome.patient, outcome.side, d.plan)
     write_requirements_csv(folder / "requirements.csv", [{**r, "docking": outcome.label} for r in outcome.rows])
-    options = s.evaluation_options()
-    options = options.replace(
-        z_dyad=True,
-        c_z=outcome.design.c_z_mm,
-        outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True),
-    )
-    ev = evaluate_design(
-        d.design, d.plan, s.points, parse_mode(d.design.mode), options, "numpy", anatomy=d.anatomy, envelope=d.envelope
-    )
+    ev = docking_evaluation(d, s)  # the robot's c_z is always set (read_robot): the z dyad is closed with it
     perfect = next((r["value"] for r in outcome.rows if r["requirement"] == "lateral_error"), None)
     accuracy = {**accuracy_budget(folder, d.design, d.plan, str(d.design.mode), s, perfect), "docking": outcome.label}
     outcome.extra["accuracy_p95_mm"] = accuracy.get("lateral_error_p95_mm")
-    breach, _ = breach_check(folder, d, s, ())
+    breach, _ = breach_check(folder, d, s, (), trajectory_verdict(ev))
     outcome.extra["breach_probability"] = breach.get("breach_probability")
     program = folder / PROGRAM if (folder / PROGRAM / "program.json").exists() else None
     mine = {
@@ -201,6 +241,7 @@ def write_docking_folder(folder: Path, outcome: DockingOutcome, d: Docking, s: R
         program=program,
         preface=design_preface(mine, outcome.rows, d.design, c_z=d.design.c_z, folder=folder),
         title=f"AR-CUBE docking: patient {outcome.patient}, side {outcome.side}",
+        risk=breach_risk(breach),
     )
 
 
@@ -270,6 +311,7 @@ def binding_fields(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "binding_margin": None if bind is None else bind["margin"],
         "binding_unit": None if bind is None else bind.get("unit"),
         "binding_where": None if bind is None else (bind.get("part") or None),
+        "binding_violation": None if bind is None else row_violation(bind),
     }
 
 
@@ -328,9 +370,15 @@ def coverage_csv(entries: Sequence[dict[str, Any]]) -> str:
                 ";".join(e["missed"]),
                 "" if e["eta_G"] is None else f"{e['eta_G']:.6g}",
                 *(f"{e[n]:.6f}" for n in PLACEMENT),
+                _number(e.get("binding_violation")),
             ]
         )
     return buf.getvalue()
+
+
+def _number(v: Any) -> str:
+    """A figure of coverage.csv: 6 significant digits, empty when missing or not finite."""
+    return f"{v:.6g}" if isinstance(v, (int, float)) and math.isfinite(v) else ""
 
 
 def _stage(out: Path) -> Path:

@@ -39,7 +39,16 @@ from arcube.model.design import Design
 from arcube.optimization.config import PatientPlan
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["DOCK_EVALUATIONS", "DockingJob", "DockingOutcome", "docking_rng", "search", "solve_docking", "warm_starts"]
+__all__ = [
+    "DOCK_EVALUATIONS",
+    "DockingJob",
+    "DockingOutcome",
+    "docking_inputs",
+    "docking_rng",
+    "search",
+    "solve_docking",
+    "warm_starts",
+]
 
 DOCK_EVALUATIONS = 6000
 """Evaluations of one docking's search unless set (a search that holds four placements meeting everything stops earlier; 12 s
@@ -224,13 +233,12 @@ def docking_settings(settings: RunSettings, robot: BuiltRobot, side: str | None,
     )
 
 
-def _problem(job: DockingJob) -> tuple[Any, Docking, RunSettings, np.ndarray, np.ndarray]:
-    """The docking's fitness model (the design job's problem with the robot fixed), its Docking (plan, anatomy, envelope,
-    the robot at its first placement), the settings, and the placement bounds (lo, hi) ``(6,)``."""
+def docking_inputs(job: DockingJob) -> tuple[Any, Docking, RunSettings, Any]:
+    """What the docking is judged on, as the design job judges it: (the run's config, its Docking (plan of that side,
+    anatomy, envelope, the robot at its first placement), the settings, the skin meshes of the envelope or None)."""
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.evaluation.envelope import Envelope
-    from arcube.io import load_trajectories, select
-    from arcube.optimization.build import build_model
+    from arcube.io.load import load_plan
     from arcube.optimization.config import build_config, own_settings, patient_settings
 
     s = docking_settings(job.settings, job.robot, job.side, job.seed)
@@ -239,7 +247,7 @@ def _problem(job: DockingJob) -> tuple[Any, Docking, RunSettings, np.ndarray, np
     entry = cfg.patients[0]
     ps = patient_settings(s, own_settings(entry))
     spec = job.patient.plan
-    plan = select(load_trajectories(spec, s.transform), side=job.side, levels=s.levels, ids=s.ids)
+    plan = load_plan(spec, side=job.side, levels=s.levels, ids=s.ids, transform=s.transform)
     anatomy = resolve_anatomy(list(ps.anatomy), ps.anatomy_frame, spec, segments=ps.segments) if ps.anatomy else None
     skins = None
     record = json.loads(entry["envelope"]) if "envelope" in entry else None
@@ -247,11 +255,20 @@ def _problem(job: DockingJob) -> tuple[Any, Docking, RunSettings, np.ndarray, np
         from arcube.io.meshes import read_meshes
 
         skins = (tuple(read_meshes(list(ps.envelope), ps.anatomy_frame)),)
-    model = build_model(cfg, anatomies=(anatomy.distance,) if anatomy is not None else (), settings=s, skins=skins)
     envelope = None if record is None else Envelope.from_record(record, skins[0] if skins else ())
+    return cfg, Docking(job.patient.name, job.side or "both", plan, anatomy, envelope, job.robot.design), s, skins
+
+
+def _problem(job: DockingJob) -> tuple[Any, Docking, RunSettings, np.ndarray, np.ndarray]:
+    """The docking's fitness model (the design job's problem with the robot fixed), its Docking (plan, anatomy, envelope,
+    the robot at its first placement), the settings, and the placement bounds (lo, hi) ``(6,)``."""
+    from arcube.optimization.build import build_model
+
+    cfg, dock, s, skins = docking_inputs(job)
+    anatomy = dock.anatomy
+    model = build_model(cfg, anatomies=(anatomy.distance,) if anatomy is not None else (), settings=s, skins=skins)
     lo = np.array([model.space._bound(n)[0] for n in PLACEMENT])
     hi = np.array([model.space._bound(n)[1] for n in PLACEMENT])
-    dock = Docking(job.patient.name, job.side or "both", plan, anatomy, envelope, job.robot.design)
     return model, dock, s, lo, hi
 
 

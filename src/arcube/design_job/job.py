@@ -40,8 +40,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from arcube.coerce import design_mode
-from arcube.design_job.outputs import ACCURACY, PROGRAM, accuracy_budget, breach_check, build_program, closing_c_z
+from arcube.design_job.outputs import (
+    ACCURACY,
+    PROGRAM,
+    accuracy_budget,
+    breach_check,
+    build_program,
+    breach_risk,
+    closing_c_z,
+    docking_evaluation,
+)
 from arcube.design_job.dockings import (
     PLACEMENT,
     ROBOT_NAMES,
@@ -405,7 +413,6 @@ def _write_outputs(
     dockings: list[Docking],
     held_out: dict[str, Any] | None = None,
 ) -> DesignResult:
-    from arcube.evaluation.result import evaluate_design
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
 
@@ -417,10 +424,6 @@ def _write_outputs(
     robot = full if len(dockings) == 1 else {k: v for k, v in full.items() if k not in PLACEMENT}
     robot = {**robot, "c_z": first.c_z_mm, "dockings": entries}
     atomic_write_text(out / "design.json", json.dumps(robot, indent=2) + "\n")
-    options = s.evaluation_options()
-    options = options.replace(
-        outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True)
-    )
     from arcube.report.design_job import design_preface
 
     one = len(dockings) == 1
@@ -428,14 +431,11 @@ def _write_outputs(
     for d in dockings:
         folder = _folder(out, d, dockings)
         (out / DOCKINGS / d.label).mkdir(parents=True, exist_ok=True)
-        write_docking(d.design, out / DOCKINGS / d.label / "design.json", d.name, d.side)
+        write_docking(d.design, out / DOCKINGS / d.label / "design.json", d.name, d.side, d.plan)
         write_requirements_csv(
             out / DOCKINGS / d.label / "requirements.csv", [{**r, "docking": d.label} for r in d.rows]
         )
-        opts = options if d.design.c_z is None else options.replace(z_dyad=True, c_z=d.design.c_z)
-        ev = evaluate_design(
-            d.design, d.plan, s.points, design_mode(d.design), opts, "numpy", anatomy=d.anatomy, envelope=d.envelope
-        )
+        ev = docking_evaluation(d, s)
         evaluations.append(ev)
         # the perfect robot's lateral error beside it: the run's figure (one docking), else this docking's requirement row
         perfect = (
@@ -479,6 +479,7 @@ def _write_outputs(
                 program=program,
                 preface=preface,
                 title=f"AR-CUBE docking: patient {d.name}, side {d.side}",
+                risk=breach_risk(d.breach),
             )
     rows = merge_rows(dockings)
     robot_values = {**first.to_dict(), "c_z": first.c_z_mm}
@@ -527,6 +528,7 @@ def _write_outputs(
             out / "report.html",
             program=program,
             preface=design_preface(result, rows, first, c_z=first.c_z, folder=out),
+            risk=breach_risk(dockings[0].breach),
         )
     else:
         from arcube.report.dockings import write_dockings_report

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import re
 import shutil
+
+import numpy as np
 import time
 from pathlib import Path
 from typing import Any
@@ -17,13 +19,70 @@ from arcube.errors import InputError
 from arcube.model.design import Design
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["ACCURACY", "BREACH", "PROGRAM", "accuracy_budget", "breach_check", "build_program", "closing_c_z"]
+__all__ = [
+    "ACCURACY",
+    "BREACH",
+    "PROGRAM",
+    "accuracy_budget",
+    "breach_check",
+    "breach_risk",
+    "build_program",
+    "closing_c_z",
+    "docking_evaluation",
+    "trajectory_failures",
+    "trajectory_verdict",
+]
 
 PROGRAM = "program"
 ACCURACY = "accuracy"
 BREACH = "breach"
 BREACH_SAMPLES = 10_000
 """Samples of a docking's breach Monte Carlo (model §22.4's default)."""
+
+
+def docking_evaluation(d: Docking, s: RunSettings) -> Any:
+    """The evaluation a docking's report shows (:class:`~arcube.evaluation.result.Evaluation`): the NumPy reference at
+    the plan's points with the design job's guards and clearances, the z dyad with the robot's own c_z (model §19.2),
+    the docking's anatomy and envelope."""
+    from arcube.coerce import design_mode
+    from arcube.evaluation.result import evaluate_design
+
+    options = s.evaluation_options()
+    options = options.replace(
+        outputs=options.outputs.replace(clearances=True, tip_metrics=True, clearance_min_exact=True)
+    )
+    if d.design.c_z is not None:
+        options = options.replace(z_dyad=True, c_z=d.design.c_z)
+    return evaluate_design(
+        d.design, d.plan, s.points, design_mode(d.design), options, "numpy", anatomy=d.anatomy, envelope=d.envelope
+    )
+
+
+def trajectory_verdict(evaluation: Any) -> np.ndarray:
+    """``(J,)`` the design job's verdict of each trajectory of an evaluation (:func:`docking_evaluation`): every point
+    reachable with the guards (model §16-17), as the docking's report tabulates it (100 % reachable)."""
+    return np.array([t.reachable_fraction >= 1.0 for t in evaluation.per_trajectory()], dtype=bool)
+
+
+def _group(plan: Any) -> str:
+    """The name :func:`arcube.pedicles.run.breach` gives one design's screws: their one side, or ``both``."""
+    sides = set(plan.sides)
+    return next(iter(sides)) if len(sides) == 1 else "both"
+
+
+def breach_risk(figures: dict[str, Any] | None) -> dict[str, float] | None:
+    """Screw id -> P(breach) (NaN where not reached) of a docking's breach figures (:func:`breach_check`), for the
+    colours of its report's 3D scene; None when the docking has none."""
+    screws = (figures or {}).get("screws")
+    if not screws:
+        return None
+    return {s["trajectory"]: float("nan") if s["p_breach"] is None else float(s["p_breach"]) for s in screws}
+
+
+def trajectory_failures(evaluation: Any) -> dict[str, str]:
+    """Trajectory id -> why the design job refuses it (the report's "first failure", ``transmission at k=0``), for the
+    trajectories :func:`trajectory_verdict` refuses."""
+    return {t.id: t.first_failure or "" for t in evaluation.per_trajectory() if t.reachable_fraction < 1.0}
 
 
 def build_program(folder: Path, d: Docking, s: RunSettings, reqs: Sequence[Requirement]) -> list[dict[str, Any]]:
@@ -123,12 +182,17 @@ def closing_c_z(design: Design, plan: Any, s: RunSettings, summary: dict[str, An
 
 
 def breach_check(
-    out: Path | None, d: Docking, s: RunSettings, reqs: Sequence[Requirement]
+    out: Path | None,
+    d: Docking,
+    s: RunSettings,
+    reqs: Sequence[Requirement],
+    reached: np.ndarray | None = None,
 ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """The breach probability of one docking's screws (model §22), the robot as built to ``s.tolerance_class`` with the
     default registration and the run's thrust, written to ``out/breach`` when ``out`` is given: (its figures for
     summary.json, the ``breach_probability`` row when the requirement is set). A docking whose screws cannot be judged
-    (no side, no level) has its reason instead of figures, and fails the requirement."""
+    (no side, no level) has its reason instead of figures, and fails the requirement. ``reached`` ``(J,)``: the
+    docking's verdict per trajectory (:func:`trajectory_verdict`; computed when None): a screw it refuses has no P."""
     from arcube.pedicles.run import breach, write_breach
 
     acc = s.accuracy_settings()
@@ -140,8 +204,20 @@ def breach_check(
         ),
         None,
     )
+    if reached is None:
+        reached = trajectory_verdict(docking_evaluation(d, s))
     try:
-        result = breach(d.design, d.plan, tolerances=acc, samples=BREACH_SAMPLES, seed=acc.seed, loads=s.options.loads)
+        result = breach(
+            d.design,
+            d.plan,
+            tolerances=acc,
+            samples=BREACH_SAMPLES,
+            seed=acc.seed,
+            loads=s.options.loads,
+            reached=reached,
+            notes={_group(d.plan): {"docking": d.label, "how": "the design job's docking"}},
+            patient=d.name,
+        )
     except InputError as exc:
         rows = (
             []
@@ -170,10 +246,13 @@ def breach_check(
                 "p_robot_alone",
                 "p_registration_alone",
                 "p_deflection_alone",
+                "status",
+                "deciding_source",
             )
         }
         for r in result.rows()
     ]
+    figures.update(not_reached=summary["not_reached"], deciding_source=summary["deciding_source"])
     if row is None:
         return figures, []
     value = (

@@ -18,8 +18,9 @@ A requirement is a limit on one figure over the points where it applies:
   transmission 20 deg, kappa_max 100, a single assembly mode) in one working mode.
 
 :func:`assess` re-evaluates a design with the NumPy reference (not the kernel the optimizer ran)
-and returns one row per requirement: its limit, the value, the margin, pass or fail, and where it
-is tightest (patient, trajectory, segment, point, part or actuator).
+and returns one row per requirement: its limit, the value, the margin, pass or fail, where it
+is tightest (patient, trajectory, segment, point, part or actuator), and its ``violation``: the
+requirement's term of model §16's graded violation, a pure number on one scale for every row (see :func:`assess`).
 """
 
 from __future__ import annotations
@@ -34,11 +35,13 @@ import numpy as np
 from arcube.errors import InputError
 from arcube.evaluation.engine import evaluate_task
 from arcube.evaluation.performance import ACTUATOR_NAMES
-from arcube.evaluation.reference import FAILURES
+from arcube.evaluation.reference import FAILURES, GRADE_SCALES, IK_FAILURES, _guard_checks
 from arcube.evaluation.standoff import approach_lines
 from arcube.evaluation.task import build_task
 from arcube.metrics import METRICS, metric
 from arcube.model.body import PART_NAMES
+from arcube.model.design import unpack
+from arcube.model.mechanism import inverse_kinematics
 from arcube.optimization.settings import RunSettings
 from arcube.options import GUARDED_OPTIONS, Options
 
@@ -51,7 +54,9 @@ __all__ = [
     "Requirement",
     "assess",
     "design_settings",
+    "guard_terms",
     "judge",
+    "normalized_shortfall",
     "program_rows",
     "requirement_figure",
     "requirements_from",
@@ -72,6 +77,9 @@ DOCKING_KEYS: dict[str, str] = {m.name: m.docking_key for m in METRICS if m.requ
 DEFAULTS: dict[str, float] = {m.name: m.default_limit for m in METRICS if m.requirement and m.default_limit is not None}
 """The limits of ``arcube design`` unless changed (``--min clearance=8``) or dropped (``--no-clearance``)."""
 _GUARDS = ("guard/rho_max", "guard/transmission", "guard/kappa_max", "guard/single_assembly_mode")
+_CLEARANCE_SCALES = {"clearance_mm": "clearance", "self_clearance_mm": "clearance", "envelope_clearance_mm": "envelope"}
+"""The key of :data:`~arcube.evaluation.reference.GRADE_SCALES` (model §16's scale S) of each clearance guard, by the
+:attr:`~arcube.metrics.Metric.guard_option` of its requirement."""
 
 
 @dataclass(frozen=True)
@@ -159,6 +167,21 @@ def assess(
     per patient the envelope of model §19.5 (an :class:`~arcube.evaluation.envelope.Envelope`), or ();
     ``accuracy``: the :class:`~arcube.accuracy.settings.ToleranceSettings` of ``lateral_error_wc`` and
     ``lateral_error_rms`` (default class m), computed by the NumPy first order of model §20.3.
+
+    Each row's ``violation`` is its term of model §16's graded violation, the worst over the patients, a pure number
+    comparable across rows whatever their units (:func:`arcube.design_job.coverage.binding_row` ranks by it; ``value``,
+    ``margin`` and ``unit`` stay the requirement's own):
+
+    * ``reach``: V_reach over the patient's points (the plan's and the approach lines'): the fraction where the inverse
+      kinematics has no solution or eta_L = inf, and, with the z-dyad guard on, where the z dyad cannot close (§16's
+      amendment: the dyad is closed with the design's own c_z, 19.2), plus their domain excess; 0 when only guards fail;
+    * each guard of model §8.2 (``value``: its failing points) and each clearance requirement (a guard of 14.3 and 19.5):
+      the mean over the points of min(s / S, 1), s its shortfall at the point and S its scale (clearances 10 mm, rho_max
+      10 deg, each transmission sine sin 20 deg, kappa_max kappa_max, 1 outside the majority assembly mode), counted
+      where the inverse kinematics solves the point, also where another guard fails first (so a guard row met can carry
+      a violation); a point adds one such term per transmission sine;
+    * every other requirement, a limit: its normalized shortfall (:func:`normalized_shortfall`);
+    * NaN where the value is not measured (no point where it holds is reached).
     """
     holding = any(r.name == "holding_torque" for r in reqs)  # model §18.2 (needs a valid mass model)
     opts = options.replace(
@@ -177,13 +200,19 @@ def assess(
         "part": "",
     }
     guard_fail = {g: 0 for g in _GUARDS}
+    # model §16: V_reach, and each guard's (and clearance requirement's) term of G, the worst over the patients
+    ik_last = IK_FAILURES + int(opts.guards.z_dyad)  # the z dyad's code is an IK failure (§16's amendment, 19.2)
+    reach_violation, fit = 0.0, dict[str, float]()
     for p, (x, plan, anat) in enumerate(zip(designs, plans, anatomies)):
         dist = None if anat is None else anat.distance
         env = envelopes[p] if envelopes else None
         drill = build_task(plan.entry, plan.target, points)
         E_a, e_a = approach_lines(plan.entry, plan.target, anat, points, standoff_mm)
+        xv = np.asarray(x, float)
+        own = _own_c_z(xv, opts)
+        v_reach, n_points, sums = 0.0, 0, dict.fromkeys(fit, 0.0)
         for segment, E, e in (("drill", drill.E, drill.e), ("approach", E_a, e_a)):
-            res = evaluate_task(np.asarray(x, float), E, e, mode, opts, engine=engine, anatomy=dist, envelope=env)
+            res = evaluate_task(xv, E, e, mode, opts, engine=engine, anatomy=dist, envelope=env, c_z=own)
             pts = res.points
             ok = np.asarray(pts.reachable)
             failure = np.asarray(pts.failure)
@@ -195,9 +224,14 @@ def assess(
                 )
             for g in _GUARDS:
                 guard_fail[g] += int(np.sum(failure == FAILURES.index(g) + 1))
+            v_reach += float(res.violation_reach)
+            n_points += failure.size
+            solved = (failure == 0) | (failure > ik_last)  # the points the inverse kinematics solves (model §16)
+            for name, term in guard_terms(xv, E, e, mode, opts, pts, solved).items():
+                sums[name] = sums.get(name, 0.0) + float(np.sum(term))
             robust = None
             if segment == "drill" and any(r.name in ROBUST_FIGURES for r in reqs):
-                robust = robust_figures(np.asarray(x, float), E, e, mode, accuracy)
+                robust = robust_figures(xv, E, e, mode, accuracy)
             for r in reqs:
                 if (segment == "approach" and REQUIREMENTS[r.name][2] == "drill") or r.name in CHECKED_AFTER:
                     continue
@@ -206,6 +240,10 @@ def assess(
                 else:
                     values, part = requirement_figure(pts, r.name, () if env is None else tuple(env.names))
                 values = np.where(np.isfinite(values), values, np.nan)
+                scale = _clearance_scale(r.name)
+                if scale is not None:  # a guard of model §16: min(s / S, 1) at each point the IK solves
+                    term = np.minimum(np.maximum(r.limit - values, 0.0) / scale, 1.0)
+                    sums[r.name] = sums.get(r.name, 0.0) + float(np.sum(np.where(solved, np.nan_to_num(term), 0.0)))
                 if np.all(np.isnan(values)):
                     continue
                 i = int(np.nanargmin(values) if r.kind == "min" else np.nanargmax(values))
@@ -213,6 +251,10 @@ def assess(
                 old = worst.get(r.name)
                 if old is None or (v < old["value"] if r.kind == "min" else v > old["value"]):
                     worst[r.name] = {"value": v, "where": _where(p, plan.ids, segment, points, i), "part": part(i)}
+        reach_violation = max(reach_violation, v_reach)
+        for name, total in sums.items():
+            fit[name] = max(fit.get(name, 0.0), total / n_points)
+    reach["violation"] = reach_violation
     rows = [reach]
     for g in _GUARDS:
         rows.append(
@@ -224,21 +266,82 @@ def assess(
                 "unit": "failing points",
                 "where": {},
                 "part": "",
+                "violation": fit.get(g.split("/")[1], 0.0),
             }
         )
     for r in (r for r in reqs if r.name not in CHECKED_AFTER):  # the program's and the breach's rows come after
         w = worst.get(r.name, {"value": math.nan, "where": {}, "part": ""})
-        rows.append({"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], **w})
+        row = {"requirement": r.name, "kind": r.kind, "limit": r.limit, "unit": REQUIREMENTS[r.name][1], **w}
+        if _clearance_scale(r.name) is not None:
+            row["violation"] = fit.get(r.name, 0.0) if math.isfinite(w["value"]) else math.nan
+        rows.append(row)
     return judge(rows)
 
 
+def _clearance_scale(name: str) -> float | None:
+    """Model §16's scale S (mm) of a requirement the search meets as a guard (the clearances), None for a limit."""
+    option = metric(name).guard_option
+    return None if option is None else GRADE_SCALES[_CLEARANCE_SCALES[option]]
+
+
+def _own_c_z(x: np.ndarray, options: Options) -> float | None:
+    """The design's own z-dyad link (mm) when the z-dyad guard is on, so that an open dyad is a point not reached
+    (model §16's amendment): the options' c_z (the design job sets the design's, 19.2), else d_z (19.1); None when off."""
+    if not options.guards.z_dyad:
+        return None
+    return float(options.guards.c_z) if options.guards.c_z is not None else float(unpack(x).d[2])
+
+
+def guard_terms(
+    x: np.ndarray, E: np.ndarray, e: np.ndarray, mode: Any, options: Options, pts: Any, solved: np.ndarray
+) -> dict[str, np.ndarray]:
+    """Per point ``(P,)``, each active guard of model §8.2's term of model §16's G, by the guard's row name: min(s / S, 1)
+    with the reference's scales (:data:`~arcube.evaluation.reference.GRADE_SCALES`; the transmission's summed over its
+    seven sines; ``kappa_max``'s scale kappa_max), and for ``single_assembly_mode`` 1 outside the task's majority
+    assembly mode (taken, as the reference does, over the points that pass every other guard); 0 where the inverse
+    kinematics does not solve the point (``solved`` ``(P,)``). The z dyad is not among them (an IK failure, §16's
+    amendment). ``pts``: the task's :class:`~arcube.evaluation.reference.PointResults` of design ``x`` ``(27,)`` at
+    (E, e) ``(P, 3)`` with ``options``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sol = inverse_kinematics(x, E, e, np.asarray(mode, float))
+        kappa = np.asarray(pts.kappa, float)
+        eta = np.max(
+            np.where(np.isnan(kappa), np.inf, kappa), axis=-1
+        )  # eta_L before the guards, inf without a solution
+        out = {
+            reason.split("/")[1]: np.where(solved, grade, 0.0)
+            for reason, _, grade in _guard_checks(sol, x, eta, options)
+            if reason != "guard/z_dyad"
+        }
+        if options.guards.single_assembly_mode:
+            asm = sol.assembly
+            code = ((asm[..., 0] > 0) * 4 + (asm[..., 1] > 0) * 2 + (asm[..., 2] > 0)).astype(np.int64)
+            failure = np.asarray(pts.failure)
+            before = (failure == 0) | (failure == FAILURES.index("guard/single_assembly_mode") + 1)
+            majority = int(np.argmax(np.bincount(code[before], minlength=8)))  # ties: the lowest code
+            out["single_assembly_mode"] = np.where(solved & (code != majority), 1.0, 0.0)
+    return out
+
+
 def judge(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Each row's margin (value - limit for ``min``, limit - value for ``max``) and pass/fail (NaN fails)."""
+    """Each row's margin (value - limit for ``min``, limit - value for ``max``) and pass/fail (NaN fails); and its
+    ``violation``, unless the row carries one (:func:`assess`'s reach, guards and clearances): the normalized shortfall
+    of a limit (:func:`normalized_shortfall`)."""
     for row in rows:
         v, lim = row["value"], row["limit"]
         row["margin"] = (v - lim) if row["kind"] == "min" else (lim - v)
         row["passed"] = bool(math.isfinite(v) and row["margin"] >= 0.0)
+        row.setdefault("violation", normalized_shortfall(row["kind"], lim, row["margin"]))
     return rows
+
+
+def normalized_shortfall(kind: str, limit: float, margin: float) -> float:
+    """A limit's term of model §16's G from its margin, as the optimizer grades a --max / --min
+    (:func:`arcube.optimization.objectives.limit_shortfall`): (value - limit) / limit above a ``max``, (limit - value) /
+    max(|limit|, 1) below a ``min``, 0 when met; NaN for a margin not measured or a ``max`` of 0 (no scale)."""
+    if not isinstance(margin, (int, float)) or not math.isfinite(margin) or (kind == "max" and not limit):
+        return math.nan
+    return max(-float(margin), 0.0) / (abs(float(limit)) if kind == "max" else max(abs(float(limit)), 1.0))
 
 
 def program_rows(reqs: Sequence[Requirement], motors: Mapping[str, Mapping[str, float]] | None) -> list[dict[str, Any]]:

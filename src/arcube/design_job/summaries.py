@@ -28,7 +28,8 @@ class DesignSummary(RunSummary):
     robot: dict[str, float]
     """The chosen robot's parameters (mm, deg) with its c_z."""
     dockings: list[dict[str, Any]]
-    """One entry per docking: who, met, the figures of model §19.4's table, binding requirement, folder."""
+    """One entry per docking: who, met, the figures of model §19.4's table, binding requirement (with its margin and
+    ``binding_violation``), folder."""
     requirements: list[dict[str, Any]]
     """requirements.csv's rows."""
     accuracy: dict[str, Any]
@@ -58,7 +59,9 @@ class DockSummary(Summary):
     c_z_assumed: bool
     """Whether the robot's c_z was not in its file (then d_z)."""
     dockings: list[dict[str, Any]]
-    """One entry per side: who, met, missed, binding requirement and margin, the placement, the search's figures."""
+    """One entry per side: who, met, missed, binding requirement and margin (``binding``, ``binding_margin``,
+    ``binding_unit``, ``binding_where``, and ``binding_violation``: the normalized violation of model §16 by which it was
+    chosen, :func:`~arcube.design_job.coverage.binding_row`), the placement, the search's figures."""
     coverage: float
     """Sides served / sides."""
     coverage_low: float

@@ -236,7 +236,7 @@ EXTRA_KEYS: tuple[str, ...] = ("c_z", "mode", "zdyad_elbow", *Q0_KEYS)
 """What a design file may carry beside the 27 parameters (see :class:`Design`)."""
 _LISTS = ("placements", "dockings")
 """Lists a run or design job writes beside a design (each patient's or docking's placement): not part of it."""
-LABEL_KEYS: tuple[str, ...] = ("patient", "side")
+LABEL_KEYS: tuple[str, ...] = ("patient", "side", "plan_digest")
 """What a docking file says about itself (whose docking, which side): checked, not part of the design."""
 
 

@@ -24,7 +24,33 @@ from arcube.errors import InputError
 from arcube.io.inputs import load_json, short_repr
 from arcube.model.design import PLACEMENT, ROBOT_NAMES, Design
 
-__all__ = ["BuiltRobot", "WarmStart", "design_at_side", "read_robot", "write_docking"]
+__all__ = [
+    "BuiltRobot",
+    "PLAN_DIGEST",
+    "WarmStart",
+    "design_at_side",
+    "docking_labels",
+    "read_robot",
+    "trajectory_digests",
+    "write_docking",
+]
+
+PLAN_DIGEST = "plan_digest"
+"""The key of a docking file that lists its trajectories' digests (:func:`trajectory_digests`): whose plan it docks."""
+DIGEST_DECIMALS = 4
+"""Entry and target points are compared to 1e-4 mm: a plan written to a file and read back is the same plan."""
+
+
+def trajectory_digests(entry: np.ndarray, target: np.ndarray) -> tuple[str, ...]:
+    """One digest per trajectory: 16 hex digits of the SHA-256 of its entry and target ``(T, 3)`` mm, rounded to
+    :data:`DIGEST_DECIMALS`. Two plans share a trajectory when they share its digest, whatever their names."""
+    import hashlib
+
+    pts = np.round(np.concatenate([np.asarray(entry, float), np.asarray(target, float)], axis=-1), DIGEST_DECIMALS)
+    return tuple(
+        hashlib.sha256(",".join(f"{v + 0.0:.{DIGEST_DECIMALS}f}" for v in row).encode()).hexdigest()[:16]
+        for row in pts.reshape(-1, 6)
+    )
 
 
 @dataclass(frozen=True)
@@ -37,6 +63,15 @@ class WarmStart:
     entry: np.ndarray | None = None
     target: np.ndarray | None = None
     side: str | None = None  # R or L, when the file says
+    digests: tuple[str, ...] | None = None  # its trajectories' (trajectory_digests), when the file records them
+
+    def docks(self, digests: tuple[str, ...]) -> bool | None:
+        """Whether this docking is of the trajectories ``digests`` (each of them among its own); None when the file
+        records no trajectories to tell."""
+        own = self.digests
+        if own is None and self.entry is not None and self.target is not None:
+            own = trajectory_digests(self.entry, self.target)
+        return None if own is None else set(digests) <= set(own)
 
 
 @dataclass(frozen=True)
@@ -157,6 +192,7 @@ def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
                     str(data.get("patient", "own")) + (f"_{data['side']}" if data.get("side") else ""),
                     own,
                     side=data.get("side"),
+                    digests=_digests(data.get(PLAN_DIGEST), str(p)),
                 )
             )
     else:
@@ -170,13 +206,33 @@ def read_robot(path: str | os.PathLike[str]) -> BuiltRobot:
     return BuiltRobot(str(p), design, tuple(starts), assumed)
 
 
-def write_docking(design: Design, path: str | os.PathLike[str], patient: str, side: str) -> None:
-    """Write one docking's complete design (atomically): the design file's keys, then ``patient`` and ``side``."""
+def _digests(value: Any, where: str) -> tuple[str, ...] | None:
+    """A docking file's ``plan_digest`` (None when absent); InputError unless a list of 16-hex-digit texts."""
+    if value is None:
+        return None
+    if (
+        not isinstance(value, list)
+        or not value
+        or not all(isinstance(v, str) and len(v) == 16 and all(c in "0123456789abcdef" for c in v) for v in value)
+    ):
+        raise InputError(
+            f"{where}: {PLAN_DIGEST} must be the list of its trajectories' digests (16 hex digits each), "
+            f"got {short_repr(value)}"
+        )
+    return tuple(value)
+
+
+def write_docking(design: Design, path: str | os.PathLike[str], patient: str, side: str, plan: Any = None) -> None:
+    """Write one docking's complete design (atomically): the design file's keys, then ``patient`` and ``side``, and
+    with ``plan`` (its TrajectorySet) the digests of its trajectories (``plan_digest``: whose plan it docks)."""
     import json
 
     from arcube.io.files import atomic_write_text
 
-    atomic_write_text(path, json.dumps({**design.to_file_dict(), "patient": patient, "side": side}, indent=2) + "\n")
+    data = {**design.to_file_dict(), "patient": patient, "side": side}
+    if plan is not None:
+        data[PLAN_DIGEST] = list(trajectory_digests(plan.entry, plan.target))
+    atomic_write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 def _design_data(design: Any) -> dict[str, Any] | None:
@@ -188,6 +244,22 @@ def _design_data(design: Any) -> dict[str, Any] | None:
         return None
     data = load_json(p)
     return data if isinstance(data, dict) else None
+
+
+def docking_labels(design: Any, side: str | None) -> dict[str, Any]:
+    """Whose docking ``design`` is on ``side``: ``patient``, ``side`` and ``plan_digest`` (what a docking file records),
+    for a robot's ``design.json`` with one docking on that side; {} for anything else (a docking file carries its own)."""
+    data = _design_data(design)
+    if data is None or side is None or not isinstance(data.get("dockings"), list) or "m_x" in data:
+        return {}
+    here = [w for w in read_robot(design).starts if w.side == side.strip().upper()]
+    if len(here) != 1:
+        return {}
+    w = here[0]
+    labels: dict[str, Any] = {"patient": w.label.rsplit("_", 1)[0], "side": w.side}
+    if w.entry is not None and w.target is not None:
+        labels[PLAN_DIGEST] = list(trajectory_digests(w.entry, w.target))
+    return labels
 
 
 def design_at_side(design: Any, side: str | None, *, alone: bool = False) -> Any:

@@ -1,19 +1,142 @@
 """Where a population's designs are evaluated: in this process, in local worker processes, or on a
-dask.distributed cluster. Each executor maps ``X`` ``(n, n_var)`` to the model's batch dict."""
+dask.distributed cluster. Each executor maps ``X`` ``(n, n_var)`` to the model's batch dict.
+
+Local worker processes are :class:`WorkerProcess` es: they stop as on Ctrl-C when the command is interrupted or
+terminated, and when their parent is gone, however it ended (:mod:`arcube.interrupts`). The command line makes
+every process pool of the command one of them (:func:`worker_processes`: a study's seeds, a docking's sides), and
+refuses more than :func:`max_workers` of them."""
 
 from __future__ import annotations
 
+import contextlib
+import multiprocessing
+import os
 import re
+import signal
 import socket
+import sys
+from collections.abc import Iterator
+from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any
 
 import numpy as np
 
+from arcube import interrupts
 from arcube.errors import InputError
 from arcube.optimization.checkpoint import Batch
 from arcube.optimization.problem import FitnessModel, evaluate_with, worker_evaluate, worker_init
 
-__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "check_dask_address", "connect_dask", "make_executor"]
+__all__ = [
+    "DaskExecutor",
+    "Executor",
+    "ProcessExecutor",
+    "WorkerProcess",
+    "check_dask_address",
+    "check_workers",
+    "connect_dask",
+    "make_executor",
+    "max_workers",
+    "worker_context",
+    "worker_processes",
+]
+
+
+def max_workers() -> int:
+    """The most local worker processes a command starts: 4 x this machine's CPUs (``os.cpu_count()``).
+
+    Each worker is a CPU-bound process holding its own copy of the model (about 200 MB): past the CPU count they
+    only compete for the cores and the memory; four times leaves room for a CPU count that under-reports (a
+    container) and for tasks that wait on their files, and refuses a mistyped count before 10,000 processes exist."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def check_workers(workers: int, name: str = "workers") -> int:
+    """``workers`` if it is at most :func:`max_workers`; InputError naming ``name`` (the flag) otherwise."""
+    most = max_workers()
+    if workers > most:
+        raise InputError.of(
+            name,
+            f"{workers}: at most {most} here (4 x the {os.cpu_count() or 1} CPUs of this machine; each worker is a "
+            "process with its own copy of the model, and more than the CPUs only compete for them)",
+        )
+    return workers
+
+
+class WorkerProcess(SpawnProcess):
+    """A process of the spawn start method that stops with its parent and on its first interrupt.
+
+    In the parent, :meth:`start` spawns it with SIGINT and SIGTERM blocked (a signal while it imports and unpickles
+    its task waits, instead of a traceback) and records it, for :func:`arcube.interrupts.forward`. In the process,
+    :meth:`run` sets up its signals and its watch of the parent (:func:`arcube.interrupts.worker_start`); once
+    interrupted, a pool's worker takes no new task, and an interrupt while it waits for one ends it quietly."""
+
+    def start(self) -> None:
+        try:
+            old: Any = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        except (AttributeError, OSError, ValueError):
+            old = None
+        try:
+            super().start()
+            interrupts.started_worker(self)
+        finally:
+            if old is not None:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+    def run(self) -> None:
+        try:
+            parent = multiprocessing.parent_process()
+            interrupts.worker_start(
+                parent.pid if parent is not None and parent.pid else os.getppid(),
+                parent.sentinel if parent is not None else None,
+            )
+            pool_worker = getattr(sys.modules.get("concurrent.futures.process"), "_process_worker", None)
+            if self._target is pool_worker and self._args and hasattr(self._args[0], "get"):  # type: ignore[attr-defined]
+                self._args = (_Calls(self._args[0]), *self._args[1:])  # type: ignore[attr-defined]
+            super().run()
+        except KeyboardInterrupt:
+            # interrupted while it waited for a task, or after its task's own interrupt went to the parent: its files
+            # are closed; no traceback, and no interpreter shut-down (a second or more under load)
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            os._exit(interrupts.EXIT_CODE)
+
+
+class _Calls:
+    """A process pool's call queue as its worker reads it: an interrupted worker takes no new task."""
+
+    def __init__(self, queue: Any) -> None:
+        self.queue = queue
+
+    def get(self, *args: Any, **kwargs: Any) -> Any:
+        if interrupts.worker_interrupted():
+            raise KeyboardInterrupt
+        return self.queue.get(*args, **kwargs)
+
+
+class _WorkerContext(SpawnContext):
+    Process = WorkerProcess  # type: ignore[assignment]
+
+
+def worker_context() -> Any:
+    """The spawn start method with :class:`WorkerProcess` es, for a process pool's ``mp_context``."""
+    return _WorkerContext()
+
+
+@contextlib.contextmanager
+def worker_processes() -> Iterator[None]:
+    """Inside, every process of ``multiprocessing.get_context("spawn")`` is a :class:`WorkerProcess` (the command
+    line's: the pools of a study's seeds and of a docking's sides ask for that context)."""
+    ctx = multiprocessing.get_context("spawn")
+    own = vars(ctx).get("Process")
+    ctx.Process = WorkerProcess  # type: ignore[misc]
+    try:
+        yield
+    finally:
+        if own is None:
+            del ctx.Process  # type: ignore[misc]
+        else:
+            ctx.Process = own  # type: ignore[misc]
 
 
 _ADDRESS = re.compile(r"^(?:(?:tcp|tls|inproc|ucx|ws|wss)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
@@ -75,13 +198,15 @@ class Executor:
 
 
 class ProcessExecutor(Executor):
+    """The batches over ``workers`` local :class:`WorkerProcess` es (at most :func:`max_workers`: a run folder that
+    asks for more gets that many; the result does not depend on the split)."""
+
     def __init__(self, model: FitnessModel, workers: int) -> None:
-        import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
         super().__init__(model)
-        self.n_chunks = workers
-        ctx = multiprocessing.get_context("spawn")  # no fork under threads (progress bar, dask)
+        self.n_chunks = workers = min(workers, max_workers())
+        ctx = worker_context()  # spawn: no fork under threads (progress bar, dask)
         self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=worker_init, initargs=(model,))
 
     def _map(self, chunks: list[np.ndarray]) -> list[Batch]:

@@ -3,23 +3,29 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_files
 from arcube.io.inputs import short_repr
-from arcube.io.trajectories import read_csv
+from arcube.io.trajectories import TrajectorySet, read_csv
 from arcube.patients.anatomy_segments import anatomy_suffix, write_anatomy_as
 from arcube.patients.virtual import TECHNIQUES, check_patient, format_check, generate_patient, write_patient
 
 __all__ = [
     "COHORT_FILE",
     "MAX_PATIENTS",
+    "NarrowPedicle",
+    "WrittenPatients",
     "cohort_toml",
+    "narrow_pedicles",
+    "narrow_summary",
     "patient_files",
     "patient_name",
     "patient_paths",
@@ -40,8 +46,9 @@ def write_patients(
     anatomy_format: str = "stl",
     anatomy_spacing_mm: float = 0.5,
     beside: Callable[[Path], str] | None = None,
-) -> list[str]:
-    """Generate, write and check the patients; return one check text per patient.
+) -> WrittenPatients:
+    """Generate, write and check the patients; return one check text per patient (a list) whose ``narrow`` lists
+    the pedicles narrower than the default screw (:func:`narrow_pedicles`; ``arcube patients`` warns of them).
 
     Args:
         mean: the mean patient (every parameter at its published mean).
@@ -62,6 +69,9 @@ def write_patients(
             ``<stem>.anatomy.nii.gz``, one segment per vertebra and one for soft tissue
             (:mod:`arcube.patients.anatomy_segments`).
         anatomy_spacing_mm: voxel size of a label-map anatomy, mm (> 0).
+
+    A folder's ``cohort.toml`` records in its leading comment how many pedicles of its plans are narrower than the
+    default screw (0 included), and which (:func:`narrow_summary`).
     """
     anatomy_suffix(anatomy_format)
     if anatomy_format != "stl" and (
@@ -88,13 +98,13 @@ def write_patients(
     parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{parent.name or 'patients'}.", suffix=".tmp", dir=parent))
     try:
-        texts, entries = _stage_patients(
+        texts, entries, narrow = _stage_patients(
             paths, stage, mean, seed, technique, anatomy_format, anatomy_spacing_mm, beside
         )
         if (
             paths[0].parent == out
         ):  # a folder of patients: the cohort file of one design job for all of them (model §19)
-            (stage / COHORT_FILE).write_text(cohort_toml(entries))
+            (stage / COHORT_FILE).write_text(cohort_toml(entries, narrow))
             texts.append(
                 f"# {out / COHORT_FILE}: the cohort of these {len(entries)} patient(s), for arcube design --cohort {out / COHORT_FILE}"
             )
@@ -111,7 +121,7 @@ def write_patients(
             raise InputError(str(exc).replace(str(stage), str(parent)), param=exc.param) from None
         raise
     shutil.rmtree(stage, ignore_errors=True)
-    return texts
+    return WrittenPatients(texts, narrow)
 
 
 def patient_paths(out: Path, count: int) -> list[Path]:
@@ -151,11 +161,13 @@ def _stage_patients(
     anatomy_format: str,
     anatomy_spacing_mm: float,
     beside: Callable[[Path], str] | None,
-) -> tuple[list[str], list[dict[str, Any]]]:
-    """Write each patient's files into ``stage`` under the names of ``paths``; the check texts name ``paths``."""
+) -> tuple[list[str], list[dict[str, Any]], list[NarrowPedicle]]:
+    """Write each patient's files into ``stage`` under the names of ``paths``; the check texts name ``paths``.
+    Also returns the cohort file's entries and the pedicles narrower than the default screw."""
     suffix = anatomy_suffix(anatomy_format)
     texts: list[str] = []
     entries: list[dict[str, Any]] = []
+    narrow: list[NarrowPedicle] = []
     for k, path in enumerate(paths):
         ts, params = generate_patient(None if mean else seed + k, technique)  # type: ignore[operator]
         staged = stage / path.name
@@ -169,8 +181,11 @@ def _stage_patients(
             "seg.nrrd": f"LPS label map, {anatomy_spacing_mm:g} mm voxels",
             "nii.gz": f"RAS label map, {anatomy_spacing_mm:g} mm voxels",
         }[anatomy_format]
-        # The check re-reads the written file, so it sees the 3-decimal points a user gets.
-        check = format_check(check_patient(read_csv(staged), params))
+        # The check re-reads the written file, so it sees the 3-decimal points a user gets (and the pedicles'
+        # widths and heights that arcube breach reads).
+        back = read_csv(staged)
+        check = format_check(check_patient(back, params))
+        narrow += narrow_pedicles(back, patient_name(params), path)
         # what a higher layer writes beside the plan (its envelope; it reads the anatomy back on the way)
         more = "" if beside is None else beside(staged).replace(str(stage), str(path.parent))
         texts.append(
@@ -185,7 +200,7 @@ def _stage_patients(
                 "anatomy_frame": COHORT_FRAMES[anatomy_format],
             }
         )
-    return texts, entries
+    return texts, entries, narrow
 
 
 def patient_name(params: dict[str, Any]) -> str:
@@ -202,11 +217,88 @@ COHORT_FRAMES = {"stl": "patient", "seg.nrrd": "LPS", "nii.gz": "RAS"}
 """The frame a cohort entry names for each anatomy format (the STL is written in the patient frame)."""
 
 
-def cohort_toml(entries: list[dict[str, Any]]) -> str:
-    """A cohort file's text (``arcube design --cohort``): one ``[[patient]]`` table per entry, paths relative to the file."""
+def cohort_toml(entries: list[dict[str, Any]], narrow: Sequence[NarrowPedicle] | None = None) -> str:
+    """A cohort file's text (``arcube design --cohort``): one ``[[patient]]`` table per entry, paths relative to the file.
+
+    ``narrow``: the pedicles of these patients narrower than the default screw (:func:`narrow_pedicles`); given (an
+    empty list too), the leading comment says how many there are and which (:func:`narrow_summary`)."""
     lines = [
         "# arcube cohort: the patients of one design job (arcube design --cohort cohort.toml); paths relative to this file"
     ]
+    if narrow is not None:
+        lines.append(f"# {narrow_summary(narrow)}")
     for e in entries:
         lines += ["", "[[patient]]", *(f"{k} = {json.dumps(v)}" for k, v in e.items())]
     return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class NarrowPedicle:
+    """A pedicle of a written plan that is no wider (or no taller) than the default screw (model §22.3: the screw has
+    no room there, and ``arcube breach`` flags it ``too_wide``). Lengths in mm, as written in the plan."""
+
+    patient: str
+    """The patient's name in a cohort file (:func:`patient_name`: ``seed57``)."""
+    plan: Path
+    """The plan CSV that holds the screw."""
+    trajectory: str
+    """The screw's trajectory id in the plan."""
+    level: str
+    side: str
+    width_mm: float
+    height_mm: float
+    screw_mm: float
+    """The default screw's diameter it is compared with."""
+
+    def describe(self) -> str:
+        """``seed57 C4 R (width 3.41 mm)``: the patient, level, side and the dimension(s) the screw does not fit."""
+        sizes = [
+            f"{what} {value:.2f}"
+            for what, value in (("width", self.width_mm), ("height", self.height_mm))
+            if value <= self.screw_mm
+        ]
+        return f"{self.patient} {self.level} {self.side} ({', '.join(sizes)} mm)"
+
+
+class WrittenPatients(list[str]):
+    """What :func:`write_patients` returns: one check text per patient (and one line naming a folder's cohort file),
+    as a list; ``narrow`` holds the pedicles of the written plans narrower than the default screw."""
+
+    def __init__(self, texts: Sequence[str] = (), narrow: Sequence[NarrowPedicle] = ()) -> None:
+        super().__init__(texts)
+        self.narrow: tuple[NarrowPedicle, ...] = tuple(narrow)
+
+
+def narrow_pedicles(plan: TrajectorySet, patient: str, path: Path) -> list[NarrowPedicle]:
+    """The screws of ``plan`` (as written and read back) whose pedicle is no wider or no taller than the default screw
+    (:data:`arcube.patients.isthmus.DEFAULT_SCREW_MM`): those ``arcube breach`` flags ``too_wide`` unless given another
+    screw. A plan without pedicle columns (the mean patient, lateral-mass screws) takes the levels' means: none."""
+    from arcube.patients.isthmus import DEFAULT_SCREW_MM, isthmus_mean
+
+    out = []
+    for j, level in enumerate(plan.levels):
+        # the widths and heights arcube breach takes: the plan's columns, the level's mean where a cell is empty
+        mean = isthmus_mean(level)
+        cells = plan.pedicle[j, :2] if plan.pedicle is not None else (math.nan, math.nan)
+        width, height = (float(c) if math.isfinite(c) else m for c, m in zip(cells, mean))
+        if min(width, height) <= DEFAULT_SCREW_MM:  # no room: a' = (W - d)/2 <= 0 or b' <= 0 (model §22.3)
+            out.append(NarrowPedicle(patient, path, plan.ids[j], level, plan.sides[j], width, height, DEFAULT_SCREW_MM))
+    return out
+
+
+NARROW_SHOWN = 3
+"""How many narrow pedicles :func:`narrow_summary` names before ``and N more``."""
+
+
+def narrow_summary(narrow: Sequence[NarrowPedicle], shown: int = NARROW_SHOWN) -> str:
+    """One line: ``1 pedicle narrower than the default 3.5 mm screw: seed57 C4 R (width 3.41 mm)``, the first ``shown``
+    named and then ``and N more``; ``0 pedicles narrower than the default 3.5 mm screw`` when there is none."""
+    from arcube.patients.isthmus import DEFAULT_SCREW_MM
+
+    n = len(narrow)
+    text = f"{n} pedicle{'' if n == 1 else 's'} narrower than the default {DEFAULT_SCREW_MM:g} mm screw"
+    if not n:
+        return text
+    names = ", ".join(q.describe() for q in narrow[:shown])
+    more = f" and {n - shown} more" if n > shown else ""
+    return f"{text}: {names}{more}"

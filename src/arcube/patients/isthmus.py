@@ -14,7 +14,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ISTHMUS", "ISTHMUS_STREAM", "LEVELS", "draw_isthmus", "isthmus_mean"]
+__all__ = ["DEFAULT_SCREW_MM", "ISTHMUS", "ISTHMUS_STREAM", "LEVELS", "draw_isthmus", "isthmus_mean"]
+
+DEFAULT_SCREW_MM = 3.5
+"""The screw's diameter d where a plan does not give ``screw_diameter_mm`` (model §22.1), mm: a pedicle no wider than
+it leaves the screw no room."""
 
 LEVELS = ("C3", "C4", "C5", "C6", "C7")
 ISTHMUS: dict[str, tuple[tuple[float, ...], float, float, float]] = {

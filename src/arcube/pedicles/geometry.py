@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
 from arcube.io.trajectories import PEDICLE_COLUMNS
-from arcube.patients.isthmus import isthmus_mean
+from arcube.patients.isthmus import DEFAULT_SCREW_MM, isthmus_mean
 
 __all__ = [
     "DEFAULT_ISTHMUS_DEPTH_MM",
@@ -40,8 +40,6 @@ __all__ = [
 
 DEFAULT_ISTHMUS_DEPTH_MM = 12.0
 """s where the plan does not give ``isthmus_depth_mm`` (model §22.1), mm."""
-DEFAULT_SCREW_MM = 3.5
-"""d where the plan does not give ``screw_diameter_mm`` and ``--screw`` is not set, mm."""
 DIRECTIONS = ("medial", "lateral", "cranial", "caudal")
 """The direction codes 0-3 of :func:`classify` (-1: no breach)."""
 GRADES = ((0.0, "A"), (0.0, "B"), (2.0, "C"), (4.0, "D"), (6.0, "E"))

@@ -15,6 +15,7 @@ import io
 import json
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -22,11 +23,20 @@ import numpy as np
 
 from arcube.errors import InputError
 from arcube.pedicles.geometry import pedicles
-from arcube.pedicles.monte_carlo import BREACH_COLUMNS, BreachResult, monte_carlo
+from arcube.pedicles.monte_carlo import BREACH_COLUMNS, MORE_COLUMNS, BreachResult, monte_carlo
 from arcube.pedicles.settings import BreachSettings
 from arcube.pedicles.sources import RobotModel
 
-__all__ = ["breach", "breach_csv", "read_calibration", "robot_dockings", "write_breach"]
+__all__ = [
+    "breach",
+    "breach_csv",
+    "breach_markups",
+    "read_calibration",
+    "robot_dockings",
+    "what_it_takes_csv",
+    "whose",
+    "write_breach",
+]
 
 
 def read_calibration(folder: str | os.PathLike[str]) -> tuple[Any, np.ndarray, dict[str, Any]]:
@@ -62,28 +72,41 @@ def read_calibration(folder: str | os.PathLike[str]) -> tuple[Any, np.ndarray, d
     return Design.from_dict(own, source=str(d / "design.json")), read_covariance(d / COVARIANCE_FILE), info["settings"]
 
 
-def robot_dockings(path: str | os.PathLike[str]) -> dict[str, Any]:
+def robot_dockings(path: str | os.PathLike[str], plan: Any = None) -> dict[str, Any]:
     """Side -> the complete Design of that docking, for a design job's ``design.json`` (a robot with ``dockings``);
-    ``{"": design}`` for a design file of one docking."""
-    from arcube.model.robot import read_robot
+    ``{"": design}`` for a design file of one docking. With ``plan`` (a TrajectorySet), each side's docking is the one
+    of this plan's trajectories (by their digests, not by the patient's name); a side the robot has not docked on is
+    refused (:func:`arcube.breach` docks it first)."""
+    from arcube.model.robot import read_robot, trajectory_digests
     from arcube.io.inputs import load_json
     from arcube.model.design import Design
 
     data = load_json(Path(path))
-    if isinstance(data, dict) and isinstance(data.get("dockings"), list) and "m_x" not in data:
-        robot = read_robot(path)
-        out: dict[str, Any] = {}
-        for w in robot.starts:
-            side = w.side or ""
-            if side in out:  # a robot of a cohort: which patient's docking the plan is for is the user's to say
-                raise InputError.of(
-                    "design",
-                    f"{path}: the robot docks {sum(s.label.endswith('_' + side) for s in robot.starts)} times on side "
-                    f"{side}; give the docking of this plan's patient (dockings/<patient>_<side>/design.json)",
-                )
-            out[side] = robot.placed(w.placement)
-        return out
-    return {"": Design.load(path)}
+    if not (isinstance(data, dict) and isinstance(data.get("dockings"), list) and "m_x" not in data):
+        return {"": Design.load(path)}
+    robot = read_robot(path)
+    out: dict[str, Any] = {}
+    for side in ("R", "L") if plan is None else tuple(dict.fromkeys(plan.sides)):
+        here = [w for w in robot.starts if (w.side or "") == side]
+        if plan is not None:
+            mine = np.array([sd == side for sd in plan.sides])
+            digests = trajectory_digests(plan.entry[mine], plan.target[mine])
+            here = [w for w in here if w.docks(digests) is not False]
+        if len(here) > 1:  # a robot of a cohort: which patient's docking the plan is for is the user's to say
+            raise InputError.of(
+                "design",
+                f"{path}: the robot docks {len(here)} times on side {side}; give the docking of this plan's patient "
+                "(dockings/<patient>_<side>/design.json)",
+            )
+        if here:
+            out[side] = robot.placed(here[0].placement)
+        elif plan is not None:
+            raise InputError.of(
+                "design",
+                f"{path}: the robot has no docking of this plan's side-{side} trajectories (its dockings: "
+                f"{', '.join(w.label for w in robot.starts)}); dock it first (arcube dock)",
+            )
+    return out
 
 
 def breach(
@@ -100,12 +123,21 @@ def breach(
     tolerances: Any = None,
     settings: BreachSettings | None = None,
     loads: Any = None,
+    reached: Any = None,
+    notes: dict[str, dict[str, str]] | None = None,
+    patient: str | None = None,
     **fields: Any,
 ) -> BreachResult:
-    """The breach probability of every screw of ``plan`` (model §22; ``arcube breach``).
+    """The breach probability of every screw of ``plan`` (model §22), the robot given as it is docked: the
+    computation of :func:`arcube.breach`, which first finds (or makes) the robot's docking at this patient.
 
     Args:
-        design: a design file (or a design job's ``design.json``: each side from its docking), a Design, or a preset.
+        design: a design file (or a design job's ``design.json``: each side from its docking of this plan), a Design,
+            a preset, or a mapping side (R, L) -> Design: the robot at this patient's dockings.
+        reached: ``(J,)`` the design job's verdict of each selected screw's trajectory at its docking (guards included,
+            model §16-17); a screw refused has no P(breach). None: every screw the nominal robot reaches.
+        notes: docking (side) -> ``{"docking": its name, "how": how it was found}``, recorded in the settings.
+        patient: the patient's name, recorded in the settings and the pictures' titles.
         plan: the plan and which of its screws (as :func:`arcube.evaluate` takes them).
         side: see ``plan``.
         levels: see ``plan``.
@@ -153,6 +185,8 @@ def breach(
                 "(its design.json is the calibrated design)",
             )
         by_side: dict[str, Any] = {"": cal_design}
+    elif isinstance(design, Mapping):
+        by_side = {str(k): Design.coerce(v) for k, v in design.items()}
     elif design is None:
         raise InputError.of("design", "is required (a design file, a design job's design.json), or give calibration")
     elif isinstance(design, (str, os.PathLike)) and not (isinstance(design, str) and design in ("paper",)):
@@ -161,16 +195,22 @@ def breach(
         chosen = design_at_side(
             design, side
         )  # a docking of the other side is refused; a robot's design.json gives this side's
-        by_side = robot_dockings(design) if chosen is design else {"": chosen}
+        by_side = None if chosen is design else {"": chosen}
     else:
         by_side = {"": Design.coerce(design)}
     from arcube.io import TrajectorySet
 
     ts = plan if isinstance(plan, TrajectorySet) and transform is None else load_trajectories(plan, transform)
     ts = select(ts, side=side, levels=levels, ids=ids) if (side or levels or ids) else ts
+    if by_side is None:
+        by_side = robot_dockings(design, ts)
+    verdict = None if reached is None else np.asarray(reached, dtype=bool).reshape(-1)
+    if verdict is not None and len(verdict) != len(ts.ids):
+        raise InputError.of("reached", f"has {len(verdict)} values for {len(ts.ids)} screws: one per screw")
     p_all = pedicles(ts, s.screw_mm)
     groups = _groups(ts, by_side)
     results = []
+    pictures: list[tuple[np.ndarray, Any, dict[str, Any]]] = []  # per docking: its screws, Moments, per class
     for name, idx, d in groups:
         text = mode if mode is not None else d.mode
         if text is None:
@@ -189,6 +229,8 @@ def breach(
             "screw_mm": s.screw_mm,
             "seed": s.seed,
             "robot": "calibrated" if cov is not None else f"ISO 2768-{tol.tolerance_class}",
+            **({"dockings": dict(notes)} if notes else {}),
+            **({"patient": patient} if patient else {}),
         }
         results.append(
             (
@@ -204,13 +246,74 @@ def breach(
                     thrust_N=ld.thrust_N,
                     stiffness_Nm_per_rad=ld.actuator_stiffness,
                     settings=info,
+                    verdict=None if verdict is None else verdict[idx],
                 ),
             )
         )
-    result = _merge(p_all, results, s.samples)
+        pictures.append(
+            (idx, *_normal_pictures(model, pedicles(sub, s.screw_mm), name, ld, None if cov is not None else tol))
+        )
+    result = _with_what_it_takes(_merge(p_all, results, s.samples), pictures, s, calibrated=cov is not None)
+    from dataclasses import replace
+
+    result = replace(result, plan=ts)
     if out is not None:
         write_breach(result, out)
     return result
+
+
+def _normal_pictures(model: RobotModel, p: Any, name: str, ld: Any, tol: Any) -> tuple[Any, dict[str, Any]]:
+    """The first-order picture (:class:`~arcube.pedicles.first_order.Moments`) of one docking's screws, and of the
+    same robot built to each ISO 2768 class (``tol`` with its class changed; none for a calibrated robot)."""
+    from arcube.pedicles.first_order import CLASSES_COARSE_FIRST, moments
+
+    names = (name,) * len(p.ids)
+    mom = moments(model, p, names, ld.thrust_N, ld.actuator_stiffness)
+    classes = {}
+    if tol is not None:
+        for c in CLASSES_COARSE_FIRST:
+            built = tol.replace(tolerance_class=c, tol={})
+            other = RobotModel(model.design, model.mode, built.tolerances(model.design), built.distribution)
+            classes[c] = moments(other, p, names, ld.thrust_N, ld.actuator_stiffness)
+    return mom, classes
+
+
+def _with_what_it_takes(
+    result: BreachResult, pictures: list[tuple[np.ndarray, Any, dict[str, Any]]], s: BreachSettings, calibrated: bool
+) -> BreachResult:
+    """``result`` with each screw's first-order P and what it takes to reach ``s.target`` (model §22, first order)."""
+    from dataclasses import replace
+
+    from arcube.pedicles.first_order import Moments, breach_first_order, what_it_takes
+
+    J = len(result.pedicles.ids)
+
+    def merged(get: Any) -> Moments:
+        fields = {"mean": np.full((J, 2), np.nan), "robot": np.full((J, 2, 2), np.nan)}
+        fields.update(reg_t=np.full((J, 2, 2), np.nan), reg_r=np.full((J, 2, 2), np.nan))
+        for idx, mom, classes in pictures:
+            m = get(mom, classes)
+            for key, a in fields.items():
+                a[idx] = getattr(m, key)
+        return Moments(**fields)
+
+    mom = merged(lambda m, c: m)
+    names = pictures[0][2].keys() if pictures else ()
+    classes = {c: merged(lambda m, per, c=c: per[c]) for c in names}
+    with np.errstate(invalid="ignore"):
+        p_fo = breach_first_order(mom, result.pedicles, s.registration_mm, s.registration_deg)
+        takes = what_it_takes(
+            mom,
+            result.pedicles,
+            result.p_breach,
+            result.status,
+            s.registration_mm,
+            s.registration_deg,
+            s.target,
+            classes,
+            calibrated,
+        )
+    return replace(result, p_first_order=np.where(result.reached, p_fo, np.nan), takes=tuple(takes))
 
 
 def _calibrated_T(cal: dict[str, Any]) -> np.ndarray:
@@ -253,11 +356,12 @@ def _merge(p_all: Any, results: list[tuple[np.ndarray, BreachResult]], samples: 
         return a
 
     offsets = np.empty((samples, J, 2))
-    docking = [""] * J
+    docking, deciding = [""] * J, [""] * J
     for idx, r in results:
         offsets[:, idx] = r.offsets
         for k, i in enumerate(idx):
             docking[i] = r.docking[k]
+            deciding[i] = r.deciding[k]
     first = results[0][1]
     return BreachResult(
         p_all,
@@ -271,6 +375,7 @@ def _merge(p_all: Any, results: list[tuple[np.ndarray, BreachResult]], samples: 
         put("p_alone", (3,)),
         offsets,
         first.settings,
+        tuple(deciding),
     )
 
 
@@ -283,14 +388,63 @@ def _cell(v: Any) -> str:
 
 
 def breach_csv(result: BreachResult) -> str:
-    """breach.csv's text: :data:`BREACH_COLUMNS`, then ``room_height_mm``, ``docking``, ``reached``; one row per screw."""
-    columns = (*BREACH_COLUMNS, "room_height_mm", "docking", "reached")
+    """breach.csv's text: :data:`BREACH_COLUMNS`, then :data:`MORE_COLUMNS` (``room_height_mm``, ``docking``,
+    ``reached``, ``status``, ``deciding_source``); one row per screw, empty cells where a figure is not defined."""
+    columns = (*BREACH_COLUMNS, *MORE_COLUMNS)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(columns)
     for row in result.rows():
         w.writerow([_cell(row[c]) for c in columns])
     return buf.getvalue()
+
+
+def whose(result: BreachResult, docking: str | None = None) -> str:
+    """The patient and the docking(s) a result's screws were drilled from, for a picture's title: ``patient reference,
+    docking reference_R`` (every docking, or the one of side or name ``docking``)."""
+    info = result.settings
+    notes = info.get("dockings") or {}
+    names = [docking] if docking is not None else list(dict.fromkeys(result.docking))
+    shown = [str(notes.get(n, {}).get("docking", n)) if isinstance(notes.get(n), dict) else n for n in names]
+    patient = info.get("patient")
+    return (f"patient {patient}, " if patient else "") + f"docking {', '.join(shown)}"
+
+
+def what_it_takes_csv(result: BreachResult) -> str:
+    """what_it_takes.csv's text: :data:`~arcube.pedicles.first_order.WHAT_IT_TAKES_COLUMNS`, then ``p_first_order`` and
+    ``target``; one row per level and a last one ``all`` (the worst screw); empty where nothing reaches the target."""
+    from arcube.pedicles.first_order import WHAT_IT_TAKES_COLUMNS
+
+    columns = (*WHAT_IT_TAKES_COLUMNS, "p_first_order", "target")
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for row in result.takes:
+        w.writerow(["" if row[c] is None else _cell(row[c]) for c in columns])
+    return buf.getvalue()
+
+
+def breach_markups(result: BreachResult) -> str:
+    """The screws as a 3D Slicer line markups document (LPS, mm, :mod:`arcube.io.slicer`'s), each line's entry point
+    carrying its level and side and its target point the screw's verdict in the description
+    (``P(breach)=12.3%;status=assessed;deciding=robot;docking=reference_R``), for looking at the risk where surgeons
+    look. InputError when the result does not carry its plan."""
+    from arcube.io.slicer import _document, _markup
+
+    if result.plan is None:
+        raise InputError.of("markups", "needs the plan of the result (arcube.breach keeps it)")
+    notes = result.settings.get("dockings") or {}
+    out = []
+    for j, row in enumerate(result.rows()):
+        m = _markup(result.plan, j)
+        note = notes.get(row["docking"]) if isinstance(notes.get(row["docking"]), dict) else {}
+        p = "" if math.isnan(row["p_breach"]) else f"P(breach)={100 * row['p_breach']:.1f}%;"
+        m["controlPoints"][1]["description"] = (
+            f"{p}status={row['status']};deciding={row['deciding_source'] or '-'};"
+            f"docking={note.get('docking', row['docking'])}"
+        )
+        out.append(m)
+    return _document(out)
 
 
 def write_breach(result: BreachResult, out: str | os.PathLike[str]) -> Path:
@@ -302,11 +456,12 @@ def write_breach(result: BreachResult, out: str | os.PathLike[str]) -> Path:
     summary = result.summary()
     files = {
         "breach.csv": breach_csv(result).encode(),
+        "what_it_takes.csv": what_it_takes_csv(result).encode(),
         "summary.json": (json.dumps(finite(summary), indent=2, allow_nan=False) + "\n").encode(),
-        "breach_by_screw.png": breach_bars_png(result.rows()),
+        "breach_by_screw.png": breach_bars_png(result.rows(), whose(result)),
     }
     worst = summary["worst_screw"]
-    if worst is not None:
+    if worst is not None and worst not in summary["too_wide"]:
         j = result.pedicles.ids.index(worst)
         p = result.pedicles
         files["worst_screw.png"] = worst_screw_png(
@@ -316,7 +471,7 @@ def write_breach(result: BreachResult, out: str | os.PathLike[str]) -> Path:
             p.screw[j] / 2,
             float(p.medial[j]),
             float(p.cranial[j]),
-            f"trajectory {worst} ({p.levels[j]} {p.sides[j]})",
+            f"trajectory {worst} ({p.levels[j]} {p.sides[j]}), {whose(result, result.docking[j])}",
             float(result.p_breach[j]),
         )
     return write_folder(files, out)

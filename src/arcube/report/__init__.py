@@ -87,6 +87,7 @@ def write_report(
     program: str | os.PathLike[str] | None = None,
     preface: str | None = None,
     title: str | None = None,
+    risk: dict[str, float] | None = None,
     **run: Any,
 ) -> Path:
     """Write the self-contained HTML report of an evaluation (plots, 3D mechanism), or of an optimization
@@ -99,7 +100,8 @@ def write_report(
     design (program.csv, program.json) whose section (timeline, limits, motors, playback) the report
     adds; by default the ``program/`` beside a report written into an ``arcube design`` job's folder
     (one with design.toml). ``preface``: an HTML fragment put under the title (an ``arcube design`` job's
-    verdict, requirements and budget, :func:`arcube.report.design_job.design_preface`); ``title``: the page's title. Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
+    verdict, requirements and budget, :func:`arcube.report.design_job.design_preface`); ``title``: the page's title;
+    ``risk``: screw id -> P(breach), the colour of each screw in the 3D scene. Raises :class:`InputError` if ``path`` does not end in .html/.htm (the
     PNGs beside it are named from its stem) or the program's files are unreadable.
     """
     from arcube.optimization.run_results import OptimizeResult
@@ -125,7 +127,7 @@ def write_report(
         and (out.parent / "program" / "program.json").is_file()
     ):
         program = out.parent / "program"
-    return write_evaluation_report(evaluation, out, program=program, preface=preface, title=title)
+    return write_evaluation_report(evaluation, out, program=program, preface=preface, title=title, risk=risk)
 
 
 def __getattr__(name: str) -> Any:

@@ -27,8 +27,9 @@ _SOURCES = (
 )
 
 
-def breach_bars_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
-    """P(breach) of every screw (dark bars, the 95 % Wilson interval as a line) and with each source alone (light bars)."""
+def breach_bars_png(rows: Sequence[Mapping[str, Any]], subtitle: str = "") -> bytes:
+    """P(breach) of every screw (dark bars, the 95 % Wilson interval as a line) and with each source alone (light bars);
+    a screw the robot does not reach has no bar, and says so. ``subtitle``: whose robot, patient and dockings."""
     from matplotlib.figure import Figure
 
     n = len(rows)
@@ -36,9 +37,9 @@ def breach_bars_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
     ax = fig.add_subplot()
     x = np.arange(n)
     width = 0.2
-    p = np.array([r["p_breach"] for r in rows])
-    lo = np.array([r["p_breach_low"] for r in rows])
-    hi = np.array([r["p_breach_high"] for r in rows])
+    p = np.nan_to_num(np.array([r["p_breach"] for r in rows], dtype=float), nan=0.0)
+    lo = np.nan_to_num(np.array([r["p_breach_low"] for r in rows], dtype=float), nan=0.0)
+    hi = np.nan_to_num(np.array([r["p_breach_high"] for r in rows], dtype=float), nan=0.0)
     ax.bar(x - 1.5 * width, 100 * p, width, color="#222222", label="all sources")
     ax.errorbar(
         x - 1.5 * width, 100 * p, yerr=[100 * (p - lo), 100 * (hi - p)], fmt="none", ecolor="#888888", capsize=2, lw=1
@@ -49,12 +50,17 @@ def breach_bars_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
         )
         ax.bar(x + (k - 0.5) * width, 100 * v, width, color=colour, label=label)
     for i, r in enumerate(rows):
-        if r["too_wide"]:
+        if r.get("status") == "not_reached":
+            ax.text(i, 2, "not reached", ha="center", va="bottom", fontsize=7, color="#555555", rotation=90)
+        elif r["too_wide"]:
             ax.text(i, 102, "too wide", ha="center", va="bottom", fontsize=7, color="#c00000", rotation=90)
     ax.set_xticks(x, [f"{r['trajectory']}\n{r['level']} {r['side']}" for r in rows], fontsize=8)
     ax.set_ylabel("P(breach), %")
     ax.set_ylim(0, 115)
-    ax.set_title("Probability that each screw leaves its pedicle, and what decides it", fontsize=10)
+    ax.set_title(
+        "Probability that each screw leaves its pedicle, and what decides it" + (f"\n{subtitle}" if subtitle else ""),
+        fontsize=10,
+    )
     ax.legend(fontsize=8, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.18), frameon=False)
     ax.grid(axis="y", alpha=0.3)
     fig.subplots_adjust(bottom=0.3)

@@ -93,8 +93,52 @@ def _frame_title(report: Evaluation, i: int, mp: MechanismPoints, series: Any) -
     return text + ("" if mp.z_closes[i] else " · z dyad open (dashed)")
 
 
-def scene_figure(report: Evaluation) -> go.Figure:
-    """3D scene with one plotly frame per reachable task point, a slider and a play button."""
+def _risk_traces(ts: Any, risk: dict[str, float]) -> list[Any]:
+    """One line per screw coloured by its P(breach) (green 0 to red 1, grey where it has none), named with it, the
+    worst first, and a colour bar."""
+    import plotly.graph_objects as go
+    from matplotlib import colormaps
+
+    cmap = colormaps["RdYlGn_r"]
+    order = sorted(range(len(ts.ids)), key=lambda j: -np.nan_to_num(risk.get(ts.ids[j], np.nan), nan=-1.0))
+    out = []
+    for rank, j in enumerate(order):
+        p = risk.get(ts.ids[j], np.nan)
+        known = p is not None and np.isfinite(p)
+        rgba = cmap(float(p)) if known else (0.6, 0.6, 0.6, 1.0)
+        colour = "rgb({:.0f},{:.0f},{:.0f})".format(*(255 * c for c in rgba[:3]))
+        what = f"P(breach) {100 * p:.1f} %" if known else "not reached: no P(breach)"
+        name = f"screw {ts.ids[j]} ({ts.levels[j]} {ts.sides[j]}): {what}" + (" (worst)" if rank == 0 and known else "")
+        seg = np.stack([ts.entry[j], ts.target[j]])
+        out.append(
+            go.Scatter3d(
+                name=name, mode="lines", line={"color": colour, "width": 6}, hovertext=[name] * 2, **_xyz([seg])
+            )
+        )
+    out.append(
+        go.Scatter3d(
+            name="P(breach)",
+            mode="markers",
+            x=[None],
+            y=[None],
+            z=[None],
+            showlegend=False,
+            marker={
+                "color": [0.0],
+                "cmin": 0.0,
+                "cmax": 1.0,
+                "colorscale": "RdYlGn",
+                "reversescale": True,
+                "colorbar": {"title": "P(breach)", "tickformat": ".0%", "len": 0.5},
+            },
+        )
+    )
+    return out
+
+
+def scene_figure(report: Evaluation, risk: dict[str, float] | None = None) -> go.Figure:
+    """3D scene with one plotly frame per reachable task point, a slider and a play button. ``risk``: screw id ->
+    P(breach) (model §22): each screw's line coloured by it, named with it, the worst first."""
     import plotly.graph_objects as go
 
     task, ts = report.task, report.trajectories
@@ -105,11 +149,15 @@ def scene_figure(report: Evaluation) -> go.Figure:
     shown = np.flatnonzero(series.reachable & np.isfinite(mp.D).all(axis=(-2, -1)))
     fig = go.Figure()
     seg = [np.stack([a, b]) for a, b in zip(ts.entry, ts.target)]
-    fig.add_trace(
-        go.Scatter3d(
-            name="trajectories", mode="lines", line={"color": "#17becf", "width": 4}, hoverinfo="skip", **_xyz(seg)
+    if risk is None:
+        fig.add_trace(
+            go.Scatter3d(
+                name="trajectories", mode="lines", line={"color": "#17becf", "width": 4}, hoverinfo="skip", **_xyz(seg)
+            )
         )
-    )
+    else:
+        for trace in _risk_traces(ts, risk):
+            fig.add_trace(trace)
     labels = [f"entry {lab}" for lab in series.labels]
     fig.add_trace(
         go.Scatter3d(
@@ -440,6 +488,7 @@ def write_evaluation_report(
     program: str | os.PathLike[str] | None = None,
     preface: str | None = None,
     title: str | None = None,
+    risk: dict[str, float] | None = None,
 ) -> Path:
     """Write the self-contained HTML report of ``report`` to ``path`` (and the PNGs beside it).
 
@@ -452,6 +501,7 @@ def write_evaluation_report(
     ``program/``): adds the program's section (:mod:`arcube.report.program_html`), read before any file is written.
     ``preface``: an HTML fragment put right under the title (a design job's verdict and requirements); ``title``: the
     page's title (default "AR-CUBE report: " and the plan's source; a docking's names its patient and side).
+    ``risk``: screw id -> P(breach): the 3D scene colours each screw by it (a docking's report).
     Returns the HTML path. Every file is written atomically.
     """
     out = Path(path)
@@ -472,7 +522,7 @@ def write_evaluation_report(
         pareto_png(front, f"{stem}_pareto.png")
         figs.append(("pareto", pareto_figure(front)))
     figs.append(("tip", tip_figure(report, limits)))
-    figs.append(("scene", scene_figure(report)))
+    figs.append(("scene", scene_figure(report, risk)))
     divs = {}
     for k, (key, fig) in enumerate(figs):
         # plotly.js goes inline once, with the first figure; the others reuse it.
