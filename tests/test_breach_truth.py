@@ -294,3 +294,39 @@ def test_the_docking_reports_scene_colours_each_screw_by_its_risk() -> None:
     assert rgb(lines[-1])[0] == rgb(lines[-1])[1] == rgb(lines[-1])[2]  # grey: no figure
     plain = scene_figure(ev)  # without risk: the one cyan trace of before
     assert [t.name for t in plain.data][0] == "trajectories"
+
+
+def test_a_one_side_docking_drills_its_side_with_its_own_registration(tmp_path: Path) -> None:
+    """The review: a one-side docking file on a two-sided plan drilled both sides as one docking, its registration
+    about the centroid of all ten entries; it is its side's docking, its registration about its own five."""
+    path = _docking_file(tmp_path / "dock")
+    both = arcube.breach(path, "reference", samples=100)
+    alone = arcube.breach(path, "reference", side="R", samples=100)
+    assert set(both.summary()["per_docking"]) == {"R", "L"}
+    right = [j for j, s in enumerate(both.pedicles.sides) if s == "R"]
+    np.testing.assert_array_equal(both.p_first_order[right], alone.p_first_order)  # deterministic: the same centre
+
+
+def test_a_plain_design_without_c_z_is_judged_as_evaluate_judges_it() -> None:
+    """The review: a design file without c_z had its z dyad judged with c_z = d_z, refusing every screw that
+    arcube evaluate reaches."""
+    design = Path(__file__).parent / "data" / "demo_design.json"
+    plan = _right()
+    r = arcube.breach(design, plan, samples=50)
+    guarded = arcube.evaluate(design, plan, guarded=True)
+    expected = [t.reachable_fraction == 1.0 for t in guarded.per_trajectory()]
+    assert list(r.reached) == expected and any(expected)
+    assert "z dyad not judged" in r.settings["dockings"]["R"]["how"]
+
+
+def test_ids_with_a_comma_and_screws_without_a_side(tmp_path: Path, capsys) -> None:
+    ts = _right()
+    odd = TrajectorySet(tuple(f"C,{i}" for i in ts.ids), ts.levels, ts.sides, ts.entry, ts.target, "odd", ts.pedicle)
+    r = arcube.breach(robot_dockings(ROBOT)["R"], odd, samples=50, mode="+,+,-,+")
+    assert r.pedicles.ids == odd.ids and r.reached.all()
+    write_csv(TrajectorySet(ts.ids, ts.levels, ("",) * 5, ts.entry, ts.target, "x", ts.pedicle), tmp_path / "p.csv")
+    code, err = cli_error(
+        ["breach", "--design", str(ROBOT), "--trajectories", str(tmp_path / "p.csv"), "--out", str(tmp_path / "b")],
+        capsys,
+    )
+    assert code == 2 and "a screw needs its side (R or L)" in err and err.count("\n") == 1, err

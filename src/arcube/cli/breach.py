@@ -108,6 +108,7 @@ def breach(given: Given) -> None:
     import sys
 
     from arcube.design_job.at_patient import breach as breach_api
+    from arcube.pedicles.first_order import REGISTRATION_MAX
     from arcube.options import Loads
 
     if given.get("design") is None and given.get("calibration") is None:
@@ -149,7 +150,7 @@ def breach(given: Given) -> None:
     for r in rows:
         if r["status"] == "not_reached":
             note = notes.get(r["docking"], {})
-            why = (note.get("not_reached") or {}).get(r["trajectory"])
+            why = (note.get("not_reached") or {}).get(r["trajectory"]) or "no inverse kinematics at its isthmus"
             typer.echo(
                 f"{r['trajectory']:<8} {r['level']:<5} {r['side']:<4} {r['room_mm']:>5.2f}  not reached by the robot at "
                 f"docking {note.get('docking', r['docking'])}{f' ({why})' if why else ''}: no P(breach)"
@@ -200,11 +201,16 @@ def breach(given: Given) -> None:
             f"  {'level':<6} {'screw':<8} {'P(breach)':>10} {'registration needed':>20} {'screw max':>10}  as built"
         )
         for t in takes:
-            reg = "-" if t["registration_needed"] is None else f"{t['registration_needed']:.3g} mm / deg"
-            screw = "-" if t["screw_max_mm"] is None else f"{t['screw_max_mm']:.2f} mm"
-            built = {"none": "none of the ISO 2768 classes", "calibration": "the calibration"}.get(
-                t["as_built"], f"class {t['as_built']}"
+            reg = (
+                "-"
+                if t["registration_needed"] is None
+                else f">= {REGISTRATION_MAX:g} mm / deg"
+                if t["registration_needed"] >= REGISTRATION_MAX
+                else f"{t['registration_needed']:.3g} mm / deg"
             )
+            screw = "-" if t["screw_max_mm"] is None else f"{t['screw_max_mm']:.2f} mm"
+            nothing = "not even the calibration" if given.get("calibration") else "none of the ISO 2768 classes"
+            built = {"none": nothing, "calibration": "the calibration"}.get(t["as_built"], f"class {t['as_built']}")
             typer.echo(
                 f"  {t['level']:<6} {t['worst_trajectory']:<8} {_pct(t['p_breach']):>10} {reg:>20} {screw:>10}  {built}"
             )

@@ -133,8 +133,9 @@ def _judged(dock: Any, s: Any, idx: np.ndarray, ids: Sequence[str]) -> tuple[np.
 def _verdict(job: DockingJob, design: Design, idx: np.ndarray, ids: Sequence[str]) -> tuple[np.ndarray, dict[str, str]]:
     """:func:`_judged` at ``design``, docked as ``job`` says (its plan, anatomy and envelope as arcube dock sets them)."""
     _, dock, s, _ = docking_inputs(job)
-    # a design without c_z has c_z = d_z (model §19.1): its z dyad is judged with it, as read_robot does
-    dock.design = design if design.c_z is not None else design.with_extras(c_z=float(design["d_z"]))
+    dock.design = design
+    if design.c_z is None:  # a plain design without c_z: judged without its z dyad, as arcube evaluate judges it
+        s = s.replace(options=s.options.replace(z_dyad=False))
     return _judged(dock, s, idx, ids)
 
 
@@ -256,7 +257,8 @@ def _one_design(
                 )
             how = f"{who} (this plan's trajectories)"
         else:
-            how = f"{who} (not checked: it records no plan)"
+            other = data.get("patient") not in (None, name)
+            how = f"{who} (not checked: it records no plan{f'; this plan is patient {name}' if other else ''})"
     job = _job(robot, name, plan, own if own in ("R", "L") else side, s, reqs)
     verdict, why = _verdict(job, robot.design, idx, ts.ids)
     if own in ("R", "L"):
@@ -264,6 +266,8 @@ def _one_design(
             verdict[j] = False
             why[ts.ids[j]] = f"side {ts.sides[j]}: not this docking's side ({own})"
     label = f"{data.get('patient', name)}_{own}" if data is not None and own in ("R", "L") else "given"
+    if d.c_z is None:
+        how += "; its z dyad not judged (the file has no c_z)"
     return AtPatient("", label, d, idx, verdict, why, how)
 
 
@@ -325,6 +329,7 @@ def breach(
     """
     from arcube.design_job.cohort import plans_as_cohort
     from arcube.io import TrajectorySet, load_trajectories, select
+    from arcube.pedicles.geometry import pedicles
     from arcube.pedicles.run import breach as run_breach
     from arcube.pedicles.run import read_calibration
 
@@ -336,6 +341,7 @@ def breach(
         raise InputError.of("dock_evaluations", f"must be an integer in [100, 1000000], got {dock_evaluations!r}")
     ts = plan if isinstance(plan, TrajectorySet) and transform is None else load_trajectories(plan, transform)
     ts = select(ts, side=side, levels=levels, ids=ids) if (side or levels or ids) else ts
+    pedicles(ts)  # a screw without a side, or without a pedicle, is refused before any docking is looked for
     name = (plans_as_cohort([plan]) or [PatientPlan("patient", plan)])[0].name
     patient = dict(zip(PATIENT_KEYS, (anatomy, anatomy_frame, segments, envelope, table_z)))
     ts_fields = {"transform": transform, "levels": levels, "ids": ids}
@@ -376,10 +382,16 @@ def breach(
     for g in found:
         verdict[g.screws] = g.verdict
     judged = _judged_with(_settings(patient, ts_fields, plan)[0])
+    own_side = (_json_object(design) or {}).get("side")
+    # a docking (or calibration) of one side drills each side of the plan as a docking of its own: the registration
+    # of its side is about its own screws' entries, and the other side's screws are not its (model §22.2)
+    by_sides = len(found) == 1 and not found[0].group and own_side in ("R", "L")
     notes = {
-        (g.group or _group_name(ts)): {"docking": g.label, "how": g.how, "not_reached": g.why, "judged_with": judged}
+        key: {"docking": g.label, "how": g.how, "not_reached": g.why, "judged_with": judged}
         for g in found
+        for key in (dict.fromkeys(ts.sides) if by_sides else [g.group or _group_name(ts)])
     }
+    common["by_sides"] = by_sides
     if calibration is not None:
         return run_breach(
             None, ts, out, calibration=calibration, tolerances=tolerances, reached=verdict, notes=notes, **common

@@ -126,6 +126,7 @@ def breach(
     reached: Any = None,
     notes: dict[str, dict[str, str]] | None = None,
     patient: str | None = None,
+    by_sides: bool = False,
     **fields: Any,
 ) -> BreachResult:
     """The breach probability of every screw of ``plan`` (model §22), the robot given as it is docked: the
@@ -138,6 +139,8 @@ def breach(
             model §16-17); a screw refused has no P(breach). None: every screw the nominal robot reaches.
         notes: docking (side) -> ``{"docking": its name, "how": how it was found}``, recorded in the settings.
         patient: the patient's name, recorded in the settings and the pictures' titles.
+        by_sides: one design over a two-sided plan drills each side as a docking of its own (its registration about
+            its own screws): a docking file or calibration of one side, whose other side it does not drill.
         plan: the plan and which of its screws (as :func:`arcube.evaluate` takes them).
         side: see ``plan``.
         levels: see ``plan``.
@@ -208,7 +211,7 @@ def breach(
     if verdict is not None and len(verdict) != len(ts.ids):
         raise InputError.of("reached", f"has {len(verdict)} values for {len(ts.ids)} screws: one per screw")
     p_all = pedicles(ts, s.screw_mm)
-    groups = _groups(ts, by_side)
+    groups = _groups(ts, by_side, by_sides)
     results = []
     pictures: list[tuple[np.ndarray, Any, dict[str, Any]]] = []  # per docking: its screws, Moments, per class
     for name, idx, d in groups:
@@ -221,7 +224,7 @@ def breach(
             model = RobotModel(x, signs, _calibrated_T(cal), "normal", cov)
         else:
             model = RobotModel(x, signs, tol.tolerances(x), tol.distribution)
-        sub = select(ts, ids=",".join(ts.ids[i] for i in idx))
+        sub = _subset(ts, idx)
         info = {
             "registration_mm": s.registration_mm,
             "registration_deg": s.registration_deg,
@@ -325,12 +328,31 @@ def _calibrated_T(cal: dict[str, Any]) -> np.ndarray:
     )[1]
 
 
-def _groups(ts: Any, by_side: dict[str, Any]) -> list[tuple[str, np.ndarray, Any]]:
+def _subset(ts: Any, idx: np.ndarray) -> Any:
+    """The screws ``idx`` of a plan, in that order (by index: an id may hold any text, a comma too)."""
+    from arcube.io import TrajectorySet
+
+    idx = np.asarray(idx, dtype=np.intp)
+    return TrajectorySet(
+        tuple(ts.ids[i] for i in idx),
+        tuple(ts.levels[i] for i in idx),
+        tuple(ts.sides[i] for i in idx),
+        np.asarray(ts.entry)[idx],
+        np.asarray(ts.target)[idx],
+        ts.source,
+        None if ts.pedicle is None else np.asarray(ts.pedicle)[idx],
+    )
+
+
+def _groups(ts: Any, by_side: dict[str, Any], by_sides: bool = False) -> list[tuple[str, np.ndarray, Any]]:
     """(docking name, screw indices, design) per docking: one for a design of one docking (named by its screws' side, or
-    ``both``), one per side for a robot with dockings."""
+    ``both``; one per side with ``by_sides``: a docking of one side, whose registration is about its own screws), one
+    per side for a robot with dockings."""
     if "" in by_side:
-        sides = set(ts.sides)
-        return [(next(iter(sides)) if len(sides) == 1 else "both", np.arange(len(ts.ids)), by_side[""])]
+        sides = list(dict.fromkeys(ts.sides))
+        if by_sides and len(sides) > 1:
+            return [(sd, np.array([i for i, s in enumerate(ts.sides) if s == sd]), by_side[""]) for sd in sides]
+        return [(sides[0] if len(sides) == 1 else "both", np.arange(len(ts.ids)), by_side[""])]
     out = []
     for side in dict.fromkeys(ts.sides):
         if side not in by_side:
