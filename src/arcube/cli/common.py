@@ -155,6 +155,16 @@ QUIET = option("--quiet", "No progress bar.", bool)
 FORCE = option("--force", "Replace the output file if it exists (a file is never replaced without it).", bool)
 
 
+def check_new_file(given: Given, key: str) -> None:
+    """InputError naming the flag of ``key`` when the file it names exists as a regular file and ``--force`` was not
+    given (a single-file output beside the command's main one: ``evaluate --report``, ``explore --html``)."""
+    path = given.get(key)
+    if path is None and given.get("force"):
+        raise InputError(f"{FORCE.name} replaces the {given.flag(key)} file: give {given.flag(key)}, or leave it out")
+    if path is not None and not given.get("force") and Path(path).is_file():
+        raise InputError(f"{given.flag(key)} {path}: exists; give {FORCE.name} to replace it")
+
+
 def check_replace(given: Given, *beside: Any) -> None:
     """InputError when the command's ``--out`` file (or a file it writes ``beside``) exists as a regular file and
     ``--force`` was not given: measurements a user took by hand are never overwritten silently. A FIFO or a device

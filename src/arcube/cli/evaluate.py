@@ -8,7 +8,18 @@ from pathlib import Path
 
 import typer
 
-from arcube.cli.common import ENVELOPE, PLAN, masses_given, one_plan, options_of, plan_request, request_flags
+from arcube.cli.common import (
+    ENVELOPE,
+    FORCE,
+    PLAN,
+    check_new_file,
+    masses_given,
+    with_help,
+    one_plan,
+    options_of,
+    plan_request,
+    request_flags,
+)
 from arcube.cli.projection import Given, command, option
 
 __all__ = ["register"]
@@ -17,7 +28,14 @@ JSON = option("--json", "Print one JSON object (per-point results and summary)."
 REPORT = option(
     "--report", "Also write a self-contained HTML report (plots, 3D mechanism) here.", Path, params=("report",)
 )
-FLAGS = [*PLAN, *ENVELOPE, JSON, REPORT, *request_flags("clearances", "body", "loads", "masses")]
+FLAGS = [
+    *PLAN,
+    *ENVELOPE,
+    JSON,
+    REPORT,
+    with_help(FORCE, "Replace the --report file if it exists (it is never replaced without it)."),
+    *request_flags("clearances", "body", "loads", "masses"),
+]
 
 
 def evaluate(given: Given) -> None:
@@ -33,6 +51,7 @@ def evaluate(given: Given) -> None:
     ):  # the holding torque, unless the links are too thin for the default wall and no mass flag asks for it
         options = options.replace(outputs=options.outputs.replace(holding_torque=True))
     report = given.get("report")
+    check_new_file(given, "report")
     if report is not None:
         report = check_report_path(report, REPORT.name)  # before the work: a folder that cannot be written, a FIFO
     result = evaluate_api(

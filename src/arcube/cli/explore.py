@@ -15,6 +15,8 @@ from arcube.cli.common import (
     MODE,
     POINTS,
     TRAJECTORIES,
+    FORCE,
+    check_new_file,
     with_help,
     one_plan,
     options_of,
@@ -50,6 +52,7 @@ FLAGS = [
         Path,
         key="save_path",
     ),
+    with_help(FORCE, "Replace the --html file if it exists (it is never replaced without it)."),
     POINTS,
     MODE,
     option("--no-guards", "Start without the guards of 'arcube design' (the paper's model).", bool),
@@ -65,6 +68,7 @@ def explore(given: Given) -> None:
     common = {**{k: given.get(k) for k in ("mode", "points", "point") if k in given}, **plan_request(given)}
     common.update(options=options_of(given, guarded=False), guarded=not given.get("no_guards"))
     design, plan = given.get("design", "paper"), one_plan(given)
+    check_new_file(given, "html")
     if "html" in given:
         served = [given.flag(k) for k in ("port", "host", "save_path") if k in given]
         if served:  # a static scene serves nothing: those flags would be ignored

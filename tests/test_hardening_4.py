@@ -1,0 +1,33 @@
+"""Issue "Hardening IV": single-file outputs are never replaced without --force (evaluate --report, explore --html
+replaced an existing file without a word; every other single-file output refuses), and --force alone is refused."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from harness import cli_error, run_cli
+
+CASES = [
+    (["evaluate", "--ids", "1", "--points", "3", "--report"], "--report"),
+    (["explore", "--ids", "1", "--points", "3", "--html"], "--html"),
+]
+
+
+@pytest.mark.parametrize("argv, flag", CASES)
+def test_an_existing_file_is_replaced_only_with_force(argv: list[str], flag: str, tmp_path: Path, capsys) -> None:
+    target = tmp_path / "kept.html"
+    target.write_text("a report someone kept")
+    code, err = cli_error([*argv, str(target)], capsys)
+    assert code == 2 and err == f"error: {flag} {target}: exists; give --force to replace it\n", err
+    assert target.read_text() == "a report someone kept"
+    code, _, err = run_cli([*argv, str(target), "--force"], capsys)
+    assert code == 0, err
+    assert target.read_text().lstrip().lower().startswith("<!doctype html")
+
+
+@pytest.mark.parametrize("argv, flag", CASES)
+def test_force_without_the_file_is_refused(argv: list[str], flag: str, capsys) -> None:
+    code, err = cli_error([*argv[:-1], "--force"], capsys)
+    assert code == 2 and f"--force replaces the {flag} file" in err and err.count("\n") == 1, err
