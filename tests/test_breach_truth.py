@@ -330,3 +330,32 @@ def test_ids_with_a_comma_and_screws_without_a_side(tmp_path: Path, capsys) -> N
         capsys,
     )
     assert code == 2 and "a screw needs its side (R or L)" in err and err.count("\n") == 1, err
+
+
+def test_breach_csv_reached_is_the_docking_reports_table(tmp_path: Path) -> None:
+    """One truth: a docking folder's report.html (its per-trajectory table) and its breach/breach.csv say the same of
+    every screw. The moved docking: the transmission guard refuses trajectories 7 and 9 at their entry; the report
+    says 0 %, breach.csv reached=no with no P."""
+    import re
+
+    from arcube.design_job.at_patient import _job, _settings
+    from arcube.design_job.coverage import write_docking_folder
+    from arcube.design_job.dock import DockingOutcome, docking_inputs
+    from arcube.design_job.dockings import assess_dockings
+    from arcube.model.robot import read_robot
+
+    robot = read_robot(ROBOT)
+    s, reqs = _settings({}, {}, "reference")
+    _, dock, s_job, _ = docking_inputs(_job(robot, "reference", "reference", "R", s, reqs))
+    dock.design = _moved()
+    assess_dockings([dock], reqs, s_job)
+    outcome = DockingOutcome("reference_R", "reference", "R", dock.design, dock.rows, None, 1.0, 0, 0.0, 1, "test")
+    write_docking_folder(tmp_path / "d", outcome, dock, s_job, 1)
+    html = (tmp_path / "d" / "report.html").read_text()
+    table = html.split("<h3>Per trajectory</h3>", 1)[1]
+    report = {m[0]: m[1] == "100" for m in re.findall(r"<tr><td>(\d+)</td><td>C\d</td><td>[RL]</td><td>(\d+) %", table)}
+    rows = {r["trajectory"]: r for r in _rows(tmp_path / "d" / "breach" / "breach.csv")}
+    assert set(report) == set(rows) == {"1", "3", "5", "7", "9"}
+    assert {t for t, ok in report.items() if not ok} == {"7", "9"}
+    for t, ok in report.items():
+        assert rows[t]["reached"] == ("yes" if ok else "no") and (rows[t]["p_breach"] == "") == (not ok)

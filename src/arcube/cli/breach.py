@@ -217,7 +217,7 @@ def breach(given: Given) -> None:
     typer.echo(f"results in {given.get('out')}")
     if given.get("markups") is not None:
         from arcube.io.files import atomic_write_text
-        from arcube.pedicles.run import breach_markups
+        from arcube.pedicles.output import breach_markups
 
         atomic_write_text(given.get("markups"), breach_markups(result))
         typer.echo(f"the screws as 3D Slicer markups in {given.get('markups')}")

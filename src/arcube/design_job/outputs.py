@@ -193,7 +193,8 @@ def breach_check(
     summary.json, the ``breach_probability`` row when the requirement is set). A docking whose screws cannot be judged
     (no side, no level) has its reason instead of figures, and fails the requirement. ``reached`` ``(J,)``: the
     docking's verdict per trajectory (:func:`trajectory_verdict`; computed when None): a screw it refuses has no P."""
-    from arcube.pedicles.run import breach, write_breach
+    from arcube.pedicles.output import write_breach
+    from arcube.pedicles.run import breach
 
     acc = s.accuracy_settings()
     row = next(

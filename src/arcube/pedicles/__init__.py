@@ -6,7 +6,11 @@
   the deflection; the reference one sample at a time and the batched path;
 * :mod:`~arcube.pedicles.monte_carlo`: the Monte Carlo and its results (22.4);
 * :mod:`~arcube.pedicles.settings`: :class:`BreachSettings`;
-* :mod:`~arcube.pedicles.run`: :func:`breach` (``arcube breach``) and its folder.
+* :mod:`~arcube.pedicles.first_order`: the first-order P(breach) and what it takes to reach a target (the inverse
+  questions);
+* :mod:`~arcube.pedicles.run`: :func:`breach`, the computation of ``arcube breach`` for a robot as docked
+  (:func:`arcube.breach` finds the docking at the patient first: :mod:`arcube.design_job.at_patient`);
+* :mod:`~arcube.pedicles.output`: its folder and files, and the screws as 3D Slicer markups.
 """
 
 from arcube.pedicles.monte_carlo import BREACH_COLUMNS, BreachResult
