@@ -44,6 +44,23 @@ def run_settings(given: Given, **fields: Any) -> RunSettings:
             f"{len(settings.run_objectives)} objectives are searched by {settings.algorithm} (model §15.5); leave "
             f"{given.flag('run.algorithm')} out"
         )
+    from arcube.optimization.settings import MULTI_OBJECTIVE_ALGORITHMS
+
+    if "run.compactness" in given and settings.objectives:
+        raise InputError(
+            f"{given.flag('run.compactness')} and {given.flag('run.objectives')}: the objectives are given, so the "
+            f"shorthand would be ignored; name the compactness among {given.flag('run.objectives')} instead"
+        )
+    if "run.compactness" in given and settings.algorithm not in MULTI_OBJECTIVE_ALGORITHMS:
+        raise InputError(
+            f"{given.flag('run.compactness')}: the second objective of nsga2 and nsga3; {settings.algorithm} would "
+            f"ignore it: leave it out, or give {given.flag('run.algorithm')} nsga2"
+        )
+    if given.get("run.eliminate_duplicates") and settings.algorithm != "ga":
+        raise InputError(
+            f"{given.flag('run.eliminate_duplicates')}: drops ga's duplicate offspring; {settings.algorithm} would "
+            f"ignore it: leave it out, or give {given.flag('run.algorithm')} ga"
+        )
     fixed = [n for n in settings.bounds if n not in settings.free] if "run.bounds" in given else []
     if fixed:  # a parameter the search does not move keeps its start value: its bound would be ignored
         raise InputError(
