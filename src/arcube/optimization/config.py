@@ -23,7 +23,7 @@ from arcube.optimization.algorithms import make_termination
 from arcube.optimization.build import check_engine
 from arcube.optimization.folder import versions
 from arcube.optimization.run_config import RunConfig
-from arcube.optimization.settings import RunSettings
+from arcube.optimization.settings import MULTI_OBJECTIVE_ALGORITHMS, RunSettings
 from arcube.options import Options, validated
 
 __all__ = ["OWN", "PatientPlan", "build_config", "docking_groups", "own_settings", "patient_settings", "run_settings"]
@@ -218,6 +218,8 @@ def _rerun_command(s: RunSettings, trajectories: list[str]) -> str:
         value = getattr(s, name)
         if name in ("seed", "period", "options") or value is None or value == () or value == {} or value is False:
             continue
+        if name == "compactness" and (s.objectives or s.algorithm not in MULTI_OBJECTIVE_ALGORITHMS):
+            continue  # not searched: the command line refuses the flag where it would be ignored
         flag = RunSettings.flag(name)
         if value is True:
             parts.append(flag)
