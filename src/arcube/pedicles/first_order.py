@@ -52,8 +52,8 @@ ANGLES = 720
 """Directions of the integral over theta in :func:`outside_ellipse` (the trapezoid rule on a periodic integrand)."""
 CLASSES_COARSE_FIRST = ("v", "c", "m", "f")
 """The ISO 2768 classes, coarsest first: the first that reaches a target is the cheapest robot that does."""
-WHAT_IT_TAKES_COLUMNS = ("level", "worst_trajectory", "p_breach", "registration_needed", "screw_max_mm", "as_built")
-"""The columns of what_it_takes.csv (then ``p_first_order``, ``target``)."""
+WHAT_IT_TAKES_COLUMNS = ("level", "worst_trajectory", "registration_needed", "screw_max_mm", "as_built")
+"""The columns of what_it_takes.csv, as the issue names them (then ``p_breach``, ``p_first_order``, ``target``)."""
 REGISTRATION_MAX = 10.0
 """The largest registration (mm and deg RMS) the search for the one needed looks at."""
 

@@ -55,11 +55,11 @@ def whose(result: BreachResult, docking: str | None = None) -> str:
 
 
 def what_it_takes_csv(result: BreachResult) -> str:
-    """what_it_takes.csv's text: :data:`~arcube.pedicles.first_order.WHAT_IT_TAKES_COLUMNS`, then ``p_first_order`` and
+    """what_it_takes.csv's text: :data:`~arcube.pedicles.first_order.WHAT_IT_TAKES_COLUMNS`, then ``p_breach``, ``p_first_order`` and
     ``target``; one row per level and a last one ``all`` (the worst screw); empty where nothing reaches the target."""
     from arcube.pedicles.first_order import WHAT_IT_TAKES_COLUMNS
 
-    columns = (*WHAT_IT_TAKES_COLUMNS, "p_first_order", "target")
+    columns = (*WHAT_IT_TAKES_COLUMNS, "p_breach", "p_first_order", "target")
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(columns)
