@@ -39,7 +39,8 @@ from arcube.model.design import Design  # noqa: E402
 from arcube.motion.output import Program  # noqa: E402
 
 Case = tuple[str, str, Callable[[Path], list[str]], str]
-"""(class, name, setup(folder) -> argv, expected: "error" (exit 2, one line) or "ok" (exit 0))."""
+"""(class, name, setup(folder) -> argv, expected: "error" (exit 2, one line), "error:TEXT" (and the line holds TEXT:
+the flag, file or key it must name) or "ok" (exit 0))."""
 
 
 def run(argv: list[str], cwd: Path) -> tuple[int, str]:
@@ -189,7 +190,9 @@ def write_cases() -> list[Case]:
         return ["evaluate", "--points", "3", "--ids", "1,2", "--report", str(base / "r.html")]
 
     return [("outputs of several files", "older program.csv + a folder named program.json", older_program, "error"),
-            ("outputs of several files", "export where r.replay.csv is a folder", replay_folder, "error"),
+            ("outputs of several files", "export where r.replay.csv is a folder", replay_folder, "error:r.replay.csv"),
+            ("outputs of several files", "export --force where r.replay.csv is a folder", lambda b: [*replay_folder(b), "--force"],
+             "error:r.replay.csv"),
             ("outputs of several files", "HTML report into a FIFO", fifo_report, "error"),
             ("outputs of several files", "HTML report into /proc", lambda b: ["evaluate", "--points", "3", "--report", "/proc/r.html"], "error")]  # fmt: skip
 
@@ -262,9 +265,9 @@ def new_command_cases() -> list[Case]:
         (base / "plan.csv").write_text(HEADER.rstrip("\n") + ",pedicle_widht_mm\n" + "1,C3,R,1,2,3,40,50,60,4.5\n")
         return ["breach", "--design", str(docking_file(base)), "--trajectories", str(base / "plan.csv"), "--out", str(base / "b")]
 
-    breach = lambda b, *more: ["breach", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", *more,
+    breach = lambda b, *more: ["breach",  # noqa: E731 "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", *more,
                                 "--out", str(b / "b")]  # fmt: skip
-    tol = lambda b, *more: ["tolerance", "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", *more,
+    tol = lambda b, *more: ["tolerance",  # noqa: E731 "--design", str(docking_file(b)), "--trajectories", "reference", "--side", "R", *more,
                              "--out", str(b / "t")]  # fmt: skip
     return [
         (NEW, "calibrate poses --count 3 (below the identifiable minimum)",
@@ -325,6 +328,85 @@ def file_cases() -> list[Case]:
     ]  # fmt: skip
 
 
+BOUNDS = "limits and computation bounds"
+IGNORED = "flags that would be ignored (Hardening IV)"
+MESSAGES = "messages naming the culprit"
+
+
+def run_folder(base: Path, old: str, new: str) -> Path:
+    """A run folder killed before its first checkpoint (``resume`` starts it), its config.toml's ``old`` made ``new``."""
+    from arcube.optimization import run as runmod
+    from arcube.optimization.config import build_config
+
+    cfg = build_config(["reference"], population=4, generations=1, points=3, ids="1", free="m_x", seed=3)
+    runmod.prepare(base / "run", cfg)
+    text = (base / "run" / "config.toml").read_text()
+    assert old in text, old
+    (base / "run" / "config.toml").write_text(text.replace(old, new, 1))
+    return base / "run"
+
+
+def hardening4_cases() -> list[Case]:
+    """Issue "Hardening IV": values beyond any robot, flags taken and ignored, a file path ending with '/', messages
+    that named the wrong culprit, and the hostile battery's four (each must name its flag, file or key)."""
+
+    def big_link(base: Path) -> list[str]:
+        (base / "big.json").write_text(json.dumps({**Design.paper().to_dict(), "d_x": 1e9}))
+        return ["evaluate", "--design", str(base / "big.json"), "--points", "3", "--report", str(base / "r.html")]
+
+    def fifo_study(base: Path) -> list[str]:
+        (base / "s").mkdir()
+        os.mkfifo(base / "s" / "study.toml")
+        (base / "s" / "base_config.toml").write_text("")
+        return ["resume", str(base / "s")]
+
+    def number_in_program_json(base: Path) -> list[str]:
+        folder = program_folder(base)
+        data = json.loads((folder / "program.json").read_text())
+        (folder / "program.json").write_text(json.dumps({**data, "note": "@"}).replace('"@"', "9" * 5000))
+        return ["report", str(folder)]
+
+    def good_csv(base: Path) -> list[str]:
+        (base / "good.csv").write_text("kept\n")
+        return ["dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", str(base / "good.csv")]
+
+    opt = lambda b, *more: ["optimize", "--trajectories", "reference", *more, "--out", str(b / "o")]  # noqa: E731
+    rob = lambda b, cmd, *more: [cmd, "--design", str(ROBOT), "--trajectories", "reference", "--side", "R", *more, "--out", str(b / "o")]  # noqa: E731  # fmt: skip
+    return [
+        (BOUNDS, "a design file's d_x: 1e9", big_link, "error:d_x"),
+        (BOUNDS, "--table-z 1e9", lambda b: ["evaluate", "--points", "3", "--envelope", "default", "--table-z", "1e9"], "error:--table-z"),
+        (BOUNDS, "joints --speed 1e9", lambda b: ["joints", "--points", "3", "--speed", "1e9", "--out", str(b / "j.csv")], "error:--speed"),
+        (BOUNDS, "--margin 1e9", lambda b: opt(b, "--margin", "1e9"), "error:--margin"),
+        (BOUNDS, "study --best-known 1e300", lambda b: ["study", "--trajectories", "reference", "--best-known", "1e300", "--out", str(b / "s")],
+         "error:--best-known"),
+        (BOUNDS, "dock --max lateral_error=1e12", lambda b: ["dock", "--robot", str(ROBOT), "--trajectories", "reference", "--max",
+                                                              "lateral_error=1e12", "--out", str(b / "d")], "error:--max"),
+        (BOUNDS, "tolerance --docking-deg 720", lambda b: rob(b, "tolerance", "--docking-deg", "720"), "error:--docking-deg"),
+        (BOUNDS, "--bounds d_x=1:1e9", lambda b: opt(b, "--bounds", "d_x=1:1e9"), "error:--bounds"),
+        (IGNORED, "optimize --class f (no accuracy objective or limit)", lambda b: opt(b, "--class", "f"), "error:--class"),
+        (IGNORED, "optimize --tol r=0.02 (no accuracy objective or limit)", lambda b: opt(b, "--tol", "r=0.02"), "error:--tol"),
+        (IGNORED, "optimize --aggregate max (one plan)", lambda b: opt(b, "--aggregate", "max"), "error:--aggregate"),
+        (IGNORED, "optimize --placement shared (one plan)", lambda b: opt(b, "--placement", "shared"), "error:--placement"),
+        (IGNORED, "tolerance --class f --tol lengths=..,angles=..", lambda b: rob(b, "tolerance", "--class", "f", "--tol",
+                                                                                   "lengths=0.05,angles=0.01"), "error:--class"),
+        (IGNORED, "--anatomy-frame RAS with no anatomy", lambda b: ["evaluate", "--points", "3", "--anatomy-frame", "RAS"], "error:--anatomy-frame"),
+        (FILES, "joints --out jdir/", lambda b: ["joints", "--points", "3", "--out", f"{b / 'jdir'}/"], "error:jdir/"),
+        (MESSAGES, "dock --out onto a file", good_csv, "error:is a file, not a folder"),
+        (MESSAGES, 'config.toml dask = "nonsense"', lambda b: ["resume", str(run_folder(b, 'dask = ""', 'dask = "nonsense"'))],
+         "error:config.toml: executor.dask"),
+        (MESSAGES, "config.toml [bounds] entry not a pair", lambda b: ["resume", str(run_folder(b, "m_x = [-400.0, 400.0]", "m_x = 5"))],
+         "error:[bounds] m_x must be [low, high]"),
+        (MESSAGES, "a FIFO study.toml", fifo_study, "error:study.toml: is a FIFO"),
+        (MESSAGES, "calibrate simulate on a robot file without --side",
+         lambda b: [*written(b / "p.csv", "x\n"), "calibrate", "simulate", "--design", str(ROBOT), "--poses", str(b / "p.csv"),
+                    "--out", str(b / "m.csv")], "error:--side"),
+        (FILES, "patients --mean --out /proc/p.csv", lambda b: ["patients", "--mean", "--out", "/proc/p.csv"], "error:/proc/p.csv:"),
+        (FILES, "a 5000-digit integer in an unused key of program.json", number_in_program_json, "error:program.json: note:"),
+        (FILES, "a missing second trajectory set of a design job", lambda b: ["design", "--trajectories", "reference", str(b / "missing.csv"),
+                                                                               "--out", str(b / "d")], "error:missing.csv"),
+    ]  # fmt: skip
+
+
 class Hung(Exception):
     """A case that did not end within :data:`CASE_TIMEOUT_S` (e.g. a read blocked on a FIFO)."""
 
@@ -356,6 +438,8 @@ def check(case: Case, base: Path) -> str | None:
         return None if code == 0 else f"exit {code}: {err.strip()[:200]}"
     if code != 2 or not err.startswith("error: ") or err.count("\n") != 1:
         return f"exit {code}: {err.strip()[:200]!r}"
+    if expected.startswith("error:") and expected[len("error:") :] not in err:
+        return f"does not name {expected[len('error:') :]!r}: {err.strip()[:200]!r}"
     if after != before:
         return f"files changed: {sorted(str(p.relative_to(base)) for p in set(after) ^ set(before))}"
     return None
@@ -387,7 +471,8 @@ def main_() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-interrupts", action="store_true")
     args = parser.parse_args()
-    cases = [*program_cases(), *plan_cases(), *limit_cases(), *write_cases(), *message_cases(), *new_command_cases(), *file_cases()]
+    cases = [*program_cases(), *plan_cases(), *limit_cases(), *write_cases(), *message_cases(), *new_command_cases(), *file_cases(),
+             *hardening4_cases()]  # fmt: skip
     table: dict[str, list[int]] = {}
     failures: list[str] = []
     for case in cases:

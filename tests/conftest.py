@@ -70,25 +70,31 @@ def right_side_design(tmp_path_factory: pytest.TempPathFactory):
 
 
 SLOW_FIRST = (
+    "test_dock.py",
     "test_one_robot_design.py",
     "test_design_job.py",
-    "test_dock.py",
     "test_explore.py",
-    "test_docs.py",
     "test_demo.py",
+    "test_docs.py",
     "test_study.py",
-    "test_paper_check.py",
-    "test_envelope_clearance.py",
-    "test_clearance.py",
-    "test_segmentations.py",
-    "test_report_browser.py",
-    "test_interrupts.py",
-    "test_program.py",
-    "test_design_progress.py",
-    "test_optimize.py",
     "test_hardening.py",
+    "test_interrupts.py",
+    "test_envelope_clearance.py",
+    "test_program.py",
+    "test_clearance.py",
+    "test_report_browser.py",
+    "test_optimize.py",
+    "test_sigterm.py",
+    "test_cli_evaluate.py",
+    "test_hostile_readers.py",
+    "test_breach_truth.py",
+    "test_segmentations.py",
+    "test_mjcf.py",
+    "test_design_progress.py",
+    "test_paper_check.py",
 )
-"""The files whose tests take longest (benchmarks of the suite: ``pytest --durations``), in that order."""
+"""The files whose tests take longest (benchmarks of the suite: ``pytest --durations``, per file), in that order;
+test_explore.py and test_report_browser.py (their browser tests run on CI, skipped without Chromium) where they were."""
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -102,9 +108,15 @@ def pytest_configure(config: pytest.Config) -> None:
     """With xdist, every process the suite starts runs Numba's parallel loops on one thread (``NUMBA_NUM_THREADS=1``,
     inherited by the workers and the commands their tests start; a value already set is kept). The workers already
     fill the cores; two OpenMP threads in each of several processes on two cores wait at each loop's barrier for a
-    thread that is not running, and a test that takes 10 s alone then took 100-170 s now and then."""
+    thread that is not running, and a test that takes 10 s alone then took 100-170 s now and then.
+
+    The files are handed out in the order of :data:`SLOW_FIRST`: pytest-xdist (3.6 and later) otherwise reorders the
+    files by their number of tests (``--loadscope-reorder``, on by default), which started the long files with few
+    tests (the demo, the design and docking jobs) last, one of them running alone at the end."""
     if not hasattr(config, "workerinput") and getattr(config.option, "numprocesses", None):
         os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    if getattr(config.option, "loadscopereorder", None):
+        config.option.loadscopereorder = False
 
 
 _COMPILE = (

@@ -43,7 +43,9 @@ def test_export_takes_c_z_from_the_design_and_the_old_keyword_warns() -> None:
 
 def test_the_c_z_flag_of_export_sets_the_design_s(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     design = tmp_path / "d.json"
-    PLACED.with_extras(c_z=150.0).to_json(design)  # the flag wins over the file's own, as it sets the design's value
+    PLACED.with_extras(c_z=150.0, mode="+,+,+,+").to_json(
+        design
+    )  # the flag wins over the file's own, as it sets the design's value
     out = tmp_path / "robot.xml"
     args = ["export", "--design", str(design), "--side", "R", "--c-z", "160", "--out", str(out)]
     assert run_cli(args, capsys)[0] == 0
@@ -62,7 +64,7 @@ def test_a_run_s_c_z_is_its_start_design_s(tmp_path: Path) -> None:
     X = np.zeros((3, build_model(cfg).space.n_var))
     np.testing.assert_array_equal(build_model(cfg).space.c_z(X), [250.0] * 3)
     design = tmp_path / "d.json"
-    PLACED.with_extras(c_z=150.0).to_json(design)
+    PLACED.with_extras(c_z=150.0, mode="+,+,+,+").to_json(design)
     own = build_config([arcube.load_trajectories("reference")], RunSettings(design_from=str(design)))
     assert own.design["c_z"] == 150.0
     flag = build_config(

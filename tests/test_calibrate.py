@@ -134,7 +134,7 @@ def test_greedy_d_optimal_beats_random_and_the_poses_are_consistent(chosen):
 
 
 def test_calibrated_design_file_and_the_ik_minus_q0_of_its_poses(tmp_path, plan, chosen):
-    data = DEMO.to_dict() | {"c_z": 300.0}  # closes the z dyad along the plan (243.9-477.3 mm would)
+    data = DEMO.to_dict() | {"c_z": 300.0, "mode": DEMO_MODE}  # closes the z dyad along the plan (243.9-477.3 mm would)
     (tmp_path / "nominal.json").write_text(json.dumps(data))
     sim = simulate(tmp_path / "nominal.json", chosen.measurements, SimulateSettings(seed=4))
     write_measurements(tmp_path / "meas.csv", sim.measurements)

@@ -12,7 +12,7 @@ import pytest
 from arcube.model.design import PARAM_NAMES, Design
 
 from designs import REFERENCE_CSV
-from harness import arcube
+from harness import arcube, run_cli
 
 JACOBIANS = {"J_LV", "J_AV", "J_sigma", "J_AS", "J_AP", "J_rho", "J_delta"}
 HEADER = "trajectory,level,side,entry_x,entry_y,entry_z,target_x,target_y,target_z"
@@ -110,7 +110,22 @@ def _bad_design(tmp_path: Path, **changes: object) -> Path:
         ("unwritable_report", "/proc/arcube-no"),
     ],
 )
-def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str) -> None:
+def test_bad_input_exits_2_with_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], case: str, needle: str
+) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; one case in a process of its own below)."""
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_cli(_bad_input_argv(tmp_path, case), capsys)
+    _assert_one_line_exit_2(tmp_path, code, out, err, needle)
+
+
+def test_bad_input_in_a_process_of_its_own_exits_2_with_one_line(tmp_path: Path) -> None:
+    """The same contract through ``python -m arcube`` (start-up, interrupt handling and the real stderr)."""
+    out = arcube(*_bad_input_argv(tmp_path, "non_numeric"), cwd=tmp_path)
+    _assert_one_line_exit_2(tmp_path, out.returncode, out.stdout, out.stderr, "entry_y")
+
+
+def _bad_input_argv(tmp_path: Path, case: str) -> list[str]:
     good = REFERENCE_CSV.read_text().splitlines()
     traj = str(REFERENCE_CSV)
     extra: list[str] = []
@@ -141,12 +156,15 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, case: str, needle: str)
         extra = ["--frobnicate"]
     elif case == "unwritable_report":  # /proc refuses new folders, even to root
         extra = ["--report", "/proc/arcube-no/report.html"]
-    out = arcube("evaluate", "--design", design, "--trajectories", traj, *extra, cwd=tmp_path)
-    assert out.returncode == 2, (out.stdout, out.stderr)
-    lines = out.stderr.strip().splitlines()
-    assert len(lines) == 1, out.stderr
+    return ["evaluate", "--design", design, "--trajectories", traj, *extra]
+
+
+def _assert_one_line_exit_2(tmp_path: Path, code: int, out: str, err: str, needle: str) -> None:
+    assert code == 2, (out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
     assert lines[0].startswith("error: ") and needle in lines[0]
-    assert "Traceback" not in out.stderr and out.stdout == ""
+    assert "Traceback" not in err and out == ""
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         p.name for p in tmp_path.iterdir() if p.suffix in {".csv", ".json"}
     )

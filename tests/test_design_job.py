@@ -179,12 +179,18 @@ def _arcube(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
         (["--seeds", "x"], "--seeds"),
     ],
 )
-def test_bad_design_input_is_one_line_exit_2_and_leaves_nothing(tmp_path: Path, args: list[str], needle: str) -> None:
-    out = _arcube(
-        "design", "--trajectories", "reference", "--anatomy", "default", "--out", "d", "--quiet", *args, cwd=tmp_path
-    )
-    assert out.returncode == 2, out.stderr
-    assert out.stderr.startswith("error: ") and out.stderr.count("\n") == 1 and needle in out.stderr
+def test_bad_design_input_is_one_line_exit_2_and_leaves_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], args: list[str], needle: str
+) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; the command line in a process of its own:
+    test_design_without_trajectories_is_one_line below)."""
+    from harness import run_cli
+
+    monkeypatch.chdir(tmp_path)
+    argv = ["design", "--trajectories", "reference", "--anatomy", "default", "--out", "d", "--quiet", *args]
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2, err
+    assert err.startswith("error: ") and err.count("\n") == 1 and needle in err
     assert not (tmp_path / "d").exists()
 
 
@@ -485,49 +491,10 @@ def test_an_impossible_requirement_exits_3_naming_it(tmp_path: Path) -> None:
     assert (tmp_path / "d" / "summary.json").exists() and (tmp_path / "d" / "requirements.csv").exists()
 
 
-def test_kill_then_resume_gives_the_same_design(tmp_path: Path) -> None:
-    import json
-    import signal
-    import time
-
-    flags = [
-        "--trajectories",
-        "reference",
-        "--ids",
-        "5",
-        "--anatomy",
-        "default",
-        "--points",
-        "4",
-        "--population",
-        "56",
-        "--generations",
-        "60",
-        "--seeds",
-        "1",
-        "--quiet",
-    ]
-    whole = _arcube("design", *flags, "--out", "whole", cwd=tmp_path)
-    assert whole.returncode in (0, 3), whole.stderr
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "arcube", "design", *flags, "--out", "cut"],
-        cwd=tmp_path,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    mark, deadline = tmp_path / "cut" / "study" / "seed_1" / "checkpoint" / "evals_000020.npz", time.monotonic() + 300
-    while time.monotonic() < deadline and proc.poll() is None and not mark.exists():
-        time.sleep(0.005)
-    proc.send_signal(signal.SIGKILL)
-    proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL and not (tmp_path / "cut" / "summary.json").exists()
-    res = _arcube("resume", "cut", "--quiet", cwd=tmp_path)
-    assert res.returncode == whole.returncode, res.stdout + res.stderr
-    assert (tmp_path / "cut" / "design.json").read_text() == (tmp_path / "whole" / "design.json").read_text()
-    a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("cut", "whole"))
-    assert {k: a[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")} == {
-        k: b[k] for k in ("meets_requirements", "mode", "seed", "eta_G", "requirements")
-    }
+# A design job killed (SIGKILL) and resumed writes the very design of an uninterrupted one: held by
+# tests/test_one_robot_design.py (test_a_killed_cohort_job_resumes_to_the_same_robot: two seeds, two dockings, the exit
+# code, design.json, every docking's file and the summary's verdicts); the one-docking, one-seed run that stood here is
+# the check "design-resume" of benchmarks/slow_checks.py.
 
 
 def test_the_program_decides(met_design: Path) -> None:
@@ -649,10 +616,13 @@ def test_every_csv_the_design_job_writes_reads_back(met_design: Path) -> None:
     ],
 )
 def test_resume_of_a_damaged_design_job_is_one_line_exit_2(
-    met_design: Path, tmp_path: Path, file: str, text: str | None, needle: str
+    met_design: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], file: str, text: str | None, needle: str
 ) -> None:
-    """Hardening III: a damaged file the job reads back at resume names itself (was: 'internal error (JSONDecodeError ...)')."""
+    """Hardening III: a damaged file the job reads back at resume names itself (was: 'internal error (JSONDecodeError ...)').
+    In this process (arcube.cli.main, as ``python -m arcube`` runs it; the first case also in a process of its own)."""
     import shutil
+
+    from harness import run_cli
 
     copy = tmp_path / "d"
     shutil.copytree(met_design, copy)
@@ -664,9 +634,14 @@ def test_resume_of_a_damaged_design_job_is_one_line_exit_2(
     else:
         path.write_text(text)
     before = sorted(p.relative_to(copy) for p in copy.rglob("*"))
-    out = _arcube("resume", str(copy), cwd=tmp_path)
-    assert out.returncode == 2 and out.stderr.startswith("error: ") and out.stderr.count("\n") == 1, out.stderr
-    assert needle in out.stderr and file.split("/")[-1] in out.stderr, out.stderr
+    code, _, err = run_cli(["resume", str(copy)], capsys)
+    outcomes = [(code, err)]
+    if text == "garbage{":
+        out = _arcube("resume", str(copy), cwd=tmp_path)
+        outcomes.append((out.returncode, out.stderr))
+    for code, err in outcomes:
+        assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, err
+        assert needle in err and file.split("/")[-1] in err, err
     assert sorted(p.relative_to(copy) for p in copy.rglob("*")) == before  # nothing written or removed
 
 

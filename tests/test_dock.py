@@ -171,9 +171,12 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
                 )
 
 
-def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(tmp_path: Path) -> None:
+def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(
+    killed_then_docked: tuple[Path, bool, list[str], subprocess.CompletedProcess[str]], tmp_path: Path
+) -> None:
     """The reference patient's plan and anatomy moved by t (the default envelope follows its landmarks): the robot's
-    own right docking moved by t is as good there as at home, so the docking found is at least that good."""
+    own right docking moved by t is as good there as at home, so the docking found is at least that good. At home:
+    the fixture's docking of the right side, with the same flags as the moved one's."""
     t = np.array([35.0, -20.0, 15.0])
     plan = arcube.load_trajectories("reference")
     moved = dataclasses.replace(plan, entry=plan.entry + t, target=plan.target + t, source="moved")
@@ -185,7 +188,6 @@ def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(tmp_path: P
     mesh = trimesh.load(tmp_path / "moved_source.stl", force="mesh", process=False)
     mesh.apply_translation(t)
     mesh.export(tmp_path / "moved.anatomy.stl")
-    levels = ["--levels", "C3", "--points", "6", "--quiet", "--side", "R"]
     out = run_arcube(
         "dock",
         "--robot",
@@ -198,28 +200,16 @@ def test_a_patient_moved_by_a_translation_is_docked_at_least_as_well(tmp_path: P
         "patient",
         "--out",
         "d",
-        "--evaluations",
-        "400",
-        *levels,
+        "--side",
+        "R",
+        *SMALL,
         cwd=tmp_path,
     )
     assert out.returncode == 0, out.stdout + out.stderr
     found = json.loads((tmp_path / "d" / "summary.json").read_text())["dockings"][0]
-    home = run_arcube(
-        "dock",
-        "--robot",
-        str(ROBOT),
-        "--trajectories",
-        "reference",
-        "--out",
-        "h",
-        "--evaluations",
-        "400",
-        *levels,
-        cwd=tmp_path,
-    )
+    home_root, _, _, home = killed_then_docked  # dock --robot ROBOT --trajectories reference --side R *SMALL
     assert home.returncode == 0, home.stdout + home.stderr
-    at_home = json.loads((tmp_path / "h" / "summary.json").read_text())["dockings"][0]
+    at_home = json.loads((home_root / "d" / "summary.json").read_text())["dockings"][0]
     assert found["meets_requirements"] and found["eta_G"] <= at_home["eta_G"] + 1e-9
 
 
@@ -277,7 +267,14 @@ def test_dask_gives_the_dockings_one_process_gives(tmp_path: Path) -> None:
         }
 
 
-def test_a_killed_dock_leaves_no_folder_and_the_next_one_cleans_up(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def killed_then_docked(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[Path, bool, list[str], subprocess.CompletedProcess[str]]:
+    """``arcube dock`` of both sides (SMALL) killed (SIGKILL) once its first side's stage is written, then the right
+    side docked (SMALL) into the same --out: the folder they ran in, whether d/ existed and the stages left right
+    after the kill, and the second command's outcome."""
+    root = tmp_path_factory.mktemp("killed")
     cmd = [
         sys.executable,
         "-m",
@@ -291,20 +288,26 @@ def test_a_killed_dock_leaves_no_folder_and_the_next_one_cleans_up(tmp_path: Pat
         "d",
         *SMALL,
     ]
-    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
-    while time.time() < deadline and not any((s / "dockings").exists() for s in tmp_path.glob(".d.dock-*.tmp")):
+    while time.time() < deadline and not any((s / "dockings").exists() for s in root.glob(".d.dock-*.tmp")):
         time.sleep(0.2)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    assert not (tmp_path / "d").exists() and list(
-        tmp_path.glob(".d.dock-*.tmp")
-    )  # killed mid-way: no d/, its stage left
+    out_after_kill, stages_after_kill = (root / "d").exists(), [s.name for s in root.glob(".d.dock-*.tmp")]
     done = run_arcube(
-        "dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--side", "R", *SMALL, cwd=tmp_path
+        "dock", "--robot", str(ROBOT), "--trajectories", "reference", "--out", "d", "--side", "R", *SMALL, cwd=root
     )
+    return root, out_after_kill, stages_after_kill, done
+
+
+def test_a_killed_dock_leaves_no_folder_and_the_next_one_cleans_up(
+    killed_then_docked: tuple[Path, bool, list[str], subprocess.CompletedProcess[str]],
+) -> None:
+    root, out_after_kill, stages_after_kill, done = killed_then_docked
+    assert not out_after_kill and stages_after_kill  # killed mid-way: no d/, its stage left
     assert done.returncode in (0, 3), done.stderr
-    assert (tmp_path / "d" / "summary.json").exists() and not list(tmp_path.glob(".d.dock-*.tmp"))
+    assert (root / "d" / "summary.json").exists() and not list(root.glob(".d.dock-*.tmp"))
 
 
 @pytest.mark.parametrize(
@@ -360,3 +363,15 @@ def test_the_dock_summary_is_typed(docked: Path) -> None:
     result = DockResult(docked, True, summary)
     assert isinstance(result.summary, arcube.DockSummary) and set(summary) <= set(arcube.DockSummary.fields())
     assert result.summary.coverage == result.coverage == 1.0 and result.summary.dockings == summary["dockings"]
+
+
+def test_a_served_side_s_report_names_its_program_folder_where_it_is(docked: Path) -> None:
+    """The report of a served side names the drilling program's folder as seen from the page (``program``, beside it),
+    not the staging folder the side was written in before it was moved into place."""
+    import re
+
+    for d in json.loads((docked / "summary.json").read_text())["dockings"]:
+        page = (docked / d["folder"] / "report.html").read_text()
+        shown = re.findall(r"<tr><th>folder</th><td>([^<]*)</td></tr>", page)
+        assert shown == ["program"] and (docked / d["folder"] / shown[0] / "program.csv").is_file()
+        assert re.search(r"\.dock-\d+-\w+\.tmp", page) is None  # the staging folder's name

@@ -14,7 +14,7 @@ from arcube.model.body import PART_NAMES
 from arcube.model.design import Design
 
 from designs import REFERENCE_CSV, RIGHT_SIDE_M
-from harness import arcube
+from harness import arcube, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -78,15 +78,32 @@ def test_json_contract_with_a_mesh_in_the_patient_frame(files) -> None:
         (["--design", "BADKEY"], "mount_rq"),
     ],
 )
-def test_bad_input_is_one_line_exit_2_and_writes_nothing(files, tmp_path: Path, extra, needle) -> None:
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(
+    files, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], extra, needle
+) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; one case in a process of its own below)."""
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_cli(_bad_input_argv(files, tmp_path, extra), capsys)
+    _assert_refused(tmp_path, code, out, err, needle)
+
+
+def test_bad_input_in_a_process_of_its_own_is_one_line_exit_2(files, tmp_path: Path) -> None:
+    """The same contract through ``python -m arcube`` (start-up, interrupt handling, the real stderr)."""
+    out = arcube(*_bad_input_argv(files, tmp_path, ["--anatomy", "GARBAGE"]), cwd=tmp_path)
+    _assert_refused(tmp_path, out.returncode, out.stdout, out.stderr, "garbage.stl")
+
+
+def _bad_input_argv(files, tmp_path: Path, extra: list[str]) -> list[str]:
     subst = {"MESH": str(files["mesh"]), "GARBAGE": str(files["garbage"]), "BADKEY": str(files["bad_key"])}
     args = [subst.get(a, a) for a in extra]
-    report = tmp_path / "r.html"
-    base = ["evaluate", "--trajectories", str(REFERENCE_CSV), "--points", "3", "--report", str(report)]
+    base = ["evaluate", "--trajectories", str(REFERENCE_CSV), "--points", "3", "--report", str(tmp_path / "r.html")]
     if "--design" not in args:
         base += ["--design", str(files["design"])]
-    out = arcube(*base, *args, cwd=tmp_path)
-    assert out.returncode == 2, (out.stdout, out.stderr)
-    assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr, out.stderr
-    assert needle in out.stderr, out.stderr
-    assert not report.exists() and not list(tmp_path.glob("*.png"))
+    return [*base, *args]
+
+
+def _assert_refused(tmp_path: Path, code: int, out: str, err: str, needle: str) -> None:
+    assert code == 2, (out, err)
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert needle in err, err
+    assert not (tmp_path / "r.html").exists() and not list(tmp_path.glob("*.png"))

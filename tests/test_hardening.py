@@ -148,7 +148,7 @@ def test_a_damaged_history_is_refused_by_resume(finished_run: Path, tmp_path: Pa
 )
 def test_a_damaged_history_is_refused_by_the_report(finished_run: Path, tmp_path: Path, damage, needle: str) -> None:
     """A binary or damaged history.csv is a damaged run folder: the report says so (one line, exit 2,
-    no report written) instead of drawing around it; without history.csv it has no convergence plot."""
+    no report written) instead of drawing around it."""
     import shutil
 
     run = tmp_path / "damaged"
@@ -162,6 +162,15 @@ def test_a_damaged_history_is_refused_by_the_report(finished_run: Path, tmp_path
         and needle in out.stderr
     ), out.stderr
     assert "delete it for a report without the convergence plot" in out.stderr and not (run / "report.html").exists()
+
+
+def test_without_its_history_a_run_is_reported_without_the_convergence_plot(finished_run: Path, tmp_path: Path) -> None:
+    """What the refusal above advises: history.csv deleted, the report is written and says it has no convergence plot
+    (the same for every damage, so once, not per damaged history)."""
+    import shutil
+
+    run = tmp_path / "damaged"
+    shutil.copytree(finished_run, run)
     (run / "history.csv").unlink()
     out = _arcube("report", str(run), cwd=tmp_path)
     assert out.returncode == 0 and out.stderr == "", out.stderr

@@ -93,9 +93,11 @@ def test_requirements_from_texts_as_the_command_line_gives_them() -> None:
     )
 )
 def test_limit_values_in_every_notation(text: str) -> None:
-    """A value is taken exactly when it is a finite number in plain decimal notation, and is then
-    Python's float of its text (Python's float alone would take ``1_5``, ``١``, ``１``)."""
+    """A value is taken exactly when it is a finite number in plain decimal notation (within the torque's bound,
+    1e5 N·m: Hardening IV), and is then Python's float of its text (Python's float alone would take ``1_5``, ``١``,
+    ``１``)."""
     plain = DECIMAL.fullmatch(text.strip()) is not None and np.isfinite(float(text.strip()))
+    plain = plain and abs(float(text.strip())) <= 1e5
     try:
         got = limit_pairs([f"torque={text}"], param="p")
     except InputError:
@@ -231,7 +233,11 @@ def test_the_numba_cache_moves_to_a_private_folder_when_the_install_is_read_only
 ) -> None:
     from arcube import caches
 
-    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    # set, then removed: monkeypatch records the variable, so the value configure() writes into os.environ is undone
+    # after the test (a bare delenv of an unset variable records nothing: the private cache leaked into every later
+    # command this worker started, and the first of them compiled the whole kernel again into it)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "")
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     monkeypatch.setattr(caches, "_in_tree_writable", lambda: False)
     monkeypatch.setattr(sys, "modules", {k: v for k, v in sys.modules.items() if k != "numba"})

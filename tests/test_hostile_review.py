@@ -238,10 +238,11 @@ def test_a_tolerance_or_a_body_size_beyond_a_metre_or_a_thousand_degrees_is_refu
     assert parse_tol("r=1000") == {"r": 1000.0}
     with pytest.raises(InputError, match=">= 0 and at most 1000"):
         parse_tol("r=1e9")
-    for field in ("docking_deg", "q0_deg", "docking_mm"):
-        assert getattr(ToleranceSettings(**{field: 1000.0}), field) == 1000.0
+    # the docking angles at most a quarter turn (Hardening IV: --docking-deg 720 was taken)
+    for field, most in (("docking_deg", 90.0), ("q0_deg", 1000.0), ("docking_mm", 1000.0)):
+        assert getattr(ToleranceSettings(**{field: most}), field) == most
         with pytest.raises(InputError, match=field):
-            ToleranceSettings(**{field: 1e9})
+            ToleranceSettings(**{field: 1e9 if most > 90 else 720.0})
     assert Body(link_radius=1000.0).link_radius == 1000.0
     with pytest.raises(InputError, match="link_radius"):
         Body(link_radius=1e9)

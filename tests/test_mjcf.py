@@ -414,18 +414,34 @@ def design_file(tmp_path_factory) -> Path:
     ],
     ids=["format", "missing-id", "k-range", "unreachable", "z-dyad", "unwritable", "wall"],
 )
-def test_cli_bad_input_one_line_exit_2_no_file(tmp_path, design_file, extra, message) -> None:
+def test_cli_bad_input_one_line_exit_2_no_file(tmp_path, design_file, extra, message, monkeypatch, capsys) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; one case in a process of its own below)."""
+    from harness import run_cli
+
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_cli(_bad_export_argv(tmp_path, design_file, extra), capsys)
+    _assert_refused(tmp_path, code, err, message)
+
+
+def test_cli_bad_input_in_a_process_of_its_own_is_one_line_exit_2(tmp_path, design_file) -> None:
+    """The same contract through ``python -m arcube`` (start-up, interrupt handling, the real stderr)."""
+    res = _run(*_bad_export_argv(tmp_path, design_file, ["--at", "2:0", "--c-z", "162"]), cwd=tmp_path)
+    _assert_refused(tmp_path, res.returncode, res.stderr, "no IK solution at trajectory 2, k=0")
+
+
+def _bad_export_argv(tmp_path: Path, design_file: Path, extra: list[str]) -> list[str]:
     blocker = tmp_path / "blocker.txt"
     blocker.write_text("a file where a folder is needed\n")
     extra = [a.replace("{blocker}", str(blocker)) for a in extra]
-    out = tmp_path / "model.xml"
-    args = ["export", "--design", str(design_file), "--out", str(out), *extra]
-    res = _run(*args, cwd=tmp_path)
-    assert res.returncode == 2, res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
+    return ["export", "--design", str(design_file), "--out", str(tmp_path / "model.xml"), *extra]
+
+
+def _assert_refused(tmp_path: Path, code: int, err: str, message: str) -> None:
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), err
     assert re.search(message, lines[0]), lines[0]
-    assert "Traceback" not in res.stderr
+    assert "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blocker.txt"]  # no file, no temporary left
 
 

@@ -17,7 +17,7 @@ from arcube.optimization.config import build_config
 from arcube.optimization.build import build_model
 
 from designs import RIGHT_SIDE_M
-from harness import arcube
+from harness import arcube, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -183,10 +183,12 @@ def test_only_runs_that_use_the_masses_compute_or_report_them(start: Path) -> No
         (["--objectives", "eta_G,mass", "--link-radius", "2"], "--wall"),
     ],
 )
-def test_bad_mass_flags_of_optimize_are_one_line_exit_2(args, needle, tmp_path: Path) -> None:
-    out = arcube("optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args)
-    assert out.returncode == 2, out.stderr
-    assert out.stderr.count("\n") == 1 and needle in out.stderr and "Traceback" not in out.stderr
+def test_bad_mass_flags_of_optimize_are_one_line_exit_2(args, needle, tmp_path: Path, capsys) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; a bad flag in a process of its own is
+    test_a_bad_flag_in_a_process_of_its_own_is_one_line_exit_2 below)."""
+    code, _, err = run_cli(["optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args], capsys)
+    assert code == 2, err
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err
     assert not (tmp_path / "run").exists()
 
 
@@ -203,7 +205,20 @@ def test_bad_mass_flags_of_optimize_are_one_line_exit_2(args, needle, tmp_path: 
         (["--thrust", "-3"], "--thrust"),
     ],
 )
-def test_bad_objective_flags_are_one_line_exit_2(args, needle, tmp_path: Path) -> None:
+def test_bad_objective_flags_are_one_line_exit_2(args, needle, tmp_path: Path, capsys) -> None:
+    """In this process, as the mass flags above."""
+    code, _, err = run_cli(["optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args], capsys)
+    assert code == 2, err
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "args, needle", [(["--density", "-2700"], "--density"), (["--objectives", "eta_G,speed"], "unknown objective")]
+)
+def test_a_bad_flag_in_a_process_of_its_own_is_one_line_exit_2(args, needle, tmp_path: Path) -> None:
+    """The contract of the two tests above through ``python -m arcube`` (start-up, interrupt handling, the real
+    stderr), for one flag of each."""
     out = arcube("optimize", "--trajectories", "reference", "--out", str(tmp_path / "run"), *args)
     assert out.returncode == 2, out.stderr
     assert out.stderr.count("\n") == 1 and needle in out.stderr and "Traceback" not in out.stderr

@@ -363,12 +363,13 @@ def test_cli_errors_raise_input_error(cli, tmp_path: Path, monkeypatch, args, ne
 # ------------------------------------------------------------ every written anatomy reads back (Hardening III item 0)
 
 
-def test_every_patient_of_a_200_patient_cohort_reads_back_through_the_strict_readers(cli, tmp_path: Path) -> None:
-    """``arcube patients --seed 1 --count 200``: every anatomy and envelope passes the mesh reader, and every
+def test_every_patient_of_a_cohort_reads_back_through_the_strict_readers(cli, tmp_path: Path) -> None:
+    """``arcube patients --seed 1 --count 50``: every anatomy and envelope passes the mesh reader, and every
     arch holds its level's entries on its posterior face with at least 2 mm of bone in front of them.
 
     Seeds 2 and 25 drew entries in front of the body's posterior wall: their arches came out inside out, which
-    the reader refused ("shell 4 encloses no positive volume") and which left the folder half written.
+    the reader refused ("shell 4 encloses no positive volume") and which left the folder half written. (50 patients
+    hold both; the 200 of seeds 1-200 are the check "patients-200" of benchmarks/slow_checks.py.)
     """
     from arcube.design_job.cohort import read_cohort
     from arcube.io.meshes import read_mesh
@@ -376,11 +377,11 @@ def test_every_patient_of_a_200_patient_cohort_reads_back_through_the_strict_rea
 
     runner, app = cli
     out = tmp_path / "cohort"
-    result = runner.invoke(app, ["patients", "--seed", "1", "--count", "200", "--out", str(out)])
+    result = runner.invoke(app, ["patients", "--seed", "1", "--count", "50", "--out", str(out)])
     assert result.exit_code == 0, result.output
     plans = read_cohort(out / "cohort.toml")
-    assert len(plans) == 200
-    for k in range(200):
+    assert len(plans) == 50
+    for k in range(50):
         stem = out / f"patient_{k:03d}"
         meshes = [
             read_mesh(stem.with_suffix(".anatomy.stl"), "patient"),

@@ -21,7 +21,7 @@ from arcube.options import Loads
 from arcube.model.mechanism import ALL_MODES
 
 from designs import REFERENCE_CSV, reaching_design, reference_task
-from harness import arcube
+from harness import arcube, run_cli
 
 SUMMARY = {
     "tip_error_max_mm",
@@ -146,10 +146,18 @@ def test_json_carries_the_metrics_with_their_names(right_side_design: Path) -> N
         (["--encoder-deg", "fine"], "--encoder-deg"),
     ],
 )
-def test_bad_loads_are_one_line_exit_2(args, flag) -> None:
-    out = arcube("evaluate", "--points", "3", *args)
+def test_bad_loads_are_one_line_exit_2(args, flag, capsys: pytest.CaptureFixture[str]) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; one case in a process of its own below)."""
+    code, _, err = run_cli(["evaluate", "--points", "3", *args], capsys)
+    assert code == 2
+    assert err.count("\n") == 1 and flag in err and "Traceback" not in err
+
+
+def test_a_bad_load_in_a_process_of_its_own_is_one_line_exit_2() -> None:
+    """The same contract through ``python -m arcube`` (start-up, interrupt handling, the real stderr)."""
+    out = arcube("evaluate", "--points", "3", "--thrust", "nan")
     assert out.returncode == 2
-    assert out.stderr.count("\n") == 1 and flag in out.stderr and "Traceback" not in out.stderr
+    assert out.stderr.count("\n") == 1 and "--thrust" in out.stderr and "Traceback" not in out.stderr
 
 
 @pytest.mark.parametrize("engine", ["numpy", "numba"])

@@ -24,7 +24,7 @@ from arcube.optimization.config import build_config
 from arcube.optimization.settings import RunSettings
 
 from designs import RIGHT_SIDE_M
-from harness import arcube
+from harness import arcube, run_cli
 
 POINTS = 6
 CLASS_F_Q0 = {"tolerance_class": "f", "tol": {"q0": 0.05}}
@@ -139,16 +139,20 @@ def test_the_tolerances_are_part_of_the_run(tmp_path: Path) -> None:
         (["--class", "x"], "--class"),
     ],
 )
-def test_bad_tolerances_on_optimize_exit_2_with_one_line(tmp_path: Path, flags: list[str], message: str) -> None:
-    out = arcube(
-        "optimize",
-        "--trajectories",
-        "reference",
-        "--max",
-        "lateral_error_rms=0.5",
-        *flags,
-        "--out",
-        str(tmp_path / "run"),
-    )
+def test_bad_tolerances_on_optimize_exit_2_with_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], flags: list[str], message: str
+) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; one case in a process of its own below)."""
+    argv = ["optimize", "--trajectories", "reference", "--max", "lateral_error_rms=0.5", *flags]
+    code, _, err = run_cli([*argv, "--out", str(tmp_path / "run")], capsys)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_bad_tolerance_in_a_process_of_its_own_exits_2_with_one_line(tmp_path: Path) -> None:
+    """The same contract through ``python -m arcube`` (start-up, interrupt handling, the real stderr)."""
+    argv = ["optimize", "--trajectories", "reference", "--max", "lateral_error_rms=0.5", "--tol", "foo=1"]
+    out = arcube(*argv, "--out", str(tmp_path / "run"))
+    message = "--tol 'foo=1': unknown error source 'foo'"
     assert out.returncode == 2 and message in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr
     assert not (tmp_path / "run").exists()

@@ -97,7 +97,9 @@ def test_the_rerun_line_reruns_the_same_settings(tmp_path: Path, capsys: pytest.
 
     from harness import run_cli
 
-    fields = {"tol": {"r": 0.02, "lengths": 0.05}, "maxima": {"torque": 5.0}, "bounds": {"m_x": (10.0, 200.0)}}
+    # a limit on the robot as built: the class and tolerances count (the command line refuses them otherwise)
+    maxima = {"torque": 5.0, "lateral_error_rms": 50.0}
+    fields = {"tol": {"r": 0.02, "lengths": 0.05}, "maxima": maxima, "bounds": {"m_x": (10.0, 200.0)}}
     cfg = build_config(["reference"], **SMALL, **fields, thrust=25.0, tolerance_class="f")
     argv = shlex.split(cfg.rerun.replace(" DIR ", f" {tmp_path / 'again'} "))
     assert argv[:2] == ["arcube", "optimize"]

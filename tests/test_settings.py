@@ -439,6 +439,7 @@ def test_the_old_flag_warns_in_the_users_words_and_the_run_records_the_new_name(
         "ga",
     ]
     args += ["--population", "4", "--generations", "1", "--seed", "1", "--quiet", "--out", str(out)]
+    args += ["--dockings", "per-patient"]  # --aggregate combines dockings or sets: with one set and none it is refused
     done = subprocess.run(
         [sys.executable, "-m", "arcube", *args, "--tolerance", "0", "--aggregate", "worst"],
         capture_output=True,

@@ -25,6 +25,7 @@ from arcube.errors import InputError
 from arcube.coerce import seeds as checked_seeds
 from arcube.optimization import study as studymod
 from arcube.optimization.config import build_config
+from harness import run_cli
 
 REPO = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(REPO / "src")}
@@ -232,11 +233,23 @@ def test_killed_parallel_study_leaves_no_orphan_writing_and_resumes(tmp_path: Pa
         (["--seeds", "1,2", "--population", "1"], "--population"),
     ],
 )
-def test_bad_study_input_is_one_line_and_leaves_nothing(tmp_path: Path, args: list[str], message: str) -> None:
+def test_bad_study_input_is_one_line_and_leaves_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it; one case in a process of its own below)."""
     out = tmp_path / "st"
-    res = _cli("study", "--out", str(out), *FLAGS, *args)
+    code, _, err = run_cli(["study", "--out", str(out), *FLAGS, *args], capsys)
+    assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, err
+    assert message in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_bad_study_input_in_a_process_of_its_own_is_one_line(tmp_path: Path) -> None:
+    """The same contract through ``python -m arcube`` (start-up, interrupt handling, the real stderr)."""
+    out = tmp_path / "st"
+    res = _cli("study", "--out", str(out), *FLAGS, "--seeds", "5-1")
     assert res.returncode == 2 and res.stderr.startswith("error: ") and res.stderr.count("\n") == 1, res.stderr
-    assert message in res.stderr and "Traceback" not in res.stderr
+    assert "runs backwards" in res.stderr and "Traceback" not in res.stderr
     assert not out.exists()
 
 
@@ -250,7 +263,8 @@ def test_unreachable_dask_scheduler_leaves_no_study(tmp_path: Path) -> None:
     assert not out.exists()
 
 
-def test_resume_of_a_folder_that_is_not_a_study_or_run(tmp_path: Path) -> None:
+def test_resume_of_a_folder_that_is_not_a_study_or_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """In this process (arcube.cli.main, as ``python -m arcube`` runs it)."""
     (tmp_path / "junk").mkdir()
     (tmp_path / "junk/notes.txt").write_text("hello")
     broken = tmp_path / "broken"
@@ -262,9 +276,9 @@ def test_resume_of_a_folder_that_is_not_a_study_or_run(tmp_path: Path) -> None:
         (broken, "not a study"),
     ):
         before = sorted(p.name for p in folder.iterdir()) if folder.exists() else None
-        res = _cli("resume", str(folder), "--quiet")
-        assert res.returncode == 2 and res.stderr.startswith("error: ") and res.stderr.count("\n") == 1, res.stderr
-        assert message in res.stderr
+        code, _, err = run_cli(["resume", str(folder), "--quiet"], capsys)
+        assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, err
+        assert message in err
         assert (sorted(p.name for p in folder.iterdir()) if folder.exists() else None) == before
 
 

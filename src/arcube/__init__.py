@@ -58,6 +58,10 @@ _SOURCES: dict[str, str] = {
     "JointTrajectory": "arcube.export.joints",
     **dict.fromkeys(("BreachResult", "BreachSettings"), "arcube.pedicles"),
     "breach": "arcube.design_job.at_patient",
+    "PointResults": "arcube.evaluation.reference",
+    "TrajectorySummary": "arcube.evaluation.tables",
+    "Resolved": "arcube.request",
+    "BodyRadii": "arcube.model.body",
     "BreachSummary": "arcube.pedicles.monte_carlo",
 }
 """Public name -> the module it comes from (``calibrate``, a subpackage, is imported as one)."""
@@ -105,11 +109,16 @@ if TYPE_CHECKING:
     from arcube.optimization.run_results import RunSummary, StudySummary
     from arcube.accuracy.budget import ToleranceSummary
     from arcube.design_job.summaries import DesignSummary, DockSummary
+    from arcube.evaluation.reference import PointResults
+    from arcube.evaluation.tables import TrajectorySummary
+    from arcube.request import Resolved
+    from arcube.model.body import BodyRadii
 
 __all__ = [
     "GUARDED_OPTIONS",
     "PARAM_NAMES",
     "Body",
+    "BodyRadii",
     "BreachResult",
     "BreachSettings",
     "BreachSummary",
@@ -130,9 +139,11 @@ __all__ = [
     "Masses",
     "Outputs",
     "Planner",
+    "PointResults",
     "Program",
     "ProgramLimits",
     "Request",
+    "Resolved",
     "RunConfig",
     "RunSettings",
     "RunSummary",
@@ -142,6 +153,7 @@ __all__ = [
     "Study",
     "StudySummary",
     "TrajectorySet",
+    "TrajectorySummary",
     "__version__",
     "breach",
     "calibrate",

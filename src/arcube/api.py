@@ -183,8 +183,14 @@ def joints(
     from arcube.export.joints import joint_trajectory
 
     req = Request.of(locals(), joints)
+    from arcube.motion.limits import MAX_SPEED_MM_S
+
     if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed) and speed > 0.0):
         raise InputError.of("speed", f"must be a finite positive number of mm/s, got {speed!r}")
+    if speed > MAX_SPEED_MM_S:  # as a program's speeds (ProgramLimits)
+        raise InputError.of(
+            "speed", f"must be at most {MAX_SPEED_MM_S:g} mm/s (beyond any drilling robot), got {speed:g}"
+        )
     r = _request(req, guarded, changes)
     task = build_task(r.plan.entry, r.plan.target, r.points, ids=r.plan.ids)
     return joint_trajectory(

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.errors import InputError
+from arcube.metrics import MAX_ETA_G, limit_bound
 from arcube.io.inputs import parse_decimal, short_repr
 from arcube.evaluation.task import MAX_POINTS
 from arcube.model.mechanism import format_mode, parse_mode
@@ -31,6 +32,7 @@ __all__ = [
     "MAX_SEEDS",
     "design_mode",
     "engine_name",
+    "check_best_known",
     "limit_pairs",
     "mode_signs",
     "mode_text",
@@ -165,5 +167,25 @@ def limit_pairs(value: Any, *, param: str, example: str = "torque=15") -> list[t
             )
         if not np.isfinite(number):
             raise InputError.of(param, f"{short_repr(shown)}: the value must be finite")
+        bound = limit_bound(name)
+        if bound is not None and abs(number) > bound[0]:
+            unit = {"": "", "probability": ""}.get(bound[1], f" {bound[1]}")
+            raise InputError.of(
+                param, f"{short_repr(shown)}: the value must lie within ±{bound[0]:g}{unit} (a unit mistake?)"
+            )
         out.append((name, number, shown))
     return out
+
+
+def check_best_known(value: Any, *, param: str = "best_known") -> float | None:
+    """``value`` (an eta_G to draw as a reference line, or None) if it is a positive number of at most
+    :data:`arcube.metrics.MAX_ETA_G`; InputError naming ``param`` otherwise."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0.0):
+        raise InputError.of(param, f"must be a positive number (an eta_G), got {value}")
+    if value > MAX_ETA_G:
+        raise InputError.of(
+            param, f"must be at most {MAX_ETA_G:g} (an eta_G: 100/eta_G is the dexterity in %), got {value:g}"
+        )
+    return float(value)

@@ -22,6 +22,9 @@ __all__ = [
     "objective_names",
     "objectives_help",
     "requirements_help",
+    "LIMIT_BOUNDS",
+    "MAX_ETA_G",
+    "limit_bound",
 ]
 
 OUTPUTS = frozenset({"tip_metrics", "clearance", "envelope_clearance", "holding_torque", "masses", "robust"})
@@ -143,6 +146,28 @@ METRICS: tuple[Metric, ...] = (
 """Every metric, the requirements first in the order of ``requirements.csv``."""
 
 _BY_NAME = {m.name: m for m in METRICS}
+
+MAX_ETA_G = 1e6
+"""Largest eta_G a user may give (``--best-known``, a limit on it): eta_G >= 1 is a condition number's mean (model
+§8.3), and at 1e6 the dexterity 100/eta_G is 1e-4 %, a design that barely moves; a larger value is a typo."""
+LIMIT_BOUNDS: dict[str, float] = {
+    "mm": 1e4,  # 10 m: beyond the robot, the patient and the operating room (clearances, errors, link sums)
+    "deg": 180.0,  # an axis error or angle beyond a half turn means nothing
+    "N·m": 1e5,  # as the thrust's 1e5 N at a metre: beyond any actuator of a drilling robot
+    "W": 1e6,  # a megawatt: beyond any actuator
+    "kg": 1e4,  # as the masses of model §18.1 (at most 1e4 kg each)
+    "L": 1e4,  # ten cubic metres: beyond the room the robot stands in
+    "probability": 1.0,
+    "": MAX_ETA_G,  # eta_G
+}
+"""The largest |limit| (``--max NAME=VALUE``, ``--min NAME=VALUE``) of a metric in each unit: beyond it a limit
+holds for every design or none and is a unit mistake or a typo (``lateral_error=1e12``)."""
+
+
+def limit_bound(name: str) -> tuple[float, str] | None:
+    """(the largest |limit| of metric ``name``, its unit) (:data:`LIMIT_BOUNDS`); None for a name that is not a metric."""
+    m = _BY_NAME.get(name)
+    return None if m is None else (LIMIT_BOUNDS[m.unit], m.unit)
 
 
 def metric(name: str) -> Metric:

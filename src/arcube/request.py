@@ -112,7 +112,7 @@ class Request:
         from arcube.model.design import Design
         from arcube.model.robot import design_at_side
 
-        d = Design.coerce(design_at_side(self.design, self.side))
+        d = Design.coerce(design_at_side(self.design, self.side, placed=True))
         signs = design_mode(d, self.mode)
         full = load_plan(self.plan, transform=self.transform)
         chosen = (self.side, self.levels, self.ids) != (None, None, None)

@@ -68,6 +68,9 @@ def parse_tol(value: Any, field: str = _FIELD) -> dict[str, float]:
 
 
 Tolerance = Annotated[float, Field(ge=0, le=MAX_TOLERANCE, allow_inf_nan=False)]
+MAX_DOCKING_DEG = 90.0
+"""Largest docking error of the mounting angles, deg: a quarter turn is no registration at all (as ``calibrate
+simulate``'s ``--docking-deg``); 720 is a typo."""
 
 
 class ToleranceSettings(Settings):
@@ -87,8 +90,8 @@ class ToleranceSettings(Settings):
     """Lost motion (backlash) of each actuator's gear, at every pose, arcmin."""
     docking_mm: Tolerance = 0.0
     """Docking (registration) error of the base position m, mm (0: the navigation system's share)."""
-    docking_deg: Tolerance = 0.0
-    """Docking (registration) error of the mounting angles, deg."""
+    docking_deg: float = Field(default=0.0, ge=0, le=MAX_DOCKING_DEG, allow_inf_nan=False)
+    """Docking (registration) error of the mounting angles, deg (at most 90)."""
     distribution: Literal["uniform", "normal"] = "uniform"
     """Distribution of every source: uniform on [-T, T], or normal with sigma = T/3."""
     samples: int = Field(default=1000, ge=1, le=MAX_SAMPLES)

@@ -72,6 +72,12 @@ def resolve_overrides(tol: Mapping[str, float]) -> dict[str, float]:
     return out
 
 
+def class_unused(tol: Mapping[str, float]) -> bool:
+    """Whether the overrides ``tol`` set every source a tolerance class sets (the :data:`LENGTHS` and
+    :data:`ANGLES`): the class then changes nothing (:func:`tolerances`)."""
+    return set(LENGTHS) | set(ANGLES) <= set(resolve_overrides(tol))
+
+
 def tolerances(
     params: ArrayLike,
     tolerance_class: str = "m",

@@ -17,6 +17,8 @@ from arcube.cli.common import (
     OUT,
     PATIENT,
     TRAJECTORIES,
+    check_class_counts,
+    file_path,
     one_plan,
     plan_request,
     request_flags,
@@ -41,6 +43,7 @@ MARKUPS = option(
     "point's description its P(breach), status, deciding source and docking.",
     Path,
     params=("markups",),
+    parse=file_path("screws.mrk.json"),
 )
 DOCK_EVALUATIONS = option(
     "--dock-evaluations",
@@ -121,6 +124,7 @@ def breach(given: Given) -> None:
             f"({CALIBRATION.name} is instead of {' and '.join(told)}); give one"
         )
     tolerances = ToleranceSettings().merged(given.tree("tolerances")) if told else None
+    check_class_counts(given, "tolerances.tolerance_class", "tolerances.tol", tolerances and tolerances.tol)
     settings = BreachSettings().merged(given.tree("breach"))
     loads = Loads().merged(given.tree("options.loads"))
     result = breach_api(

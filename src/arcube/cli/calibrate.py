@@ -23,6 +23,7 @@ from arcube.cli.common import (
     SIDE,
     TRAJECTORIES,
     one_plan,
+    file_out,
     with_help,
 )
 from arcube.cli.projection import Given, command, model_flags, option
@@ -55,7 +56,9 @@ POSE_FLAGS = [
     ANATOMY_FRAME,
     SEGMENTS,
     *model_flags(PoseSettings, "poses"),
-    with_help(OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", required=True),
+    file_out(
+        OUT, "Poses CSV to write (the measurement file's columns with E and e nominal).", "poses.csv", required=True
+    ),
     FORCE,
 ]
 SIMULATE_FLAGS = [
@@ -63,10 +66,11 @@ SIMULATE_FLAGS = [
     with_help(SIDE, "With a robot's design.json (robot and dockings): the side whose docking was measured."),
     POSES,
     *model_flags(SimulateSettings, "simulate"),
-    with_help(
+    file_out(
         OUT,
         "Measurement CSV to write (the simulated tracker's readings), and beside it <stem>.truth.json, the "
         "simulated robot's true design.",
+        "measurements.csv",
         required=True,
     ),
     FORCE,
@@ -110,7 +114,7 @@ def poses(given: Given) -> None:
         given.get("anatomy"), given.get("anatomy_frame", "LPS"), one_plan(given), segments=given.get("segments")
     )
     sel = poses_api(
-        design_at_side(given.get("design"), given.get("side")),
+        design_at_side(given.get("design"), given.get("side"), placed=True),
         plan,
         given.get("mode"),
         PoseSettings().merged(given.tree("poses")),
@@ -136,7 +140,7 @@ def simulate(given: Given) -> None:
 
     check_replace(given, truth_path(given.get("out")))
     sim = simulate_api(
-        design_at_side(given.get("design"), given.get("side"), alone=True),
+        design_at_side(given.get("design"), given.get("side"), alone=True, placed=True),
         given.get("poses"),
         SimulateSettings().merged(given.tree("simulate")),
         out=given.get("out"),
@@ -158,7 +162,7 @@ def identify(given: Given) -> None:
     from arcube.model.robot import docking_labels
 
     plan = _plan(given)
-    start = load_design(design_at_side(given.get("design"), given.get("side"), alone=plan is None))
+    start = load_design(design_at_side(given.get("design"), given.get("side"), alone=plan is None, placed=True))
     if not start.labels:  # a robot's design.json and a side: that docking (design.json records where it was measured)
         start = replace(start, labels=docking_labels(given.get("design"), given.get("side")))
     cal = identify_api(

@@ -7,9 +7,11 @@ command means something narrower), adds its own, and :func:`arcube.cli.projectio
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
+from collections.abc import Callable
 
 from arcube.cli.projection import Flag, Given, model_flags, option
 from arcube.errors import InputError
@@ -40,7 +42,10 @@ __all__ = [
     "POINTS",
     "QUIET",
     "RichBar",
+    "check_class_counts",
     "check_replace",
+    "file_out",
+    "file_path",
     "with_given_c_z",
     "SEED",
     "SIDE",
@@ -54,6 +59,8 @@ __all__ = [
 DESIGN = option(
     "--design", "Design: a preset name (paper) or a design JSON file. [default: paper]", params=("design",), path=True
 )
+
+
 TRAJECTORIES = option(
     "--trajectories",
     "Trajectories: a CSV, a Slicer .mrk.json (file or folder), or 'reference'. [default: reference]",
@@ -132,6 +139,31 @@ ENVELOPE = [
 ]
 """``--envelope default|none|FILE...`` and ``--table-z MM``: the envelope of the whole patient and the table (model §19.5)."""
 OUT = option("--out", "Output folder (created; must be new or empty).", Path, params=("out",))
+
+
+def file_path(example: str) -> Callable[[Any, str], Path]:
+    """The parser of an output file's path: the path as typed, refused (InputError naming the flag) when it ends with
+    a separator (``jdir/``): that names a folder, and the file would be written as ``jdir`` beside it. ``example``:
+    a file name to suggest in that folder (``joints.csv``)."""
+
+    def parse(value: Any, flag: str) -> Path:
+        text = str(value)
+        if text.endswith(("/", os.sep)):
+            raise InputError(
+                f"{flag} {text}: ends with '{text[-1]}', so it names a folder; give a file's path, e.g. {flag} "
+                f"{text}{example}"
+            )
+        return Path(text)
+
+    return parse
+
+
+def file_out(flag: Flag, text: str, example: str, **changes: Any) -> Flag:
+    """``flag`` (a path) as a single output file's, with help ``text``: its value is refused when it names a folder
+    (:func:`file_path`, suggesting ``example`` in it)."""
+    return replace(flag, help=text, parse=file_path(example), **changes)
+
+
 SEED = option("--seed", "Random seed.", int, params=("seed", "RunSettings.seed"))
 
 
@@ -163,6 +195,18 @@ def check_new_file(given: Given, key: str) -> None:
         raise InputError(f"{FORCE.name} replaces the {given.flag(key)} file: give {given.flag(key)}, or leave it out")
     if path is not None and not given.get("force") and Path(path).is_file():
         raise InputError(f"{given.flag(key)} {path}: exists; give {FORCE.name} to replace it")
+
+
+def check_class_counts(given: Given, class_key: str, tol_key: str, tol: Any) -> None:
+    """InputError naming ``--class`` when it is given but the tolerances ``tol`` (of ``--tol``) set every length and
+    angle by hand: the ISO 2768 class sets only those (model §20.1), so it would be recorded and change nothing."""
+    from arcube.accuracy.sources import class_unused
+
+    if class_key in given and class_unused(tol or {}):
+        raise InputError(
+            f"{given.flag(class_key)} {given.get(class_key)}: the ISO 2768 class sets the lengths' and angles' "
+            f"tolerances, and {given.flag(tol_key)} sets them all, so it would change nothing: leave it out"
+        )
 
 
 def check_replace(given: Given, *beside: Any) -> None:

@@ -14,7 +14,7 @@ from typing import Any
 
 import typer
 
-from arcube.cli.common import OUT, QUIET, request_flags, with_help
+from arcube.cli.common import OUT, QUIET, check_class_counts, request_flags, with_help
 from arcube.cli.optimize import PLANS, RUN_FLAGS
 from arcube.cli.projection import Flag, Given, command, option
 from arcube.cli.study import SEED_DASK, SEED_WORKERS, SEEDS
@@ -172,6 +172,13 @@ def _print_coverage(s: dict[str, Any]) -> None:
             f"{100 * c['coverage_low']:.0f}-{100 * c['coverage_high']:.0f} %)"
             + ("; see validation/ and coverage.html" if key == "held_out" else "")
         )
+    agree = s.get("search_verdict_agreement")
+    if agree is not None and len(s.get("seeds_served") or {}) > 0:
+        served = ", ".join(f"seed {k}: {v}" for k, v in s["seeds_served"].items())
+        typer.echo(
+            f"  search and re-check agree on {100 * agree:.0f} % of the dockings the search called feasible; "
+            f"dockings served per seed, docked anew where needed: {served}"
+        )
     for d in s.get("dockings", []):
         if not d["meets_requirements"] and len(s.get("dockings", [])) > 1:
             typer.echo(
@@ -248,6 +255,12 @@ def design(given: Given) -> None:
         run.get("side"),
         str(run.get("dockings", "per-side")) == "per-patient",
     )
+    check_class_counts(given, "run.tolerance_class", "run.tol", settings.tol)
+    if n == 1 and "run.aggregate" in given:
+        raise InputError(
+            f"{given.flag('run.aggregate')} {given.get('run.aggregate')}: how the robot's dockings are combined; with one "
+            "docking it would be ignored: leave it out, or give both sides or several patients"
+        )
     with DesignProgress(
         checked_seeds(seeds), settings.population * settings.generations, enabled=not given.get("quiet"), dockings=n
     ) as bar:

@@ -12,7 +12,17 @@ from typing import Any
 
 import typer
 
-from arcube.cli.common import DASK, OUT, QUIET, SEED, WORKERS, RichBar, request_flags, with_help
+from arcube.cli.common import (
+    DASK,
+    OUT,
+    QUIET,
+    SEED,
+    WORKERS,
+    RichBar,
+    check_class_counts,
+    request_flags,
+    with_help,
+)
 from arcube.cli.design import RUN_FIELDS, COHORT, DROPS, MAXIMA, MINIMA, SEARCH_FIELDS, run_flags
 from arcube.cli.optimize import PLANS
 from arcube.cli.projection import Given, command, option
@@ -108,6 +118,7 @@ def dock(given: Given) -> None:
     settings = RunSettings(**run, options=masses) if masses else RunSettings(**run)
     if given.tree("options.masses"):
         settings.options.check_masses()
+    check_class_counts(given, "run.tolerance_class", "run.tol", settings.tol)
     plans, cohort = given.get("plan"), given.get("cohort")
     if plans is not None and cohort is not None:
         raise InputError(f"{COHORT.name} replaces {PLANS.name}: give one of them")

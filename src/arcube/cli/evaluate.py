@@ -13,6 +13,7 @@ from arcube.cli.common import (
     FORCE,
     PLAN,
     check_new_file,
+    file_path,
     masses_given,
     with_help,
     one_plan,
@@ -26,7 +27,11 @@ __all__ = ["register"]
 
 JSON = option("--json", "Print one JSON object (per-point results and summary).", bool, key="as_json")
 REPORT = option(
-    "--report", "Also write a self-contained HTML report (plots, 3D mechanism) here.", Path, params=("report",)
+    "--report",
+    "Also write a self-contained HTML report (plots, 3D mechanism) here.",
+    Path,
+    params=("report",),
+    parse=file_path("report.html"),
 )
 FLAGS = [
     *PLAN,

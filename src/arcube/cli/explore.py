@@ -17,6 +17,7 @@ from arcube.cli.common import (
     TRAJECTORIES,
     FORCE,
     check_new_file,
+    file_path,
     with_help,
     one_plan,
     options_of,
@@ -39,6 +40,7 @@ FLAGS = [
         "Write a standalone static scene (HTML, opens offline) here instead of serving.",
         Path,
         params=("html",),
+        parse=file_path("scene.html"),
     ),
     option(
         "--point",

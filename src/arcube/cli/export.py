@@ -15,6 +15,7 @@ from arcube.cli.common import (
     DESIGN,
     FORCE,
     check_replace,
+    file_out,
     MODE,
     OUT,
     POINTS,
@@ -24,7 +25,6 @@ from arcube.cli.common import (
     options_of,
     request_flags,
     with_given_c_z,
-    with_help,
 )
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
@@ -32,7 +32,7 @@ from arcube.errors import InputError
 __all__ = ["register"]
 
 FORMATS = ("mjcf",)
-MODEL_OUT = with_help(OUT, "Output file, e.g. robot.xml (written atomically).", required=True)
+MODEL_OUT = file_out(OUT, "Output file, e.g. robot.xml (written atomically).", "robot.xml", required=True)
 FORMAT = option("--format", "Model format: mjcf (MuJoCo XML). [default: mjcf]", key="fmt")
 AT = option(
     "--at",
@@ -76,6 +76,8 @@ def export(given: Given) -> None:
     blocker = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
     if blocker is not None:
         raise InputError(f"{MODEL_OUT.name} {out}: cannot write ({blocker} is a file, not a folder)")
+    if "program" in given:  # first: a folder where the replay goes is named, whatever --force says
+        _check_targets(out)
     check_replace(given)
     options = options_of(given)
     asked = True if masses_given(given) else None  # a mass flag asks for the mass model, even at its default values
@@ -108,7 +110,7 @@ def export(given: Given) -> None:
     from arcube.model.robot import design_at_side
 
     text = export_mjcf(
-        with_given_c_z(given, design_at_side(given.get("design", "paper"), given.get("side"))),
+        with_given_c_z(given, design_at_side(given.get("design", "paper"), given.get("side"), placed=True)),
         ts,
         options=options,
         anatomy=anat,
@@ -123,11 +125,22 @@ def export(given: Given) -> None:
     sys.stdout.write(f"{out}\n")
 
 
+def _check_targets(out: Path) -> None:
+    """InputError naming the file when the model or its replay (``robot.replay.csv``) would go where a folder or a
+    FIFO stands (before the work, and before an existing model's --force is asked for)."""
+    from arcube.export.replay import replay_path
+    from arcube.io.files import check_targets
+
+    try:
+        check_targets([out, replay_path(out)])
+    except OSError as exc:
+        raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename} ({exc.strerror})") from None
+
+
 def _export_program(given: Given, out: Path, options: object, masses: bool | None) -> None:
     """``--program``: the model at the program's first row and its replay (written atomically, both or none)."""
     from arcube.evaluation.anatomy import resolve_anatomy
     from arcube.export.replay import export_program, read_program, recorded_design, replay_path, write_program_export
-    from arcube.io.files import check_targets
 
     clash = [f.name for f in PLAN_FLAGS if f.key in given]
     if clash:
@@ -146,10 +159,6 @@ def _export_program(given: Given, out: Path, options: object, masses: bool | Non
         else None
     )
     check_replace(given, replay_path(out))
-    try:
-        check_targets([out, replay_path(out)])  # before the work: a folder or FIFO where a file goes
-    except OSError as exc:
-        raise InputError(f"{MODEL_OUT.name} {out}: cannot write {exc.filename} ({exc.strerror})") from None
     design = given.get("design")
     if given.get("c_z") is not None:  # --c-z sets the c_z of the design the program runs (its own, else recorded)
         design = design or recorded_design(rows)

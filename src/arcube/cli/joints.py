@@ -13,19 +13,19 @@ from arcube.cli.common import (
     OUT,
     PLAN,
     check_replace,
+    file_out,
     masses_given,
     one_plan,
     options_of,
     plan_request,
     request_flags,
-    with_help,
 )
 from arcube.cli.projection import Given, command, option
 from arcube.errors import InputError
 
 __all__ = ["register"]
 
-CSV_OUT = with_help(OUT, "Output CSV file (written atomically).", required=True)
+CSV_OUT = file_out(OUT, "Output CSV file (written atomically).", "joints.csv", required=True)
 SPEED = option("--speed", "Drilling speed along each trajectory, mm/s. [default: 1]", float, params=("speed",))
 _UNUSED = ("options.guards.envelope_clearance_mm", "options.loads.encoder_deg", "options.loads.actuator_stiffness")
 """Option flags joints would take and ignore: no envelope (--envelope) to keep clear of, and no accuracy columns

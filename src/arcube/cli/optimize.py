@@ -13,7 +13,18 @@ from typing import Any
 
 import typer
 
-from arcube.cli.common import DASK, OUT, QUIET, TRAJECTORIES, WORKERS, RichBar, masses_given, request_flags, with_help
+from arcube.cli.common import (
+    DASK,
+    OUT,
+    QUIET,
+    TRAJECTORIES,
+    WORKERS,
+    RichBar,
+    check_class_counts,
+    masses_given,
+    request_flags,
+    with_help,
+)
 from arcube.cli.projection import Flag, Given, command, model_flags
 from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings
@@ -61,6 +72,7 @@ def run_settings(given: Given, **fields: Any) -> RunSettings:
             f"{given.flag('run.eliminate_duplicates')}: drops ga's duplicate offspring; {settings.algorithm} would "
             f"ignore it: leave it out, or give {given.flag('run.algorithm')} ga"
         )
+    _check_ignored(given, settings)
     fixed = [n for n in settings.bounds if n not in settings.free] if "run.bounds" in given else []
     if fixed:  # a parameter the search does not move keeps its start value: its bound would be ignored
         raise InputError(
@@ -70,6 +82,32 @@ def run_settings(given: Given, **fields: Any) -> RunSettings:
     if masses_given(given) or given.tree("run.options.masses"):
         settings.options.check_masses()
     return settings
+
+
+def _check_ignored(given: Given, settings: RunSettings) -> None:
+    """InputError naming a flag this run would take and ignore: ``--class`` / ``--tol`` with no objective or limit on
+    the robot as built (model §20.3), ``--class`` under tolerances that set every length and angle, ``--aggregate`` /
+    ``--placement`` with one trajectory set and no dockings (nothing to combine)."""
+    from arcube.optimization.objectives import needs
+
+    if not needs("robust", settings.run_objectives, settings.limits):
+        for key in ("run.tolerance_class", "run.tol"):
+            if key in given:
+                shown = given.get(key)
+                shown = ",".join(map(str, shown)) if isinstance(shown, (list, tuple)) else shown
+                raise InputError(
+                    f"{given.flag(key)} {shown}: the tolerances of lateral_error_wc and lateral_error_rms (model §20.3); no "
+                    f"objective or limit uses them, so it would be ignored: leave it out, or add "
+                    f"{given.flag('run.maxima')} lateral_error_rms=0.5"
+                )
+    check_class_counts(given, "run.tolerance_class", "run.tol", settings.tol)
+    if len(given.get("plan") or []) <= 1 and settings.dockings is None:
+        for key in ("run.aggregate", "run.placement"):
+            if key in given:
+                raise InputError(
+                    f"{given.flag(key)} {given.get(key)}: how several trajectory sets are combined; with one it would "
+                    f"be ignored: leave it out, or give several sets after {given.flag('plan')}"
+                )
 
 
 class Progress(RichBar):

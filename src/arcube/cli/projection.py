@@ -29,6 +29,7 @@ from typing import Annotated, Any, Literal
 import typer
 from pydantic import BaseModel
 
+from arcube.cli.checks import check_given
 from arcube.errors import InputError
 
 __all__ = [
@@ -316,7 +317,9 @@ def _parameter(f: Flag) -> inspect.Parameter:
         annotation: Any = bool | None
     else:
         names = (f.name,)
-        annotation = list[f.kind] | None if f.multiple or f.spread else f.kind | None  # type: ignore[valid-type]
+        # a path with a parser gets the text as typed: click's Path would drop a trailing '/' ("jdir/" -> "jdir")
+        kind = str if f.kind is Path and f.parse is not None else f.kind
+        annotation = list[kind] | None if f.multiple or f.spread else kind | None  # type: ignore[valid-type]
     metavar = (
         None if f.kind is bool else f"<{'path' if f.kind is Path else f.kind.__name__}>" + (" ..." if f.spread else "")
     )
@@ -406,6 +409,7 @@ def command(
                     + (f" (values go after {spread.name})" if spread is not None else "")
                 )
             given.values[spread.key] = [*given.values[spread.key], *more]
+        check_given(given, flags)
         try:
             run(given)
         except InputError as exc:

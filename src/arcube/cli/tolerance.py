@@ -12,6 +12,7 @@ from arcube.cli.common import (
     POINTS,
     SELECTION,
     TRAJECTORIES,
+    check_class_counts,
     one_plan,
     plan_request,
     with_help,
@@ -41,6 +42,7 @@ def tolerance(given: Given) -> None:
     from arcube.api import tolerance as tolerance_api
 
     settings = ToleranceSettings().merged(given.tree("tolerances"))
+    check_class_counts(given, "tolerances.tolerance_class", "tolerances.tol", settings.tol)
     result = tolerance_api(
         given.get("design"),
         one_plan(given),

@@ -42,7 +42,7 @@ from arcube.design_job.requirements import (
 )
 from arcube.model.robot import BuiltRobot, read_robot, write_docking
 from arcube.errors import InputError
-from arcube.io.files import atomic_write_text
+from arcube.io.files import as_mkdir, atomic_write_text
 from arcube.io.json_values import finite
 from arcube.optimization.config import PatientPlan
 from arcube.optimization.settings import RunSettings
@@ -394,7 +394,8 @@ def _stage(out: Path) -> Path:
             shutil.rmtree(old, ignore_errors=True)  # its job is gone
         except (ValueError, IndexError, PermissionError):
             pass
-    return Path(tempfile.mkdtemp(prefix=f".{out.name}.dock-{os.getpid()}-", suffix=".tmp", dir=out.parent))
+    # mkdtemp makes it 0700; the folder it becomes is read by others (dask workers, a team): as mkdir would make it
+    return as_mkdir(Path(tempfile.mkdtemp(prefix=f".{out.name}.dock-{os.getpid()}-", suffix=".tmp", dir=out.parent)))
 
 
 def dock_patients(

@@ -54,6 +54,12 @@ class Docking:
     """Docked anew with the robot fixed (:mod:`arcube.design_job.redock`): its placement is not the search's."""
     breach: dict[str, Any] = field(default_factory=dict)
     """Its breach figures (model §22, :func:`arcube.design_job.outputs.breach_check`), once checked."""
+    eta_G: float | None = None
+    """Its eta_G at its placement: the search's (the run's task figure), or the re-docking's once docked anew."""
+    search_feasible: bool | None = None
+    """Whether the search called this docking feasible (its own violation V_k = 0, model §19.3)."""
+    met_at_search: bool | None = None
+    """Whether the re-check met it at the search's placement (plan's points, approach lines, program built)."""
 
     @property
     def label(self) -> str:

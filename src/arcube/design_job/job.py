@@ -45,7 +45,6 @@ from arcube.design_job.outputs import (
     PROGRAM,
     accuracy_budget,
     breach_check,
-    build_program,
     breach_risk,
     closing_c_z,
     docking_evaluation,
@@ -58,6 +57,16 @@ from arcube.design_job.dockings import (
     docking_entry,
     merge_rows,
     run_dockings,
+)
+from arcube.design_job.choose import (
+    DOCKINGS,
+    STAGING,
+    SeedCheck,
+    agreement,
+    choose_seed,
+    docking_folder,
+    judge_seed,
+    settle_programs,
 )
 from arcube.design_job.folder import DESIGN_FORMAT, STUDY, is_design, read_design, read_study_summary
 from arcube.design_job.held_out import VALIDATION, check_held_out, coverage_fields, coverage_html, validate
@@ -94,7 +103,6 @@ __all__ = [
 DESIGN_GENERATIONS = 100
 """The design job's default budget: population 400 x 100 generations = 40,000 evaluations per seed
 (about 2 min on one core for one side of the reference plan; README "arcube design")."""
-DOCKINGS = "dockings"
 
 
 @dataclass(frozen=True)
@@ -229,7 +237,7 @@ def finish_design(
     say = on_stage or (lambda text: None)
     meta, reqs = read_design(out)
     study = read_study_summary(out)
-    # feasible seeds by objective, then the others by violation (the study's own ranking)
+    # feasible seeds by objective, then the others by violation (the study's own ranking): the order of the ties
     order = sorted(
         study["rows"],
         key=lambda r: (
@@ -239,138 +247,33 @@ def finish_design(
             r["seed"],
         ),
     )
-    chosen, seen, built = None, [], None
+    shutil.rmtree(out / STAGING, ignore_errors=True)  # an interrupted finish's: built again
+    checks = []
     for row in order:
         run, s, summary, dockings = seed_dockings(out, int(row["seed"]))
-        entry = (row, run, s, summary, dockings)
+        check = SeedCheck(row, run, s, summary, dockings, out / STAGING / f"seed_{row['seed']}")
         say(
             f"checking seed {row['seed']}'s robot with the NumPy reference"
             + (f" at {len(dockings)} dockings" if len(dockings) > 1 else "")
         )
         assess_dockings(dockings, reqs, s)
-        if s.setups == 1:  # with one placement per side (--setups 2), program each side with arcube program
-            _settle(out, entry, reqs, say, workers, dask)
-            built = row["seed"]
-        seen.append(entry)
-        if all(d.met for d in dockings):
-            chosen = entry
-            break
-        # a docking missed even when docked anew: the next seed's robot may serve every docking
-    if chosen is None:
-        chosen, built = _most_served(out, seen, reqs, say, built)
-        row, s, dockings = chosen[0], chosen[2], chosen[4]
-        if built != row["seed"] and s.setups == 1:  # the programs in the folders are another seed's
-            for d in dockings:
-                shutil.rmtree(_folder(out, d, dockings) / PROGRAM, ignore_errors=True)
-                d.rows = [r for r in d.rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
-            _programs(out, chosen, reqs, say, [d for d in dockings if d.met])
-    row, run, s, summary, dockings = chosen
+        judge_seed(check, reqs, say, workers, dask)
+        checks.append(check)
+    chosen = choose_seed(checks)
+    settle_programs(out, chosen)
+    row, run, s, summary, dockings = chosen.row, chosen.run, chosen.s, chosen.summary, chosen.dockings
     for d in dockings:  # model §22.4: the breach Monte Carlo, on the chosen robot only
         say(
             f"the breach probability of seed {row['seed']}'s robot"
             + (f" at docking {d.label}" if len(dockings) > 1 else "")
         )
-        d.breach, breach_rows = breach_check(_folder(out, d, dockings), d, s, reqs)
+        d.breach, breach_rows = breach_check(docking_folder(out, d, dockings), d, s, reqs)
         d.rows = [*d.rows, *breach_rows]
     met = all(d.met for d in dockings)
     held_out = validate(out, meta, dockings, reqs, s, say, workers, dask) if meta.get("validate") else None
     say("writing the report, the accuracy budget (the model, 20) and the MuJoCo model")
-    return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings, held_out)
-
-
-def _settle(
-    out: Path,
-    entry: tuple[Any, ...],
-    reqs: Sequence[Requirement],
-    say: Callable[[str], None],
-    workers: int,
-    dask: str | None,
-) -> None:
-    """A seed's dockings after their re-check: the ones that miss are docked anew; once every docking meets the
-    requirements at the plan's points, their programs are built, and a docking whose program is blocked is docked anew."""
-    from arcube.design_job.redock import redock
-
-    row, run, s, _, dockings = entry
-    cfg = runmod.read_config(run.path)[0]
-    folders = [_folder(out, d, dockings) for d in dockings]
-    redone = redock(
-        cfg,
-        dockings,
-        [k for k, d in enumerate(dockings) if not d.met],
-        folders,
-        s,
-        reqs,
-        int(row["seed"]),
-        workers=workers,
-        dask=dask,
-        say=say,
-    )
-    if not all(d.met for d in dockings):
-        return  # the programs are built for the seed chosen
-    _programs(out, entry, reqs, say, [d for k, d in enumerate(dockings) if k not in redone])
-    blocked = {k: d.rows for k, d in enumerate(dockings) if not d.met}
-    for k in blocked:
-        dockings[k].rows = [r for r in dockings[k].rows if r["requirement"] not in ("program", *PROGRAM_FIGURES)]
-    redone = redock(
-        cfg, dockings, list(blocked), folders, s, reqs, int(row["seed"]), workers=workers, dask=dask, say=say
-    )
-    for k, rows in blocked.items():
-        if k not in redone:
-            dockings[k].rows = rows  # its own placement: met at the plan's points, its program blocked
-
-
-def _most_served(
-    out: Path, seen: list[tuple[Any, ...]], reqs: Sequence[Requirement], say: Callable[[str], None], built: Any
-) -> tuple[tuple[Any, ...], Any]:
-    """Coverage first (model §19.6) among seeds none of which serves every docking, a docking served only with its
-    program built: the seeds in the order of the dockings they meet at the plan's points (a bound on what they serve
-    once programmed), each one's programs built until no seed left can serve more than the best so far. Returns the
-    seed's entry and the seed whose programs the folders now hold."""
-
-    def key(e: tuple[Any, ...]) -> tuple[int, float]:
-        return sum(d.met for d in e[4]), -_worst_met_eta(e[3], e[4])
-
-    best = None
-    for e in sorted(seen, key=key, reverse=True):
-        if best is not None and key(e)[0] <= key(best)[0]:
-            break
-        programmed = any(r["requirement"] == "program" for d in e[4] for r in d.rows)
-        if e[2].setups == 1 and not programmed:
-            for d in e[4]:
-                shutil.rmtree(_folder(out, d, e[4]) / PROGRAM, ignore_errors=True)
-            _programs(out, e, reqs, say, [d for d in e[4] if d.met])
-            built = e[0]["seed"]
-        if best is None or key(e) > key(best):
-            best = e
-    assert best is not None, "a study has at least one seed"
-    return best, built
-
-
-def _programs(
-    out: Path, entry: tuple[Any, ...], reqs: Sequence[Requirement], say: Callable[[str], None], which: Sequence[Docking]
-) -> None:
-    """Build the drilling program of the dockings ``which`` of a seed (their rows gain the program's)."""
-    row, _, s, _, dockings = entry
-    for d in which:
-        say(
-            f"building the drilling program of seed {row['seed']}'s robot"
-            + (f" at docking {d.label}" if len(dockings) > 1 else "")
-        )
-        d.rows = [*d.rows, *build_program(_folder(out, d, dockings), d, s, reqs)]
-
-
-def _worst_met_eta(summary: dict[str, Any], dockings: Sequence[Docking]) -> float:
-    """The largest eta_G over the met dockings of a seed (its run's figure per docking; +inf when none is met)."""
-    tasks = {t["label"]: t.get("eta_G") for t in summary.get("tasks", [])}
-    etas = [tasks.get(f"{d.name} {d.side}") for d in dockings if d.met]
-    etas = [e if isinstance(e, (int, float)) and math.isfinite(e) else math.inf for e in etas]
-    return max(etas) if etas else math.inf
-
-
-def _folder(out: Path, d: Docking, dockings: Sequence[Docking]) -> Path:
-    """Where a docking's program, accuracy budget, report and MuJoCo model go: the job's folder when it is the only
-    docking (the layout of a one-docking job, as before model §19), else ``dockings/<patient>_<side>``."""
-    return out if len(dockings) == 1 else out / DOCKINGS / d.label
+    seeds = {"search_verdict_agreement": agreement(checks), "seeds_served": {str(c.seed): c.served for c in checks}}
+    return _write_outputs(out, met, int(row["seed"]), run, s, summary, dockings, held_out, seeds)
 
 
 def _docking_summary(d: Docking) -> dict[str, Any]:
@@ -412,6 +315,7 @@ def _write_outputs(
     summary: dict[str, Any],
     dockings: list[Docking],
     held_out: dict[str, Any] | None = None,
+    seeds: dict[str, Any] | None = None,
 ) -> DesignResult:
     from arcube.export.mjcf import export_mjcf
     from arcube.report import write_report
@@ -429,7 +333,7 @@ def _write_outputs(
     one = len(dockings) == 1
     evaluations, accuracies, mujoco = [], [], "design.xml"
     for d in dockings:
-        folder = _folder(out, d, dockings)
+        folder = docking_folder(out, d, dockings)
         (out / DOCKINGS / d.label).mkdir(parents=True, exist_ok=True)
         write_docking(d.design, out / DOCKINGS / d.label / "design.json", d.name, d.side, d.plan)
         write_requirements_csv(
@@ -505,6 +409,7 @@ def _write_outputs(
         **coverage_fields(dockings, held_out),
         "breach": _worst_breach(dockings),
         "redocked": [d.label for d in dockings if d.redocked],
+        **(seeds or {}),
         "files": {
             "design": "design.json",
             "requirements": "requirements.csv",

@@ -23,7 +23,7 @@ from arcube.optimization.config import PatientPlan, own_settings
 from arcube.optimization.run_config import RunConfig
 from arcube.optimization.settings import RunSettings
 
-__all__ = ["docking_patient", "redock", "redock_budget"]
+__all__ = ["DOCK_STARTS", "docking_patient", "redock", "redock_budget"]
 
 
 def docking_patient(cfg: RunConfig, k: int) -> PatientPlan:
@@ -40,10 +40,14 @@ SMALLEST_JOB = 2000
 
 
 def redock_budget(s: RunSettings) -> int:
-    """The evaluations of one docking searched anew: a tenth of what the job spent on each seed, at most
-    :data:`~arcube.design_job.dock.DOCK_EVALUATIONS`; 0 (not at all) below :data:`SMALLEST_JOB` evaluations per seed."""
-    budget = s.population * s.generations
-    return 0 if budget < SMALLEST_JOB else int(min(DOCK_EVALUATIONS, budget // 10))
+    """The evaluations of one docking searched anew: ``arcube dock``'s own (:data:`~arcube.design_job.dock.DOCK_EVALUATIONS`,
+    so that seeds are compared as ``dock`` would find them); 0 (not at all) below :data:`SMALLEST_JOB` evaluations per
+    seed."""
+    return 0 if s.population * s.generations < SMALLEST_JOB else DOCK_EVALUATIONS
+
+
+DOCK_STARTS = 8
+"""The search runs of one docking searched anew: ``arcube dock``'s default ``--starts``."""
 
 
 def redock(
@@ -73,7 +77,15 @@ def redock(
         side = d.side if d.side in ("R", "L") else None
         jobs.append(
             DockingJob(
-                robot, docking_patient(cfg, k), side, s, tuple(reqs), int(seed), 8, redock_budget(s), str(folders[k])
+                robot,
+                docking_patient(cfg, k),
+                side,
+                s,
+                tuple(reqs),
+                int(seed),
+                DOCK_STARTS,
+                redock_budget(s),
+                str(folders[k]),
             )
         )
     if say is not None:
@@ -82,6 +94,7 @@ def redock(
     for k, outcome in zip(which, run_jobs(jobs, workers, dask, None, task=solve_only)):
         if outcome.met:
             dockings[k].design, dockings[k].rows, dockings[k].redocked = outcome.design, outcome.rows, True
+            dockings[k].eta_G = outcome.eta_G
             met.append(k)
         else:  # the docking keeps its placement and rows; a program built on the way was another placement's
             shutil.rmtree(Path(folders[k]) / PROGRAM, ignore_errors=True)

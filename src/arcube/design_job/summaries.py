@@ -42,6 +42,12 @@ class DesignSummary(RunSummary):
     """The breach figures (model §22) of the docking where it is most likely."""
     redocked: list[str]
     """The dockings docked anew after the search."""
+    search_verdict_agreement: float | None
+    """Of the dockings the search called feasible (every docking of every seed), the fraction the re-check met at the
+    search's own placement (plan's points, approach lines, program built); None when the search called none feasible."""
+    seeds_served: dict[str, int]
+    """Each seed's dockings served once re-checked, docked anew where needed and programmed (the robot kept serves the
+    most, then has the smallest worst eta_G)."""
 
 
 class DockSummary(Summary):

@@ -47,6 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import BeforeValidator, Field
 
 from arcube.errors import InputError
+from arcube.io.inputs import COORDINATE_LIMIT_MM
 from arcube.options import Settings
 
 if TYPE_CHECKING:  # trimesh and the grids load only when a mesh is used
@@ -61,6 +62,7 @@ __all__ = [
     "EnvelopeSettings",
     "Landmarks",
     "TABLE_BELOW_SKIN_MM",
+    "TableZ",
     "default_envelope",
     "envelope_from_boxes",
     "landmarks",
@@ -72,6 +74,9 @@ SKIN_WITHOUT_ANATOMY_MM = 50.0
 """z_s without anatomy: the largest entry z plus this (model §19.5)."""
 TABLE_BELOW_SKIN_MM = 240.0
 """The table's top lies this far below the posterior skin z_s (model §19.5)."""
+TableZ = Annotated[float, Field(ge=-COORDINATE_LIMIT_MM, le=COORDINATE_LIMIT_MM, allow_inf_nan=False)]
+"""The table's top, mm, patient frame: a coordinate, within the ±100 m of every coordinate read
+(:data:`arcube.io.inputs.COORDINATE_LIMIT_MM`, where the plan's points lie); 1e9 is a unit mistake."""
 BOX_TABLE: tuple[tuple[str, tuple[float, float, float], tuple[float, float, float], float], ...] = (
     ("neck", (0.0, 0.0, -60.0), (20.0, 15.0, 20.0), 40.0),
     ("head", (0.0, 110.0, -70.0), (35.0, 55.0, 50.0), 40.0),
@@ -277,6 +282,10 @@ def _table(table_z: Any) -> float | None:
         raise InputError.of("table_z", f"must be a finite number of mm (patient frame), got {table_z!r}") from None
     if not math.isfinite(value):
         raise InputError.of("table_z", f"must be a finite number of mm (patient frame), got {value!r}")
+    if abs(value) > COORDINATE_LIMIT_MM:  # as TableZ, for every caller
+        raise InputError.of(
+            "table_z", f"must lie within ±{COORDINATE_LIMIT_MM:g} mm (a coordinate of the patient frame), got {value:g}"
+        )
     return value
 
 
@@ -292,7 +301,7 @@ def resolve_envelope(
     ``table_z``: the table's top (mm, patient frame); None: the table of 19.5, z_s - 240. Mesh files are
     read in ``anatomy_frame`` (LPS, RAS or patient), each a closed surface with the patient inside.
 
-    One-line :class:`~arcube.errors.InputError` for a non-finite ``table_z``, a file that does not exist or
+    One-line :class:`~arcube.errors.InputError` for a ``table_z`` not finite or beyond ±1e5 mm, a file that does not exist or
     is not a closed surface, ``default`` (or a skin mesh without ``table_z``) with no plan to place the
     landmarks, ``table_z`` with ``none``, or ``none``/``default`` mixed with files.
     """
@@ -349,7 +358,7 @@ class EnvelopeSettings(Settings):
     envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("default",)
     """``default`` (a coarse body placed on the plan's landmarks), ``none``, or skin mesh files (closed surfaces with
     the patient inside, read in the anatomy's frame)."""
-    table_z: float | None = Field(default=None, allow_inf_nan=False)
+    table_z: TableZ | None = None
     """The operating table's top, mm, patient frame (z <= table_z is forbidden); None: 240 mm below the skin z_s."""
 
     def resolve(self, plan: Any = None, anatomy: Any = None, anatomy_frame: str = "LPS") -> Envelope | None:

@@ -74,7 +74,7 @@ from arcube.export.plan_point import no_ik_reason, plan_points, resolve_point
 from arcube.export.xmltree import COLORS, XmlBody, mesh_items, num, vec
 from arcube.io.inputs import short_repr
 from arcube.model.body import mechanism_points
-from arcube.model.design import Design, unpack
+from arcube.model.design import MAX_LENGTH_MM, Design, unpack
 from arcube.model.mechanism import format_mode, inverse_kinematics
 from arcube.options import Options, request_options
 from arcube.request import Request
@@ -223,9 +223,12 @@ def with_c_z(design: Design | ArrayLike, c_z: Any, function: str) -> Design | Ar
 
 def design_with_c_z(design: Design | ArrayLike, c_z: Any) -> Design:
     """``design`` (a Design, preset, file or vector) with c_z (mm, model §19.1) set: an export's ``--c-z``.
-    InputError naming ``c_z`` unless a finite length > 0 mm."""
-    if isinstance(c_z, bool) or not (isinstance(c_z, (int, float)) and 0.0 < c_z <= _FLOAT_MAX):  # finite, > 0
-        raise InputError.of("c_z", f"must be a finite number of mm > 0, got {short_repr(c_z)}")
+    InputError naming ``c_z`` unless a length > 0 mm and at most :data:`arcube.model.design.MAX_LENGTH_MM`."""
+    if isinstance(c_z, bool) or not (isinstance(c_z, (int, float)) and 0.0 < c_z <= MAX_LENGTH_MM):
+        most = (
+            f" and at most {MAX_LENGTH_MM:g} (a link of the robot)" if isinstance(c_z, (int, float)) and c_z > 0 else ""
+        )
+        raise InputError.of("c_z", f"must be a finite number of mm > 0{most}, got {short_repr(c_z)}")
     return Design.coerce(design).with_extras(c_z=float(c_z))
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 from arcube import interrupts
 from arcube.io.inputs import file_kind, what_is
 
-__all__ = ["atomic_write_bytes", "atomic_write_files", "atomic_write_text", "check_targets", "write_folder"]
+__all__ = ["as_mkdir", "atomic_write_bytes", "atomic_write_files", "atomic_write_text", "check_targets", "write_folder"]
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
@@ -242,3 +242,12 @@ def _remove_made(made: list[Path]) -> None:
             folder.rmdir()
         except OSError:
             break
+
+
+def as_mkdir(folder: Path) -> Path:
+    """``folder`` with the permissions ``mkdir`` would give it (0777 less the umask), e.g. after ``tempfile.mkdtemp``
+    (0700); returns it."""
+    umask = os.umask(0)
+    os.umask(umask)
+    folder.chmod(0o777 & ~umask)
+    return folder

@@ -281,7 +281,26 @@ def read_summary(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not p.exists() and not p.is_symlink():
         raise _missing(p)
     fail = lambda problem: InputError(f"{p}: {problem}")  # noqa: E731
-    return _check_summary(load_json(p, fail=fail, pipes=False), fail)
+    data = _check_summary(load_json(p, fail=fail, pipes=False), fail)
+    where = _not_finite(data)
+    if where is not None:  # what the writer never writes (it writes null): damage, in a field the readers use or not
+        raise fail(f"{where}: a number beyond the float range (an integer of more than 300 digits, or 1e400)")
+    return data
+
+
+def _not_finite(data: Any) -> str | None:
+    """Where the first number that is not finite lies in parsed JSON (``transits[0].s``), None if none does (the
+    reader reads an integer of more than 300 digits as a float: inf)."""
+    stack: list[tuple[Any, str]] = [(data, "")]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, float) and not math.isfinite(value):
+            return where or "the summary"
+        if isinstance(value, dict):
+            stack.extend((v, f"{where}.{k}" if where else str(k)) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((v, f"{where}[{i}]") for i, v in enumerate(value))
+    return None
 
 
 # ----------------------------------------------------------------------------- program.csv

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
-from arcube.io.inputs import load_json, short_repr
+from arcube.io.inputs import COORDINATE_LIMIT_MM, load_json, short_repr
 from arcube.model.modes import format_mode, parse_mode
 
 PARAM_NAMES: tuple[str, ...] = (
@@ -102,6 +102,15 @@ LENGTH_NAMES: frozenset[str] = frozenset(PARAM_NAMES) - ANGLE_NAMES - POSITION_N
 """Link lengths: must be strictly positive (L, the tool offset, may be 0)."""
 
 UNITS: dict[str, str] = {n: ("deg" if n in ANGLE_NAMES else "mm") for n in PARAM_NAMES}
+
+MAX_LENGTH_MM = 2000.0
+"""Longest link, tool offset L or z-dyad link c_z, mm. The robot stands beside an operating table (about 0.6 m
+wide) and reaches a neck; its default search bounds stop at 250 mm (model §12.1) and the z dyad's at 500 mm. 2 m is
+longer than any such robot's link, so a longer one is a unit mistake (um read as mm) or a typo, which would only
+produce meaningless numbers downstream."""
+MAX_POSITION_MM = COORDINATE_LIMIT_MM
+"""Largest |m_x|, |m_y|, |m_z| (the base, patient frame, mm): within the coordinate range of every file read
+(:data:`arcube.io.inputs.COORDINATE_LIMIT_MM`, 100 m), as the plan's points are."""
 
 PAPER_TABLE2: dict[str, float] = {
     "m_x": 31.8694,
@@ -218,6 +227,13 @@ def validate_values(values: Mapping[str, Any], source: str = "design") -> dict[s
             raise InputError(f"{source}: parameter {name} is not finite ({short_repr(raw)})")
         if name in LENGTH_NAMES and val <= 0.0:
             raise InputError(f"{source}: length {name} must be positive, got {val:g} mm")
+        if (name in LENGTH_NAMES or name == "L") and val > MAX_LENGTH_MM:
+            raise InputError(
+                f"{source}: length {name} must be at most {MAX_LENGTH_MM:g} mm (no link of a robot beside a patient is "
+                f"longer; a unit mistake?), got {val:g} mm"
+            )
+        if name in POSITION_NAMES and abs(val) > MAX_POSITION_MM:
+            raise InputError(f"{source}: position {name} must lie within ±{MAX_POSITION_MM:g} mm, got {val:g} mm")
         if name.startswith(("alpha_", "beta_")) and not 0.0 < val < 180.0:
             raise InputError(f"{source}: spherical link angle {name} must lie in (0, 180) deg, got {val:g}")
         if name in MOUNT_NAMES and abs(val) > 360.0:  # the same rotation mod 360, but no one writes it so: a typo
@@ -233,6 +249,8 @@ ACTUATED: tuple[str, ...] = ("rho_x", "rho_y", "rho_z", "delta_x", "delta_y")
 Q0_KEYS: tuple[str, ...] = tuple(f"q0_{j}" for j in ACTUATED)
 """The keys of a calibrated design's joint zero offsets in a design file (deg, model §21.4)."""
 EXTRA_KEYS: tuple[str, ...] = ("c_z", "mode", "zdyad_elbow", *Q0_KEYS)
+ROBOT_FIELDS = ("c_z", "dockings", "zdyad_elbow")
+"""The fields by which a design file describes a built robot (model §19.1), which must then carry its ``mode``."""
 """What a design file may carry beside the 27 parameters (see :class:`Design`)."""
 _LISTS = ("placements", "dockings")
 """Lists a run or design job writes beside a design (each patient's or docking's placement): not part of it."""
@@ -265,8 +283,11 @@ def check_extras(c_z: Any, mode: Any, q0_deg: Any, zdyad_elbow: Any, source: str
     """(c_z, mode, q0_deg, zdyad_elbow) of a design, checked and normalised (InputError naming ``source``)."""
     if c_z is not None:
         c_z = _extra_number(c_z, "c_z", source)
-        if c_z <= 0.0:
-            raise InputError(f"{source}: c_z (the z dyad's second link) must be a positive length, got {c_z:g} mm")
+        if not 0.0 < c_z <= MAX_LENGTH_MM:
+            raise InputError(
+                f"{source}: c_z (the z dyad's second link) must be a positive length of at most {MAX_LENGTH_MM:g} mm, "
+                f"got {c_z:g} mm"
+            )
     if mode is not None:
         if not isinstance(mode, str):
             raise InputError(f'{source}: mode must be text such as "+,+,+,-", got {short_repr(mode)}')
@@ -399,7 +420,16 @@ class Design:
             return cls.preset(spec)
         if isinstance(spec, str) and not os.path.lexists(spec) and not os.path.splitext(spec)[1]:
             raise InputError(f"{spec}: no such file, and not a preset (presets: {', '.join(PRESETS)})")
-        return cls.from_json(spec)
+        design = cls.from_json(spec)
+        if design.mode is None:  # a robot is built in one working mode: a file that describes a robot says which
+            data = load_json(Path(spec))
+            robot = [k for k in ROBOT_FIELDS if k in data]
+            if robot:
+                raise InputError(
+                    f"{spec}: mode: missing; a robot file (it has {', '.join(robot)}) must carry its working mode, "
+                    'e.g. "mode": "+,+,-,+" (its design job\'s summary.json says which)'
+                )
+        return design
 
     def to_dict(self) -> dict[str, float]:
         """The 27 parameters: flat name -> value mapping (mm, deg), in code order."""

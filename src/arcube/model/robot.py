@@ -246,6 +246,22 @@ def _design_data(design: Any) -> dict[str, Any] | None:
     return data if isinstance(data, dict) else None
 
 
+def _check_placed(design: Any) -> None:
+    """InputError naming ``side`` when ``design`` is a robot's ``design.json`` without a placement of its own."""
+    data = _design_data(design)
+    if data is None or "m_x" in data or not isinstance(data.get("dockings"), list):
+        return
+    sides = list(
+        dict.fromkeys(e["side"] for e in data["dockings"] if isinstance(e, dict) and e.get("side") in ("R", "L"))
+    )
+    raise InputError.of(
+        "side",
+        f"is needed: {design} is one robot at {len(data['dockings'])} dockings (sides {', '.join(sides) or '?'}), with "
+        "no placement of its own; give the side whose docking to use, or one docking's design "
+        "(dockings/<patient>_<side>/design.json beside it)",
+    )
+
+
 def docking_labels(design: Any, side: str | None) -> dict[str, Any]:
     """Whose docking ``design`` is on ``side``: ``patient``, ``side`` and ``plan_digest`` (what a docking file records),
     for a robot's ``design.json`` with one docking on that side; {} for anything else (a docking file carries its own)."""
@@ -262,13 +278,16 @@ def docking_labels(design: Any, side: str | None) -> dict[str, Any]:
     return labels
 
 
-def design_at_side(design: Any, side: str | None, *, alone: bool = False) -> Any:
+def design_at_side(design: Any, side: str | None, *, alone: bool = False, placed: bool = False) -> Any:
     """The design a command uses on ``side`` (R or L): a docking file whose ``side`` contradicts it is refused; a
     robot's ``design.json`` (robot and dockings) gives its docking on that side, when it has exactly one there.
     Anything else (a Design, a preset, a plain design file, no side) is returned as given, unless ``alone``: the
     command has no plan that ``side`` would filter, so a design without a side would ignore it and is refused.
-    A side other than R or L is refused."""
+    A side other than R or L is refused. ``placed``: the caller needs one placed design, so a robot's ``design.json``
+    (a robot at its dockings, no placement of its own) without a side is refused naming ``side``."""
     if side is None:
+        if placed:
+            _check_placed(design)
         return design
     s = side.strip().upper() if isinstance(side, str) else None
     if s not in ("R", "L"):

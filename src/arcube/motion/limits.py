@@ -16,7 +16,7 @@ from pydantic import Field
 from arcube.metrics import metric
 from arcube.options import Settings
 
-__all__ = ["ORDERS", "Planner", "ProgramLimits", "RESOLUTION_MM"]
+__all__ = ["MAX_SPEED_MM_S", "ORDERS", "Planner", "ProgramLimits", "RESOLUTION_MM"]
 
 ORDERS = ("shortest", "given")
 """The trajectory orders of model §17.1: the shortest total time, or the plan's own."""
@@ -24,7 +24,9 @@ ORDERS = ("shortest", "given")
 RESOLUTION_MM = 0.5
 """model §17.2: no point of the body or tool moves more than this between two checked states."""
 
-_SPEED = dict(gt=0, le=1000.0, allow_inf_nan=False)  # mm/s: a metre per second is beyond any drilling robot
+MAX_SPEED_MM_S = 1000.0
+"""Largest tip speed, mm/s: a metre per second is beyond any drilling robot (a program's speeds, ``joints --speed``)."""
+_SPEED = dict(gt=0, le=MAX_SPEED_MM_S, allow_inf_nan=False)
 
 
 class ProgramLimits(Settings):

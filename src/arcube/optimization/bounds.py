@@ -8,7 +8,17 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from arcube.errors import InputError
-from arcube.model.design import ANGLE_NAMES, INDEX, LENGTH_NAMES, MOUNT_NAMES, PAPER_NAMES, PARAM_NAMES
+from arcube.model.design import (
+    ANGLE_NAMES,
+    INDEX,
+    LENGTH_NAMES,
+    MAX_LENGTH_MM,
+    MAX_POSITION_MM,
+    MOUNT_NAMES,
+    PAPER_NAMES,
+    PARAM_NAMES,
+    POSITION_NAMES,
+)
 
 __all__ = ["C_Z", "C_Z_BOUNDS", "DEFAULT_BOUNDS", "FREE_GROUPS", "parse_bounds", "parse_free", "resolve_bounds"]
 
@@ -117,6 +127,14 @@ def parse_bounds(spec: str | Mapping[str, Sequence[float]] | None) -> dict[str, 
             raise InputError.of("RunSettings.bounds", f"{name}={lo!r}:{hi!r}: need finite lo < hi")
         if (name in LENGTH_NAMES or name == C_Z) and lo <= 0.0:
             raise InputError.of("RunSettings.bounds", f"{name}: a length needs a lower bound > 0, got {lo:g}")
+        if (name in LENGTH_NAMES or name in (C_Z, "L")) and hi > MAX_LENGTH_MM:  # as a design file's lengths
+            raise InputError.of(
+                "RunSettings.bounds", f"{name}: a length needs an upper bound <= {MAX_LENGTH_MM:g} mm, got {hi:g}"
+            )
+        if name in POSITION_NAMES and not (-MAX_POSITION_MM <= lo and hi <= MAX_POSITION_MM):
+            raise InputError.of(
+                "RunSettings.bounds", f"{name}: the base position must stay within ±{MAX_POSITION_MM:g} mm"
+            )
         if name in MOUNT_NAMES and not (-360.0 <= lo and hi <= 360.0):  # as a design file's (one turn either way)
             raise InputError.of("RunSettings.bounds", f"{name}: mounting angles must stay within ±360 deg")
         if name == "L" and lo < 0.0:

@@ -33,6 +33,34 @@ def anatomy_file(i: int) -> str:
     return ANATOMY_FILES if i == 0 else f"anatomy_{i}.stl"
 
 
+SWEEP_MM = 0.5
+"""Tip spacing (mm) at which the search checks a docking's whole drilling line, standoff to target, once its coarse points
+pass (:func:`sweep_tasks`): the resolution of model §17.2, at which the drilling program checks the same line."""
+
+
+def sweep_points(start: np.ndarray, end: np.ndarray, coarse: int, spacing: float = SWEEP_MM) -> int:
+    """Points per line of a sweep of the lines ``start`` -> ``end`` (``(T, 3)`` mm): (coarse - 1) m + 1, the smallest such
+    count that puts consecutive points at most ``spacing`` apart on the longest line; the coarse points are among them."""
+    longest = float(np.max(np.linalg.norm(np.asarray(end) - np.asarray(start), axis=-1), initial=0.0))
+    return (coarse - 1) * max(1, int(np.ceil(longest / ((coarse - 1) * spacing)))) + 1
+
+
+def sweep_tasks(
+    patient: int, setup: int, label: str, S: np.ndarray, A: np.ndarray, B: np.ndarray, coarse: int
+) -> list[TaskData]:
+    """A docking's drilling lines at the program's resolution (model §17.2): the approach S_j -> A_j (replacing its
+    coarse line) and the drill A_j -> B_j (role ``sweep``: reach, guards and clearances, no eta_G), each sampled every
+    :data:`SWEEP_MM` or less with the coarse points among the samples."""
+    drill = build_task(A, B, sweep_points(A, B, coarse))
+    n = sweep_points(S, A, coarse)
+    approach = build_task(S, A, n)
+    direction = np.repeat(drill.e.reshape(-1, drill.n_points, 3)[:, 0], n, axis=0)
+    return [
+        TaskData(patient, setup, f"{label} approach", approach.E, direction, role="approach"),
+        TaskData(patient, setup, f"{label} sweep", drill.E, drill.e, role="sweep"),
+    ]
+
+
 def envelope_file(i: int) -> str:
     """File name of patient i's skin-mesh envelope (model §19.5) in a run folder."""
     return f"envelope_{i}.stl"
@@ -166,6 +194,7 @@ def build_model(
         base_c_z=cfg.design.get("c_z"),
     )
     tasks: list[TaskData] = []
+    fine: list[TaskData] = []
     for i, pat in enumerate(cfg.patients):
         entry, target, sides = _points(i, pat)
         groups = (
@@ -179,10 +208,13 @@ def build_model(
                 f"{pat['source']}{' ' + side if side else ''}" if "name" not in pat else f"{pat['name']} {pat['side']}"
             )
             tasks.append(TaskData(i, setup, label, task.E, task.e))
+            fine.append(tasks[-1])
             if "standoff" in pat:  # model §17.1: the line from each standoff S_j to its entry A_j
-                approach = build_task(np.array(pat["standoff"], float)[keep], entry[keep], rs.points)
+                S = np.array(pat["standoff"], float)[keep]
+                approach = build_task(S, entry[keep], rs.points)
                 direction = np.repeat(task.e.reshape(-1, rs.points, 3)[:, 0], rs.points, axis=0)
                 tasks.append(TaskData(i, setup, f"{label} approach", approach.E, direction, role="approach"))
+                fine.extend(sweep_tasks(i, setup, label, S, entry[keep], target[keep], rs.points))
     return FitnessModel(
         space=space,
         tasks=tuple(tasks),
@@ -198,6 +230,7 @@ def build_model(
         if rs.dockings is not None
         else (),
         objectives=rs.run_objectives,
+        fine_tasks=tuple(fine) if any(t.role == "approach" for t in tasks) else (),
         limits=tuple((str(n), str(k), float(v)) for n, k, v in rs.limits),
         accuracy=rs.accuracy_settings(),
     )

@@ -105,9 +105,14 @@ def _load_patients(specs: list[Any], s: RunSettings) -> list[dict[str, Any]]:
         )
         envelope = None
         if ps.envelope != ("none",):  # model §19.5: placed once on the whole plan (both sides), kept in config.toml
-            envelope = json.dumps(
-                resolve_envelope(list(ps.envelope), full, anatomy, ps.table_z, ps.anatomy_frame).to_record()
-            )
+            try:
+                envelope = json.dumps(
+                    resolve_envelope(list(ps.envelope), full, anatomy, ps.table_z, ps.anatomy_frame).to_record()
+                )
+            except InputError as exc:  # a cohort patient's own table_z is its file's, not the command line's
+                if exc.param == "table_z" and "table_z" in own:
+                    raise InputError(f"patient {pat.name}: {exc}") from None  # type: ignore[union-attr]
+                raise
         name = pat.name if pat is not None else (f"patient_{index + 1}" if len(specs) > 1 else "patient")
         names.append(name)
         for side, group in docking_groups(ts, s.dockings):
@@ -201,6 +206,28 @@ def _text(value: Any) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
+def _ignored(s: RunSettings, n_sets: int) -> set[str]:
+    """The settings a run of ``s`` over ``n_sets`` trajectory sets does not use, whose flags the command line refuses
+    (:mod:`arcube.cli.optimize`): the rerun line leaves them out."""
+    from arcube.accuracy.sources import class_unused
+    from arcube.optimization.objectives import needs
+
+    out = set()
+    if s.objectives or s.algorithm not in MULTI_OBJECTIVE_ALGORITHMS:
+        out.add("compactness")
+    if not needs("robust", s.run_objectives, s.limits):
+        out |= {"tolerance_class", "tol"}
+    elif class_unused(s.tol):
+        out.add("tolerance_class")
+    if n_sets <= 1 and s.dockings is None:
+        out |= {"aggregate", "placement"}
+    from arcube.io.label_files import LABEL_SUFFIXES
+
+    if all(v in ("default", "none") or v.lower().endswith(LABEL_SUFFIXES) for v in (*s.anatomy, *s.envelope)):
+        out.add("anatomy_frame")  # the frame of mesh files, and there are none (a segmentation states its own)
+    return out
+
+
 def _rerun_command(s: RunSettings, trajectories: list[str]) -> str:
     """The command line that reruns this run: every setting of ``s`` written out with its flag
     (:meth:`arcube.options.Settings.flag`, the rule the CLI's options are generated with), so that the
@@ -214,12 +241,13 @@ def _rerun_command(s: RunSettings, trajectories: list[str]) -> str:
         RunSettings.flag("seed"),
         str(s.seed),
     ]
+    ignored = _ignored(s, len(trajectories))
     for name in RunSettings.model_fields:
         value = getattr(s, name)
         if name in ("seed", "period", "options") or value is None or value == () or value == {} or value is False:
             continue
-        if name == "compactness" and (s.objectives or s.algorithm not in MULTI_OBJECTIVE_ALGORITHMS):
-            continue  # not searched: the command line refuses the flag where it would be ignored
+        if name in ignored:
+            continue  # not used: the command line refuses the flag where it would be ignored
         flag = RunSettings.flag(name)
         if value is True:
             parts.append(flag)

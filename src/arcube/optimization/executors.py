@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
-import re
 import signal
 import socket
 import sys
@@ -24,6 +23,7 @@ import numpy as np
 from arcube import interrupts
 from arcube.errors import InputError
 from arcube.optimization.checkpoint import Batch
+from arcube.optimization.run_config import check_dask_address
 from arcube.optimization.problem import FitnessModel, evaluate_with, worker_evaluate, worker_init
 
 __all__ = [
@@ -137,17 +137,6 @@ def worker_processes() -> Iterator[None]:
             del ctx.Process  # type: ignore[misc]
         else:
             ctx.Process = own  # type: ignore[misc]
-
-
-_ADDRESS = re.compile(r"^(?:(?:tcp|tls|inproc|ucx|ws|wss)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
-
-
-def check_dask_address(address: str) -> str:
-    """``address`` if it names a scheduler as ``[tcp://]HOST:PORT``; InputError otherwise, before any
-    connection is tried (a malformed one left dask's half-built client hanging at exit)."""
-    if not isinstance(address, str) or not _ADDRESS.match(address.strip()):
-        raise InputError.of("dask", f"{address!r}: expected a scheduler address HOST:PORT, e.g. tcp://10.0.0.5:8786")
-    return address.strip()
 
 
 def connect_dask(address: str) -> Any:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from arcube.errors import InputError
+from arcube.io.inputs import what_is
 from arcube.model.design import Design
 from arcube.optimization.build import build_model, check_engine
 from arcube.optimization.checkpoint import FORMAT_VERSION, read_run_file
@@ -142,8 +143,10 @@ def placement_file(patient: int, setup: int = 0) -> str:
 
 
 def check_new_folder(run_dir: Path) -> None:
-    """InputError unless ``run_dir`` is absent or an empty folder."""
-    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+    """InputError unless ``run_dir`` is absent or an empty folder (a file is named as one)."""
+    if run_dir.exists() and not run_dir.is_dir():
+        raise InputError.of("out", f"{run_dir}: is {what_is(run_dir)}, not a folder (give a new or empty folder)")
+    if run_dir.exists() and any(run_dir.iterdir()):
         hint = " (it holds a run: use 'arcube resume')" if (run_dir / "config.toml").exists() else ""
         raise InputError.of("out", f"{run_dir}: exists and is not an empty folder{hint}")
 
@@ -181,8 +184,9 @@ def seed_dir(study_dir: Path, seed: int) -> Path:
 
 
 def is_study(path: Path) -> bool:
-    """True when ``path`` holds a study (its ``study.toml``)."""
-    return (Path(path) / "study.toml").is_file()
+    """True when ``path`` holds a study (its ``study.toml``; one that is not a regular file, a FIFO, is then refused
+    naming it when it is read, never taken for a missing one)."""
+    return os.path.lexists(Path(path) / "study.toml")
 
 
 def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any], RunConfig | None]:
@@ -193,10 +197,11 @@ def read_study(study_dir: Path, *, config: bool = False) -> tuple[dict[str, Any]
     if not study_dir.is_dir():
         raise InputError(f"{study_dir}: no such study or run folder")
     path = study_dir / "study.toml"
-    for name in ("study.toml", "base_config.toml"):
-        if not os.path.lexists(study_dir / name):
-            raise InputError(f"{study_dir}: not a study (no {name})")
-    study, _ = read_toml(path)
+    if not os.path.lexists(path):
+        raise InputError(f"{study_dir}: not a study (no study.toml)")
+    study, _ = read_toml(path)  # first: a FIFO in its place is named as one
+    if not os.path.lexists(study_dir / "base_config.toml"):
+        raise InputError(f"{study_dir}: not a study (no base_config.toml)")
     base, _ = read_toml(study_dir / "base_config.toml")
     if study.get("format") != STUDY_FORMAT or study.get("format_version") != STUDY_VERSION:
         raise InputError(

@@ -277,6 +277,7 @@ def describe(
         "aggregate": s.aggregate,
         "free": list(s.free),
         "violation": rep["violation"],
+        **({"docking_violations": rep["docking_violations"]} if "docking_violations" in rep else {}),
         "margin_shortfall_rad": rep["margin_shortfall_rad"],
         "links_sum_mm": rep["links_sum_mm"],
         "bbox_volume_L": rep["bbox_volume_L"],

@@ -25,7 +25,7 @@ Long module: the variable space, the fitness model with model §16's combination
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -250,6 +250,11 @@ class FitnessModel:
     docking_plans: tuple[tuple[Array, Array], ...] = ()
     """Per docking, its trajectories' entry and target points ``(T, 3)`` each (R_w, mm), for warm starts between dockings."""
     accuracy: Any = None  # the ToleranceSettings of lateral_error_wc / lateral_error_rms (model §20.3); None: class m
+    fine_tasks: tuple[TaskData, ...] = ()
+    """The tasks at the program's resolution (model §17.2): the plan's tasks, each approach line and each drill line
+    sampled every 0.5 mm (:func:`arcube.optimization.build.sweep_tasks`). A design feasible on :attr:`tasks` is judged
+    again on these, and its batch row is theirs: the search calls feasible only what the line check between the points
+    would (empty: no approach lines, one pass)."""
 
     def __post_init__(self) -> None:
         if self.aggregate not in AGGREGATES:
@@ -261,6 +266,9 @@ class FitnessModel:
         ang = np.degrees(np.arccos(np.clip(e_all[:, :2], -1.0, 1.0)))  # angle(e, +u) for legs x, y
         object.__setattr__(self, "_ang_max", ang.max(axis=0))
         object.__setattr__(self, "_ang_min", ang.min(axis=0))
+        object.__setattr__(
+            self, "_fine", replace(self, tasks=self.fine_tasks, fine_tasks=()) if self.fine_tasks else None
+        )
         # the approach lines need no drill-tip metrics: the drill works between entry and target only
         object.__setattr__(
             self, "_approach_options", self.options.replace(outputs=self.options.outputs.replace(tip_metrics=False))
@@ -291,8 +299,9 @@ class FitnessModel:
         want_points: bool,
         c_z: Array | None = None,
         active: tuple[bool, ...] | None = None,
+        tasks: Sequence[TaskData] | None = None,
     ) -> list[Any]:
-        """Each task's results (None for the tasks of a docking not ``active``)."""
+        """Each task's results (None for the tasks of a docking not ``active``); ``tasks``: others than :attr:`tasks`."""
         return [
             core_engine.evaluate_task(
                 params[self.space.slot(t.patient, t.setup)],
@@ -308,7 +317,7 @@ class FitnessModel:
             )
             if active is None or active[t.patient]
             else None
-            for t in self.tasks
+            for t in (self.tasks if tasks is None else tasks)
         ]
 
     def _combine(self, results: list[Any], params: list[Array]) -> tuple[Array, Array, Array, Array]:
@@ -350,12 +359,24 @@ class FitnessModel:
 
     def evaluate(self, X: Array) -> dict[str, Array]:
         """F ``(n, n_obj)``, VIOL ``(n,)`` and ETA ``(n,)`` of a population ``X`` ``(n, n_var)`` (with ``by_docking``
-        also VIOL_D, ETA_D ``(n, K)``, NaN for a docking left out)."""
+        also VIOL_D, ETA_D ``(n, K)``, NaN for a docking left out). With :attr:`fine_tasks`, the rows feasible on the
+        coarse tasks are evaluated again on the fine ones and take their answers."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
+        active = self.active_dockings(X) if self.by_docking else None
+        batch = self._evaluate(X, active)
+        ok = np.flatnonzero(batch["VIOL"] == 0.0)
+        if self.fine_tasks and len(ok) and not self.by_docking:  # over dockings, each docking is judged again alone
+            fine = self._fine._evaluate(X[ok], active)  # type: ignore[attr-defined]
+            for key, value in fine.items():
+                batch[key][ok] = value
+        return batch
+
+    def _evaluate(self, X: Array, active: tuple[bool, ...] | None) -> dict[str, Array]:
+        """:meth:`evaluate` on :attr:`tasks` alone (``active``: the dockings evaluated, with ``by_docking``)."""
         params, modes = self.space.decode(X)
         c_z = self.space.c_z(X)
         if self.by_docking:
-            active = self.active_dockings(X)
+            assert active is not None
             results = self._run_tasks(params, modes, want_points=False, c_z=c_z, active=active)
             eta, viol, values, viol_d, eta_d = self._judge_dockings(results, params, modes, c_z, active)
             cols = objective_columns(self.objectives, values, viol == 0.0, viol, PENALTY)
@@ -456,36 +477,28 @@ class FitnessModel:
         robust_d: list[dict[str, Array] | None] = []
         for k in (k for k in range(K) if active[k]):
             mine = [(t, r) for t, r in zip(self.tasks, results) if t.patient == k]
-            reach, grade, all_w = np.zeros(n), np.zeros(n), np.ones(n, dtype=bool)
-            eta_sum, pts = np.zeros(n), 0
-            for t, r in mine:
-                reach = reach + np.nan_to_num(np.asarray(r.violation_reach, dtype=float), nan=1e6, posinf=1e6)
-                grade = grade + np.asarray(r.guard_grade, dtype=float)
-                w = np.asarray(r.w_G)
-                all_w &= w
-                if t.role == "plan":
-                    eta_sum += t.n_points * np.where(w, np.asarray(r.eta_G, dtype=float), 0.0)
-                    pts += t.n_points
-            eta_k = np.where((reach == 0.0) & all_w, eta_sum / pts, np.inf)
+            reach = sum(np.nan_to_num(np.asarray(r.violation_reach, dtype=float), nan=1e6, posinf=1e6) for _, r in mine)
             robust = self.robust_values(params, modes, reach == 0.0, patient=k) if names & robust_names else None
             robust_d.append(robust)
-            values = metric_values(
-                names,
-                [r for t, r in mine if t.role == "plan"],
-                eta_k,
-                links,
-                vol,
-                clearance_results=[r for _, r in mine],
-                mass=mass,
-                robust=robust,
-            )
-            n_k = sum(t.n_points for t, _ in mine)
-            fit = fit_violation(
-                grade / n_k + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta_k), n), n_k
-            )
-            fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
-            viol_d[:, k] = reach + fit
-            eta_d[:, k] = np.where(viol_d[:, k] == 0.0, eta_k, np.inf)
+            v_k, eta_k = self._docking_violation(mine, names, links, vol, mass, robust, n)
+            rows = np.flatnonzero(v_k == 0.0) if self.fine_tasks else np.zeros(0, dtype=int)
+            if len(rows):  # feasible at its points: judged again on its lines at the program's resolution
+                sub, sub_c_z = [p[rows] for p in params], None if c_z is None else c_z[rows]
+                # the plan's points as evaluated (rows are independent); the lines sampled finely replace the coarse ones
+                plan_k = [(t, _rows_of(r, rows)) for t, r in mine if t.role == "plan"]
+                fine = [t for t in self.fine_tasks if t.patient == k and t.role != "plan"]
+                fine_results = self._run_tasks(sub, modes[rows], want_points=False, c_z=sub_c_z, tasks=fine)
+                v_k[rows] = self._docking_violation(
+                    plan_k + list(zip(fine, fine_results)),
+                    names,
+                    links[rows] if len(links) else links,
+                    vol[rows] if len(vol) else vol,
+                    None if mass is None else mass[rows],
+                    None if robust is None else {key: value[rows] for key, value in robust.items()},
+                    len(rows),
+                )[0]
+            viol_d[:, k] = v_k
+            eta_d[:, k] = np.where(v_k == 0.0, eta_k, np.inf)
         on = np.array(active)
         viol = self.margin_shortfall(params[0]) + np.sum(viol_d[:, on], axis=1)
         eta = eta_d[:, on].mean(axis=1) if self.aggregate == "mean" else eta_d[:, on].max(axis=1)
@@ -499,6 +512,45 @@ class FitnessModel:
             }
         values = metric_values(names, plan, eta, links, vol, clearance_results=kept, mass=mass, robust=robust)
         return eta, viol, values, viol_d, eta_d
+
+    def _docking_violation(
+        self,
+        mine: list[tuple[TaskData, Any]],
+        names: set[str],
+        links: Array,
+        vol: Array,
+        mass: Array | None,
+        robust: dict[str, Array] | None,
+        n: int,
+    ) -> tuple[Array, Array]:
+        """One docking's (V_k, eta_G) ``(n,)`` from its tasks' results ``mine`` (model §19.3, see :meth:`_judge_dockings`)."""
+        reach, grade, all_w = np.zeros(n), np.zeros(n), np.ones(n, dtype=bool)
+        eta_sum, pts = np.zeros(n), 0
+        for t, r in mine:
+            reach = reach + np.nan_to_num(np.asarray(r.violation_reach, dtype=float), nan=1e6, posinf=1e6)
+            grade = grade + np.asarray(r.guard_grade, dtype=float)
+            w = np.asarray(r.w_G)
+            all_w &= w
+            if t.role == "plan":
+                eta_sum += t.n_points * np.where(w, np.asarray(r.eta_G, dtype=float), 0.0)
+                pts += t.n_points
+        eta_k = np.where((reach == 0.0) & all_w, eta_sum / pts, np.inf)
+        values = metric_values(
+            names,
+            [r for t, r in mine if t.role == "plan"],
+            eta_k,
+            links,
+            vol,
+            clearance_results=[r for _, r in mine],
+            mass=mass,
+            robust=robust,
+        )
+        n_k = sum(t.n_points for t, _ in mine)
+        fit = fit_violation(
+            grade / n_k + limit_shortfall([list(lim) for lim in self.limits], self._defined(values, eta_k), n), n_k
+        )
+        fit = np.where(~all_w & (fit == 0.0), np.finfo(float).tiny, fit)  # a failed guard never passes as feasible
+        return reach + fit, eta_k
 
     __call__ = evaluate
 
@@ -517,6 +569,16 @@ class FitnessModel:
         c_z = self.space.c_z(X)
         results = described._run_tasks(params, modes, want_points=True, c_z=c_z)
         eta, viol, values = self._judge(results, params, modes, c_z)
+        by_docking = (
+            self._judge_dockings(results, params, modes, c_z, (True,) * self.n_patients)[3][0]
+            if self.by_docking
+            else None
+        )
+        if (
+            self.fine_tasks and not self.by_docking
+        ):  # the verdict the search acted on: the fine tasks' where the coarse pass
+            batch = self.evaluate(X)
+            eta, viol = batch["ETA"], batch["VIOL"]
         dex = np.concatenate(
             [np.asarray(r.points.dexterity_pct)[0] for t, r in zip(self.tasks, results) if t.role == "plan"]
         )
@@ -549,6 +611,7 @@ class FitnessModel:
             "feasible": bool(viol[0] == 0.0),
             "eta_G": _num(eta[0]),
             "violation": float(viol[0]),
+            **({} if by_docking is None else {"docking_violations": [float(v) for v in by_docking]}),
             "margin_shortfall_rad": float(self.margin_shortfall(params[0])[0]),
             "dexterity_pct": {"min": float(dex.min()), "mean": float(dex.mean()), "max": float(dex.max())},
             "links_sum_mm": float(links[0]),
@@ -618,6 +681,11 @@ def worker_init(model: FitnessModel) -> None:
 def worker_evaluate(X: Array) -> dict[str, Array]:
     assert _WORKER_MODEL is not None, "worker_init was not called"
     return _WORKER_MODEL.evaluate(X)
+
+
+def _rows_of(result: Any, rows: Array) -> Any:
+    """A task's results (a :class:`~arcube.evaluation.reference.TaskResults`) for the designs ``rows`` only."""
+    return type(result)(*(f[rows] if isinstance(f, np.ndarray) and f.ndim else f for f in result))
 
 
 def evaluate_with(model: FitnessModel, X: Array) -> dict[str, Array]:

@@ -17,6 +17,7 @@ cfg.settings.seed, len(cfg.patients), cfg.bounds["d_x"]      # 1, 1, (lo, hi) in
 from __future__ import annotations
 
 import dataclasses
+import re
 import sys
 import time
 import uuid
@@ -25,6 +26,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
+from arcube.errors import InputError
 from arcube.optimization.settings import RunSettings, plain_values
 
 __all__ = ["FORMAT_VERSION", "RUN_FORMAT", "RunConfig"]
@@ -54,7 +56,29 @@ def executor_table(table: Any, prefix: str = "executor.") -> dict[str, Any]:
         raise ValueError(f"{prefix}workers must be a whole number >= 1, got {workers!r}")
     if not isinstance(dask, str):
         raise ValueError(f'{prefix}dask must be a scheduler address or "", got {dask!r}')
+    if dask and not _ADDRESS.match(dask.strip()):  # the file's, not the command line's --dask
+        raise ValueError(f'{prefix}dask {dask!r}: expected a scheduler address HOST:PORT or ""')
     return dict(table)
+
+
+def _executor(table: Any) -> dict[str, Any]:
+    """:func:`executor_table` of a config.toml; InputError naming the key (the reader names the file)."""
+    try:
+        return executor_table(table)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
+_ADDRESS = re.compile(r"^(?:(?:tcp|tls|inproc|ucx|ws|wss)://)?(?:\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
+"""A dask scheduler's address, ``[tcp://]HOST:PORT``."""
+
+
+def check_dask_address(address: str) -> str:
+    """``address`` if it names a scheduler as ``[tcp://]HOST:PORT``; InputError otherwise, before any
+    connection is tried (a malformed one left dask's half-built client hanging at exit)."""
+    if not isinstance(address, str) or not _ADDRESS.match(address.strip()):
+        raise InputError.of("dask", f"{address!r}: expected a scheduler address HOST:PORT, e.g. tcp://10.0.0.5:8786")
+    return address.strip()
 
 
 @dataclass(frozen=True)
@@ -168,8 +192,8 @@ class RunConfig:
         """The config a config.toml's tables describe (of this version or an earlier one); pydantic's
         errors and KeyError/TypeError/ValueError on a malformed table (the reader names the file)."""
         settings_table = table["settings"]
+        settings = RunSettings.from_config(table)  # first: it names a [bounds] entry that is not a pair
         bounds = {k: (float(v[0]), float(v[1])) for k, v in (table.get("bounds") or {}).items()}
-        settings = RunSettings.from_config(table)
         design = dict(table.get("design") or {})
         if settings.c_z is not None and design.get("c_z") is None:
             # a folder written before c_z was the design's alone: its --c-z was the z-dyad guard's c_z (model §6,
@@ -183,7 +207,7 @@ class RunConfig:
             bounds=bounds,
             trajectories=tuple(str(t) for t in settings_table.get("trajectories", ())),
             engine_resolved=str(settings_table["engine_resolved"]),
-            executor=executor_table(table.get("executor") or {}),
+            executor=_executor(table.get("executor") or {}),
             run_id=str(table["run_id"]),
             created=str(table.get("created", "")),
             command=str(table.get("command", "")),

@@ -58,6 +58,9 @@ class RunSummary(Summary):
     """The free parameters."""
     violation: float
     """The best design's constraint violation (0: feasible)."""
+    docking_violations: list[float] | None
+    """Each docking's own violation V_k (model §19.3) of the best design, in the config's patient order (runs over
+    dockings only; 0: the search calls that docking feasible)."""
     margin_shortfall_rad: float
     links_sum_mm: float
     bbox_volume_L: float

@@ -26,12 +26,13 @@ from pydantic import BeforeValidator, Field, model_validator
 from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.accuracy.settings import ToleranceSettings, parse_tol
 from arcube.errors import InputError
+from arcube.io.inputs import short_repr
 from arcube.metrics import objectives_help
 from arcube.evaluation.task import MAX_POINTS
-from arcube.model.design import PAPER_NAMES
+from arcube.model.design import MAX_LENGTH_MM, PAPER_NAMES
 from arcube.coerce import limit_pairs, mode_text
 from arcube.optimization.bounds import DEFAULT_BOUNDS, FREE_GROUPS, parse_bounds, parse_free, resolve_bounds
-from arcube.evaluation.envelope import envelope_spec
+from arcube.evaluation.envelope import TableZ, envelope_spec
 from arcube.optimization.objectives import (
     OBJECTIVES,
     needs,
@@ -65,6 +66,11 @@ this bound); a larger one exhausts the memory instead of running (the paper's GA
 MAX_STANDOFF_MM = 1000.0
 """Largest standoff (mm): a metre beyond the anatomy is already far outside the robot's reach; a
 larger value is a unit mistake, and 1e308 overflows the approach lines to infinity."""
+
+
+MAX_MARGIN_DEG = 180.0
+"""Largest orientation margin mu (deg, model §12.2): |alpha_u - beta_u| <= min angle(e, +u) - mu with the angle at
+most 180 deg, so a larger margin is one no design meets."""
 
 
 def check_algorithm(name: str, population: int) -> None:
@@ -157,8 +163,8 @@ class RunSettings(Settings):
     """1, or 2: shared links, one placement per side (R and L)."""
     guarded: bool = False
     """Turn on the guards of model §8.2 (the z dyad's too when c_z is free, model §19.2)."""
-    margin: float | None = Field(default=None, ge=0, allow_inf_nan=False)
-    """Orientation margin mu (deg) of the spherical stage's cone (model §12.2)."""
+    margin: float | None = Field(default=None, ge=0, le=MAX_MARGIN_DEG, allow_inf_nan=False)
+    """Orientation margin mu (deg) of the spherical stage's cone (model §12.2), at most 180."""
     seed: int | None = Field(default=None, ge=0, lt=2**63)
     """Random seed (drawn and recorded when omitted)."""
     engine: str = "auto"
@@ -173,7 +179,7 @@ class RunSettings(Settings):
     """ga: drop offspring equal to a design already in the population (pymoo's default; Matlab's ga, the paper's, keeps them)."""
     design_from: str = "paper"
     """Start design: 'paper' or a design JSON; fixed parameters keep its values."""
-    c_z: float | None = Field(default=None, gt=0, allow_inf_nan=False)
+    c_z: float | None = Field(default=None, gt=0, le=MAX_LENGTH_MM, allow_inf_nan=False)
     """Second link of the z-leg dyad, mm: sets the start design's c_z (default the design file's, else d_z; model §6, 19.1)."""
     free: Annotated[tuple[str, ...], BeforeValidator(parse_free)] = PAPER_NAMES
     """Parameters to optimize, comma-separated names and groups: all (the paper's 23), mount (the three mounting angles), e.g. all,mount,L."""
@@ -195,7 +201,7 @@ class RunSettings(Settings):
     """Segments of segmentation anatomy files (.seg.nrrd, .nii, .nii.gz) to keep: names or label values, comma-separated (C3,C4 or 3,4); default every labelled segment."""
     envelope: Annotated[tuple[str, ...], BeforeValidator(envelope_spec)] = ("none",)
     """The envelope of the whole patient and the table (model §19.5): default (a coarse body placed on the plan's landmarks), none, or skin mesh files (closed, the patient inside, in the anatomy's frame)."""
-    table_z: float | None = Field(default=None, allow_inf_nan=False)
+    table_z: TableZ | None = None
     """The operating table's top, mm, patient frame (z <= table_z is forbidden); default 240 mm below the posterior skin (model §19.5)."""
     objectives: Annotated[tuple[str, ...], BeforeValidator(_objectives), Field(description=objectives_help())] = ()
     maxima: Annotated[dict[str, float], _limits("maxima")] = {}
@@ -357,7 +363,13 @@ class RunSettings(Settings):
     @classmethod
     def from_config(cls, cfg: Mapping[str, Any]) -> RunSettings:
         """The settings of a whole run config: its ``[settings]`` table and its ``[bounds]``."""
-        bounds = {k: (float(v[0]), float(v[1])) for k, v in (cfg.get("bounds") or {}).items()}
+        table = cfg.get("bounds") or {}
+        if not isinstance(table, Mapping):
+            raise InputError(f"[bounds] must be a table of NAME = [low, high], got {short_repr(table)}")
+        for k, v in table.items():
+            if not (isinstance(v, (list, tuple)) and len(v) == 2 and all(_is_number(x) for x in v)):
+                raise InputError(f"[bounds] {k} must be [low, high] (two numbers), got {short_repr(v)}")
+        bounds = {k: (float(v[0]), float(v[1])) for k, v in table.items()}
         defaults = resolve_bounds(c_z=True)
         return cls.from_table({**cfg["settings"], "bounds": {k: v for k, v in bounds.items() if v != defaults.get(k)}})
 
@@ -388,6 +400,10 @@ TABLE_KEYS = (
 def _defaults() -> RunSettings:
     """The default settings (made once)."""
     return RunSettings()
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def plain_values(value: Any) -> Any:

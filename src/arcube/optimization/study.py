@@ -34,8 +34,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from arcube.coerce import check_best_known
 from arcube.errors import InputError
 from arcube.io.files import atomic_write_text
+from arcube.io.inputs import what_is
 from arcube.optimization import run as runmod
 from arcube.optimization.folder import STUDY_FORMAT, STUDY_VERSION, is_study, read_study, seed_dir  # noqa: F401  (the folder's files)
 from arcube.optimization.objectives import MAXIMIZED, summary_value
@@ -79,12 +81,13 @@ def start_study(
     stops on a bad input before any seed has a checkpoint leaves nothing behind.
     """
     study_dir = Path(study_dir)
-    if study_dir.exists() and (not study_dir.is_dir() or any(study_dir.iterdir())):
+    if study_dir.exists() and not study_dir.is_dir():
+        raise InputError.of("out", f"{study_dir}: is {what_is(study_dir)}, not a folder (give a new or empty folder)")
+    if study_dir.exists() and any(study_dir.iterdir()):
         hint = " (it holds a study: use 'arcube resume')" if is_study(study_dir) else ""
         raise InputError.of("out", f"{study_dir}: exists and is not an empty folder{hint}")
     _check_parallel(workers, dask)
-    if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
-        raise InputError.of("best_known", f"must be a positive number (an eta_G), got {best_known}")
+    check_best_known(best_known)
     created = not study_dir.exists()
     try:
         study_dir.mkdir(parents=True, exist_ok=True)

@@ -95,8 +95,14 @@ def write_patients(
     # (and its anatomy read back by the envelope's writer) do they all go into place, as one output.
     parent = paths[0].parent
     made = [a for a in (*reversed(parent.parents), parent) if not a.exists()]
-    parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{parent.name or 'patients'}.", suffix=".tmp", dir=parent))
+    try:  # the path given is named, not the staging folder beside it
+        parent.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(prefix=f".{parent.name or 'patients'}.", suffix=".tmp", dir=parent))
+    except OSError as exc:
+        _remove_made(made)
+        blocker = next((p for p in (parent, *parent.parents) if p.exists() and not p.is_dir()), None)
+        why = f"{blocker} is a file, not a folder" if blocker is not None else exc.strerror or str(exc)
+        raise InputError.of("out", f"{out}: cannot write in {parent} ({why})") from None
     try:
         texts, entries, narrow = _stage_patients(
             paths, stage, mean, seed, technique, anatomy_format, anatomy_spacing_mm, beside
@@ -112,16 +118,21 @@ def write_patients(
         atomic_write_files({parent / f.name: f.read_bytes() for f in staged})
     except BaseException as exc:
         shutil.rmtree(stage, ignore_errors=True)
-        for folder in reversed(made):  # the folders this call made, if nothing went into them
-            try:
-                folder.rmdir()
-            except OSError:
-                break
+        _remove_made(made)
         if isinstance(exc, InputError) and str(stage) in str(exc):  # the file it was making, not the staging folder
             raise InputError(str(exc).replace(str(stage), str(parent)), param=exc.param) from None
         raise
     shutil.rmtree(stage, ignore_errors=True)
     return WrittenPatients(texts, narrow)
+
+
+def _remove_made(made: list[Path]) -> None:
+    """Remove the folders a write made (parents first in ``made``), deepest first, while nothing went into them."""
+    for folder in reversed(made):
+        try:
+            folder.rmdir()
+        except OSError:
+            break
 
 
 def patient_paths(out: Path, count: int) -> list[Path]:

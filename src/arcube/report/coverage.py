@@ -66,10 +66,13 @@ def coverage_map_svg(dockings: Sequence[Mapping[str, Any]], title: str = "") -> 
                 continue
             fill, label = ("#cdeccd", "served") if d["meets_requirements"] else ("#f6c9c9", "not served")
             text = f"{label}: {_bind(d)}" if _bind(d) else label
+            # the whole text, never cut: squeezed into the cell when longer than it holds at 12 px (about 6.5 px a character)
+            room = cell_w - 12
+            fit = f" textLength='{room}' lengthAdjust='spacingAndGlyphs'" if 6.5 * len(text) > room else ""
             out.append(
                 f"<rect x='{x}' y='{y}' width='{cell_w - 2}' height='{cell_h - 2}' fill='{fill}' stroke='#999'>"
                 f"<title>{esc(d['label'])}: {esc(text)}</title></rect>"
-                f"<text x='{x + 6}' y='{y + 17}'>{esc(text[:34])}</text>"
+                f"<text x='{x + 6}' y='{y + 17}'{fit}>{esc(text)}</text>"
             )
     out.append("</svg>")
     return "".join(out)

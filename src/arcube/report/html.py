@@ -573,6 +573,8 @@ def write_evaluation_report(
                 report.design.to_vector(),
                 None if report.anatomy is None else report.anatomy.meshes,
                 report.options.guards.c_z,
+                # as seen from the page: a folder written in a staging folder and moved keeps its place beside the page
+                folder=os.path.relpath(Path(prog.folder).resolve(), Path(out).resolve().parent),
             )
         )
     parts += [

@@ -371,7 +371,7 @@ def motors_table(prog: ProgramFiles) -> str:
     )
 
 
-def summary_table(prog: ProgramFiles) -> str:
+def summary_table(prog: ProgramFiles, folder: str | None = None) -> str:
     """The program's summary (program.json) and its per-trajectory and transit times."""
     s = prog.summary
     items = [
@@ -389,7 +389,7 @@ def summary_table(prog: ProgramFiles) -> str:
         ("working mode", s.get("mode", "—")),
         ("plan", s.get("plan", "—")),
         ("anatomy", s.get("anatomy") or "none"),
-        ("folder", str(prog.folder)),
+        ("folder", str(prog.folder) if folder is None else folder),
     ]
     out = "<table>" + "".join(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in items) + "</table>"
     per = [t for t in s.get("trajectories", []) if isinstance(t, dict)]
@@ -424,16 +424,18 @@ def program_section(
     c_z: float | None = None,
     include_js: bool = False,
     note: str = "",
+    folder: str | None = None,
 ) -> str:
     """The program's part of a report page (HTML): summary, timeline, limits, motors, and the playback
     for the design ``params`` ``(27,)`` (skipped with a note when None). ``include_js``: put plotly.js inline
-    (the page's first figure); ``note``: a line shown above the playback (e.g. why the anatomy is missing)."""
+    (the page's first figure); ``note``: a line shown above the playback (e.g. why the anatomy is missing);
+    ``folder``: how the page names the program's folder (default its path when read)."""
     from arcube.report.program_scene import playback_figure
 
     parts = [
         "<h2>Drilling program</h2><p class='note'>Read from the program's files (program.csv, program.json; model §17): "
         "the robot runs these rows in its working mode.</p>",
-        summary_table(prog),
+        summary_table(prog, folder),
     ]
     parts += ["<h3>Timeline</h3>", plotly_div(timeline_figure(prog), DIV_IDS["timeline"], include_js)]
     parts += [

@@ -28,13 +28,13 @@ engine, no JIT warm-up).
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from arcube.coerce import check_best_known
 from arcube.model.modes import DEFAULT_MODE_TEXT
 from arcube.model.design import Design
 from arcube.errors import InputError
@@ -177,8 +177,7 @@ def write_run_report(
         raise InputError(f"{run / 'config.toml'}: settings.points is not an integer") from None
     if points < 2:
         raise InputError(f"{run / 'config.toml'}: settings.points must be at least 2, got {points}")
-    if best_known is not None and not (math.isfinite(best_known) and best_known > 0.0):
-        raise InputError.of("best_known", f"must be a positive number (an eta_G), got {best_known}")
+    check_best_known(best_known)
     signs = _mode(settings, summary, run / "config.toml", best.mode)
     options, _, limits = _run_body(run, settings)
     # the run's own engine: a design the optimizer left on a clearance limit is judged by the same search
