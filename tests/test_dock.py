@@ -40,12 +40,14 @@ from harness import cli_error
 ROBOT = Path(__file__).parent / "data" / "one_robot.json"
 SMALL = ["--levels", "C3", "--points", "6", "--evaluations", "400", "--quiet"]
 """One trajectory a side, 6 points a line, 400 evaluations a side: a few seconds a side."""
+DOCKED_LEVELS = ["--levels", "C3-C4"]
+"""The plan of the ``docked`` fixture: two trajectories a side."""
 
 
 @pytest.fixture(scope="module")
 def docked(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The robot docked on both sides of the reference patient, every default but 12 points a line and 1500 evaluations
-    a side (the suite's time)."""
+    """The robot docked on both sides of the reference patient, every default but two levels a side (C3-C4: two screws
+    and the transit between them), 12 points a line and 1500 evaluations a side (the suite's time)."""
     root = tmp_path_factory.mktemp("dock")
     out = run_arcube(
         "dock",
@@ -53,6 +55,7 @@ def docked(tmp_path_factory: pytest.TempPathFactory) -> Path:
         str(ROBOT),
         "--trajectories",
         "reference",
+        *DOCKED_LEVELS,
         "--out",
         "d",
         "--quiet",
@@ -120,6 +123,7 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
             str(file),
             "--trajectories",
             "reference",
+            *DOCKED_LEVELS,
             "--side",
             d["side"],
             "--anatomy",
@@ -141,7 +145,7 @@ def test_a_side_reported_met_is_met_when_the_numpy_reference_checks_it(docked: P
         assert doc["summary"]["reachable_fraction"] == 1.0 and doc["summary"]["failures"] == {}
         assert doc["guards"]["c_z"] == json.loads(ROBOT.read_text())["c_z"]
         design = arcube.Design.load(file)
-        side = select(whole, side=d["side"])
+        side = select(whole, side=d["side"], levels=DOCKED_LEVELS[1])
         S, _ = standoff_points(side.entry, side.target, anatomy, 20.0)
         for what, entry, target in (("plan", side.entry, side.target), ("approach", S, side.entry)):
             lines = dataclasses.replace(side, entry=np.asarray(entry), target=np.asarray(target), source=what)
